@@ -1,0 +1,116 @@
+"""The observation layout shared by every env, policy and agent.
+
+Policies must never hard-code positions: use ``OBS.index("e_y")`` or ``OBS.E_Y`` / ``OBS.preview``.
+All entries are raw SI units (m, rad, s); RL code normalises if it wants (VecNormalize or the shipped agents'
+own normalisation).
+
+Scalar fields (in this order):
+
+================  =========  =========================================================================
+name              unit       meaning
+================  =========  =========================================================================
+e_y               m          lateral error of the CG from its projection on the path, LEFT-positive
+e_phi             rad        heading error wrap(psi - psi_ref) in (-pi, pi]
+e_y_dot           m/s        v_x sin(e_phi) + v_y cos(e_phi)  (paper eq. 8, exact at the projection)
+e_phi_dot         rad/s      r - psi_ref_dot
+v_x               m/s        longitudinal body-frame speed
+v_y               m/s        lateral body-frame speed (left-positive)
+yaw_rate          rad/s      r, counter-clockwise positive
+road_wheel_angle  rad        current (actuator output) front road-wheel angle, left-positive
+target_speed      m/s        the inner speed loop's set point
+yaw_rate_ref      rad/s      psi_ref_dot = kappa(s*) * s_dot
+yaw_acc_ref       rad/s^2    psi_ref_ddot = kappa'(s*) * s_dot^2 + kappa(s*) * a_x
+curvature         1/m        kappa(s*) at the projection point (left turn positive)
+curvature_rate    1/m^2      d kappa / d s at the projection point
+================  =========  =========================================================================
+
+Then ``n_preview`` curvature samples kappa(s* + d_k) [1/m] at the look-ahead distances
+``d_k = max(v_x, preview_min_speed_mps) * k * preview_dt_s`` for k = 1..n_preview (default: 20 samples every
+0.1 s, i.e. two seconds of travel). ``OBS.preview_distances(v_x)`` returns those distances.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+SCALAR_FIELDS: tuple[str, ...] = (
+    "e_y", "e_phi", "e_y_dot", "e_phi_dot", "v_x", "v_y", "yaw_rate", "road_wheel_angle",
+    "target_speed", "yaw_rate_ref", "yaw_acc_ref", "curvature", "curvature_rate",
+)
+
+
+@dataclass(frozen=True)
+class ObservationLayout:
+    """Named positions in the flat observation vector (see the module docstring for units)."""
+
+    n_preview: int = 20
+    preview_dt_s: float = 0.1
+    preview_min_speed_mps: float = 2.0
+
+    def __post_init__(self) -> None:
+        if not (1 <= self.n_preview <= 200):
+            raise ValueError(f"ObservationLayout.n_preview must be in [1, 200] (got {self.n_preview})")
+        if not (0.0 < self.preview_dt_s <= 1.0):
+            raise ValueError(f"ObservationLayout.preview_dt_s must be in (0, 1] s (got {self.preview_dt_s})")
+        if not (0.0 < self.preview_min_speed_mps <= 20.0):
+            raise ValueError("ObservationLayout.preview_min_speed_mps must be in (0, 20] m/s "
+                             f"(got {self.preview_min_speed_mps})")
+
+    # Scalar indices as attributes (stable across layouts: the preview always comes last).
+    E_Y = 0
+    E_PHI = 1
+    E_Y_DOT = 2
+    E_PHI_DOT = 3
+    V_X = 4
+    V_Y = 5
+    YAW_RATE = 6
+    ROAD_WHEEL_ANGLE = 7
+    TARGET_SPEED = 8
+    YAW_RATE_REF = 9
+    YAW_ACC_REF = 10
+    CURVATURE = 11
+    CURVATURE_RATE = 12
+
+    @property
+    def n_scalars(self) -> int:
+        """Number of scalar fields before the preview."""
+        return len(SCALAR_FIELDS)
+
+    @property
+    def size(self) -> int:
+        """Length of the observation vector."""
+        return self.n_scalars + self.n_preview
+
+    @property
+    def preview(self) -> slice:
+        """Slice of the curvature preview samples."""
+        return slice(self.n_scalars, self.size)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Name of every entry, preview entries as ``kappa_preview_k`` (k = 1..n_preview)."""
+        return SCALAR_FIELDS + tuple(f"kappa_preview_{k}" for k in range(1, self.n_preview + 1))
+
+    def index(self, name: str) -> int:
+        """Index of a named entry; ``KeyError`` listing the valid names if unknown."""
+        try:
+            return self.names.index(name)
+        except ValueError:
+            raise KeyError(f"unknown observation field {name!r}; valid: {', '.join(SCALAR_FIELDS)}, "
+                           f"kappa_preview_1..{self.n_preview}") from None
+
+    def preview_distances(self, v_x: np.ndarray | float) -> np.ndarray:
+        """Look-ahead distances [m] of the preview samples; shape (..., n_preview)."""
+        v = np.maximum(np.asarray(v_x, dtype=np.float64), self.preview_min_speed_mps)
+        k = np.arange(1, self.n_preview + 1, dtype=np.float64) * self.preview_dt_s
+        return v[..., None] * k
+
+    def as_dict(self) -> dict[str, int]:
+        """Name -> index mapping."""
+        return {n: i for i, n in enumerate(self.names)}
+
+
+OBS = ObservationLayout()
+"""The default layout used by every registered env."""

@@ -1,0 +1,56 @@
+"""Metrics on synthetic traces with known answers (constants, sines, ramps)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from vtrack_gym.evaluation.metrics import constraint_metrics, itae, max_abs, paper_metrics, rms
+from vtrack_gym.evaluation.trace import STEP_SIGNALS, Trace
+
+
+def synthetic_trace(duration_s: float = 10.0, dt: float = 0.01, **signals: np.ndarray) -> Trace:
+    t = np.arange(1, round(duration_s / dt) + 1) * dt
+    data = {name: np.zeros_like(t) for name in STEP_SIGNALS}
+    data["time_s"] = t
+    data["min_fz_n"] = np.full_like(t, 3000.0)
+    for name, values in signals.items():
+        data[name] = values(t) if callable(values) else np.broadcast_to(values, t.shape).astype(float)
+    n_sub = 5
+    return Trace("test", "synthetic", 0, data, np.full((t.size, 4), 3000.0), np.zeros((t.size * n_sub, 3)),
+                 n_sub / dt, dt, "completed", 1e-5)
+
+
+def test_rms_of_constant_and_sine() -> None:
+    t = np.linspace(0.0, 10.0, 100001)
+    assert rms(np.full_like(t, -0.3), t) == pytest.approx(0.3, rel=1e-12)
+    assert rms(2.0 * np.sin(2 * math.pi * 1.0 * t), t) == pytest.approx(2.0 / math.sqrt(2.0), rel=1e-6)
+    assert max_abs(np.array([0.1, -0.7, 0.3])) == 0.7
+
+
+def test_itae_of_constant_and_ramp() -> None:
+    t = np.linspace(0.0, 4.0, 40001)
+    assert itae(t, np.full_like(t, 0.5)) == pytest.approx(0.5 * 4.0**2 / 2, rel=1e-9)  # int t*0.5 dt = 4
+    assert itae(t, -0.1 * t) == pytest.approx(0.1 * 4.0**3 / 3, rel=1e-6)              # int 0.1 t^2 dt
+    assert itae(t, np.zeros_like(t)) == 0.0
+
+
+def test_paper_metrics_units() -> None:
+    trace = synthetic_trace(hand_wheel_angle_rad=lambda t: np.radians(100.0) * np.sin(2 * np.pi * t),
+                            e_y_m=0.2, roll_rad=np.radians(2.0), a_y_mps2=lambda t: -3.0 * np.ones_like(t))
+    m = paper_metrics(trace)
+    assert m["max_hand_wheel_deg"] == pytest.approx(100.0, rel=1e-3)
+    assert m["rms_hand_wheel_deg"] == pytest.approx(100.0 / math.sqrt(2.0), rel=1e-3)
+    assert m["rms_e_y_m"] == pytest.approx(0.2) and m["max_e_y_m"] == pytest.approx(0.2)
+    assert m["rms_roll_deg"] == pytest.approx(2.0) and m["max_a_y_mps2"] == pytest.approx(3.0)
+
+
+def test_constraints() -> None:
+    ok = constraint_metrics(synthetic_trace(a_y_mps2=8.0))
+    assert ok["constraints_ok"] == 1.0 and ok["a_y_violation_mps2"] == 0.0
+    bad = constraint_metrics(synthetic_trace(a_y_mps2=9.0))
+    assert bad["constraints_ok"] == 0.0 and bad["a_y_violation_mps2"] == pytest.approx(0.17)
+    lift = constraint_metrics(synthetic_trace(min_fz_n=lambda t: 100.0 - 20.0 * t))
+    assert lift["constraints_ok"] == 0.0 and lift["min_fz_n"] < 0.0

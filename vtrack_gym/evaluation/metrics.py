@@ -1,0 +1,100 @@
+"""Metrics as pure functions of a ``Trace`` (the paper's eqs. 45-49, ITAE, GA constraints, ISO 2631-1).
+
+Units of the returned numbers are in their names (``_m``, ``_deg``, ``_mps2``, ``_n``); ``itae`` is the
+integral of t |e_y| dt in m s^2.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from vtrack_gym.evaluation.trace import Trace
+
+A_Y_LIMIT_MPS2 = 8.83
+"""The paper's GA constraint on the lateral acceleration (mu g with mu = 0.9) [m/s^2]."""
+
+
+def rms(values: np.ndarray, time_s: np.ndarray | None = None) -> float:
+    """Root mean square sqrt((1/T) int x^2 dt) (trapezoid on ``time_s``; plain mean for uniform samples)."""
+    x = np.asarray(values, dtype=np.float64)
+    if x.size == 0:
+        return math.nan
+    if time_s is None or x.size < 2:
+        return float(np.sqrt(np.mean(x * x)))
+    t = np.asarray(time_s, dtype=np.float64)
+    span = t[-1] - t[0]
+    return float(np.sqrt(np.trapezoid(x * x, t) / span)) if span > 0 else float(np.sqrt(np.mean(x * x)))
+
+
+def max_abs(values: np.ndarray) -> float:
+    """Largest absolute value (nan for an empty series)."""
+    x = np.asarray(values, dtype=np.float64)
+    return float(np.max(np.abs(x))) if x.size else math.nan
+
+
+def itae(time_s: np.ndarray, e_y_m: np.ndarray) -> float:
+    """ITAE J = int_0^T t |e_y(t)| dt [m s^2] (paper-math section 8's fix of eq. 40; trapezoid rule)."""
+    t = np.asarray(time_s, dtype=np.float64)
+    return float(np.trapezoid(t * np.abs(np.asarray(e_y_m, dtype=np.float64)), t)) if t.size > 1 else 0.0
+
+
+def paper_metrics(trace: Trace) -> dict[str, float]:
+    """Case-1 RMS set (eqs. 45-49) and Case-2 max set of hand-wheel angle, e_y, e_phi, a_y, roll."""
+    t = trace["time_s"]
+    series = {
+        "hand_wheel_deg": np.degrees(trace["hand_wheel_angle_rad"]),
+        "e_y_m": trace["e_y_m"],
+        "e_phi_deg": np.degrees(trace["e_phi_rad"]),
+        "a_y_mps2": trace["a_y_mps2"],
+        "roll_deg": np.degrees(trace["roll_rad"]),
+    }
+    out: dict[str, float] = {}
+    for name, x in series.items():
+        out[f"rms_{name}"] = rms(x, t)
+        out[f"max_{name}"] = max_abs(x)
+    return out
+
+
+def constraint_metrics(trace: Trace, a_y_limit_mps2: float = A_Y_LIMIT_MPS2) -> dict[str, float]:
+    """The GA's constraints: max |a_y| <= limit and every wheel load > 0 (at the physics rate)."""
+    max_ay = max_abs(trace["a_y_mps2"])
+    min_fz = float(np.min(trace["min_fz_n"])) if trace.n_steps else math.nan
+    return {
+        "max_abs_a_y_mps2": max_ay,
+        "min_fz_n": min_fz,
+        "a_y_violation_mps2": max(0.0, max_ay - a_y_limit_mps2),
+        "constraints_ok": float(max_ay <= a_y_limit_mps2 and min_fz > 0.0),
+    }
+
+
+def comfort_metrics(trace: Trace, k: tuple[float, float, float] = (1.0, 1.0, 1.0)) -> dict[str, Any]:
+    """ISO 2631-1 overall vibration total value a_v [m/s^2] and its comfort band (physics-rate data)."""
+    from vtrack_gym.evaluation import iso2631
+
+    acc = trace.acc_physics_mps2
+    fs = trace.physics_rate_hz
+    if acc.shape[0] < int(fs):  # shorter than a second: weighting filters are meaningless
+        return {"comfort_a_v_mps2": math.nan, "comfort_band": "n/a"}
+    a_v = iso2631.vibration_total(acc[:, 0], acc[:, 1], acc[:, 2], fs, k=k)
+    return {"comfort_a_v_mps2": float(a_v), "comfort_band": iso2631.comfort_band(a_v)}
+
+
+def evaluate_trace(trace: Trace, cones_hit: int | None = None) -> dict[str, Any]:
+    """Every metric of one trace, flat (what the leaderboard stores)."""
+    out: dict[str, Any] = {
+        "completed": float(trace.completed),
+        "termination": trace.termination,
+        "duration_s": float(trace["time_s"][-1]) if trace.n_steps else 0.0,
+        "progress_m": float(trace["progress_m"][-1]) if trace.n_steps else 0.0,
+        "itae": itae(trace["time_s"], trace["e_y_m"]),
+        "wall_time_per_step_s": trace.wall_time_per_step_s,
+    }
+    out.update(paper_metrics(trace))
+    out.update(constraint_metrics(trace))
+    out.update(comfort_metrics(trace))
+    if cones_hit is not None:
+        out["cones_hit"] = float(cones_hit)
+    return out

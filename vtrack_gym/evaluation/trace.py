@@ -1,0 +1,62 @@
+"""``Trace``: the time series of one episode, everything a metric needs (SI units; angles in rad)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+# Scalar per-step signals copied from the env's info dict (name in info -> attribute of the trace).
+STEP_SIGNALS: tuple[str, ...] = (
+    "time_s", "x_m", "y_m", "z_m", "psi_rad", "e_y_m", "e_phi_rad", "v_mps", "road_wheel_angle_rad",
+    "hand_wheel_angle_rad", "roll_rad", "throttle", "brake_n", "a_x_mps2", "a_y_mps2", "a_z_mps2",
+    "min_fz_n", "station_m", "progress_m", "target_speed_mps",
+)
+
+
+@dataclass
+class Trace:
+    """One episode sampled at the control rate, plus the accelerations at the physics rate.
+
+    Attributes are arrays of shape (T,) named as in ``STEP_SIGNALS`` (``signals[name]``), ``fz_n`` (T, 4)
+    wheel loads FL, FR, RL, RR [N], ``acc_physics_mps2`` (T * n_sub, 3) a_x, a_y, a_z at ``physics_rate_hz``.
+    """
+
+    env_id: str
+    policy_id: str
+    seed: int | None
+    signals: dict[str, np.ndarray]
+    fz_n: np.ndarray
+    acc_physics_mps2: np.ndarray
+    physics_rate_hz: float
+    control_period_s: float
+    termination: str
+    wall_time_per_step_s: float
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.signals[name]
+
+    @property
+    def n_steps(self) -> int:
+        """Number of control steps recorded (the reset state excluded)."""
+        return len(self.signals["time_s"])
+
+    @property
+    def completed(self) -> bool:
+        """True when the episode ended by completing the course."""
+        return self.termination == "completed"
+
+    @classmethod
+    def from_infos(cls, infos: list[dict[str, Any]], *, env_id: str, policy_id: str, seed: int | None,
+                   physics_rate_hz: float, control_period_s: float, termination: str, wall_time_s: float,
+                   meta: dict[str, Any] | None = None) -> Trace:
+        """Assemble a trace from the per-step ``info`` dicts of a single env."""
+        if not infos:
+            raise ValueError("a trace needs at least one step")
+        signals = {name: np.array([info[name] for info in infos], dtype=np.float64) for name in STEP_SIGNALS}
+        fz = np.array([info["fz_n"] for info in infos], dtype=np.float64)
+        acc = np.concatenate([info["acc_substeps_mps2"] for info in infos], axis=0)
+        return cls(env_id, policy_id, seed, signals, fz, acc, physics_rate_hz, control_period_s, termination,
+                   wall_time_s / len(infos), dict(meta or {}))

@@ -1,0 +1,120 @@
+"""Smooth spline fit of centre-line points and uniform arc-length resampling (used by ``Path.from_points``)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from vtrack_gym.tracks.path import (
+    COL_DKAPPA,
+    COL_GRADE,
+    COL_KAPPA,
+    COL_PSI,
+    COL_X,
+    COL_Y,
+    COL_Z,
+    COL_ZPP,
+    N_COLS,
+    _close_exactly,
+    _gauss_legendre,
+    _grid,
+)
+
+MIN_POINTS = 4
+_NEWTON_ITER = 4
+
+
+def check_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None) -> None:
+    """Raise ValueError for malformed centre-line points (shape, count, non-finite, repeated points)."""
+    if x.ndim != 1 or y.shape != x.shape or (z is not None and z.shape != x.shape):
+        raise ValueError(f"x, y (and z) must be 1-D arrays of equal length (got {x.shape}, {y.shape}"
+                         f"{'' if z is None else ', ' + str(z.shape)})")
+    if x.size < MIN_POINTS:
+        raise ValueError(f"a path needs >= {MIN_POINTS} points (got {x.size})")
+    for name, v in (("x", x), ("y", y), ("z", z)):
+        if v is not None and not np.all(np.isfinite(v)):
+            k = int(np.flatnonzero(~np.isfinite(v))[0])
+            raise ValueError(f"point {k}: {name} is not finite ({v[k]})")
+    step = np.hypot(np.diff(x), np.diff(y))
+    scale = max(1.0, float(np.max(np.abs(x))), float(np.max(np.abs(y))))
+    dup = np.flatnonzero(step <= 1e-9 * scale)
+    if dup.size:
+        k = int(dup[0])
+        raise ValueError(f"points {k} and {k + 1} are duplicates ({x[k]}, {y[k]})")
+
+
+def fit_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None, closed: bool, smoothing_m: float,
+               ds_m: float) -> tuple[np.ndarray, float]:
+    """Path table (n, 8) and spacing [m] of a parametric spline through points x, y [m] (and elevation z [m]).
+
+    Quintic (cubic below 8 points) ``scipy.interpolate.splprep`` spline, periodic when closed, smoothing factor
+    ``n * smoothing_m^2``; arc length by Gauss-Legendre quadrature of |r'(u)|, inverted by Newton steps.
+    """
+    from scipy.interpolate import splev, splprep
+
+    check_points(x, y, z)
+    if not (math.isfinite(smoothing_m) and smoothing_m >= 0.0):
+        raise ValueError(f"smoothing_m must be >= 0 (got {smoothing_m})")
+    pts = [x, y] if z is None else [x, y, z]
+    if closed:
+        scale = max(1.0, float(np.max(np.abs(x))), float(np.max(np.abs(y))))
+        if math.hypot(x[-1] - x[0], y[-1] - y[0]) <= 1e-9 * scale:
+            pts = [p[:-1] for p in pts]
+        if pts[0].size < MIN_POINTS:
+            raise ValueError(f"a closed path needs >= {MIN_POINTS} distinct points (got {pts[0].size})")
+        pts = [np.append(p, p[0]) for p in pts]
+    m = pts[0].size
+    chord = np.hypot(np.diff(pts[0]), np.diff(pts[1]))
+    u = np.concatenate(([0.0], np.cumsum(chord)))
+    k = 5 if m - int(closed) >= 8 else 3
+    tck, _ = splprep(pts, u=u, k=k, s=m * smoothing_m ** 2, per=int(closed), quiet=2)
+    u_end = float(u[-1])
+
+    def speed(uu: np.ndarray) -> np.ndarray:
+        d = splev(uu, tck, der=1)
+        return np.hypot(d[0], d[1])
+
+    # Cumulative arc length on a fine parameter grid.
+    n_fine = 4 * math.ceil(u_end / ds_m) + 16 * m
+    grid_u = np.linspace(0.0, u_end, n_fine + 1)
+    xi, om = _gauss_legendre(8)
+    h = np.diff(grid_u)
+    nodes = grid_u[:-1, None] + h[:, None] * xi[None, :]
+    seg = h * (speed(nodes.ravel()).reshape(nodes.shape) @ om)
+    s_cum = np.concatenate(([0.0], np.cumsum(seg)))
+    length = float(s_cum[-1])
+    n, ds = _grid(length, ds_m)
+    s_target = np.arange(n) * ds
+
+    # Invert s(u) with Newton steps from linear interpolation.
+    uj = np.interp(s_target, s_cum, grid_u)
+    for _ in range(_NEWTON_ITER):
+        kk = np.clip(np.searchsorted(grid_u, uj, side="right") - 1, 0, n_fine - 1)
+        du = uj - grid_u[kk]
+        part = du * (speed((grid_u[kk, None] + du[:, None] * xi[None, :]).ravel()).reshape(-1, xi.size) @ om)
+        uj = np.clip(uj - (s_cum[kk] + part - s_target) / speed(uj), 0.0, u_end)
+    uj[0] = 0.0
+    uj[-1] = u_end
+
+    p0 = splev(uj, tck)
+    p1 = splev(uj, tck, der=1)
+    p2 = splev(uj, tck, der=2)
+    p3 = splev(uj, tck, der=3)
+    sp = np.hypot(p1[0], p1[1])
+    cross = p1[0] * p2[1] - p1[1] * p2[0]
+    dot = p1[0] * p2[0] + p1[1] * p2[1]
+    dcross = p1[0] * p3[1] - p1[1] * p3[0]
+    table = np.zeros((n, N_COLS))
+    table[:, COL_X] = p0[0]
+    table[:, COL_Y] = p0[1]
+    table[:, COL_PSI] = np.unwrap(np.arctan2(p1[1], p1[0]))
+    table[:, COL_KAPPA] = cross / sp ** 3
+    table[:, COL_DKAPPA] = (dcross / sp ** 3 - 3.0 * cross * dot / sp ** 5) / sp
+    if z is not None:
+        table[:, COL_Z] = p0[2]
+        table[:, COL_GRADE] = p1[2] / sp
+        table[:, COL_ZPP] = p2[2] / sp ** 2 - p1[2] * dot / sp ** 4
+    if closed:
+        _close_exactly(table, s_target, "from_points")
+    return table, ds

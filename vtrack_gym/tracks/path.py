@@ -1,0 +1,564 @@
+"""Arc-length parameterised, C^2-smooth centre-line stored as a uniformly sampled table.
+
+Conventions (ISO 8855): global X, Y, Z up; heading psi counter-clockwise from +X; curvature kappa > 0 for a left
+turn; lateral error e_y LEFT-positive, ``e_y = -(X - X_r) sin(psi_r) + (Y - Y_r) cos(psi_r)`` at the projection
+(closest point) s* of the point onto the path. Arc length s is measured in the horizontal plane.
+
+Table columns (float64, C-contiguous, row i at s = i * ds_m; closed paths repeat the start point at s = length_m
+with psi increased by 2 pi times the turning number):
+
+=====  ============  ======  ===============================
+index  constant      unit    meaning
+=====  ============  ======  ===============================
+0      COL_X         m       X
+1      COL_Y         m       Y
+2      COL_PSI       rad     heading psi, UNWRAPPED (continuous)
+3      COL_KAPPA     1/m     curvature kappa
+4      COL_DKAPPA    1/m^2   dkappa/ds
+5      COL_Z         m       elevation z
+6      COL_GRADE     -       grade dz/ds
+7      COL_ZPP       1/m     vertical curvature d2z/ds2
+=====  ============  ======  ===============================
+
+Interpolation between samples (identical here and in ``kernels.interp_row``): quintic Hermite for X and Y
+(values, unit tangent, curvature normal), psi (psi, kappa, dkappa) and z (z, grade, z''); cubic Hermite for kappa
+(kappa, dkappa) and grade (grade, z''); linear for dkappa and z''. It reproduces circular arcs to ~1e-15 m, so
+projections are exact on arcs and straights. The Python methods here use numpy only; the numba versions used by the
+env live in ``kernels`` (imported lazily, never by this module).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any, NamedTuple, Protocol, runtime_checkable
+
+import numpy as np
+
+from vtrack_gym.tracks.profiles import CurvatureProfile
+
+logger = logging.getLogger(__name__)
+
+COL_X, COL_Y, COL_PSI, COL_KAPPA, COL_DKAPPA, COL_Z, COL_GRADE, COL_ZPP = range(8)
+N_COLS = 8
+COLUMN_NAMES = ("x_m", "y_m", "psi_rad", "kappa_per_m", "dkappa_per_m2", "z_m", "grade", "zpp_per_m")
+DEFAULT_DS_M = 0.25
+CLOSURE_TOL_M = 1e-6            # closed paths: max start/end mismatch of X, Y [m] and psi (mod 2 pi) [rad]
+PROJECTION_TOL_M = 1e-10        # projection refinement stops when s moves less than this [m]
+PROJECTION_MAX_ITER = 12
+_GAUSS_ORDER = 8
+_CHUNK = 16384
+
+
+Profile1D = Callable[[np.ndarray], np.ndarray]
+
+
+@runtime_checkable
+class ElevationLike(Protocol):
+    """Elevation profile with analytic derivatives: z(s) [m], grade dz/ds [-], d2z/ds2 [1/m]."""
+
+    def z(self, s: np.ndarray) -> np.ndarray: ...
+
+    def grade(self, s: np.ndarray) -> np.ndarray: ...
+
+    def zpp(self, s: np.ndarray) -> np.ndarray: ...
+
+
+@dataclass(frozen=True)
+class Gate:
+    """A cone gate: the lane section s in [s_start_m, s_end_m] [m] along the path, with lane boundaries y_right_m <
+    y_left_m [m] as lateral offsets from the centre-line (left-positive, like e_y)."""
+
+    s_start_m: float
+    s_end_m: float
+    y_left_m: float
+    y_right_m: float
+    name: str = ""
+
+    def __post_init__(self) -> None:
+        for name in ("s_start_m", "s_end_m", "y_left_m", "y_right_m"):
+            value = getattr(self, name)
+            if not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ValueError(f"Gate.{name} must be a finite number (got {value!r})")
+        if self.s_end_m <= self.s_start_m:
+            raise ValueError(f"Gate.s_end_m must be > s_start_m (got {self.s_end_m} <= {self.s_start_m})")
+        if self.y_left_m <= self.y_right_m:
+            raise ValueError(f"Gate.y_left_m must be > y_right_m (got {self.y_left_m} <= {self.y_right_m})")
+
+    @property
+    def width_m(self) -> float:
+        """Lane width y_left_m - y_right_m [m]."""
+        return self.y_left_m - self.y_right_m
+
+
+class PathSample(NamedTuple):
+    """Interpolated path columns at the requested s (arrays of the shape of s)."""
+
+    x: np.ndarray       # [m]
+    y: np.ndarray       # [m]
+    psi: np.ndarray     # [rad], unwrapped
+    kappa: np.ndarray   # [1/m]
+    dkappa: np.ndarray  # [1/m^2]
+    z: np.ndarray       # [m]
+    grade: np.ndarray   # [-]
+    zpp: np.ndarray     # [1/m]
+
+
+class Projection(NamedTuple):
+    """Closest point of the path to each query point (arrays of shape (N,))."""
+
+    s: np.ndarray        # arc length of the projection s* [m] (wrapped / clamped)
+    e_y: np.ndarray      # lateral error, left-positive [m]
+    psi_ref: np.ndarray  # path heading at s* [rad], unwrapped table value
+    kappa: np.ndarray    # curvature at s* [1/m]
+    x_ref: np.ndarray    # X of the projection point [m]
+    y_ref: np.ndarray    # Y of the projection point [m]
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Interpolation (numpy twin of kernels.interp_row)
+# ---------------------------------------------------------------------------------------------------------------
+
+def _hermite5(p0: np.ndarray, d0: np.ndarray, c0: np.ndarray, p1: np.ndarray, d1: np.ndarray, c1: np.ndarray,
+              t: np.ndarray, h: float) -> np.ndarray:
+    """Quintic Hermite through values p, first derivatives d and second derivatives c at t = 0 and t = 1."""
+    t2 = t * t
+    t3 = t2 * t
+    t4 = t3 * t
+    t5 = t4 * t
+    h0 = 1.0 - 10.0 * t3 + 15.0 * t4 - 6.0 * t5
+    h1 = t - 6.0 * t3 + 8.0 * t4 - 3.0 * t5
+    h2 = 0.5 * (t2 - 3.0 * t3 + 3.0 * t4 - t5)
+    h3 = 0.5 * (t3 - 2.0 * t4 + t5)
+    h4 = -4.0 * t3 + 7.0 * t4 - 3.0 * t5
+    h5 = 10.0 * t3 - 15.0 * t4 + 6.0 * t5
+    return h0 * p0 + h1 * h * d0 + h2 * h * h * c0 + h3 * h * h * c1 + h4 * h * d1 + h5 * p1
+
+
+def _hermite3(p0: np.ndarray, d0: np.ndarray, p1: np.ndarray, d1: np.ndarray, t: np.ndarray, h: float) -> np.ndarray:
+    """Cubic Hermite through values p and derivatives d at t = 0 and t = 1."""
+    t2 = t * t
+    t3 = t2 * t
+    return ((2.0 * t3 - 3.0 * t2 + 1.0) * p0 + (t3 - 2.0 * t2 + t) * h * d0 + (-2.0 * t3 + 3.0 * t2) * p1
+            + (t3 - t2) * h * d1)
+
+
+def _wrap_s(s: np.ndarray, length: float, closed: bool) -> np.ndarray:
+    """s wrapped into [0, length) for closed paths, clamped to [0, length] for open ones [m]."""
+    if closed:
+        w = s - np.floor(s / length) * length
+        return np.where((w >= length) | (w < 0.0), 0.0, w)
+    return np.clip(s, 0.0, length)
+
+
+def _interp(table: np.ndarray, ds: float, length: float, closed: bool, s: np.ndarray) -> np.ndarray:
+    """All columns at arc lengths s (any shape) -> array of shape s.shape + (8,)."""
+    s = np.asarray(s, dtype=float)
+    sw = _wrap_s(s, length, closed)
+    n = table.shape[0]
+    i = np.minimum((sw / ds).astype(np.int64), n - 2)
+    t = (sw - i * ds) / ds
+    a = table[i]
+    b = table[i + 1]
+    out = np.empty((*s.shape, N_COLS))
+    ca, sa = np.cos(a[..., COL_PSI]), np.sin(a[..., COL_PSI])
+    cb, sb = np.cos(b[..., COL_PSI]), np.sin(b[..., COL_PSI])
+    ka, kb = a[..., COL_KAPPA], b[..., COL_KAPPA]
+    out[..., COL_X] = _hermite5(a[..., COL_X], ca, -ka * sa, b[..., COL_X], cb, -kb * sb, t, ds)
+    out[..., COL_Y] = _hermite5(a[..., COL_Y], sa, ka * ca, b[..., COL_Y], sb, kb * cb, t, ds)
+    out[..., COL_PSI] = _hermite5(a[..., COL_PSI], ka, a[..., COL_DKAPPA], b[..., COL_PSI], kb, b[..., COL_DKAPPA],
+                                  t, ds)
+    out[..., COL_KAPPA] = _hermite3(ka, a[..., COL_DKAPPA], kb, b[..., COL_DKAPPA], t, ds)
+    out[..., COL_DKAPPA] = a[..., COL_DKAPPA] + t * (b[..., COL_DKAPPA] - a[..., COL_DKAPPA])
+    out[..., COL_Z] = _hermite5(a[..., COL_Z], a[..., COL_GRADE], a[..., COL_ZPP], b[..., COL_Z], b[..., COL_GRADE],
+                                b[..., COL_ZPP], t, ds)
+    out[..., COL_GRADE] = _hermite3(a[..., COL_GRADE], a[..., COL_ZPP], b[..., COL_GRADE], b[..., COL_ZPP], t, ds)
+    out[..., COL_ZPP] = a[..., COL_ZPP] + t * (b[..., COL_ZPP] - a[..., COL_ZPP])
+    return out
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Curvature integration
+# ---------------------------------------------------------------------------------------------------------------
+
+def _gauss_legendre(order: int) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss-Legendre nodes in (0, 1) and weights summing to 1."""
+    x, w = np.polynomial.legendre.leggauss(order)
+    return 0.5 * (x + 1.0), 0.5 * w
+
+
+def _integrate_curvature(kappa: Callable[[np.ndarray], np.ndarray], s_grid: np.ndarray, knots: np.ndarray,
+                         psi0: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Heading and position increments on s_grid [m] from kappa(s) [1/m].
+
+    Every grid interval is split at the profile knots; inside, heading is the nested Gauss-Legendre integral of
+    kappa and position the Gauss-Legendre integral of (cos psi, sin psi). Exact to round-off for piecewise
+    polynomial kappa of degree <= 15 between knots (arcs are exact circles, straights exact lines).
+    Returns (psi [rad], dX [m], dY [m]) with dX, dY relative to the start.
+    """
+    inner = knots[(knots > s_grid[0]) & (knots < s_grid[-1])]
+    b = np.union1d(s_grid, inner)
+    xi, om = _gauss_legendre(_GAUSS_ORDER)
+    n_int = b.size - 1
+    dpsi = np.empty(n_int)
+    dx = np.empty(n_int)
+    dy = np.empty(n_int)
+    psi_local = []
+    for lo in range(0, n_int, _CHUNK):
+        hi = min(lo + _CHUNK, n_int)
+        a = b[lo:hi]
+        w = b[lo + 1:hi + 1] - a
+        dpsi[lo:hi] = w * (kappa(a[:, None] + w[:, None] * xi[None, :]) @ om)
+        v = a[:, None, None] + w[:, None, None] * xi[None, :, None] * xi[None, None, :]
+        psi_local.append(w[:, None] * xi[None, :] * (kappa(v) @ om))
+    psi_b = psi0 + np.concatenate(([0.0], np.cumsum(dpsi)))
+    for k, lo in enumerate(range(0, n_int, _CHUNK)):
+        hi = min(lo + _CHUNK, n_int)
+        w = b[lo + 1:hi + 1] - b[lo:hi]
+        psi_u = psi_b[lo:hi, None] + psi_local[k]
+        dx[lo:hi] = w * (np.cos(psi_u) @ om)
+        dy[lo:hi] = w * (np.sin(psi_u) @ om)
+    x_b = np.concatenate(([0.0], np.cumsum(dx)))
+    y_b = np.concatenate(([0.0], np.cumsum(dy)))
+    idx = np.searchsorted(b, s_grid)
+    return psi_b[idx], x_b[idx], y_b[idx]
+
+
+def _derivative_fd(fn: Callable[[np.ndarray], np.ndarray], s: np.ndarray, h: float) -> np.ndarray:
+    """Fourth-order central finite difference of fn at s (fn must accept s +- 2h)."""
+    return (-fn(s + 2.0 * h) + 8.0 * fn(s + h) - 8.0 * fn(s - h) + fn(s - 2.0 * h)) / (12.0 * h)
+
+
+def _elevation_columns(elevation: Any, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(z [m], grade [-], z'' [1/m]) at s from None, an ElevationLike or a plain callable z(s)."""
+    if elevation is None:
+        zero = np.zeros_like(s)
+        return zero, zero.copy(), zero.copy()
+    if isinstance(elevation, ElevationLike):
+        return (np.asarray(elevation.z(s), dtype=float), np.asarray(elevation.grade(s), dtype=float),
+                np.asarray(elevation.zpp(s), dtype=float))
+    if callable(elevation):
+        z = np.asarray(elevation(s), dtype=float)
+        grade = _derivative_fd(elevation, s, 0.05)
+        zpp = (elevation(s + 0.1) - 2.0 * z + elevation(s - 0.1)) / 0.01
+        return z, np.asarray(grade, dtype=float), np.asarray(zpp, dtype=float)
+    raise ValueError(f"elevation must be None, an ElevationLike or a callable z(s) (got {type(elevation).__name__})")
+
+
+def _grid(length_m: float, ds_m: float) -> tuple[int, float]:
+    """Number of rows and the actual spacing [m] (<= ds_m) dividing length_m evenly."""
+    if not (math.isfinite(length_m) and length_m > 0.0):
+        raise ValueError(f"length_m must be > 0 (got {length_m})")
+    if not (math.isfinite(ds_m) and 0.0 < ds_m <= length_m):
+        raise ValueError(f"ds_m must be in (0, length_m={length_m}] (got {ds_m})")
+    n = math.ceil(length_m / ds_m - 1e-9) + 1
+    return n, length_m / (n - 1)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Path
+# ---------------------------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True, eq=False)
+class Path:
+    """Arc-length parameterised centre-line (see the module docstring for the table layout and conventions).
+
+    ``table`` (n, 8) float64 [see COL_*], ``ds_m`` sample spacing [m], ``length_m`` = (n - 1) ds_m [m] (derived),
+    ``closed`` (s wraps modulo length_m), ``half_width_m`` drivable half width either side of the centre-line [m]
+    (off-road termination), ``name``, ``version`` and ``gates`` (cone gates, e.g. of the double lane change).
+    The table is copied and made read-only; equality is identity.
+    """
+
+    table: np.ndarray = field(repr=False)
+    ds_m: float
+    closed: bool = False
+    half_width_m: float = 3.5
+    name: str = "path"
+    version: str = "1"
+    gates: tuple[Gate, ...] = ()
+    length_m: float = field(init=False)
+
+    def __post_init__(self) -> None:
+        table = np.array(self.table, dtype=np.float64, order="C", copy=True)
+        if table.ndim != 2 or table.shape[1] != N_COLS:
+            raise ValueError(f"Path.table must have shape (n, {N_COLS}) (got {table.shape})")
+        if table.shape[0] < 4:
+            raise ValueError(f"Path.table must have >= 4 rows (got {table.shape[0]})")
+        if not np.all(np.isfinite(table)):
+            raise ValueError("Path.table must be finite (found NaN or inf)")
+        ds = self.ds_m
+        if not isinstance(ds, (int, float)) or not math.isfinite(ds) or ds <= 0.0:
+            raise ValueError(f"Path.ds_m must be > 0 (got {ds!r})")
+        if not isinstance(self.closed, (bool, np.bool_)):
+            raise ValueError(f"Path.closed must be a bool (got {self.closed!r})")
+        hw = self.half_width_m
+        if not isinstance(hw, (int, float)) or not math.isfinite(hw) or hw <= 0.0:
+            raise ValueError(f"Path.half_width_m must be > 0 (got {hw!r})")
+        if not isinstance(self.name, str) or not isinstance(self.version, str):
+            raise ValueError("Path.name and Path.version must be str")
+        length = (table.shape[0] - 1) * float(ds)
+        if self.closed:
+            gap = math.hypot(table[-1, COL_X] - table[0, COL_X], table[-1, COL_Y] - table[0, COL_Y])
+            turns = (table[-1, COL_PSI] - table[0, COL_PSI]) / (2.0 * math.pi)
+            if gap > CLOSURE_TOL_M or abs(turns - round(turns)) * 2.0 * math.pi > CLOSURE_TOL_M:
+                raise ValueError("Path.table of a closed path must end where it starts (|dX, dY| <= "
+                                 f"{CLOSURE_TOL_M} m, dpsi a multiple of 2 pi; got gap {gap:.3g} m, "
+                                 f"dpsi = {turns:.6f} x 2 pi)")
+        gates = tuple(self.gates)
+        for k, g in enumerate(gates):
+            if not isinstance(g, Gate):
+                raise ValueError(f"Path.gates[{k}] must be a Gate (got {type(g).__name__})")
+            if g.s_start_m < 0.0 or g.s_end_m > length + 1e-9:
+                raise ValueError(f"Path.gates[{k}] must lie within [0, {length}] m (got [{g.s_start_m}, {g.s_end_m}])")
+        table.flags.writeable = False
+        object.__setattr__(self, "table", table)
+        object.__setattr__(self, "ds_m", float(ds))
+        object.__setattr__(self, "closed", bool(self.closed))
+        object.__setattr__(self, "half_width_m", float(hw))
+        object.__setattr__(self, "gates", gates)
+        object.__setattr__(self, "length_m", length)
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickle through the constructor (re-validates; the restored table is read-only again)."""
+        return (type(self), (self.table, self.ds_m, self.closed, self.half_width_m, self.name, self.version,
+                             self.gates))
+
+    # ----------------------------------------------------------------------------------------------- constructors
+    @classmethod
+    def from_curvature(cls, kappa: CurvatureProfile | Sequence[tuple[float, float]] | Profile1D,
+                       length_m: float | None = None, *, dkappa: Callable[[np.ndarray], np.ndarray] | None = None,
+                       elevation: ElevationLike | Callable[[np.ndarray], np.ndarray] | None = None,
+                       x0_m: float = 0.0, y0_m: float = 0.0, psi0_rad: float = 0.0, ds_m: float = DEFAULT_DS_M,
+                       closed: bool = False, half_width_m: float = 3.5, name: str = "path", version: str = "1",
+                       gates: tuple[Gate, ...] = ()) -> Path:
+        """Integrate heading and position from a curvature profile.
+
+        ``kappa`` is a :class:`CurvatureProfile` (exact integration, analytic dkappa/ds), a sequence of
+        ``(length_m, kappa_end_per_m)`` segments starting from kappa = 0 (see ``CurvatureProfile.from_segments``)
+        or any vectorised callable kappa(s) [1/m] (then ``dkappa`` [1/m^2] is taken from the callable ``dkappa``
+        or a 4th-order finite difference with h = 1 mm, so kappa must accept s slightly outside [0, length_m]).
+        ``length_m`` [m]
+        defaults to the profile length. ``elevation`` is None (flat), an :class:`ElevationLike` or a callable z(s)
+        [m]. Start pose (x0_m, y0_m) [m], psi0_rad [rad]. The spacing is the largest value <= ``ds_m`` [m] that
+        divides the length. A closed path must close within 1e-6 m and a multiple of 2 pi in heading (else
+        ValueError); the residual round-off is spread linearly along s so that it closes exactly.
+        """
+        knots = np.zeros(0)
+        if isinstance(kappa, (list, tuple)):
+            kappa = CurvatureProfile.from_segments(0.0, kappa)
+        if isinstance(kappa, CurvatureProfile):
+            if length_m is None:
+                length_m = kappa.length_m
+            knots = np.asarray(kappa.knots_m, dtype=float)
+            if dkappa is None:
+                dkappa = kappa.dkappa
+            kappa_fn: Callable[[np.ndarray], np.ndarray] = kappa.kappa
+        elif callable(kappa):
+            kappa_fn = kappa
+        else:
+            raise ValueError(f"kappa must be a CurvatureProfile or a callable (got {type(kappa).__name__})")
+        if length_m is None:
+            raise ValueError("length_m is required when kappa is a plain callable")
+        n, ds = _grid(float(length_m), float(ds_m))
+        s = np.arange(n) * ds
+
+        def kap(v: np.ndarray) -> np.ndarray:
+            return np.asarray(kappa_fn(v), dtype=float)
+
+        psi, dx, dy = _integrate_curvature(kap, s, knots, float(psi0_rad))
+        if dkappa is None:
+            dk = _derivative_fd(kap, s, 1e-3)
+        else:
+            dk = np.asarray(dkappa(s), dtype=float)
+        table = np.empty((n, N_COLS))
+        table[:, COL_X] = x0_m + dx
+        table[:, COL_Y] = y0_m + dy
+        table[:, COL_PSI] = psi
+        table[:, COL_KAPPA] = kap(s)
+        table[:, COL_DKAPPA] = dk
+        table[:, COL_Z], table[:, COL_GRADE], table[:, COL_ZPP] = _elevation_columns(elevation, s)
+        if closed:
+            _close_exactly(table, s, name)
+        return cls(table, ds, closed=closed, half_width_m=half_width_m, name=name, version=version, gates=gates)
+
+    @classmethod
+    def from_points(cls, x: np.ndarray, y: np.ndarray, z: np.ndarray | None = None, closed: bool = False, *,
+                    smoothing_m: float = 0.0, ds_m: float = DEFAULT_DS_M, half_width_m: float = 3.5,
+                    name: str = "path", version: str = "1") -> Path:
+        """Fit a smooth parametric spline (scipy ``splprep``, quintic when >= 8 points, periodic when closed)
+        through points x, y [m] (optional elevation z [m]) and resample it uniformly in arc length.
+
+        ``smoothing_m`` [m] is the allowed RMS deviation from the points (0 interpolates). For a closed path do not
+        repeat the first point at the end (an exact repeat is dropped). Curvature and its rate come from the
+        spline derivatives.
+        """
+        from vtrack_gym.tracks.fitting import fit_points
+
+        cols, ds = fit_points(np.asarray(x, dtype=float), np.asarray(y, dtype=float),
+                              None if z is None else np.asarray(z, dtype=float), bool(closed),
+                              float(smoothing_m), float(ds_m))
+        return cls(cols, ds, closed=bool(closed), half_width_m=half_width_m, name=name, version=version)
+
+    # ---------------------------------------------------------------------------------------------------- queries
+    @property
+    def n_samples(self) -> int:
+        """Number of table rows."""
+        return int(self.table.shape[0])
+
+    @property
+    def s_m(self) -> np.ndarray:
+        """Arc length of every row [m]."""
+        return np.arange(self.n_samples) * self.ds_m
+
+    def wrap_s(self, s: np.ndarray) -> np.ndarray:
+        """Arc length wrapped into [0, length) (closed) or clamped to [0, length] (open) [m]."""
+        return _wrap_s(np.asarray(s, dtype=float), self.length_m, self.closed)
+
+    def sample(self, s: np.ndarray | float) -> PathSample:
+        """Interpolated columns at arc length(s) s [m] (wrapped for closed, clamped for open paths)."""
+        out = _interp(self.table, self.ds_m, self.length_m, self.closed, np.asarray(s, dtype=float))
+        return PathSample(*(out[..., k] for k in range(N_COLS)))
+
+    def sample_array(self, s: np.ndarray | float) -> np.ndarray:
+        """Interpolated columns at s [m] as an array of shape s.shape + (8,) in table column order."""
+        return _interp(self.table, self.ds_m, self.length_m, self.closed, np.asarray(s, dtype=float))
+
+    def preview(self, s: np.ndarray | float, distances: np.ndarray) -> np.ndarray:
+        """Curvature [1/m] at s + d for every s (N,) [m] and preview distance d (K,) [m] -> shape (N, K)."""
+        s = np.atleast_1d(np.asarray(s, dtype=float))
+        d = np.atleast_1d(np.asarray(distances, dtype=float))
+        out = _interp(self.table, self.ds_m, self.length_m, self.closed, s[:, None] + d[None, :])
+        return out[..., COL_KAPPA]
+
+    def bounds(self) -> tuple[float, float, float, float]:
+        """(xmin, xmax, ymin, ymax) of the centre-line samples [m]."""
+        x = self.table[:, COL_X]
+        y = self.table[:, COL_Y]
+        return float(x.min()), float(x.max()), float(y.min()), float(y.max())
+
+    @cached_property
+    def _kdtree(self) -> Any:
+        from scipy.spatial import cKDTree
+
+        rows = self.n_samples - 1 if self.closed else self.n_samples
+        return cKDTree(self.table[:rows, :2])
+
+    def _coarse(self, x: np.ndarray, y: np.ndarray, s_guess: np.ndarray | None, window_m: float) -> np.ndarray:
+        """Index of the nearest sample: global (KD-tree) where s_guess is None or < 0, else within +- window_m."""
+        n = self.n_samples
+        idx = np.empty(x.shape, dtype=np.int64)
+        glob = np.ones(x.shape, dtype=bool) if s_guess is None else (s_guess < 0.0)
+        half = max(1, math.ceil(window_m / self.ds_m))
+        period = n - 1
+        if self.closed and 2 * half + 1 >= period:
+            glob[:] = True
+        if np.any(glob):
+            _, idx[glob] = self._kdtree.query(np.column_stack((x[glob], y[glob])))
+        loc = ~glob
+        if np.any(loc):
+            assert s_guess is not None
+            centre = np.rint(self.wrap_s(s_guess[loc]) / self.ds_m).astype(np.int64)
+            cand = centre[:, None] + np.arange(-half, half + 1)[None, :]
+            cand = np.mod(cand, period) if self.closed else np.clip(cand, 0, n - 1)
+            d2 = (self.table[cand, COL_X] - x[loc, None]) ** 2 + (self.table[cand, COL_Y] - y[loc, None]) ** 2
+            idx[loc] = cand[np.arange(cand.shape[0]), np.argmin(d2, axis=1)]
+        return idx
+
+    def project(self, x: np.ndarray | float, y: np.ndarray | float, s_guess: np.ndarray | float | None = None,
+                window_m: float = 10.0) -> Projection:
+        """Closest point s* [m] of the path to each point (x, y) [m], with e_y [m] (left-positive), psi_ref [rad].
+
+        Coarse search over the samples within +- window_m [m] of s_guess [m] (global where s_guess is None or
+        negative), then refinement by exact projection onto the local osculating circle (exact on arcs and
+        straights; converges in a few steps on clothoids). Same algorithm as ``kernels.project_point``.
+        """
+        x = np.atleast_1d(np.asarray(x, dtype=float))
+        y = np.atleast_1d(np.asarray(y, dtype=float))
+        x, y = np.broadcast_arrays(x, y)
+        guess = None if s_guess is None else np.broadcast_to(np.asarray(s_guess, dtype=float), x.shape)
+        s = self._coarse(x, y, guess, float(window_m)) * self.ds_m
+        step_max = max(4.0 * self.ds_m, 2.0)
+        for _ in range(PROJECTION_MAX_ITER):
+            row = _interp(self.table, self.ds_m, self.length_m, self.closed, s)
+            delta = _arc_step(x, y, row, step_max)
+            s_new = _wrap_s(s + delta, self.length_m, self.closed)
+            moved = np.abs(s_new - s)
+            if self.closed:
+                moved = np.minimum(moved, self.length_m - moved)
+            s = s_new
+            if np.all(moved < PROJECTION_TOL_M):
+                break
+        row = _interp(self.table, self.ds_m, self.length_m, self.closed, s)
+        psi = row[:, COL_PSI]
+        e_y = -(x - row[:, COL_X]) * np.sin(psi) + (y - row[:, COL_Y]) * np.cos(psi)
+        return Projection(s, e_y, psi, row[:, COL_KAPPA], row[:, COL_X], row[:, COL_Y])
+
+    def frenet_errors(self, x: np.ndarray, y: np.ndarray, psi: np.ndarray,
+                      s_guess: np.ndarray | float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(s* [m], e_y [m], e_phi = wrap(psi - psi_ref) in (-pi, pi] [rad]) of poses (x, y, psi)."""
+        p = self.project(x, y, s_guess)
+        return p.s, p.e_y, wrap_angle(np.asarray(psi, dtype=float) - p.psi_ref)
+
+    def self_intersects(self, clearance_m: float = 0.0) -> bool:
+        """True if the centre-line crosses itself; with clearance_m > 0 [m] also if two parts more than
+        (pi/2) clearance_m apart along the path come closer than clearance_m (checked on ~1 m spaced samples)."""
+        from vtrack_gym.tracks.geometry import polyline_min_gap_violated, polyline_self_intersects
+
+        xy = self.table[:, :2]
+        if polyline_self_intersects(xy, self.closed):
+            return True
+        if clearance_m > 0.0:
+            step = max(1, round(1.0 / self.ds_m))
+            sub = xy[::step]
+            s_sub = np.arange(sub.shape[0]) * step * self.ds_m
+            return polyline_min_gap_violated(sub, s_sub, self.length_m if self.closed else None, clearance_m)
+        return False
+
+
+def wrap_angle(a: np.ndarray) -> np.ndarray:
+    """Angle(s) wrapped to (-pi, pi] [rad]."""
+    w = np.mod(np.asarray(a, dtype=float) + np.pi, 2.0 * np.pi)
+    w = np.where(w <= 0.0, w + 2.0 * np.pi, w)
+    return w - np.pi
+
+
+def _arc_step(x: np.ndarray, y: np.ndarray, row: np.ndarray, step_max: float) -> np.ndarray:
+    """Arc-length step from the reference point in ``row`` to the projection of (x, y) onto its osculating circle."""
+    psi = row[..., COL_PSI]
+    kap = row[..., COL_KAPPA]
+    c, s = np.cos(psi), np.sin(psi)
+    px = x - row[..., COL_X]
+    py = y - row[..., COL_Y]
+    along = px * c + py * s
+    lateral = -px * s + py * c
+    small = np.abs(kap) < 1e-12
+    safe = np.where(small, 1.0, kap)
+    arc = np.arctan2(safe * along, 1.0 - safe * lateral) / safe
+    return np.clip(np.where(small, along, arc), -step_max, step_max)
+
+
+def _close_exactly(table: np.ndarray, s: np.ndarray, name: str) -> None:
+    """Check the closure of a closed table and spread the (round-off) residual linearly along s, in place."""
+    length = s[-1]
+    gx = table[-1, COL_X] - table[0, COL_X]
+    gy = table[-1, COL_Y] - table[0, COL_Y]
+    dpsi = table[-1, COL_PSI] - table[0, COL_PSI]
+    turns = round(dpsi / (2.0 * math.pi))
+    rpsi = dpsi - 2.0 * math.pi * turns
+    if math.hypot(gx, gy) > CLOSURE_TOL_M or abs(rpsi) > CLOSURE_TOL_M or turns == 0:
+        raise ValueError(f"path {name!r} does not close: end - start = ({gx:.3g}, {gy:.3g}) m, heading change "
+                         f"{dpsi:.9f} rad (need |gap| <= {CLOSURE_TOL_M} m and a non-zero multiple of 2 pi)")
+    ramp = s / length
+    table[:, COL_X] -= gx * ramp
+    table[:, COL_Y] -= gy * ramp
+    table[:, COL_PSI] -= rpsi * ramp
+    table[-1, COL_X] = table[0, COL_X]
+    table[-1, COL_Y] = table[0, COL_Y]
+    for col, unit in ((COL_KAPPA, "1/m"), (COL_DKAPPA, "1/m^2"), (COL_Z, "m"), (COL_GRADE, "-")):
+        jump = abs(table[-1, col] - table[0, col])
+        if jump > 1e-6:
+            logger.warning("closed path %r: %s jumps by %.3g %s across the closure", name, COLUMN_NAMES[col], jump,
+                           unit)

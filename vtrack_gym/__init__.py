@@ -1,6 +1,12 @@
 """vtrack_gym: Gymnasium environments for driverless-car trajectory tracking.
 
-``import vtrack_gym`` registers the environments and nothing heavier (no numba, no torch).
+``import vtrack_gym`` registers ``LateralTracking-v0``, ``DLC120-v0`` and ``LateralTrackingRandom-v0`` and
+loads nothing heavier than Gymnasium's registry (no numba, no torch).
 """
 
+from vtrack_gym.envs.registration import ENV_IDS, register_envs
+
 __version__ = "0.1.0"
+__all__ = ["ENV_IDS", "__version__", "register_envs"]
+
+register_envs()

@@ -35,6 +35,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+# Bounds of the observation box per scalar field (generous physical limits; the envs terminate long before:
+# |e_y| beyond the road half width, |e_phi| > pi/2). Preview samples are bounded by PREVIEW_BOUND.
+SCALAR_BOUNDS: dict[str, float] = {
+    "e_y": 100.0, "e_phi": 4.0, "e_y_dot": 100.0, "e_phi_dot": 50.0, "v_x": 100.0, "v_y": 100.0,
+    "yaw_rate": 50.0, "road_wheel_angle": 2.0, "target_speed": 100.0, "yaw_rate_ref": 50.0,
+    "yaw_acc_ref": 1000.0, "curvature": 2.0, "curvature_rate": 10.0,
+}
+PREVIEW_BOUND = 2.0  # [1/m]
+
 SCALAR_FIELDS: tuple[str, ...] = (
     "e_y", "e_phi", "e_y_dot", "e_phi_dot", "v_x", "v_y", "yaw_rate", "road_wheel_angle",
     "target_speed", "yaw_rate_ref", "yaw_acc_ref", "curvature", "curvature_rate",
@@ -106,6 +115,12 @@ class ObservationLayout:
         v = np.maximum(np.asarray(v_x, dtype=np.float64), self.preview_min_speed_mps)
         k = np.arange(1, self.n_preview + 1, dtype=np.float64) * self.preview_dt_s
         return v[..., None] * k
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """(low, high) float32 arrays of the observation box."""
+        high = np.array([SCALAR_BOUNDS[n] for n in SCALAR_FIELDS] + [PREVIEW_BOUND] * self.n_preview,
+                        dtype=np.float32)
+        return -high, high
 
     def as_dict(self) -> dict[str, int]:
         """Name -> index mapping."""

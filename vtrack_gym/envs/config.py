@@ -1,0 +1,163 @@
+"""Frozen configuration of the envs: scenario, reward, reset options (all SI units)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+from vtrack_gym.baselines.pdflc import PDFLCConfig
+from vtrack_gym.envs.observation import OBS, ObservationLayout
+from vtrack_gym.vehicle.params import VehicleParams
+
+KMH = 1.0 / 3.6
+
+
+@dataclass(frozen=True)
+class RewardConfig:
+    """Per-step reward ``r = alive - w_ey q_ey - w_ephi q_ephi - w_effort a^2 - w_rate (da/0.1)^2``.
+
+    with ``q_ey = min((e_y / ey_scale_m)^2, 4)`` and ``q_ephi = min((e_phi / ephi_scale_rad)^2, 4)``, ``a`` the
+    normalised steering action and ``da`` its change since the previous step; on a failure termination
+    (off road, spin-out, wheel lift) ``failure_penalty`` is added once (negative). Completing the course
+    gives ``completion_bonus``. Every term is reported in ``info`` (``reward_tracking``, ``reward_heading``,
+    ``reward_effort``, ``reward_rate``, ``reward_terminal``).
+    """
+
+    alive: float = 1.0
+    w_ey: float = 1.0
+    ey_scale_m: float = 0.5
+    w_ephi: float = 0.5
+    ephi_scale_rad: float = 0.1
+    w_effort: float = 0.05
+    w_rate: float = 0.2
+    failure_penalty: float = -100.0
+    completion_bonus: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("alive", "w_ey", "w_ephi", "w_effort", "w_rate", "completion_bonus"):
+            if not (math.isfinite(getattr(self, name)) and getattr(self, name) >= 0.0):
+                raise ValueError(f"RewardConfig.{name} must be a finite number >= 0 (got {getattr(self, name)})")
+        for name in ("ey_scale_m", "ephi_scale_rad"):
+            if not getattr(self, name) > 0.0:
+                raise ValueError(f"RewardConfig.{name} must be > 0 (got {getattr(self, name)})")
+        if not self.failure_penalty <= 0.0:
+            raise ValueError(f"RewardConfig.failure_penalty must be <= 0 (got {self.failure_penalty})")
+
+
+@dataclass(frozen=True)
+class ScenarioConfig:
+    """Which track, how the car starts and what speed the inner loop holds."""
+
+    name: str
+    track: str                                   # "handling_course" | "double_lane_change" | "procedural"
+    target_speed_mps: float
+    initial_speed_mps: float
+    max_episode_s: float
+    target_speed_range_mps: tuple[float, float] | None = None  # randomised per episode (training variant)
+    procedural_bank_size: int = 16               # procedural tracks built once per env, drawn per episode
+    procedural_seed: int = 12345
+    procedural_length_m: float = 800.0
+    end_margin_m: float = 5.0                    # open paths: completed this far before the end
+
+    def __post_init__(self) -> None:
+        if self.track not in ("handling_course", "double_lane_change", "procedural"):
+            raise ValueError("ScenarioConfig.track must be 'handling_course', 'double_lane_change' or 'procedural' "
+                             f"(got {self.track!r})")
+        if not (0.0 < self.target_speed_mps <= 45.0):
+            raise ValueError(f"ScenarioConfig.target_speed_mps must be in (0, 45] m/s (got {self.target_speed_mps})")
+        if not (0.0 <= self.initial_speed_mps <= 45.0):
+            raise ValueError(f"ScenarioConfig.initial_speed_mps must be in [0, 45] m/s (got {self.initial_speed_mps})")
+        if not self.max_episode_s > 0.0:
+            raise ValueError(f"ScenarioConfig.max_episode_s must be > 0 s (got {self.max_episode_s})")
+        if self.procedural_bank_size < 1:
+            raise ValueError(f"ScenarioConfig.procedural_bank_size must be >= 1 (got {self.procedural_bank_size})")
+
+
+LATERAL_TRACKING = ScenarioConfig("LateralTracking-v0", "handling_course", 40.0 * KMH, 0.0, 300.0)
+"""Case 1: handling course from standstill, hold 40 km/h, one lap (~2.3 km, ~215 s)."""
+
+DLC120 = ScenarioConfig("DLC120-v0", "double_lane_change", 120.0 * KMH, 120.0 * KMH, 30.0)
+"""Case 2: ISO 3888-1 double lane change at 120 km/h from the start of the approach."""
+
+RANDOM_TRACKS = ScenarioConfig("LateralTrackingRandom-v0", "procedural", 15.0, 15.0, 90.0,
+                               target_speed_range_mps=(6.0, 30.0))
+"""Training variant: procedural tracks, target speed drawn per episode, start at the target speed."""
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    """Everything an env instance needs besides its scenario."""
+
+    control_period_s: float = 0.01
+    physics_dt_s: float = 0.002
+    model: str = "nonlinear"
+    vehicle: VehicleParams = field(default_factory=VehicleParams)
+    reward: RewardConfig = field(default_factory=RewardConfig)
+    layout: ObservationLayout = OBS
+    speed_controller: PDFLCConfig = field(default_factory=PDFLCConfig)  # the inner PD-FLC loop (paper Table 3)
+    # Sensor noise standard deviations at ``sensor_noise = 1`` (reset option scales them), in observation
+    # order for the first 8 entries: e_y [m], e_phi [rad], e_y_dot [m/s], e_phi_dot [rad/s], v_x, v_y [m/s],
+    # r [rad/s], delta [rad].
+    noise_std: tuple[float, ...] = (0.02, 0.005, 0.02, 0.005, 0.05, 0.02, 0.005, 0.002)
+
+    def __post_init__(self) -> None:
+        if not (0.001 <= self.control_period_s <= 0.1):
+            raise ValueError(f"EnvConfig.control_period_s must be in [0.001, 0.1] s (got {self.control_period_s})")
+        if not (0.0 < self.physics_dt_s <= 0.002):
+            raise ValueError(f"EnvConfig.physics_dt_s must be in (0, 0.002] s, >= 500 Hz (got {self.physics_dt_s})")
+        ratio = self.control_period_s / self.physics_dt_s
+        if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+            raise ValueError("EnvConfig.control_period_s must be an integer multiple of physics_dt_s "
+                             f"(got {self.control_period_s} / {self.physics_dt_s} = {ratio})")
+        if self.model not in ("nonlinear", "linear"):
+            raise ValueError(f"EnvConfig.model must be 'nonlinear' or 'linear' (got {self.model!r})")
+        if len(self.noise_std) != 8 or any(not (s >= 0.0) for s in self.noise_std):
+            raise ValueError("EnvConfig.noise_std must be 8 numbers >= 0")
+
+    @property
+    def n_substeps(self) -> int:
+        """Physics steps per control period."""
+        return round(self.control_period_s / self.physics_dt_s)
+
+
+@dataclass(frozen=True)
+class ResetOptions:
+    """Scenario knobs that ``reset(options=...)`` may override (``None`` = scenario default)."""
+
+    initial_lateral_offset_m: float = 0.0
+    friction_mu: float | None = None
+    mass_scale: float = 1.0
+    target_speed_mps: float | None = None
+    sensor_noise: float = 0.0
+    actuator_delay_s: float = 0.0
+
+    RANGES = {  # noqa: RUF012 - documentation table, read-only
+        "initial_lateral_offset_m": (-2.0, 2.0),
+        "friction_mu": (0.1, 1.5),
+        "mass_scale": (0.5, 2.0),
+        "target_speed_mps": (1.0, 45.0),
+        "sensor_noise": (0.0, 5.0),
+        "actuator_delay_s": (0.0, 0.5),
+    }
+
+    @classmethod
+    def from_dict(cls, options: dict[str, Any] | None) -> ResetOptions:
+        """Validate a Gymnasium ``options`` dict; unknown or out-of-range keys raise ``ValueError`` naming them."""
+        if not options:
+            return cls()
+        if not isinstance(options, dict):
+            raise ValueError(f"reset options must be a dict (got {type(options).__name__})")
+        values: dict[str, float] = {}
+        for key, value in options.items():
+            if key not in cls.RANGES:
+                raise ValueError(f"unknown reset option {key!r}; valid options: {', '.join(sorted(cls.RANGES))}")
+            lo, hi = cls.RANGES[key]
+            try:
+                v = float(value)
+            except (TypeError, ValueError):
+                raise ValueError(f"reset option {key!r} must be a number in [{lo}, {hi}] (got {value!r})") from None
+            if not (math.isfinite(v) and lo <= v <= hi):
+                raise ValueError(f"reset option {key!r} must be in [{lo}, {hi}] (got {value!r})")
+            values[key] = v
+        return cls(**values)

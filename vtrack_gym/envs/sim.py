@@ -1,0 +1,225 @@
+"""``BatchSim``: N cars on their tracks behind the PD-FLC speed loop, stepped by one compiled call.
+
+The single env, the Gymnasium vector env and the SB3 adapter are thin front-ends over this class, so they
+share every number. Each car has its own random generator (seeded like Gymnasium seeds sub-envs), so car
+``i`` of a batch seeded with ``seed`` reproduces a single env seeded with ``seed + i`` bit for bit.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+
+from vtrack_gym.envs.config import EnvConfig, ResetOptions, ScenarioConfig
+from vtrack_gym.vehicle import layout as L
+from vtrack_gym.vehicle.params import VehicleParams
+from vtrack_gym.vehicle.plant import PARALLEL_THRESHOLD, Plant
+
+TERMINATION_NAMES: tuple[str, ...] = ("", "completed", "off_road", "spin_out", "wheel_lift", "invalid_state")
+"""``info["termination"]`` for each kernel termination code ("" = still running)."""
+REWARD_TERM_NAMES: tuple[str, ...] = (
+    "reward_alive", "reward_tracking", "reward_heading", "reward_effort", "reward_rate", "reward_terminal")
+
+
+def _kernels():
+    from vtrack_gym.envs import kernels
+
+    return kernels
+
+
+@lru_cache(maxsize=8)
+def scenario_tracks(scenario: ScenarioConfig, vehicle_width_m: float) -> tuple:
+    """The paths a scenario drives on (built once per process and scenario)."""
+    from vtrack_gym import tracks
+
+    if scenario.track == "handling_course":
+        return (tracks.handling_course(),)
+    if scenario.track == "double_lane_change":
+        return (tracks.double_lane_change(vehicle_width_m=vehicle_width_m),)
+    return tuple(tracks.procedural_track(scenario.procedural_seed + k, length_m=scenario.procedural_length_m)
+                 for k in range(scenario.procedural_bank_size))
+
+
+class BatchSim:
+    """N independent cars (one per sub-env) on the scenario's track(s)."""
+
+    def __init__(self, scenario: ScenarioConfig, config: EnvConfig, n: int) -> None:
+        from vtrack_gym.baselines.pdflc import control_surface
+        from vtrack_gym.baselines.pdflc_kernel import pdflc_gains
+
+        self.scenario = scenario
+        self.config = config
+        self.n = n
+        self.paths = scenario_tracks(scenario, config.vehicle.chassis.body_width_m)
+        self.tables = np.ascontiguousarray(np.concatenate([p.table for p in self.paths]))
+        counts = np.array([p.table.shape[0] for p in self.paths], dtype=np.int64)
+        self.t_start = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
+        self.t_n = counts
+        self.t_ds = np.array([p.ds_m for p in self.paths], dtype=np.float64)
+        self.t_len = np.array([p.length_m for p in self.paths], dtype=np.float64)
+        self.t_closed = np.array([1 if p.closed else 0 for p in self.paths], dtype=np.int64)
+        self.t_half_width = np.array([p.half_width_m for p in self.paths], dtype=np.float64)
+
+        self.plant = Plant(config.vehicle, n=n, model=config.model, physics_dt_s=config.physics_dt_s)
+        pd = config.speed_controller
+        self.pd_gains = pdflc_gains(pd, config.control_period_s)
+        self.pd_surface = np.ascontiguousarray(control_surface(pd.method, pd.surface_resolution))
+        self.pd_kinks = pd.method == "mamdani"
+        self.pd_mem = np.zeros((n, 3))
+        self.n_sub = config.n_substeps
+        self.layout = config.layout
+        self.inputs = np.zeros((n, L.N_INPUT))
+        self.road = np.zeros((n, L.N_ROAD))
+        self.outputs = np.zeros((n, self.n_sub, L.N_OUTPUT))
+        self.s_prev = np.zeros(n)
+        self.progress = np.zeros(n)
+        self.v_ref = np.full(n, scenario.target_speed_mps)
+        self.obs = np.zeros((n, self.layout.size), dtype=np.float32)
+        self.err = np.zeros((n, 6))
+        self.term = np.zeros(n, dtype=np.int64)
+        self.rows = np.zeros((n, 8))
+        self.veh_track = np.zeros(n, dtype=np.int64)
+        self.steps = np.zeros(n, dtype=np.int64)
+        self.prev_action = np.zeros(n)
+        self.noise_scale = np.zeros(n)
+        self.delay_steps = np.zeros(n, dtype=np.int64)
+        self.delay_buffer = np.zeros((n, 1))
+        self.max_steps = round(scenario.max_episode_s / config.control_period_s)
+        rc = config.reward
+        self.reward_vector = np.array([rc.alive, rc.w_ey, rc.ey_scale_m, rc.w_ephi, rc.ephi_scale_rad, rc.w_effort,
+                                       rc.w_rate, rc.failure_penalty, rc.completion_bonus])
+        self.terms = np.zeros((n, 6))
+        self.reward = np.zeros(n)
+        self.rngs: list[np.random.Generator] = [np.random.default_rng() for _ in range(n)]
+        self._noise_std = np.asarray(config.noise_std)
+        k = _kernels()
+        self._step_kernel = k.step_parallel if n >= PARALLEL_THRESHOLD else k.step_serial
+        self._observe = k.observe_indices
+
+    # ------------------------------------------------------------------ reset
+    def seed(self, index: int, seed: int | None) -> None:
+        """Give car ``index`` a fresh generator (``None``: from OS entropy)."""
+        self.rngs[index] = np.random.default_rng(seed)
+
+    def reset_car(self, i: int, options: ResetOptions) -> None:
+        """Put car ``i`` at the start of a (possibly new) track with the given scenario knobs."""
+        sc, rng = self.scenario, self.rngs[i]
+        self.veh_track[i] = int(rng.integers(len(self.paths))) if len(self.paths) > 1 else 0
+        if options.target_speed_mps is not None:
+            v_ref = options.target_speed_mps
+        elif sc.target_speed_range_mps is not None:
+            v_ref = float(rng.uniform(*sc.target_speed_range_mps))
+        else:
+            v_ref = sc.target_speed_mps
+        v0 = v_ref if sc.initial_speed_mps > 0.0 else 0.0
+        self.v_ref[i] = v_ref
+
+        params: VehicleParams = self.config.vehicle
+        if options.mass_scale != 1.0:
+            params = params.with_mass_scale(options.mass_scale)
+        if options.friction_mu is not None:
+            params = params.with_friction(options.friction_mu)
+        self.plant.set_vehicle_params(i, params)
+
+        start = self.tables[self.t_start[self.veh_track[i]]]
+        x0, y0, psi0 = start[0], start[1], start[2]
+        off = options.initial_lateral_offset_m
+        self.plant.reset(i, x=x0 - off * np.sin(psi0), y=y0 + off * np.cos(psi0), psi=psi0, v_x=v0)
+        self.outputs[i] = 0.0
+        self.road[i] = 0.0
+        self.inputs[i] = 0.0
+        self.steps[i] = 0
+        self.prev_action[i] = 0.0
+        self.noise_scale[i] = options.sensor_noise
+        delay = round(options.actuator_delay_s / self.config.control_period_s)
+        self.delay_steps[i] = delay
+        if delay + 1 > self.delay_buffer.shape[1]:
+            grown = np.zeros((self.n, delay + 1))
+            grown[:, : self.delay_buffer.shape[1]] = self.delay_buffer
+            self.delay_buffer = grown
+        self.delay_buffer[i] = 0.0
+        self.pd_mem[i] = (0.0, 0.0, 1.0)  # fresh: the first derivative of the speed error is 0
+        self.term[i] = 0
+
+    def observe_after_reset(self, idx: np.ndarray) -> None:
+        """Project freshly reset cars (global search) and fill their observation rows."""
+        a_x = np.zeros(self.n)
+        self._observe(idx.astype(np.int64), self.plant.state, a_x, self.tables, self.t_start, self.t_n, self.t_ds,
+                      self.t_len, self.t_closed, self.veh_track, self.s_prev, self.progress, self.v_ref,
+                      self.layout.n_preview, self.layout.preview_dt_s, self.layout.preview_min_speed_mps,
+                      self.obs, self.road, self.err, self.rows)
+
+    # ------------------------------------------------------------------ step
+    def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Advance every car one control period. ``actions`` (n,) are finite, clipped to [-1, 1].
+
+        Returns (reward (n,), terminated (n,), truncated (n,)); observations are in ``self.obs``.
+        """
+        cmd = actions
+        if self.delay_steps.any():
+            cmd = self._delayed(actions)
+        self.inputs[:, L.U_DELTA] = cmd * self.config.vehicle.steering.max_road_wheel_angle_rad
+        lay = self.layout
+        self._step_kernel(self.plant.state, self.inputs, self.road, self.plant.param_rows, self.plant.models,
+                          self.plant.physics_dt_s, self.n_sub, self.outputs, self.plant._work, self.tables,
+                          self.t_start, self.t_n, self.t_ds, self.t_len, self.t_closed, self.t_half_width,
+                          self.veh_track, self.s_prev, self.progress, self.v_ref, lay.n_preview, lay.preview_dt_s,
+                          lay.preview_min_speed_mps, self.scenario.end_margin_m, self.obs, self.err, self.term,
+                          self.rows, actions, self.prev_action, self.reward_vector, self.terms, self.reward,
+                          self.pd_mem, self.pd_gains, self.pd_surface, self.pd_kinks)
+        self.steps += 1
+        terminated = self.term != 0
+        truncated = (self.steps >= self.max_steps) & ~terminated
+        if self.noise_scale.any():
+            self._add_noise()
+        return self.reward.copy(), terminated, truncated
+
+    def _delayed(self, actions: np.ndarray) -> np.ndarray:
+        """Commands delayed by ``delay_steps`` control periods (FIFO per car; zero before the first)."""
+        buf = self.delay_buffer
+        buf[:, 1:] = buf[:, :-1].copy()
+        buf[:, 0] = actions
+        return buf[np.arange(self.n), self.delay_steps]
+
+    def _add_noise(self) -> None:
+        for i in np.flatnonzero(self.noise_scale):
+            self.obs[i, :8] += (self.noise_scale[i] * self._noise_std * self.rngs[i].standard_normal(8)).astype(
+                np.float32)
+
+    def reward_terms(self) -> dict[str, np.ndarray]:
+        """The reward's terms of the last step for every car (see ``RewardConfig``)."""
+        return {name: self.terms[:, k].copy() for k, name in enumerate(REWARD_TERM_NAMES)}
+
+    # ------------------------------------------------------------------ signals
+    def signals(self) -> dict[str, np.ndarray]:
+        """Every signal the metrics need, for all cars (arrays of shape (n,) unless noted)."""
+        st, out = self.plant.state, self.outputs
+        ratio = self.config.vehicle.steering.steering_ratio
+        return {
+            "time_s": self.steps * self.config.control_period_s,
+            "x_m": st[:, L.S_X].copy(),
+            "y_m": st[:, L.S_Y].copy(),
+            "z_m": self.err[:, 5].copy(),
+            "psi_rad": st[:, L.S_PSI].copy(),
+            "e_y_m": self.err[:, 1].copy(),
+            "e_phi_rad": self.err[:, 2].copy(),
+            "v_mps": st[:, L.S_VX].copy(),
+            "v_y_mps": st[:, L.S_VY].copy(),
+            "yaw_rate_radps": st[:, L.S_R].copy(),
+            "road_wheel_angle_rad": st[:, L.S_DELTA].copy(),
+            "hand_wheel_angle_rad": st[:, L.S_DELTA] * ratio,
+            "steering_command_rad": self.inputs[:, L.U_DELTA].copy(),
+            "roll_rad": st[:, L.S_ROLL].copy(),
+            "throttle": self.inputs[:, L.U_THROTTLE].copy(),
+            "brake_n": self.inputs[:, L.U_BRAKE].copy(),
+            "a_x_mps2": out[:, -1, L.O_AX].copy(),
+            "a_y_mps2": out[:, -1, L.O_AY].copy(),
+            "a_z_mps2": out[:, -1, L.O_AZ].copy(),
+            "fz_n": out[:, -1, L.O_FZFL:L.O_FZRR + 1].copy(),             # (n, 4) FL, FR, RL, RR
+            "min_fz_n": out[:, :, L.O_FZFL:L.O_FZRR + 1].min(axis=(1, 2)),
+            "acc_substeps_mps2": out[:, :, L.O_AX:L.O_AZ + 1].copy(),     # (n, n_sub, 3) at the physics rate
+            "station_m": self.err[:, 0].copy(),
+            "progress_m": self.progress.copy(),
+            "target_speed_mps": self.v_ref.copy(),
+        }

@@ -1,0 +1,165 @@
+"""``TrackingEnv``: the single Gymnasium env behind every registered id.
+
+Observation: ``Box(float32)`` laid out by ``env.unwrapped.observation_layout`` (see ``envs.observation``).
+Action: ``Box(-1, 1, (1,))``, the steering command as a fraction of the road-wheel limit (0.6 rad by
+default); out-of-range values are clipped, NaN/inf or a wrong shape raise ``ValueError``. The PD-FLC speed
+loop drives throttle and brake inside the env.
+
+Reward (per control step; weights in ``RewardConfig``):
+``1 - w_ey min((e_y/0.5 m)^2, 4) - w_ephi min((e_phi/0.1 rad)^2, 4) - w_effort a^2 - w_rate ((a - a_prev)/0.1)^2``
+plus ``failure_penalty`` (-100) once on a failure termination. Terms in ``info["reward_*"]``.
+
+Termination (``info["termination"]``): ``completed`` (one lap of a closed course, or the end of an open
+track), ``off_road`` (|e_y| beyond the track's half width), ``spin_out`` (|e_phi| > 90 deg, or sideslip >
+0.3 rad above 3 m/s), ``wheel_lift`` (a wheel's F_z <= 0), ``invalid_state`` (non-finite physics; never
+expected). ``truncated`` only from the scenario's time limit.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from vtrack_gym.envs.config import DLC120, LATERAL_TRACKING, RANDOM_TRACKS, EnvConfig, ResetOptions, ScenarioConfig
+from vtrack_gym.envs.sim import REWARD_TERM_NAMES, TERMINATION_NAMES, BatchSim
+from vtrack_gym.vehicle import layout as L
+from vtrack_gym.vehicle.params import DesignModel
+
+SCENARIOS: dict[str, ScenarioConfig] = {s.name: s for s in (LATERAL_TRACKING, DLC120, RANDOM_TRACKS)}
+
+
+def check_actions(action: Any, n: int) -> np.ndarray:
+    """Validate and clip a batch of steering actions to shape (n,) float64 in [-1, 1]."""
+    a = np.asarray(action, dtype=np.float64)
+    if a.size != n:
+        raise ValueError(f"action must have {n} element(s) (shape ({n}, 1) or ({n},) for a batch, (1,) for one "
+                         f"env), got shape {a.shape}")
+    a = a.reshape(n)
+    if not np.isfinite(a).all():
+        raise ValueError(f"action must be finite (got {action!r}); NaN/inf steering commands are refused")
+    return np.clip(a, -1.0, 1.0)
+
+
+def observation_space(config: EnvConfig) -> gym.spaces.Box:
+    """The float32 observation box (raw SI units, generous physical bounds from the layout)."""
+    low, high = config.layout.bounds()
+    return gym.spaces.Box(low, high, dtype=np.float32)
+
+
+ACTION_SPACE = gym.spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
+
+
+class TrackingEnv(gym.Env):
+    """One car tracking a path; see the module docstring for spaces, reward and termination."""
+
+    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 25}  # noqa: RUF012
+
+    def __init__(self, scenario: str | ScenarioConfig = "LateralTracking-v0", config: EnvConfig | None = None,
+                 render_mode: str | None = None, **config_overrides: Any) -> None:
+        if isinstance(scenario, str):
+            if scenario not in SCENARIOS:
+                raise ValueError(f"unknown scenario {scenario!r}; valid: {', '.join(SCENARIOS)}")
+            scenario = SCENARIOS[scenario]
+        if config is None:
+            config = EnvConfig(**config_overrides)
+        elif config_overrides:
+            raise ValueError("pass either config or keyword overrides, not both")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} (got {render_mode!r})")
+        self.scenario = scenario
+        self.config = config
+        self.render_mode = render_mode
+        self.observation_layout = config.layout
+        self.control_period_s = config.control_period_s
+        self.design_model = DesignModel.from_vehicle(config.vehicle)
+        self.observation_space = observation_space(config)
+        self.action_space = ACTION_SPACE
+        self.metadata = {**self.metadata, "render_fps": round(1.0 / config.control_period_s)}
+        self._sim = BatchSim(scenario, config, 1)
+        self._renderer = None
+        self._needs_reset = True
+
+    @property
+    def paths(self) -> tuple:
+        """The track(s) this env drives on."""
+        return self._sim.paths
+
+    @property
+    def current_path(self):
+        """The path of the current episode."""
+        return self._sim.paths[self._sim.veh_track[0]]
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        opts = ResetOptions.from_dict(options)
+        self._sim.rngs[0] = self.np_random
+        self._sim.reset_car(0, opts)
+        self._sim.observe_after_reset(np.zeros(1, dtype=np.int64))
+        self._needs_reset = False
+        info = self._info(terminated=False)
+        return self._sim.obs[0].copy(), info
+
+    def step(self, action: Any):
+        if self._needs_reset:
+            raise RuntimeError("call reset() before step() (and after an episode ends)")
+        a = check_actions(action, 1)
+        reward, terminated, truncated = self._sim.step(a)
+        term, trunc = bool(terminated[0]), bool(truncated[0])
+        self._needs_reset = term or trunc
+        info = self._info(terminated=term)
+        for k, name in enumerate(REWARD_TERM_NAMES):
+            info[name] = float(self._sim.terms[0, k])
+        if self.render_mode == "human":
+            self.render()
+        return self._sim.obs[0].copy(), float(reward[0]), term, trunc, info
+
+    def _info(self, terminated: bool) -> dict[str, Any]:
+        """Scalar signals of the car (everything the metrics need), cheap enough for every step."""
+        sim = self._sim
+        st = sim.plant.state[0]
+        out = sim.outputs[0]
+        err = sim.err[0]
+        last = out[-1]
+        delta = float(st[L.S_DELTA])
+        return {
+            "time_s": float(sim.steps[0] * self.control_period_s),
+            "x_m": float(st[L.S_X]),
+            "y_m": float(st[L.S_Y]),
+            "z_m": float(err[5]),
+            "psi_rad": float(st[L.S_PSI]),
+            "e_y_m": float(err[1]),
+            "e_phi_rad": float(err[2]),
+            "v_mps": float(st[L.S_VX]),
+            "road_wheel_angle_rad": delta,
+            "hand_wheel_angle_rad": delta * self.config.vehicle.steering.steering_ratio,
+            "roll_rad": float(st[L.S_ROLL]),
+            "throttle": float(sim.inputs[0, L.U_THROTTLE]),
+            "brake_n": float(sim.inputs[0, L.U_BRAKE]),
+            "a_x_mps2": float(last[L.O_AX]),
+            "a_y_mps2": float(last[L.O_AY]),
+            "a_z_mps2": float(last[L.O_AZ]),
+            "fz_n": last[L.O_FZFL:L.O_FZRR + 1].copy(),
+            "min_fz_n": float(out[:, L.O_FZFL:L.O_FZRR + 1].min()),
+            "acc_substeps_mps2": out[:, L.O_AX:L.O_AZ + 1].copy(),
+            "station_m": float(err[0]),
+            "progress_m": float(sim.progress[0]),
+            "target_speed_mps": float(sim.v_ref[0]),
+            "termination": TERMINATION_NAMES[int(sim.term[0])] if terminated else "",
+        }
+
+    def render(self):
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
+            return None
+        if self._renderer is None:
+            from vtrack_gym.envs.render import TopDownRenderer
+
+            self._renderer = TopDownRenderer(self.config, human=self.render_mode == "human")
+        return self._renderer.draw(self.current_path, self._sim, 0)
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None

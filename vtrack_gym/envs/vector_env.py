@@ -1,0 +1,124 @@
+"""``TrackingVectorEnv``: N cars in one batched call, a native ``gymnasium.vector.VectorEnv``.
+
+Registered as each id's ``vector_entry_point``::
+
+    envs = gymnasium.make_vec("DLC120-v0", num_envs=4096, vectorization_mode="vector_entry_point")
+
+Autoreset follows Gymnasium's default ``NEXT_STEP`` mode: after sub-env i ends, the next ``step`` resets it
+(its action is ignored) and returns its first observation with reward 0 and both flags False.
+``reset(seed=s)`` seeds sub-env i with ``s + i``, exactly like ``SyncVectorEnv``; sub-env i then reproduces a
+single ``TrackingEnv`` reset with seed ``s + i`` bit for bit. ``options`` are the single env's reset options
+(applied to every sub-env being reset) plus ``reset_mask`` (bool array) for a partial reset.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from vtrack_gym.envs.config import EnvConfig, ResetOptions, ScenarioConfig
+from vtrack_gym.envs.sim import TERMINATION_NAMES, BatchSim
+from vtrack_gym.envs.tracking_env import ACTION_SPACE, SCENARIOS, check_actions, observation_space
+from vtrack_gym.vehicle.params import DesignModel
+
+
+def seeds_for(seed: int | list[int | None] | None, n: int) -> list[int | None]:
+    """Per-sub-env seeds: ``seed + i`` for an int (Gymnasium's convention), a list as given, else None."""
+    if seed is None:
+        return [None] * n
+    if isinstance(seed, (int, np.integer)):
+        return [int(seed) + i for i in range(n)]
+    seeds = list(seed)
+    if len(seeds) != n:
+        raise ValueError(f"seed list must have num_envs = {n} entries (got {len(seeds)})")
+    return seeds
+
+
+class TrackingVectorEnv(VectorEnv):
+    """Batched version of ``TrackingEnv`` (same scenario, config and per-car results)."""
+
+    metadata = {"render_modes": ["rgb_array"], "autoreset_mode": AutoresetMode.NEXT_STEP}  # noqa: RUF012
+
+    def __init__(self, scenario: str | ScenarioConfig = "LateralTracking-v0", num_envs: int = 1,
+                 config: EnvConfig | None = None, render_mode: str | None = None, **config_overrides: Any) -> None:
+        if isinstance(scenario, str):
+            if scenario not in SCENARIOS:
+                raise ValueError(f"unknown scenario {scenario!r}; valid: {', '.join(SCENARIOS)}")
+            scenario = SCENARIOS[scenario]
+        if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise ValueError(f"num_envs must be a positive integer (got {num_envs!r})")
+        config = config if config is not None else EnvConfig(**config_overrides)
+        self.scenario = scenario
+        self.config = config
+        self.num_envs = int(num_envs)
+        self.render_mode = render_mode
+        self.observation_layout = config.layout
+        self.control_period_s = config.control_period_s
+        self.design_model = DesignModel.from_vehicle(config.vehicle)
+        self.single_observation_space = observation_space(config)
+        self.single_action_space = ACTION_SPACE
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.sim = BatchSim(scenario, config, self.num_envs)
+        self._autoreset = np.zeros(self.num_envs, dtype=bool)
+        self._all = np.ones(self.num_envs, dtype=bool)
+
+    def reset(self, *, seed: int | list[int | None] | None = None,
+              options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        opts = dict(options or {})
+        mask = np.asarray(opts.pop("reset_mask", self._all), dtype=bool)
+        if mask.shape != (self.num_envs,):
+            raise ValueError(f"reset_mask must be a bool array of shape ({self.num_envs},) (got {mask.shape})")
+        reset_opts = ResetOptions.from_dict(opts)
+        seeds = seeds_for(seed, self.num_envs)
+        idx = np.flatnonzero(mask)
+        for i in idx:
+            if seed is not None or self.sim.steps[i] == 0:
+                self.sim.seed(int(i), seeds[i])
+            self.sim.reset_car(int(i), reset_opts)
+        self.sim.observe_after_reset(idx)
+        self._autoreset[idx] = False
+        return self.sim.obs.copy(), self._infos(np.zeros(self.num_envs, dtype=bool))
+
+    def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        a = check_actions(actions, self.num_envs)
+        sim = self.sim
+        reward, terminated, truncated = sim.step(a)
+        done_before = self._autoreset
+        if done_before.any():
+            idx = np.flatnonzero(done_before)
+            for i in idx:
+                sim.reset_car(int(i), ResetOptions())
+            sim.observe_after_reset(idx)
+            reward[idx] = 0.0
+            terminated[idx] = False
+            truncated[idx] = False
+        self._autoreset = terminated | truncated
+        return sim.obs.copy(), reward, terminated, truncated, self._infos(terminated)
+
+    def _infos(self, terminated: np.ndarray) -> dict[str, Any]:
+        """Every signal as an (num_envs, ...) array, with Gymnasium's ``_key`` masks."""
+        infos: dict[str, Any] = self.sim.signals()
+        infos.update(self.sim.reward_terms())
+        names = np.array(TERMINATION_NAMES, dtype=object)[self.sim.term]
+        infos["termination"] = np.where(terminated, names, "")
+        for key in list(infos):
+            infos["_" + key] = self._all
+        return infos
+
+    def render(self) -> tuple[np.ndarray, ...] | None:
+        if self.render_mode != "rgb_array":
+            gym.logger.warn("render() needs render_mode='rgb_array' on the vector env")
+            return None
+        from vtrack_gym.envs.render import TopDownRenderer
+
+        renderer = TopDownRenderer(self.config, human=False)
+        try:
+            return tuple(renderer.draw(self.sim.paths[self.sim.veh_track[i]], self.sim, i)
+                         for i in range(self.num_envs))
+        finally:
+            renderer.close()

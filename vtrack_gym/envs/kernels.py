@@ -4,8 +4,10 @@ One numba call per control period for all N cars (N = 1 for the single env), so 
 env run the same per-car code and give bit-identical results. Imported lazily by ``envs.sim``.
 
 Track data of all paths in use are concatenated: ``tables`` (M, 8) with the column order of
-``vtrack_gym.tracks.path`` and, per track k, ``t_start[k]``, ``t_n[k]`` (rows), ``t_ds[k]`` [m],
-``t_len[k]`` [m], ``t_closed[k]`` (0/1), ``t_half_width[k]`` [m]; ``veh_track[i]`` is car i's track.
+``vtrack_gym.tracks.path``; ``tmeta`` (K, 6) holds per track k its first row, row count, spacing [m],
+length [m], closed flag (0/1) and half width [m]; ``veh_track[i]`` is car i's track.
+Constant settings travel in one vector ``cfg`` (``CFG_*`` offsets), per-car scalars in ``car`` (n, 6)
+(``CAR_*`` columns) so that the compiled call unboxes few arguments (the single env's hot path).
 """
 
 from __future__ import annotations
@@ -23,6 +25,15 @@ from vtrack_gym.vehicle.kernels import step_vehicle
 # Column order of the track tables (see vtrack_gym.tracks.path).
 C_X, C_Y, C_PSI, C_KAPPA, C_DKAPPA, C_Z, C_GRADE, C_ZPP = range(8)
 N_COLS = 8
+
+# Track metadata columns, per-car scalar columns, and offsets in the constant settings vector.
+TM_START, TM_N, TM_DS, TM_LEN, TM_CLOSED, TM_HALF_WIDTH = range(6)
+CAR_S_PREV, CAR_PROGRESS, CAR_V_REF, CAR_PREV_ACTION, CAR_REWARD, CAR_MIN_FZ = range(6)
+N_CAR = 6
+(CFG_DT, CFG_NSUB, CFG_NPREV, CFG_PREV_DT, CFG_PREV_VMIN, CFG_END_MARGIN, CFG_KINKS, CFG_STEER_MAX) = range(8)
+CFG_REWARD = 8   # 9 reward settings (RW_*) start here
+CFG_PDFLC = 17   # 7 PD-FLC gains (see baselines.pdflc_kernel) start here
+N_CFG = 24
 
 # Termination codes (names in ``TERMINATION_NAMES`` of envs.sim).
 T_NONE, T_COMPLETED, T_OFF_ROAD, T_SPIN_OUT, T_WHEEL_LIFT, T_INVALID = range(6)
@@ -45,17 +56,19 @@ def _wrap(a: float) -> float:
 
 
 @njit(cache=True)
-def observe_one(i: int, state: np.ndarray, a_x: float, tables: np.ndarray, t_start: np.ndarray, t_n: np.ndarray,
-                t_ds: np.ndarray, t_len: np.ndarray, t_closed: np.ndarray, veh_track: np.ndarray,
-                s_prev: np.ndarray, progress: np.ndarray, v_ref: np.ndarray, window_m: float, first: bool,
-                n_preview: int, preview_dt: float, preview_vmin: float, obs: np.ndarray, road: np.ndarray,
-                err: np.ndarray, row: np.ndarray) -> None:
+def observe_one(i: int, state: np.ndarray, a_x: float, tables: np.ndarray, tmeta: np.ndarray,
+                veh_track: np.ndarray, car: np.ndarray, window_m: float, first: bool, cfg: np.ndarray,
+                obs: np.ndarray, road: np.ndarray, err: np.ndarray, row: np.ndarray) -> None:
     """Project car ``i`` on its path and write its observation row, road inputs and error row."""
     k = veh_track[i]
-    table = tables[t_start[k]:t_start[k] + t_n[k]]
-    ds = t_ds[k]
-    length = t_len[k]
-    closed = t_closed[k] != 0
+    start = int(tmeta[k, TM_START])
+    table = tables[start:start + int(tmeta[k, TM_N])]
+    ds = tmeta[k, TM_DS]
+    length = tmeta[k, TM_LEN]
+    closed = tmeta[k, TM_CLOSED] != 0.0
+    n_preview = int(cfg[CFG_NPREV])
+    preview_dt = cfg[CFG_PREV_DT]
+    preview_vmin = cfg[CFG_PREV_VMIN]
     x = state[L.S_X]
     y = state[L.S_Y]
     psi = state[L.S_PSI]
@@ -63,19 +76,19 @@ def observe_one(i: int, state: np.ndarray, a_x: float, tables: np.ndarray, t_sta
     vy = state[L.S_VY]
     r = state[L.S_R]
 
-    s_guess = -1.0 if first else s_prev[i]
+    s_guess = -1.0 if first else car[i, CAR_S_PREV]
     s = project_point(table, ds, length, closed, x, y, s_guess, window_m)
     if first:
-        progress[i] = 0.0
+        car[i, CAR_PROGRESS] = 0.0
     else:
-        step_s = s - s_prev[i]
+        step_s = s - car[i, CAR_S_PREV]
         if closed:
             if step_s > 0.5 * length:
                 step_s -= length
             elif step_s < -0.5 * length:
                 step_s += length
-        progress[i] += step_s
-    s_prev[i] = s
+        car[i, CAR_PROGRESS] += step_s
+    car[i, CAR_S_PREV] = s
 
     interp_row(table, ds, length, closed, s, row)
     psi_r = row[C_PSI]
@@ -100,7 +113,7 @@ def observe_one(i: int, state: np.ndarray, a_x: float, tables: np.ndarray, t_sta
     obs[i, 5] = vy
     obs[i, 6] = r
     obs[i, 7] = state[L.S_DELTA]
-    obs[i, 8] = v_ref[i]
+    obs[i, 8] = car[i, CAR_V_REF]
     obs[i, 9] = yaw_rate_ref
     obs[i, 10] = yaw_acc_ref
     obs[i, 11] = kappa
@@ -125,29 +138,32 @@ def observe_one(i: int, state: np.ndarray, a_x: float, tables: np.ndarray, t_sta
 
 
 @njit(cache=True)
-def termination_one(i: int, state: np.ndarray, outputs: np.ndarray, err: np.ndarray, progress: np.ndarray,
-                    t_len: np.ndarray, t_closed: np.ndarray, t_half_width: np.ndarray, veh_track: np.ndarray,
-                    end_margin_m: float) -> int:
-    """Termination code of car ``i`` after a step (``T_NONE`` if it goes on)."""
+def termination_one(i: int, state: np.ndarray, outputs: np.ndarray, err: np.ndarray, car: np.ndarray,
+                    tmeta: np.ndarray, veh_track: np.ndarray, end_margin_m: float) -> int:
+    """Termination code of car ``i`` after a step (``T_NONE`` if it goes on); stores its min wheel load."""
     for j in range(state.shape[0]):
         if not math.isfinite(state[j]):
             return T_INVALID
+    min_fz = math.inf
     for j in range(outputs.shape[0]):
         for w in range(L.O_FZFL, L.O_FZRR + 1):
-            if outputs[j, w] <= 0.0:
-                return T_WHEEL_LIFT
+            if outputs[j, w] < min_fz:
+                min_fz = outputs[j, w]
+    car[i, CAR_MIN_FZ] = min_fz
+    if min_fz <= 0.0:
+        return T_WHEEL_LIFT
     k = veh_track[i]
     vx = state[L.S_VX]
     if abs(err[i, E_EPHI]) > SPIN_HEADING_RAD:
         return T_SPIN_OUT
     if vx > 3.0 and abs(math.atan2(state[L.S_VY], vx)) > SPIN_SIDESLIP_RAD:
         return T_SPIN_OUT
-    if abs(err[i, E_EY]) > t_half_width[k]:
+    if abs(err[i, E_EY]) > tmeta[k, TM_HALF_WIDTH]:
         return T_OFF_ROAD
-    if t_closed[k] != 0:
-        if progress[i] >= t_len[k]:
+    if tmeta[k, TM_CLOSED] != 0.0:
+        if car[i, CAR_PROGRESS] >= tmeta[k, TM_LEN]:
             return T_COMPLETED
-    elif err[i, E_S] >= t_len[k] - end_margin_m:
+    elif err[i, E_S] >= tmeta[k, TM_LEN] - end_margin_m:
         return T_COMPLETED
     return T_NONE
 
@@ -175,59 +191,49 @@ def reward_one(i: int, code: int, e_y: float, e_phi: float, action: float, prev_
 
 @njit(cache=True)
 def _step_one(i: int, states: np.ndarray, inputs: np.ndarray, road: np.ndarray, params: np.ndarray,
-              models: np.ndarray, dt: float, n_sub: int, outputs: np.ndarray, work: np.ndarray,
-              tables: np.ndarray, t_start: np.ndarray, t_n: np.ndarray, t_ds: np.ndarray, t_len: np.ndarray,
-              t_closed: np.ndarray, t_half_width: np.ndarray, veh_track: np.ndarray, s_prev: np.ndarray,
-              progress: np.ndarray, v_ref: np.ndarray, n_preview: int, preview_dt: float, preview_vmin: float,
-              end_margin_m: float, obs: np.ndarray, err: np.ndarray, term: np.ndarray, rows: np.ndarray,
-              actions: np.ndarray, prev_actions: np.ndarray, rw: np.ndarray, terms: np.ndarray,
-              reward: np.ndarray, pd_mem: np.ndarray, pd_gains: np.ndarray, pd_surface: np.ndarray,
-              pd_kinks: bool) -> None:
-    throttle, brake = pdflc_step(states[i, L.S_VX], v_ref[i], pd_mem[i], pd_gains, pd_surface, pd_kinks)
+              models: np.ndarray, outputs: np.ndarray, work: np.ndarray, tables: np.ndarray, tmeta: np.ndarray,
+              veh_track: np.ndarray, car: np.ndarray, cfg: np.ndarray, obs: np.ndarray, err: np.ndarray,
+              term: np.ndarray, rows: np.ndarray, actions: np.ndarray, terms: np.ndarray, pd_mem: np.ndarray,
+              pd_surface: np.ndarray) -> None:
+    """One control period of car ``i``: speed loop, physics, projection, observation, termination, reward."""
+    dt = cfg[CFG_DT]
+    n_sub = int(cfg[CFG_NSUB])
+    throttle, brake = pdflc_step(states[i, L.S_VX], car[i, CAR_V_REF], pd_mem[i], cfg[CFG_PDFLC:CFG_PDFLC + 7],
+                                 pd_surface, cfg[CFG_KINKS] != 0.0)
     inputs[i, L.U_THROTTLE] = throttle
     inputs[i, L.U_BRAKE] = brake
     step_vehicle(states[i], inputs[i], road[i], params[i], models[i], dt, n_sub, outputs[i], work[i])
     travel = abs(states[i, L.S_VX]) * dt * n_sub
     window = 5.0 + 3.0 * travel
     a_x = outputs[i, n_sub - 1, L.O_AX]
-    observe_one(i, states[i], a_x, tables, t_start, t_n, t_ds, t_len, t_closed, veh_track, s_prev, progress,
-                v_ref, window, False, n_preview, preview_dt, preview_vmin, obs, road, err, rows[i])
-    term[i] = termination_one(i, states[i], outputs[i], err, progress, t_len, t_closed, t_half_width,
-                              veh_track, end_margin_m)
-    reward[i] = reward_one(i, term[i], err[i, E_EY], err[i, E_EPHI], actions[i], prev_actions[i], rw, terms)
-    prev_actions[i] = actions[i]
+    observe_one(i, states[i], a_x, tables, tmeta, veh_track, car, window, False, cfg, obs, road, err, rows[i])
+    code = termination_one(i, states[i], outputs[i], err, car, tmeta, veh_track, cfg[CFG_END_MARGIN])
+    term[i] = code
+    car[i, CAR_REWARD] = reward_one(i, code, err[i, E_EY], err[i, E_EPHI], actions[i], car[i, CAR_PREV_ACTION],
+                                    cfg[CFG_REWARD:CFG_REWARD + 9], terms)
+    car[i, CAR_PREV_ACTION] = actions[i]
 
 
 @njit(cache=True)
-def step_serial(states, inputs, road, params, models, dt, n_sub, outputs, work, tables, t_start, t_n,
-                t_ds, t_len, t_closed, t_half_width, veh_track, s_prev, progress, v_ref, n_preview,
-                preview_dt, preview_vmin, end_margin_m, obs, err, term, rows, actions, prev_actions, rw, terms,
-                reward, pd_mem, pd_gains, pd_surface, pd_kinks) -> None:
+def step_serial(states, inputs, road, params, models, outputs, work, tables, tmeta, veh_track, car,
+                cfg, obs, err, term, rows, actions, terms, pd_mem, pd_surface) -> None:
     """One control period for every car, single-threaded."""
     for i in range(states.shape[0]):
-        _step_one(i, states, inputs, road, params, models, dt, n_sub, outputs, work, tables, t_start, t_n,
-                  t_ds, t_len, t_closed, t_half_width, veh_track, s_prev, progress, v_ref, n_preview,
-                  preview_dt, preview_vmin, end_margin_m, obs, err, term, rows, actions, prev_actions, rw, terms,
-                  reward, pd_mem, pd_gains, pd_surface, pd_kinks)
+        _step_one(i, states, inputs, road, params, models, outputs, work, tables, tmeta, veh_track, car, cfg, obs,
+                  err, term, rows, actions, terms, pd_mem, pd_surface)
 
 
 @njit(cache=True, parallel=True)
-def step_parallel(states, inputs, road, params, models, dt, n_sub, outputs, work, tables, t_start, t_n,
-                  t_ds, t_len, t_closed, t_half_width, veh_track, s_prev, progress, v_ref, n_preview,
-                  preview_dt, preview_vmin, end_margin_m, obs, err, term, rows, actions, prev_actions, rw, terms,
-                  reward, pd_mem, pd_gains, pd_surface, pd_kinks) -> None:
+def step_parallel(states, inputs, road, params, models, outputs, work, tables, tmeta, veh_track, car,
+                  cfg, obs, err, term, rows, actions, terms, pd_mem, pd_surface) -> None:
     """One control period for every car, cars spread over threads (same per-car code)."""
     for i in prange(states.shape[0]):
-        _step_one(i, states, inputs, road, params, models, dt, n_sub, outputs, work, tables, t_start, t_n,
-                  t_ds, t_len, t_closed, t_half_width, veh_track, s_prev, progress, v_ref, n_preview,
-                  preview_dt, preview_vmin, end_margin_m, obs, err, term, rows, actions, prev_actions, rw, terms,
-                  reward, pd_mem, pd_gains, pd_surface, pd_kinks)
+        _step_one(i, states, inputs, road, params, models, outputs, work, tables, tmeta, veh_track, car, cfg, obs,
+                  err, term, rows, actions, terms, pd_mem, pd_surface)
 
 
 @njit(cache=True)
-def observe_indices(idx, states, a_x, tables, t_start, t_n, t_ds, t_len, t_closed, veh_track,
-                    s_prev, progress, v_ref, n_preview, preview_dt, preview_vmin, obs, road, err, rows) -> None:
-    """Fresh observation (global projection search, progress reset) for the cars in ``idx``."""
+def observe_indices(idx, states, tables, tmeta, veh_track, car, cfg, obs, road, err, rows) -> None:
+    """Fresh observation (global projection search, progress reset) for the cars in ``idx`` (a_x = 0)."""
     for i in idx:
-        observe_one(i, states[i], a_x[i], tables, t_start, t_n, t_ds, t_len, t_closed, veh_track, s_prev,
-                    progress, v_ref, 0.0, True, n_preview, preview_dt, preview_vmin, obs, road, err, rows[i])
+        observe_one(i, states[i], 0.0, tables, tmeta, veh_track, car, 0.0, True, cfg, obs, road, err, rows[i])

@@ -54,46 +54,56 @@ class BatchSim:
         self.paths = scenario_tracks(scenario, config.vehicle.chassis.body_width_m)
         self.tables = np.ascontiguousarray(np.concatenate([p.table for p in self.paths]))
         counts = np.array([p.table.shape[0] for p in self.paths], dtype=np.int64)
-        self.t_start = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
-        self.t_n = counts
-        self.t_ds = np.array([p.ds_m for p in self.paths], dtype=np.float64)
-        self.t_len = np.array([p.length_m for p in self.paths], dtype=np.float64)
-        self.t_closed = np.array([1 if p.closed else 0 for p in self.paths], dtype=np.int64)
-        self.t_half_width = np.array([p.half_width_m for p in self.paths], dtype=np.float64)
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        k = _kernels()
+        self.tmeta = np.column_stack([  # columns TM_START, TM_N, TM_DS, TM_LEN, TM_CLOSED, TM_HALF_WIDTH
+            starts, counts, [p.ds_m for p in self.paths], [p.length_m for p in self.paths],
+            [1.0 if p.closed else 0.0 for p in self.paths], [p.half_width_m for p in self.paths]]).astype(np.float64)
 
         self.plant = Plant(config.vehicle, n=n, model=config.model, physics_dt_s=config.physics_dt_s)
         pd = config.speed_controller
-        self.pd_gains = pdflc_gains(pd, config.control_period_s)
         self.pd_surface = np.ascontiguousarray(control_surface(pd.method, pd.surface_resolution))
-        self.pd_kinks = pd.method == "mamdani"
         self.pd_mem = np.zeros((n, 3))
         self.n_sub = config.n_substeps
         self.layout = config.layout
         self.inputs = np.zeros((n, L.N_INPUT))
         self.road = np.zeros((n, L.N_ROAD))
         self.outputs = np.zeros((n, self.n_sub, L.N_OUTPUT))
-        self.s_prev = np.zeros(n)
-        self.progress = np.zeros(n)
-        self.v_ref = np.full(n, scenario.target_speed_mps)
+        self.car = np.zeros((n, k.N_CAR))  # per-car scalars; the attributes below are column views
+        self.s_prev = self.car[:, k.CAR_S_PREV]
+        self.progress = self.car[:, k.CAR_PROGRESS]
+        self.v_ref = self.car[:, k.CAR_V_REF]
+        self.prev_action = self.car[:, k.CAR_PREV_ACTION]
+        self.reward = self.car[:, k.CAR_REWARD]
+        self.min_fz = self.car[:, k.CAR_MIN_FZ]
+        self.v_ref[:] = scenario.target_speed_mps
         self.obs = np.zeros((n, self.layout.size), dtype=np.float32)
         self.err = np.zeros((n, 6))
         self.term = np.zeros(n, dtype=np.int64)
         self.rows = np.zeros((n, 8))
         self.veh_track = np.zeros(n, dtype=np.int64)
         self.steps = np.zeros(n, dtype=np.int64)
-        self.prev_action = np.zeros(n)
         self.noise_scale = np.zeros(n)
         self.delay_steps = np.zeros(n, dtype=np.int64)
         self.delay_buffer = np.zeros((n, 1))
         self.max_steps = round(scenario.max_episode_s / config.control_period_s)
         rc = config.reward
-        self.reward_vector = np.array([rc.alive, rc.w_ey, rc.ey_scale_m, rc.w_ephi, rc.ephi_scale_rad, rc.w_effort,
-                                       rc.w_rate, rc.failure_penalty, rc.completion_bonus])
+        lay = self.layout
+        self.cfg = np.concatenate([
+            [config.physics_dt_s, self.n_sub, lay.n_preview, lay.preview_dt_s, lay.preview_min_speed_mps,
+             scenario.end_margin_m, 1.0 if pd.method == "mamdani" else 0.0,
+             config.vehicle.steering.max_road_wheel_angle_rad],
+            [rc.alive, rc.w_ey, rc.ey_scale_m, rc.w_ephi, rc.ephi_scale_rad, rc.w_effort, rc.w_rate,
+             rc.failure_penalty, rc.completion_bonus],
+            pdflc_gains(pd, config.control_period_s)])
+        assert self.cfg.shape == (k.N_CFG,)
         self.terms = np.zeros((n, 6))
-        self.reward = np.zeros(n)
         self.rngs: list[np.random.Generator] = [np.random.default_rng() for _ in range(n)]
         self._noise_std = np.asarray(config.noise_std)
-        k = _kernels()
+        self.any_noise = False
+        self.any_delay = False
+        self._one = np.zeros(1)
+        self._max_steer = config.vehicle.steering.max_road_wheel_angle_rad
         self._step_kernel = k.step_parallel if n >= PARALLEL_THRESHOLD else k.step_serial
         self._observe = k.observe_indices
 
@@ -122,7 +132,7 @@ class BatchSim:
             params = params.with_friction(options.friction_mu)
         self.plant.set_vehicle_params(i, params)
 
-        start = self.tables[self.t_start[self.veh_track[i]]]
+        start = self.tables[int(self.tmeta[self.veh_track[i], 0])]
         x0, y0, psi0 = start[0], start[1], start[2]
         off = options.initial_lateral_offset_m
         self.plant.reset(i, x=x0 - off * np.sin(psi0), y=y0 + off * np.cos(psi0), psi=psi0, v_x=v0)
@@ -132,6 +142,7 @@ class BatchSim:
         self.steps[i] = 0
         self.prev_action[i] = 0.0
         self.noise_scale[i] = options.sensor_noise
+        self.any_noise = bool(self.noise_scale.any())
         delay = round(options.actuator_delay_s / self.config.control_period_s)
         self.delay_steps[i] = delay
         if delay + 1 > self.delay_buffer.shape[1]:
@@ -139,16 +150,14 @@ class BatchSim:
             grown[:, : self.delay_buffer.shape[1]] = self.delay_buffer
             self.delay_buffer = grown
         self.delay_buffer[i] = 0.0
+        self.any_delay = bool(self.delay_steps.any())
         self.pd_mem[i] = (0.0, 0.0, 1.0)  # fresh: the first derivative of the speed error is 0
         self.term[i] = 0
 
     def observe_after_reset(self, idx: np.ndarray) -> None:
         """Project freshly reset cars (global search) and fill their observation rows."""
-        a_x = np.zeros(self.n)
-        self._observe(idx.astype(np.int64), self.plant.state, a_x, self.tables, self.t_start, self.t_n, self.t_ds,
-                      self.t_len, self.t_closed, self.veh_track, self.s_prev, self.progress, self.v_ref,
-                      self.layout.n_preview, self.layout.preview_dt_s, self.layout.preview_min_speed_mps,
-                      self.obs, self.road, self.err, self.rows)
+        self._observe(idx.astype(np.int64), self.plant.state, self.tables, self.tmeta, self.veh_track, self.car,
+                      self.cfg, self.obs, self.road, self.err, self.rows)
 
     # ------------------------------------------------------------------ step
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -156,24 +165,34 @@ class BatchSim:
 
         Returns (reward (n,), terminated (n,), truncated (n,)); observations are in ``self.obs``.
         """
-        cmd = actions
-        if self.delay_steps.any():
-            cmd = self._delayed(actions)
-        self.inputs[:, L.U_DELTA] = cmd * self.config.vehicle.steering.max_road_wheel_angle_rad
-        lay = self.layout
-        self._step_kernel(self.plant.state, self.inputs, self.road, self.plant.param_rows, self.plant.models,
-                          self.plant.physics_dt_s, self.n_sub, self.outputs, self.plant._work, self.tables,
-                          self.t_start, self.t_n, self.t_ds, self.t_len, self.t_closed, self.t_half_width,
-                          self.veh_track, self.s_prev, self.progress, self.v_ref, lay.n_preview, lay.preview_dt_s,
-                          lay.preview_min_speed_mps, self.scenario.end_margin_m, self.obs, self.err, self.term,
-                          self.rows, actions, self.prev_action, self.reward_vector, self.terms, self.reward,
-                          self.pd_mem, self.pd_gains, self.pd_surface, self.pd_kinks)
+        cmd = self._delayed(actions) if self.any_delay else actions
+        self.inputs[:, L.U_DELTA] = cmd * self._max_steer
+        self._run_kernel(actions)
         self.steps += 1
         terminated = self.term != 0
         truncated = (self.steps >= self.max_steps) & ~terminated
-        if self.noise_scale.any():
+        if self.any_noise:
             self._add_noise()
         return self.reward.copy(), terminated, truncated
+
+    def step_one(self, action: float) -> tuple[float, int, bool]:
+        """Fast path for a single car (n = 1): returns (reward, termination code, truncated)."""
+        one = self._one
+        one[0] = action
+        cmd = self._delayed(one)[0] if self.any_delay else action
+        self.inputs[0, L.U_DELTA] = cmd * self._max_steer
+        self._run_kernel(one)
+        steps = int(self.steps[0]) + 1
+        self.steps[0] = steps
+        code = int(self.term[0])
+        if self.any_noise:
+            self._add_noise()
+        return float(self.reward[0]), code, code == 0 and steps >= self.max_steps
+
+    def _run_kernel(self, actions: np.ndarray) -> None:
+        self._step_kernel(self.plant.state, self.inputs, self.road, self.plant.param_rows, self.plant.models,
+                          self.outputs, self.plant._work, self.tables, self.tmeta, self.veh_track, self.car, self.cfg,
+                          self.obs, self.err, self.term, self.rows, actions, self.terms, self.pd_mem, self.pd_surface)
 
     def _delayed(self, actions: np.ndarray) -> np.ndarray:
         """Commands delayed by ``delay_steps`` control periods (FIFO per car; zero before the first)."""
@@ -217,7 +236,7 @@ class BatchSim:
             "a_y_mps2": out[:, -1, L.O_AY].copy(),
             "a_z_mps2": out[:, -1, L.O_AZ].copy(),
             "fz_n": out[:, -1, L.O_FZFL:L.O_FZRR + 1].copy(),             # (n, 4) FL, FR, RL, RR
-            "min_fz_n": out[:, :, L.O_FZFL:L.O_FZRR + 1].min(axis=(1, 2)),
+            "min_fz_n": self.min_fz.copy(),
             "acc_substeps_mps2": out[:, :, L.O_AX:L.O_AZ + 1].copy(),     # (n, n_sub, 3) at the physics rate
             "station_m": self.err[:, 0].copy(),
             "progress_m": self.progress.copy(),

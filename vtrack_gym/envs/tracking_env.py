@@ -17,6 +17,7 @@ expected). ``truncated`` only from the scenario's time limit.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import gymnasium as gym
@@ -40,6 +41,17 @@ def check_actions(action: Any, n: int) -> np.ndarray:
     if not np.isfinite(a).all():
         raise ValueError(f"action must be finite (got {action!r}); NaN/inf steering commands are refused")
     return np.clip(a, -1.0, 1.0)
+
+
+def check_action(action: Any) -> float:
+    """Validate one env's steering action (one element) and clip it to [-1, 1]; returns a float."""
+    arr = np.asarray(action, dtype=np.float64)
+    if arr.size != 1:
+        raise ValueError(f"action must have 1 element (shape (1,)), got shape {arr.shape}")
+    a = float(arr.reshape(-1)[0])
+    if not math.isfinite(a):
+        raise ValueError(f"action must be finite (got {action!r}); NaN/inf steering commands are refused")
+    return -1.0 if a < -1.0 else (1.0 if a > 1.0 else a)
 
 
 def observation_space(config: EnvConfig) -> gym.spaces.Box:
@@ -78,6 +90,7 @@ class TrackingEnv(gym.Env):
         self.action_space = ACTION_SPACE
         self.metadata = {**self.metadata, "render_fps": round(1.0 / config.control_period_s)}
         self._sim = BatchSim(scenario, config, 1)
+        self._steering_ratio = config.vehicle.steering.steering_ratio
         self._renderer = None
         self._needs_reset = True
 
@@ -104,48 +117,47 @@ class TrackingEnv(gym.Env):
     def step(self, action: Any):
         if self._needs_reset:
             raise RuntimeError("call reset() before step() (and after an episode ends)")
-        a = check_actions(action, 1)
-        reward, terminated, truncated = self._sim.step(a)
-        term, trunc = bool(terminated[0]), bool(truncated[0])
+        reward, code, trunc = self._sim.step_one(check_action(action))
+        term = code != 0
         self._needs_reset = term or trunc
         info = self._info(terminated=term)
-        for k, name in enumerate(REWARD_TERM_NAMES):
-            info[name] = float(self._sim.terms[0, k])
+        info.update(zip(REWARD_TERM_NAMES, self._sim.terms[0].tolist(), strict=True))
         if self.render_mode == "human":
             self.render()
-        return self._sim.obs[0].copy(), float(reward[0]), term, trunc, info
+        return self._sim.obs[0].copy(), reward, term, trunc, info
 
     def _info(self, terminated: bool) -> dict[str, Any]:
         """Scalar signals of the car (everything the metrics need), cheap enough for every step."""
         sim = self._sim
-        st = sim.plant.state[0]
+        x, y, psi, v_x, _, _, roll, _, delta, _, _ = sim.plant.state[0].tolist()
+        s_star, e_y, e_phi, _, _, z = sim.err[0].tolist()
+        _, throttle, brake = sim.inputs[0].tolist()
+        _, progress, v_ref, _, _, min_fz = sim.car[0].tolist()
         out = sim.outputs[0]
-        err = sim.err[0]
-        last = out[-1]
-        delta = float(st[L.S_DELTA])
+        a_x, a_y, a_z = out[-1, L.O_AX:L.O_AZ + 1].tolist()
         return {
-            "time_s": float(sim.steps[0] * self.control_period_s),
-            "x_m": float(st[L.S_X]),
-            "y_m": float(st[L.S_Y]),
-            "z_m": float(err[5]),
-            "psi_rad": float(st[L.S_PSI]),
-            "e_y_m": float(err[1]),
-            "e_phi_rad": float(err[2]),
-            "v_mps": float(st[L.S_VX]),
+            "time_s": int(sim.steps[0]) * self.control_period_s,
+            "x_m": x,
+            "y_m": y,
+            "z_m": z,
+            "psi_rad": psi,
+            "e_y_m": e_y,
+            "e_phi_rad": e_phi,
+            "v_mps": v_x,
             "road_wheel_angle_rad": delta,
-            "hand_wheel_angle_rad": delta * self.config.vehicle.steering.steering_ratio,
-            "roll_rad": float(st[L.S_ROLL]),
-            "throttle": float(sim.inputs[0, L.U_THROTTLE]),
-            "brake_n": float(sim.inputs[0, L.U_BRAKE]),
-            "a_x_mps2": float(last[L.O_AX]),
-            "a_y_mps2": float(last[L.O_AY]),
-            "a_z_mps2": float(last[L.O_AZ]),
-            "fz_n": last[L.O_FZFL:L.O_FZRR + 1].copy(),
-            "min_fz_n": float(out[:, L.O_FZFL:L.O_FZRR + 1].min()),
+            "hand_wheel_angle_rad": delta * self._steering_ratio,
+            "roll_rad": roll,
+            "throttle": throttle,
+            "brake_n": brake,
+            "a_x_mps2": a_x,
+            "a_y_mps2": a_y,
+            "a_z_mps2": a_z,
+            "fz_n": out[-1, L.O_FZFL:L.O_FZRR + 1].copy(),
+            "min_fz_n": min_fz,
             "acc_substeps_mps2": out[:, L.O_AX:L.O_AZ + 1].copy(),
-            "station_m": float(err[0]),
-            "progress_m": float(sim.progress[0]),
-            "target_speed_mps": float(sim.v_ref[0]),
+            "station_m": s_star,
+            "progress_m": progress,
+            "target_speed_mps": v_ref,
             "termination": TERMINATION_NAMES[int(sim.term[0])] if terminated else "",
         }
 

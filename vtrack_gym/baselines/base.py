@@ -1,0 +1,338 @@
+"""Common machinery of the steering baselines: the SB3-style ``Policy`` base class and speed-scheduled gains.
+
+Every controller maps an observation (layout ``ObservationLayout``, raw SI units) to the env's action: the
+front road-wheel angle as a fraction of ``DesignModel.max_road_wheel_angle_rad`` (left-positive), float32,
+clipped to [-1, 1].
+
+``predict(observation, state=None, episode_start=None, deterministic=True) -> (action, state)`` has
+stable-baselines3's signature, so ``stable_baselines3.common.evaluation.evaluate_policy`` accepts any policy:
+
+* ``observation`` of shape ``(obs_dim,)`` gives an action of shape ``(1,)``; ``(N, obs_dim)`` gives ``(N, 1)``.
+* Stateless controllers return ``state = None``. Stateful ones (MPC: previous measurement, previous applied
+  steering, previous disturbance, hold counter) keep ALL their memory in the returned float64 array of shape
+  ``(N, state_size)`` (``(1, state_size)`` for a single observation). Pass it back on the next call.
+  ``state=None`` initialises every row from the current observation; rows whose ``episode_start`` is True are
+  re-initialised. The policy object itself holds no per-episode memory, so one instance serves any number of
+  independent envs.
+* Non-finite observations raise ``ValueError``. ``deterministic`` is accepted and ignored (all controllers are
+  deterministic).
+
+Single observations (and batches of one) take a fast path on Python floats (``_act_single``); larger batches
+take the vectorised numpy path (``_act_batch``). Both evaluate the same formulas; results agree to float64
+rounding (well below the float32 resolution of the action), except ``mpc_osqp`` whose iterative solver agrees
+to its tolerance (~1e-6 rad).
+"""
+
+from __future__ import annotations
+
+import abc
+import bisect
+import dataclasses
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any, ClassVar
+
+import numpy as np
+
+from vtrack_gym.envs.observation import OBS, ObservationLayout
+from vtrack_gym.vehicle.params import DesignModel
+
+ENV_ATTRIBUTES = ("design_model", "observation_layout", "control_period_s")
+"""What ``from_env`` reads from ``env.unwrapped`` (or an SB3 VecEnv's ``get_attr``)."""
+
+
+def require_range(owner: object, name: str, low: float | None = None, high: float | None = None, *,
+                  low_inclusive: bool = True, high_inclusive: bool = True) -> None:
+    """Raise ``ValueError`` naming ``Type.name`` and the allowed range unless the field is finite and in range."""
+    value = getattr(owner, name)
+    label = f"{type(owner).__name__}.{name}"
+    lo_txt = "-inf" if low is None else f"{low}"
+    hi_txt = "inf" if high is None else f"{high}"
+    allowed = f"{'[' if low_inclusive else '('}{lo_txt}, {hi_txt}{']' if high_inclusive else ')'}"
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ValueError(f"{label} must be a finite number in {allowed} (got {value!r})")
+    too_low = low is not None and (value < low or (value == low and not low_inclusive))
+    too_high = high is not None and (value > high or (value == high and not high_inclusive))
+    if too_low or too_high:
+        raise ValueError(f"{label} must be in {allowed} (got {value})")
+
+
+def require_int(owner: object, name: str, low: int, high: int) -> None:
+    """Raise ``ValueError`` unless the field is an int in [low, high]."""
+    value = getattr(owner, name)
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not (low <= value <= high):
+        raise ValueError(f"{type(owner).__name__}.{name} must be an integer in [{low}, {high}] (got {value!r})")
+
+
+def require_choice(owner: object, name: str, choices: Sequence[str]) -> None:
+    """Raise ``ValueError`` unless the field is one of ``choices``."""
+    value = getattr(owner, name)
+    if value not in choices:
+        raise ValueError(f"{type(owner).__name__}.{name} must be one of {', '.join(map(repr, choices))} "
+                         f"(got {value!r})")
+
+
+def hold_steps(sample_time_s: float, control_period_s: float, owner: str) -> int:
+    """Number of control periods per controller sample (``sample_time_s`` must be an integer multiple)."""
+    ratio = sample_time_s / control_period_s
+    n = round(ratio)
+    if n < 1 or abs(ratio - n) > 1e-6 * max(1.0, ratio):
+        raise ValueError(f"{owner}.sample_time_s must be an integer multiple (>= 1) of the env's control period "
+                         f"{control_period_s} s (got {sample_time_s} s)")
+    return n
+
+
+def env_contract(env: Any) -> tuple[DesignModel, ObservationLayout, float]:
+    """``(design_model, observation_layout, control_period_s [s])`` of a Gymnasium env, vector env or SB3 VecEnv."""
+    base = getattr(env, "unwrapped", env)
+    values = []
+    for name in ENV_ATTRIBUTES:
+        if hasattr(base, name):
+            values.append(getattr(base, name))
+        elif hasattr(env, "get_attr"):
+            values.append(env.get_attr(name)[0])
+        else:
+            raise ValueError(f"env must expose {', '.join(ENV_ATTRIBUTES)} on env.unwrapped (missing {name!r})")
+    design, layout, period = values
+    if not isinstance(design, DesignModel):
+        raise ValueError(f"env.unwrapped.design_model must be a DesignModel (got {type(design).__name__})")
+    if not isinstance(layout, ObservationLayout):
+        raise ValueError(f"env.unwrapped.observation_layout must be an ObservationLayout (got {type(layout).__name__})")
+    period = float(period)
+    if not (0.0 < period <= 1.0):
+        raise ValueError(f"env.unwrapped.control_period_s must be in (0, 1] s (got {period})")
+    return design, layout, period
+
+
+class SpeedSchedule:
+    """Rows of gains tabulated on a speed grid [m/s], each entry linearly interpolated in speed.
+
+    ``table[j]`` holds the gains at ``speeds[j]``; speeds outside the grid are clamped to its ends. ``dot(v, z)``
+    returns ``row(v) . z`` as ``(1 - t) (row_i . z) + t (row_{i+1} . z)`` (identical to interpolating every
+    entry first).
+    """
+
+    def __init__(self, speeds: np.ndarray, table: np.ndarray) -> None:
+        speeds = np.asarray(speeds, dtype=np.float64)
+        table = np.asarray(table, dtype=np.float64)
+        if speeds.ndim != 1 or speeds.size < 2 or not np.all(np.diff(speeds) > 0):
+            raise ValueError("SpeedSchedule speeds must be a strictly increasing 1-D grid of >= 2 points")
+        if table.shape[0] != speeds.size:
+            raise ValueError(f"SpeedSchedule table must have {speeds.size} rows (got {table.shape[0]})")
+        self.speeds = speeds
+        self.table = np.ascontiguousarray(table.reshape(speeds.size, -1))
+        self.v_min = float(speeds[0])
+        self.v_max = float(speeds[-1])
+        self._grid = speeds.tolist()
+        self._inv_h = (1.0 / np.diff(speeds)).tolist()
+        self._last = speeds.size - 2
+        self._pairs = [np.ascontiguousarray(self.table[i:i + 2]) for i in range(speeds.size - 1)]
+        self._slopes = np.diff(self.table, axis=0)
+
+    @property
+    def width(self) -> int:
+        """Number of gains per row."""
+        return self.table.shape[1]
+
+    def locate(self, v: float) -> tuple[int, float]:
+        """Grid interval ``i`` and fraction ``t`` in [0, 1] of speed ``v`` [m/s] (clamped to the grid)."""
+        v = min(max(v, self.v_min), self.v_max)
+        i = min(bisect.bisect_right(self._grid, v) - 1, self._last)
+        return i, (v - self._grid[i]) * self._inv_h[i]
+
+    def row(self, v: float) -> np.ndarray:
+        """Interpolated gain row at speed ``v`` [m/s]."""
+        i, t = self.locate(v)
+        return self.table[i] + t * self._slopes[i]
+
+    def dot(self, v: float, z: Sequence[float]) -> float:
+        """``row(v) . z`` for one speed [m/s] and one vector (fast single-observation path)."""
+        i, t = self.locate(v)
+        y0, y1 = (self._pairs[i] @ np.asarray(z, dtype=np.float64)).tolist()
+        return y0 + t * (y1 - y0)
+
+    def rows(self, v: np.ndarray) -> np.ndarray:
+        """Interpolated gain rows for a batch of speeds [m/s], shape (N, width)."""
+        vc = np.clip(v, self.v_min, self.v_max)
+        i = np.clip(np.searchsorted(self.speeds, vc, side="right") - 1, 0, self._last)
+        t = (vc - self.speeds[i]) / (self.speeds[i + 1] - self.speeds[i])
+        return self.table[i] + t[:, None] * self._slopes[i]
+
+    def dot_batch(self, v: np.ndarray, z: np.ndarray) -> np.ndarray:
+        """Row-wise ``row(v_n) . z_n`` for speeds (N,) [m/s] and vectors (N, width)."""
+        return np.einsum("ij,ij->i", self.rows(v), z)
+
+
+class Policy(abc.ABC):
+    """Base class of every steering baseline (see the module docstring for the ``predict`` contract).
+
+    Subclasses set ``name``, ``PRESETS`` (preset name -> frozen config), ``config_type`` and ``state_size`` and
+    implement ``_act_batch`` (and, for speed, ``_act_single``; stateful ones also the two ``_initial_state*``).
+    Controllers work in road-wheel radians; the base class scales by ``design.max_road_wheel_angle_rad``.
+    """
+
+    name: ClassVar[str] = "policy"
+    PRESETS: ClassVar[Mapping[str, Any]] = {}
+    config_type: ClassVar[type] = object
+    state_size: int = 0
+
+    def __init__(self, design: DesignModel, config: Any = None, layout: ObservationLayout = OBS,
+                 control_period_s: float = 0.01) -> None:
+        if not isinstance(design, DesignModel):
+            raise ValueError(f"design must be a DesignModel (got {type(design).__name__})")
+        if not isinstance(layout, ObservationLayout):
+            raise ValueError(f"layout must be an ObservationLayout (got {type(layout).__name__})")
+        if not (isinstance(control_period_s, (int, float)) and 0.0 < control_period_s <= 1.0):
+            raise ValueError(f"control_period_s must be in (0, 1] s (got {control_period_s!r})")
+        if config is None:
+            config = self.PRESETS["default"]
+        if not isinstance(config, self.config_type):
+            raise ValueError(f"config must be a {self.config_type.__name__} (got {type(config).__name__})")
+        self.design = design
+        self.config = config
+        self.layout = layout
+        self.control_period_s = float(control_period_s)
+        self.max_steer_rad = float(design.max_road_wheel_angle_rad)
+        self._inv_max_steer = 1.0 / self.max_steer_rad
+        self.obs_dim = layout.size
+
+    @property
+    def policy_id(self) -> str:
+        """Readable id for provenance records (the registry name)."""
+        return self.name
+
+    # ----------------------------------------------------------------------------------------- construction
+    @classmethod
+    def make_config(cls, preset: str = "default", **overrides: Any) -> Any:
+        """The preset's config with ``overrides`` applied (unknown preset or field -> ``ValueError``)."""
+        if preset not in cls.PRESETS:
+            raise ValueError(f"unknown {cls.name} preset {preset!r}; valid: {', '.join(cls.PRESETS)}")
+        config = cls.PRESETS[preset]
+        if not overrides:
+            return config
+        valid = {f.name for f in dataclasses.fields(config)}
+        unknown = sorted(set(overrides) - valid)
+        if unknown:
+            raise ValueError(f"unknown {cls.config_type.__name__} field(s) {', '.join(unknown)}; "
+                             f"valid: {', '.join(sorted(valid))}")
+        return dataclasses.replace(config, **overrides)
+
+    @classmethod
+    def from_env(cls, env: Any, preset: str = "default", **overrides: Any) -> Policy:
+        """Build the controller for ``env`` (reads ``env.unwrapped.design_model``, ``observation_layout`` and
+        ``control_period_s``) from a preset plus config-field ``overrides``."""
+        design, layout, period = env_contract(env)
+        return cls(design, cls.make_config(preset, **overrides), layout=layout, control_period_s=period)
+
+    # ------------------------------------------------------------------------------------------- predict
+    def predict(self, observation: Any, state: np.ndarray | None = None, episode_start: Any = None,
+                deterministic: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+        """SB3-compatible steering: see the module docstring for shapes and the state contract."""
+        obs = observation if isinstance(observation, np.ndarray) else np.asarray(observation, dtype=np.float64)
+        if obs.ndim == 1 or (obs.ndim == 2 and obs.shape[0] == 1):
+            single = obs.ndim == 1
+            if obs.shape[-1] != self.obs_dim:
+                raise ValueError(f"observation must have {self.obs_dim} entries (got shape {obs.shape})")
+            action, new_state = self._predict_one(obs.reshape(-1).tolist(), state, episode_start)
+            return (action if single else action.reshape(1, 1)), new_state
+        if obs.ndim != 2 or obs.shape[1] != self.obs_dim:
+            raise ValueError(f"observation must have shape ({self.obs_dim},) or (N, {self.obs_dim}) "
+                             f"(got {obs.shape})")
+        return self._predict_batch(np.asarray(obs, dtype=np.float64), state, episode_start)
+
+    def _predict_one(self, row: list[float], state: Any, episode_start: Any) -> tuple[np.ndarray, np.ndarray | None]:
+        """Single observation given as a list of Python floats."""
+        total = sum(row)
+        if total - total != 0.0:  # NaN or inf somewhere (or an overflowing sum: check exactly)
+            self._check_finite(np.asarray(row))
+        if self.state_size == 0:
+            delta, _ = self._act_single(row, None)
+            new_state = None
+        else:
+            if state is None or _first_flag(episode_start):
+                st = self._initial_state_single(row)
+            else:
+                st = _state_row(state, self.state_size)
+            delta, st = self._act_single(row, st)
+            new_state = np.array((st,), dtype=np.float64)
+        a = delta * self._inv_max_steer
+        a = 1.0 if a > 1.0 else (-1.0 if a < -1.0 else a)
+        return np.array((a,), dtype=np.float32), new_state
+
+    def _predict_batch(self, obs: np.ndarray, state: Any, episode_start: Any) -> tuple[np.ndarray, np.ndarray | None]:
+        """Batch of N observations (float64, shape (N, obs_dim))."""
+        self._check_finite(obs)
+        n = obs.shape[0]
+        st = None
+        if self.state_size:
+            if state is None:
+                st = self._initial_state_batch(obs)
+            else:
+                st = np.array(state, dtype=np.float64, copy=True)
+                if st.shape != (n, self.state_size):
+                    raise ValueError(f"state must have shape ({n}, {self.state_size}) (got {st.shape})")
+                if episode_start is not None:
+                    mask = np.asarray(episode_start, dtype=bool).reshape(-1)
+                    if mask.size != n:
+                        raise ValueError(f"episode_start must have {n} entries (got {mask.size})")
+                    if mask.any():
+                        st[mask] = self._initial_state_batch(obs[mask])
+        delta, st = self._act_batch(obs, st)
+        action = np.clip(delta * self._inv_max_steer, -1.0, 1.0).astype(np.float32).reshape(n, 1)
+        return action, st
+
+    @staticmethod
+    def _check_finite(obs: np.ndarray) -> None:
+        if not np.isfinite(obs).all():
+            bad = np.argwhere(~np.isfinite(np.atleast_2d(obs)))[0]
+            raise ValueError(f"observation contains NaN/inf (first at index {tuple(int(i) for i in bad)})")
+
+    # ------------------------------------------------------------------------------------ to implement
+    @abc.abstractmethod
+    def _act_batch(self, obs: np.ndarray, state: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
+        """Road-wheel angles [rad] (N,) and the new state (N, state_size) for float64 observations (N, obs_dim)."""
+
+    def _act_single(self, row: list[float], state: list[float] | None) -> tuple[float, list[float] | None]:
+        """Road-wheel angle [rad] and new state for one observation (default: the batch path with N = 1)."""
+        st = None if state is None else np.array((state,), dtype=np.float64)
+        delta, st = self._act_batch(np.array((row,), dtype=np.float64), st)
+        return float(delta[0]), (None if st is None else st[0].tolist())
+
+    def _initial_state_single(self, row: list[float]) -> list[float]:
+        """Initial memory for one observation (stateful controllers override)."""
+        return self._initial_state_batch(np.array((row,), dtype=np.float64))[0].tolist()
+
+    def _initial_state_batch(self, obs: np.ndarray) -> np.ndarray:
+        """Initial memory (N, state_size) for a batch of observations (stateful controllers override)."""
+        return np.zeros((obs.shape[0], self.state_size))
+
+    def initial_state(self, observation: Any) -> np.ndarray | None:
+        """The memory ``predict`` would start from for these observations (None for stateless controllers)."""
+        if self.state_size == 0:
+            return None
+        obs = np.atleast_2d(np.asarray(observation, dtype=np.float64))
+        self._check_finite(obs)
+        return self._initial_state_batch(obs)
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.config!r}, control_period_s={self.control_period_s})"
+
+
+def _first_flag(episode_start: Any) -> bool:
+    """Truth of the single-observation ``episode_start`` (None, a bool or a one-element array)."""
+    if episode_start is None:
+        return False
+    if isinstance(episode_start, (bool, np.bool_)):
+        return bool(episode_start)
+    flags = np.asarray(episode_start, dtype=bool).reshape(-1)
+    if flags.size != 1:
+        raise ValueError(f"episode_start must have 1 entry for a single observation (got {flags.size})")
+    return bool(flags[0])
+
+
+def _state_row(state: Any, size: int) -> list[float]:
+    """The single-observation state as a list of floats (accepts shape (size,) or (1, size))."""
+    arr = state if isinstance(state, np.ndarray) else np.asarray(state, dtype=np.float64)
+    if arr.shape not in ((size,), (1, size)):
+        raise ValueError(f"state must have shape (1, {size}) for a single observation (got {arr.shape})")
+    return arr.reshape(-1).tolist()

@@ -1,0 +1,156 @@
+"""LQR steering on Rajamani's error model with curvature feedforward (classic peer; paper-math 3.2).
+
+Model: x_e = (e_y [m], e_y_dot [m/s], e_phi [rad], e_phi_dot [rad/s]), ``x_e' = A4 x_e + B4 delta + ...``
+(``linear_models.error_model``), ZOH-discretised at the env's control period T_c. Gains: discrete LQR
+``K(v)`` from the DARE with ``Q = diag(q_e_y, q_e_y_dot, q_e_phi, q_e_phi_dot)`` and ``R = r_delta``,
+precomputed on ``np.geomspace(min_speed_mps, max_speed_mps, n_speeds)`` and interpolated per entry (speed
+clamped to the grid).
+
+Law (Rajamani, Vehicle Dynamics and Control, 3.2-3.3, with axle stiffnesses)::
+
+    delta = -K x_e + delta_ff,   delta_ff = delta_ss + k3 e_phi,ss
+    delta_ss = kappa (l + K_us v^2),   e_phi,ss = -beta_ss = -kappa (C_ar a2 l - m a1 v^2)/(C_ar l)
+
+i.e. the steady-state steer plus the term that cancels the state feedback's reaction to the unavoidable
+steady-state heading error (k3 = K[2]), so that e_y,ss = 0 on a constant curve. kappa is the observation's
+curvature, or (``feedforward_lead_s`` > 0) the preview curvature that far ahead in time (to compensate the
+steering actuator lag). Measurements: e_y, e_y_dot, e_phi, e_phi_dot straight from the observation.
+
+The road-wheel angle is clipped to +-max_road_wheel_angle_rad; the controller is stateless (rate limits are
+left to the actuator).
+
+Default (``LQRConfig()``): Q = diag(1, 1, 10, 1), R = 30, feedforward lead 0.08 s (compensates the env's 30 ms
+steering lag plus the yaw-response lag). Chosen by a 400-point random search on the nonlinear env's
+DLC120-v0 (seed 0; the 0.8 g manoeuvre spun out with 136 of the 400 weight sets, among them the stiffer
+Q = diag(10, 0.1, 10, 0.1), R = 10): completed with max|e_y| 0.17 m; LateralTracking-v0 0.08 m. Linear closed
+loop (ideal actuator, where the lead costs a little): max|e_y| 7.8 mm (11.11 m/s, R 100), 4.7 mm (33.33 m/s,
+R 500), 20 mm (DLC proxy); a 0.5 m offset is removed without overshoot with peak delta 0.08 rad.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from vtrack_gym.baselines.base import Policy, SpeedSchedule, require_int, require_range
+from vtrack_gym.baselines.linear_models import error_model, sideslip_gain, understeer_gradient, zoh
+from vtrack_gym.envs.observation import OBS, ObservationLayout
+from vtrack_gym.vehicle.params import DesignModel
+
+
+@dataclass(frozen=True)
+class LQRConfig:
+    """LQR weights and schedule.
+
+    q_e_y [1/m^2], q_e_y_dot [s^2/m^2], q_e_phi [1/rad^2], q_e_phi_dot [s^2/rad^2]: state weights (>= 0, <= 1e6).
+    r_delta [1/rad^2]: steering weight (> 0).
+    feedforward: add delta_ff. feedforward_lead_s: preview time of the feedforward curvature [s], in [0, 1].
+    min_speed_mps / max_speed_mps / n_speeds: gain-schedule grid.
+    """
+
+    q_e_y: float = 1.0
+    q_e_y_dot: float = 1.0
+    q_e_phi: float = 10.0
+    q_e_phi_dot: float = 1.0
+    r_delta: float = 30.0
+    feedforward: bool = True
+    feedforward_lead_s: float = 0.08
+    min_speed_mps: float = 1.0
+    max_speed_mps: float = 45.0
+    n_speeds: int = 60
+
+    def __post_init__(self) -> None:
+        for name in ("q_e_y", "q_e_y_dot", "q_e_phi", "q_e_phi_dot"):
+            require_range(self, name, 0.0, 1e6)
+        require_range(self, "r_delta", 0.0, 1e6, low_inclusive=False)
+        if not isinstance(self.feedforward, bool):
+            raise ValueError(f"LQRConfig.feedforward must be a bool (got {self.feedforward!r})")
+        require_range(self, "feedforward_lead_s", 0.0, 1.0)
+        require_range(self, "min_speed_mps", 0.5, 80.0)
+        require_range(self, "max_speed_mps", self.min_speed_mps, 80.0, low_inclusive=False)
+        require_int(self, "n_speeds", 2, 400)
+
+
+LQR_PRESETS: dict[str, LQRConfig] = {"default": LQRConfig()}
+
+
+def lqr_gain(design: DesignModel, v_x: float, config: LQRConfig, sample_time_s: float) -> np.ndarray:
+    """Discrete LQR gain K (4,) at speed ``v_x`` [m/s] for the ZOH error model at ``sample_time_s`` [s]."""
+    from scipy.linalg import solve_discrete_are
+
+    mdl = error_model(design, v_x)
+    ad, bd = zoh(mdl.a, mdl.b, sample_time_s)
+    bd = bd.reshape(4, 1)
+    q = np.diag([config.q_e_y, config.q_e_y_dot, config.q_e_phi, config.q_e_phi_dot])
+    r = np.array([[config.r_delta]])
+    p = solve_discrete_are(ad, bd, q, r)
+    return np.linalg.solve(r + bd.T @ p @ bd, bd.T @ p @ ad)[0]
+
+
+@functools.lru_cache(maxsize=32)
+def lqr_table(design: DesignModel, config: LQRConfig, sample_time_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(speeds (S,), rows (S, 5))``: rows = (-K, feedforward gain on kappa [m]) on the speed grid."""
+    speeds = np.geomspace(config.min_speed_mps, config.max_speed_mps, config.n_speeds)
+    l, kus = design.wheelbase_m, understeer_gradient(design)
+    rows = []
+    for v in speeds:
+        k = lqr_gain(design, float(v), config, sample_time_s)
+        ff = (l + kus * v * v - k[2] * sideslip_gain(design, float(v))) if config.feedforward else 0.0
+        rows.append(np.concatenate((-k, [ff])))
+    table = np.array(rows)
+    table.setflags(write=False)
+    return speeds, table
+
+
+class LQR(Policy):
+    """Speed-scheduled discrete LQR + curvature feedforward; stateless. See the module docstring."""
+
+    name: ClassVar[str] = "lqr"
+    PRESETS: ClassVar[dict[str, LQRConfig]] = LQR_PRESETS
+    config_type: ClassVar[type] = LQRConfig
+    state_size = 0
+
+    def __init__(self, design: DesignModel, config: LQRConfig | None = None, layout: ObservationLayout = OBS,
+                 control_period_s: float = 0.01) -> None:
+        super().__init__(design, config, layout, control_period_s)
+        cfg: LQRConfig = self.config
+        speeds, table = lqr_table(design, cfg, self.control_period_s)
+        self.schedule = SpeedSchedule(speeds, table)
+        L = layout
+        self._idx = (L.index("v_x"), L.index("e_y"), L.index("e_y_dot"), L.index("e_phi"), L.index("e_phi_dot"),
+                     L.index("curvature"))
+        self._lead = cfg.feedforward_lead_s
+        self._pv = (layout.preview.start, layout.preview.stop)
+        self._pv_vmin, self._pv_dt = layout.preview_min_speed_mps, layout.preview_dt_s
+
+    def _lead_fraction(self, v: float) -> tuple[int, float]:
+        """Preview sample index (0 = current curvature) and fraction for a look-ahead of ``lead`` seconds."""
+        pos = self._lead * max(v, 0.0) / (max(v, self._pv_vmin) * self._pv_dt)
+        j = min(int(pos), self.layout.n_preview - 1)
+        return j, min(pos - j, 1.0)
+
+    def _act_single(self, row: list[float], state: None) -> tuple[float, None]:
+        iv, iey, ieyd, iep, iepd, ik = self._idx
+        kappa = row[ik]
+        if self._lead > 0.0:
+            j, t = self._lead_fraction(row[iv])
+            k0 = kappa if j == 0 else row[self._pv[0] + j - 1]
+            kappa = k0 + t * (row[self._pv[0] + j] - k0)
+        return self.schedule.dot(row[iv], (row[iey], row[ieyd], row[iep], row[iepd], kappa)), None
+
+    def _act_batch(self, obs: np.ndarray, state: None) -> tuple[np.ndarray, None]:
+        iv, iey, ieyd, iep, iepd, ik = self._idx
+        kappa = obs[:, ik]
+        if self._lead > 0.0:
+            v = obs[:, iv]
+            pos = self._lead * np.maximum(v, 0.0) / (np.maximum(v, self._pv_vmin) * self._pv_dt)
+            j = np.minimum(pos.astype(np.int64), self.layout.n_preview - 1)
+            t = np.minimum(pos - j, 1.0)
+            samples = np.column_stack((obs[:, ik], obs[:, self._pv[0]:self._pv[1]]))
+            rows = np.arange(obs.shape[0])
+            kappa = samples[rows, j] + t * (samples[rows, j + 1] - samples[rows, j])
+        z = np.column_stack((obs[:, iey], obs[:, ieyd], obs[:, iep], obs[:, iepd], kappa))
+        return self.schedule.dot_batch(obs[:, iv], z), None

@@ -1,0 +1,48 @@
+"""Name -> steering baseline registry: ``make_policy(name, env, preset="default", **overrides)``.
+
+Names: ``smc`` (paper SMC), ``mpc`` (paper MPC, precomputed gains), ``lqr``, ``stanley``, ``pure_pursuit``,
+``mpc_osqp`` (constrained MPC, needs the ``osqp`` package). Controller modules are imported on first use, so
+``import vtrack_gym.baselines.registry`` is cheap and works without osqp.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+from vtrack_gym.baselines.base import Policy
+
+_POLICIES: dict[str, tuple[str, str]] = {
+    "smc": ("vtrack_gym.baselines.smc", "SMC"),
+    "mpc": ("vtrack_gym.baselines.mpc", "MPC"),
+    "lqr": ("vtrack_gym.baselines.lqr", "LQR"),
+    "stanley": ("vtrack_gym.baselines.stanley", "Stanley"),
+    "pure_pursuit": ("vtrack_gym.baselines.pure_pursuit", "PurePursuit"),
+    "mpc_osqp": ("vtrack_gym.baselines.mpc_osqp", "OSQPMPC"),
+}
+
+
+def available_policies() -> tuple[str, ...]:
+    """Registered policy names."""
+    return tuple(_POLICIES)
+
+
+def policy_class(name: str) -> type[Policy]:
+    """The controller class registered as ``name`` (``ValueError`` listing the valid names if unknown)."""
+    if name not in _POLICIES:
+        raise ValueError(f"unknown policy {name!r}; valid: {', '.join(_POLICIES)}")
+    module, attr = _POLICIES[name]
+    return getattr(importlib.import_module(module), attr)
+
+
+def available_presets(name: str) -> tuple[str, ...]:
+    """Preset names of policy ``name``."""
+    return tuple(policy_class(name).PRESETS)
+
+
+def make_policy(name: str, env: Any, preset: str = "default", **overrides: Any) -> Policy:
+    """Build policy ``name`` for ``env`` from ``preset`` with config-field ``overrides``.
+
+    Unknown names, presets or fields raise ``ValueError`` listing the valid ones.
+    """
+    return policy_class(name).from_env(env, preset=preset, **overrides)

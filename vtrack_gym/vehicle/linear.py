@@ -40,11 +40,15 @@ def steady_state_steer(design: DesignModel, v_x: float, curvature: float) -> flo
     return curvature * (design.wheelbase_m + understeer_gradient(design) * v_x**2)
 
 
+def sideslip_gain(design: DesignModel, v_x: float) -> float:
+    """beta_ss / kappa = (C_ar a2 l - m a1 v^2) / (C_ar l) [m]: steady sideslip per unit curvature."""
+    cr, l = design.rear_cornering_stiffness_npr, design.wheelbase_m
+    return (cr * design.cg_to_rear_axle_m * l - design.mass_kg * design.cg_to_front_axle_m * v_x * v_x) / (cr * l)
+
+
 def steady_state_sideslip(design: DesignModel, v_x: float, curvature: float) -> float:
     """Steady-state sideslip beta_ss = v_y / v_x = kappa (C_ar a2 l - m a1 v^2) / (C_ar l) [rad]."""
-    cr, l = design.rear_cornering_stiffness_npr, design.wheelbase_m
-    return curvature * (cr * design.cg_to_rear_axle_m * l - design.mass_kg * design.cg_to_front_axle_m * v_x**2) / (
-        cr * l)
+    return curvature * sideslip_gain(design, v_x)
 
 
 def steady_state_response(design: DesignModel, v_x: float, delta: float) -> tuple[float, float]:

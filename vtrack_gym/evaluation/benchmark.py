@@ -1,0 +1,154 @@
+"""Score policies on a suite: rollouts, metrics, leaderboard rows, figures (what ``vtrack benchmark`` runs)."""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import logging
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from vtrack_gym.evaluation.metrics import evaluate_trace
+from vtrack_gym.evaluation.rollout import rollout
+from vtrack_gym.evaluation.store import ResultRow, ResultStore
+from vtrack_gym.evaluation.suites import Episode, suite_episodes
+from vtrack_gym.evaluation.trace import Trace
+
+log = logging.getLogger(__name__)
+
+LEADERBOARD_COLUMNS: tuple[str, ...] = (
+    "rms_e_y_m", "max_e_y_m", "rms_e_phi_deg", "rms_hand_wheel_deg", "max_hand_wheel_deg", "max_a_y_mps2",
+    "max_roll_deg", "itae", "cones_hit", "comfort_a_v_mps2",
+)
+
+
+def policy_hash(policy: Any) -> str:
+    """Short hash of a policy's parameters (its frozen config dataclass, or its repr)."""
+    cfg = getattr(policy, "config", None)
+    if dataclasses.is_dataclass(cfg):
+        text = json.dumps(dataclasses.asdict(cfg), sort_keys=True, default=repr)
+    else:
+        text = repr(getattr(policy, "fingerprint", type(policy).__name__))
+    return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
+def cones_hit(env: gym.Env, trace: Trace) -> int | None:
+    """Number of cone gates the car's body left on the track, or None when the track has no gates."""
+    path = env.unwrapped.current_path
+    if not getattr(path, "gates", None):
+        return None
+    from vtrack_gym.tracks import gate_violations
+
+    c = env.unwrapped.config.vehicle.chassis
+    return int(gate_violations(path, trace["x_m"], trace["y_m"], trace["psi_rad"], c.body_length_m,
+                               c.body_width_m, c.cg_to_front_end_m))
+
+
+def score_policy(name: str, make: Any, episodes: Sequence[Episode], suite: str,
+                 progress: Any = None) -> tuple[list[ResultRow], list[Trace]]:
+    """Run ``make(env) -> policy`` on every episode; returns the leaderboard rows and the traces."""
+    rows, traces = [], []
+    for ep in episodes:
+        env = gym.make(ep.env_id)
+        policy = make(env)
+        trace = rollout(policy, env, seed=ep.seed, options=ep.options)
+        trace.policy_id = name
+        metrics = evaluate_trace(trace, cones_hit(env, trace))
+        env.close()
+        rows.append(ResultRow(suite=suite, env_id=ep.env_id, policy_id=name, policy_hash=policy_hash(policy),
+                              seed=ep.seed, metrics=metrics, termination=trace.termination,
+                              wall_time_per_step_s=trace.wall_time_per_step_s, options=dict(ep.options)))
+        traces.append(trace)
+        if progress is not None:
+            progress.update(1)
+    return rows, traces
+
+
+def policy_factories(names: Sequence[str] | None = None) -> dict[str, Any]:
+    """``{display name: make(env) -> policy}`` for every baseline (default presets) and shipped agent."""
+    from vtrack_gym.baselines.registry import available_policies, make_policy
+
+    chosen = list(names) if names else list(available_policies())
+    factories: dict[str, Any] = {}
+    for name in chosen:
+        factories[name] = (lambda env, _n=name: make_policy(_n, env))
+    try:
+        from vtrack_gym.agents.shipped import shipped_agent_factories
+    except ImportError:
+        return factories
+    for name, make in shipped_agent_factories().items():
+        if not names or name in names:
+            factories[name] = make
+    return factories
+
+
+def run_benchmark(suite: str = "paper", store: ResultStore | None = None, policies: Sequence[str] | None = None,
+                  figures_dir: str | Path | None = None, quick: bool = False,
+                  show_progress: bool = True) -> dict[str, Any]:
+    """Score every policy on ``suite``; write rows to ``store`` and figures to ``figures_dir``.
+
+    Returns ``{"rows": [...], "traces": {env_id: [Trace, ...]}, "figures": [paths]}``.
+    """
+    from tqdm.auto import tqdm
+
+    episodes = suite_episodes(suite, quick=quick)
+    factories = policy_factories(policies)
+    all_rows: list[ResultRow] = []
+    traces_by_env: dict[str, list[Trace]] = {}
+    with tqdm(total=len(factories) * len(episodes), desc=f"vtrack benchmark ({suite})", unit="episode",
+              disable=not show_progress) as bar:
+        for name, make in factories.items():
+            bar.set_postfix_str(name)
+            rows, traces = score_policy(name, make, episodes, suite, progress=bar)
+            all_rows.extend(rows)
+            if store is not None:
+                store.add(rows)
+            for tr in traces:
+                if tr.seed == episodes[0].seed or suite == "paper":
+                    traces_by_env.setdefault(tr.env_id, []).append(tr)
+    figures = write_figures(traces_by_env, all_rows, figures_dir) if figures_dir else []
+    return {"rows": all_rows, "traces": traces_by_env, "figures": figures}
+
+
+def write_figures(traces_by_env: dict[str, list[Trace]], rows: Sequence[ResultRow],
+                  figures_dir: str | Path) -> list[Path]:
+    """Trajectory and signal figures per env, and SMC-vs-MPC deviation-rate bars when both were scored."""
+    from vtrack_gym.evaluation import plots
+
+    out = Path(figures_dir)
+    files = []
+    for env_id, traces in traces_by_env.items():
+        env = gym.make(env_id)
+        env.reset(seed=traces[0].seed or 0)
+        stem = env_id.replace("-", "_").lower()
+        files.append(plots.plot_trajectories(traces, env.unwrapped.current_path, out / f"{stem}_trajectories.png"))
+        files.append(plots.plot_signals(traces, out / f"{stem}_signals.png"))
+        env.close()
+        by_policy = {r.policy_id: r.metrics for r in rows if r.env_id == env_id}
+        if "smc" in by_policy and "mpc" in by_policy:
+            prefix = "rms_" if env_id.startswith("LateralTracking") else "max_"
+            keys = [f"{prefix}{k}" for k in ("hand_wheel_deg", "e_y_m", "e_phi_deg", "a_y_mps2", "roll_deg")]
+            files.append(plots.plot_deviation_rates("smc", by_policy["smc"], "mpc", by_policy["mpc"], keys,
+                                                    out / f"{stem}_mpc_vs_smc.png"))
+    return files
+
+
+def summarise(rows: Sequence[ResultRow], columns: Sequence[str] = LEADERBOARD_COLUMNS) -> list[dict[str, Any]]:
+    """Leaderboard entries (mean over episodes per env and policy) straight from result rows."""
+    groups: dict[tuple[str, str], list[ResultRow]] = {}
+    for r in rows:
+        groups.setdefault((r.env_id, r.policy_id), []).append(r)
+    board = []
+    for (env_id, policy_id), members in groups.items():
+        entry: dict[str, Any] = {"env_id": env_id, "policy_id": policy_id,
+                                 "completed": float(np.mean([m.termination == "completed" for m in members]))}
+        for col in columns:
+            vals = [m.metrics.get(col) for m in members if isinstance(m.metrics.get(col), (int, float))]
+            entry[col] = float(np.mean(vals)) if vals else float("nan")
+        board.append(entry)
+    return board

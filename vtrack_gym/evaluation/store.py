@@ -199,7 +199,10 @@ def to_markdown(board: list[dict[str, Any]], digits: int = 3) -> str:
         cells = []
         for c in cols:
             v = entry[c]
-            cells.append(f"{v:.{digits}g}" if isinstance(v, float) else str(v))
+            if isinstance(v, float):
+                cells.append("–" if math.isnan(v) else f"{v:.{digits}g}")
+            else:
+                cells.append(str(v))
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
 

@@ -30,6 +30,8 @@ def test_eval_and_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> 
     assert "completed" in capsys.readouterr().out
     assert main(["eval", "--policy", "nope", "--env", "DLC120-v0", "--store", str(store)]) == 2
     assert "unknown policy 'nope'" in capsys.readouterr().err
+    assert main(["eval", "--policy", str(tmp_path / "agent.zip"), "--env", "DLC120-v0", "--store", str(store)]) == 2
+    assert "looks like an agent file" in capsys.readouterr().err
     assert main(["leaderboard", "--store", str(tmp_path / "missing.sqlite")]) == 2
     assert "run `vtrack benchmark` first" in capsys.readouterr().err
 

@@ -54,7 +54,7 @@ def build_parser() -> argparse.ArgumentParser:
     e = sub.add_parser("eval", help="score one policy on one env", description="Run one policy on one env for one "
                        "or more seeds, print its metrics and add them to the store (suite 'custom').")
     e.add_argument("--policy", required=True,
-                   help="a baseline name (smc, mpc, lqr, stanley, pure_pursuit, mpc_osqp) or a shipped agent name")
+                   help="a baseline name: smc, mpc, lqr, stanley, pure_pursuit or mpc_osqp")
     e.add_argument("--env", required=True, help="env id, e.g. LateralTracking-v0 or DLC120-v0")
     e.add_argument("--preset", default="default", help="baseline preset: default, paper or tuned (default: default)")
     e.add_argument("--seeds", default="0", help="comma-separated seeds (default: 0)")
@@ -114,11 +114,9 @@ def _cmd_eval(args: argparse.Namespace) -> int:
 def _policy_factory(name: str, preset: str):
     from vtrack_gym.evaluation.benchmark import policy_factories
 
-    if Path(name).suffix in (".json", ".npz") or Path(name).exists():
-        from vtrack_gym.agents.numpy_policy import load_agent  # refuses anything that is not our format
-
-        agent = load_agent(name)
-        return lambda env: agent
+    if Path(name).suffix in (".json", ".npz", ".zip", ".pkl") or Path(name).exists():
+        raise ValueError(f"{name!r} looks like an agent file; this version evaluates baseline policies only "
+                         "(weights-only agent files come with the shipped RL agents). Pass a baseline name.")
     if preset != "default":
         from vtrack_gym.baselines.registry import make_policy
 

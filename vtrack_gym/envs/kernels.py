@@ -32,8 +32,7 @@ CAR_S_PREV, CAR_PROGRESS, CAR_V_REF, CAR_PREV_ACTION, CAR_REWARD, CAR_MIN_FZ = r
 N_CAR = 6
 (CFG_DT, CFG_NSUB, CFG_NPREV, CFG_PREV_DT, CFG_PREV_VMIN, CFG_END_MARGIN, CFG_KINKS, CFG_STEER_MAX) = range(8)
 CFG_REWARD = 8   # 9 reward settings (RW_*) start here
-CFG_PDFLC = 17   # 7 PD-FLC gains (see baselines.pdflc_kernel) start here
-N_CFG = 24
+N_CFG = 17
 
 # Termination codes (names in ``TERMINATION_NAMES`` of envs.sim).
 T_NONE, T_COMPLETED, T_OFF_ROAD, T_SPIN_OUT, T_WHEEL_LIFT, T_INVALID = range(6)
@@ -194,12 +193,12 @@ def _step_one(i: int, states: np.ndarray, inputs: np.ndarray, road: np.ndarray, 
               models: np.ndarray, outputs: np.ndarray, work: np.ndarray, tables: np.ndarray, tmeta: np.ndarray,
               veh_track: np.ndarray, car: np.ndarray, cfg: np.ndarray, obs: np.ndarray, err: np.ndarray,
               term: np.ndarray, rows: np.ndarray, actions: np.ndarray, terms: np.ndarray, pd_mem: np.ndarray,
-              pd_surface: np.ndarray) -> None:
+              pd_gains: np.ndarray, pd_surface: np.ndarray) -> None:
     """One control period of car ``i``: speed loop, physics, projection, observation, termination, reward."""
     dt = cfg[CFG_DT]
     n_sub = int(cfg[CFG_NSUB])
-    throttle, brake = pdflc_step(states[i, L.S_VX], car[i, CAR_V_REF], pd_mem[i], cfg[CFG_PDFLC:CFG_PDFLC + 7],
-                                 pd_surface, cfg[CFG_KINKS] != 0.0)
+    throttle, brake = pdflc_step(states[i, L.S_VX], car[i, CAR_V_REF], pd_mem[i], pd_gains[i], pd_surface,
+                                 cfg[CFG_KINKS] != 0.0)
     inputs[i, L.U_THROTTLE] = throttle
     inputs[i, L.U_BRAKE] = brake
     step_vehicle(states[i], inputs[i], road[i], params[i], models[i], dt, n_sub, outputs[i], work[i])
@@ -216,20 +215,20 @@ def _step_one(i: int, states: np.ndarray, inputs: np.ndarray, road: np.ndarray, 
 
 @njit(cache=True)
 def step_serial(states, inputs, road, params, models, outputs, work, tables, tmeta, veh_track, car,
-                cfg, obs, err, term, rows, actions, terms, pd_mem, pd_surface) -> None:
+                cfg, obs, err, term, rows, actions, terms, pd_mem, pd_gains, pd_surface) -> None:
     """One control period for every car, single-threaded."""
     for i in range(states.shape[0]):
         _step_one(i, states, inputs, road, params, models, outputs, work, tables, tmeta, veh_track, car, cfg, obs,
-                  err, term, rows, actions, terms, pd_mem, pd_surface)
+                  err, term, rows, actions, terms, pd_mem, pd_gains, pd_surface)
 
 
 @njit(cache=True, parallel=True)
 def step_parallel(states, inputs, road, params, models, outputs, work, tables, tmeta, veh_track, car,
-                  cfg, obs, err, term, rows, actions, terms, pd_mem, pd_surface) -> None:
+                  cfg, obs, err, term, rows, actions, terms, pd_mem, pd_gains, pd_surface) -> None:
     """One control period for every car, cars spread over threads (same per-car code)."""
     for i in prange(states.shape[0]):
         _step_one(i, states, inputs, road, params, models, outputs, work, tables, tmeta, veh_track, car, cfg, obs,
-                  err, term, rows, actions, terms, pd_mem, pd_surface)
+                  err, term, rows, actions, terms, pd_mem, pd_gains, pd_surface)
 
 
 @njit(cache=True)

@@ -11,6 +11,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from vtrack_gym.baselines.pdflc import PDFLCConfig
 from vtrack_gym.envs.config import EnvConfig, ResetOptions, ScenarioConfig
 from vtrack_gym.vehicle import layout as L
 from vtrack_gym.vehicle.params import VehicleParams
@@ -94,8 +95,9 @@ class BatchSim:
              scenario.end_margin_m, 1.0 if pd.method == "mamdani" else 0.0,
              config.vehicle.steering.max_road_wheel_angle_rad],
             [rc.alive, rc.w_ey, rc.ey_scale_m, rc.w_ephi, rc.ephi_scale_rad, rc.w_effort, rc.w_rate,
-             rc.failure_penalty, rc.completion_bonus],
-            pdflc_gains(pd, config.control_period_s)])
+             rc.failure_penalty, rc.completion_bonus]])
+        # PD-FLC gains per car (GA tuning evaluates one individual per car); the surface is shared.
+        self.pd_gains = np.tile(pdflc_gains(pd, config.control_period_s), (n, 1))
         assert self.cfg.shape == (k.N_CFG,)
         self.terms = np.zeros((n, 6))
         self.rngs: list[np.random.Generator] = [np.random.default_rng() for _ in range(n)]
@@ -108,6 +110,16 @@ class BatchSim:
         self._observe = k.observe_indices
 
     # ------------------------------------------------------------------ reset
+    def set_speed_controller(self, index: int | np.ndarray | slice, config: PDFLCConfig) -> None:
+        """Give the selected cars other PD-FLC gains (G1..G4, filter); the method and surface stay shared."""
+        from vtrack_gym.baselines.pdflc_kernel import pdflc_gains
+
+        own = self.config.speed_controller
+        if config.method != own.method or config.surface_resolution != own.surface_resolution:
+            raise ValueError("set_speed_controller: method and surface_resolution must match the env's "
+                             f"({own.method}, {own.surface_resolution})")
+        self.pd_gains[index] = pdflc_gains(config, self.config.control_period_s)
+
     def seed(self, index: int, seed: int | None) -> None:
         """Give car ``index`` a fresh generator (``None``: from OS entropy)."""
         self.rngs[index] = np.random.default_rng(seed)
@@ -192,7 +204,8 @@ class BatchSim:
     def _run_kernel(self, actions: np.ndarray) -> None:
         self._step_kernel(self.plant.state, self.inputs, self.road, self.plant.param_rows, self.plant.models,
                           self.outputs, self.plant._work, self.tables, self.tmeta, self.veh_track, self.car, self.cfg,
-                          self.obs, self.err, self.term, self.rows, actions, self.terms, self.pd_mem, self.pd_surface)
+                          self.obs, self.err, self.term, self.rows, actions, self.terms, self.pd_mem, self.pd_gains,
+                          self.pd_surface)
 
     def _delayed(self, actions: np.ndarray) -> np.ndarray:
         """Commands delayed by ``delay_steps`` control periods (FIFO per car; zero before the first)."""

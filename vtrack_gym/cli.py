@@ -4,6 +4,7 @@
     vtrack eval --policy mpc --env DLC120-v0
     vtrack leaderboard --suite paper --format md
     vtrack plot --policies smc,mpc --env LateralTracking-v0
+    vtrack tune --controller smc --budget paper --space working --out smc_tuned.json
 """
 
 from __future__ import annotations
@@ -39,15 +40,16 @@ def build_parser() -> argparse.ArgumentParser:
     b = sub.add_parser("benchmark", help="score every baseline and shipped agent on a suite; print the leaderboard",
                        description="Run every baseline policy (default presets) and every shipped RL agent on the "
                        "suite's episodes, store the results, print the leaderboard and write the figures.")
-    b.add_argument("--suite", choices=("paper", "robust"), default="paper",
+    b.add_argument("--suite", choices=("paper", "robust", "highway"), default="paper",
                    help="paper: the two nominal scenarios; robust: randomised friction, mass, speed, noise and "
-                   "delay over fixed seeds (default: paper)")
+                   "delay over fixed seeds; highway: highway-env's lane-keeping-v0 (needs the 'highway' extra) "
+                   "(default: paper)")
     b.add_argument("--policies", default="",
                    help="comma-separated policy names to score (default: all; see `vtrack eval --help`)")
     b.add_argument("--figures", type=Path, default=DEFAULT_FIGURES_DIR,
                    help=f"folder for the PNG figures (default: {DEFAULT_FIGURES_DIR})")
     b.add_argument("--no-figures", action="store_true", help="skip the figures")
-    b.add_argument("--quick", action="store_true", help="robust suite: one seed instead of five")
+    b.add_argument("--quick", action="store_true", help="robust/highway suites: one seed only")
     _add_store(b)
     _add_format(b)
 
@@ -55,7 +57,8 @@ def build_parser() -> argparse.ArgumentParser:
                        "or more seeds, print its metrics and add them to the store (suite 'custom').")
     e.add_argument("--policy", required=True,
                    help="a baseline name: smc, mpc, lqr, stanley, pure_pursuit or mpc_osqp")
-    e.add_argument("--env", required=True, help="env id, e.g. LateralTracking-v0 or DLC120-v0")
+    e.add_argument("--env", required=True,
+                   help="env id, e.g. LateralTracking-v0, DLC120-v0 or highway-env:lane-keeping-v0")
     e.add_argument("--preset", default="default", help="baseline preset: default, paper or tuned (default: default)")
     e.add_argument("--seeds", default="0", help="comma-separated seeds (default: 0)")
     _add_store(e)
@@ -70,8 +73,35 @@ def build_parser() -> argparse.ArgumentParser:
                         description="Roll out the given policies on one env and write trajectory, signal and "
                         "deviation-rate figures.")
     pl.add_argument("--policies", default="smc,mpc", help="comma-separated policy names (default: smc,mpc)")
-    pl.add_argument("--env", default="LateralTracking-v0", help="env id (default: LateralTracking-v0)")
+    pl.add_argument("--env", default="LateralTracking-v0",
+                    help="env id, also highway-env:lane-keeping-v0 (default: LateralTracking-v0)")
     pl.add_argument("--out", type=Path, default=DEFAULT_FIGURES_DIR, help="output folder")
+
+    t = sub.add_parser("tune", help="GA-tune the SMC or MPC on Case 1 and write a tuned preset (JSON)",
+                       description="Genetic algorithm (pymoo: rank selection, SBX 0.8, polynomial mutation 0.1) "
+                       "minimising ITAE + constraint penalties on LateralTracking-v0. Each generation runs as one "
+                       "batched rollout. Writes a JSON preset with provenance; the Ray backend is not available.")
+    t.add_argument("--controller", choices=("smc", "mpc"), required=True, help="controller to tune")
+    t.add_argument("--budget", choices=("paper", "quick"), default="paper",
+                   help="paper: Table 2 (SMC 100 generations x 10, MPC 200 x 20); quick: 3 x 4 (default: paper)")
+    t.add_argument("--space", choices=("paper", "working"), default="paper",
+                   help="search space: paper (Table 2 bounds) or working (SMC: p in [1, 15], eta in [1, 50], "
+                   "Delta in [0.02, 1], the paper's G1..G4) (default: paper)")
+    t.add_argument("--generations", type=int, default=None, help="override the budget's generations")
+    t.add_argument("--pop-size", type=int, default=None, help="override the budget's population size")
+    t.add_argument("--seed", type=int, default=0, help="GA seed (default: 0)")
+    t.add_argument("--comfort-weight", type=float, default=0.0,
+                   help="weight of the ISO 2631-1 comfort a_v in the fitness (default: 0 = off)")
+    t.add_argument("--out", type=Path, default=None,
+                   help="preset file to write (default: vtrack_results/<controller>_tuned.json)")
+    t.add_argument("--store", type=Path, default=None,
+                   help="also record the result in this leaderboard store (suite 'tuning'; default: none)")
+    t.add_argument("--also-complete", default="",
+                   help="comma-separated env ids every individual must also complete, e.g. DLC120-v0 (a failure "
+                   "adds the incomplete-run penalty; default: none, the paper's Case-1-only fitness)")
+    t.add_argument("--max-steps", type=int, default=None,
+                   help="cut every episode after this many steps (smoke tests only; default: full episodes)")
+    t.add_argument("--no-progress", action="store_true", help="no progress bar")
     return parser
 
 
@@ -100,10 +130,12 @@ def _cmd_eval(args: argparse.Namespace) -> int:
     from vtrack_gym.evaluation.benchmark import score_policy
     from vtrack_gym.evaluation.store import ResultStore, to_markdown
     from vtrack_gym.evaluation.suites import Episode
+    from vtrack_gym.interop import resolve_env_id
 
     seeds = [int(s) for s in args.seeds.split(",") if s.strip()]
     make = _policy_factory(args.policy, args.preset)
-    rows, _ = score_policy(args.policy, make, [Episode(args.env, s) for s in seeds], "custom")
+    env_id = resolve_env_id(args.env)
+    rows, _ = score_policy(args.policy, make, [Episode(env_id, s) for s in seeds], "custom")
     ResultStore(args.store).add(rows)
     table = [{"seed": r.seed, "termination": r.termination, **{k: v for k, v in r.metrics.items()
                                                                  if isinstance(v, float)}} for r in rows]
@@ -141,14 +173,70 @@ def _cmd_leaderboard(args: argparse.Namespace) -> int:
 def _cmd_plot(args: argparse.Namespace) -> int:
     from vtrack_gym.evaluation.benchmark import score_policy, write_figures
     from vtrack_gym.evaluation.suites import Episode
+    from vtrack_gym.interop import resolve_env_id
 
+    env_id = resolve_env_id(args.env)
     rows, traces = [], []
     for name in [p for p in args.policies.split(",") if p]:
-        r, t = score_policy(name, _policy_factory(name, "default"), [Episode(args.env, 0)], "custom")
+        r, t = score_policy(name, _policy_factory(name, "default"), [Episode(env_id, 0)], "custom")
         rows += r
         traces += t
-    for f in write_figures({args.env: traces}, rows, args.out):
+    for f in write_figures({env_id: traces}, rows, args.out):
         print(f"figure: {f}")
+    return 0
+
+
+def _cmd_tune(args: argparse.Namespace) -> int:
+    import dataclasses
+    import json
+    import shlex
+
+    from vtrack_gym.tuning.ga import tune
+    from vtrack_gym.tuning.population import FitnessConfig
+    from vtrack_gym.tuning.presets import save_preset
+    from vtrack_gym.tuning.spaces import budget, search_space
+
+    space = search_space(args.controller, args.space)
+    b = budget(args.controller, args.budget)
+    if args.generations is not None or args.pop_size is not None:
+        b = dataclasses.replace(b, name="custom", generations=args.generations or b.generations,
+                                pop_size=args.pop_size or b.pop_size)
+    fitness = FitnessConfig(comfort_weight=args.comfort_weight)
+    result = tune(space, b, seed=args.seed, fitness=fitness, progress=not args.no_progress, max_steps=args.max_steps,
+                  also_complete=tuple(e for e in args.also_complete.split(",") if e))
+    out = args.out or Path("vtrack_results") / f"{args.controller}_tuned.json"
+    command = "vtrack " + " ".join(shlex.quote(a) for a in (sys.argv[1:] if args.argv is None else args.argv))
+    budget_info = {"name": b.name, "generations": b.generations, "pop_size": b.pop_size}
+    provenance = {"command": command, "seed": args.seed, "budget": budget_info, "space": space.as_dict(),
+                  "best_fitness": result.best_fitness, "metrics": result.best_metrics,
+                  "scenario": ",".join(["LateralTracking-v0", *[e for e in args.also_complete.split(",") if e]]),
+                  "wall_time_s": round(result.wall_s, 3),
+                  "episodes": result.episodes}
+    if args.max_steps is not None:
+        provenance["note"] = f"episodes cut after {args.max_steps} steps (smoke test, not a tuning result)"
+    save_preset(out, args.controller, result.best_config, result.best_speed_config, provenance)
+    eps = result.episodes / max(result.wall_s, 1e-9)
+    print(json.dumps({"best_fitness": result.best_fitness, "initial_best_fitness": result.initial_best_fitness,
+                      "params": result.params, **result.best_metrics}, indent=2))
+    print(f"{result.episodes} episodes in {result.wall_s:.1f} s ({eps:.2f} episodes/s); preset written to {out}",
+          file=sys.stderr)
+    if args.store is not None:
+        from vtrack_gym.evaluation.benchmark import policy_hash
+        from vtrack_gym.evaluation.store import ResultRow, ResultStore
+
+        class _Cfg:  # policy_hash reads .config
+            config = result.best_config
+
+        row = ResultRow(suite="tuning", env_id="LateralTracking-v0", policy_id=f"{args.controller}_tuned",
+                        policy_hash=policy_hash(_Cfg()), seed=args.seed,
+                        metrics={**result.best_metrics, "wall_time_s": result.wall_s,
+                                 "episodes": float(result.episodes)},
+                        termination="completed" if result.best_metrics.get("completed") else "not_completed",
+                        wall_time_per_step_s=result.wall_s / max(result.car_steps, 1),
+                        options={"space": f"{args.controller}/{args.space}", "budget": budget_info,
+                                 "preset_file": str(out)})
+        ResultStore(args.store).add([row])
+        print(f"result stored in {args.store} (suite 'tuning')", file=sys.stderr)
     return 0
 
 
@@ -156,13 +244,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``vtrack``; returns the process exit code."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    args.argv = None if argv is None else list(argv)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="%(levelname)s %(message)s")
     import vtrack_gym  # noqa: F401  (registers the env ids)
 
-    handlers = {"benchmark": _cmd_benchmark, "eval": _cmd_eval, "leaderboard": _cmd_leaderboard, "plot": _cmd_plot}
+    handlers = {"benchmark": _cmd_benchmark, "eval": _cmd_eval, "leaderboard": _cmd_leaderboard, "plot": _cmd_plot,
+                "tune": _cmd_tune}
     try:
         return handlers[args.command](args)
-    except (ValueError, FileNotFoundError) as exc:
+    except (ValueError, FileNotFoundError, ImportError) as exc:
         print(f"vtrack {args.command}: error: {exc}", file=sys.stderr)
         return 2
 

@@ -125,13 +125,13 @@ def write_figures(traces_by_env: dict[str, list[Trace]], rows: Sequence[ResultRo
     for env_id, traces in traces_by_env.items():
         env = gym.make(env_id)
         env.reset(seed=traces[0].seed or 0)
-        stem = env_id.replace("-", "_").lower()
+        stem = env_id.replace("/", "_").replace("-", "_").lower()
         files.append(plots.plot_trajectories(traces, env.unwrapped.current_path, out / f"{stem}_trajectories.png"))
         files.append(plots.plot_signals(traces, out / f"{stem}_signals.png"))
         env.close()
         by_policy = {r.policy_id: r.metrics for r in rows if r.env_id == env_id}
         if "smc" in by_policy and "mpc" in by_policy:
-            prefix = "rms_" if env_id.startswith("LateralTracking") else "max_"
+            prefix = "max_" if env_id.startswith("DLC") else "rms_"
             keys = [f"{prefix}{k}" for k in ("hand_wheel_deg", "e_y_m", "e_phi_deg", "a_y_mps2", "roll_deg")]
             files.append(plots.plot_deviation_rates("smc", by_policy["smc"], "mpc", by_policy["mpc"], keys,
                                                     out / f"{stem}_mpc_vs_smc.png"))

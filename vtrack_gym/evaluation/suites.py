@@ -6,6 +6,8 @@ drawn deterministically from a fixed list of seeds (the same perturbations for e
 The friction range of each scenario keeps the course physically drivable: the handling course's 20 m
 hairpin needs ~0.63 g at 40 km/h (mu drawn in 0.75-1.0) and the lane change ~0.81 g at 120 km/h (mu drawn
 in 0.9-1.1); below that every policy must fail, which would measure the road, not the controller.
+``highway``: highway-env's ``lane-keeping-v0`` through ``vtrack_gym.interop`` (three starts; needs the
+``highway`` extra).
 """
 
 from __future__ import annotations
@@ -53,7 +55,11 @@ def suite_episodes(name: str, quick: bool = False) -> list[Episode]:
         return ([Episode("LateralTracking-v0", s, robust_options(s, 40 / 3.6, ROBUST_FRICTION["LateralTracking-v0"]))
                  for s in seeds]
                 + [Episode("DLC120-v0", s, robust_options(s, 120 / 3.6, ROBUST_FRICTION["DLC120-v0"])) for s in seeds])
+    if name == "highway":
+        from vtrack_gym.interop import highway_episodes
+
+        return highway_episodes(quick=quick)
     raise ValueError(f"unknown suite {name!r}; valid: {', '.join(SUITES)}")
 
 
-SUITES: tuple[str, ...] = ("paper", "robust")
+SUITES: tuple[str, ...] = ("paper", "robust", "highway")

@@ -13,7 +13,6 @@ from typing import Any
 import numpy as np
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvObs, VecEnvStepReturn
 
-from vtrack_gym.envs.config import ResetOptions
 from vtrack_gym.envs.sim import TERMINATION_NAMES
 from vtrack_gym.envs.vector_env import TrackingVectorEnv
 
@@ -58,7 +57,7 @@ class TrackingSB3VecEnv(VecEnv):
                     "termination": TERMINATION_NAMES[int(sim.term[i])] if terminated[i] else "time_limit",
                     "progress_m": float(sim.progress[i]),
                 }
-                sim.reset_car(int(i), ResetOptions())
+                sim.reset_car(int(i), sim.last_options[i])
             sim.observe_after_reset(idx)
             obs[idx] = sim.obs[idx]
         return obs, reward.astype(np.float32), done, infos

@@ -101,6 +101,7 @@ class BatchSim:
         assert self.cfg.shape == (k.N_CFG,)
         self.terms = np.zeros((n, 6))
         self.rngs: list[np.random.Generator] = [np.random.default_rng() for _ in range(n)]
+        self.last_options: list[ResetOptions] = [ResetOptions() for _ in range(n)]
         self._noise_std = np.asarray(config.noise_std)
         self.any_noise = False
         self.any_delay = False
@@ -148,8 +149,16 @@ class BatchSim:
         x0, y0, psi0 = start[0], start[1], start[2]
         off = options.initial_lateral_offset_m
         self.plant.reset(i, x=x0 - off * np.sin(psi0), y=y0 + off * np.cos(psi0), psi=psi0, v_x=v0)
+        # Reset-time outputs: at rest on flat ground (no accelerations, static wheel loads of these params).
+        from vtrack_gym.vehicle.packing import static_wheel_loads_n
+
+        fz_front, fz_rear = static_wheel_loads_n(params)
         self.outputs[i] = 0.0
+        self.outputs[i, :, L.O_FZFL:L.O_FZFR + 1] = fz_front
+        self.outputs[i, :, L.O_FZRL:L.O_FZRR + 1] = fz_rear
+        self.min_fz[i] = min(fz_front, fz_rear)
         self.road[i] = 0.0
+        self.last_options[i] = options
         self.inputs[i] = 0.0
         self.steps[i] = 0
         self.prev_action[i] = 0.0

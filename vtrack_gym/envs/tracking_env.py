@@ -31,9 +31,19 @@ from vtrack_gym.vehicle.params import DesignModel
 SCENARIOS: dict[str, ScenarioConfig] = {s.name: s for s in (LATERAL_TRACKING, DLC120, RANDOM_TRACKS)}
 
 
+def _as_float_array(action: Any) -> np.ndarray:
+    """``action`` as a float64 array; ``ValueError`` naming the action for anything non-real-numeric."""
+    if np.iscomplexobj(action):
+        raise ValueError(f"action must be real numbers (got complex {action!r})")
+    try:
+        return np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"action must be a number or an array of numbers in [-1, 1] (got {action!r})") from None
+
+
 def check_actions(action: Any, n: int) -> np.ndarray:
     """Validate and clip a batch of steering actions to shape (n,) float64 in [-1, 1]."""
-    a = np.asarray(action, dtype=np.float64)
+    a = _as_float_array(action)
     if a.size != n:
         raise ValueError(f"action must have {n} element(s) (shape ({n}, 1) or ({n},) for a batch, (1,) for one "
                          f"env), got shape {a.shape}")
@@ -45,7 +55,7 @@ def check_actions(action: Any, n: int) -> np.ndarray:
 
 def check_action(action: Any) -> float:
     """Validate one env's steering action (one element) and clip it to [-1, 1]; returns a float."""
-    arr = np.asarray(action, dtype=np.float64)
+    arr = _as_float_array(action)
     if arr.size != 1:
         raise ValueError(f"action must have 1 element (shape (1,)), got shape {arr.shape}")
     a = float(arr.reshape(-1)[0])

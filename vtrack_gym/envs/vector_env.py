@@ -5,7 +5,8 @@ Registered as each id's ``vector_entry_point``::
     envs = gymnasium.make_vec("DLC120-v0", num_envs=4096, vectorization_mode="vector_entry_point")
 
 Autoreset follows Gymnasium's default ``NEXT_STEP`` mode: after sub-env i ends, the next ``step`` resets it
-(its action is ignored) and returns its first observation with reward 0 and both flags False.
+(its action is ignored, the reset options of its last ``reset`` call are reused) and returns its first
+observation with reward 0 and both flags False.
 ``reset(seed=s)`` seeds sub-env i with ``s + i``, exactly like ``SyncVectorEnv``; sub-env i then reproduces a
 single ``TrackingEnv`` reset with seed ``s + i`` bit for bit. ``options`` are the single env's reset options
 (applied to every sub-env being reset) plus ``reset_mask`` (bool array) for a partial reset.
@@ -65,6 +66,7 @@ class TrackingVectorEnv(VectorEnv):
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.sim = BatchSim(scenario, config, self.num_envs)
         self._autoreset = np.zeros(self.num_envs, dtype=bool)
+        self._seeded = np.zeros(self.num_envs, dtype=bool)
         self._all = np.ones(self.num_envs, dtype=bool)
 
     def reset(self, *, seed: int | list[int | None] | None = None,
@@ -77,8 +79,9 @@ class TrackingVectorEnv(VectorEnv):
         seeds = seeds_for(seed, self.num_envs)
         idx = np.flatnonzero(mask)
         for i in idx:
-            if seed is not None or self.sim.steps[i] == 0:
+            if seed is not None or not self._seeded[i]:  # otherwise the car's generator continues
                 self.sim.seed(int(i), seeds[i])
+                self._seeded[i] = True
             self.sim.reset_car(int(i), reset_opts)
         self.sim.observe_after_reset(idx)
         self._autoreset[idx] = False
@@ -91,8 +94,8 @@ class TrackingVectorEnv(VectorEnv):
         done_before = self._autoreset
         if done_before.any():
             idx = np.flatnonzero(done_before)
-            for i in idx:
-                sim.reset_car(int(i), ResetOptions())
+            for i in idx:  # same scenario knobs as the car's last explicit reset
+                sim.reset_car(int(i), sim.last_options[i])
             sim.observe_after_reset(idx)
             reward[idx] = 0.0
             terminated[idx] = False

@@ -91,7 +91,13 @@ class ResultStore:
             self._check_or_init(con)
 
     def _connect(self) -> sqlite3.Connection:
-        con = sqlite3.connect(self.path, timeout=self.timeout_s, isolation_level=None)
+        if self.path.is_dir():
+            raise StoreError(f"{self.path} is a directory, not a store file; pass a file path such as "
+                             f"{self.path / 'leaderboard.sqlite'}")
+        try:
+            con = sqlite3.connect(self.path, timeout=self.timeout_s, isolation_level=None)
+        except sqlite3.Error as exc:
+            raise StoreError(f"cannot open the store {self.path}: {exc}") from exc
         con.execute(f"PRAGMA busy_timeout = {int(self.timeout_s * 1000)}")
         return con
 
@@ -106,12 +112,17 @@ class ResultStore:
                              "it was left untouched")
         if "vtrack_meta" in tables:
             row = con.execute("SELECT value FROM vtrack_meta WHERE key='schema_version'").fetchone()
-            version = int(row[0]) if row else 0
+            try:
+                version = int(row[0]) if row else 0
+            except (TypeError, ValueError):
+                raise StoreError(f"{self.path} is corrupted (schema version {row[0]!r}); left untouched") from None
             if version > SCHEMA_VERSION:
                 raise StoreError(f"{self.path} has schema version {version}, newer than this vtrack_gym "
                                  f"({SCHEMA_VERSION}); upgrade vtrack_gym to read it")
             if version < SCHEMA_VERSION:
                 raise StoreError(f"{self.path} has an unknown old schema version {version}")
+            if "results" not in tables:
+                raise StoreError(f"{self.path} is corrupted (no results table); it was left untouched")
             try:
                 con.execute("PRAGMA quick_check").fetchone()
             except sqlite3.DatabaseError as exc:
@@ -160,8 +171,11 @@ class ResultStore:
             out = []
             for row in con.execute(query, (suite,) if suite else ()):
                 d = dict(row)
-                d["metrics"] = json.loads(d.pop("metrics_json"))
-                d["options"] = json.loads(d.pop("options_json"))
+                try:
+                    d["metrics"] = json.loads(d.pop("metrics_json"))
+                    d["options"] = json.loads(d.pop("options_json"))
+                except (TypeError, ValueError) as exc:
+                    raise StoreError(f"{self.path} is corrupted (row {d.get('id')}: {exc})") from exc
                 out.append(d)
         return out
 

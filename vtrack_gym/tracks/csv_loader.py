@@ -14,6 +14,7 @@ from pathlib import Path as FsPath
 
 import numpy as np
 
+from vtrack_gym.tracks.fitting import check_points
 from vtrack_gym.tracks.geometry import self_intersection_pairs
 from vtrack_gym.tracks.path import DEFAULT_DS_M, Path
 
@@ -109,6 +110,10 @@ def load_track_csv(path: str | os.PathLike[str], closed: bool | None = None, hal
     """
     fs_path = FsPath(path)
     x, y, z, lines = read_track_csv(fs_path)
+    try:
+        check_points(x, y, z)  # counts, finiteness, duplicates, extent: before any geometry on the points
+    except ValueError as exc:
+        raise ValueError(f"{fs_path}: {exc}") from exc
     gap = math.hypot(x[-1] - x[0], y[-1] - y[0])
     if closed is None:
         closed = gap <= CLOSED_GAP_M
@@ -126,8 +131,11 @@ def load_track_csv(path: str | os.PathLike[str], closed: bool | None = None, hal
         line_j1 = lines[j + 1] if j + 1 < len(lines) else lines[0]
         raise ValueError(f"{fs_path}: the centre-line crosses itself (segment lines {lines[i]}-{lines[i + 1]} "
                          f"meets segment lines {line_j}-{line_j1})")
-    result = Path.from_points(x, y, z, bool(closed), smoothing_m=smoothing_m, ds_m=ds_m, half_width_m=half_width_m,
-                              name=name or fs_path.stem)
+    try:
+        result = Path.from_points(x, y, z, bool(closed), smoothing_m=smoothing_m, ds_m=ds_m,
+                                  half_width_m=half_width_m, name=name or fs_path.stem)
+    except ValueError as exc:
+        raise ValueError(f"{fs_path}: {exc}") from exc
     if result.self_intersects():
         raise ValueError(f"{fs_path}: the fitted centre-line crosses itself (points too sparse or too noisy; "
                          "add points or raise smoothing_m)")

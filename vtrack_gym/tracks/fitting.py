@@ -22,6 +22,9 @@ from vtrack_gym.tracks.path import (
 )
 
 MIN_POINTS = 4
+MAX_COORDINATE_M = 1.0e6     # |x|, |y|, |z| beyond 1000 km is not a road
+MAX_LENGTH_M = 200_000.0     # longest centre-line accepted (polyline and fitted) [m]
+MAX_LENGTH_GROWTH = 1.5      # a fit may not be longer than this x the polyline (smoothing gone wrong)
 _NEWTON_ITER = 4
 
 
@@ -36,7 +39,13 @@ def check_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None) -> None:
         if v is not None and not np.all(np.isfinite(v)):
             k = int(np.flatnonzero(~np.isfinite(v))[0])
             raise ValueError(f"point {k}: {name} is not finite ({v[k]})")
+    for name, v in (("x", x), ("y", y), ("z", z)):
+        if v is not None and float(np.max(np.abs(v))) > MAX_COORDINATE_M:
+            k = int(np.argmax(np.abs(v)))
+            raise ValueError(f"point {k}: |{name}| = {abs(v[k]):.3g} m exceeds {MAX_COORDINATE_M:.0e} m")
     step = np.hypot(np.diff(x), np.diff(y))
+    if float(step.sum()) > MAX_LENGTH_M:
+        raise ValueError(f"the centre-line is {step.sum():.3g} m long; at most {MAX_LENGTH_M:.0f} m is accepted")
     scale = max(1.0, float(np.max(np.abs(x))), float(np.max(np.abs(y))))
     dup = np.flatnonzero(step <= 1e-9 * scale)
     if dup.size:
@@ -68,7 +77,14 @@ def fit_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None, closed: bool,
     chord = np.hypot(np.diff(pts[0]), np.diff(pts[1]))
     u = np.concatenate(([0.0], np.cumsum(chord)))
     k = 5 if m - int(closed) >= 8 else 3
-    tck, _ = splprep(pts, u=u, k=k, s=m * smoothing_m ** 2, per=int(closed), quiet=2)
+    # x, y are fitted together; the elevation separately as z(u) on the same chord parameter, so that metres of
+    # elevation never spend the horizontal smoothing budget (a joint fit can bend the plan view wildly).
+    tck, _ = splprep(pts[:2], u=u, k=k, s=m * smoothing_m ** 2, per=int(closed), quiet=2)
+    tck_z = None
+    if z is not None:
+        from scipy.interpolate import splrep
+
+        tck_z = splrep(u, pts[2], k=k, s=m * smoothing_m ** 2, per=int(closed), quiet=2)
     u_end = float(u[-1])
 
     def speed(uu: np.ndarray) -> np.ndarray:
@@ -84,6 +100,9 @@ def fit_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None, closed: bool,
     seg = h * (speed(nodes.ravel()).reshape(nodes.shape) @ om)
     s_cum = np.concatenate(([0.0], np.cumsum(seg)))
     length = float(s_cum[-1])
+    if length > MAX_LENGTH_GROWTH * u_end + 10.0 * ds_m:
+        raise ValueError(f"the fitted centre-line ({length:.4g} m) is much longer than the points' polyline "
+                         f"({u_end:.4g} m): smoothing_m = {smoothing_m} is too large for these points")
     n, ds = _grid(length, ds_m)
     s_target = np.arange(n) * ds
 
@@ -111,10 +130,11 @@ def fit_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None, closed: bool,
     table[:, COL_PSI] = np.unwrap(np.arctan2(p1[1], p1[0]))
     table[:, COL_KAPPA] = cross / sp ** 3
     table[:, COL_DKAPPA] = (dcross / sp ** 3 - 3.0 * cross * dot / sp ** 5) / sp
-    if z is not None:
-        table[:, COL_Z] = p0[2]
-        table[:, COL_GRADE] = p1[2] / sp
-        table[:, COL_ZPP] = p2[2] / sp ** 2 - p1[2] * dot / sp ** 4
+    if tck_z is not None:
+        z1 = splev(uj, tck_z, der=1)
+        table[:, COL_Z] = splev(uj, tck_z)
+        table[:, COL_GRADE] = z1 / sp
+        table[:, COL_ZPP] = splev(uj, tck_z, der=2) / sp ** 2 - z1 * dot / sp ** 4
     if closed:
         _close_exactly(table, s_target, "from_points")
     return table, ds

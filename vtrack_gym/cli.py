@@ -84,9 +84,10 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--controller", choices=("smc", "mpc"), required=True, help="controller to tune")
     t.add_argument("--budget", choices=("paper", "quick"), default="paper",
                    help="paper: Table 2 (SMC 100 generations x 10, MPC 200 x 20); quick: 3 x 4 (default: paper)")
-    t.add_argument("--space", choices=("paper", "working"), default="paper",
-                   help="search space: paper (Table 2 bounds) or working (SMC: p in [1, 15], eta in [1, 50], "
-                   "Delta in [0.02, 1], the paper's G1..G4) (default: paper)")
+    t.add_argument("--space", choices=("paper", "working", "steering"), default="paper",
+                   help="search space: paper (Table 2 bounds), working (SMC: p in [1, 15], eta in [1, 50], "
+                   "Delta in [0.02, 1], the paper's G1..G4) or steering (SMC: the working p, eta, Delta with the "
+                   "env's PD-FLC gains) (default: paper)")
     t.add_argument("--generations", type=int, default=None, help="override the budget's generations")
     t.add_argument("--pop-size", type=int, default=None, help="override the budget's population size")
     t.add_argument("--seed", type=int, default=0, help="GA seed (default: 0)")

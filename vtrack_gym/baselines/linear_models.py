@@ -21,7 +21,19 @@ from dataclasses import dataclass
 import numpy as np
 
 from vtrack_gym.envs.observation import ObservationLayout
+from vtrack_gym.vehicle.linear import (  # re-exported: one implementation of the design model
+    lateral_matrices,
+    sideslip_gain,
+    steady_state_sideslip,
+    steady_state_steer,
+    understeer_gradient,
+)
 from vtrack_gym.vehicle.params import DesignModel
+
+__all__ = [
+    "ErrorModel", "curvature_preview_operator", "error_model", "lateral_matrices", "paper_model", "sideslip_gain",
+    "steady_state_sideslip", "steady_state_steer", "understeer_gradient", "zoh",
+]
 
 
 def _constants(design: DesignModel) -> tuple[float, float, float, float, float, float]:
@@ -35,16 +47,6 @@ def _check_speed(v_x: float) -> float:
     if not v > 0.0 or not np.isfinite(v):
         raise ValueError(f"v_x must be a finite speed > 0 m/s for the linear models (got {v_x})")
     return v
-
-
-def lateral_matrices(design: DesignModel, v_x: float) -> tuple[np.ndarray, np.ndarray]:
-    """``(A (2x2), B (2,))`` of eq. (5) in (v_y [m/s], r [rad/s]) with input delta [rad] at ``v_x`` [m/s]."""
-    v = _check_speed(v_x)
-    m, iz, a1, a2, cf, cr = _constants(design)
-    a = np.array([[-(cf + cr) / (m * v), (-a1 * cf + a2 * cr) / (m * v) - v],
-                  [(-a1 * cf + a2 * cr) / (iz * v), -(a1 * a1 * cf + a2 * a2 * cr) / (iz * v)]])
-    b = np.array([cf / m, a1 * cf / iz])
-    return a, b
 
 
 @dataclass(frozen=True)
@@ -121,29 +123,6 @@ def zoh(a: np.ndarray, b: np.ndarray, sample_time_s: float) -> tuple[np.ndarray,
     e = expm(big * sample_time_s)
     bd = e[:n, n:]
     return e[:n, :n], (bd[:, 0] if vector else bd)
-
-
-def understeer_gradient(design: DesignModel) -> float:
-    """K_us = m (a2 C_ar - a1 C_af) / (l C_af C_ar) [rad/(m/s^2)] (9.99e-5 for the paper's car)."""
-    m, _, a1, a2, cf, cr = _constants(design)
-    return m * (a2 * cr - a1 * cf) / (design.wheelbase_m * cf * cr)
-
-
-def steady_state_steer(design: DesignModel, v_x: float, curvature: float) -> float:
-    """delta_ss = kappa (l + K_us v^2) [rad] on curvature ``kappa`` [1/m] at ``v_x`` [m/s]."""
-    return curvature * (design.wheelbase_m + understeer_gradient(design) * v_x * v_x)
-
-
-def sideslip_gain(design: DesignModel, v_x: float) -> float:
-    """beta_ss / kappa = (C_ar a2 l - m a1 v^2) / (C_ar l) [m]: steady sideslip per unit curvature."""
-    m, _, a1, a2, _, cr = _constants(design)
-    l = design.wheelbase_m
-    return (cr * a2 * l - m * a1 * v_x * v_x) / (cr * l)
-
-
-def steady_state_sideslip(design: DesignModel, v_x: float, curvature: float) -> float:
-    """beta_ss = v_y / v_x = kappa (C_ar a2 l - m a1 v^2) / (C_ar l) [rad] (steady e_phi is -beta_ss)."""
-    return curvature * sideslip_gain(design, v_x)
 
 
 def curvature_preview_operator(layout: ObservationLayout, v_x: float,

@@ -1,0 +1,215 @@
+"""Tuned-preset files: JSON only (never executed, never unpickled), strict schema, unknown keys refused.
+
+Format (``format_version`` 1)::
+
+    {"format": "vtrack-tuned-preset", "format_version": 1, "controller": "smc",
+     "config": {<every SMCConfig / MPCConfig field>},
+     "speed_controller": {"g1": .., "g2": .., "g3": .., "g4": ..},     # PD-FLC gains the GA tuned (optional)
+     "provenance": {"command": .., "seed": .., "budget": {..}, "space": {..}, "best_fitness": ..,
+                    "metrics": {..}, "package_version": .., "date_utc": .., "scenario": .., "wall_time_s": ..}}
+
+``make_policy("smc", env, preset="tuned")`` loads ``vtrack_gym/baselines/presets/smc_tuned.json`` (shipped
+with the package if a tuning run was accepted); without that file it raises ``ValueError``. The PD-FLC gains
+belong to the env (``EnvConfig(speed_controller=...)``), not to the steering policy: ``load_preset`` returns
+them, ``make_policy`` ignores them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime as dt
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+FORMAT = "vtrack-tuned-preset"
+FORMAT_VERSION = 1
+MAX_BYTES = 1 << 20
+PACKAGED_DIR = Path(__file__).resolve().parent.parent / "baselines" / "presets"
+TOP_KEYS = {"format", "format_version", "controller", "config", "speed_controller", "provenance"}
+PROVENANCE_KEYS = {"command", "seed", "budget", "space", "best_fitness", "metrics", "package_version", "date_utc",
+                   "scenario", "wall_time_s", "episodes", "note"}
+SPEED_KEYS = ("g1", "g2", "g3", "g4")
+
+
+class PresetError(ValueError):
+    """A preset file that is not a valid tuned preset (it is never executed)."""
+
+
+def _reject_constant(name: str) -> Any:
+    raise PresetError(f"non-finite number {name} in preset")
+
+
+def _check_json_value(value: Any, where: str, depth: int = 0) -> None:
+    if depth > 8:
+        raise PresetError(f"{where}: nested too deeply")
+    if isinstance(value, float) and not math.isfinite(value):
+        raise PresetError(f"{where}: non-finite number")
+    if isinstance(value, dict):
+        for k, v in value.items():
+            _check_json_value(v, f"{where}.{k}", depth + 1)
+    elif isinstance(value, list):
+        for j, v in enumerate(value):
+            _check_json_value(v, f"{where}[{j}]", depth + 1)
+
+
+def _config_type(controller: str) -> type:
+    if controller == "smc":
+        from vtrack_gym.baselines.smc import SMCConfig
+
+        return SMCConfig
+    if controller == "mpc":
+        from vtrack_gym.baselines.mpc import MPCConfig
+
+        return MPCConfig
+    raise PresetError(f"controller must be 'smc' or 'mpc' (got {controller!r})")
+
+
+def _number(value: Any, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise PresetError(f"{where} must be a finite number (got {value!r})")
+    return float(value)
+
+
+def parse_preset(text: str | bytes) -> dict[str, Any]:
+    """Validate preset text; returns ``{"controller", "config", "speed_controller", "provenance"}`` with
+    ``config`` a ``SMCConfig``/``MPCConfig`` and ``speed_controller`` a dict of g1..g4 (or None)."""
+    if isinstance(text, bytes):
+        if len(text) > MAX_BYTES:
+            raise PresetError(f"preset larger than {MAX_BYTES} bytes")
+        try:
+            text = text.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise PresetError("preset is not UTF-8 JSON text") from exc
+    if len(text) > MAX_BYTES:
+        raise PresetError(f"preset larger than {MAX_BYTES} bytes")
+    try:
+        data = json.loads(text, parse_constant=_reject_constant)
+    except PresetError:
+        raise
+    except (json.JSONDecodeError, RecursionError) as exc:
+        raise PresetError(f"preset is not valid JSON ({exc})") from None
+    if not isinstance(data, dict):
+        raise PresetError("preset must be a JSON object")
+    unknown = sorted(set(data) - TOP_KEYS)
+    if unknown:
+        raise PresetError(f"unknown preset key(s) {', '.join(unknown)}; valid: {', '.join(sorted(TOP_KEYS))}")
+    if data.get("format") != FORMAT or data.get("format_version") != FORMAT_VERSION:
+        raise PresetError(f"preset must have format {FORMAT!r} and format_version {FORMAT_VERSION}")
+    controller = data.get("controller")
+    cfg_type = _config_type(controller)
+    raw = data.get("config")
+    if not isinstance(raw, dict):
+        raise PresetError("preset 'config' must be an object")
+    fields = {f.name: f for f in dataclasses.fields(cfg_type)}
+    unknown = sorted(set(raw) - set(fields))
+    if unknown:
+        raise PresetError(f"unknown {cfg_type.__name__} field(s) {', '.join(unknown)}")
+    kwargs: dict[str, Any] = {}
+    defaults = cfg_type()
+    for name, value in raw.items():
+        ref = getattr(defaults, name)
+        if isinstance(ref, bool):
+            if not isinstance(value, bool):
+                raise PresetError(f"config.{name} must be true/false")
+            kwargs[name] = value
+        elif isinstance(ref, tuple):
+            if not isinstance(value, list) or len(value) > 64:
+                raise PresetError(f"config.{name} must be a list of numbers")
+            kwargs[name] = tuple(_number(v, f"config.{name}") for v in value)
+        elif isinstance(ref, int):
+            if isinstance(value, bool) or not isinstance(value, int):
+                raise PresetError(f"config.{name} must be an integer")
+            kwargs[name] = value
+        elif isinstance(ref, float):
+            kwargs[name] = _number(value, f"config.{name}")
+        elif isinstance(ref, str):
+            if not isinstance(value, str):
+                raise PresetError(f"config.{name} must be a string")
+            kwargs[name] = value
+        else:  # pragma: no cover - all config fields are covered above
+            raise PresetError(f"config.{name}: unsupported field type")
+    try:
+        config = cfg_type(**kwargs)
+    except (ValueError, TypeError) as exc:
+        raise PresetError(f"invalid {cfg_type.__name__}: {exc}") from None
+    speed = data.get("speed_controller")
+    if speed is not None:
+        if not isinstance(speed, dict):
+            raise PresetError("preset 'speed_controller' must be an object")
+        unknown = sorted(set(speed) - set(SPEED_KEYS))
+        if unknown:
+            raise PresetError(f"unknown speed_controller key(s) {', '.join(unknown)}; valid: {', '.join(SPEED_KEYS)}")
+        speed = {k: _number(v, f"speed_controller.{k}") for k, v in speed.items()}
+        if any(v <= 0 for v in speed.values()):
+            raise PresetError("speed_controller gains must be > 0")
+    prov = data.get("provenance", {})
+    if not isinstance(prov, dict):
+        raise PresetError("preset 'provenance' must be an object")
+    unknown = sorted(set(prov) - PROVENANCE_KEYS)
+    if unknown:
+        raise PresetError(f"unknown provenance key(s) {', '.join(unknown)}")
+    _check_json_value(prov, "provenance")
+    return {"controller": controller, "config": config, "speed_controller": speed, "provenance": prov}
+
+
+def load_preset(path: str | Path) -> dict[str, Any]:
+    """Read and validate a preset file (see ``parse_preset``)."""
+    p = Path(path)
+    if p.stat().st_size > MAX_BYTES:
+        raise PresetError(f"{p}: larger than {MAX_BYTES} bytes")
+    try:
+        return parse_preset(p.read_bytes())
+    except PresetError as exc:
+        raise PresetError(f"{p}: {exc}") from None
+
+
+def preset_dict(controller: str, config: Any, speed_config: Any = None,
+                provenance: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The JSON object of a preset (validated by a round trip through ``parse_preset`` on save)."""
+    cfg = {k: (list(v) if isinstance(v, tuple) else v) for k, v in dataclasses.asdict(config).items()}
+    out: dict[str, Any] = {"format": FORMAT, "format_version": FORMAT_VERSION, "controller": controller,
+                           "config": cfg}
+    if speed_config is not None:
+        out["speed_controller"] = {k: float(getattr(speed_config, k)) for k in SPEED_KEYS}
+    prov = dict(provenance or {})
+    prov.setdefault("date_utc", dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"))
+    if "package_version" not in prov:
+        from vtrack_gym import __version__
+
+        prov["package_version"] = __version__
+    out["provenance"] = prov
+    return out
+
+
+def save_preset(path: str | Path, controller: str, config: Any, speed_config: Any = None,
+                provenance: dict[str, Any] | None = None) -> Path:
+    """Write a preset file (JSON, sorted keys); refuses anything ``parse_preset`` would refuse."""
+    data = preset_dict(controller, config, speed_config, provenance)
+    text = json.dumps(data, indent=2, sort_keys=True, allow_nan=False)
+    parse_preset(text)
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    tmp = p.with_name(p.name + ".tmp")
+    tmp.write_text(text + "\n", encoding="utf-8")
+    tmp.replace(p)
+    return p
+
+
+def packaged_preset_path(controller: str) -> Path:
+    return PACKAGED_DIR / f"{controller}_tuned.json"
+
+
+def tuned_config(controller: str) -> Any:
+    """The config of the packaged tuned preset of ``controller`` (``ValueError`` if there is none)."""
+    path = packaged_preset_path(controller)
+    if controller not in ("smc", "mpc"):
+        raise ValueError(f"no 'tuned' preset for {controller!r}: only smc and mpc can be GA-tuned")
+    if not path.is_file():
+        raise ValueError(f"no tuned {controller} preset is packaged ({path} missing); run `vtrack tune "
+                         f"--controller {controller} --out FILE` and install FILE there to use preset='tuned'")
+    loaded = load_preset(path)
+    if loaded["controller"] != controller:
+        raise ValueError(f"{path} holds a {loaded['controller']} preset, not {controller}")
+    return loaded["config"]

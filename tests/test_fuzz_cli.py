@@ -144,7 +144,7 @@ def test_cli_usage_errors_exit_2(cli_sandbox, args):
 @pytest.mark.parametrize(("args", "message"), [
     ("eval --policy nope --env DLC120-v0 --store s1.sqlite", "unknown policy 'nope'"),
     ("eval --policy smc --env DLC120-v0 --preset nope --store s1.sqlite", "preset 'nope'"),
-    ("eval --policy smc --env DLC120-v0 --seeds x --store s1.sqlite", "invalid literal"),
+    ("eval --policy smc --env DLC120-v0 --seeds x --store s1.sqlite", "--seeds must be"),
     ("eval --policy /etc/passwd --env DLC120-v0 --store s1.sqlite", "looks like an agent file"),
     ("eval --policy ../../etc/passwd --env DLC120-v0 --store s1.sqlite", "unknown policy"),
     ("eval --policy smc --env CartPole-v1 --store s1.sqlite", "design_model"),
@@ -156,28 +156,17 @@ def test_cli_own_errors_return_2_with_message(cli_sandbox, args, message):
     assert rc == 2 and message in err
 
 
-def _xfail(reason: str):
-    return pytest.mark.xfail(strict=True, reason=reason)
 
 
 @pytest.mark.parametrize("args", [
-    pytest.param("leaderboard --store agent.json", marks=_xfail(
-        "BUG: StoreError (a RuntimeError) from ResultStore escapes cli.main: a --store file that is not a vtrack "
-        "store prints a traceback"), id="store_not_sqlite"),
-    pytest.param("benchmark --policies smc --no-figures --store agent.json", marks=_xfail(
-        "BUG: StoreError escapes cli.main (benchmark)"), id="benchmark_store_not_sqlite"),
-    pytest.param("leaderboard --store garbage_dir", marks=_xfail(
-        "BUG: sqlite3.OperationalError escapes cli.main when --store is a directory"), id="store_is_directory"),
-    pytest.param("eval --policy smc --env Nope-v0 --store s2.sqlite", marks=_xfail(
-        "BUG: gymnasium.error.NameNotFound escapes cli.main for an unknown --env"), id="unknown_env"),
-    pytest.param("eval --policy smc --env ../../etc/passwd --store s2.sqlite", marks=_xfail(
-        "BUG: gymnasium.error.Error (malformed env id) escapes cli.main"), id="malformed_env"),
-    pytest.param("eval --policy smc --env DLC120-v0 --seeds -1 --store s2.sqlite", marks=_xfail(
-        "BUG: gymnasium.error.Error (negative seed) escapes cli.main"), id="negative_seed"),
-    pytest.param("plot --policies , --env DLC120-v0 --out figs", marks=_xfail(
-        "BUG: plot with an empty policy list raises IndexError in write_figures (traces[0])"), id="plot_no_policy"),
-    pytest.param("plot --policies smc --env Nope-v0 --out figs", marks=_xfail(
-        "BUG: gymnasium.error.NameNotFound escapes cli.main (plot)"), id="plot_unknown_env"),
+    pytest.param("leaderboard --store agent.json", id="store_not_sqlite"),
+    pytest.param("benchmark --policies smc --no-figures --store agent.json", id="benchmark_store_not_sqlite"),
+    pytest.param("leaderboard --store garbage_dir", id="store_is_directory"),
+    pytest.param("eval --policy smc --env Nope-v0 --store s2.sqlite", id="unknown_env"),
+    pytest.param("eval --policy smc --env ../../etc/passwd --store s2.sqlite", id="malformed_env"),
+    pytest.param("eval --policy smc --env DLC120-v0 --seeds -1 --store s2.sqlite", id="negative_seed"),
+    pytest.param("plot --policies , --env DLC120-v0 --out figs", id="plot_no_policy"),
+    pytest.param("plot --policies smc --env Nope-v0 --out figs", id="plot_unknown_env"),
 ])
 def test_cli_known_tracebacks(cli_sandbox, args):
     rc, _, err = _check(shlex.split(args))

@@ -202,8 +202,6 @@ def test_cli_store_payloads_never_execute(tmp_path, marker, monkeypatch):
         assert not marker.exists(), name
 
 
-@pytest.mark.xfail(strict=True, reason="BUG: a path-like --env is handed to gymnasium.make, whose error.Error "
-                   "escapes cli.main as a traceback (validate --env against the vtrack ids)")
 def test_cli_env_traversal_name_is_refused(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     rc, err = _run_cli(["eval", "--policy", "smc", "--env", "../../etc/passwd", "--store", "s.sqlite"])

@@ -11,11 +11,12 @@ from __future__ import annotations
 
 import argparse
 import logging
+import sqlite3
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from vtrack_gym.evaluation.store import DEFAULT_STORE_PATH
+from vtrack_gym.evaluation.store import DEFAULT_STORE_PATH, StoreError
 
 DEFAULT_FIGURES_DIR = Path("vtrack_results") / "figures"
 
@@ -127,15 +128,41 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
     return 0
 
 
+def _parse_seeds(text: str) -> list[int]:
+    """Comma-separated non-negative integer seeds; ``ValueError`` naming the bad one."""
+    seeds = []
+    for item in (t.strip() for t in text.split(",")):
+        if not item:
+            continue
+        if not item.isdigit():
+            raise ValueError(f"--seeds must be comma-separated integers >= 0 (got {item!r})")
+        seeds.append(int(item))
+    if not seeds:
+        raise ValueError("--seeds needs at least one seed, e.g. --seeds 0,1,2")
+    return seeds
+
+
+def _known_env(env_id: str) -> str:
+    """``env_id`` if Gymnasium knows it (vtrack ids, the highway adapter), else a ValueError listing ours."""
+    from gymnasium.envs.registration import registry
+
+    import vtrack_gym
+
+    if env_id not in registry:
+        raise ValueError(f"unknown --env {env_id!r}; vtrack envs: {', '.join(vtrack_gym.ENV_IDS)}, "
+                         "highway-env:lane-keeping-v0")
+    return env_id
+
+
 def _cmd_eval(args: argparse.Namespace) -> int:
     from vtrack_gym.evaluation.benchmark import score_policy
     from vtrack_gym.evaluation.store import ResultStore, to_markdown
     from vtrack_gym.evaluation.suites import Episode
     from vtrack_gym.interop import resolve_env_id
 
-    seeds = [int(s) for s in args.seeds.split(",") if s.strip()]
+    seeds = _parse_seeds(args.seeds)
     make = _policy_factory(args.policy, args.preset)
-    env_id = resolve_env_id(args.env)
+    env_id = _known_env(resolve_env_id(args.env))
     rows, _ = score_policy(args.policy, make, [Episode(env_id, s) for s in seeds], "custom")
     ResultStore(args.store).add(rows)
     table = [{"seed": r.seed, "termination": r.termination, **{k: v for k, v in r.metrics.items()
@@ -176,9 +203,12 @@ def _cmd_plot(args: argparse.Namespace) -> int:
     from vtrack_gym.evaluation.suites import Episode
     from vtrack_gym.interop import resolve_env_id
 
-    env_id = resolve_env_id(args.env)
+    env_id = _known_env(resolve_env_id(args.env))
+    names = [p for p in args.policies.split(",") if p.strip()]
+    if not names:
+        raise ValueError("--policies needs at least one policy name, e.g. --policies smc,mpc")
     rows, traces = [], []
-    for name in [p for p in args.policies.split(",") if p]:
+    for name in names:
         r, t = score_policy(name, _policy_factory(name, "default"), [Episode(env_id, 0)], "custom")
         rows += r
         traces += t
@@ -253,7 +283,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 "tune": _cmd_tune}
     try:
         return handlers[args.command](args)
-    except (ValueError, FileNotFoundError, ImportError) as exc:
+    except (ValueError, FileNotFoundError, ImportError, StoreError, sqlite3.Error) as exc:
         print(f"vtrack {args.command}: error: {exc}", file=sys.stderr)
         return 2
 

@@ -148,16 +148,27 @@ class ResetOptions:
             return cls()
         if not isinstance(options, dict):
             raise ValueError(f"reset options must be a dict (got {type(options).__name__})")
-        values: dict[str, float] = {}
-        for key, value in options.items():
-            if key not in cls.RANGES:
-                raise ValueError(f"unknown reset option {key!r}; valid options: {', '.join(sorted(cls.RANGES))}")
-            lo, hi = cls.RANGES[key]
-            try:
-                v = float(value)
-            except (TypeError, ValueError):
-                raise ValueError(f"reset option {key!r} must be a number in [{lo}, {hi}] (got {value!r})") from None
-            if not (math.isfinite(v) and lo <= v <= hi):
-                raise ValueError(f"reset option {key!r} must be in [{lo}, {hi}] (got {value!r})")
-            values[key] = v
+        values = validate_numeric_options(options, cls.RANGES)
         return cls(**values)
+
+
+def validate_numeric_options(options: dict[str, Any], ranges: dict[str, tuple[float, float]],
+                             extra_valid: tuple[str, ...] = ()) -> dict[str, float]:
+    """Check every option is a known name with a finite number in its range; ``ValueError`` naming it.
+
+    ``extra_valid`` lists option names handled elsewhere (only used in the "valid options" message).
+    """
+    values: dict[str, float] = {}
+    for key, value in options.items():
+        if key not in ranges:
+            valid = ", ".join([*extra_valid, *sorted(ranges)])
+            raise ValueError(f"unknown reset option {key!r}; valid options: {valid}")
+        lo, hi = ranges[key]
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"reset option {key!r} must be a number in [{lo}, {hi}] (got {value!r})") from None
+        if not (math.isfinite(v) and lo <= v <= hi):
+            raise ValueError(f"reset option {key!r} must be in [{lo}, {hi}] (got {value!r})")
+        values[key] = v
+    return values

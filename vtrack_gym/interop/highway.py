@@ -71,6 +71,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from vtrack_gym.envs.config import validate_numeric_options
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.envs.tracking_env import check_action
 from vtrack_gym.interop import HIGHWAY_ENV_ID
@@ -394,18 +395,7 @@ class HighwayLaneKeeping(gym.Env):
         if start not in START_MODES:
             raise ValueError(f"reset option 'start' must be one of {', '.join(START_MODES)} (got {start!r})")
         values = dict(self.RESET_DEFAULTS)
-        for key, value in opts.items():
-            if key not in self.RESET_RANGES:
-                raise ValueError(f"unknown reset option {key!r}; valid options: start, "
-                                 f"{', '.join(sorted(self.RESET_RANGES))}")
-            lo, hi = self.RESET_RANGES[key]
-            try:
-                v = float(value)
-            except (TypeError, ValueError):
-                raise ValueError(f"reset option {key!r} must be a number in [{lo}, {hi}] (got {value!r})") from None
-            if not (math.isfinite(v) and lo <= v <= hi):
-                raise ValueError(f"reset option {key!r} must be in [{lo}, {hi}] (got {value!r})")
-            values[key] = v
+        values.update(validate_numeric_options(opts, self.RESET_RANGES, extra_valid=("start",)))
         if start == "highway" and opts:
             raise ValueError(f"reset options {', '.join(sorted(opts))} only apply to start='sine'")
         self._hw.reset(seed=seed)

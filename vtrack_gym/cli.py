@@ -104,6 +104,13 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--max-steps", type=int, default=None,
                    help="cut every episode after this many steps (smoke tests only; default: full episodes)")
     t.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+    r = sub.add_parser("reproduce", help="rerun the paper's Case 1 and Case 2 and check its claims",
+                       description="Run PD-FLC + SMC and PD-FLC + MPC (paper presets and tuned/default presets) on "
+                       "LateralTracking-v0 and DLC120-v0, write the paper-figure analogues to OUT/reproduction/ "
+                       "and the claim-by-claim report OUT/REPRODUCTION.md (deterministic apart from a timestamp).")
+    r.add_argument("--quick", action="store_true", help="cut every episode short (smoke test, not a reproduction)")
+    r.add_argument("--out", type=Path, default=Path("docs"), help="output folder (default: docs)")
     return parser
 
 
@@ -271,6 +278,19 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_reproduce(args: argparse.Namespace) -> int:
+    import time
+
+    from vtrack_gym.evaluation.reproduce import reproduce
+
+    start = time.perf_counter()
+    result = reproduce(args.out, quick=args.quick, progress=lambda msg: print(f"running {msg}", file=sys.stderr))
+    for f in result["figures"]:
+        print(f"figure: {f}", file=sys.stderr)
+    print(f"report: {result['report']} ({time.perf_counter() - start:.1f} s)")
+    return 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``vtrack``; returns the process exit code."""
     parser = build_parser()
@@ -280,7 +300,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     import vtrack_gym  # noqa: F401  (registers the env ids)
 
     handlers = {"benchmark": _cmd_benchmark, "eval": _cmd_eval, "leaderboard": _cmd_leaderboard, "plot": _cmd_plot,
-                "tune": _cmd_tune}
+                "tune": _cmd_tune, "reproduce": _cmd_reproduce}
     try:
         return handlers[args.command](args)
     except (ValueError, FileNotFoundError, ImportError, StoreError, sqlite3.Error) as exc:

@@ -1,0 +1,427 @@
+"""Reproduce the paper's results section (issue 8): what ``vtrack reproduce`` runs.
+
+Case 1 (``LateralTracking-v0``: 0 -> 40 km/h on the handling course) and Case 2 (``DLC120-v0``: double lane
+change at 120 km/h), each with PD-FLC + SMC and PD-FLC + MPC, for two preset pairs:
+
+- ``paper``: SMC preset ``paper`` (Table 3) vs MPC preset ``paper`` (Table 3 weights);
+- ``tuned``: SMC preset ``tuned`` (the shipped GA result) vs MPC preset ``default`` (hand-tuned; there is no
+  packaged MPC ``tuned`` preset).
+
+Writes the paper-figure analogues (Figs. 8-13 for Case 1, 15-19 for Case 2) as PNG files and a Markdown report
+that checks every quantitative claim of the paper. The report is deterministic: apart from its ``Generated:``
+line it depends only on the simulation results (no wall times, fixed float formatting).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+
+from vtrack_gym.evaluation.metrics import evaluate_trace
+from vtrack_gym.evaluation.rollout import rollout
+from vtrack_gym.evaluation.trace import Trace
+
+G_MPS2 = 9.81
+"""Standard gravity used to express lateral accelerations in g."""
+
+TIMESTAMP_PREFIX = "Generated: "
+"""The only line of the report that changes between two runs starts with this."""
+
+QUICK_MAX_STEPS = {"LateralTracking-v0": 1500, "DLC120-v0": 500}
+"""Control steps per episode with ``--quick`` (15 s and 5 s of driving: a smoke test, not a reproduction)."""
+
+CASES: tuple[tuple[str, str, str], ...] = (
+    ("case1", "LateralTracking-v0", "Case 1: handling course, 0 -> 40 km/h"),
+    ("case2", "DLC120-v0", "Case 2: double lane change, 120 km/h"),
+)
+
+
+@dataclass(frozen=True)
+class PresetPair:
+    """One SMC preset compared with one MPC preset."""
+
+    key: str
+    smc_preset: str
+    mpc_preset: str
+
+    @property
+    def label(self) -> str:
+        return f"SMC `{self.smc_preset}` vs MPC `{self.mpc_preset}`"
+
+
+PAIRS: tuple[PresetPair, ...] = (PresetPair("paper", "paper", "paper"), PresetPair("tuned", "tuned", "default"),
+                                  PresetPair("default", "default", "default"))
+"""The preset pairs compared in the claim table (``paper`` first)."""
+
+EXTRA_RUNS: tuple[tuple[str, str], ...] = ()
+"""Runs reported in the all-runs table only (not part of a pair)."""
+
+FAILURES = ("off_road", "spin_out", "wheel_lift")
+
+METRIC_KEYS = ("hand_wheel_deg", "e_y_m", "e_phi_deg", "a_y_mps2", "roll_deg")
+
+
+def _f(x: float, digits: int = 3) -> str:
+    """Fixed, platform-independent formatting (3 significant digits by default)."""
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "nan"
+    if x == 0:
+        return "0"
+    return f"{x:.{digits}g}" if abs(x) >= 1e-3 else f"{x:.{digits - 1}e}"
+
+
+def _pct(x: float) -> str:
+    return "nan" if math.isnan(x) else f"{x:+.1f} %"
+
+
+@dataclass
+class Run:
+    """One episode: policy, preset, env, its trace and metrics."""
+
+    policy: str
+    preset: str
+    env_id: str
+    trace: Trace
+    metrics: dict[str, Any]
+
+    @property
+    def name(self) -> str:
+        return f"{self.policy}[{self.preset}]"
+
+    @property
+    def failed(self) -> bool:
+        return self.trace.termination in FAILURES
+
+
+def run_episode(policy: str, preset: str, env_id: str, max_steps: int | None) -> Run:
+    """Roll out ``policy`` with ``preset`` on ``env_id`` (seed 0, nominal conditions) and score it."""
+    from vtrack_gym.baselines.registry import make_policy
+    from vtrack_gym.evaluation.benchmark import cones_hit
+
+    env = gym.make(env_id)
+    pol = make_policy(policy, env, preset=preset)
+    trace = rollout(pol, env, seed=0, max_steps=max_steps)
+    trace.policy_id = f"{policy}[{preset}]"
+    metrics = evaluate_trace(trace, cones_hit(env, trace))
+    env.close()
+    return Run(policy, preset, env_id, trace, metrics)
+
+
+# --------------------------------------------------------------------------------------------- claims
+
+
+@dataclass(frozen=True)
+class Claim:
+    """One quantitative claim of the paper and how to check it on a (SMC run, MPC run) pair."""
+
+    case: str
+    text: str
+    paper: str
+    ours: Callable[[Run, Run], str]
+    holds: Callable[[Run, Run], bool]
+    criterion: str
+    reason: str
+
+
+def _dev(smc: Run, mpc: Run, key: str) -> float:
+    """(MPC - SMC) / |SMC| x 100 % (negative: MPC lower)."""
+    a, b = smc.metrics[key], mpc.metrics[key]
+    return 100.0 * (b - a) / abs(a) if a else math.nan
+
+
+def _cmp(key: str, unit: str = "") -> Callable[[Run, Run], str]:
+    def ours(smc: Run, mpc: Run) -> str:
+        return (f"SMC {_f(smc.metrics[key])}{unit}, MPC {_f(mpc.metrics[key])}{unit}; "
+                f"MPC vs SMC {_pct(_dev(smc, mpc, key))}")
+    return ours
+
+
+def _g(run: Run) -> float:
+    return run.metrics["max_a_y_mps2"] / G_MPS2
+
+
+REASON_PLANT = ("different plant (our nonlinear two-track model with a roll DOF and a steering actuator, not "
+                "CarSim) and a geometric reference path (no reference-car sideslip in phi_r)")
+REASON_TRACK = ("different track geometry (CarSim's course is not public: ours is our own course with its "
+                "statistics)")
+REASON_SMC = {
+    "case1": ("The Table-3 SMC does not track (triple pole at -0.0445 1/s, e_y gain c1 ~ -6e-7, singular speed "
+              "38.9 km/h just below the 40 km/h target): its numbers cover only the part driven before failing."),
+    "case2": ("The Table-3 SMC does not track (triple pole at -0.0445 1/s, e_y gain c1 ~ 0): at 120 km/h the lane "
+              "change makes e_y grow until the car spins; its numbers cover only the part driven before failing."),
+}
+REASON_DLC = ("our DLC doubles the ISO 3888-1 section lengths (the native lengths need ~3.2 g at 120 km/h), so "
+              "the manoeuvre is milder than whatever the paper drove")
+
+CLAIMS: tuple[Claim, ...] = (
+    Claim("case1", "RMS e_y: MPC lower than SMC", "about 15 % lower (Fig. 13)", _cmp("rms_e_y_m", " m"),
+          lambda s, m: m.metrics["rms_e_y_m"] < s.metrics["rms_e_y_m"], "MPC < SMC",
+          f"{REASON_PLANT}; with a working SMC surface (p ~ 10 rad/s) the SMC tracks to millimetres"),
+    Claim("case1", "RMS e_phi: MPC lower than SMC", "nearly 10 % lower (Fig. 13)", _cmp("rms_e_phi_deg", " deg"),
+          lambda s, m: m.metrics["rms_e_phi_deg"] < s.metrics["rms_e_phi_deg"], "MPC < SMC", REASON_PLANT),
+    Claim("case1", "RMS hand-wheel angle: SMC and MPC within 5 %", "below 5 % apart, SMC higher (Fig. 13)",
+          _cmp("rms_hand_wheel_deg", " deg"), lambda s, m: abs(_dev(s, m, "rms_hand_wheel_deg")) < 5.0,
+          "abs(deviation) < 5 %", REASON_PLANT),
+    Claim("case1", "RMS a_y: SMC and MPC within 1 %", "below 1 % apart, SMC higher (Fig. 13)",
+          _cmp("rms_a_y_mps2", " m/s^2"), lambda s, m: abs(_dev(s, m, "rms_a_y_mps2")) < 1.0,
+          "abs(deviation) < 1 %", REASON_PLANT),
+    Claim("case1", "RMS roll: SMC lower than MPC", "SMC 15 % lower (Fig. 13)", _cmp("rms_roll_deg", " deg"),
+          lambda s, m: s.metrics["rms_roll_deg"] < m.metrics["rms_roll_deg"], "SMC < MPC", REASON_PLANT),
+    Claim("case1", "Peak hand-wheel angle", "MPC below 200 deg, SMC over 500 deg (Fig. 9)",
+          _cmp("max_hand_wheel_deg", " deg"),
+          lambda s, m: m.metrics["max_hand_wheel_deg"] < 200.0 and s.metrics["max_hand_wheel_deg"] > 500.0,
+          "MPC < 200 deg and SMC > 500 deg",
+          f"{REASON_TRACK}; the paper's SMC peak comes from its fluctuation periods (Fig. 9), which our tracking "
+          "SMC presets do not have"),
+    Claim("case1", "Peak lateral acceleration", "MPC below 0.7 g, SMC above 0.85 g (Fig. 10)",
+          lambda s, m: f"SMC {_f(_g(s))} g, MPC {_f(_g(m))} g",
+          lambda s, m: _g(m) < 0.7 and _g(s) > 0.85, "MPC < 0.7 g and SMC > 0.85 g",
+          f"{REASON_TRACK}; the paper's SMC 0.85 g peaks are fluctuations our tracking SMC presets do not have"),
+    Claim("case2", "SMC better on every max metric", "SMC lower on max hand-wheel, e_y, e_phi, a_y, roll (Fig. 19)",
+          lambda s, m: "MPC vs SMC " + ", ".join(f"{k} {_pct(_dev(s, m, 'max_' + k))}" for k in METRIC_KEYS),
+          lambda s, m: all(s.metrics[f"max_{k}"] < m.metrics[f"max_{k}"] for k in METRIC_KEYS),
+          "SMC < MPC on all five",
+          f"{REASON_PLANT}; {REASON_DLC}; our MPC (all 12 augmented states weighted, our reading of the paper's "
+          "I_w) tracks the lane change more tightly than the SMC"),
+    Claim("case2", "Max e_y: SMC lower than MPC", "about 20 % lower (Fig. 19)", _cmp("max_e_y_m", " m"),
+          lambda s, m: s.metrics["max_e_y_m"] < m.metrics["max_e_y_m"], "SMC < MPC", f"{REASON_PLANT}; {REASON_DLC}"),
+    Claim("case2", "Lateral deviation below 0.25 m", "below 0.25 m, both (Fig. 15)", _cmp("max_e_y_m", " m"),
+          lambda s, m: s.metrics["max_e_y_m"] < 0.25 and m.metrics["max_e_y_m"] < 0.25, "both max e_y < 0.25 m",
+          f"{REASON_DLC}"),
+    Claim("case2", "Peak lateral acceleration about 0.81 g", "approximately 0.81 g (Fig. 17)",
+          lambda s, m: f"SMC {_f(_g(s))} g, MPC {_f(_g(m))} g",
+          lambda s, m: abs(_g(s) - 0.81) <= 0.1 and abs(_g(m) - 0.81) <= 0.1, "both within 0.81 +- 0.10 g",
+          f"{REASON_DLC} (the x2 scaling was chosen to give ~0.8 g)"),
+    Claim("case2", "Roll below 4 deg", "below 4 deg (Fig. 18)", _cmp("max_roll_deg", " deg"),
+          lambda s, m: s.metrics["max_roll_deg"] < 4.0 and m.metrics["max_roll_deg"] < 4.0, "both max roll < 4 deg",
+          "our roll model (roll stiffness, damping and roll-centre height are our CHOICE values, not CarSim's)"),
+)
+
+
+def _verdict(claim: Claim, smc: Run, mpc: Run, quick: bool) -> tuple[str, str]:
+    """('yes' / 'no' / 'not comparable', note)."""
+    failed = [r for r in (smc, mpc) if r.failed]
+    if failed:
+        what = "; ".join(f"{r.name} ended `{r.trace.termination}` after "
+                         f"{_f(float(r.trace['progress_m'][-1]))} m" for r in failed)
+        note = f"{what}. " + (REASON_SMC[claim.case] if any(r.policy == "smc" and r.preset == "paper" for r in failed)
+                              else "A run failed, so the metrics cover different distances.")
+        return "not comparable", note
+    ok = bool(claim.holds(smc, mpc))
+    note = "" if ok else f"Likely reason: {claim.reason}."
+    if quick:
+        note = ("quick run (episodes cut short): not a reproduction. " + note).strip()
+    return ("yes" if ok else "no"), note
+
+
+# --------------------------------------------------------------------------------------------- figures
+
+
+FIGURES = {
+    "case1": ("fig08", "fig09-12", "fig13"),
+    "case2": ("fig15", "fig16-18", "fig19"),
+}
+
+
+def write_figures(runs: dict[tuple[str, str, str], Run], out_dir: Path, dpi: int = 60) -> list[Path]:
+    """Trajectories, signals and deviation-rate bars per case and preset pair (modest dpi)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from vtrack_gym.evaluation import plots
+
+    files: list[Path] = []
+    with matplotlib.rc_context({"savefig.dpi": dpi, "svg.hashsalt": "vtrack", "path.simplify": True}):
+        for case, env_id, title in CASES:
+            env = gym.make(env_id)
+            env.reset(seed=0)
+            path = env.unwrapped.current_path
+            f_traj, f_sig, f_dev = FIGURES[case]
+            prefix = "max_" if case == "case2" else "rms_"
+            keys = [f"{prefix}{k}" for k in METRIC_KEYS]
+            for pair in PAIRS:
+                smc = runs[("smc", pair.smc_preset, env_id)]
+                mpc = runs[("mpc", pair.mpc_preset, env_id)]
+                stem = f"{case}_{pair.key}"
+                files.append(plots.plot_trajectories([smc.trace, mpc.trace], path,
+                                                     out_dir / f"{f_traj}_{stem}_trajectories.png",
+                                                     title=f"{title}: {smc.name} vs {mpc.name}"))
+                files.append(plots.plot_signals([smc.trace, mpc.trace], out_dir / f"{f_sig}_{stem}_signals.png",
+                                                title=f"{title}: {smc.name} vs {mpc.name}"))
+                files.append(plots.plot_deviation_rates(smc.name, smc.metrics, mpc.name, mpc.metrics, keys,
+                                                        out_dir / f"{f_dev}_{stem}_deviation_rates.png"))
+            env.close()
+    return files
+
+
+# --------------------------------------------------------------------------------------------- report
+
+CORRECTIONS: tuple[tuple[str, str], ...] = (
+    ("Eq. (7), sign of e_y",
+     "As printed, eq. (7) gives a right-positive e_y while the error dynamics (8) need a left-positive one; "
+     "controllers derived from (8) and fed (7) have positive feedback on e_y. We use "
+     "e_y = -(X - X_r) sin phi_r + (Y - Y_r) cos phi_r."),
+    ("Eq. (9), misplaced column",
+     "In rows 2 and 6 the `-x_dot` term belongs in the phi_dot column (4), not the e_y column (5). We use the "
+     "corrected 8-state model (only 4 of its states are controllable, which does no harm)."),
+    ("Eq. (24), typo",
+     "In x4_dot the `phi_dot` must read `phi_dot_r` (the reference yaw rate). Fixed."),
+    ("Eq. (40), ITAE",
+     "As printed the metric is ill-posed: |.| is inside the bracket, phi_n is undefined and the integrand can be "
+     "zero or negative for a non-zero error (a minimiser would reward errors). We use J = integral of t |e_y| dt."),
+    ("Table-3 SMC gains do not track",
+     "p = 0.0445 places a triple pole at -0.0445 1/s and makes the e_y feedback gain c1 = -6.2e-7: the surface "
+     "pins sigma ~ 0 but does not pull e_y back, so on any curve e_y drifts. We ship these gains unchanged as the "
+     "`paper` SMC preset; in our runs it does not complete either case (see the table). The "
+     "`default` and `tuned` SMC presets use p of order 10 rad/s, which tracks."),
+    ("SMC singular speed",
+     "The pole placement (39) is singular at v* = 10.81 m/s (38.9 km/h), 2.8 % below Case 1's 40 km/h; the gains "
+     "flip sign across v*, and Case 1 accelerates through it from standstill."),
+    ("Boundary layer vs control period",
+     "eta / Delta = 1590 1/s needs a control period below 2 Delta / eta = 1.26 ms; at our 10 ms control period the "
+     "Table-3 layer chatters, so the `paper` SMC preset widens the layer to eta T_c (logged when built)."),
+    ("PD-FLC sign and e_v",
+     "Table 1 is the anti-diagonal PD table out = -clip(i_e + j_de, -3, 3), which implies e_v = v - v_ref "
+     "(positive output -> throttle). We use that sign."),
+    ("DLC geometry scaled x2",
+     "The ISO 3888-1 double lane change at its native section lengths needs about 3.2 g at 120 km/h, which no car "
+     "can drive. `DLC120-v0` keeps the ISO gate widths and doubles the section lengths, which gives the paper's "
+     "~0.8 g."),
+)
+
+
+def _runs_table(runs: Sequence[Run]) -> list[str]:
+    cols = ("rms_e_y_m", "max_e_y_m", "rms_e_phi_deg", "max_e_phi_deg", "rms_hand_wheel_deg", "max_hand_wheel_deg",
+            "rms_a_y_mps2", "max_a_y_mps2", "rms_roll_deg", "max_roll_deg", "itae")
+    lines = ["| env | run | termination | distance_m | duration_s | cones_hit | " + " | ".join(cols) + " |",
+             "|" + "---|" * (6 + len(cols))]
+    for r in runs:
+        cones = r.metrics.get("cones_hit")
+        lines.append(f"| {r.env_id} | {r.name} | {r.trace.termination} | {_f(r.metrics['progress_m'], 4)} | "
+                     f"{_f(r.metrics['duration_s'], 4)} | {'-' if cones is None else int(cones)} | "
+                     + " | ".join(_f(r.metrics[c]) for c in cols) + " |")
+    return lines
+
+
+def build_report(runs: dict[tuple[str, str, str], Run], figures: Sequence[Path], quick: bool,
+                 timestamp: str) -> str:
+    """The Markdown report (deterministic apart from the ``Generated:`` line)."""
+    cmd = "vtrack reproduce" + (" --quick" if quick else "")
+    lines = [
+        "# Reproducing the paper's results (Case 1 and Case 2)",
+        "",
+        f"{TIMESTAMP_PREFIX}{timestamp}",
+        "",
+        f"Produced by `{cmd}` (`vtrack_gym/evaluation/reproduce.py`); regenerating it changes only the line above.",
+        "Plant: `vtrack_gym`'s nonlinear vehicle model, seed 0, nominal conditions; the PD-FLC holds the speed.",
+        "",
+    ]
+    if quick:
+        steps = ", ".join(f"{k} {v} steps" for k, v in QUICK_MAX_STEPS.items())
+        lines += [f"**Quick run**: episodes cut after {steps}. The verdicts below are a smoke test, not a "
+                  "reproduction: run `vtrack reproduce` without `--quick` for the real one.", ""]
+    lines += [
+        "Preset pairs compared (SMC vs MPC):",
+        "",
+        "- **paper**: SMC `paper` (Table 3 gains) vs MPC `paper` (Table 3 weights).",
+        "- **tuned**: SMC `tuned` (the shipped GA preset `vtrack_gym/baselines/presets/smc_tuned.json`) vs MPC "
+        "`default` (hand-tuned). There is no packaged MPC `tuned` preset (the MPC GA was not shipped), so the MPC "
+        "side of this pair is its default preset.",
+        "- **default**: SMC `default` vs MPC `default` (both hand-tuned; what `vtrack benchmark` scores).",
+        "",
+        "Deviation rates are (MPC - SMC) / |SMC| x 100 % (negative: MPC lower). g = 9.81 m/s^2.",
+        "`not comparable`: one run of the pair failed (left the road or spun), so its metrics cover a different, "
+        "shorter distance and the claim cannot be checked on that pair.",
+        "",
+        "## Claims of the paper vs ours",
+        "",
+        "| case | claim | paper | pair | ours | criterion | holds | note |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    summary: dict[str, dict[str, int]] = {p.key: {} for p in PAIRS}
+    env_of = {case: env_id for case, env_id, _ in CASES}
+    for claim in CLAIMS:
+        env_id = env_of[claim.case]
+        for pair in PAIRS:
+            smc = runs[("smc", pair.smc_preset, env_id)]
+            mpc = runs[("mpc", pair.mpc_preset, env_id)]
+            verdict, note = _verdict(claim, smc, mpc, quick)
+            summary[pair.key][verdict] = summary[pair.key].get(verdict, 0) + 1
+            ours = claim.ours(smc, mpc)
+            lines.append(f"| {claim.case[-1]} | {claim.text} | {claim.paper} | {pair.key} ({pair.label}) | {ours} | "
+                         f"{claim.criterion} | **{verdict}** | {note} |")
+    lines += ["", "Summary per pair:", ""]
+    for pair in PAIRS:
+        counts = ", ".join(f"{k}: {summary[pair.key][k]}" for k in ("yes", "no", "not comparable")
+                           if k in summary[pair.key])
+        lines.append(f"- {pair.key} ({pair.label}): {counts}")
+    lines += [
+        "",
+        "Where a row says **no**, our result disagrees with the paper and the note gives the likely reason. "
+        "Nothing was tuned to make a row agree: the presets are the packaged ones, unchanged.",
+        "",
+        "## All runs",
+        "",
+        *_runs_table(sorted(runs.values(), key=lambda r: (r.env_id != "LateralTracking-v0", r.policy, r.preset))),
+        "",
+        "## Figures (paper-figure analogues)",
+        "",
+        "Figs. 8 / 15: trajectories; Figs. 9-12 / 16-18: hand-wheel angle, e_y, lateral acceleration, roll, "
+        "throttle and brake over time; Figs. 13 / 19: deviation-rate bars (RMS for Case 1, max for Case 2).",
+        "",
+    ]
+    for f in figures:
+        lines.append(f"- [{f.name}](reproduction/{f.name})")
+    lines += [
+        "",
+        "## Errors in the paper that the implementation corrects",
+        "",
+        "Stated plainly (details: the project's derivation notes); every item is a change from the printed paper.",
+        "",
+    ]
+    for i, (head, body) in enumerate(CORRECTIONS, 1):
+        lines.append(f"{i}. **{head}.** {body}")
+    lines += [
+        "",
+        "Other differences that are not corrections but explain disagreements: the plant is ours, not CarSim (tyre, "
+        "roll and steering-actuator parameters marked CHOICE in `vtrack_gym.vehicle.params`); CarSim's handling "
+        "course is not public, so Case 1 runs on our own course built with its statistics; the hand-wheel "
+        "angle is the road-wheel angle x 16 (the paper gives no ratio).",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def reproduce(out_dir: str | Path = "docs", quick: bool = False, figures: bool = True,
+              progress: Callable[[str], None] | None = None) -> dict[str, Any]:
+    """Run every episode, write ``<out_dir>/reproduction/*.png`` and ``<out_dir>/REPRODUCTION.md``.
+
+    Returns ``{"report": path, "figures": [paths], "runs": {(policy, preset, env_id): Run}}``.
+    """
+    out = Path(out_dir)
+    fig_dir = out / "reproduction"
+    wanted: list[tuple[str, str]] = []
+    for pair in PAIRS:
+        for item in (("smc", pair.smc_preset), ("mpc", pair.mpc_preset)):
+            if item not in wanted:
+                wanted.append(item)
+    wanted += [e for e in EXTRA_RUNS if e not in wanted]
+    runs: dict[tuple[str, str, str], Run] = {}
+    for _, env_id, _ in CASES:
+        for policy, preset in wanted:
+            if progress is not None:
+                progress(f"{env_id} {policy}[{preset}]")
+            runs[(policy, preset, env_id)] = run_episode(policy, preset, env_id,
+                                                         QUICK_MAX_STEPS[env_id] if quick else None)
+    files = write_figures(runs, fig_dir) if figures else []
+    stamp = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC")
+    report = out / "REPRODUCTION.md"
+    out.mkdir(parents=True, exist_ok=True)
+    report.write_text(build_report(runs, files, quick, stamp), encoding="utf-8")
+    return {"report": report, "figures": files, "runs": runs}

@@ -70,6 +70,24 @@ def build_parser() -> argparse.ArgumentParser:
     _add_store(lb)
     _add_format(lb)
 
+    tr = sub.add_parser("train", help="train an RL steering agent with stable-baselines3 (extra 'rl')",
+                        description="Train PPO/SAC/TD3 on the native vector env (procedural tracks by default) with "
+                        "the versioned hyperparameters of vtrack_gym/agents/hyperparams, evaluate on both paper "
+                        "scenarios periodically, and export a weights-only agent (agent.json + agent.npz) that "
+                        "`vtrack eval` and the benchmark load without torch.")
+    tr.add_argument("--algo", choices=("ppo", "sac", "td3"), required=True, help="SB3 algorithm")
+    tr.add_argument("--env", default="LateralTrackingRandom-v0", help="training env id (default: %(default)s)")
+    tr.add_argument("--timesteps", type=int, default=1_000_000, help="environment steps (default: %(default)s)")
+    tr.add_argument("--seed", type=int, default=0, help="training seed (default: 0)")
+    tr.add_argument("--run-dir", type=Path, required=True, help="folder for config, logs, checkpoints and the agent")
+    tr.add_argument("--num-envs", type=int, default=None, help="parallel cars (default: from the hyperparameters)")
+    tr.add_argument("--eval-freq", type=int, default=100_000, help="evaluate every N steps (default: %(default)s)")
+    tr.add_argument("--case1-max-steps", type=int, default=3000,
+                    help="cap of the periodic LateralTracking-v0 evaluation (full lap every --case1-full-every)")
+    tr.add_argument("--case1-full-every", type=int, default=5, help="full-lap evaluation period (default: 5)")
+    tr.add_argument("--no-progress", action="store_true", help="no progress bar")
+    tr.add_argument("--no-final-eval", action="store_true", help="skip the full evaluation at the end")
+
     pl = sub.add_parser("plot", help="write the paper's figures for some policies",
                         description="Roll out the given policies on one env and write trajectory, signal and "
                         "deviation-rate figures.")
@@ -291,6 +309,22 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_train(args: argparse.Namespace) -> int:
+    import json
+    import shlex
+
+    from vtrack_gym.agents.train import train
+
+    command = shlex.join(["vtrack", *sys.argv[1:]]) if args.argv is None else shlex.join(["vtrack", *args.argv])
+    summary = train(args.algo, args.env, args.timesteps, args.seed, str(args.run_dir), num_envs=args.num_envs,
+                    eval_freq=args.eval_freq, case1_max_steps=args.case1_max_steps,
+                    case1_full_every=args.case1_full_every, progress_bar=not args.no_progress, command=command,
+                    final_eval=not args.no_final_eval)
+    print(json.dumps({k: v for k, v in summary.items() if k not in ("model", "vecnormalize")}, indent=2,
+                     default=str))
+    return 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``vtrack``; returns the process exit code."""
     parser = build_parser()
@@ -300,6 +334,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     import vtrack_gym  # noqa: F401  (registers the env ids)
 
     handlers = {"benchmark": _cmd_benchmark, "eval": _cmd_eval, "leaderboard": _cmd_leaderboard, "plot": _cmd_plot,
+                "train": _cmd_train,
                 "tune": _cmd_tune, "reproduce": _cmd_reproduce}
     try:
         return handlers[args.command](args)

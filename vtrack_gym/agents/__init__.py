@@ -1,1 +1,2 @@
-"""Everything that imports stable-baselines3 / torch: the SB3 VecEnv adapter, training, export."""
+"""RL agents: training with stable-baselines3 (``train``, ``export``, ``sb3_vec_env``: the only modules that import
+SB3/torch) and the weights-only agent format (``numpy_policy``, ``shipped``: numpy and json only)."""

@@ -1,0 +1,122 @@
+"""Export a trained SB3 PPO/SAC/TD3 MLP policy (+ its ``VecNormalize``) to the weights-only agent format.
+
+See ``vtrack_gym.agents.numpy_policy`` for the format. Imports torch/SB3 only through the model passed in.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vtrack_gym.agents.numpy_policy import FORMAT, FORMAT_VERSION, save_agent
+
+
+def _linear_stack(modules: Any) -> tuple[list[tuple[np.ndarray, np.ndarray]], list[str]]:
+    """(weight (in, out), bias) of every Linear and the names of the activations between them."""
+    import torch.nn as nn
+
+    layers, acts = [], []
+    for m in modules:
+        if isinstance(m, nn.Linear):
+            layers.append((m.weight.detach().cpu().numpy().T.copy(), m.bias.detach().cpu().numpy().copy()))
+        elif isinstance(m, nn.Tanh):
+            acts.append("tanh")
+        elif isinstance(m, nn.ReLU):
+            acts.append("relu")
+        elif isinstance(m, (nn.Flatten, nn.Identity)):
+            continue
+        else:
+            raise ValueError(f"cannot export layer {type(m).__name__} (only Linear, Tanh, ReLU)")
+    return layers, acts
+
+
+def _algo_of(model: Any) -> str:
+    from stable_baselines3 import PPO, SAC, TD3
+
+    for cls, name in ((PPO, "ppo"), (SAC, "sac"), (TD3, "td3")):
+        if isinstance(model, cls):
+            return name
+    raise ValueError(f"export supports PPO, SAC and TD3 (got {type(model).__name__})")
+
+
+def policy_layers(model: Any) -> tuple[str, list[tuple[np.ndarray, np.ndarray]], str, str]:
+    """``(algo, [(w, b), ...], activation, output)`` of the deterministic actor of ``model``."""
+    import torch.nn as nn
+
+    algo = _algo_of(model)
+    policy = model.policy
+    if algo == "ppo":
+        if getattr(policy, "squash_output", False) or getattr(policy, "use_sde", False):
+            raise ValueError("export supports PPO with a plain Gaussian policy (no gSDE / squash_output)")
+        if not isinstance(policy.features_extractor, nn.Flatten) and type(policy.features_extractor).__name__ != \
+                "FlattenExtractor":
+            raise ValueError("export supports the default flatten feature extractor only")
+        hidden, acts = _linear_stack(policy.mlp_extractor.policy_net)
+        out, _ = _linear_stack([policy.action_net])
+        layers, output = hidden + out, "clip"
+    elif algo == "sac":
+        actor = policy.actor
+        if getattr(actor, "use_sde", False):
+            raise ValueError("export supports SAC without gSDE")
+        hidden, acts = _linear_stack(actor.latent_pi)
+        out, _ = _linear_stack([actor.mu])
+        layers, output = hidden + out, "tanh"
+    else:
+        mods = list(policy.actor.mu)
+        if not mods or not isinstance(mods[-1], nn.Tanh):
+            raise ValueError("TD3 actor must end with Tanh")
+        layers, acts = _linear_stack(mods[:-1])
+        output = "tanh"
+    if len(acts) != len(layers) - 1 or len(set(acts)) > 1:
+        raise ValueError(f"unsupported actor: {len(layers)} linear layers with activations {acts}")
+    return algo, layers, (acts[0] if acts else "tanh"), output
+
+
+def export(model: Any, vecnormalize: Any, path: str | Path, *, env_id: str = "", command: str = "",
+           seed: int | None = None) -> tuple[Path, Path]:
+    """Write ``<path>.json`` + ``<path>.npz`` for ``model`` (PPO/SAC/TD3 MlpPolicy) and its ``VecNormalize``.
+
+    ``vecnormalize`` may be None (no observation normalisation) or a ``VecNormalize`` with ``norm_obs``.
+    """
+    import stable_baselines3
+
+    import vtrack_gym
+
+    algo, layers, activation, output = policy_layers(model)
+    space = model.action_space
+    arrays: dict[str, np.ndarray] = {}
+    for i, (w, b) in enumerate(layers):
+        arrays[f"w{i}"] = w.astype(np.float32)
+        arrays[f"b{i}"] = b.astype(np.float32)
+    arrays["action_low"] = np.asarray(space.low, dtype=np.float32).reshape(-1)
+    arrays["action_high"] = np.asarray(space.high, dtype=np.float32).reshape(-1)
+    norm = vecnormalize is not None and bool(getattr(vecnormalize, "norm_obs", False))
+    eps = float(vecnormalize.epsilon) if norm else 1e-8
+    if norm:
+        rms = vecnormalize.obs_rms
+        arrays["obs_mean"] = np.asarray(rms.mean, dtype=np.float32)
+        arrays["obs_var"] = np.asarray(rms.var, dtype=np.float32)
+        arrays["clip_obs"] = np.array([vecnormalize.clip_obs], dtype=np.float32)
+    obs_dim = int(np.prod(model.observation_space.shape))
+    spec = {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "algo": algo,
+        "obs_dim": obs_dim,
+        "action_dim": int(arrays["action_low"].size),
+        "hidden_sizes": [int(w.shape[1]) for w, _ in layers[:-1]],
+        "activation": activation,
+        "output": output,
+        "obs_norm": {"enabled": norm, "eps": eps},
+        "provenance": {
+            "env_id": str(env_id),
+            "command": str(command),
+            "timesteps": int(model.num_timesteps),
+            "seed": None if seed is None else int(seed),
+            "package_version": str(vtrack_gym.__version__),
+            "sb3_version": str(stable_baselines3.__version__),
+        },
+    }
+    return save_agent(path, spec, arrays)

@@ -1,0 +1,301 @@
+"""Weights-only RL agents: ``<name>.json`` (architecture + provenance) and ``<name>.npz`` (float32 arrays).
+
+Loading uses only ``json`` and ``np.load(allow_pickle=False)``: no pickle, no torch, no code execution. Every
+field is checked strictly; anything else (a pickle, an SB3 ``.zip``, unknown keys, wrong shapes or dtypes,
+non-finite values, oversized files) raises ``ValueError``.
+
+Format version 1
+----------------
+``<name>.json`` (UTF-8 JSON object, at most 64 KiB), exactly these keys:
+
+* ``format``: ``"vtrack_gym.agent"``; ``format_version``: ``1``
+* ``algo``: ``"ppo"`` | ``"sac"`` | ``"td3"``
+* ``obs_dim``, ``action_dim``: ints; ``hidden_sizes``: list of ints (0-8 layers, each 1-4096)
+* ``activation``: ``"tanh"`` | ``"relu"`` (after every hidden layer)
+* ``output``: ``"clip"`` (PPO: Gaussian mean clipped to [low, high]) or ``"tanh"`` (SAC/TD3: squashed, then
+  scaled ``low + (tanh(x) + 1) / 2 (high - low)``)
+* ``obs_norm``: ``{"enabled": bool, "eps": float}``; normalised obs ``clip((obs - mean) / sqrt(var + eps),
+  -clip_obs, clip_obs)`` (SB3 ``VecNormalize``)
+* ``provenance``: ``{"env_id", "command", "timesteps", "seed", "package_version", "sb3_version"}``
+  (strings/ints, informational only)
+
+``<name>.npz`` (at most 64 MiB), exactly these float32 arrays (finite values):
+
+* ``w0 .. w{L}`` of shape ``(in, out)`` and ``b0 .. b{L}`` of shape ``(out,)`` for the L hidden layers plus the
+  output layer (``y = x @ w + b``)
+* ``action_low``, ``action_high``: ``(action_dim,)`` with ``low < high``
+* if ``obs_norm.enabled``: ``obs_mean`` ``(obs_dim,)``, ``obs_var`` ``(obs_dim,)`` (>= 0) and ``clip_obs``
+  ``(1,)`` (> 0)
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+FORMAT = "vtrack_gym.agent"
+FORMAT_VERSION = 1
+ALGOS = ("ppo", "sac", "td3")
+ACTIVATIONS = ("tanh", "relu")
+OUTPUTS = ("clip", "tanh")
+MAX_JSON_BYTES = 64 * 1024
+MAX_NPZ_BYTES = 64 * 1024 * 1024
+MAX_LAYERS = 8
+MAX_WIDTH = 4096
+MAX_DIM = 4096
+JSON_KEYS = {"format", "format_version", "algo", "obs_dim", "action_dim", "hidden_sizes", "activation",
+             "output", "obs_norm", "provenance"}
+OBS_NORM_KEYS = {"enabled", "eps"}
+PROVENANCE_KEYS = {"env_id", "command", "timesteps", "seed", "package_version", "sb3_version"}
+
+
+def agent_paths(path: str | Path) -> tuple[Path, Path]:
+    """``(<name>.json, <name>.npz)`` for ``<name>``, ``<name>.json`` or ``<name>.npz``; other suffixes refused."""
+    p = Path(path)
+    if p.suffix in (".json", ".npz"):
+        p = p.with_suffix("")
+    elif p.suffix and p.with_suffix(p.suffix + ".json").exists():
+        pass  # a dotted name such as "ppo_v1.2"
+    elif p.suffix:
+        raise ValueError(f"{path}: not a vtrack agent (expected <name>.json + <name>.npz; got suffix {p.suffix!r}; "
+                         "SB3 .zip and pickle files are refused, export them with vtrack_gym.agents.export)")
+    return p.parent / (p.name + ".json"), p.parent / (p.name + ".npz")
+
+
+def _is_int(x: Any) -> bool:
+    return isinstance(x, int) and not isinstance(x, bool)
+
+
+def _check_int(value: Any, name: str, low: int, high: int) -> int:
+    if not _is_int(value) or not (low <= value <= high):
+        raise ValueError(f"agent json: {name} must be an integer in [{low}, {high}] (got {value!r})")
+    return value
+
+
+def _reject_constant(name: str) -> None:
+    raise ValueError(f"agent json: non-standard number {name} is not allowed")
+
+
+def _read_json(path: Path) -> dict[str, Any]:
+    if not path.is_file():
+        raise ValueError(f"{path}: agent json not found")
+    size = path.stat().st_size
+    if size > MAX_JSON_BYTES:
+        raise ValueError(f"{path}: agent json is {size} bytes (limit {MAX_JSON_BYTES})")
+    raw = path.read_bytes()
+    try:
+        spec = json.loads(raw.decode("utf-8"), parse_constant=_reject_constant)
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"{path}: not a UTF-8 JSON agent description ({exc})") from None
+    if not isinstance(spec, dict):
+        raise ValueError(f"{path}: agent json must be an object (got {type(spec).__name__})")
+    return spec
+
+
+def validate_spec(spec: dict[str, Any]) -> dict[str, Any]:
+    """Check an agent description (the parsed json) field by field; return it unchanged."""
+    keys = set(spec)
+    if keys != JSON_KEYS:
+        extra, missing = sorted(keys - JSON_KEYS), sorted(JSON_KEYS - keys)
+        raise ValueError(f"agent json: unexpected keys {extra} / missing keys {missing}")
+    if spec["format"] != FORMAT:
+        raise ValueError(f"agent json: format must be {FORMAT!r} (got {spec['format']!r})")
+    if spec["format_version"] != FORMAT_VERSION or not _is_int(spec["format_version"]):
+        raise ValueError(f"agent json: format_version must be {FORMAT_VERSION} (got {spec['format_version']!r})")
+    if spec["algo"] not in ALGOS:
+        raise ValueError(f"agent json: algo must be one of {ALGOS} (got {spec['algo']!r})")
+    _check_int(spec["obs_dim"], "obs_dim", 1, MAX_DIM)
+    _check_int(spec["action_dim"], "action_dim", 1, MAX_DIM)
+    hidden = spec["hidden_sizes"]
+    if not isinstance(hidden, list) or len(hidden) > MAX_LAYERS:
+        raise ValueError(f"agent json: hidden_sizes must be a list of at most {MAX_LAYERS} ints (got {hidden!r})")
+    for i, h in enumerate(hidden):
+        _check_int(h, f"hidden_sizes[{i}]", 1, MAX_WIDTH)
+    if spec["activation"] not in ACTIVATIONS:
+        raise ValueError(f"agent json: activation must be one of {ACTIVATIONS} (got {spec['activation']!r})")
+    if spec["output"] not in OUTPUTS:
+        raise ValueError(f"agent json: output must be one of {OUTPUTS} (got {spec['output']!r})")
+    expected_output = "clip" if spec["algo"] == "ppo" else "tanh"
+    if spec["output"] != expected_output:
+        raise ValueError(f"agent json: output of a {spec['algo']} agent must be {expected_output!r}")
+    norm = spec["obs_norm"]
+    if not isinstance(norm, dict) or set(norm) != OBS_NORM_KEYS:
+        raise ValueError(f"agent json: obs_norm must be an object with keys {sorted(OBS_NORM_KEYS)} (got {norm!r})")
+    if not isinstance(norm["enabled"], bool):
+        raise ValueError(f"agent json: obs_norm.enabled must be a bool (got {norm['enabled']!r})")
+    eps = norm["eps"]
+    if isinstance(eps, bool) or not isinstance(eps, (int, float)) or not (0.0 < eps <= 1.0) or not math.isfinite(eps):
+        raise ValueError(f"agent json: obs_norm.eps must be a number in (0, 1] (got {eps!r})")
+    prov = spec["provenance"]
+    if not isinstance(prov, dict) or set(prov) != PROVENANCE_KEYS:
+        raise ValueError(f"agent json: provenance must be an object with keys {sorted(PROVENANCE_KEYS)}")
+    for name in ("env_id", "command", "package_version", "sb3_version"):
+        if not isinstance(prov[name], str) or len(prov[name]) > 4096:
+            raise ValueError(f"agent json: provenance.{name} must be a string (<= 4096 chars)")
+    if not _is_int(prov["timesteps"]) or prov["timesteps"] < 0:
+        raise ValueError(f"agent json: provenance.timesteps must be a non-negative int (got {prov['timesteps']!r})")
+    if prov["seed"] is not None and not _is_int(prov["seed"]):
+        raise ValueError(f"agent json: provenance.seed must be an int or null (got {prov['seed']!r})")
+    return spec
+
+
+def expected_arrays(spec: dict[str, Any]) -> dict[str, tuple[int, ...]]:
+    """Name -> shape of every array the npz of ``spec`` must hold (exactly these)."""
+    sizes = [spec["obs_dim"], *spec["hidden_sizes"], spec["action_dim"]]
+    shapes: dict[str, tuple[int, ...]] = {}
+    for i in range(len(sizes) - 1):
+        shapes[f"w{i}"] = (sizes[i], sizes[i + 1])
+        shapes[f"b{i}"] = (sizes[i + 1],)
+    shapes["action_low"] = (spec["action_dim"],)
+    shapes["action_high"] = (spec["action_dim"],)
+    if spec["obs_norm"]["enabled"]:
+        shapes["obs_mean"] = (spec["obs_dim"],)
+        shapes["obs_var"] = (spec["obs_dim"],)
+        shapes["clip_obs"] = (1,)
+    return shapes
+
+
+def _read_npz(path: Path, shapes: dict[str, tuple[int, ...]]) -> dict[str, np.ndarray]:
+    if not path.is_file():
+        raise ValueError(f"{path}: agent npz not found")
+    size = path.stat().st_size
+    if size > MAX_NPZ_BYTES:
+        raise ValueError(f"{path}: agent npz is {size} bytes (limit {MAX_NPZ_BYTES})")
+    if not zipfile.is_zipfile(path):
+        raise ValueError(f"{path}: not an npz archive (pickles and other files are refused)")
+    expected_members = {f"{name}.npy" for name in shapes}
+    with zipfile.ZipFile(path) as zf:
+        infos = zf.infolist()
+        members = [info.filename for info in infos]
+        if len(members) != len(set(members)) or set(members) != expected_members:
+            raise ValueError(f"{path}: npz members {sorted(members)[:20]} do not match the expected "
+                             f"{sorted(expected_members)} (an SB3 .zip or a tampered file?)")
+        declared = sum(info.file_size for info in infos)
+        if declared > MAX_NPZ_BYTES:
+            raise ValueError(f"{path}: npz uncompressed size {declared} bytes exceeds {MAX_NPZ_BYTES}")
+    arrays: dict[str, np.ndarray] = {}
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            for name, shape in shapes.items():
+                arr = data[name]
+                if arr.dtype != np.float32:
+                    raise ValueError(f"{path}: array {name!r} must be float32 (got {arr.dtype})")
+                if arr.shape != shape:
+                    raise ValueError(f"{path}: array {name!r} must have shape {shape} (got {arr.shape})")
+                if not np.isfinite(arr).all():
+                    raise ValueError(f"{path}: array {name!r} contains NaN/inf")
+                arrays[name] = arr
+    except ValueError as exc:
+        if str(exc).startswith(str(path)):
+            raise
+        raise ValueError(f"{path}: unreadable npz array ({exc})") from None
+    except (OSError, zipfile.BadZipFile, EOFError) as exc:
+        raise ValueError(f"{path}: unreadable npz ({exc})") from None
+    if not np.all(arrays["action_low"] < arrays["action_high"]):
+        raise ValueError(f"{path}: action_low must be < action_high")
+    if "obs_var" in arrays:
+        if np.any(arrays["obs_var"] < 0):
+            raise ValueError(f"{path}: obs_var must be >= 0")
+        if not arrays["clip_obs"][0] > 0:
+            raise ValueError(f"{path}: clip_obs must be > 0")
+    return arrays
+
+
+class NumpyPolicy:
+    """A trained MLP agent evaluated in pure numpy with SB3's ``predict`` signature (stateless).
+
+    ``predict(obs)`` takes raw env observations (the stored ``VecNormalize`` statistics are applied here) of
+    shape ``(obs_dim,)`` -> action ``(action_dim,)`` or ``(N, obs_dim)`` -> ``(N, action_dim)``, float32.
+    Always deterministic (the Gaussian mean / the deterministic actor); ``state`` is returned as ``None``.
+    """
+
+    def __init__(self, spec: dict[str, Any], arrays: dict[str, np.ndarray], name: str = "agent") -> None:
+        self.spec = validate_spec(spec)
+        shapes = expected_arrays(spec)
+        if set(arrays) != set(shapes):
+            raise ValueError(f"arrays {sorted(arrays)} do not match the expected {sorted(shapes)}")
+        for key, shape in shapes.items():
+            if arrays[key].shape != shape or arrays[key].dtype != np.float32 or not np.isfinite(arrays[key]).all():
+                raise ValueError(f"array {key!r} must be finite float32 of shape {shape}")
+        self.name = name
+        self.algo = spec["algo"]
+        self.obs_dim = spec["obs_dim"]
+        self.action_dim = spec["action_dim"]
+        n_layers = len(spec["hidden_sizes"]) + 1
+        self._weights = [(arrays[f"w{i}"].astype(np.float64), arrays[f"b{i}"].astype(np.float64))
+                         for i in range(n_layers)]
+        self._relu = spec["activation"] == "relu"
+        self._tanh_out = spec["output"] == "tanh"
+        self.action_low = arrays["action_low"].astype(np.float64)
+        self.action_high = arrays["action_high"].astype(np.float64)
+        self._norm = spec["obs_norm"]["enabled"]
+        if self._norm:
+            self.obs_mean = arrays["obs_mean"].astype(np.float64)
+            self._obs_scale = 1.0 / np.sqrt(arrays["obs_var"].astype(np.float64) + float(spec["obs_norm"]["eps"]))
+            self.clip_obs = float(arrays["clip_obs"][0])
+
+    @property
+    def policy_id(self) -> str:
+        return self.name
+
+    @property
+    def provenance(self) -> dict[str, Any]:
+        return dict(self.spec["provenance"])
+
+    def normalize(self, obs: np.ndarray) -> np.ndarray:
+        """The observation the network sees (SB3 ``VecNormalize.normalize_obs``)."""
+        if not self._norm:
+            return obs
+        return np.clip((obs - self.obs_mean) * self._obs_scale, -self.clip_obs, self.clip_obs)
+
+    def predict(self, observation: Any, state: Any = None, episode_start: Any = None,
+                deterministic: bool = True) -> tuple[np.ndarray, None]:
+        """SB3-compatible deterministic action for one observation or a batch (see the class docstring)."""
+        obs = np.asarray(observation, dtype=np.float64)
+        single = obs.ndim == 1
+        if single:
+            obs = obs.reshape(1, -1)
+        if obs.ndim != 2 or obs.shape[1] != self.obs_dim:
+            raise ValueError(f"observation must have shape ({self.obs_dim},) or (N, {self.obs_dim}) (got {obs.shape})")
+        if not np.isfinite(obs).all():
+            raise ValueError("observation contains NaN/inf")
+        x = self.normalize(obs)
+        last = len(self._weights) - 1
+        for i, (w, b) in enumerate(self._weights):
+            x = x @ w + b
+            if i < last:
+                x = np.maximum(x, 0.0) if self._relu else np.tanh(x)
+        if self._tanh_out:
+            x = self.action_low + 0.5 * (np.tanh(x) + 1.0) * (self.action_high - self.action_low)
+        else:
+            x = np.clip(x, self.action_low, self.action_high)
+        action = x.astype(np.float32)
+        return (action[0] if single else action), None
+
+    def __repr__(self) -> str:
+        return (f"NumpyPolicy({self.name!r}, algo={self.algo}, hidden={self.spec['hidden_sizes']}, "
+                f"timesteps={self.spec['provenance']['timesteps']})")
+
+
+def load_agent(path: str | Path) -> NumpyPolicy:
+    """Load ``<name>.json`` + ``<name>.npz`` (``path`` may name either or the common stem) as a ``NumpyPolicy``."""
+    json_path, npz_path = agent_paths(path)
+    spec = validate_spec(_read_json(json_path))
+    arrays = _read_npz(npz_path, expected_arrays(spec))
+    return NumpyPolicy(spec, arrays, name=json_path.stem)
+
+
+def save_agent(path: str | Path, spec: dict[str, Any], arrays: dict[str, np.ndarray]) -> tuple[Path, Path]:
+    """Validate and write an agent (used by ``export``); returns the json and npz paths."""
+    validate_spec(spec)
+    NumpyPolicy(spec, arrays)  # full check before anything is written
+    json_path, npz_path = agent_paths(path)
+    json_path.parent.mkdir(parents=True, exist_ok=True)
+    np.savez(npz_path, **{k: np.ascontiguousarray(v, dtype=np.float32) for k, v in arrays.items()})
+    json_path.write_text(json.dumps(spec, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+    return json_path, npz_path

@@ -1,0 +1,250 @@
+"""Train PPO / SAC / TD3 on the native vector env and write a run folder.
+
+``train("ppo", timesteps=1_000_000, seed=0, run_dir="runs/ppo_s0")`` trains on ``TrackingSB3VecEnv`` (one compiled
+call steps every car) wrapped in ``VecNormalize`` (observation statistics are saved with the agent), with the
+hyperparameters of ``vtrack_gym/agents/hyperparams/<algo>.yaml`` for ``env_id`` (rl-zoo style, read with
+``yaml.safe_load``; ``activation_fn`` is a name from a fixed table, nothing is evaluated).
+
+The run folder holds:
+
+* ``config.json``: algo, env id, hyperparameters (+ their file version), overrides, seed, timesteps, command,
+  package / SB3 / torch versions, start time
+* ``logs/``: TensorBoard events if ``tensorboard`` is installed, else SB3's ``progress.csv`` (+ stdout log)
+* ``evaluations.jsonl``: one line per periodic evaluation (deterministic policy, seed 0, nonlinear plant) on
+  the two paper scenarios. ``DLC120-v0`` (<= 3000 steps) runs in full every ``eval_freq`` steps;
+  ``LateralTracking-v0`` (one lap is ~21,500 steps, ~10-20 s of wall time) runs capped at
+  ``case1_max_steps`` steps (default 3000 = 30 s of driving) at the same times and in full only every
+  ``case1_full_every``-th evaluation and at the end. Each line records the metrics, the termination and
+  the number of steps so a capped run is never mistaken for a full lap.
+* ``model.zip`` + ``vecnormalize.pkl`` (SB3's own formats, for resuming; trusted local files only) and
+  ``agent.json`` + ``agent.npz`` (the weights-only export loaded by ``load_agent``).
+"""
+
+from __future__ import annotations
+
+import json
+import shlex
+import sys
+import time
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ALGOS = ("ppo", "sac", "td3")
+DEFAULT_ENV_ID = "LateralTrackingRandom-v0"
+HYPERPARAMS_DIR = Path(__file__).with_name("hyperparams")
+EVAL_ENV_IDS = ("DLC120-v0", "LateralTracking-v0")
+_ACTIVATIONS = ("tanh", "relu")
+_META_KEYS = ("n_envs", "policy", "normalize", "action_noise_std")
+
+
+def load_hyperparams(algo: str, env_id: str = DEFAULT_ENV_ID) -> tuple[dict[str, Any], int]:
+    """``(hyperparameters for env_id, file version)`` from ``hyperparams/<algo>.yaml`` (``yaml.safe_load``)."""
+    import yaml
+
+    if algo not in ALGOS:
+        raise ValueError(f"algo must be one of {ALGOS} (got {algo!r})")
+    path = HYPERPARAMS_DIR / f"{algo}.yaml"
+    with path.open(encoding="utf-8") as fh:
+        data = yaml.safe_load(fh)
+    if not isinstance(data, dict) or not isinstance(data.get("version"), int):
+        raise ValueError(f"{path}: expected a mapping with an integer 'version'")
+    if env_id not in data:
+        known = sorted(k for k in data if k != "version")
+        raise ValueError(f"{path}: no hyperparameters for {env_id!r} (have {known})")
+    params = data[env_id]
+    if not isinstance(params, dict):
+        raise ValueError(f"{path}: entry {env_id!r} must be a mapping")
+    return dict(params), int(data["version"])
+
+
+def _policy_kwargs(raw: Mapping[str, Any] | None) -> dict[str, Any]:
+    import torch.nn as nn
+
+    kwargs = dict(raw or {})
+    act = kwargs.get("activation_fn")
+    if act is not None:
+        if act not in _ACTIVATIONS:
+            raise ValueError(f"policy_kwargs.activation_fn must be one of {_ACTIVATIONS} (got {act!r})")
+        kwargs["activation_fn"] = {"tanh": nn.Tanh, "relu": nn.ReLU}[act]
+    net_arch = kwargs.get("net_arch")
+    if isinstance(net_arch, dict):
+        kwargs["net_arch"] = {k: list(v) for k, v in net_arch.items()}
+    return kwargs
+
+
+class _Wrapped:
+    """SB3 model + frozen VecNormalize statistics as a ``predict`` policy on raw observations."""
+
+    policy_id = "training_agent"
+
+    def __init__(self, model: Any, vecnorm: Any) -> None:
+        self.model, self.vecnorm = model, vecnorm
+
+    def predict(self, observation: Any, state: Any = None, episode_start: Any = None,
+                deterministic: bool = True) -> tuple[np.ndarray, Any]:
+        obs = np.asarray(observation, dtype=np.float32)
+        if self.vecnorm is not None:
+            obs = self.vecnorm.normalize_obs(obs)
+        action, _ = self.model.predict(obs, deterministic=deterministic)
+        return action, None
+
+
+def evaluate_paper(policy: Any, case1_max_steps: int | None = 3000, seed: int = 0) -> dict[str, dict[str, Any]]:
+    """Deterministic rollouts on both paper scenarios: ``{env_id: metrics + termination + steps}``."""
+    from vtrack_gym.evaluation.metrics import paper_metrics
+    from vtrack_gym.evaluation.rollout import rollout
+
+    out: dict[str, dict[str, Any]] = {}
+    for env_id in EVAL_ENV_IDS:
+        cap = case1_max_steps if env_id == "LateralTracking-v0" else None
+        trace = rollout(policy, env_id, seed=seed, max_steps=cap)
+        m = paper_metrics(trace)
+        row: dict[str, Any] = {k: float(m[k]) for k in ("rms_e_y_m", "max_e_y_m", "rms_e_phi_deg",
+                                                        "max_hand_wheel_deg", "max_a_y_mps2")}
+        row.update(termination=trace.termination, completed=bool(trace.completed), steps=int(trace.n_steps),
+                   step_cap=cap, progress_m=float(trace["progress_m"][-1]) if "progress_m" in trace.signals else None)
+        out[env_id] = row
+    return out
+
+
+def _make_callbacks(run_dir: Path, vecnorm: Any, timesteps: int, eval_freq: int, case1_max_steps: int | None,
+                    case1_full_every: int, progress_bar: bool) -> list[Any]:
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class ProgressBar(BaseCallback):
+        def _on_training_start(self) -> None:
+            from tqdm.auto import tqdm
+
+            self.bar = tqdm(total=timesteps, unit="step", desc="train", mininterval=2.0)
+
+        def _on_step(self) -> bool:
+            self.bar.update(max(min(self.num_timesteps, timesteps) - self.bar.n, 0))  # tqdm throttles redraws
+            return True
+
+        def _on_training_end(self) -> None:
+            self.bar.update(max(min(self.num_timesteps, timesteps) - self.bar.n, 0))
+            self.bar.close()
+
+    class PaperEval(BaseCallback):
+        def __init__(self) -> None:
+            super().__init__()
+            self.next_eval = eval_freq
+            self.count = 0
+
+        def run(self, final: bool = False) -> None:
+            self.count += 1
+            full = final or (case1_full_every > 0 and self.count % case1_full_every == 0)
+            t0 = time.perf_counter()
+            res = evaluate_paper(_Wrapped(self.model, vecnorm), None if full else case1_max_steps)
+            for env_id, row in res.items():
+                for key in ("rms_e_y_m", "max_e_y_m", "completed", "steps"):
+                    self.logger.record(f"eval/{env_id}/{key}", float(row[key]))
+            with (run_dir / "evaluations.jsonl").open("a", encoding="utf-8") as fh:
+                fh.write(json.dumps({"timesteps": int(self.num_timesteps), "final": final,
+                                     "wall_s": round(time.perf_counter() - t0, 2), "results": res}) + "\n")
+
+        def _on_step(self) -> bool:
+            if eval_freq > 0 and self.num_timesteps >= self.next_eval:
+                self.next_eval += eval_freq
+                self.run()
+            return True
+
+    callbacks: list[Any] = [PaperEval()]
+    if progress_bar:
+        callbacks.append(ProgressBar())
+    return callbacks
+
+
+def train(algo: str, env_id: str = DEFAULT_ENV_ID, timesteps: int = 1_000_000, seed: int = 0,
+          run_dir: str | Path = "vtrack_runs/run", *, num_envs: int | None = None,
+          overrides: Mapping[str, Any] | None = None, eval_freq: int = 100_000, case1_max_steps: int | None = 3000,
+          case1_full_every: int = 5, final_eval: bool = True, progress_bar: bool = True, verbose: int = 0,
+          torch_threads: int | None = 1, command: str | None = None) -> dict[str, Any]:
+    """Train ``algo`` on ``env_id`` and write ``run_dir`` (see the module docstring). Returns a summary dict.
+
+    ``overrides`` replace YAML entries (e.g. ``{"n_steps": 64}``); ``num_envs`` overrides ``n_envs``.
+    ``eval_freq <= 0`` disables periodic evaluation.
+    """
+    import stable_baselines3
+    import torch
+    from stable_baselines3 import PPO, SAC, TD3
+    from stable_baselines3.common.logger import configure
+    from stable_baselines3.common.noise import NormalActionNoise
+    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+
+    import vtrack_gym
+    from vtrack_gym.agents.export import export
+    from vtrack_gym.agents.sb3_vec_env import TrackingSB3VecEnv
+
+    if not isinstance(timesteps, int) or timesteps < 1:
+        raise ValueError(f"timesteps must be a positive int (got {timesteps!r})")
+    if torch_threads:
+        torch.set_num_threads(torch_threads)
+    params, hp_version = load_hyperparams(algo, env_id)
+    params.update(dict(overrides or {}))
+    if num_envs is not None:
+        params["n_envs"] = int(num_envs)
+    run_dir = Path(run_dir)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    command = command if command is not None else shlex.join([Path(sys.argv[0]).name, *sys.argv[1:]])
+    config = {"algo": algo, "env_id": env_id, "timesteps": timesteps, "seed": seed, "hyperparams": params,
+              "hyperparams_file": f"vtrack_gym/agents/hyperparams/{algo}.yaml", "hyperparams_version": hp_version,
+              "overrides": dict(overrides or {}), "command": command, "package_version": vtrack_gym.__version__,
+              "sb3_version": stable_baselines3.__version__, "torch_version": torch.__version__,
+              "python": sys.version.split()[0], "eval": {"freq": eval_freq, "case1_max_steps": case1_max_steps,
+                                                           "case1_full_every": case1_full_every},
+              "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
+    (run_dir / "config.json").write_text(json.dumps(config, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+
+    n_envs = int(params.pop("n_envs", 8))
+    params.pop("policy", "MlpPolicy")
+    norm_kwargs = dict(params.pop("normalize", {}) or {})
+    noise_std = params.pop("action_noise_std", None)
+    params["policy_kwargs"] = _policy_kwargs(params.get("policy_kwargs"))
+    venv = TrackingSB3VecEnv(env_id, num_envs=n_envs)
+    venv.seed(seed)
+    vecnorm = VecNormalize(VecMonitor(venv), **norm_kwargs)  # VecMonitor: rollout/ep_rew_mean, ep_len_mean
+    if noise_std is not None:
+        dim = venv.action_space.shape[0]
+        params["action_noise"] = NormalActionNoise(np.zeros(dim), float(noise_std) * np.ones(dim))
+    cls = {"ppo": PPO, "sac": SAC, "td3": TD3}[algo]
+    model = cls("MlpPolicy", vecnorm, seed=seed, verbose=verbose, device="cpu", **params)
+    try:
+        import tensorboard  # noqa: F401
+
+        formats = ["tensorboard", "csv", "log"]
+    except ImportError:
+        formats = ["csv", "log"]
+    model.set_logger(configure(str(run_dir / "logs"), formats))
+    callbacks = _make_callbacks(run_dir, vecnorm, timesteps, eval_freq, case1_max_steps, case1_full_every,
+                                progress_bar)
+    t0 = time.perf_counter()
+    model.learn(total_timesteps=timesteps, callback=callbacks)
+    train_s = time.perf_counter() - t0
+    vecnorm.training = False
+    model.save(run_dir / "model.zip")
+    vecnorm.save(str(run_dir / "vecnormalize.pkl"))
+    agent_json, _ = export(model, vecnorm, run_dir / "agent", env_id=env_id, command=command, seed=seed)
+    final = None
+    if final_eval:
+        callbacks[0].run(final=True)
+        lines = (run_dir / "evaluations.jsonl").read_text(encoding="utf-8").strip().splitlines()
+        final = json.loads(lines[-1])["results"]
+    summary = {"run_dir": str(run_dir), "timesteps": int(model.num_timesteps), "train_s": round(train_s, 1),
+               "agent": str(agent_json), "final_eval": final, "model": model, "vecnormalize": vecnorm}
+    venv.close()
+    return summary
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m vtrack_gym.agents.train ...`` = ``vtrack train ...`` (arguments parsed in ``vtrack_gym.cli``)."""
+    from vtrack_gym.cli import main as cli_main
+
+    return cli_main(["train", *(sys.argv[1:] if argv is None else argv)])
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -57,7 +57,8 @@ def build_parser() -> argparse.ArgumentParser:
     e = sub.add_parser("eval", help="score one policy on one env", description="Run one policy on one env for one "
                        "or more seeds, print its metrics and add them to the store (suite 'custom').")
     e.add_argument("--policy", required=True,
-                   help="a baseline name: smc, mpc, lqr, stanley, pure_pursuit or mpc_osqp")
+                   help="a baseline name (smc, mpc, lqr, stanley, pure_pursuit, mpc_osqp), a shipped agent "
+                   "name, or a weights-only agent file (agent.json / agent.npz)")
     e.add_argument("--env", required=True,
                    help="env id, e.g. LateralTracking-v0, DLC120-v0 or highway-env:lane-keeping-v0")
     e.add_argument("--preset", default="default", help="baseline preset: default, paper or tuned (default: default)")
@@ -87,6 +88,12 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--case1-full-every", type=int, default=5, help="full-lap evaluation period (default: 5)")
     tr.add_argument("--no-progress", action="store_true", help="no progress bar")
     tr.add_argument("--no-final-eval", action="store_true", help="skip the full evaluation at the end")
+
+    ex = sub.add_parser("export", help="export a trained SB3 run to the weights-only agent format",
+                        description="Load <run-dir>/model.zip and vecnormalize.pkl (your own training run: SB3 files "
+                        "are pickles, load only files you trust) and write <out>.json + <out>.npz.")
+    ex.add_argument("--run-dir", type=Path, required=True, help="folder written by `vtrack train`")
+    ex.add_argument("--out", type=Path, required=True, help="output path without suffix, e.g. agents/ppo_dlc")
 
     pl = sub.add_parser("plot", help="write the paper's figures for some policies",
                         description="Roll out the given policies on one env and write trajectory, signal and "
@@ -199,9 +206,20 @@ def _cmd_eval(args: argparse.Namespace) -> int:
 def _policy_factory(name: str, preset: str):
     from vtrack_gym.evaluation.benchmark import policy_factories
 
-    if Path(name).suffix in (".json", ".npz", ".zip", ".pkl") or Path(name).exists():
-        raise ValueError(f"{name!r} looks like an agent file; this version evaluates baseline policies only "
-                         "(weights-only agent files come with the shipped RL agents). Pass a baseline name.")
+    suffix = Path(name).suffix
+    if suffix in (".json", ".npz"):
+        from vtrack_gym.agents.numpy_policy import load_agent  # json + np.load(allow_pickle=False): no code runs
+
+        try:
+            agent = load_agent(name)
+        except (ValueError, OSError) as exc:
+            raise ValueError(f"{name!r} looks like an agent file but is not a valid weights-only vtrack agent: "
+                             f"{exc}") from None
+        return lambda env: agent
+    if suffix in (".zip", ".pkl") or Path(name).exists():
+        raise ValueError(f"{name!r} looks like an agent file; only weights-only vtrack agents (agent.json + "
+                         "agent.npz, written by `vtrack train` / `vtrack export`) are loaded: SB3 zips and "
+                         "pickles can run code")
     if preset != "default":
         from vtrack_gym.baselines.registry import make_policy
 
@@ -325,6 +343,16 @@ def _cmd_train(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_export(args: argparse.Namespace) -> int:
+    import json
+
+    from vtrack_gym.agents.export import export_run
+
+    json_path, npz_path = export_run(args.run_dir, args.out)
+    print(json.dumps({"json": str(json_path), "npz": str(npz_path)}))
+    return 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``vtrack``; returns the process exit code."""
     parser = build_parser()
@@ -334,7 +362,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     import vtrack_gym  # noqa: F401  (registers the env ids)
 
     handlers = {"benchmark": _cmd_benchmark, "eval": _cmd_eval, "leaderboard": _cmd_leaderboard, "plot": _cmd_plot,
-                "train": _cmd_train,
+                "train": _cmd_train, "export": _cmd_export,
                 "tune": _cmd_tune, "reproduce": _cmd_reproduce}
     try:
         return handlers[args.command](args)

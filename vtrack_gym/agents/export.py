@@ -120,3 +120,35 @@ def export(model: Any, vecnormalize: Any, path: str | Path, *, env_id: str = "",
         },
     }
     return save_agent(path, spec, arrays)
+
+
+def export_run(run_dir: str | Path, out: str | Path) -> tuple[Path, Path]:
+    """Export the SB3 model of a ``vtrack train`` run folder to ``<out>.json`` + ``<out>.npz``.
+
+    Reads ``config.json`` (algo, env, seed, command), ``model.zip`` and ``vecnormalize.pkl``. Those two are
+    SB3's own pickle-based formats: only export runs you produced or trust.
+    """
+    import json
+
+    from stable_baselines3 import PPO, SAC, TD3
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from vtrack_gym.agents.sb3_vec_env import TrackingSB3VecEnv
+
+    run = Path(run_dir)
+    config_file = run / "config.json"
+    if not config_file.is_file():
+        raise ValueError(f"{run} is not a `vtrack train` run folder (no config.json)")
+    config = json.loads(config_file.read_text(encoding="utf-8"))
+    classes = {"ppo": PPO, "sac": SAC, "td3": TD3}
+    algo = config.get("algo")
+    if algo not in classes:
+        raise ValueError(f"{config_file}: unknown algo {algo!r}; valid: {', '.join(classes)}")
+    env_id = str(config.get("env_id", config.get("env", "")))
+    model = classes[algo].load(run / "model.zip", device="cpu")
+    vecnorm = None
+    if (run / "vecnormalize.pkl").is_file():
+        vecnorm = VecNormalize.load(str(run / "vecnormalize.pkl"), TrackingSB3VecEnv(env_id or "DLC120-v0", 1))
+        vecnorm.training = False
+    return export(model, vecnorm, out, env_id=env_id, command=str(config.get("command", "")),
+                  seed=config.get("seed"))

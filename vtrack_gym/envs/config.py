@@ -81,7 +81,7 @@ DLC120 = ScenarioConfig("DLC120-v0", "double_lane_change", 120.0 * KMH, 120.0 * 
 """Case 2: ISO 3888-1 double lane change at 120 km/h from the start of the approach."""
 
 RANDOM_TRACKS = ScenarioConfig("LateralTrackingRandom-v0", "procedural", 15.0, 15.0, 90.0,
-                               target_speed_range_mps=(6.0, 30.0))
+                               target_speed_range_mps=(6.0, 35.0))
 """Training variant: procedural tracks, target speed drawn per episode, start at the target speed."""
 
 

@@ -82,7 +82,8 @@ DLC120 = ScenarioConfig("DLC120-v0", "double_lane_change", 120.0 * KMH, 120.0 * 
 
 RANDOM_TRACKS = ScenarioConfig("LateralTrackingRandom-v0", "procedural", 15.0, 15.0, 90.0,
                                target_speed_range_mps=(6.0, 35.0))
-"""Training variant: procedural tracks, target speed drawn per episode, start at the target speed."""
+"""Training variant: procedural tracks (half twisty, half highway-like), target speed drawn per episode in
+6-35 m/s but capped so the track's tightest curve needs at most 0.75 g; the car starts at the target speed."""
 
 
 @dataclass(frozen=True)

@@ -19,6 +19,11 @@ from vtrack_gym.vehicle.plant import PARALLEL_THRESHOLD, Plant
 
 TERMINATION_NAMES: tuple[str, ...] = ("", "completed", "off_road", "spin_out", "wheel_lift", "invalid_state")
 """``info["termination"]`` for each kernel termination code ("" = still running)."""
+PROCEDURAL_MAX_CURVATURE: tuple[float, float] = (1.0 / 30.0, 1.0 / 160.0)
+"""Curvature bounds [1/m] of the twisty and the highway-like half of the procedural track bank."""
+FEASIBLE_LATERAL_ACC_MPS2 = 0.75 * 9.81
+"""Randomised target speeds are capped at sqrt(this / peak curvature) of the drawn track [m/s^2]."""
+
 REWARD_TERM_NAMES: tuple[str, ...] = (
     "reward_alive", "reward_tracking", "reward_heading", "reward_effort", "reward_rate", "reward_terminal")
 
@@ -38,7 +43,10 @@ def scenario_tracks(scenario: ScenarioConfig, vehicle_width_m: float) -> tuple:
         return (tracks.handling_course(),)
     if scenario.track == "double_lane_change":
         return (tracks.double_lane_change(vehicle_width_m=vehicle_width_m),)
-    return tuple(tracks.procedural_track(scenario.procedural_seed + k, length_m=scenario.procedural_length_m)
+    # Half the bank twisty (radii down to 30 m), half highway-like (down to 160 m), so that every target speed
+    # of the range has drivable tracks (see BatchSim.reset_car's speed cap).
+    return tuple(tracks.procedural_track(scenario.procedural_seed + k, length_m=scenario.procedural_length_m,
+                                         max_curvature=PROCEDURAL_MAX_CURVATURE[k % 2])
                  for k in range(scenario.procedural_bank_size))
 
 
@@ -132,7 +140,15 @@ class BatchSim:
         if options.target_speed_mps is not None:
             v_ref = options.target_speed_mps
         elif sc.target_speed_range_mps is not None:
-            v_ref = float(rng.uniform(*sc.target_speed_range_mps))
+            # Never ask for more lateral acceleration than the road can give (0.75 g at the track's tightest
+            # curve): an infeasible episode teaches nothing but spinning out.
+            lo, hi = sc.target_speed_range_mps
+            start = int(self.tmeta[self.veh_track[i], 0])
+            rows = self.tables[start:start + int(self.tmeta[self.veh_track[i], 1]), 3]
+            kappa_peak = float(np.max(np.abs(rows)))
+            if kappa_peak > 0.0:
+                hi = max(lo, min(hi, float(np.sqrt(FEASIBLE_LATERAL_ACC_MPS2 / kappa_peak))))
+            v_ref = float(rng.uniform(lo, hi))
         else:
             v_ref = sc.target_speed_mps
         v0 = v_ref if sc.initial_speed_mps > 0.0 else 0.0

@@ -8,12 +8,18 @@ import math
 import numpy as np
 from numba import njit
 
+from vtrack_gym.baselines.smc import _coefficients, _law
+
+# The SMC's own coefficient and control-law functions (plain arithmetic), compiled: one source for both paths.
+_smc_coefficients = njit(cache=True)(_coefficients)
+_smc_law = njit(cache=True)(_law)
+
 
 @njit(cache=True)
 def smc_population_actions(obs, idx, k, pole, eta_k, inv_layer, min_speed, v_star, guard, shift, inv_steer,
                            active, actions):
     """Normalised steering actions (P,) of the SMC law (31) with per-row p, eta, Delta; 0 for frozen rows."""
-    ma1, a2crl, crl, lam, iz, yaw_c, h, gain = k[0], k[1], k[2], k[3], k[4], k[5], k[6], k[7]
+    kt = (k[0], k[1], k[2], k[3], k[4], k[5], k[6], k[7])
     iv, iey, iep, ieyd, iepd, ivy, ir, irr, iar = idx[0], idx[1], idx[2], idx[3], idx[4], idx[5], idx[6], idx[7], \
         idx[8]
     for i in range(obs.shape[0]):
@@ -23,31 +29,14 @@ def smc_population_actions(obs, idx, k, pole, eta_k, inv_layer, min_speed, v_sta
         v = max(float(obs[i, iv]), min_speed)
         if guard > 0.0 and not math.isnan(v_star) and abs(v - v_star) < guard:
             v = v_star - guard if v < v_star else v_star + guard
-        p = pole[i]
-        f3 = (a2crl - ma1 * v * v) / (ma1 * v)
-        f4 = -crl / (ma1 * v)
-        g = v + f3 + lam * f4
-        c1 = p * p * p / (v * f4)
-        c2 = (3.0 * p * p + c1 * g + 3.0 * p * f4 + f4 * f4) / (f4 * (v - g))
-        c3 = -3.0 * p - f4 - c2 * g
-        f5 = -yaw_c / (iz * v) - c2 * f3
-        f6 = -h / (iz * v) - c2 * f4
         e_y, e_phi, e_y_dot, e_phi_dot = float(obs[i, iey]), float(obs[i, iep]), float(obs[i, ieyd]), \
             float(obs[i, iepd])
         v_y, r, rate_ref, acc_ref = float(obs[i, ivy]), float(obs[i, ir]), float(obs[i, irr]), float(obs[i, iar])
-        x1 = e_y - lam * e_phi
-        x2 = e_y_dot - lam * e_phi_dot
-        bracket = acc_ref * (1.0 + c2 * lam) - f5 * r - f6 * v_y + c1 * x2 + (c2 * v + c3) * e_phi_dot
-        if shift:
-            x3s = f3 * rate_ref / (v * f4)
-            x3s_dot = f3 * acc_ref / (v * f4)
-            sigma = e_phi_dot - c1 * (x1 + lam * x3s) - c2 * x2 - c3 * (e_phi - x3s)
-            bracket = bracket - (c3 - c1 * lam) * x3s_dot
-        else:
-            sigma = e_phi_dot - c1 * x1 - c2 * x2 - c3 * e_phi
+        cf = _smc_coefficients(kt, v, pole[i])
+        sigma, delta_eq = _smc_law(kt, cf, v, shift, e_y, e_phi, e_y_dot, e_phi_dot, v_y, r, rate_ref, acc_ref)
         z = sigma * inv_layer[i]
         sat = 1.0 if z > 1.0 else (-1.0 if z < -1.0 else z)
-        a = (gain * bracket - eta_k[i] * sat) * inv_steer
+        a = (delta_eq - eta_k[i] * sat) * inv_steer
         if not (a == a):  # NaN (a frozen or diverged row): neutral steering
             a = 0.0
         actions[i] = 1.0 if a > 1.0 else (-1.0 if a < -1.0 else a)

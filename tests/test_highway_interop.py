@@ -122,7 +122,8 @@ def test_action_maps_to_highway_steering(env: HighwayLaneKeeping) -> None:
 def test_baseline_keeps_highway_car_on_its_lane(env: HighwayLaneKeeping, name: str) -> None:
     if name == "mpc_osqp":
         pytest.importorskip("osqp")
-    policy = make_policy(name, env)
+    # smc/mpc: the hand-tuned presets these figures were observed with (the GA-tuned defaults: next test)
+    policy = make_policy(name, env, preset="hand" if name in ("smc", "mpc") else "default")
     trace = rollout(policy, env, seed=0)  # highway-env's own 4 m offset to the right, whole sine lane
     assert trace.termination == "completed"
     assert trace["progress_m"][-1] > 490.0
@@ -132,6 +133,17 @@ def test_baseline_keeps_highway_car_on_its_lane(env: HighwayLaneKeeping, name: s
     assert e_y.max() < half_width
     assert e_y[t >= 3.0].max() < half_width
     assert e_y[t >= 10.0].max() < 0.15  # settled: 1 mm (smc) .. 70 mm (pure_pursuit) observed
+
+
+@pytest.mark.parametrize("name", ["smc", "mpc"])
+def test_tuned_default_presets_keep_highway_car_on_its_lane(env: HighwayLaneKeeping, name: str) -> None:
+    """The GA-tuned defaults were tuned for Case-1 tracking, not for a 4 m offset: the SMC recovers it in ~13 s
+    (hand preset: ~7 s), so its settling bound here is 15 s."""
+    trace = rollout(make_policy(name, env), env, seed=0)
+    assert trace.termination == "completed" and trace["progress_m"][-1] > 490.0
+    t, e_y = trace["time_s"], np.abs(trace["e_y_m"])
+    assert e_y.max() < env.reference_geometry.half_width
+    assert e_y[t >= 15.0].max() < 0.15
 
 
 # ------------------------------------------------------------------------------- (c) observation sanity

@@ -279,12 +279,12 @@ def test_first_call_starts_from_observed_steering(paper_mpc: MPC) -> None:
 def test_weights_constant() -> None:
     assert PAPER_WEIGHTS == (0.0015, 0.3626, 0.0152, 0.6179, 0.2788, 0.2453, 0.1527, 0.8068, 0.0012, 0.0207,
                              0.7908, 0.7904)
-    assert MPC_PRESETS["default"].weights == PAPER_WEIGHTS
-    assert MPC_PRESETS["paper"].input_weight == 0.1 and MPC_PRESETS["default"].input_weight == 100.0
+    assert MPC_PRESETS["hand"].weights == PAPER_WEIGHTS
+    assert MPC_PRESETS["paper"].input_weight == 0.1 and MPC_PRESETS["hand"].input_weight == 100.0
 
 
 def test_default_preset_closed_loop() -> None:
-    pol = MPC(DESIGN, MPC_PRESETS["default"])
+    pol = MPC(DESIGN, MPC_PRESETS["hand"])
     r100 = simulate(pol, 11.11, curve_entry(11.11, 100.0), 8.0)
     r500 = simulate(pol, 33.33, curve_entry(33.33, 500.0), 8.0)
     dlc = simulate(pol, 33.33, dlc_proxy(), 7.0)
@@ -294,4 +294,4 @@ def test_default_preset_closed_loop() -> None:
     assert dlc.max_abs_e_y() < 0.08
     assert r100.final("delta") == pytest.approx(0.02922, abs=2e-5)
     for v in (1.0, 5.0, 11.11, 33.33, 45.0):
-        assert closed_loop_spectral_radius(DESIGN, v, MPC_PRESETS["default"]) < 0.995
+        assert closed_loop_spectral_radius(DESIGN, v, MPC_PRESETS["hand"]) < 0.995

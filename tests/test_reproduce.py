@@ -48,7 +48,7 @@ def test_report_has_every_claim_row_and_corrections(two_runs) -> None:
         assert f"**{head}.**" in text
     for word in ("Eq. (7)", "Eq. (9)", "Eq. (24)", "Eq. (40)", "singular", "Boundary layer", "PD-FLC", "x2"):
         assert word in text, word
-    assert "no packaged MPC `tuned` preset" in text
+    assert "the shipped GA presets" in text and "mpc_tuned.json" in text
 
 
 def test_report_is_deterministic_apart_from_timestamp(two_runs) -> None:

@@ -82,7 +82,7 @@ def test_singular_speed_and_guard() -> None:
     assert guarded_speed(v_star, v_star) == pytest.approx(v_star + 0.3)
     assert guarded_speed(11.11, v_star) == 11.11          # 0.303 m/s away: outside the band
     assert guarded_speed(10.0, v_star) == 10.0
-    pol = SMC(DESIGN, SMC_PRESETS["default"])
+    pol = SMC(DESIGN, SMC_PRESETS["hand"])
     assert pol.model_speed(10.7) == pytest.approx(v_star - 0.3)
     assert pol.model_speed(0.0) == 3.0                    # clamp
     # the law stays finite right at v*
@@ -106,8 +106,8 @@ def test_boundary_layer_rule(caplog: pytest.LogCaptureFixture) -> None:
     assert "boundary layer widened" in caplog.text
     caplog.clear()
     with caplog.at_level(logging.WARNING, logger="vtrack_gym.baselines.smc"):
-        default = SMC(DESIGN, SMC_PRESETS["default"], control_period_s=0.01)
-    assert default.boundary_layer == SMC_PRESETS["default"].boundary_layer   # 10 / 0.2 = 50 <= 100
+        default = SMC(DESIGN, SMC_PRESETS["hand"], control_period_s=0.01)
+    assert default.boundary_layer == SMC_PRESETS["hand"].boundary_layer   # 10 / 0.2 = 50 <= 100
     assert caplog.text == ""
     raw = SMC(DESIGN, SMCConfig(pole_radps=0.0445, reaching_gain=973.4083, boundary_layer=0.6124,
                                 sideslip_shift=False, limit_layer_rate=False))
@@ -200,7 +200,7 @@ def test_p3_with_sideslip_shift_matches_option2() -> None:
 
 
 def test_default_preset_tracks() -> None:
-    pol = SMC(DESIGN, SMC_PRESETS["default"])
+    pol = SMC(DESIGN, SMC_PRESETS["hand"])
     r100 = simulate(pol, 11.11, curve_entry(11.11, 100.0), 8.0)
     r500 = simulate(pol, 33.33, curve_entry(33.33, 500.0), 8.0)
     dlc = simulate(pol, 33.33, dlc_proxy(), 7.0)

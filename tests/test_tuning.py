@@ -19,6 +19,7 @@ from vtrack_gym.evaluation.rollout import rollout
 from vtrack_gym.tuning import presets as P
 from vtrack_gym.tuning.ga import tune
 from vtrack_gym.tuning.population import (
+    FitnessConfig,
     PopulationEvaluator,
     PopulationSMC,
     configs_from_vector,
@@ -48,7 +49,7 @@ def test_paper_search_spaces_match_table_2():
 
 def test_vector_maps_onto_config_fields():
     cfg, speed = configs_from_vector(SMC_WORKING, [5.0, 10.0, 0.2, 1.0, 0.05, 0.5, 100.0],
-                                     SMC.make_config("default"), PDFLCConfig())
+                                     SMC.make_config("hand"), PDFLCConfig())
     assert (cfg.pole_radps, cfg.reaching_gain, cfg.boundary_layer, cfg.sideslip_shift) == (5.0, 10.0, 0.2, True)
     assert (speed.g1, speed.g2, speed.g3, speed.g4) == (1.0, 0.05, 0.5, 100.0)
     mcfg, _ = configs_from_vector(MPC_PAPER, np.linspace(0, 1, 12), MPCConfig(input_weight=100.0), PDFLCConfig())
@@ -99,6 +100,19 @@ def test_population_rollout_runs(space):
     res = PopulationEvaluator(space, max_steps=50, also_complete=("DLC120-v0",))(X)
     assert res.fitness.shape == (2,) and np.all(np.isfinite(res.fitness)) and res.steps == 50
     assert set(res.also_completed) == {"DLC120-v0"} and "completed_DLC120-v0" in res.row(0)
+    assert "max_abs_e_y_m_DLC120-v0" in res.row(0) and np.all(res.also_max_abs_e_y_m["DLC120-v0"] >= 0)
+
+
+def test_constraint_scenario_error_bound_is_penalised():
+    """An individual that completes the DLC but leaves its gates (max|e_y| > 0.25 m) pays per metre above it."""
+    X = np.array([[8.0, 5.0, 0.1, 1.3187, 0.1, 0.5225, 161.5577]])
+    strict = PopulationEvaluator(SMC_WORKING, max_steps=800, also_complete=("DLC120-v0",),
+                                 fitness=FitnessConfig(also_max_e_y_m=0.0))(X)
+    loose = PopulationEvaluator(SMC_WORKING, max_steps=800, also_complete=("DLC120-v0",),
+                                fitness=FitnessConfig(also_max_e_y_m=5.0))(X)
+    excess = strict.also_max_abs_e_y_m["DLC120-v0"][0]
+    assert excess > 0.0
+    assert strict.fitness[0] - loose.fitness[0] == pytest.approx(1e4 * excess, rel=1e-9)
 
 
 @pytest.fixture(scope="module")
@@ -217,3 +231,25 @@ def test_packaged_tuned_smc_preset_if_present():
     loaded = P.load_preset(path)
     env = gym.make("LateralTracking-v0")
     assert make_policy("smc", env, preset="tuned").config == loaded["config"]
+
+
+def test_compiled_smc_rollout_is_bit_identical_to_reference_with_comfort():
+    X = np.array([[8.0, 5.0, 0.1, 1.3187, 0.1, 0.5225, 161.5577], [1.0, 1.0, 0.02, 1.0, 0.05, 0.5, 100.0]])
+    fit = FitnessConfig(comfort_weight=1.0)
+    fast = PopulationEvaluator(SMC_WORKING, max_steps=400, fitness=fit)(X)
+    ref = PopulationEvaluator(SMC_WORKING, max_steps=400, fitness=fit, compiled=False)(X)
+    for name in ("fitness", "itae", "completed", "termination", "remaining_m", "max_abs_a_y_mps2", "min_fz_n",
+                 "duration_s", "comfort_a_v_mps2"):
+        assert np.array_equal(getattr(fast, name), getattr(ref, name), equal_nan=True), name
+    assert np.all(np.isfinite(fast.comfort_a_v_mps2)) and fast.steps == ref.steps
+
+
+@pytest.mark.parametrize("space", [SMC_WORKING, MPC_PAPER])
+def test_individual_result_does_not_depend_on_its_batch(space):
+    """A row's result is the same alone or in any population (what makes the Ray split exact)."""
+    X = np.random.default_rng(3).uniform(space.lower, space.upper, size=(5, len(space.params)))
+    whole = PopulationEvaluator(space, max_steps=300)(X)
+    for i in (0, 3):
+        alone = PopulationEvaluator(space, max_steps=300)(X[i:i + 1])
+        for name in ("fitness", "itae", "max_abs_a_y_mps2", "min_fz_n", "termination", "remaining_m"):
+            assert getattr(alone, name)[0] == getattr(whole, name)[i], name

@@ -17,6 +17,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from vtrack_gym.evaluation.store import DEFAULT_STORE_PATH, StoreError
+from vtrack_gym.tuning.backends import BackendError
 
 DEFAULT_FIGURES_DIR = Path("vtrack_results") / "figures"
 
@@ -61,7 +62,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "name, or a weights-only agent file (agent.json / agent.npz)")
     e.add_argument("--env", required=True,
                    help="env id, e.g. LateralTracking-v0, DLC120-v0 or highway-env:lane-keeping-v0")
-    e.add_argument("--preset", default="default", help="baseline preset: default, paper or tuned (default: default)")
+    e.add_argument("--preset", default="default",
+                   help="baseline preset: default (for smc and mpc the shipped GA-tuned preset), tuned, hand "
+                        "(hand-tuned smc/mpc) or paper (Table 3) (default: default)")
     e.add_argument("--seeds", default="0", help="comma-separated seeds (default: 0)")
     _add_store(e)
 
@@ -88,6 +91,11 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--case1-full-every", type=int, default=5, help="full-lap evaluation period (default: 5)")
     tr.add_argument("--no-progress", action="store_true", help="no progress bar")
     tr.add_argument("--no-final-eval", action="store_true", help="skip the full evaluation at the end")
+    tr.add_argument("--bc-expert", default=None, metavar="POLICY[:PRESET]",
+                    help="ppo/sac: start from a behaviour-cloned actor of this scripted baseline (e.g. lqr or "
+                    "mpc:hand), driven on the training env; RL then fine-tunes it (default: none, from scratch)")
+    tr.add_argument("--bc-steps", type=int, default=3000,
+                    help="vector-env steps of expert data for --bc-expert (x num-envs transitions; default: 3000)")
 
     ex = sub.add_parser("export", help="export a trained SB3 run to the weights-only agent format",
                         description="Load <run-dir>/model.zip and vecnormalize.pkl (your own training run: SB3 files "
@@ -106,7 +114,8 @@ def build_parser() -> argparse.ArgumentParser:
     t = sub.add_parser("tune", help="GA-tune the SMC or MPC on Case 1 and write a tuned preset (JSON)",
                        description="Genetic algorithm (pymoo: rank selection, SBX 0.8, polynomial mutation 0.1) "
                        "minimising ITAE + constraint penalties on LateralTracking-v0. Each generation runs as one "
-                       "batched rollout. Writes a JSON preset with provenance; the Ray backend is not available.")
+                       "batched rollout, in this process or (--backend ray) split over a Ray cluster's workers, with a "
+                       "bit-identical result. Writes a JSON preset with provenance.")
     t.add_argument("--controller", choices=("smc", "mpc"), required=True, help="controller to tune")
     t.add_argument("--budget", choices=("paper", "quick"), default="paper",
                    help="paper: Table 2 (SMC 100 generations x 10, MPC 200 x 20); quick: 3 x 4 (default: paper)")
@@ -128,6 +137,16 @@ def build_parser() -> argparse.ArgumentParser:
                    "adds the incomplete-run penalty; default: none, the paper's Case-1-only fitness)")
     t.add_argument("--max-steps", type=int, default=None,
                    help="cut every episode after this many steps (smoke tests only; default: full episodes)")
+    t.add_argument("--backend", choices=("local", "ray"), default="local",
+                   help="where each generation is evaluated: local (one batched rollout in this process) or ray "
+                   "(the population split over Ray workers; needs pip install \"vtrack_gym[ray]\"; same result) "
+                   "(default: local)")
+    t.add_argument("--ray-address", default=None, metavar="ADDR",
+                   help="Ray cluster to connect to with --backend ray, e.g. 10.0.0.5:6379 (default: $RAY_ADDRESS "
+                   "if set, else a local Ray instance started and stopped by this command)")
+    t.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="Ray workers with --backend ray (default: the cluster's CPU count, at most the population "
+                   "size)")
     t.add_argument("--no-progress", action="store_true", help="no progress bar")
 
     r = sub.add_parser("reproduce", help="rerun the paper's Case 1 and Case 2 and check its claims",
@@ -275,9 +294,14 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     if args.generations is not None or args.pop_size is not None:
         b = dataclasses.replace(b, name="custom", generations=args.generations or b.generations,
                                 pop_size=args.pop_size or b.pop_size)
+    if args.backend != "ray" and (args.ray_address is not None or args.workers is not None):
+        raise ValueError("--ray-address and --workers need --backend ray")
+    if args.workers is not None and args.workers < 1:
+        raise ValueError(f"--workers must be >= 1 (got {args.workers})")
     fitness = FitnessConfig(comfort_weight=args.comfort_weight)
     result = tune(space, b, seed=args.seed, fitness=fitness, progress=not args.no_progress, max_steps=args.max_steps,
-                  also_complete=tuple(e for e in args.also_complete.split(",") if e))
+                  also_complete=tuple(e for e in args.also_complete.split(",") if e), backend=args.backend,
+                  ray_address=args.ray_address, num_workers=args.workers)
     out = args.out or Path("vtrack_results") / f"{args.controller}_tuned.json"
     command = "vtrack " + " ".join(shlex.quote(a) for a in (sys.argv[1:] if args.argv is None else args.argv))
     budget_info = {"name": b.name, "generations": b.generations, "pop_size": b.pop_size}
@@ -285,15 +309,16 @@ def _cmd_tune(args: argparse.Namespace) -> int:
                   "best_fitness": result.best_fitness, "metrics": result.best_metrics,
                   "scenario": ",".join(["LateralTracking-v0", *[e for e in args.also_complete.split(",") if e]]),
                   "wall_time_s": round(result.wall_s, 3),
-                  "episodes": result.episodes}
+                  "episodes": result.episodes, "backend": result.backend}
     if args.max_steps is not None:
         provenance["note"] = f"episodes cut after {args.max_steps} steps (smoke test, not a tuning result)"
     save_preset(out, args.controller, result.best_config, result.best_speed_config, provenance)
     eps = result.episodes / max(result.wall_s, 1e-9)
     print(json.dumps({"best_fitness": result.best_fitness, "initial_best_fitness": result.initial_best_fitness,
                       "params": result.params, **result.best_metrics}, indent=2))
-    print(f"{result.episodes} episodes in {result.wall_s:.1f} s ({eps:.2f} episodes/s); preset written to {out}",
-          file=sys.stderr)
+    where = f" on {result.workers} Ray workers" if result.backend == "ray" else ""
+    print(f"{result.episodes} episodes in {result.wall_s:.1f} s{where} ({eps:.2f} episodes/s); preset written to "
+          f"{out}", file=sys.stderr)
     if args.store is not None:
         from vtrack_gym.evaluation.benchmark import policy_hash
         from vtrack_gym.evaluation.store import ResultRow, ResultStore
@@ -333,11 +358,21 @@ def _cmd_train(args: argparse.Namespace) -> int:
 
     from vtrack_gym.agents.train import train
 
+    bc = None
+    if args.bc_expert is not None:
+        from vtrack_gym.agents.imitation import BCConfig
+        from vtrack_gym.baselines.registry import available_policies
+
+        name, _, preset = args.bc_expert.partition(":")
+        if name not in available_policies():
+            raise ValueError(f"--bc-expert must be one of {', '.join(available_policies())}, optionally with "
+                             f":PRESET (got {args.bc_expert!r})")
+        bc = BCConfig(expert=name, expert_preset=preset or "default", steps=args.bc_steps)
     command = shlex.join(["vtrack", *sys.argv[1:]]) if args.argv is None else shlex.join(["vtrack", *args.argv])
     summary = train(args.algo, args.env, args.timesteps, args.seed, str(args.run_dir), num_envs=args.num_envs,
                     eval_freq=args.eval_freq, case1_max_steps=args.case1_max_steps,
                     case1_full_every=args.case1_full_every, progress_bar=not args.no_progress, command=command,
-                    final_eval=not args.no_final_eval)
+                    final_eval=not args.no_final_eval, bc=bc)
     print(json.dumps({k: v for k, v in summary.items() if k not in ("model", "vecnormalize")}, indent=2,
                      default=str))
     return 0
@@ -366,7 +401,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 "tune": _cmd_tune, "reproduce": _cmd_reproduce}
     try:
         return handlers[args.command](args)
-    except (ValueError, FileNotFoundError, ImportError, StoreError, sqlite3.Error) as exc:
+    except (ValueError, FileNotFoundError, ImportError, StoreError, sqlite3.Error, BackendError) as exc:
         print(f"vtrack {args.command}: error: {exc}", file=sys.stderr)
         return 2
 

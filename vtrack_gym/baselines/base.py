@@ -173,6 +173,8 @@ class Policy(abc.ABC):
 
     name: ClassVar[str] = "policy"
     PRESETS: ClassVar[Mapping[str, Any]] = {}
+    FILE_PRESETS: ClassVar[tuple[str, ...]] = ()
+    """Preset names read from a packaged file by ``_file_preset`` (the GA-tuned SMC/MPC), before ``PRESETS``."""
     config_type: ClassVar[type] = object
     state_size: int = 0
 
@@ -185,7 +187,7 @@ class Policy(abc.ABC):
         if not (isinstance(control_period_s, (int, float)) and 0.0 < control_period_s <= 1.0):
             raise ValueError(f"control_period_s must be in (0, 1] s (got {control_period_s!r})")
         if config is None:
-            config = self.PRESETS["default"]
+            config = type(self).make_config("default")
         if not isinstance(config, self.config_type):
             raise ValueError(f"config must be a {self.config_type.__name__} (got {type(config).__name__})")
         self.design = design
@@ -203,11 +205,24 @@ class Policy(abc.ABC):
 
     # ----------------------------------------------------------------------------------------- construction
     @classmethod
+    def preset_names(cls) -> tuple[str, ...]:
+        """Every preset name ``make_config`` accepts."""
+        return tuple(dict.fromkeys((*cls.FILE_PRESETS, *cls.PRESETS)))
+
+    @classmethod
+    def _file_preset(cls, preset: str) -> Any:
+        """Config of a ``FILE_PRESETS`` entry (subclasses that have some override this)."""
+        raise ValueError(f"{cls.name} has no file preset {preset!r}")
+
+    @classmethod
     def make_config(cls, preset: str = "default", **overrides: Any) -> Any:
         """The preset's config with ``overrides`` applied (unknown preset or field -> ``ValueError``)."""
-        if preset not in cls.PRESETS:
-            raise ValueError(f"unknown {cls.name} preset {preset!r}; valid: {', '.join(cls.PRESETS)}")
-        config = cls.PRESETS[preset]
+        if preset in cls.FILE_PRESETS:
+            config = cls._file_preset(preset)
+        elif preset in cls.PRESETS:
+            config = cls.PRESETS[preset]
+        else:
+            raise ValueError(f"unknown {cls.name} preset {preset!r}; valid: {', '.join(cls.preset_names())}")
         if not overrides:
             return config
         valid = {f.name for f in dataclasses.fields(config)}

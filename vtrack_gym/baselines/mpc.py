@@ -59,7 +59,9 @@ Presets:
   53 mm (DLC proxy); spectral radii as paper-math 4.4. Its effective gains are high (K_x on Delta e_y = 8.2
   rad/m at 40 km/h): in the nonlinear env (LateralTracking-v0) a 30 ms actuator delay, or sensor noise at 0.5x
   the env's nominal level, makes it oscillate off the road.
-* ``default``: the same Table-3 weights with w = 100 (chosen from w in {0.1, 1, 10, 30, 100, 300}). Linear closed
+* ``default`` / ``tuned``: the packaged GA result ``vtrack_gym/baselines/presets/mpc_tuned.json`` (the ``hand``
+  fields with w1..w12 tuned on Case 1 by ``vtrack tune``; its provenance records the command).
+* ``hand``: the same Table-3 weights with w = 100 (chosen from w in {0.1, 1, 10, 30, 100, 300}). Linear closed
   loop: 6.8 mm (R 100), 14.8 mm (R 500), 67 mm (DLC proxy), a 0.5 m offset settles in 0.8 s with peak delta
   0.09 rad; spectral radius <= 0.991 from 1 to 45 m/s. In the env it completes LateralTracking-v0 nominally
   (max|e_y| 0.027 m vs 0.088 m for ``paper``), with a 30 ms delay (0.028 m) and with 0.5x sensor noise
@@ -150,7 +152,7 @@ class MPCConfig:
 
 MPC_PRESETS: dict[str, MPCConfig] = {
     "paper": MPCConfig(),
-    "default": MPCConfig(input_weight=100.0),
+    "hand": MPCConfig(input_weight=100.0),
     "paper_siso": MPCConfig(interpretation="siso_per_step", prediction_horizon=12, control_horizon=5),
 }
 
@@ -330,8 +332,15 @@ class MPC(Policy):
 
     name: ClassVar[str] = "mpc"
     PRESETS: ClassVar[dict[str, MPCConfig]] = MPC_PRESETS
+    FILE_PRESETS: ClassVar[tuple[str, ...]] = ("default", "tuned")
     config_type: ClassVar[type] = MPCConfig
     state_size = 9
+
+    @classmethod
+    def _file_preset(cls, preset: str) -> MPCConfig:
+        from vtrack_gym.tuning.presets import tuned_config
+
+        return tuned_config(cls.name)
 
     def __init__(self, design: DesignModel, config: MPCConfig | None = None, layout: ObservationLayout = OBS,
                  control_period_s: float = 0.01) -> None:

@@ -37,31 +37,15 @@ def policy_class(name: str) -> type[Policy]:
 
 def available_presets(name: str) -> tuple[str, ...]:
     """Preset names of policy ``name``."""
-    return tuple(policy_class(name).PRESETS)
+    return policy_class(name).preset_names()
 
 
 def make_policy(name: str, env: Any, preset: str = "default", **overrides: Any) -> Policy:
     """Build policy ``name`` for ``env`` from ``preset`` with config-field ``overrides``.
 
-    Unknown names, presets or fields raise ``ValueError`` listing the valid ones. ``preset="tuned"`` (smc, mpc)
-    loads the packaged GA result ``vtrack_gym/baselines/presets/<name>_tuned.json`` (JSON only, strict schema;
-    ``ValueError`` if the file is missing or invalid; see ``vtrack_gym.tuning.presets``).
+    Unknown names, presets or fields raise ``ValueError`` listing the valid ones. For smc and mpc, ``default``
+    and ``tuned`` are the packaged GA result ``vtrack_gym/baselines/presets/<name>_tuned.json`` (JSON only,
+    strict schema; ``ValueError`` if the file is missing or invalid; see ``vtrack_gym.tuning.presets``),
+    ``hand`` the hand-tuned config and ``paper`` the paper's Table 3.
     """
-    cls = policy_class(name)
-    if preset == "tuned" and "tuned" not in cls.PRESETS:
-        import dataclasses
-
-        from vtrack_gym.baselines.base import env_contract
-        from vtrack_gym.tuning.presets import tuned_config
-
-        config = tuned_config(name)
-        if overrides:
-            valid = {f.name for f in dataclasses.fields(config)}
-            unknown = sorted(set(overrides) - valid)
-            if unknown:
-                raise ValueError(f"unknown {type(config).__name__} field(s) {', '.join(unknown)}; "
-                                 f"valid: {', '.join(sorted(valid))}")
-            config = dataclasses.replace(config, **overrides)
-        design, layout, period = env_contract(env)
-        return cls(design, config, layout=layout, control_period_s=period)
-    return cls.from_env(env, preset=preset, **overrides)
+    return policy_class(name).from_env(env, preset=preset, **overrides)

@@ -46,7 +46,9 @@ Presets:
   ``e_y,ss = e_phi,ss (lambda - c3/c1)`` = -3.9e6 m at 11.11 m/s on R = 100 m. In the linear model (10 ms
   control, steering clipped to 0.6 rad) a 0.5 m offset on a straight decays with a time constant of ~22 s and
   e_y on R = 100 m reaches metres within seconds (see tests/test_smc.py). Kept for faithfulness only.
-* ``default``: p = 8 rad/s with OPTION 2 (sideslip shift), eta = 5 rad/s^2, Delta = 0.1 rad/s (eta/Delta = 50
+* ``default`` / ``tuned``: the packaged GA result ``vtrack_gym/baselines/presets/smc_tuned.json`` (the ``hand``
+  fields with p, eta, Delta tuned on Case 1 by ``vtrack tune``; its provenance records the command).
+* ``hand``: p = 8 rad/s with OPTION 2 (sideslip shift), eta = 5 rad/s^2, Delta = 0.1 rad/s (eta/Delta = 50
   s^-1 = half the 10 ms ZOH limit, margin for the env's 30 ms steering lag; switching authority
   I_z eta/(a1 C_af) = 0.059 rad). Linear closed loop (tests/linear_closed_loop.py, 10 ms ZOH, ideal actuator):
   max|e_y| 0.5 mm (11.11 m/s, R 100), 4.8 mm (33.33 m/s, R 500), 16.5 mm (DLC proxy, peak delta 0.133 rad),
@@ -128,7 +130,7 @@ class SMCConfig:
 SMC_PRESETS: dict[str, SMCConfig] = {
     "paper": SMCConfig(pole_radps=PAPER_POLE_RADPS, reaching_gain=PAPER_REACHING_GAIN,
                        boundary_layer=PAPER_BOUNDARY_LAYER, sideslip_shift=False),
-    "default": SMCConfig(),
+    "hand": SMCConfig(),
 }
 
 
@@ -197,8 +199,15 @@ class SMC(Policy):
 
     name: ClassVar[str] = "smc"
     PRESETS: ClassVar[dict[str, SMCConfig]] = SMC_PRESETS
+    FILE_PRESETS: ClassVar[tuple[str, ...]] = ("default", "tuned")
     config_type: ClassVar[type] = SMCConfig
     state_size = 0
+
+    @classmethod
+    def _file_preset(cls, preset: str) -> SMCConfig:
+        from vtrack_gym.tuning.presets import tuned_config
+
+        return tuned_config(cls.name)
 
     def __init__(self, design: DesignModel, config: SMCConfig | None = None, layout: ObservationLayout = OBS,
                  control_period_s: float = 0.01) -> None:

@@ -5,6 +5,9 @@ the initial population as generation 1, so ``generations x pop_size`` episodes a
 duplicate elimination cannot find ``pop_size`` distinct offspring). Survival is pymoo's elitist
 ``FitnessSurvival`` (parents + offspring, best ``pop_size`` kept), so the best fitness never gets worse.
 A fixed ``seed`` reproduces the run (pymoo's generator and the deterministic nominal scenario).
+
+``backend="ray"`` evaluates each generation on a Ray cluster instead (``vtrack_gym.tuning.backends``: the
+population split row-wise over the workers); the result is bit-identical to ``backend="local"``.
 """
 
 from __future__ import annotations
@@ -16,7 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from vtrack_gym.tuning.population import FitnessConfig, PopulationEvaluator, configs_from_vector
+from vtrack_gym.tuning.backends import make_evaluator
+from vtrack_gym.tuning.population import FitnessConfig, configs_from_vector
 from vtrack_gym.tuning.spaces import CROSSOVER_PROB, MUTATION_PROB, Budget, SearchSpace
 
 
@@ -69,6 +73,8 @@ class TuneResult:
     episodes: int = 0
     car_steps: int = 0
     wall_s: float = 0.0
+    backend: str = "local"   # where the populations were evaluated ("local" or "ray")
+    workers: int = 1         # processes that evaluated them (Ray actors; 1 for "local")
 
     @property
     def params(self) -> dict[str, float]:
@@ -77,9 +83,12 @@ class TuneResult:
 
 def tune(space: SearchSpace, budget: Budget, seed: int = 0, scenario: str = "LateralTracking-v0",
          fitness: FitnessConfig | None = None, progress: bool = True, max_steps: int | None = None,
-         also_complete: tuple[str, ...] = ()) -> TuneResult:
+         also_complete: tuple[str, ...] = (), backend: str = "local", ray_address: str | None = None,
+         num_workers: int | None = None) -> TuneResult:
     """Run the GA; returns the best individual (see the module docstring). ``also_complete``: scenarios every
-    individual must also complete (e.g. ``("DLC120-v0",)``), else the incomplete-run penalty is added."""
+    individual must also complete (e.g. ``("DLC120-v0",)``), else the incomplete-run penalty is added.
+    ``backend``: ``"local"`` or ``"ray"``; ``ray_address`` (default: ``$RAY_ADDRESS`` or a local Ray instance)
+    and ``num_workers`` (default: the cluster's CPUs, at most the population size) apply to ``"ray"`` only."""
     from pymoo.algorithms.soo.nonconvex.ga import GA
     from pymoo.core.evaluator import Evaluator
     from pymoo.core.problem import Problem
@@ -89,22 +98,23 @@ def tune(space: SearchSpace, budget: Budget, seed: int = 0, scenario: str = "Lat
     from pymoo.problems.static import StaticProblem
 
     start = time.perf_counter()
-    evaluator = PopulationEvaluator(space, scenario=scenario, fitness=fitness, seed=0, max_steps=max_steps,
-                                    also_complete=also_complete)
-    problem = Problem(n_var=len(space.params), n_obj=1, xl=space.lower, xu=space.upper)
-    algorithm = GA(pop_size=budget.pop_size, sampling=FloatRandomSampling(), selection=_rank_selection_cls()(),
-                   crossover=SBX(prob=CROSSOVER_PROB, eta=15), mutation=PM(prob=1.0, prob_var=MUTATION_PROB, eta=20),
-                   eliminate_duplicates=True)
-    algorithm.setup(problem, termination=("n_gen", budget.generations), seed=int(seed), verbose=False)
+    evaluator = make_evaluator(backend, space, ray_address=ray_address, num_workers=num_workers,
+                               pop_size=budget.pop_size, scenario=scenario, fitness=fitness, seed=0,
+                               max_steps=max_steps, also_complete=also_complete)
     bar = None
-    if progress:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(total=budget.generations, desc=f"tune {space.controller}/{space.name}", unit="gen")
-    best_f, best_x, best_metrics = np.inf, None, {}
-    initial_best = np.nan
-    history: list[float] = []
     try:
+        problem = Problem(n_var=len(space.params), n_obj=1, xl=space.lower, xu=space.upper)
+        algorithm = GA(pop_size=budget.pop_size, sampling=FloatRandomSampling(),
+                       selection=_rank_selection_cls()(), crossover=SBX(prob=CROSSOVER_PROB, eta=15),
+                       mutation=PM(prob=1.0, prob_var=MUTATION_PROB, eta=20), eliminate_duplicates=True)
+        algorithm.setup(problem, termination=("n_gen", budget.generations), seed=int(seed), verbose=False)
+        if progress:
+            from tqdm.auto import tqdm
+
+            bar = tqdm(total=budget.generations, desc=f"tune {space.controller}/{space.name}", unit="gen")
+        best_f, best_x, best_metrics = np.inf, None, {}
+        initial_best = np.nan
+        history: list[float] = []
         while algorithm.has_next():
             pop = algorithm.ask()
             X = pop.get("X")
@@ -120,13 +130,18 @@ def tune(space: SearchSpace, budget: Budget, seed: int = 0, scenario: str = "Lat
             if bar is not None:
                 bar.set_postfix(best=f"{best_f:.4g}", eps=f"{res.fitness.size / max(res.wall_s, 1e-9):.2f}/s")
                 bar.update(1)
+        base_speed = evaluator.env(budget.pop_size).config.speed_controller
+        cfg, speed_cfg = configs_from_vector(space, best_x, evaluator.base_config, base_speed)
+        episodes, car_steps = evaluator.episodes, evaluator.car_steps
+        workers = getattr(evaluator, "num_workers", 1)
     finally:
         if bar is not None:
             bar.close()
-    base_speed = evaluator.env(budget.pop_size).config.speed_controller
-    cfg, speed_cfg = configs_from_vector(space, best_x, evaluator.base_config, base_speed)
+        close = getattr(evaluator, "close", None)
+        if close is not None:
+            close()
     return TuneResult(space, budget, int(seed), best_x, best_f, best_metrics, cfg, speed_cfg, float(initial_best),
-                      history, evaluator.episodes, evaluator.car_steps, time.perf_counter() - start)
+                      history, episodes, car_steps, time.perf_counter() - start, backend, workers)
 
 
 def config_dict(config: Any) -> dict[str, Any]:

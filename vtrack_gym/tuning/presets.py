@@ -6,7 +6,8 @@ Format (``format_version`` 1)::
      "config": {<every SMCConfig / MPCConfig field>},
      "speed_controller": {"g1": .., "g2": .., "g3": .., "g4": ..},     # PD-FLC gains the GA tuned (optional)
      "provenance": {"command": .., "seed": .., "budget": {..}, "space": {..}, "best_fitness": ..,
-                    "metrics": {..}, "package_version": .., "date_utc": .., "scenario": .., "wall_time_s": ..}}
+                    "metrics": {..}, "package_version": .., "date_utc": .., "scenario": .., "wall_time_s": ..,
+                    "backend": "local" | "ray"}}
 
 ``make_policy("smc", env, preset="tuned")`` loads ``vtrack_gym/baselines/presets/smc_tuned.json`` (shipped
 with the package if a tuning run was accepted); without that file it raises ``ValueError``. The PD-FLC gains
@@ -29,7 +30,7 @@ MAX_BYTES = 1 << 20
 PACKAGED_DIR = Path(__file__).resolve().parent.parent / "baselines" / "presets"
 TOP_KEYS = {"format", "format_version", "controller", "config", "speed_controller", "provenance"}
 PROVENANCE_KEYS = {"command", "seed", "budget", "space", "best_fitness", "metrics", "package_version", "date_utc",
-                   "scenario", "wall_time_s", "episodes", "note"}
+                   "scenario", "wall_time_s", "episodes", "note", "backend"}
 SPEED_KEYS = ("g1", "g2", "g3", "g4")
 
 

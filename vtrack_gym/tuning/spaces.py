@@ -13,12 +13,12 @@ Spaces:
   ``limit_layer_rate`` rule widens Delta to eta T_c (5..10 rad/s), so this space is kept for faithfulness.
 * ``smc/working``: p [1, 15] rad/s (p ~ 3..10 tracks, paper-math 5.6 OPTION 1), eta [1, 50] rad/s^2 and
   Delta [0.02, 1] rad/s (adapted to the 10 ms control period: eta/Delta <= 1/T_c is enforced by the SMC's
-  layer-widening rule, paper-math 5.6.3 OPTION 4), the same G1..G4 bounds; base preset ``default`` (OPTION 2
+  layer-widening rule, paper-math 5.6.3 OPTION 4), the same G1..G4 bounds; base preset ``hand`` (OPTION 2
   sideslip shift on).
 * ``smc/steering``: the ``working`` p, eta, Delta bounds only; the PD-FLC gains stay the env's. Its result is a
   pure steering preset: ``make_policy("smc", env, preset="tuned")`` reproduces the tuned closed loop on any env
   (a ``working`` result does so only with its G1..G4 put into ``EnvConfig(speed_controller=...)``).
-* ``mpc/paper``: w1..w12 in [0, 1] (Table 2); base preset ``default`` (W2 = 100 I: the paper does not give
+* ``mpc/paper``: w1..w12 in [0, 1] (Table 2); base preset ``hand`` (W2 = 100 I: the paper does not give
   W2, and the ``paper`` preset's 0.1 oscillates in the nonlinear env, see ``vtrack_gym.baselines.mpc``).
   ``mpc/working`` is the same space.
 """
@@ -93,21 +93,21 @@ SMC_PAPER = SearchSpace(
     "Table 2 of the paper (does not track with the corrected equations, paper-math 5.6)")
 
 SMC_WORKING = SearchSpace(
-    "smc", "working", "default",
+    "smc", "working", "hand",
     (Parameter("p", 1.0, 15.0, "controller", "pole_radps"),
      Parameter("eta", 1.0, 50.0, "controller", "reaching_gain"),
      Parameter("Delta", 0.02, 1.0, "controller", "boundary_layer"), *_G),
     "p adapted to the corrected equations, eta/Delta to the 10 ms control period; Table-2 G1..G4")
 
 SMC_STEERING = SearchSpace(
-    "smc", "steering", "default", SMC_WORKING.params[:3],
+    "smc", "steering", "hand", SMC_WORKING.params[:3],
     "the working p/eta/Delta bounds with the env's PD-FLC gains fixed: a steering-only preset, usable as "
     "make_policy(..., preset='tuned') on any env")
 
 MPC_PAPER = SearchSpace(
-    "mpc", "paper", "default",
+    "mpc", "paper", "hand",
     tuple(Parameter(f"w{i + 1}", 0.0, 1.0, "controller", "weights", i) for i in range(12)),
-    "Table 2 of the paper: w1..w12 in [0, 1] (W2 = 100 I from the default preset)")
+    "Table 2 of the paper: w1..w12 in [0, 1] (W2 = 100 I from the hand preset)")
 
 SPACES: dict[tuple[str, str], SearchSpace] = {
     ("smc", "paper"): SMC_PAPER,

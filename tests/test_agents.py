@@ -292,3 +292,82 @@ def test_module_cli_records_command(tmp_path, capsys):
     assert config["command"].startswith("vtrack train --algo ppo")  # python -m ... delegates to the CLI
     assert json.loads((tmp_path / "agent.json").read_text())["provenance"]["command"] == config["command"]
     assert '"timesteps": 512' in capsys.readouterr().out
+
+
+def test_selection_score_prefers_completed_lane_change():
+    from vtrack_gym.agents.train import selection_score
+
+    dlc = {"completed": True, "max_e_y_m": 0.3, "termination": "completed"}
+    capped_ok = {"completed": False, "termination": "max_steps", "step_cap": 3000}
+    assert selection_score({"DLC120-v0": dlc, "LateralTracking-v0": capped_ok}) == 0.3
+    full_lap_done = {"completed": True, "termination": "completed", "step_cap": None}
+    assert selection_score({"DLC120-v0": dlc, "LateralTracking-v0": full_lap_done}) == 0.3
+    for lap in ({"completed": False, "termination": "off_road", "step_cap": 3000},
+                {"completed": False, "termination": "time_limit", "step_cap": None}):
+        assert selection_score({"DLC120-v0": dlc, "LateralTracking-v0": lap}) == float("inf")
+    spun = {**dlc, "completed": False, "termination": "spin_out"}
+    assert selection_score({"DLC120-v0": spun, "LateralTracking-v0": full_lap_done}) == float("inf")
+
+
+def test_periodic_evaluation_keeps_best_checkpoint_when_one_qualifies(tmp_path):
+    from vtrack_gym.agents.train import train
+
+    train("ppo", timesteps=1024, seed=2, run_dir=tmp_path, num_envs=4, overrides=TINY["ppo"], eval_freq=512,
+          case1_max_steps=100, case1_full_every=0, final_eval=False, progress_bar=False)
+    rows = [json.loads(line) for line in (tmp_path / "evaluations.jsonl").read_text().splitlines()]
+    assert all("selection_score" in r and "new_best" in r for r in rows)
+    # an untrained agent cannot complete the lane change: no row qualifies, so no best checkpoint is written
+    qualified = [r for r in rows if r["new_best"]]
+    assert (tmp_path / "best_agent.json").is_file() == bool(qualified)
+
+
+@pytest.mark.parametrize("algo,extra", [
+    ("ppo", {"use_sde": True, "sde_sample_freq": 4}),
+    ("sac", {"use_sde": True, "policy_kwargs": {"net_arch": [32, 32], "activation_fn": "relu", "clip_mean": 0.0}}),
+])
+def test_gsde_policies_export_and_agree(algo, extra, tmp_path):
+    from vtrack_gym.agents.train import train
+
+    summary = train(algo, timesteps=1500, seed=0, run_dir=tmp_path, num_envs=4, overrides={**TINY[algo], **extra},
+                    eval_freq=0, final_eval=False, progress_bar=False)
+    _check_agreement(summary, load_agent(tmp_path / "agent"))
+
+
+def test_sac_gsde_with_clipped_mean_is_refused(tmp_path):
+    from vtrack_gym.agents.train import train
+
+    with pytest.raises(ValueError, match="clip_mean=0"):
+        train("sac", timesteps=600, seed=0, run_dir=tmp_path, num_envs=4,
+              overrides={**TINY["sac"], "use_sde": True, "policy_kwargs": {"net_arch": [32, 32]}},
+              eval_freq=0, final_eval=False, progress_bar=False)
+
+
+@pytest.mark.parametrize("algo", ["ppo", "sac"])
+def test_behaviour_cloning_warm_start(algo, tmp_path):
+    """The warm start clones the expert on the training env, is evaluated at timestep 0, and exports cleanly."""
+    from vtrack_gym.agents.imitation import BCConfig
+    from vtrack_gym.agents.train import train
+
+    bc = BCConfig(expert="lqr", steps=60, dagger_rounds=1, epochs=3, batch_size=64, critic_steps=50)
+    summary = train(algo, timesteps=600 if algo == "ppo" else 200, seed=0, run_dir=tmp_path, num_envs=4,
+                    overrides=TINY[algo], eval_freq=10_000, case1_max_steps=50, case1_full_every=0,
+                    final_eval=False, progress_bar=False, bc=bc)
+    record = json.loads((tmp_path / "bc.json").read_text())
+    assert record["transitions"] == 2 * 60 * 4 and record["config"]["expert"] == "lqr"  # expert + 1 DAgger round
+    assert len(record["fit"]["actor_mse"]) == 2 and max(record["fit"]["actor_mse"]) < 0.05
+    assert record["replay_buffer_prefilled"] == (480 if algo == "sac" else 0)
+    config = json.loads((tmp_path / "config.json").read_text())
+    assert config["bc"]["expert"] == "lqr"
+    assert config["hyperparams"]["learning_rate"] == (5.0e-5 if algo == "ppo" else 1.0e-4)  # bc_finetune applied
+    first = json.loads((tmp_path / "evaluations.jsonl").read_text().splitlines()[0])
+    assert first["timesteps"] == 0  # the cloned agent, before any RL update
+    _check_agreement(summary, load_agent(tmp_path / "agent"))
+
+
+def test_bc_config_validates_fields():
+    from vtrack_gym.agents.imitation import BCConfig
+
+    with pytest.raises(ValueError, match=r"BCConfig.steps must be an int in \[10"):
+        BCConfig(steps=1)
+    with pytest.raises(ValueError, match=r"BCConfig\.noise_std"):
+        BCConfig(noise_std=float("nan"))

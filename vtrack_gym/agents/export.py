@@ -48,8 +48,9 @@ def policy_layers(model: Any) -> tuple[str, list[tuple[np.ndarray, np.ndarray]],
     algo = _algo_of(model)
     policy = model.policy
     if algo == "ppo":
-        if getattr(policy, "squash_output", False) or getattr(policy, "use_sde", False):
-            raise ValueError("export supports PPO with a plain Gaussian policy (no gSDE / squash_output)")
+        if getattr(policy, "squash_output", False):
+            # gSDE without squashing is fine: its deterministic action is the same action_net mean
+            raise ValueError("export supports PPO without squash_output")
         if not isinstance(policy.features_extractor, nn.Flatten) and type(policy.features_extractor).__name__ != \
                 "FlattenExtractor":
             raise ValueError("export supports the default flatten feature extractor only")
@@ -58,8 +59,9 @@ def policy_layers(model: Any) -> tuple[str, list[tuple[np.ndarray, np.ndarray]],
         layers, output = hidden + out, "clip"
     elif algo == "sac":
         actor = policy.actor
-        if getattr(actor, "use_sde", False):
-            raise ValueError("export supports SAC without gSDE")
+        if not isinstance(actor.mu, nn.Linear):
+            # gSDE adds a Hardtanh(-clip_mean, clip_mean) before the tanh unless policy_kwargs clip_mean=0
+            raise ValueError("export supports SAC actors whose mean layer is one Linear (with gSDE: clip_mean=0)")
         hidden, acts = _linear_stack(actor.latent_pi)
         out, _ = _linear_stack([actor.mu])
         layers, output = hidden + out, "tanh"

@@ -17,7 +17,11 @@ The run folder holds:
   ``case1_full_every``-th evaluation and at the end. Each line records the metrics, the termination and
   the number of steps so a capped run is never mistaken for a full lap.
 * ``model.zip`` + ``vecnormalize.pkl`` (SB3's own formats, for resuming; trusted local files only) and
-  ``agent.json`` + ``agent.npz`` (the weights-only export loaded by ``load_agent``).
+  ``agent.json`` + ``agent.npz`` (the weights-only export of the final model, loaded by ``load_agent``)
+* ``best_agent.json`` + ``best_agent.npz``: the weights-only export of the checkpoint with the best
+  ``selection_score`` among the periodic evaluations (absent if no evaluation completed the lane change without
+  a failure on the handling course). Note: this selects on the two paper scenarios, which training never
+  drives on, as rl-zoo's ``best_model`` selects on its evaluation env.
 """
 
 from __future__ import annotations
@@ -37,7 +41,7 @@ DEFAULT_ENV_ID = "LateralTrackingRandom-v0"
 HYPERPARAMS_DIR = Path(__file__).with_name("hyperparams")
 EVAL_ENV_IDS = ("DLC120-v0", "LateralTracking-v0")
 _ACTIVATIONS = ("tanh", "relu")
-_META_KEYS = ("n_envs", "policy", "normalize", "action_noise_std")
+_META_KEYS = ("n_envs", "policy", "normalize", "action_noise_std", "bc_finetune")
 
 
 def load_hyperparams(algo: str, env_id: str = DEFAULT_ENV_ID) -> tuple[dict[str, Any], int]:
@@ -110,8 +114,24 @@ def evaluate_paper(policy: Any, case1_max_steps: int | None = 3000, seed: int = 
     return out
 
 
+FAILURES = ("off_road", "spin_out", "wheel_lift", "invalid_state")
+
+
+def selection_score(results: Mapping[str, Mapping[str, Any]]) -> float:
+    """Checkpoint-selection score of one periodic evaluation (lower is better): the ``DLC120-v0`` max|e_y| [m]
+    if the lane change was completed and the ``LateralTracking-v0`` run (full lap or capped) did not fail, else
+    +inf. The run keeps the best-scoring checkpoint as ``best_agent.json/.npz`` (see ``train``)."""
+    dlc, lap = results.get("DLC120-v0"), results.get("LateralTracking-v0")
+    if not dlc or not lap or not dlc.get("completed") or lap.get("termination") in FAILURES:
+        return float("inf")
+    if lap.get("step_cap") is None and not lap.get("completed"):
+        return float("inf")
+    return float(dlc["max_e_y_m"])
+
+
 def _make_callbacks(run_dir: Path, vecnorm: Any, timesteps: int, eval_freq: int, case1_max_steps: int | None,
-                    case1_full_every: int, progress_bar: bool) -> list[Any]:
+                    case1_full_every: int, progress_bar: bool, env_id: str, command: str,
+                    seed: int) -> list[Any]:
     from stable_baselines3.common.callbacks import BaseCallback
 
     class ProgressBar(BaseCallback):
@@ -133,6 +153,7 @@ def _make_callbacks(run_dir: Path, vecnorm: Any, timesteps: int, eval_freq: int,
             super().__init__()
             self.next_eval = eval_freq
             self.count = 0
+            self.best_score = float("inf")
 
         def run(self, final: bool = False) -> None:
             self.count += 1
@@ -142,9 +163,18 @@ def _make_callbacks(run_dir: Path, vecnorm: Any, timesteps: int, eval_freq: int,
             for env_id, row in res.items():
                 for key in ("rms_e_y_m", "max_e_y_m", "completed", "steps"):
                     self.logger.record(f"eval/{env_id}/{key}", float(row[key]))
+            score = selection_score(res)
+            best = score < self.best_score
+            if best:
+                from vtrack_gym.agents.export import export
+
+                self.best_score = score
+                export(self.model, vecnorm, run_dir / "best_agent", env_id=env_id, command=command, seed=seed)
+            self.logger.record("eval/selection_score", score)
             with (run_dir / "evaluations.jsonl").open("a", encoding="utf-8") as fh:
                 fh.write(json.dumps({"timesteps": int(self.num_timesteps), "final": final,
-                                     "wall_s": round(time.perf_counter() - t0, 2), "results": res}) + "\n")
+                                     "wall_s": round(time.perf_counter() - t0, 2), "selection_score": score,
+                                     "new_best": best, "results": res}) + "\n")
 
         def _on_step(self) -> bool:
             if eval_freq > 0 and self.num_timesteps >= self.next_eval:
@@ -162,11 +192,13 @@ def train(algo: str, env_id: str = DEFAULT_ENV_ID, timesteps: int = 1_000_000, s
           run_dir: str | Path = "vtrack_runs/run", *, num_envs: int | None = None,
           overrides: Mapping[str, Any] | None = None, eval_freq: int = 100_000, case1_max_steps: int | None = 3000,
           case1_full_every: int = 5, final_eval: bool = True, progress_bar: bool = True, verbose: int = 0,
-          torch_threads: int | None = 1, command: str | None = None) -> dict[str, Any]:
+          torch_threads: int | None = 1, command: str | None = None, bc: Any = None) -> dict[str, Any]:
     """Train ``algo`` on ``env_id`` and write ``run_dir`` (see the module docstring). Returns a summary dict.
 
     ``overrides`` replace YAML entries (e.g. ``{"n_steps": 64}``); ``num_envs`` overrides ``n_envs``.
-    ``eval_freq <= 0`` disables periodic evaluation.
+    ``eval_freq <= 0`` disables periodic evaluation. ``bc`` (a ``vtrack_gym.agents.imitation.BCConfig``, PPO or
+    SAC) starts from a behaviour-cloned actor: the YAML entry's ``bc_finetune`` values are applied on top, the
+    expert data and the fit go to ``bc.json``, and the warm-started agent is evaluated at timestep 0.
     """
     import stable_baselines3
     import torch
@@ -184,6 +216,11 @@ def train(algo: str, env_id: str = DEFAULT_ENV_ID, timesteps: int = 1_000_000, s
     if torch_threads:
         torch.set_num_threads(torch_threads)
     params, hp_version = load_hyperparams(algo, env_id)
+    finetune = params.pop("bc_finetune", None) or {}
+    if bc is not None:
+        if algo not in ("ppo", "sac"):
+            raise ValueError(f"the behaviour-cloning warm start supports ppo and sac (got {algo!r})")
+        params.update(dict(finetune))
     params.update(dict(overrides or {}))
     if num_envs is not None:
         params["n_envs"] = int(num_envs)
@@ -196,6 +233,7 @@ def train(algo: str, env_id: str = DEFAULT_ENV_ID, timesteps: int = 1_000_000, s
               "sb3_version": stable_baselines3.__version__, "torch_version": torch.__version__,
               "python": sys.version.split()[0], "eval": {"freq": eval_freq, "case1_max_steps": case1_max_steps,
                                                            "case1_full_every": case1_full_every},
+              "bc": None if bc is None else bc.as_dict(),
               "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
     (run_dir / "config.json").write_text(json.dumps(config, indent=2, sort_keys=True) + "\n", encoding="utf-8")
 
@@ -220,8 +258,13 @@ def train(algo: str, env_id: str = DEFAULT_ENV_ID, timesteps: int = 1_000_000, s
         formats = ["csv", "log"]
     model.set_logger(configure(str(run_dir / "logs"), formats))
     callbacks = _make_callbacks(run_dir, vecnorm, timesteps, eval_freq, case1_max_steps, case1_full_every,
-                                progress_bar)
+                                progress_bar, env_id, command, seed)
     t0 = time.perf_counter()
+    if bc is not None:
+        _behaviour_clone(model, venv, vecnorm, bc, seed, run_dir)
+        if eval_freq > 0:
+            callbacks[0].init_callback(model)
+            callbacks[0].run()
     model.learn(total_timesteps=timesteps, callback=callbacks)
     train_s = time.perf_counter() - t0
     vecnorm.training = False
@@ -237,6 +280,21 @@ def train(algo: str, env_id: str = DEFAULT_ENV_ID, timesteps: int = 1_000_000, s
                "agent": str(agent_json), "final_eval": final, "model": model, "vecnormalize": vecnorm}
     venv.close()
     return summary
+
+
+def _behaviour_clone(model: Any, venv: Any, vecnorm: Any, bc: Any, seed: int, run_dir: Path) -> None:
+    """Warm start (``vtrack_gym.agents.imitation``): expert data, fit, SAC replay buffer; writes ``bc.json``."""
+    from vtrack_gym.agents import imitation
+
+    t0 = time.perf_counter()
+    rounds, fit = imitation.warm_start(model, venv, vecnorm, bc, seed=seed)
+    prefilled = 0
+    if hasattr(model, "replay_buffer"):
+        prefilled = imitation.prefill_replay_buffer(model, rounds)
+        fit["critic_loss"] = imitation.pretrain_critic(model, bc.critic_steps, int(model.batch_size))
+    record = {"config": bc.as_dict(), "transitions": sum(d.transitions for d in rounds), "fit": fit,
+              "replay_buffer_prefilled": prefilled, "wall_s": round(time.perf_counter() - t0, 1)}
+    (run_dir / "bc.json").write_text(json.dumps(record, indent=2, sort_keys=True) + "\n", encoding="utf-8")
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -59,6 +59,7 @@ class ScenarioConfig:
     procedural_seed: int = 12345
     procedural_length_m: float = 800.0
     end_margin_m: float = 5.0                    # open paths: completed this far before the end
+    standstill_start_fraction: float = 0.0       # share of episodes starting at rest (the others at target speed)
 
     def __post_init__(self) -> None:
         if self.track not in ("handling_course", "double_lane_change", "procedural"):
@@ -70,6 +71,9 @@ class ScenarioConfig:
             raise ValueError(f"ScenarioConfig.initial_speed_mps must be in [0, 45] m/s (got {self.initial_speed_mps})")
         if not self.max_episode_s > 0.0:
             raise ValueError(f"ScenarioConfig.max_episode_s must be > 0 s (got {self.max_episode_s})")
+        if not (0.0 <= self.standstill_start_fraction <= 1.0):
+            raise ValueError("ScenarioConfig.standstill_start_fraction must be in [0, 1] "
+                             f"(got {self.standstill_start_fraction})")
         if self.procedural_bank_size < 1:
             raise ValueError(f"ScenarioConfig.procedural_bank_size must be >= 1 (got {self.procedural_bank_size})")
 
@@ -81,9 +85,11 @@ DLC120 = ScenarioConfig("DLC120-v0", "double_lane_change", 120.0 * KMH, 120.0 * 
 """Case 2: ISO 3888-1 double lane change at 120 km/h from the start of the approach."""
 
 RANDOM_TRACKS = ScenarioConfig("LateralTrackingRandom-v0", "procedural", 15.0, 15.0, 90.0,
-                               target_speed_range_mps=(6.0, 35.0))
-"""Training variant: procedural tracks (half twisty, half highway-like), target speed drawn per episode in
-6-35 m/s but capped so the track's tightest curve needs at most 0.75 g; the car starts at the target speed."""
+                               target_speed_range_mps=(6.0, 35.0), procedural_bank_size=32,
+                               standstill_start_fraction=0.2)
+"""Training variant: a bank of 32 procedural tracks (half twisty, radii down to 18 m; half highway-like, down to
+120 m), target speed drawn per episode in 6-35 m/s but capped so the track's tightest curve needs at most 0.85 g;
+the car starts at the target speed, or at rest in 20 % of the episodes (Case 1 starts at rest)."""
 
 
 @dataclass(frozen=True)

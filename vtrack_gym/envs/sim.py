@@ -19,10 +19,15 @@ from vtrack_gym.vehicle.plant import PARALLEL_THRESHOLD, Plant
 
 TERMINATION_NAMES: tuple[str, ...] = ("", "completed", "off_road", "spin_out", "wheel_lift", "invalid_state")
 """``info["termination"]`` for each kernel termination code ("" = still running)."""
-PROCEDURAL_MAX_CURVATURE: tuple[float, float] = (1.0 / 30.0, 1.0 / 160.0)
-"""Curvature bounds [1/m] of the twisty and the highway-like half of the procedural track bank."""
-FEASIBLE_LATERAL_ACC_MPS2 = 0.75 * 9.81
-"""Randomised target speeds are capped at sqrt(this / peak curvature) of the drawn track [m/s^2]."""
+PROCEDURAL_MAX_CURVATURE: tuple[float, float] = (1.0 / 18.0, 1.0 / 120.0)
+"""Curvature bounds [1/m] of the twisty and the highway-like half of the procedural track bank: wider than the
+evaluation courses need (handling course: R >= 20 m; DLC120-v0: R >= 140 m), so that a policy trained on the bank
+never meets a curvature it has not seen."""
+PROCEDURAL_MAX_DKAPPA: tuple[float, float] = (0.008, 0.004)
+"""Curvature-rate bounds [1/m^2] of the two halves (handling course: 0.0063; DLC120-v0: 0.0020)."""
+FEASIBLE_LATERAL_ACC_MPS2 = 0.85 * 9.81
+"""Randomised target speeds are capped at sqrt(this / peak curvature) of the drawn track [m/s^2] (DLC120-v0's
+centre line peaks at 0.81 g)."""
 
 REWARD_TERM_NAMES: tuple[str, ...] = (
     "reward_alive", "reward_tracking", "reward_heading", "reward_effort", "reward_rate", "reward_terminal")
@@ -43,11 +48,14 @@ def scenario_tracks(scenario: ScenarioConfig, vehicle_width_m: float) -> tuple:
         return (tracks.handling_course(),)
     if scenario.track == "double_lane_change":
         return (tracks.double_lane_change(vehicle_width_m=vehicle_width_m),)
-    # Half the bank twisty (radii down to 30 m), half highway-like (down to 160 m), so that every target speed
+    # Half the bank twisty (radii down to 18 m), half highway-like (down to 120 m), so that every target speed
     # of the range has drivable tracks (see BatchSim.reset_car's speed cap).
-    return tuple(tracks.procedural_track(scenario.procedural_seed + k, length_m=scenario.procedural_length_m,
-                                         max_curvature=PROCEDURAL_MAX_CURVATURE[k % 2])
-                 for k in range(scenario.procedural_bank_size))
+    return tuple(tracks.procedural_track_from_config(
+        scenario.procedural_seed + k,
+        tracks.ProceduralTrackConfig(length_m=scenario.procedural_length_m,
+                                     max_curvature_per_m=PROCEDURAL_MAX_CURVATURE[k % 2],
+                                     max_dkappa_per_m2=PROCEDURAL_MAX_DKAPPA[k % 2]))
+        for k in range(scenario.procedural_bank_size))
 
 
 class BatchSim:
@@ -140,7 +148,7 @@ class BatchSim:
         if options.target_speed_mps is not None:
             v_ref = options.target_speed_mps
         elif sc.target_speed_range_mps is not None:
-            # Never ask for more lateral acceleration than the road can give (0.75 g at the track's tightest
+            # Never ask for more lateral acceleration than the road can give (0.85 g at the track's tightest
             # curve): an infeasible episode teaches nothing but spinning out.
             lo, hi = sc.target_speed_range_mps
             start = int(self.tmeta[self.veh_track[i], 0])
@@ -152,6 +160,8 @@ class BatchSim:
         else:
             v_ref = sc.target_speed_mps
         v0 = v_ref if sc.initial_speed_mps > 0.0 else 0.0
+        if sc.standstill_start_fraction > 0.0 and rng.random() < sc.standstill_start_fraction:
+            v0 = 0.0
         self.v_ref[i] = v_ref
 
         params: VehicleParams = self.config.vehicle

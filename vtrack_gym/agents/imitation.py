@@ -1,0 +1,318 @@
+"""Behaviour-cloning warm start of an SB3 PPO/SAC agent from a scripted expert (``vtrack train --bc-expert lqr``).
+
+RL from scratch on this task is slow: at 120 km/h a steering error of 5 % of the range is a lane change, and
+random exploration mostly teaches spinning out. The warm start gives the agent the expert's behaviour first,
+then RL improves it on the env's reward:
+
+1. ``collect``: the expert (any registry baseline and preset; default LQR, stateless, so a feed-forward network
+   can represent it exactly in principle) drives the training env (``LateralTrackingRandom-v0``: procedural
+   tracks, never the evaluation courses) on the native vector env. The executed action is the expert's plus a
+   temporally correlated perturbation (AR(1), ``noise_std`` at <= 10 m/s, falling as 1/v^2 above: a constant
+   lateral-acceleration perturbation), so the data also cover the states just off the expert's path and how the
+   expert recovers from them (noise injection, as in DART); the label is always the expert's own action.
+   ``dagger_rounds`` further rounds are driven by the cloned agent itself and labelled by the expert (DAgger),
+   so the data also hold the states the clone's own errors lead to; the fit runs on the aggregate.
+2. ``warm_start``: the observation normalisation is set from the data; the actor's mean is regressed on the
+   expert's actions (MSE, normalised observations); PPO's value function is regressed on the discounted returns
+   of the last round's data (VecNormalize's return statistics set from the same data); the exploration std is
+   set to ``exp(init_log_std)``. For SAC the data go into its replay buffer (``prefill_replay_buffer``) and the
+   critics are trained alone on them first (``pretrain_critic``), so that the first actor updates follow a
+   critic that knows the cloned policy instead of a random one.
+
+Everything here runs only when training is asked for (torch and SB3 are imported lazily).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+NOISE_REFERENCE_SPEED_MPS = 10.0
+"""Above this speed the perturbation std falls as 1/v^2 (a constant lateral-acceleration perturbation)."""
+
+
+@dataclass(frozen=True)
+class BCConfig:
+    """Settings of the warm start (durations [s], actions as fractions of the steering range)."""
+
+    expert: str = "lqr"            # registry name of the scripted expert
+    expert_preset: str = "default"
+    steps: int = 3000              # vector-env steps of data collection per round (x n_envs transitions)
+    dagger_rounds: int = 2         # further rounds driven by the cloned agent, labelled by the expert (DAgger)
+    noise_std: float = 0.02        # std of the AR(1) perturbation of the executed action at <= 10 m/s
+    noise_corr_s: float = 0.2      # correlation time of the perturbation [s]
+    epochs: int = 30               # passes over the data per round
+    batch_size: int = 1024
+    learning_rate: float = 1e-3
+    init_log_std: float = -3.0     # log of the exploration std after the warm start
+    critic_steps: int = 5000       # SAC: critic-only gradient steps on the prefilled buffer before RL starts
+
+    def __post_init__(self) -> None:
+        checks = {"steps": (10, 10**6), "dagger_rounds": (0, 20), "epochs": (1, 1000), "batch_size": (16, 10**6),
+                  "critic_steps": (0, 10**7)}
+        for name, (lo, hi) in checks.items():
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+                raise ValueError(f"BCConfig.{name} must be an int in [{lo}, {hi}] (got {value!r})")
+        floats = {"noise_std": (0.0, 1.0), "noise_corr_s": (0.0, 10.0), "learning_rate": (1e-6, 1.0),
+                  "init_log_std": (-10.0, 1.0)}
+        for name, (lo, hi) in floats.items():
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
+                    or not lo <= value <= hi:
+                raise ValueError(f"BCConfig.{name} must be a number in [{lo}, {hi}] (got {value!r})")
+        if not isinstance(self.expert, str) or not self.expert:
+            raise ValueError(f"BCConfig.expert must be a baseline name (got {self.expert!r})")
+        if not isinstance(self.expert_preset, str) or not self.expert_preset:
+            raise ValueError(f"BCConfig.expert_preset must be a preset name (got {self.expert_preset!r})")
+
+    def as_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+
+@dataclass
+class ExpertData:
+    """Transitions, time-major: ``obs`` (T, n, obs_dim) raw, ``label`` (T, n) the expert's action, ``executed``
+    (T, n) the perturbed action applied, ``reward``/``done`` (T, n), ``next_obs`` (T, n, obs_dim) (the terminal
+    observation at an episode end), and how the episodes that ended did."""
+
+    obs: np.ndarray
+    label: np.ndarray
+    executed: np.ndarray
+    reward: np.ndarray
+    done: np.ndarray
+    next_obs: np.ndarray
+    terminations: dict[str, int]
+
+    @property
+    def transitions(self) -> int:
+        return int(self.label.size)
+
+
+def collect(venv: Any, config: BCConfig, seed: int = 0, driver: Any = None) -> ExpertData:
+    """Drive ``venv`` (a ``TrackingSB3VecEnv``) for ``config.steps`` vector steps with the expert, or with
+    ``driver`` (a ``predict(obs)`` policy: the DAgger rounds) if given; the labels are always the expert's."""
+    from vtrack_gym.baselines.registry import make_policy
+    from vtrack_gym.envs.observation import OBS
+
+    expert = make_policy(config.expert, venv, preset=config.expert_preset)
+    n = venv.num_envs
+    rng = np.random.default_rng(seed)
+    rho = math.exp(-venv.get_attr("control_period_s")[0] / config.noise_corr_s) if config.noise_corr_s > 0 else 0.0
+    venv.seed(seed)
+    obs = venv.reset()
+    state, starts = None, np.ones(n, dtype=bool)
+    noise = np.zeros(n)
+    shape = (config.steps, n)
+    data = ExpertData(np.empty((*shape, obs.shape[1]), np.float32), np.empty(shape, np.float32),
+                      np.empty(shape, np.float32), np.empty(shape, np.float32), np.empty(shape, bool),
+                      np.empty((*shape, obs.shape[1]), np.float32), {})
+    for t in range(config.steps):
+        action, state = expert.predict(obs, state, episode_start=starts)
+        label = np.asarray(action, dtype=np.float32).reshape(n)
+        base = label if driver is None else np.asarray(driver.predict(obs)[0], dtype=np.float32).reshape(n)
+        noise = rho * noise + math.sqrt(1.0 - rho * rho) * config.noise_std * rng.standard_normal(n)
+        speed = np.maximum(obs[:, OBS.V_X], NOISE_REFERENCE_SPEED_MPS)
+        executed = np.clip(base + noise * (NOISE_REFERENCE_SPEED_MPS / speed) ** 2, -1.0, 1.0).astype(np.float32)
+        next_obs, reward, done, infos = venv.step(executed[:, None])
+        data.obs[t], data.label[t], data.executed[t], data.reward[t], data.done[t] = obs, label, executed, reward, done
+        data.next_obs[t] = next_obs
+        for i in np.flatnonzero(done):
+            data.next_obs[t, i] = infos[i]["terminal_observation"]
+            name = str(infos[i].get("termination") or "time_limit")
+            data.terminations[name] = data.terminations.get(name, 0) + 1
+        obs, starts = next_obs, done
+    return data
+
+
+def discounted_returns(reward: np.ndarray, done: np.ndarray, gamma: float) -> np.ndarray:
+    """Monte-Carlo returns (T, n) summed backwards, cut at episode ends (no bootstrap at the data's end)."""
+    out = np.zeros_like(reward, dtype=np.float64)
+    acc = np.zeros(reward.shape[1])
+    for t in range(reward.shape[0] - 1, -1, -1):
+        acc = reward[t] + gamma * acc * (~done[t])
+        out[t] = acc
+    return out
+
+
+def _set_obs_statistics(vecnorm: Any, obs: np.ndarray) -> None:
+    flat = obs.reshape(-1, obs.shape[-1]).astype(np.float64)
+    vecnorm.obs_rms.mean = flat.mean(axis=0)
+    vecnorm.obs_rms.var = flat.var(axis=0)
+    vecnorm.obs_rms.count = float(flat.shape[0])
+
+
+def _set_return_statistics(vecnorm: Any, reward: np.ndarray, done: np.ndarray, gamma: float) -> None:
+    """VecNormalize's running discounted return (ret = ret * gamma + r, reset at done) over the data."""
+    ret = np.zeros(reward.shape[1])
+    seen = np.empty_like(reward, dtype=np.float64)
+    for t in range(reward.shape[0]):
+        ret = ret * gamma + reward[t]
+        seen[t] = ret
+        ret[done[t]] = 0.0
+    vecnorm.ret_rms.mean = float(seen.mean())
+    vecnorm.ret_rms.var = float(seen.var())
+    vecnorm.ret_rms.count = float(seen.size)
+
+
+def _fit(params: list[Any], predict: Any, inputs: Any, targets: Any, config: BCConfig, seed: int) -> float:
+    """Minimise the MSE of ``predict(inputs[batch])`` against ``targets[batch]``; returns the last epoch's loss."""
+    import torch
+
+    opt = torch.optim.Adam(params, lr=config.learning_rate)
+    gen = torch.Generator().manual_seed(seed)
+    n = inputs.shape[0]
+    loss_sum = 0.0
+    for _ in range(config.epochs):
+        perm = torch.randperm(n, generator=gen)
+        loss_sum, batches = 0.0, 0
+        for start in range(0, n, config.batch_size):
+            idx = perm[start:start + config.batch_size]
+            loss = torch.mean((predict(inputs[idx]) - targets[idx]) ** 2)
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+            loss_sum += float(loss.detach())
+            batches += 1
+        loss_sum /= max(batches, 1)
+    return loss_sum
+
+
+def _actor(model: Any) -> tuple[Any, list[Any]]:
+    """(deterministic action of normalised observations, its parameters) of a PPO or SAC model."""
+    import torch
+    from stable_baselines3 import PPO, SAC
+
+    policy = model.policy
+    if isinstance(model, PPO):
+        def act(x: Any) -> Any:
+            return policy.action_net(policy.mlp_extractor.forward_actor(policy.extract_features(x)))
+
+        return act, [*policy.mlp_extractor.policy_net.parameters(), *policy.action_net.parameters()]
+    if isinstance(model, SAC):
+        actor = model.actor
+
+        def act(x: Any) -> Any:
+            return torch.tanh(actor.mu(actor.latent_pi(actor.extract_features(x, actor.features_extractor))))
+
+        return act, [*actor.latent_pi.parameters(), *actor.mu.parameters()]
+    raise ValueError(f"the behaviour-cloning warm start supports PPO and SAC (got {type(model).__name__})")
+
+
+def _clone(model: Any, vecnorm: Any, rounds: list[ExpertData], config: BCConfig, seed: int) -> float:
+    """Fit the actor to the expert labels of all ``rounds`` (observation statistics from the same data)."""
+    import torch
+
+    obs = np.concatenate([d.obs.reshape(-1, d.obs.shape[-1]) for d in rounds])
+    label = np.concatenate([d.label.reshape(-1) for d in rounds])
+    _set_obs_statistics(vecnorm, obs)
+    act, params = _actor(model)
+    x = torch.as_tensor(vecnorm.normalize_obs(obs), dtype=torch.float32)
+    y = torch.as_tensor(label[:, None], dtype=torch.float32)
+    model.policy.set_training_mode(True)
+    mse = _fit(params, act, x, y, config, seed)
+    model.policy.set_training_mode(False)
+    return mse
+
+
+class _Clone:
+    """The model being cloned as a ``predict(raw obs)`` driver for the DAgger rounds."""
+
+    def __init__(self, model: Any, vecnorm: Any) -> None:
+        self.model, self.vecnorm = model, vecnorm
+
+    def predict(self, obs: np.ndarray) -> tuple[np.ndarray, None]:
+        action, _ = self.model.predict(self.vecnorm.normalize_obs(obs), deterministic=True)
+        return action, None
+
+
+def warm_start(model: Any, venv: Any, vecnorm: Any, config: BCConfig, seed: int = 0) -> tuple[list[ExpertData],
+                                                                                             dict[str, Any]]:
+    """Collect the expert data (plus the DAgger rounds), clone it into ``model``'s actor and, for PPO, fit the
+    value function (see the module docstring). Returns (the data of every round, a JSON-safe record of the fit:
+    ``actor_mse`` per round in action units^2, PPO's ``value_mse`` in normalised return units^2)."""
+    import torch
+    from stable_baselines3 import PPO, SAC
+
+    rounds = [collect(venv, config, seed=seed)]
+    record: dict[str, Any] = {"actor_mse": [_clone(model, vecnorm, rounds, config, seed)]}
+    for k in range(config.dagger_rounds):
+        rounds.append(collect(venv, config, seed=seed + 1 + k, driver=_Clone(model, vecnorm)))
+        record["actor_mse"].append(_clone(model, vecnorm, rounds, config, seed + 1 + k))
+    record["terminations"] = [d.terminations for d in rounds]
+    policy = model.policy
+    if isinstance(model, PPO):
+        with torch.no_grad():
+            policy.log_std.fill_(config.init_log_std)
+        last = rounds[-1]
+        if vecnorm.norm_reward:
+            _set_return_statistics(vecnorm, last.reward, last.done, model.gamma)
+        returns = discounted_returns(last.reward, last.done, model.gamma)
+        tail = min(int(3.0 / (1.0 - model.gamma)), last.reward.shape[0] // 2)  # returns cut short at the data's end
+        scale = 1.0 / math.sqrt(vecnorm.ret_rms.var + vecnorm.epsilon) if vecnorm.norm_reward else 1.0
+        keep = slice(0, last.reward.shape[0] - tail)
+        v_obs = torch.as_tensor(vecnorm.normalize_obs(last.obs[keep].reshape(-1, last.obs.shape[-1])),
+                                dtype=torch.float32)
+        v_target = torch.as_tensor((returns[keep] * scale).reshape(-1, 1), dtype=torch.float32)
+
+        def critic(x: Any) -> Any:
+            return policy.value_net(policy.mlp_extractor.forward_critic(policy.extract_features(x)))
+
+        params = [*policy.mlp_extractor.value_net.parameters(), *policy.value_net.parameters()]
+        policy.set_training_mode(True)
+        record["value_mse"] = _fit(params, critic, v_obs, v_target, config, seed + 100)
+        policy.set_training_mode(False)
+    elif isinstance(model, SAC) and isinstance(model.actor.log_std, torch.nn.Linear):
+        with torch.no_grad():  # start with a small exploration std, as for PPO
+            model.actor.log_std.weight.zero_()
+            model.actor.log_std.bias.fill_(config.init_log_std)
+    return rounds, record
+
+
+def prefill_replay_buffer(model: Any, rounds: list[ExpertData]) -> int:
+    """Put the collected transitions (executed actions, raw observations) into an off-policy model's replay
+    buffer; returns how many were added."""
+    buf = model.replay_buffer
+    added = 0
+    for data in rounds:
+        empty = [{} for _ in range(data.label.shape[1])]
+        for t in range(data.label.shape[0]):
+            buf.add(data.obs[t], data.next_obs[t], data.executed[t][:, None], data.reward[t], data.done[t], empty)
+        added += data.transitions
+    return added
+
+
+def pretrain_critic(model: Any, gradient_steps: int, batch_size: int = 256) -> float:
+    """Train an SAC model's critics (and their target copies) on its replay buffer with the actor and the
+    entropy coefficient frozen: soft Bellman targets y = r + gamma (1 - done) (min_j Q'_j(s', a') - alpha log
+    pi(a'|s')), a' ~ pi(s'). Returns the last batch's critic loss."""
+    import torch
+    import torch.nn.functional as F
+    from stable_baselines3.common.utils import polyak_update
+
+    critic, target, actor = model.critic, model.critic_target, model.actor
+    if model.ent_coef_optimizer is not None:
+        alpha = float(torch.exp(model.log_ent_coef.detach()))
+    else:
+        alpha = float(model.ent_coef_tensor)
+    model.policy.set_training_mode(True)
+    loss_value = float("nan")
+    for _ in range(gradient_steps):
+        batch = model.replay_buffer.sample(batch_size, env=model._vec_normalize_env)
+        with torch.no_grad():
+            next_a, next_logp = actor.action_log_prob(batch.next_observations)
+            next_q = torch.min(torch.cat(target(batch.next_observations, next_a), dim=1), dim=1, keepdim=True)[0]
+            y = batch.rewards + (1.0 - batch.dones) * model.gamma * (next_q - alpha * next_logp.reshape(-1, 1))
+        current = critic(batch.observations, batch.actions)
+        loss = 0.5 * sum(F.mse_loss(q, y) for q in current)
+        critic.optimizer.zero_grad()
+        loss.backward()
+        critic.optimizer.step()
+        polyak_update(critic.parameters(), target.parameters(), model.tau)
+        loss_value = float(loss.detach())
+    model.policy.set_training_mode(False)
+    return loss_value

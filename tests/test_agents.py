@@ -358,7 +358,7 @@ def test_behaviour_cloning_warm_start(algo, tmp_path):
     assert record["replay_buffer_prefilled"] == (480 if algo == "sac" else 0)
     config = json.loads((tmp_path / "config.json").read_text())
     assert config["bc"]["expert"] == "lqr"
-    assert config["hyperparams"]["learning_rate"] == (5.0e-5 if algo == "ppo" else 1.0e-4)  # bc_finetune applied
+    assert config["hyperparams"]["learning_rate"] == 1.0e-5  # bc_finetune applied
     first = json.loads((tmp_path / "evaluations.jsonl").read_text().splitlines()[0])
     assert first["timesteps"] == 0  # the cloned agent, before any RL update
     _check_agreement(summary, load_agent(tmp_path / "agent"))

@@ -77,8 +77,9 @@ def policy_layers(model: Any) -> tuple[str, list[tuple[np.ndarray, np.ndarray]],
 
 
 def export(model: Any, vecnormalize: Any, path: str | Path, *, env_id: str = "", command: str = "",
-           seed: int | None = None) -> tuple[Path, Path]:
+           seed: int | None = None, warm_start: str = "") -> tuple[Path, Path]:
     """Write ``<path>.json`` + ``<path>.npz`` for ``model`` (PPO/SAC/TD3 MlpPolicy) and its ``VecNormalize``.
+    ``warm_start``: how the actor was initialised before RL (recorded in the provenance if not empty).
 
     ``vecnormalize`` may be None (no observation normalisation) or a ``VecNormalize`` with ``norm_obs``.
     """
@@ -121,6 +122,8 @@ def export(model: Any, vecnormalize: Any, path: str | Path, *, env_id: str = "",
             "sb3_version": str(stable_baselines3.__version__),
         },
     }
+    if warm_start:
+        spec["provenance"]["warm_start"] = str(warm_start)
     return save_agent(path, spec, arrays)
 
 

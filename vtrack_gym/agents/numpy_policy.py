@@ -16,7 +16,9 @@ Format version 1
   scaled ``low + (tanh(x) + 1) / 2 (high - low)``)
 * ``obs_norm``: ``{"enabled": bool, "eps": float}``; normalised obs ``clip((obs - mean) / sqrt(var + eps),
   -clip_obs, clip_obs)`` (SB3 ``VecNormalize``)
-* ``provenance``: ``{"env_id", "command", "timesteps", "seed", "package_version", "sb3_version"}``
+* ``provenance``: ``{"env_id", "command", "timesteps", "seed", "package_version", "sb3_version"}`` and
+  optionally ``"warm_start"`` (how the actor was initialised before RL, e.g. behaviour cloning; ``timesteps``
+  counts RL steps only)
   (strings/ints, informational only)
 
 ``<name>.npz`` (at most 64 MiB), exactly these float32 arrays (finite values):
@@ -52,6 +54,7 @@ JSON_KEYS = {"format", "format_version", "algo", "obs_dim", "action_dim", "hidde
              "output", "obs_norm", "provenance"}
 OBS_NORM_KEYS = {"enabled", "eps"}
 PROVENANCE_KEYS = {"env_id", "command", "timesteps", "seed", "package_version", "sb3_version"}
+OPTIONAL_PROVENANCE_KEYS = {"warm_start"}
 
 
 def agent_paths(path: str | Path) -> tuple[Path, Path]:
@@ -132,9 +135,10 @@ def validate_spec(spec: dict[str, Any]) -> dict[str, Any]:
     if isinstance(eps, bool) or not isinstance(eps, (int, float)) or not (0.0 < eps <= 1.0) or not math.isfinite(eps):
         raise ValueError(f"agent json: obs_norm.eps must be a number in (0, 1] (got {eps!r})")
     prov = spec["provenance"]
-    if not isinstance(prov, dict) or set(prov) != PROVENANCE_KEYS:
-        raise ValueError(f"agent json: provenance must be an object with keys {sorted(PROVENANCE_KEYS)}")
-    for name in ("env_id", "command", "package_version", "sb3_version"):
+    if not isinstance(prov, dict) or not PROVENANCE_KEYS <= set(prov) <= PROVENANCE_KEYS | OPTIONAL_PROVENANCE_KEYS:
+        raise ValueError(f"agent json: provenance must be an object with keys {sorted(PROVENANCE_KEYS)} "
+                         f"(optionally {sorted(OPTIONAL_PROVENANCE_KEYS)})")
+    for name in ("env_id", "command", "package_version", "sb3_version", *(OPTIONAL_PROVENANCE_KEYS & set(prov))):
         if not isinstance(prov[name], str) or len(prov[name]) > 4096:
             raise ValueError(f"agent json: provenance.{name} must be a string (<= 4096 chars)")
     if not _is_int(prov["timesteps"]) or prov["timesteps"] < 0:

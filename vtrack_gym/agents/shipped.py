@@ -1,7 +1,8 @@
 """Agents shipped with the package (``vtrack_gym/agents/shipped/<name>.json`` + ``.npz``), for the benchmark.
 
-Only agents that were actually trained (``provenance.timesteps > 0``) and pass ``load_agent``'s checks are
-listed; the directory may be absent or empty (no agent shipped yet). Pure numpy: no torch/SB3 import.
+Only agents that were actually trained (``provenance.timesteps > 0`` RL steps, or a recorded ``warm_start``)
+and pass ``load_agent``'s checks are listed; the directory may be absent or empty. Pure numpy: no torch/SB3
+import.
 """
 
 from __future__ import annotations
@@ -28,7 +29,8 @@ def shipped_agent_factories(directory: str | Path = SHIPPED_DIR) -> dict[str, Ca
     factories: dict[str, Callable[[Any], NumpyPolicy]] = {}
     for name, path in shipped_agents(directory).items():
         policy = load_agent(path)
-        if policy.spec["provenance"]["timesteps"] <= 0:
+        prov = policy.spec["provenance"]
+        if prov["timesteps"] <= 0 and not prov.get("warm_start"):  # an untrained network
             continue
         factories[name] = (lambda env, _p=policy: _p)
     return factories

@@ -19,9 +19,11 @@ The run folder holds:
 * ``model.zip`` + ``vecnormalize.pkl`` (SB3's own formats, for resuming; trusted local files only) and
   ``agent.json`` + ``agent.npz`` (the weights-only export of the final model, loaded by ``load_agent``)
 * ``best_agent.json`` + ``best_agent.npz``: the weights-only export of the checkpoint with the best
-  ``selection_score`` among the periodic evaluations (absent if no evaluation completed the lane change without
-  a failure on the handling course). Note: this selects on the two paper scenarios, which training never
-  drives on, as rl-zoo's ``best_model`` selects on its evaluation env.
+  ``selection_score`` among the periodic evaluations after RL updates (absent if none completed the lane
+  change without a failure on the handling course; a ``--bc-expert`` warm start is evaluated at timestep 0
+  but is not eligible), and ``best_model.zip``, the same checkpoint in SB3's format. Note: this selects on
+  the two paper scenarios, which training never drives on, as rl-zoo's ``best_model`` selects on its
+  evaluation env.
 """
 
 from __future__ import annotations
@@ -131,7 +133,7 @@ def selection_score(results: Mapping[str, Mapping[str, Any]]) -> float:
 
 def _make_callbacks(run_dir: Path, vecnorm: Any, timesteps: int, eval_freq: int, case1_max_steps: int | None,
                     case1_full_every: int, progress_bar: bool, env_id: str, command: str,
-                    seed: int) -> list[Any]:
+                    seed: int, warm_start: str) -> list[Any]:
     from stable_baselines3.common.callbacks import BaseCallback
 
     class ProgressBar(BaseCallback):
@@ -160,16 +162,19 @@ def _make_callbacks(run_dir: Path, vecnorm: Any, timesteps: int, eval_freq: int,
             full = final or (case1_full_every > 0 and self.count % case1_full_every == 0)
             t0 = time.perf_counter()
             res = evaluate_paper(_Wrapped(self.model, vecnorm), None if full else case1_max_steps)
-            for env_id, row in res.items():
+            for eval_id, row in res.items():  # not env_id: that is the training env id exported below
                 for key in ("rms_e_y_m", "max_e_y_m", "completed", "steps"):
-                    self.logger.record(f"eval/{env_id}/{key}", float(row[key]))
+                    self.logger.record(f"eval/{eval_id}/{key}", float(row[key]))
             score = selection_score(res)
-            best = score < self.best_score
+            # the warm start itself (timestep 0) is reported but not eligible: best_agent is an RL checkpoint
+            best = score < self.best_score and self.num_timesteps > 0
             if best:
                 from vtrack_gym.agents.export import export
 
                 self.best_score = score
-                export(self.model, vecnorm, run_dir / "best_agent", env_id=env_id, command=command, seed=seed)
+                export(self.model, vecnorm, run_dir / "best_agent", env_id=env_id, command=command, seed=seed,
+                       warm_start=warm_start)
+                self.model.save(run_dir / "best_model.zip")  # SB3's own format, to check the export against
             self.logger.record("eval/selection_score", score)
             with (run_dir / "evaluations.jsonl").open("a", encoding="utf-8") as fh:
                 fh.write(json.dumps({"timesteps": int(self.num_timesteps), "final": final,
@@ -257,8 +262,10 @@ def train(algo: str, env_id: str = DEFAULT_ENV_ID, timesteps: int = 1_000_000, s
     except ImportError:
         formats = ["csv", "log"]
     model.set_logger(configure(str(run_dir / "logs"), formats))
+    warm_start = "" if bc is None else (f"behaviour cloning of {bc.expert}[{bc.expert_preset}] on {env_id} "
+                                        f"({bc.steps} x {n_envs} expert transitions, {bc.dagger_rounds} DAgger rounds)")
     callbacks = _make_callbacks(run_dir, vecnorm, timesteps, eval_freq, case1_max_steps, case1_full_every,
-                                progress_bar, env_id, command, seed)
+                                progress_bar, env_id, command, seed, warm_start)
     t0 = time.perf_counter()
     if bc is not None:
         _behaviour_clone(model, venv, vecnorm, bc, seed, run_dir)
@@ -270,7 +277,8 @@ def train(algo: str, env_id: str = DEFAULT_ENV_ID, timesteps: int = 1_000_000, s
     vecnorm.training = False
     model.save(run_dir / "model.zip")
     vecnorm.save(str(run_dir / "vecnormalize.pkl"))
-    agent_json, _ = export(model, vecnorm, run_dir / "agent", env_id=env_id, command=command, seed=seed)
+    agent_json, _ = export(model, vecnorm, run_dir / "agent", env_id=env_id, command=command, seed=seed,
+                           warm_start=warm_start)
     final = None
     if final_eval:
         callbacks[0].run(final=True)

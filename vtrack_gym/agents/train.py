@@ -43,7 +43,6 @@ DEFAULT_ENV_ID = "LateralTrackingRandom-v0"
 HYPERPARAMS_DIR = Path(__file__).with_name("hyperparams")
 EVAL_ENV_IDS = ("DLC120-v0", "LateralTracking-v0")
 _ACTIVATIONS = ("tanh", "relu")
-_META_KEYS = ("n_envs", "policy", "normalize", "action_noise_std", "bc_finetune")
 
 
 def load_hyperparams(algo: str, env_id: str = DEFAULT_ENV_ID) -> tuple[dict[str, Any], int]:

@@ -29,3 +29,24 @@ def test_train_export_eval_agent_file(tmp_path: Path, capsys: pytest.CaptureFixt
     assert "| seed |" in capsys.readouterr().out
     assert main(["export", "--run-dir", str(tmp_path / "nope"), "--out", str(tmp_path / "x")]) == 2
     assert "not a `vtrack train` run folder" in capsys.readouterr().err
+
+
+def test_train_set_overrides_hyperparameters(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    run = tmp_path / "run"
+    assert main(["train", "--algo", "ppo", "--timesteps", "256", "--num-envs", "2", "--eval-freq", "0",
+                 "--run-dir", str(run), "--no-progress", "--no-final-eval", "--set", "n_steps=128",
+                 "--set", "policy_kwargs={net_arch: {pi: [8], vf: [8]}, activation_fn: relu}",
+                 "--set", "max_grad_norm=null"]) == 0
+    config = json.loads((run / "config.json").read_text())
+    assert config["hyperparams"]["n_steps"] == 128 and "max_grad_norm" not in config["hyperparams"]
+    spec = json.loads((run / "agent.json").read_text())
+    assert spec["hidden_sizes"] == [8] and spec["activation"] == "relu"
+    capsys.readouterr()
+    bad = {"learning_rate": "KEY=VALUE", "not-a-name=1": "KEY=VALUE", "n_steps=[1,": "not valid YAML",
+           "no_such_option=1": "ppo hyperparameters"}
+    for item, message in bad.items():
+        assert main(["train", "--algo", "ppo", "--timesteps", "64", "--num-envs", "2", "--eval-freq", "0",
+                     "--run-dir", str(tmp_path / "bad"), "--no-progress", "--no-final-eval", "--set", item]) == 2
+        assert message in capsys.readouterr().err, item

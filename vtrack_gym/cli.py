@@ -96,6 +96,11 @@ def build_parser() -> argparse.ArgumentParser:
                     "mpc:hand), driven on the training env; RL then fine-tunes it (default: none, from scratch)")
     tr.add_argument("--bc-steps", type=int, default=3000,
                     help="vector-env steps of expert data for --bc-expert (x num-envs transitions; default: 3000)")
+    tr.add_argument("--bc-dagger-rounds", type=int, default=2,
+                    help="DAgger rounds after the expert's own round, each --bc-steps long (default: 2)")
+    tr.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="hyperparams",
+                    help="replace one hyperparameter of the YAML file, VALUE read as YAML (e.g. learning_rate=3e-5, "
+                    "'policy_kwargs={net_arch: [64, 64]}', bc_weight=null to drop an entry); repeatable")
 
     ex = sub.add_parser("export", help="export a trained SB3 run to the weights-only agent format",
                         description="Load <run-dir>/model.zip and vecnormalize.pkl (your own training run: SB3 files "
@@ -352,6 +357,22 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     return 0
 
 
+def _parse_hyperparams(items: Sequence[str]) -> dict[str, object]:
+    """``--set KEY=VALUE`` items as a dict, each VALUE read with ``yaml.safe_load`` (never evaluated)."""
+    import yaml
+
+    out: dict[str, object] = {}
+    for item in items:
+        key, sep, text = item.partition("=")
+        if not sep or not key.strip().isidentifier():
+            raise ValueError(f"--set expects KEY=VALUE with KEY a hyperparameter name (got {item!r})")
+        try:
+            out[key.strip()] = yaml.safe_load(text)
+        except yaml.YAMLError as exc:
+            raise ValueError(f"--set {key.strip()}: VALUE is not valid YAML ({text!r}): {exc}") from None
+    return out
+
+
 def _cmd_train(args: argparse.Namespace) -> int:
     import json
     import shlex
@@ -367,9 +388,11 @@ def _cmd_train(args: argparse.Namespace) -> int:
         if name not in available_policies():
             raise ValueError(f"--bc-expert must be one of {', '.join(available_policies())}, optionally with "
                              f":PRESET (got {args.bc_expert!r})")
-        bc = BCConfig(expert=name, expert_preset=preset or "default", steps=args.bc_steps)
+        bc = BCConfig(expert=name, expert_preset=preset or "default", steps=args.bc_steps,
+                      dagger_rounds=args.bc_dagger_rounds)
     command = shlex.join(["vtrack", *sys.argv[1:]]) if args.argv is None else shlex.join(["vtrack", *args.argv])
     summary = train(args.algo, args.env, args.timesteps, args.seed, str(args.run_dir), num_envs=args.num_envs,
+                    overrides=_parse_hyperparams(args.hyperparams),
                     eval_freq=args.eval_freq, case1_max_steps=args.case1_max_steps,
                     case1_full_every=args.case1_full_every, progress_bar=not args.no_progress, command=command,
                     final_eval=not args.no_final_eval, bc=bc)

@@ -17,7 +17,10 @@ then RL improves it on the env's reward:
    of the last round's data (VecNormalize's return statistics set from the same data); the exploration std is
    set to ``exp(init_log_std)``. For SAC the data go into its replay buffer (``prefill_replay_buffer``) and the
    critics are trained alone on them first (``pretrain_critic``), so that the first actor updates follow a
-   critic that knows the cloned policy instead of a random one.
+   critic that knows the cloned policy instead of a random one. With ``bc_weight`` in the YAML's ``bc_finetune``
+   (the default for SAC) the fine-tuning is ``regularised_sac.BCRegularisedSAC``, whose actor loss keeps a
+   regression on the expert labels of all rounds (TD3+BC style); plain SAC forgets the clone within a few
+   hundred gradient steps.
 
 Everything here runs only when training is asked for (torch and SB3 are imported lazily).
 """
@@ -288,31 +291,22 @@ def prefill_replay_buffer(model: Any, rounds: list[ExpertData]) -> int:
 
 def pretrain_critic(model: Any, gradient_steps: int, batch_size: int = 256) -> float:
     """Train an SAC model's critics (and their target copies) on its replay buffer with the actor and the
-    entropy coefficient frozen: soft Bellman targets y = r + gamma (1 - done) (min_j Q'_j(s', a') - alpha log
-    pi(a'|s')), a' ~ pi(s'). Returns the last batch's critic loss."""
+    entropy coefficient frozen (soft Bellman targets, ``regularised_sac.critic_step``). Returns the last
+    batch's critic loss."""
     import torch
-    import torch.nn.functional as F
     from stable_baselines3.common.utils import polyak_update
 
-    critic, target, actor = model.critic, model.critic_target, model.actor
+    from vtrack_gym.agents.regularised_sac import critic_step
+
     if model.ent_coef_optimizer is not None:
-        alpha = float(torch.exp(model.log_ent_coef.detach()))
+        alpha = torch.exp(model.log_ent_coef.detach())
     else:
-        alpha = float(model.ent_coef_tensor)
+        alpha = model.ent_coef_tensor
     model.policy.set_training_mode(True)
     loss_value = float("nan")
     for _ in range(gradient_steps):
         batch = model.replay_buffer.sample(batch_size, env=model._vec_normalize_env)
-        with torch.no_grad():
-            next_a, next_logp = actor.action_log_prob(batch.next_observations)
-            next_q = torch.min(torch.cat(target(batch.next_observations, next_a), dim=1), dim=1, keepdim=True)[0]
-            y = batch.rewards + (1.0 - batch.dones) * model.gamma * (next_q - alpha * next_logp.reshape(-1, 1))
-        current = critic(batch.observations, batch.actions)
-        loss = 0.5 * sum(F.mse_loss(q, y) for q in current)
-        critic.optimizer.zero_grad()
-        loss.backward()
-        critic.optimizer.step()
-        polyak_update(critic.parameters(), target.parameters(), model.tau)
-        loss_value = float(loss.detach())
+        loss_value = critic_step(model, batch, alpha)
+        polyak_update(model.critic.parameters(), model.critic_target.parameters(), model.tau)
     model.policy.set_training_mode(False)
     return loss_value

@@ -199,10 +199,13 @@ def train(algo: str, env_id: str = DEFAULT_ENV_ID, timesteps: int = 1_000_000, s
           torch_threads: int | None = 1, command: str | None = None, bc: Any = None) -> dict[str, Any]:
     """Train ``algo`` on ``env_id`` and write ``run_dir`` (see the module docstring). Returns a summary dict.
 
-    ``overrides`` replace YAML entries (e.g. ``{"n_steps": 64}``); ``num_envs`` overrides ``n_envs``.
+    ``overrides`` replace YAML entries (e.g. ``{"n_steps": 64}``; a value of ``None`` drops the entry);
+    ``num_envs`` overrides ``n_envs``.
     ``eval_freq <= 0`` disables periodic evaluation. ``bc`` (a ``vtrack_gym.agents.imitation.BCConfig``, PPO or
     SAC) starts from a behaviour-cloned actor: the YAML entry's ``bc_finetune`` values are applied on top, the
-    expert data and the fit go to ``bc.json``, and the warm-started agent is evaluated at timestep 0.
+    expert data and the fit go to ``bc.json``, and the warm-started agent is evaluated at timestep 0. A
+    ``bc_weight`` hyperparameter (SAC with ``bc`` only) selects ``BCRegularisedSAC``, whose actor loss keeps a
+    behaviour-cloning term on the warm start's expert labels.
     """
     import stable_baselines3
     import torch
@@ -226,6 +229,8 @@ def train(algo: str, env_id: str = DEFAULT_ENV_ID, timesteps: int = 1_000_000, s
             raise ValueError(f"the behaviour-cloning warm start supports ppo and sac (got {algo!r})")
         params.update(dict(finetune))
     params.update(dict(overrides or {}))
+    for key in [k for k, v in params.items() if v is None]:  # an override of None drops the entry
+        del params[key]
     if num_envs is not None:
         params["n_envs"] = int(num_envs)
     run_dir = Path(run_dir)
@@ -253,7 +258,16 @@ def train(algo: str, env_id: str = DEFAULT_ENV_ID, timesteps: int = 1_000_000, s
         dim = venv.action_space.shape[0]
         params["action_noise"] = NormalActionNoise(np.zeros(dim), float(noise_std) * np.ones(dim))
     cls = {"ppo": PPO, "sac": SAC, "td3": TD3}[algo]
-    model = cls("MlpPolicy", vecnorm, seed=seed, verbose=verbose, device="cpu", **params)
+    if "bc_weight" in params:  # behaviour-regularised SAC: its BC term needs the warm start's demonstrations
+        if algo != "sac" or bc is None:
+            raise ValueError("bc_weight applies to --algo sac with a --bc-expert warm start only")
+        from vtrack_gym.agents.regularised_sac import BCRegularisedSAC
+
+        cls = BCRegularisedSAC
+    try:
+        model = cls("MlpPolicy", vecnorm, seed=seed, verbose=verbose, device="cpu", **params)
+    except TypeError as exc:  # an unknown key from the YAML file or an override
+        raise ValueError(f"{algo} hyperparameters: {exc} (see vtrack_gym/agents/hyperparams/{algo}.yaml)") from None
     try:
         import tensorboard  # noqa: F401
 
@@ -299,6 +313,9 @@ def _behaviour_clone(model: Any, venv: Any, vecnorm: Any, bc: Any, seed: int, ru
     if hasattr(model, "replay_buffer"):
         prefilled = imitation.prefill_replay_buffer(model, rounds)
         fit["critic_loss"] = imitation.pretrain_critic(model, bc.critic_steps, int(model.batch_size))
+    if hasattr(model, "set_demonstrations"):  # BCRegularisedSAC: the expert's labels on every round's states
+        model.set_demonstrations(np.concatenate([d.obs.reshape(-1, d.obs.shape[-1]) for d in rounds]),
+                                 np.concatenate([d.label.reshape(-1, 1) for d in rounds]))
     record = {"config": bc.as_dict(), "transitions": sum(d.transitions for d in rounds), "fit": fit,
               "replay_buffer_prefilled": prefilled, "wall_s": round(time.perf_counter() - t0, 1)}
     (run_dir / "bc.json").write_text(json.dumps(record, indent=2, sort_keys=True) + "\n", encoding="utf-8")

@@ -38,15 +38,19 @@ def test_train_set_overrides_hyperparameters(tmp_path: Path, capsys: pytest.Capt
     assert main(["train", "--algo", "ppo", "--timesteps", "256", "--num-envs", "2", "--eval-freq", "0",
                  "--run-dir", str(run), "--no-progress", "--no-final-eval", "--set", "n_steps=128",
                  "--set", "policy_kwargs={net_arch: {pi: [8], vf: [8]}, activation_fn: relu}",
-                 "--set", "max_grad_norm=null"]) == 0
+                 "--set", "max_grad_norm=null", "--set", "learning_rate=3e-5"]) == 0
     config = json.loads((run / "config.json").read_text())
     assert config["hyperparams"]["n_steps"] == 128 and "max_grad_norm" not in config["hyperparams"]
+    assert config["hyperparams"]["learning_rate"] == 3e-5  # a float, though YAML 1.1 reads "3e-5" as a string
     spec = json.loads((run / "agent.json").read_text())
     assert spec["hidden_sizes"] == [8] and spec["activation"] == "relu"
     capsys.readouterr()
     bad = {"learning_rate": "KEY=VALUE", "not-a-name=1": "KEY=VALUE", "n_steps=[1,": "not valid YAML",
-           "no_such_option=1": "ppo hyperparameters"}
+           "no_such_option=1": "ppo hyperparameters", "clip_range=abc": "ppo hyperparameters"}
     for item, message in bad.items():
         assert main(["train", "--algo", "ppo", "--timesteps", "64", "--num-envs", "2", "--eval-freq", "0",
                      "--run-dir", str(tmp_path / "bad"), "--no-progress", "--no-final-eval", "--set", item]) == 2
         assert message in capsys.readouterr().err, item
+    assert main(["train", "--algo", "sac", "--timesteps", "64", "--run-dir", str(tmp_path / "bad"),
+                 "--bc-dagger-rounds", "3"]) == 2
+    assert "apply to a --bc-expert warm start only" in capsys.readouterr().err

@@ -40,34 +40,92 @@ def _mean_demo_action(model, states: np.ndarray) -> float:
 
 
 def test_bc_term_pulls_the_actor_to_the_demonstrated_action():
-    """Demonstrations that all say 0.3: with a strong BC weight the deterministic action goes there; with
-    bc_weight = 0 (the normalised SAC loss alone) it does not."""
-    results = {}
-    for weight in (0.0, 100.0):
-        model, venv = _model(weight)
-        states, labels = _demo(venv)
+    """Demonstrations that all say 0.3: with a strong BC weight the deterministic action goes there."""
+    model, venv = _model(100.0)
+    states, labels = _demo(venv)
+    model.set_demonstrations(states, labels)
+    model.learn(total_timesteps=600)  # 150 vector steps, 150 gradient steps
+    assert abs(_mean_demo_action(model, states) - 0.3) < 0.05
+    assert model.logger.name_to_value["train/bc_mse"] < 0.01
+    venv.close()
+
+
+def test_with_zero_weight_the_labels_do_not_matter():
+    """bc_weight = 0: demonstrations saying +0.3 or -0.3 give the same agent (the BC term is off)."""
+    actions = []
+    for target in (0.3, -0.3):
+        model, venv = _model(0.0)
+        states, labels = _demo(venv, target=target)
         model.set_demonstrations(states, labels)
-        model.learn(total_timesteps=600)  # 150 vector steps, 150 gradient steps
-        results[weight] = _mean_demo_action(model, states)
-        logged = model.logger.name_to_value
-        assert ("train/bc_mse" in logged) == (weight > 0.0)
+        model.learn(total_timesteps=200)
+        actions.append(model.predict(model.get_vec_normalize_env().normalize_obs(states), deterministic=True)[0])
+        assert "train/bc_mse" not in model.logger.name_to_value
         venv.close()
-    assert abs(results[100.0] - 0.3) < 0.05, results
-    assert abs(results[0.0] - 0.3) > 0.1, results
+    np.testing.assert_array_equal(actions[0], actions[1])
 
 
-def test_saves_and_loads_as_plain_sac(tmp_path):
+def test_one_update_matches_stock_sac():
+    """From the same weights, buffer and sampling RNG, one gradient step updates the critics and the entropy
+    coefficient exactly as SB3's SAC does, and (bc_weight = 0) the actor's gradient is SAC's divided by one
+    positive number (the batch's mean |Q|)."""
+    from stable_baselines3 import SAC
+    from stable_baselines3.common.logger import configure
+
+    ours, venv = _model(0.0)
+    stock = SAC("MlpPolicy", ours.get_env(), seed=0, device="cpu", learning_starts=0, buffer_size=5000,
+                batch_size=64, learning_rate=3e-3, policy_kwargs={"net_arch": [32, 32]})
+    stock.policy.load_state_dict(ours.policy.state_dict())
+    with torch.no_grad():
+        stock.log_ent_coef.copy_(ours.log_ent_coef)
+    rng = np.random.default_rng(1)
+    obs = venv.reset()
+    for _ in range(50):
+        act = rng.uniform(-1, 1, size=(venv.num_envs, 1)).astype(np.float32)
+        nxt, rew, done, infos = venv.step(act)
+        for m in (ours, stock):
+            m.replay_buffer.add(obs, nxt, act, rew, done, infos)
+        obs = nxt
+    for m in (ours, stock):
+        m.set_logger(configure(None, [""]))
+        np.random.seed(7)  # noqa: NPY002 (SB3's replay buffer samples with the legacy global RNG)
+        torch.manual_seed(7)
+        m.train(gradient_steps=1, batch_size=64)
+    for a, b in zip(ours.critic.parameters(), stock.critic.parameters(), strict=True):
+        torch.testing.assert_close(a, b, rtol=0, atol=0)
+    torch.testing.assert_close(ours.log_ent_coef, stock.log_ent_coef, rtol=0, atol=0)
+    g_ours = torch.cat([p.grad.flatten() for p in ours.actor.parameters() if p.grad is not None])
+    g_stock = torch.cat([p.grad.flatten() for p in stock.actor.parameters() if p.grad is not None])
+    scale = float(g_ours @ g_stock / (g_ours @ g_ours))
+    assert scale > 0.0  # the batch's mean |Q| (small: the critics are untrained)
+    torch.testing.assert_close(g_ours * scale, g_stock, rtol=1e-4, atol=1e-7)
+    venv.close()
+
+
+def test_saves_and_loads(tmp_path):
+    """SAC.load reads the zip; BCRegularisedSAC.load restores bc_weight; the demonstrations are not saved and
+    training a loaded model without them warns."""
+    import json
+    import zipfile
+
     from stable_baselines3 import SAC
 
-    model, venv = _model(10.0)
+    from vtrack_gym.agents.regularised_sac import BCRegularisedSAC
+
+    model, venv = _model(7.0)
     states, labels = _demo(venv, n=80)
     model.set_demonstrations(states, labels)
     model.learn(total_timesteps=200)
     model.save(tmp_path / "m.zip")
-    loaded = SAC.load(tmp_path / "m.zip", device="cpu")
+    with zipfile.ZipFile(tmp_path / "m.zip") as zf:
+        data = json.loads(zf.read("data"))
+    assert "_demo_obs" not in data and "_demo_actions" not in data and "bc_weight" in data
     x = model.get_vec_normalize_env().normalize_obs(states)
+    loaded = SAC.load(tmp_path / "m.zip", device="cpu")
     np.testing.assert_array_equal(model.predict(x, deterministic=True)[0], loaded.predict(x, deterministic=True)[0])
-    assert not hasattr(loaded, "_demo_obs")  # the demonstrations are not saved
+    resumed = BCRegularisedSAC.load(tmp_path / "m.zip", env=model.get_env(), device="cpu")
+    assert resumed.bc_weight == 7.0 and resumed._demo_obs is None
+    with pytest.warns(UserWarning, match="no demonstrations"):
+        resumed.learn(total_timesteps=100)
     venv.close()
 
 
@@ -79,8 +137,14 @@ def test_bad_settings_are_refused():
     with pytest.raises(ValueError, match="bc_batch_size must be a positive int"):
         BCRegularisedSAC("MlpPolicy", "Pendulum-v1", bc_batch_size=0)
     model, venv = _model(1.0)
-    with pytest.raises(ValueError, match="demonstrations must be a non-empty finite"):
-        model.set_demonstrations(np.full((3, venv.observation_space.shape[0]), np.nan), np.zeros(3))
+    dim = venv.observation_space.shape[0]
+    bad = {"must be finite": (np.full((3, dim), np.nan), np.zeros(3)),
+           rf"observations must have shape \(N >= 1, {dim}\)": (np.zeros((3, dim + 1)), np.zeros(3)),
+           r"actions must have shape \(3, 1\)": (np.zeros((3, dim)), np.zeros(4)),
+           r"lie in \[-1, 1\]": (np.zeros((3, dim)), np.full(3, 1.5))}
+    for match, (obs, act) in bad.items():
+        with pytest.raises(ValueError, match=match):
+            model.set_demonstrations(obs, act)
     venv.close()
     with pytest.raises(ValueError, match="gSDE"):
         _model(1.0, use_sde=True)
@@ -90,5 +154,6 @@ def test_bc_weight_needs_sac_and_a_warm_start(tmp_path):
     from vtrack_gym.agents.train import train
 
     with pytest.raises(ValueError, match="bc_weight applies to --algo sac with a --bc-expert warm start"):
-        train("sac", timesteps=100, run_dir=tmp_path, num_envs=2, overrides={"bc_weight": 1.0}, eval_freq=0,
+        train("sac", timesteps=100, run_dir=tmp_path / "run", num_envs=2, overrides={"bc_weight": 1.0}, eval_freq=0,
               final_eval=False, progress_bar=False)
+    assert not (tmp_path / "run").exists()  # refused before anything is written

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import re
 import sqlite3
 import sys
 from collections.abc import Sequence
@@ -94,9 +95,9 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--bc-expert", default=None, metavar="POLICY[:PRESET]",
                     help="ppo/sac: start from a behaviour-cloned actor of this scripted baseline (e.g. lqr or "
                     "mpc:hand), driven on the training env; RL then fine-tunes it (default: none, from scratch)")
-    tr.add_argument("--bc-steps", type=int, default=3000,
+    tr.add_argument("--bc-steps", type=int, default=None,
                     help="vector-env steps of expert data for --bc-expert (x num-envs transitions; default: 3000)")
-    tr.add_argument("--bc-dagger-rounds", type=int, default=2,
+    tr.add_argument("--bc-dagger-rounds", type=int, default=None,
                     help="DAgger rounds after the expert's own round, each --bc-steps long (default: 2)")
     tr.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="hyperparams",
                     help="replace one hyperparameter of the YAML file, VALUE read as YAML (e.g. learning_rate=3e-5, "
@@ -357,6 +358,9 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     return 0
 
 
+_EXPONENT_FLOAT = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+")
+
+
 def _parse_hyperparams(items: Sequence[str]) -> dict[str, object]:
     """``--set KEY=VALUE`` items as a dict, each VALUE read with ``yaml.safe_load`` (never evaluated)."""
     import yaml
@@ -367,9 +371,12 @@ def _parse_hyperparams(items: Sequence[str]) -> dict[str, object]:
         if not sep or not key.strip().isidentifier():
             raise ValueError(f"--set expects KEY=VALUE with KEY a hyperparameter name (got {item!r})")
         try:
-            out[key.strip()] = yaml.safe_load(text)
+            value = yaml.safe_load(text)
         except yaml.YAMLError as exc:
             raise ValueError(f"--set {key.strip()}: VALUE is not valid YAML ({text!r}): {exc}") from None
+        if isinstance(value, str) and _EXPONENT_FLOAT.fullmatch(value.strip()):
+            value = float(value)  # YAML 1.1 reads 3e-5 (no dot) as a string
+        out[key.strip()] = value
     return out
 
 
@@ -380,6 +387,8 @@ def _cmd_train(args: argparse.Namespace) -> int:
     from vtrack_gym.agents.train import train
 
     bc = None
+    if args.bc_expert is None and (args.bc_steps is not None or args.bc_dagger_rounds is not None):
+        raise ValueError("--bc-steps and --bc-dagger-rounds apply to a --bc-expert warm start only")
     if args.bc_expert is not None:
         from vtrack_gym.agents.imitation import BCConfig
         from vtrack_gym.baselines.registry import available_policies
@@ -388,8 +397,10 @@ def _cmd_train(args: argparse.Namespace) -> int:
         if name not in available_policies():
             raise ValueError(f"--bc-expert must be one of {', '.join(available_policies())}, optionally with "
                              f":PRESET (got {args.bc_expert!r})")
-        bc = BCConfig(expert=name, expert_preset=preset or "default", steps=args.bc_steps,
-                      dagger_rounds=args.bc_dagger_rounds)
+        defaults = BCConfig()
+        bc = BCConfig(expert=name, expert_preset=preset or "default",
+                      steps=defaults.steps if args.bc_steps is None else args.bc_steps,
+                      dagger_rounds=defaults.dagger_rounds if args.bc_dagger_rounds is None else args.bc_dagger_rounds)
     command = shlex.join(["vtrack", *sys.argv[1:]]) if args.argv is None else shlex.join(["vtrack", *args.argv])
     summary = train(args.algo, args.env, args.timesteps, args.seed, str(args.run_dir), num_envs=args.num_envs,
                     overrides=_parse_hyperparams(args.hyperparams),

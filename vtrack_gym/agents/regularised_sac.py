@@ -13,12 +13,14 @@ a batch of the expert's labelled states (the warm start's data, observations nor
 buffer's). ``bc_weight = 0`` is SAC's actor loss up to the positive per-batch factor. The critic and the
 entropy coefficient are updated as in SAC (soft Bellman targets, twin critics, Polyak-averaged targets).
 
-The model saves and loads as an ordinary SB3 ``SAC`` (``SAC.load`` reads its zip); the demonstrations are
-not saved with it.
+The model saves and loads as an ordinary SB3 ``SAC`` (``SAC.load`` reads its zip; ``BCRegularisedSAC.load``
+also restores ``bc_weight``); the demonstrations are not saved with it, so a resumed run must call
+``set_demonstrations`` again (it warns if it was not).
 """
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import numpy as np
@@ -64,27 +66,44 @@ class BCRegularisedSAC(SAC):
         self._demo_obs: np.ndarray | None = None
         self._demo_actions: np.ndarray | None = None
         self._demo_rng = np.random.default_rng()
+        self._warned_no_demo = False
         super().__init__(*args, **kwargs)
         if self.use_sde:
             raise ValueError("BCRegularisedSAC does not support gSDE (use_sde=True)")
 
     def _excluded_save_params(self) -> list[str]:
-        return [*super()._excluded_save_params(), "_demo_obs", "_demo_actions", "_demo_rng", "bc_weight",
-                "bc_batch_size"]
+        # bc_weight and bc_batch_size are saved (BCRegularisedSAC.load restores them); the data are not
+        return [*super()._excluded_save_params(), "_demo_obs", "_demo_actions", "_demo_rng",
+                "_warned_no_demo"]
 
     def set_demonstrations(self, observations: np.ndarray, actions: np.ndarray) -> None:
         """Expert-labelled states: raw observations (N, obs_dim) and actions (N, act_dim) in [-1, 1]."""
         obs = np.asarray(observations, dtype=np.float32)
-        act = np.asarray(actions, dtype=np.float32).reshape(obs.shape[0], -1)
-        if obs.ndim != 2 or obs.shape[0] == 0 or not np.all(np.isfinite(obs)) or not np.all(np.isfinite(act)):
-            raise ValueError("demonstrations must be a non-empty finite (N, obs_dim) array with N labels")
+        act = np.asarray(actions, dtype=np.float32)
+        obs_dim, act_dim = self.observation_space.shape[0], self.action_space.shape[0]
+        if obs.ndim != 2 or obs.shape[0] == 0 or obs.shape[1] != obs_dim:
+            raise ValueError(f"demonstration observations must have shape (N >= 1, {obs_dim}) (got {obs.shape})")
+        if act.size != obs.shape[0] * act_dim:
+            raise ValueError(f"demonstration actions must have shape ({obs.shape[0]}, {act_dim}) (got {act.shape})")
+        act = act.reshape(obs.shape[0], act_dim)
+        if not (np.all(np.isfinite(obs)) and np.all(np.isfinite(act))):
+            raise ValueError("demonstrations must be finite (NaN/inf found)")
+        if np.any(np.abs(act) > 1.0):
+            raise ValueError("demonstration actions must lie in [-1, 1] (the normalised steering range)")
         self._demo_obs, self._demo_actions = obs, act
         self._demo_rng = np.random.default_rng(self.seed)  # the model's seed: a rerun draws the same batches
 
     def _demo_batch(self) -> tuple[Any, Any] | None:
         import torch
 
-        if self._demo_obs is None or self.bc_weight == 0.0:
+        if self.bc_weight == 0.0:
+            return None
+        if self._demo_obs is None:
+            if not self._warned_no_demo:
+                warnings.warn("BCRegularisedSAC has bc_weight > 0 but no demonstrations (set_demonstrations was "
+                              "not called, e.g. after load): training with the normalised SAC loss alone",
+                              stacklevel=3)
+                self._warned_no_demo = True
             return None
         idx = self._demo_rng.integers(0, self._demo_obs.shape[0], size=self.bc_batch_size)
         obs = self._demo_obs[idx]

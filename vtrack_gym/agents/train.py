@@ -231,6 +231,8 @@ def train(algo: str, env_id: str = DEFAULT_ENV_ID, timesteps: int = 1_000_000, s
     params.update(dict(overrides or {}))
     for key in [k for k, v in params.items() if v is None]:  # an override of None drops the entry
         del params[key]
+    if "bc_weight" in params and (algo != "sac" or bc is None):
+        raise ValueError("bc_weight applies to --algo sac with a --bc-expert warm start only")
     if num_envs is not None:
         params["n_envs"] = int(num_envs)
     run_dir = Path(run_dir)
@@ -259,15 +261,15 @@ def train(algo: str, env_id: str = DEFAULT_ENV_ID, timesteps: int = 1_000_000, s
         params["action_noise"] = NormalActionNoise(np.zeros(dim), float(noise_std) * np.ones(dim))
     cls = {"ppo": PPO, "sac": SAC, "td3": TD3}[algo]
     if "bc_weight" in params:  # behaviour-regularised SAC: its BC term needs the warm start's demonstrations
-        if algo != "sac" or bc is None:
-            raise ValueError("bc_weight applies to --algo sac with a --bc-expert warm start only")
         from vtrack_gym.agents.regularised_sac import BCRegularisedSAC
 
         cls = BCRegularisedSAC
     try:
         model = cls("MlpPolicy", vecnorm, seed=seed, verbose=verbose, device="cpu", **params)
-    except TypeError as exc:  # an unknown key from the YAML file or an override
-        raise ValueError(f"{algo} hyperparameters: {exc} (see vtrack_gym/agents/hyperparams/{algo}.yaml)") from None
+    except (TypeError, AssertionError) as exc:  # an unknown key or a wrongly typed value (YAML file or --set)
+        venv.close()
+        raise ValueError(f"{algo} hyperparameters: {type(exc).__name__}: {exc} (see "
+                         f"vtrack_gym/agents/hyperparams/{algo}.yaml)") from exc
     try:
         import tensorboard  # noqa: F401
 

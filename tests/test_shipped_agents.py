@@ -21,15 +21,20 @@ AGENTS = sorted(shipped_agents())
 DLC_BAR = 1.5  # the bar: max|e_y| on DLC120-v0 within 1.5x of the best scripted baseline
 
 
-def test_a_ppo_agent_ships_and_loads_without_torch() -> None:
-    assert "ppo" in AGENTS
-    spec = load_agent(shipped_agents()["ppo"]).spec
-    assert spec["algo"] == "ppo" and spec["provenance"]["timesteps"] > 0  # RL-trained, not only warm-started
+@pytest.mark.parametrize("algo", ["ppo", "sac"])
+def test_a_ppo_and_a_sac_agent_ship(algo: str) -> None:
+    assert algo in AGENTS
+    spec = load_agent(shipped_agents()[algo]).spec
+    assert spec["algo"] == algo and spec["provenance"]["timesteps"] > 0  # RL-trained, not only warm-started
     assert spec["provenance"]["env_id"] == "LateralTrackingRandom-v0"  # trained on the procedural tracks
-    code = ("import sys, vtrack_gym.agents.shipped as s; f = s.shipped_agent_factories(); "
-            "print(sorted(f), 'torch' in sys.modules, 'stable_baselines3' in sys.modules)")
+
+
+def test_shipped_agents_load_without_torch() -> None:
+    code = ("import json, sys, vtrack_gym.agents.shipped as s; f = s.shipped_agent_factories(); "
+            "print(json.dumps([sorted(f), 'torch' in sys.modules, 'stable_baselines3' in sys.modules]))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
-    assert out.stdout.split("] ")[-1].split() == ["False", "False"]
+    names, torch_loaded, sb3_loaded = json.loads(out.stdout.strip().splitlines()[-1])
+    assert {"ppo", "sac"} <= set(names) and not torch_loaded and not sb3_loaded
 
 
 @pytest.fixture(scope="module")

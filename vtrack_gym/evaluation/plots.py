@@ -25,6 +25,15 @@ def _pyplot():
     return plt
 
 
+POLICY_COLOURS: tuple[str, ...] = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown",
+                                   "tab:pink", "tab:olive", "tab:cyan", "black", "navy", "gold")
+"""Line colours per policy, in order: matplotlib's tab10 without its grey (the reference path's colour)."""
+
+
+def _colour(k: int) -> str:
+    return POLICY_COLOURS[k % len(POLICY_COLOURS)]
+
+
 def plot_trajectories(traces: Sequence[Trace], path: Any, out_file: str | Path, title: str = "") -> Path:
     """Driven X-Y paths of ``traces`` over the track centre-line (and cone gates if the track has them)."""
     plt = _pyplot()
@@ -37,8 +46,8 @@ def plot_trajectories(traces: Sequence[Trace], path: Any, out_file: str | Path, 
         for lat in (gate.y_left_m, gate.y_right_m):
             ax.plot(row.x - lat * np.sin(row.psi), row.y + lat * np.cos(row.psi), "^", color="tab:orange", ms=4,
                     label="cones" if k == 0 and lat == gate.y_left_m else None)
-    for tr in traces:
-        ax.plot(tr["x_m"], tr["y_m"], lw=1.2, label=f"{tr.policy_id} ({tr.termination})")
+    for k, tr in enumerate(traces):
+        ax.plot(tr["x_m"], tr["y_m"], lw=1.2, color=_colour(k), label=f"{tr.policy_id} ({tr.termination})")
     ax.set_xlabel("X [m]")
     ax.set_ylabel("Y [m]")
     if np.ptp(tab[:, 1]) > 0.1 * np.ptp(tab[:, 0]):
@@ -64,8 +73,8 @@ def plot_signals(traces: Sequence[Trace], out_file: str | Path, title: str = "")
     plt = _pyplot()
     fig, axes = plt.subplots(len(SIGNAL_PANELS), 1, figsize=(9, 2.0 * len(SIGNAL_PANELS)), dpi=110, sharex=True)
     for ax, (name, label, scale) in zip(axes, SIGNAL_PANELS, strict=True):
-        for tr in traces:
-            ax.plot(tr["time_s"], tr[name] * scale, lw=0.9, label=tr.policy_id)
+        for k, tr in enumerate(traces):
+            ax.plot(tr["time_s"], tr[name] * scale, lw=0.9, color=_colour(k), label=tr.policy_id)
         ax.set_ylabel(label, fontsize=8)
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8, ncol=min(len(traces), 4))

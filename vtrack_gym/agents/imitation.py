@@ -206,16 +206,21 @@ def _actor(model: Any) -> tuple[Any, list[Any]]:
     raise ValueError(f"the behaviour-cloning warm start supports PPO and SAC (got {type(model).__name__})")
 
 
+def labelled_states(rounds: list[ExpertData]) -> tuple[np.ndarray, np.ndarray]:
+    """All rounds' raw observations (N, obs_dim) and the expert's labels for them (N, 1)."""
+    obs = np.concatenate([d.obs.reshape(-1, d.obs.shape[-1]) for d in rounds])
+    return obs, np.concatenate([d.label.reshape(-1, 1) for d in rounds])
+
+
 def _clone(model: Any, vecnorm: Any, rounds: list[ExpertData], config: BCConfig, seed: int) -> float:
     """Fit the actor to the expert labels of all ``rounds`` (observation statistics from the same data)."""
     import torch
 
-    obs = np.concatenate([d.obs.reshape(-1, d.obs.shape[-1]) for d in rounds])
-    label = np.concatenate([d.label.reshape(-1) for d in rounds])
+    obs, label = labelled_states(rounds)
     _set_obs_statistics(vecnorm, obs)
     act, params = _actor(model)
     x = torch.as_tensor(vecnorm.normalize_obs(obs), dtype=torch.float32)
-    y = torch.as_tensor(label[:, None], dtype=torch.float32)
+    y = torch.as_tensor(label, dtype=torch.float32)
     model.policy.set_training_mode(True)
     mse = _fit(params, act, x, y, config, seed)
     model.policy.set_training_mode(False)

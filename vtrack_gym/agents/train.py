@@ -316,8 +316,7 @@ def _behaviour_clone(model: Any, venv: Any, vecnorm: Any, bc: Any, seed: int, ru
         prefilled = imitation.prefill_replay_buffer(model, rounds)
         fit["critic_loss"] = imitation.pretrain_critic(model, bc.critic_steps, int(model.batch_size))
     if hasattr(model, "set_demonstrations"):  # BCRegularisedSAC: the expert's labels on every round's states
-        model.set_demonstrations(np.concatenate([d.obs.reshape(-1, d.obs.shape[-1]) for d in rounds]),
-                                 np.concatenate([d.label.reshape(-1, 1) for d in rounds]))
+        model.set_demonstrations(*imitation.labelled_states(rounds))
     record = {"config": bc.as_dict(), "transitions": sum(d.transitions for d in rounds), "fit": fit,
               "replay_buffer_prefilled": prefilled, "wall_s": round(time.perf_counter() - t0, 1)}
     (run_dir / "bc.json").write_text(json.dumps(record, indent=2, sort_keys=True) + "\n", encoding="utf-8")

@@ -17,9 +17,9 @@ import time
 
 import numpy as np
 
+from vtrack_gym.baselines.preset_files import load_preset, packaged_preset_path
 from vtrack_gym.tuning.ga import tune
 from vtrack_gym.tuning.population import PopulationEvaluator
-from vtrack_gym.tuning.presets import load_preset, packaged_preset_path
 from vtrack_gym.tuning.spaces import Budget, budget, search_space
 
 SHIPPED_SPACE = {"smc": "steering", "mpc": "paper"}

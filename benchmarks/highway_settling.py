@@ -15,8 +15,8 @@ SETTLED_M = 0.15
 
 
 def main() -> None:
-    from vtrack_gym.agents.shipped import shipped_agent_factories
     from vtrack_gym.baselines.registry import available_policies, make_policy
+    from vtrack_gym.baselines.shipped import shipped_agent_factories
     from vtrack_gym.evaluation.rollout import rollout
     from vtrack_gym.interop.highway import HighwayLaneKeeping
 

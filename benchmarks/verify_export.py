@@ -2,14 +2,14 @@
 
 Loads an SB3 checkpoint (default ``<run-dir>/best_model.zip``; ``--model model.zip`` for the final one; SB3's
 pickle-based format: only for runs you made yourself) and the weights-only export to compare (default
-``<run-dir>/best_agent.json``, e.g. the shipped ``vtrack_gym/agents/shipped/ppo.json`` after
+``<run-dir>/best_agent.json``, e.g. the shipped ``vtrack_gym/baselines/shipped/ppo.json`` after
 ``vtrack train ... --run-dir runs/ppo_bc``), drives 64 cars of
 ``LateralTrackingRandom-v0`` for 200 steps with the numpy policy and prints the largest difference between the two
 policies' actions on all visited observations (SB3 fed with the observations normalised by the export's own
 statistics).
-Run: ``python benchmarks/verify_export.py --run-dir runs/ppo_bc [--agent vtrack_gym/agents/shipped/ppo.json]``,
+Run: ``python benchmarks/verify_export.py --run-dir runs/ppo_bc [--agent vtrack_gym/baselines/shipped/ppo.json]``,
 ``python benchmarks/verify_export.py --run-dir runs/sac_bc --model model.zip --agent
-vtrack_gym/agents/shipped/sac.json``.
+vtrack_gym/baselines/shipped/sac.json``.
 """
 
 from __future__ import annotations
@@ -28,8 +28,8 @@ def main() -> None:
     args = parser.parse_args()
     from stable_baselines3 import PPO, SAC, TD3
 
-    from vtrack_gym.agents.numpy_policy import load_agent
     from vtrack_gym.agents.sb3_vec_env import TrackingSB3VecEnv
+    from vtrack_gym.baselines.numpy_policy import load_agent
 
     agent_path = args.agent or args.run_dir / "best_agent.json"
     policy = load_agent(agent_path)

@@ -19,7 +19,7 @@ pytest.importorskip("yaml")
 torch = pytest.importorskip("torch")
 torch.set_num_threads(1)
 
-from vtrack_gym.agents.numpy_policy import NumpyPolicy, load_agent  # noqa: E402
+from vtrack_gym.baselines.numpy_policy import NumpyPolicy, load_agent  # noqa: E402
 
 TINY = {
     "ppo": {"n_steps": 128, "batch_size": 256, "n_epochs": 2},
@@ -74,7 +74,7 @@ def _check_agreement(summary: dict, policy: NumpyPolicy) -> float:
 TORCH_FREE_SCRIPT = textwrap.dedent("""
     import sys, json
     import numpy as np
-    from vtrack_gym.agents.numpy_policy import load_agent
+    from vtrack_gym.baselines.numpy_policy import load_agent
     from vtrack_gym.evaluation.rollout import rollout
     from vtrack_gym.evaluation.metrics import paper_metrics
     policy = load_agent(sys.argv[1])
@@ -272,7 +272,7 @@ def test_predict_rejects_bad_observations(ppo_run):
 
 
 def test_shipped_factories(ppo_run, tmp_path):
-    from vtrack_gym.agents.shipped import shipped_agent_factories
+    from vtrack_gym.baselines.shipped import shipped_agent_factories
 
     assert isinstance(shipped_agent_factories(), dict)
     assert shipped_agent_factories(tmp_path / "missing") == {}
@@ -283,13 +283,13 @@ def test_shipped_factories(ppo_run, tmp_path):
 
 
 def test_module_cli_records_command(tmp_path, capsys):
-    from vtrack_gym.agents.train import main
+    from vtrack_gym.cli import main
 
-    argv = ["--algo", "ppo", "--timesteps", "512", "--num-envs", "2", "--eval-freq", "0", "--run-dir",
+    argv = ["train", "--algo", "ppo", "--timesteps", "512", "--num-envs", "2", "--eval-freq", "0", "--run-dir",
             str(tmp_path), "--no-progress", "--no-final-eval"]
     assert main(argv) == 0
     config = json.loads((tmp_path / "config.json").read_text())
-    assert config["command"].startswith("vtrack train --algo ppo")  # python -m ... delegates to the CLI
+    assert config["command"].startswith("vtrack train --algo ppo")  # recorded as the CLI command
     assert json.loads((tmp_path / "agent.json").read_text())["provenance"]["command"] == config["command"]
     assert '"timesteps": 512' in capsys.readouterr().out
 

@@ -19,9 +19,9 @@ from vtrack_gym.baselines.linear_models import error_model
 from vtrack_gym.baselines.registry import available_policies, make_policy
 from vtrack_gym.envs.observation import OBS
 from vtrack_gym.evaluation.rollout import rollout
+from vtrack_gym.evaluation.suites import highway_episodes
 from vtrack_gym.interop import (
     HIGHWAY_ENV_ID,
-    highway_episodes,
     register_highway_envs,
     resolve_env_id,
 )

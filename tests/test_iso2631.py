@@ -203,7 +203,7 @@ def test_weighting_params_validation() -> None:
 
 
 def test_imports_are_cheap() -> None:
-    code = ("import sys, vtrack_gym.evaluation.iso2631, vtrack_gym.baselines.pdflc; "
+    code = ("import sys, vtrack_gym.evaluation.iso2631, vtrack_gym.envs.pdflc; "
             "print(sorted(m for m in ('scipy', 'numba') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"

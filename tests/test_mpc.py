@@ -1,6 +1,6 @@
 """Paper MPC vs paper-math section 4: matrices, gains, schedule, spectral radius, closed loops (section 6), rules.
 
-Golden numbers are copied from ``/work/shared/fixtures/paper-linear-model.json`` (keys ``mpc_v=11.11`` and
+Golden numbers are copied from ``tests/data/paper-linear-model.json`` (keys ``mpc_v=11.11`` and
 ``mpc_v=33.33``; law ``Delta_u = -Kx @ xt - Kd @ DeltaD``, xt = [x_m(k) - x_m(k-1); 0; 0; e_y; e_phi]).
 """
 
@@ -26,7 +26,7 @@ from vtrack_gym.baselines.mpc import (
     mpc_model,
 )
 
-FIXTURE = Path("/work/shared/fixtures/paper-linear-model.json")
+FIXTURE = Path(__file__).with_name("data") / "paper-linear-model.json"  # copy of shared/fixtures
 GOLDEN = {  # paper-linear-model.json
     11.11: {
         "Kx": [-0.008269631174944092, -0.408581741093236, -0.13688663070958984, 4.343586745243041,

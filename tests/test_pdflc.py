@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from vtrack_gym.baselines.pdflc import (
+from vtrack_gym.envs.pdflc import (
     PDFLC,
     RULE_TABLE,
     PDFLCConfig,
@@ -115,7 +115,7 @@ def test_surface_interpolation_error_bound(method: str) -> None:
 
 def test_plain_bilinear_would_miss_the_bound() -> None:
     """Documents why the Mamdani path splits cells along the kinks (plain bilinear: up to 3.9e-3)."""
-    from vtrack_gym.baselines.pdflc import _interpolate
+    from vtrack_gym.envs.pdflc import _interpolate
 
     surface = control_surface("mamdani", 201)
     e = np.array([0.995, -0.985, 0.495])

@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from vtrack_gym.baselines.pdflc import PDFLC, PDFLCConfig
-from vtrack_gym.baselines.pdflc_kernel import pdflc_gains, pdflc_step
+from vtrack_gym.envs.pdflc import PDFLC, PDFLCConfig
+from vtrack_gym.envs.pdflc_kernel import pdflc_gains, pdflc_step
 
 
 @pytest.mark.parametrize("method", ["mamdani", "sugeno"])
 def test_kernel_matches_numpy_controller(method: str) -> None:
-    from vtrack_gym.baselines.pdflc import control_surface
+    from vtrack_gym.envs.pdflc import control_surface
 
     config = PDFLCConfig(method=method)
     dt = 0.01

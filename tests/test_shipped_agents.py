@@ -1,4 +1,4 @@
-"""The RL agents shipped in ``vtrack_gym/agents/shipped``: weights-only, torch-free, and as good as the README says."""
+"""The RL agents shipped in ``vtrack_gym/baselines/shipped``: weights-only, torch-free, as good as the README says."""
 
 from __future__ import annotations
 
@@ -11,9 +11,9 @@ import gymnasium as gym
 import pytest
 
 import vtrack_gym  # noqa: F401
-from vtrack_gym.agents.numpy_policy import load_agent
-from vtrack_gym.agents.shipped import shipped_agent_factories, shipped_agents
+from vtrack_gym.baselines.numpy_policy import load_agent
 from vtrack_gym.baselines.registry import available_policies, make_policy
+from vtrack_gym.baselines.shipped import shipped_agent_factories, shipped_agents
 from vtrack_gym.evaluation.metrics import paper_metrics
 from vtrack_gym.evaluation.rollout import rollout
 
@@ -30,7 +30,7 @@ def test_a_ppo_and_a_sac_agent_ship(algo: str) -> None:
 
 
 def test_shipped_agents_load_without_torch() -> None:
-    code = ("import json, sys, vtrack_gym.agents.shipped as s; f = s.shipped_agent_factories(); "
+    code = ("import json, sys, vtrack_gym.baselines.shipped as s; f = s.shipped_agent_factories(); "
             "print(json.dumps([sorted(f), 'torch' in sys.modules, 'stable_baselines3' in sys.modules]))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
     names, torch_loaded, sb3_loaded = json.loads(out.stdout.strip().splitlines()[-1])

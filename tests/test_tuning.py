@@ -10,13 +10,13 @@ import numpy as np
 import pytest
 
 import vtrack_gym  # noqa: F401
+from vtrack_gym.baselines import preset_files as P
 from vtrack_gym.baselines.mpc import MPCConfig, gain_table
-from vtrack_gym.baselines.pdflc import PDFLCConfig
 from vtrack_gym.baselines.registry import make_policy
 from vtrack_gym.baselines.smc import SMC, SMCConfig
+from vtrack_gym.envs.pdflc import PDFLCConfig
 from vtrack_gym.evaluation.metrics import itae
 from vtrack_gym.evaluation.rollout import rollout
-from vtrack_gym.tuning import presets as P
 from vtrack_gym.tuning.ga import tune
 from vtrack_gym.tuning.population import (
     FitnessConfig,

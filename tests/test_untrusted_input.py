@@ -210,8 +210,8 @@ def test_cli_env_traversal_name_is_refused(tmp_path, monkeypatch):
 
 # --------------------------------------------------------------------------------------------- preset files
 def test_preset_loader_refuses_payloads(tmp_path, marker):
-    """Tuned-preset files (``vtrack_gym.tuning.presets``, in progress): JSON only; payloads are refused."""
-    presets = pytest.importorskip("vtrack_gym.tuning.presets")
+    """Tuned-preset files (``vtrack_gym.baselines.preset_files``, in progress): JSON only; payloads are refused."""
+    presets = pytest.importorskip("vtrack_gym.baselines.preset_files")
     if not hasattr(presets, "load_preset"):
         pytest.skip("no preset file loader yet")
     for name, path in _payload_files(tmp_path, marker).items():

@@ -45,7 +45,7 @@ def frictionless(params: VehicleParams) -> VehicleParams:
         powertrain=dataclasses.replace(params.powertrain, drag_area_m2=0.0))
 
 
-# Golden numbers copied from ../shared/fixtures/paper-linear-model.json ("mpc_v=11.11"."A9"/"B9", rows 2 and 4)
+# Golden numbers copied from tests/data/paper-linear-model.json ("mpc_v=11.11"."A9"/"B9", rows 2 and 4)
 # and ../shared/spec/paper-math.md section 1.2 (poles, steady states).
 A_LAT_11 = np.array([[-12.64788899272093, -10.99217802671987], [0.10833763795459364, -22.46432696760923]])
 B_LAT = np.array([91.05590941259732, 84.98205895750634])

@@ -233,7 +233,7 @@ def _policy_factory(name: str, preset: str):
 
     suffix = Path(name).suffix
     if suffix in (".json", ".npz"):
-        from vtrack_gym.agents.numpy_policy import load_agent  # json + np.load(allow_pickle=False): no code runs
+        from vtrack_gym.baselines.numpy_policy import load_agent  # json + np.load(allow_pickle=False): no code runs
 
         try:
             agent = load_agent(name)
@@ -290,9 +290,9 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     import json
     import shlex
 
+    from vtrack_gym.baselines.preset_files import save_preset
     from vtrack_gym.tuning.ga import tune
     from vtrack_gym.tuning.population import FitnessConfig
-    from vtrack_gym.tuning.presets import save_preset
     from vtrack_gym.tuning.spaces import budget, search_space
 
     space = search_space(args.controller, args.space)

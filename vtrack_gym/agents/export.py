@@ -1,6 +1,6 @@
 """Export a trained SB3 PPO/SAC/TD3 MLP policy (+ its ``VecNormalize``) to the weights-only agent format.
 
-See ``vtrack_gym.agents.numpy_policy`` for the format. Imports torch/SB3 only through the model passed in.
+See ``vtrack_gym.baselines.numpy_policy`` for the format. Imports torch/SB3 only through the model passed in.
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from vtrack_gym.agents.numpy_policy import FORMAT, FORMAT_VERSION, save_agent
+from vtrack_gym.baselines.numpy_policy import FORMAT, FORMAT_VERSION, save_agent
 
 
 def _linear_stack(modules: Any) -> tuple[list[tuple[np.ndarray, np.ndarray]], list[str]]:
@@ -85,7 +85,7 @@ def export(model: Any, vecnormalize: Any, path: str | Path, *, env_id: str = "",
     """
     import stable_baselines3
 
-    import vtrack_gym
+    from vtrack_gym._version import __version__
 
     algo, layers, activation, output = policy_layers(model)
     space = model.action_space
@@ -118,7 +118,7 @@ def export(model: Any, vecnormalize: Any, path: str | Path, *, env_id: str = "",
             "command": str(command),
             "timesteps": int(model.num_timesteps),
             "seed": None if seed is None else int(seed),
-            "package_version": str(vtrack_gym.__version__),
+            "package_version": str(__version__),
             "sb3_version": str(stable_baselines3.__version__),
         },
     }

@@ -214,7 +214,7 @@ def train(algo: str, env_id: str = DEFAULT_ENV_ID, timesteps: int = 1_000_000, s
     from stable_baselines3.common.noise import NormalActionNoise
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
-    import vtrack_gym
+    from vtrack_gym._version import __version__
     from vtrack_gym.agents.export import export
     from vtrack_gym.agents.sb3_vec_env import TrackingSB3VecEnv
 
@@ -240,7 +240,7 @@ def train(algo: str, env_id: str = DEFAULT_ENV_ID, timesteps: int = 1_000_000, s
     command = command if command is not None else shlex.join([Path(sys.argv[0]).name, *sys.argv[1:]])
     config = {"algo": algo, "env_id": env_id, "timesteps": timesteps, "seed": seed, "hyperparams": params,
               "hyperparams_file": f"vtrack_gym/agents/hyperparams/{algo}.yaml", "hyperparams_version": hp_version,
-              "overrides": dict(overrides or {}), "command": command, "package_version": vtrack_gym.__version__,
+              "overrides": dict(overrides or {}), "command": command, "package_version": __version__,
               "sb3_version": stable_baselines3.__version__, "torch_version": torch.__version__,
               "python": sys.version.split()[0], "eval": {"freq": eval_freq, "case1_max_steps": case1_max_steps,
                                                            "case1_full_every": case1_full_every},
@@ -320,14 +320,3 @@ def _behaviour_clone(model: Any, venv: Any, vecnorm: Any, bc: Any, seed: int, ru
     record = {"config": bc.as_dict(), "transitions": sum(d.transitions for d in rounds), "fit": fit,
               "replay_buffer_prefilled": prefilled, "wall_s": round(time.perf_counter() - t0, 1)}
     (run_dir / "bc.json").write_text(json.dumps(record, indent=2, sort_keys=True) + "\n", encoding="utf-8")
-
-
-def main(argv: list[str] | None = None) -> int:
-    """``python -m vtrack_gym.agents.train ...`` = ``vtrack train ...`` (arguments parsed in ``vtrack_gym.cli``)."""
-    from vtrack_gym.cli import main as cli_main
-
-    return cli_main(["train", *(sys.argv[1:] if argv is None else argv)])
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -338,7 +338,7 @@ class MPC(Policy):
 
     @classmethod
     def _file_preset(cls, preset: str) -> MPCConfig:
-        from vtrack_gym.tuning.presets import tuned_config
+        from vtrack_gym.baselines.preset_files import tuned_config
 
         return tuned_config(cls.name)
 

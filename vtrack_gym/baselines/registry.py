@@ -45,7 +45,7 @@ def make_policy(name: str, env: Any, preset: str = "default", **overrides: Any) 
 
     Unknown names, presets or fields raise ``ValueError`` listing the valid ones. For smc and mpc, ``default``
     and ``tuned`` are the packaged GA result ``vtrack_gym/baselines/presets/<name>_tuned.json`` (JSON only,
-    strict schema; ``ValueError`` if the file is missing or invalid; see ``vtrack_gym.tuning.presets``),
+    strict schema; ``ValueError`` if the file is missing or invalid; see ``vtrack_gym.baselines.preset_files``),
     ``hand`` the hand-tuned config and ``paper`` the paper's Table 3.
     """
     return policy_class(name).from_env(env, preset=preset, **overrides)

@@ -205,7 +205,7 @@ class SMC(Policy):
 
     @classmethod
     def _file_preset(cls, preset: str) -> SMCConfig:
-        from vtrack_gym.tuning.presets import tuned_config
+        from vtrack_gym.baselines.preset_files import tuned_config
 
         return tuned_config(cls.name)
 

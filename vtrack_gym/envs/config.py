@@ -6,8 +6,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-from vtrack_gym.baselines.pdflc import PDFLCConfig
 from vtrack_gym.envs.observation import OBS, ObservationLayout
+from vtrack_gym.envs.pdflc import PDFLCConfig
 from vtrack_gym.vehicle.params import VehicleParams
 
 KMH = 1.0 / 3.6

@@ -17,7 +17,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from vtrack_gym.baselines.pdflc_kernel import pdflc_step
+from vtrack_gym.envs.pdflc_kernel import pdflc_step
 from vtrack_gym.tracks.kernels import interp_row, project_point
 from vtrack_gym.vehicle import layout as L
 from vtrack_gym.vehicle.kernels import step_vehicle

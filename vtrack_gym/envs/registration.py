@@ -21,7 +21,3 @@ def register_envs() -> None:
             max_episode_steps=None,
             disable_env_checker=False,
         )
-
-    from vtrack_gym.interop import register_highway_envs  # registers the id only; highway-env loads on make
-
-    register_highway_envs()

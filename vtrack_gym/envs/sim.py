@@ -11,8 +11,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from vtrack_gym.baselines.pdflc import PDFLCConfig
 from vtrack_gym.envs.config import EnvConfig, ResetOptions, ScenarioConfig
+from vtrack_gym.envs.pdflc import PDFLCConfig
 from vtrack_gym.vehicle import layout as L
 from vtrack_gym.vehicle.params import VehicleParams
 from vtrack_gym.vehicle.plant import PARALLEL_THRESHOLD, Plant
@@ -42,7 +42,7 @@ def _kernels():
 @lru_cache(maxsize=8)
 def scenario_tracks(scenario: ScenarioConfig, vehicle_width_m: float) -> tuple:
     """The paths a scenario drives on (built once per process and scenario)."""
-    from vtrack_gym import tracks
+    import vtrack_gym.tracks as tracks
 
     if scenario.track == "handling_course":
         return (tracks.handling_course(),)
@@ -62,8 +62,8 @@ class BatchSim:
     """N independent cars (one per sub-env) on the scenario's track(s)."""
 
     def __init__(self, scenario: ScenarioConfig, config: EnvConfig, n: int) -> None:
-        from vtrack_gym.baselines.pdflc import control_surface
-        from vtrack_gym.baselines.pdflc_kernel import pdflc_gains
+        from vtrack_gym.envs.pdflc import control_surface
+        from vtrack_gym.envs.pdflc_kernel import pdflc_gains
 
         self.scenario = scenario
         self.config = config
@@ -129,7 +129,7 @@ class BatchSim:
     # ------------------------------------------------------------------ reset
     def set_speed_controller(self, index: int | np.ndarray | slice, config: PDFLCConfig) -> None:
         """Give the selected cars other PD-FLC gains (G1..G4, filter); the method and surface stay shared."""
-        from vtrack_gym.baselines.pdflc_kernel import pdflc_gains
+        from vtrack_gym.envs.pdflc_kernel import pdflc_gains
 
         own = self.config.speed_controller
         if config.method != own.method or config.surface_resolution != own.surface_resolution:

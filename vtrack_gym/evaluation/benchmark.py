@@ -78,7 +78,7 @@ def policy_factories(names: Sequence[str] | None = None) -> dict[str, Any]:
     for name in chosen:
         factories[name] = (lambda env, _n=name: make_policy(_n, env))
     try:
-        from vtrack_gym.agents.shipped import shipped_agent_factories
+        from vtrack_gym.baselines.shipped import shipped_agent_factories
     except ImportError:
         return factories
     for name, make in shipped_agent_factories().items():

@@ -25,8 +25,6 @@ def policy_id_of(policy: PolicyLike) -> str:
 
 def _make(env_id_or_env: str | gym.Env, **make_kwargs: Any) -> tuple[gym.Env, str]:
     if isinstance(env_id_or_env, str):
-        import vtrack_gym  # noqa: F401  (registers the ids)
-
         return gym.make(env_id_or_env, **make_kwargs), env_id_or_env
     spec = getattr(env_id_or_env, "spec", None)
     return env_id_or_env, spec.id if spec is not None else type(env_id_or_env.unwrapped).__name__
@@ -70,8 +68,6 @@ def rollout_batch(policy: PolicyLike, env_id: str, seeds: list[int], options: di
 
     Cars that finish early are frozen (their later steps are not recorded); returns traces in seed order.
     """
-    import vtrack_gym  # noqa: F401
-
     n = len(seeds)
     envs = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
     sim = envs.unwrapped.sim if hasattr(envs, "unwrapped") else envs.sim

@@ -141,7 +141,7 @@ class ResultStore:
 
     def add(self, rows: Iterable[ResultRow]) -> int:
         """Insert rows atomically (all or none); returns how many were written."""
-        from vtrack_gym import __version__
+        from vtrack_gym._version import __version__
 
         records = []
         for r in rows:

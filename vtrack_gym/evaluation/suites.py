@@ -56,10 +56,33 @@ def suite_episodes(name: str, quick: bool = False) -> list[Episode]:
                  for s in seeds]
                 + [Episode("DLC120-v0", s, robust_options(s, 120 / 3.6, ROBUST_FRICTION["DLC120-v0"])) for s in seeds])
     if name == "highway":
-        from vtrack_gym.interop import highway_episodes
-
         return highway_episodes(quick=quick)
     raise ValueError(f"unknown suite {name!r}; valid: {', '.join(SUITES)}")
+
+
+HIGHWAY_SEEDS: tuple[int, ...] = (0, 1, 2)
+"""Seeds of the ``highway`` leaderboard suite (one initial condition each, see ``highway_episodes``)."""
+
+HIGHWAY_STARTS: dict[int, dict[str, float]] = {
+    0: {"initial_lateral_offset_m": -4.0},  # highway-env's own offset (4 m to the right), lane start
+    1: {"initial_lateral_offset_m": 4.0, "start_station_m": 25.0},  # mirrored, a quarter period further
+    2: {"initial_lateral_offset_m": 0.0, "initial_heading_error_rad": 0.2, "start_station_m": 50.0},
+}
+"""Reset options of the ``highway`` suite's episodes, by seed."""
+
+
+def highway_episodes(quick: bool = False) -> list[Episode]:
+    """Episodes of the ``highway`` leaderboard suite: the adapter from three initial conditions (seed -> options).
+
+    Seed 0 is highway-env's own initial offset (4 m right of the sine lane's centre line at its start); seed 1
+    the mirrored offset a quarter period further; seed 2 on the centre line with a 0.2 rad heading error. Every
+    episode drives to the end of the sine lane (~500 m at 8.3 m/s). ``quick`` keeps seed 0 only.
+    """
+    from vtrack_gym.interop import HIGHWAY_ENV_ID, register_highway_envs
+
+    register_highway_envs()
+    seeds = HIGHWAY_SEEDS[:1] if quick else HIGHWAY_SEEDS
+    return [Episode(HIGHWAY_ENV_ID, s, dict(HIGHWAY_STARTS[s])) for s in seeds]
 
 
 SUITES: tuple[str, ...] = ("paper", "robust", "highway")

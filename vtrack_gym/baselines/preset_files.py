@@ -27,7 +27,7 @@ from typing import Any
 FORMAT = "vtrack-tuned-preset"
 FORMAT_VERSION = 1
 MAX_BYTES = 1 << 20
-PACKAGED_DIR = Path(__file__).resolve().parent.parent / "baselines" / "presets"
+PACKAGED_DIR = Path(__file__).resolve().parent / "presets"
 TOP_KEYS = {"format", "format_version", "controller", "config", "speed_controller", "provenance"}
 PROVENANCE_KEYS = {"command", "seed", "budget", "space", "best_fitness", "metrics", "package_version", "date_utc",
                    "scenario", "wall_time_s", "episodes", "note", "backend"}
@@ -177,7 +177,7 @@ def preset_dict(controller: str, config: Any, speed_config: Any = None,
     prov = dict(provenance or {})
     prov.setdefault("date_utc", dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"))
     if "package_version" not in prov:
-        from vtrack_gym import __version__
+        from vtrack_gym._version import __version__
 
         prov["package_version"] = __version__
     out["provenance"] = prov

@@ -16,7 +16,7 @@ import math
 import numpy as np
 from numba import njit
 
-from vtrack_gym.baselines.pdflc import PDFLCConfig
+from vtrack_gym.envs.pdflc import PDFLCConfig
 
 M_E_PREV, M_DE, M_FRESH = range(3)
 K_G1, K_G2, K_G3, K_G4, K_POLE, K_DT, K_ESCALE = range(7)

@@ -1,4 +1,4 @@
-"""Agents shipped with the package (``vtrack_gym/agents/shipped/<name>.json`` + ``.npz``), for the benchmark.
+"""Agents shipped with the package (``vtrack_gym/baselines/shipped/<name>.json`` + ``.npz``), for the benchmark.
 
 Only agents that were actually trained (``provenance.timesteps > 0`` RL steps, or a recorded ``warm_start``)
 and pass ``load_agent``'s checks are listed; the directory may be absent or empty. Pure numpy: no torch/SB3
@@ -11,7 +11,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from vtrack_gym.agents.numpy_policy import NumpyPolicy, load_agent
+from vtrack_gym.baselines.numpy_policy import NumpyPolicy, load_agent
 
 SHIPPED_DIR = Path(__file__).with_name("shipped")
 

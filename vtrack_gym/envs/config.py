@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
+from vtrack_gym._ranges import closed_ranges, ranged, validate
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.envs.pdflc import PDFLCConfig
 from vtrack_gym.vehicle.params import VehicleParams
@@ -24,25 +25,18 @@ class RewardConfig:
     ``reward_effort``, ``reward_rate``, ``reward_terminal``).
     """
 
-    alive: float = 1.0
-    w_ey: float = 1.0
-    ey_scale_m: float = 0.5
-    w_ephi: float = 0.5
-    ephi_scale_rad: float = 0.1
-    w_effort: float = 0.05
-    w_rate: float = 0.2
-    failure_penalty: float = -100.0
-    completion_bonus: float = 0.0
+    alive: float = ranged(1.0, ge=0.0)
+    w_ey: float = ranged(1.0, ge=0.0)
+    ey_scale_m: float = ranged(0.5, gt=0.0, unit="m")
+    w_ephi: float = ranged(0.5, ge=0.0)
+    ephi_scale_rad: float = ranged(0.1, gt=0.0, unit="rad")
+    w_effort: float = ranged(0.05, ge=0.0)
+    w_rate: float = ranged(0.2, ge=0.0)
+    failure_penalty: float = ranged(-100.0, le=0.0)
+    completion_bonus: float = ranged(0.0, ge=0.0)
 
     def __post_init__(self) -> None:
-        for name in ("alive", "w_ey", "w_ephi", "w_effort", "w_rate", "completion_bonus"):
-            if not (math.isfinite(getattr(self, name)) and getattr(self, name) >= 0.0):
-                raise ValueError(f"RewardConfig.{name} must be a finite number >= 0 (got {getattr(self, name)})")
-        for name in ("ey_scale_m", "ephi_scale_rad"):
-            if not getattr(self, name) > 0.0:
-                raise ValueError(f"RewardConfig.{name} must be > 0 (got {getattr(self, name)})")
-        if not self.failure_penalty <= 0.0:
-            raise ValueError(f"RewardConfig.failure_penalty must be <= 0 (got {self.failure_penalty})")
+        validate(self)
 
 
 @dataclass(frozen=True)
@@ -51,31 +45,23 @@ class ScenarioConfig:
 
     name: str
     track: str                                   # "handling_course" | "double_lane_change" | "procedural"
-    target_speed_mps: float
-    initial_speed_mps: float
-    max_episode_s: float
+    target_speed_mps: float = ranged(gt=0.0, le=45.0, unit="m/s")
+    initial_speed_mps: float = ranged(ge=0.0, le=45.0, unit="m/s")
+    max_episode_s: float = ranged(gt=0.0, unit="s")
     target_speed_range_mps: tuple[float, float] | None = None  # randomised per episode (training variant)
-    procedural_bank_size: int = 16               # procedural tracks built once per env, drawn per episode
+    # procedural tracks built once per env, drawn per episode
+    procedural_bank_size: int = ranged(16, ge=1, integer=True)
     procedural_seed: int = 12345
     procedural_length_m: float = 800.0
     end_margin_m: float = 5.0                    # open paths: completed this far before the end
-    standstill_start_fraction: float = 0.0       # share of episodes starting at rest (the others at target speed)
+    # share of episodes starting at rest (the others at target speed)
+    standstill_start_fraction: float = ranged(0.0, ge=0.0, le=1.0)
 
     def __post_init__(self) -> None:
         if self.track not in ("handling_course", "double_lane_change", "procedural"):
             raise ValueError("ScenarioConfig.track must be 'handling_course', 'double_lane_change' or 'procedural' "
                              f"(got {self.track!r})")
-        if not (0.0 < self.target_speed_mps <= 45.0):
-            raise ValueError(f"ScenarioConfig.target_speed_mps must be in (0, 45] m/s (got {self.target_speed_mps})")
-        if not (0.0 <= self.initial_speed_mps <= 45.0):
-            raise ValueError(f"ScenarioConfig.initial_speed_mps must be in [0, 45] m/s (got {self.initial_speed_mps})")
-        if not self.max_episode_s > 0.0:
-            raise ValueError(f"ScenarioConfig.max_episode_s must be > 0 s (got {self.max_episode_s})")
-        if not (0.0 <= self.standstill_start_fraction <= 1.0):
-            raise ValueError("ScenarioConfig.standstill_start_fraction must be in [0, 1] "
-                             f"(got {self.standstill_start_fraction})")
-        if self.procedural_bank_size < 1:
-            raise ValueError(f"ScenarioConfig.procedural_bank_size must be >= 1 (got {self.procedural_bank_size})")
+        validate(self)
 
 
 LATERAL_TRACKING = ScenarioConfig("LateralTracking-v0", "handling_course", 40.0 * KMH, 0.0, 300.0)
@@ -96,8 +82,8 @@ the car starts at the target speed, or at rest in 20 % of the episodes (Case 1 s
 class EnvConfig:
     """Everything an env instance needs besides its scenario."""
 
-    control_period_s: float = 0.01
-    physics_dt_s: float = 0.002
+    control_period_s: float = ranged(0.01, ge=0.001, le=0.1, unit="s")
+    physics_dt_s: float = ranged(0.002, gt=0.0, le=0.002, unit="s")  # >= 500 Hz
     model: str = "nonlinear"
     vehicle: VehicleParams = field(default_factory=VehicleParams)
     reward: RewardConfig = field(default_factory=RewardConfig)
@@ -109,10 +95,7 @@ class EnvConfig:
     noise_std: tuple[float, ...] = (0.02, 0.005, 0.02, 0.005, 0.05, 0.02, 0.005, 0.002)
 
     def __post_init__(self) -> None:
-        if not (0.001 <= self.control_period_s <= 0.1):
-            raise ValueError(f"EnvConfig.control_period_s must be in [0.001, 0.1] s (got {self.control_period_s})")
-        if not (0.0 < self.physics_dt_s <= 0.002):
-            raise ValueError(f"EnvConfig.physics_dt_s must be in (0, 0.002] s, >= 500 Hz (got {self.physics_dt_s})")
+        validate(self)
         ratio = self.control_period_s / self.physics_dt_s
         if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
             raise ValueError("EnvConfig.control_period_s must be an integer multiple of physics_dt_s "
@@ -132,21 +115,18 @@ class EnvConfig:
 class ResetOptions:
     """Scenario knobs that ``reset(options=...)`` may override (``None`` = scenario default)."""
 
-    initial_lateral_offset_m: float = 0.0
-    friction_mu: float | None = None
-    mass_scale: float = 1.0
-    target_speed_mps: float | None = None
-    sensor_noise: float = 0.0
-    actuator_delay_s: float = 0.0
+    initial_lateral_offset_m: float = ranged(0.0, ge=-2.0, le=2.0, unit="m")
+    friction_mu: float | None = ranged(None, ge=0.1, le=1.5)
+    mass_scale: float = ranged(1.0, ge=0.5, le=2.0)
+    target_speed_mps: float | None = ranged(None, ge=1.0, le=45.0, unit="m/s")
+    sensor_noise: float = ranged(0.0, ge=0.0, le=5.0)
+    actuator_delay_s: float = ranged(0.0, ge=0.0, le=0.5, unit="s")
 
-    RANGES = {  # noqa: RUF012 - documentation table, read-only
-        "initial_lateral_offset_m": (-2.0, 2.0),
-        "friction_mu": (0.1, 1.5),
-        "mass_scale": (0.5, 2.0),
-        "target_speed_mps": (1.0, 45.0),
-        "sensor_noise": (0.0, 5.0),
-        "actuator_delay_s": (0.0, 0.5),
-    }
+    RANGES: ClassVar[dict[str, tuple[float, float]]]
+    """Option name -> closed range [lo, hi] (from the fields' declared ranges; set below the class)."""
+
+    def __post_init__(self) -> None:
+        validate(self)
 
     @classmethod
     def from_dict(cls, options: dict[str, Any] | None) -> ResetOptions:
@@ -157,6 +137,9 @@ class ResetOptions:
             raise ValueError(f"reset options must be a dict (got {type(options).__name__})")
         values = validate_numeric_options(options, cls.RANGES)
         return cls(**values)
+
+
+ResetOptions.RANGES = closed_ranges(ResetOptions)
 
 
 def validate_numeric_options(options: dict[str, Any], ranges: dict[str, tuple[float, float]],

@@ -35,6 +35,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vtrack_gym._ranges import ranged, validate
+
 # Bounds of the observation box per scalar field (generous physical limits; the envs terminate long before:
 # |e_y| beyond the road half width, |e_phi| > pi/2). Preview samples are bounded by PREVIEW_BOUND.
 SCALAR_BOUNDS: dict[str, float] = {
@@ -54,18 +56,12 @@ SCALAR_FIELDS: tuple[str, ...] = (
 class ObservationLayout:
     """Named positions in the flat observation vector (see the module docstring for units)."""
 
-    n_preview: int = 20
-    preview_dt_s: float = 0.1
-    preview_min_speed_mps: float = 2.0
+    n_preview: int = ranged(20, ge=1, le=200, integer=True)
+    preview_dt_s: float = ranged(0.1, gt=0.0, le=1.0, unit="s")
+    preview_min_speed_mps: float = ranged(2.0, gt=0.0, le=20.0, unit="m/s")
 
     def __post_init__(self) -> None:
-        if not (1 <= self.n_preview <= 200):
-            raise ValueError(f"ObservationLayout.n_preview must be in [1, 200] (got {self.n_preview})")
-        if not (0.0 < self.preview_dt_s <= 1.0):
-            raise ValueError(f"ObservationLayout.preview_dt_s must be in (0, 1] s (got {self.preview_dt_s})")
-        if not (0.0 < self.preview_min_speed_mps <= 20.0):
-            raise ValueError("ObservationLayout.preview_min_speed_mps must be in (0, 20] m/s "
-                             f"(got {self.preview_min_speed_mps})")
+        validate(self)
 
     # Scalar indices as attributes (stable across layouts: the preview always comes last).
     E_Y = 0

@@ -47,6 +47,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from vtrack_gym._ranges import ranged, validate
+
 logger = logging.getLogger(__name__)
 
 INPUT_LABELS = ("SM", "HSM", "NO", "HSP", "SP")
@@ -218,35 +220,22 @@ def pdflc_output(e_hat: ArrayLike, de_hat: ArrayLike, method: str = "mamdani",
     return u.reshape(shape)
 
 
-def _positive(owner: object, name: str) -> None:
-    """Raise ValueError unless ``owner.name`` is a finite real number > 0."""
-    value = getattr(owner, name)
-    label = f"{type(owner).__name__}.{name}"
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise ValueError(f"{label} must be a finite number (got {value!r})")
-    if value <= 0.0:
-        raise ValueError(f"{label} must be > 0 (got {value})")
-
-
 @dataclass(frozen=True)
 class PDFLCConfig:
     """PD-FLC parameters; defaults are the paper's Table 3 gains (GA-tuned) and the spec's choices."""
 
-    g1: float = 1.3187              # e_v gain [1/(m/s)] ([1/(km/h)] with speed_error_in_kmh); e_hat saturates at 1
-    g2: float = 0.1                 # de_v gain [s^2/m]
-    g3: float = 0.5225              # throttle fraction per unit of positive u [-]
-    g4: float = 161.5577            # brake pedal force per unit of negative u [N]
-    tau_f_s: float = 0.05           # time constant of the de_v low-pass filter [s]; 0 = raw backward difference
+    g1: float = ranged(1.3187, gt=0.0)  # e_v gain [1/(m/s)] ([1/(km/h)] with speed_error_in_kmh); e_hat saturates at 1
+    g2: float = ranged(0.1, gt=0.0, unit="s^2/m")  # de_v gain [s^2/m]
+    g3: float = ranged(0.5225, gt=0.0)  # throttle fraction per unit of positive u [-]
+    g4: float = ranged(161.5577, gt=0.0, unit="N")  # brake pedal force per unit of negative u [N]
+    # time constant of the de_v low-pass filter [s]; 0 = raw backward difference
+    tau_f_s: float = ranged(0.05, ge=0.0, le=10.0, unit="s")
     speed_error_in_kmh: bool = False  # multiply e_v by 3.6 before G1 (if the paper's CarSim used km/h)
     method: str = "mamdani"         # "mamdani" or "sugeno"
     surface_resolution: int = 201   # points per axis of the control surface; (n - 1) % 8 == 0
 
     def __post_init__(self) -> None:
-        for name in ("g1", "g2", "g3", "g4"):
-            _positive(self, name)
-        if (isinstance(self.tau_f_s, bool) or not isinstance(self.tau_f_s, (int, float))
-                or not 0.0 <= self.tau_f_s <= 10.0):
-            raise ValueError(f"PDFLCConfig.tau_f_s must be in [0, 10] s (got {self.tau_f_s!r})")
+        validate(self)
         if not isinstance(self.speed_error_in_kmh, bool):
             raise ValueError(f"PDFLCConfig.speed_error_in_kmh must be a bool (got {self.speed_error_in_kmh!r})")
         if self.method not in METHODS:

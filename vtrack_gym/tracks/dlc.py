@@ -37,7 +37,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from vtrack_gym.tracks._validate import check_range
+from vtrack_gym._ranges import ranged, validate
 from vtrack_gym.tracks.path import DEFAULT_DS_M, Gate, Path
 from vtrack_gym.tracks.profiles import CurvatureProfile
 
@@ -52,22 +52,17 @@ LANE_WIDTH_ADD_M = 0.25
 class DoubleLaneChangeSpec:
     """Parameters of the double lane change (lengths [m], widths [m])."""
 
-    vehicle_width_m: float = 1.916     # w, the paper's car (IDSC body width)
-    length_scale: float = 2.0          # CHOICE: multiplies every ISO longitudinal length (1.0 = ISO)
-    approach_m: float = 100.0          # straight before section 1
-    lane_offset_m: float = 3.5         # lane-3 centre left of lane-1 centre (paper)
-    ramp_fraction: float = 0.135       # transition shape: blend length / transition length, in (0, 0.25)
-    half_width_m: float = 4.0          # drivable half width for off-road termination
-    ds_m: float = DEFAULT_DS_M         # table spacing
+    vehicle_width_m: float = ranged(1.916, gt=0.5, le=4.0, unit="m")  # w, the paper's car (IDSC body width)
+    length_scale: float = ranged(2.0, gt=0.5, le=10.0)  # CHOICE: multiplies every ISO longitudinal length (1.0 = ISO)
+    approach_m: float = ranged(100.0, ge=0.0, le=10000.0, unit="m")  # straight before section 1
+    lane_offset_m: float = ranged(3.5, gt=0.5, le=20.0, unit="m")  # lane-3 centre left of lane-1 centre (paper)
+    # transition shape: blend length / transition length, in (0, 0.25)
+    ramp_fraction: float = ranged(0.135, gt=0.0, lt=0.25)
+    half_width_m: float = ranged(4.0, gt=0.5, le=50.0, unit="m")  # drivable half width for off-road termination
+    ds_m: float = ranged(DEFAULT_DS_M, gt=0.0, le=5.0, unit="m")  # table spacing
 
     def __post_init__(self) -> None:
-        check_range(self, "vehicle_width_m", 0.5, 4.0)
-        check_range(self, "length_scale", 0.5, 10.0)
-        check_range(self, "approach_m", 0.0, 10000.0, low_open=False)
-        check_range(self, "lane_offset_m", 0.5, 20.0)
-        check_range(self, "ramp_fraction", 0.0, 0.25, high_open=True)
-        check_range(self, "half_width_m", 0.5, 50.0)
-        check_range(self, "ds_m", 0.0, 5.0)
+        validate(self)
 
     def lane_widths_m(self) -> tuple[float, float, float]:
         """Widths of lanes 1, 3, 5 [m]."""

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vtrack_gym.tracks._validate import check_range
+from vtrack_gym._ranges import ranged, validate
 from vtrack_gym.tracks.path import DEFAULT_DS_M, Path
 from vtrack_gym.tracks.profiles import CurvatureProfile, SineElevation
 
@@ -33,46 +33,29 @@ _SMOOTHERSTEP_PEAK_SLOPE = 1.875     # max dS/dt of the quintic blend
 class ProceduralTrackConfig:
     """Knobs of :func:`procedural_track` (lengths [m], curvature [1/m], curvature rate [1/m^2], angles [rad])."""
 
-    length_m: float = 1000.0
-    max_curvature_per_m: float = 1.0 / 30.0
-    max_dkappa_per_m2: float = 0.004
-    min_curvature_fraction: float = 0.2    # non-zero arcs have |kappa| >= this * max_curvature_per_m
-    min_blend_m: float = 5.0
-    min_hold_m: float = 5.0
-    max_hold_m: float = 60.0
-    straight_probability: float = 0.3
-    max_arc_turn_rad: float = 2.0
-    max_heading_rad: float = 0.75 * math.pi
-    lead_in_m: float = 30.0
-    max_grade: float = 0.05
-    elevation_amplitude_m: float = 3.0
-    min_wavelength_m: float = 100.0
-    max_wavelength_m: float = 600.0
-    min_clearance_m: float = 20.0
-    half_width_m: float = 3.5
-    ds_m: float = DEFAULT_DS_M
-    max_attempts: int = 100
+    length_m: float = ranged(1000.0, ge=50.0, le=1e5, unit="m")
+    max_curvature_per_m: float = ranged(1.0 / 30.0, gt=0.0, le=0.5, unit="1/m")
+    max_dkappa_per_m2: float = ranged(0.004, gt=0.0, le=1.0, unit="1/m^2")
+    # non-zero arcs have |kappa| >= this * max_curvature_per_m
+    min_curvature_fraction: float = ranged(0.2, ge=0.0, le=1.0)
+    min_blend_m: float = ranged(5.0, gt=0.0, le=1000.0, unit="m")
+    min_hold_m: float = ranged(5.0, gt=0.0, le=1000.0, unit="m")
+    max_hold_m: float = ranged(60.0, ge="min_hold_m", le=10000.0, unit="m")
+    straight_probability: float = ranged(0.3, ge=0.0, le=1.0)
+    max_arc_turn_rad: float = ranged(2.0, gt=0.0, le=2.0 * math.pi, unit="rad")
+    max_heading_rad: float = ranged(0.75 * math.pi, gt=0.0, le=math.pi, unit="rad")
+    lead_in_m: float = ranged(30.0, ge=0.0, lt="length_m", unit="m")
+    max_grade: float = ranged(0.05, ge=0.0, le=0.3)
+    elevation_amplitude_m: float = ranged(3.0, ge=0.0, le=100.0, unit="m")
+    min_wavelength_m: float = ranged(100.0, gt=0.0, le=1e5, unit="m")
+    max_wavelength_m: float = ranged(600.0, ge="min_wavelength_m", le=1e5, unit="m")
+    min_clearance_m: float = ranged(20.0, ge=0.0, le=1000.0, unit="m")
+    half_width_m: float = ranged(3.5, gt=0.0, le=50.0, unit="m")
+    ds_m: float = ranged(DEFAULT_DS_M, gt=0.0, le=5.0, unit="m")
+    max_attempts: int = ranged(100, ge=1, le=100000, integer=True)
 
     def __post_init__(self) -> None:
-        check_range(self, "length_m", 50.0, 1e5, low_open=False)
-        check_range(self, "max_curvature_per_m", 0.0, 0.5)
-        check_range(self, "max_dkappa_per_m2", 0.0, 1.0)
-        check_range(self, "min_curvature_fraction", 0.0, 1.0, low_open=False)
-        check_range(self, "min_blend_m", 0.0, 1000.0)
-        check_range(self, "min_hold_m", 0.0, 1000.0)
-        check_range(self, "max_hold_m", self.min_hold_m, 10000.0, low_open=False)
-        check_range(self, "straight_probability", 0.0, 1.0, low_open=False)
-        check_range(self, "max_arc_turn_rad", 0.0, 2.0 * math.pi)
-        check_range(self, "max_heading_rad", 0.0, math.pi)
-        check_range(self, "lead_in_m", 0.0, self.length_m, low_open=False, high_open=True)
-        check_range(self, "max_grade", 0.0, 0.3, low_open=False)
-        check_range(self, "elevation_amplitude_m", 0.0, 100.0, low_open=False)
-        check_range(self, "min_wavelength_m", 0.0, 1e5)
-        check_range(self, "max_wavelength_m", self.min_wavelength_m, 1e5, low_open=False)
-        check_range(self, "min_clearance_m", 0.0, 1000.0, low_open=False)
-        check_range(self, "half_width_m", 0.0, 50.0)
-        check_range(self, "ds_m", 0.0, 5.0)
-        check_range(self, "max_attempts", 1, 100000, low_open=False)
+        validate(self)
 
 
 def _curvature(rng: np.random.Generator, cfg: ProceduralTrackConfig) -> CurvatureProfile:

@@ -5,8 +5,9 @@ The default car is the paper's CarSim "C-Class, Hatchback". Values from the pape
 ``bare/ctype_hatchback.m``) are marked ``IDSC``; everything else is our own modelling choice and is marked
 ``CHOICE`` with the reasoning next to it.
 
-Every dataclass validates itself in ``__post_init__`` and raises ``ValueError`` naming the offending field and
-its allowed range, e.g. ``ValueError: ChassisParams.mass_kg must be > 0 (got -1.0)``.
+Every field declares its allowed range next to it (``ranged``, see ``vtrack_gym._ranges``: bounds named ``gt``/
+``ge``/``lt``/``le``); ``__post_init__`` validates them and raises ``ValueError`` naming the offending field and
+its allowed range, e.g. ``ValueError: ChassisParams.mass_kg must be > 0.0 kg (got -1.0)``.
 """
 
 from __future__ import annotations
@@ -14,46 +15,28 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, fields, replace
 
+from vtrack_gym._ranges import ranged, validate
+
 GRAVITY_MPS2 = 9.81
 """Standard gravity used by every model [m/s^2] (paper: g = 9.81)."""
-
-
-def _check(owner: object, name: str, low: float | None = None, high: float | None = None,
-           *, low_inclusive: bool = False, high_inclusive: bool = True) -> None:
-    """Raise ``ValueError`` unless ``owner.name`` is finite and within (low, high)."""
-    value = getattr(owner, name)
-    label = f"{type(owner).__name__}.{name}"
-    if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
-        raise ValueError(f"{label} must be a finite number (got {value!r})")
-    if low is not None and (value < low or (value == low and not low_inclusive)):
-        op = ">=" if low_inclusive else ">"
-        raise ValueError(f"{label} must be {op} {low} (got {value})")
-    if high is not None and (value > high or (value == high and not high_inclusive)):
-        op = "<=" if high_inclusive else "<"
-        raise ValueError(f"{label} must be {op} {high} (got {value})")
 
 
 @dataclass(frozen=True)
 class ChassisParams:
     """Rigid-body data of the whole car."""
 
-    mass_kg: float = 1413.0                 # paper (IDSC: 1412 = 1270 sprung + 4 x 35.5 unsprung)
-    yaw_inertia_kgm2: float = 1536.7        # paper, I_z
-    cg_to_front_axle_m: float = 1.015       # paper, a1
-    cg_to_rear_axle_m: float = 1.895        # paper, a2
-    cg_height_m: float = 0.54               # IDSC
-    track_width_m: float = 1.675            # IDSC (front = rear)
-    body_width_m: float = 1.916             # IDSC
-    body_length_m: float = 4.75             # IDSC
-    cg_to_front_end_m: float = 1.915        # IDSC
+    mass_kg: float = ranged(1413.0, gt=0.0, unit="kg")  # paper (IDSC: 1412 = 1270 sprung + 4 x 35.5 unsprung)
+    yaw_inertia_kgm2: float = ranged(1536.7, gt=0.0, unit="kg m^2")  # paper, I_z
+    cg_to_front_axle_m: float = ranged(1.015, gt=0.0, unit="m")  # paper, a1
+    cg_to_rear_axle_m: float = ranged(1.895, gt=0.0, unit="m")  # paper, a2
+    cg_height_m: float = ranged(0.54, gt=0.0, unit="m")  # IDSC
+    track_width_m: float = ranged(1.675, gt=0.0, unit="m")  # IDSC (front = rear)
+    body_width_m: float = ranged(1.916, gt=0.0, unit="m")  # IDSC
+    body_length_m: float = ranged(4.75, gt=0.0, unit="m")  # IDSC
+    cg_to_front_end_m: float = ranged(1.915, gt=0.0, lt="body_length_m", unit="m")  # IDSC
 
     def __post_init__(self) -> None:
-        for name in ("mass_kg", "yaw_inertia_kgm2", "cg_to_front_axle_m", "cg_to_rear_axle_m",
-                     "cg_height_m", "track_width_m", "body_width_m", "body_length_m", "cg_to_front_end_m"):
-            _check(self, name, 0.0)
-        if self.cg_to_front_end_m >= self.body_length_m:
-            raise ValueError("ChassisParams.cg_to_front_end_m must be < body_length_m "
-                             f"(got {self.cg_to_front_end_m} >= {self.body_length_m})")
+        validate(self)
 
     @property
     def wheelbase_m(self) -> float:
@@ -70,65 +53,55 @@ class TyreParams:
     degressive load sensitivity of the cornering stiffness (``load_sensitivity``) so that load transfer matters.
     """
 
-    front_cornering_stiffness_npr: float = 128662.0  # paper, C_af, axle (both tyres) [N/rad]
-    rear_cornering_stiffness_npr: float = 69890.0    # paper, C_ar, axle [N/rad]
-    friction_mu: float = 0.9                          # paper, road friction coefficient
-    front_shape_c: float = 1.367                      # IDSC Pacejka C (front)
-    front_peak_d: float = 0.962                       # IDSC Pacejka D (front), peak = mu * D * F_z
-    rear_shape_c: float = 1.365                       # IDSC Pacejka C (rear)
-    rear_peak_d: float = 0.974                        # IDSC Pacejka D (rear)
+    # paper, C_af, axle (both tyres) [N/rad]
+    front_cornering_stiffness_npr: float = ranged(128662.0, gt=0.0, unit="N/rad")
+    rear_cornering_stiffness_npr: float = ranged(69890.0, gt=0.0, unit="N/rad")  # paper, C_ar, axle [N/rad]
+    friction_mu: float = ranged(0.9, gt=0.0, le=2.0)  # paper, road friction coefficient
+    front_shape_c: float = ranged(1.367, ge=1.0, lt=2.0)  # IDSC Pacejka C (front)
+    front_peak_d: float = ranged(0.962, gt=0.0, le=2.0)  # IDSC Pacejka D (front), peak = mu * D * F_z
+    rear_shape_c: float = ranged(1.365, ge=1.0, lt=2.0)  # IDSC Pacejka C (rear)
+    rear_peak_d: float = ranged(0.974, gt=0.0, le=2.0)  # IDSC Pacejka D (rear)
     # CHOICE: per-wheel cornering stiffness C(Fz) = C0 (Fz/Fz0) (1 - eps (Fz/Fz0 - 1)); eps = 0.15 gives the
     # usual 5-15 % loss of axle stiffness under full lateral load transfer of a passenger car.
-    load_sensitivity: float = 0.15
+    load_sensitivity: float = ranged(0.15, ge=0.0, le=0.5)
     # CHOICE: rolling-resistance coefficient of a passenger-car tyre on asphalt.
-    rolling_resistance_coeff: float = 0.012
+    rolling_resistance_coeff: float = ranged(0.012, ge=0.0, le=0.1)
 
     def __post_init__(self) -> None:
-        _check(self, "front_cornering_stiffness_npr", 0.0)
-        _check(self, "rear_cornering_stiffness_npr", 0.0)
-        _check(self, "friction_mu", 0.0, 2.0)
-        for name in ("front_shape_c", "rear_shape_c"):
-            _check(self, name, 1.0, 2.0, low_inclusive=True, high_inclusive=False)
-        for name in ("front_peak_d", "rear_peak_d"):
-            _check(self, name, 0.0, 2.0)
-        _check(self, "load_sensitivity", 0.0, 0.5, low_inclusive=True)
-        _check(self, "rolling_resistance_coeff", 0.0, 0.1, low_inclusive=True)
+        validate(self)
 
 
 @dataclass(frozen=True)
 class RollParams:
     """Roll degree of freedom of the sprung mass (all CHOICE: the paper and CarSim data give none)."""
 
-    unsprung_mass_kg: float = 142.0          # IDSC: 4 x 35.5 kg
-    roll_inertia_kgm2: float = 450.0         # CHOICE: C-segment sprung-mass roll inertia 400-500 kg m^2
-    roll_stiffness_nmpr: float = 75000.0     # CHOICE: total (front + rear) 60-90 kN m/rad
-    roll_damping_nmspr: float = 5000.0       # CHOICE: total 4-6 kN m s/rad (damping ratio ~0.45)
-    roll_centre_height_m: float = 0.10       # CHOICE: ~0.1 m for McPherson/twist-beam
-    front_roll_stiffness_share: float = 0.60  # CHOICE: front share of roll stiffness and damping
+    unsprung_mass_kg: float = ranged(142.0, ge=0.0, unit="kg")  # IDSC: 4 x 35.5 kg
+    # CHOICE: C-segment sprung-mass roll inertia 400-500 kg m^2
+    roll_inertia_kgm2: float = ranged(450.0, gt=0.0, unit="kg m^2")
+    roll_stiffness_nmpr: float = ranged(75000.0, gt=0.0, unit="N m/rad")  # CHOICE: total (front + rear) 60-90 kN m/rad
+    # CHOICE: total 4-6 kN m s/rad (damping ratio ~0.45)
+    roll_damping_nmspr: float = ranged(5000.0, ge=0.0, unit="N m s/rad")
+    roll_centre_height_m: float = ranged(0.10, ge=0.0, unit="m")  # CHOICE: ~0.1 m for McPherson/twist-beam
+    # CHOICE: front share of roll stiffness and damping
+    front_roll_stiffness_share: float = ranged(0.60, ge=0.0, le=1.0)
 
     def __post_init__(self) -> None:
-        _check(self, "unsprung_mass_kg", 0.0, low_inclusive=True)
-        _check(self, "roll_inertia_kgm2", 0.0)
-        _check(self, "roll_stiffness_nmpr", 0.0)
-        _check(self, "roll_damping_nmspr", 0.0, low_inclusive=True)
-        _check(self, "roll_centre_height_m", 0.0, low_inclusive=True)
-        _check(self, "front_roll_stiffness_share", 0.0, 1.0, low_inclusive=True)
+        validate(self)
 
 
 @dataclass(frozen=True)
 class SteeringParams:
     """Steering actuator: first-order lag with a rate limit; hand-wheel = road-wheel x ratio (all CHOICE)."""
 
-    max_road_wheel_angle_rad: float = 0.6    # CHOICE: ~34 deg road-wheel limit
-    steering_ratio: float = 16.0             # CHOICE: hand-wheel / road-wheel, C-segment ~16:1
-    max_hand_wheel_rate_dps: float = 800.0   # CHOICE: hand-wheel rate limit [deg/s] (EPS actuators)
-    time_constant_s: float = 0.03            # CHOICE: actuator lag; 0 means an ideal (instant) actuator
+    max_road_wheel_angle_rad: float = ranged(0.6, gt=0.0, le=1.2, unit="rad")  # CHOICE: ~34 deg road-wheel limit
+    steering_ratio: float = ranged(16.0, gt=0.0)  # CHOICE: hand-wheel / road-wheel, C-segment ~16:1
+    # CHOICE: hand-wheel rate limit [deg/s] (EPS actuators)
+    max_hand_wheel_rate_dps: float = ranged(800.0, gt=0.0, unit="deg/s")
+    # CHOICE: actuator lag; 0 means an ideal (instant) actuator
+    time_constant_s: float = ranged(0.03, ge=0.0, le=1.0, unit="s")
 
     def __post_init__(self) -> None:
-        _check(self, "max_road_wheel_angle_rad", 0.0, 1.2)
-        _check(self, "steering_ratio", 0.0)
-        _check(self, "max_hand_wheel_rate_dps", 0.0)
-        _check(self, "time_constant_s", 0.0, 1.0, low_inclusive=True)
+        validate(self)
 
     @property
     def max_road_wheel_rate_radps(self) -> float:
@@ -140,18 +113,15 @@ class SteeringParams:
 class PowertrainParams:
     """Front-wheel drive, power-limited: F_drive = throttle * min(F_max, P_max / max(v, v_eps)) (CHOICE)."""
 
-    max_power_w: float = 100_000.0           # CHOICE: ~100 kW C-segment engine, at the wheels
-    max_drive_force_n: float = 6000.0        # CHOICE: low-gear traction limit at the wheels (~0.43 g)
-    front_drive_share: float = 1.0           # CHOICE: front-wheel drive
-    drag_area_m2: float = 0.66               # CHOICE: C_d A = 0.30 x 2.2 m^2
-    air_density_kgpm3: float = 1.2           # standard air
+    max_power_w: float = ranged(100_000.0, gt=0.0, unit="W")  # CHOICE: ~100 kW C-segment engine, at the wheels
+    # CHOICE: low-gear traction limit at the wheels (~0.43 g)
+    max_drive_force_n: float = ranged(6000.0, gt=0.0, unit="N")
+    front_drive_share: float = ranged(1.0, ge=0.0, le=1.0)  # CHOICE: front-wheel drive
+    drag_area_m2: float = ranged(0.66, ge=0.0, unit="m^2")  # CHOICE: C_d A = 0.30 x 2.2 m^2
+    air_density_kgpm3: float = ranged(1.2, ge=0.0, unit="kg/m^3")  # standard air
 
     def __post_init__(self) -> None:
-        _check(self, "max_power_w", 0.0)
-        _check(self, "max_drive_force_n", 0.0)
-        _check(self, "front_drive_share", 0.0, 1.0, low_inclusive=True)
-        _check(self, "drag_area_m2", 0.0, low_inclusive=True)
-        _check(self, "air_density_kgpm3", 0.0, low_inclusive=True)
+        validate(self)
 
 
 @dataclass(frozen=True)
@@ -161,33 +131,26 @@ class BrakeParams:
     A gain of 60 N/N gives 0.65 g at the paper's largest reported pedal force (~150 N).
     """
 
-    pedal_gain: float = 60.0                 # CHOICE: [N wheel force / N pedal force]
-    max_pedal_force_n: float = 500.0         # CHOICE: pedal forces are clipped to [0, this]
-    front_brake_share: float = 0.70          # CHOICE: front share of the brake force
+    pedal_gain: float = ranged(60.0, gt=0.0, unit="N/N")  # CHOICE: [N wheel force / N pedal force]
+    max_pedal_force_n: float = ranged(500.0, gt=0.0, unit="N")  # CHOICE: pedal forces are clipped to [0, this]
+    front_brake_share: float = ranged(0.70, ge=0.0, le=1.0)  # CHOICE: front share of the brake force
 
     def __post_init__(self) -> None:
-        _check(self, "pedal_gain", 0.0)
-        _check(self, "max_pedal_force_n", 0.0)
-        _check(self, "front_brake_share", 0.0, 1.0, low_inclusive=True)
+        validate(self)
 
 
 @dataclass(frozen=True)
 class LowSpeedParams:
     """Blend from the dynamic to the kinematic single-track model at low speed (CommonRoad-style, CHOICE)."""
 
-    blend_start_mps: float = 1.0             # below: purely kinematic
-    blend_end_mps: float = 3.0               # above: purely dynamic
-    relaxation_time_s: float = 0.05          # how fast v_y and r are pulled onto the kinematic values
-    load_transfer_lag_s: float = 0.02        # CHOICE: lag of the accelerations used for load transfer
+    blend_start_mps: float = ranged(1.0, gt=0.0, unit="m/s")  # below: purely kinematic
+    blend_end_mps: float = ranged(3.0, gt="blend_start_mps", unit="m/s")  # above: purely dynamic
+    relaxation_time_s: float = ranged(0.05, gt=0.0, unit="s")  # how fast v_y and r are pulled onto the kinematic values
+    # CHOICE: lag of the accelerations used for load transfer
+    load_transfer_lag_s: float = ranged(0.02, gt=0.0, unit="s")
 
     def __post_init__(self) -> None:
-        _check(self, "blend_start_mps", 0.0)
-        _check(self, "blend_end_mps", 0.0)
-        if self.blend_end_mps <= self.blend_start_mps:
-            raise ValueError("LowSpeedParams.blend_end_mps must be > blend_start_mps "
-                             f"(got {self.blend_end_mps} <= {self.blend_start_mps})")
-        _check(self, "relaxation_time_s", 0.0)
-        _check(self, "load_transfer_lag_s", 0.0)
+        validate(self)
 
 
 @dataclass(frozen=True)
@@ -247,22 +210,19 @@ class VehicleParams:
 class DesignModel:
     """The linear single-track design model's parameters, as the controllers see them (paper Nomenclature)."""
 
-    mass_kg: float
-    yaw_inertia_kgm2: float
-    cg_to_front_axle_m: float
-    cg_to_rear_axle_m: float
-    front_cornering_stiffness_npr: float
-    rear_cornering_stiffness_npr: float
-    max_road_wheel_angle_rad: float = 0.6
-    max_road_wheel_rate_radps: float = math.radians(800.0) / 16.0
-    steering_ratio: float = 16.0
-    friction_mu: float = 0.9
+    mass_kg: float = ranged(gt=0.0, unit="kg")
+    yaw_inertia_kgm2: float = ranged(gt=0.0, unit="kg m^2")
+    cg_to_front_axle_m: float = ranged(gt=0.0, unit="m")
+    cg_to_rear_axle_m: float = ranged(gt=0.0, unit="m")
+    front_cornering_stiffness_npr: float = ranged(gt=0.0, unit="N/rad")
+    rear_cornering_stiffness_npr: float = ranged(gt=0.0, unit="N/rad")
+    max_road_wheel_angle_rad: float = ranged(0.6, gt=0.0, unit="rad")
+    max_road_wheel_rate_radps: float = ranged(math.radians(800.0) / 16.0, gt=0.0, unit="rad/s")
+    steering_ratio: float = ranged(16.0, gt=0.0)
+    friction_mu: float = ranged(0.9, gt=0.0)
 
     def __post_init__(self) -> None:
-        for name in ("mass_kg", "yaw_inertia_kgm2", "cg_to_front_axle_m", "cg_to_rear_axle_m",
-                     "front_cornering_stiffness_npr", "rear_cornering_stiffness_npr",
-                     "max_road_wheel_angle_rad", "max_road_wheel_rate_radps", "steering_ratio", "friction_mu"):
-            _check(self, name, 0.0)
+        validate(self)
 
     @property
     def wheelbase_m(self) -> float:

@@ -86,7 +86,7 @@ class Range:
         if value is dataclasses.MISSING:
             value = getattr(owner, name)
         if not self.contains(value, owner):
-            kind = "an integer" if self.integer else "a finite number"
+            kind = "an int" if self.integer else "a finite number"
             number = isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
             text = f"{kind} {self.text(owner)}".rstrip() if self.integer or not number else self.text(owner)
             raise ValueError(f"{type(owner).__name__}.{name} must be {text} (got {value!r})")
@@ -123,11 +123,14 @@ def range_of(cls_or_obj: Any, name: str) -> Range:
 
 
 def validate(obj: Any) -> None:
-    """Check every field of dataclass ``obj`` that declares a :class:`Range`, in field order.
+    """Check every field of dataclass ``obj`` that declares a :class:`Range`, in field order (and that every field
+    annotated ``bool`` holds a ``bool``).
 
     A field whose default is ``None`` may be ``None`` (optional: "use the scenario's value").
     """
     for f in dataclasses.fields(obj):
+        if f.type in ("bool", bool) and not isinstance(getattr(obj, f.name), bool):
+            raise ValueError(f"{type(obj).__name__}.{f.name} must be a bool (got {getattr(obj, f.name)!r})")
         rng = f.metadata.get(RANGE_KEY)
         if rng is not None:
             value = getattr(obj, f.name)

@@ -34,6 +34,8 @@ from typing import Any
 
 import numpy as np
 
+from vtrack_gym._ranges import ranged, validate
+
 NOISE_REFERENCE_SPEED_MPS = 10.0
 """Above this speed the perturbation std falls as 1/v^2 (a constant lateral-acceleration perturbation)."""
 
@@ -44,30 +46,21 @@ class BCConfig:
 
     expert: str = "lqr"            # registry name of the scripted expert
     expert_preset: str = "default"
-    steps: int = 3000              # vector-env steps of data collection per round (x n_envs transitions)
-    dagger_rounds: int = 2         # further rounds driven by the cloned agent, labelled by the expert (DAgger)
-    noise_std: float = 0.02        # std of the AR(1) perturbation of the executed action at <= 10 m/s
-    noise_corr_s: float = 0.2      # correlation time of the perturbation [s]
-    epochs: int = 30               # passes over the data per round
-    batch_size: int = 1024
-    learning_rate: float = 1e-3
-    init_log_std: float = -3.0     # log of the exploration std after the warm start
-    critic_steps: int = 5000       # SAC: critic-only gradient steps on the prefilled buffer before RL starts
+    # vector-env steps of data collection per round (x n_envs transitions)
+    steps: int = ranged(3000, ge=10, le=10**6, integer=True)
+    # further rounds driven by the cloned agent, labelled by the expert (DAgger)
+    dagger_rounds: int = ranged(2, ge=0, le=20, integer=True)
+    noise_std: float = ranged(0.02, ge=0.0, le=1.0)  # std of the AR(1) perturbation of the executed action at <= 10 m/s
+    noise_corr_s: float = ranged(0.2, ge=0.0, le=10.0, unit="s")  # correlation time of the perturbation [s]
+    epochs: int = ranged(30, ge=1, le=1000, integer=True)  # passes over the data per round
+    batch_size: int = ranged(1024, ge=16, le=10**6, integer=True)
+    learning_rate: float = ranged(1e-3, ge=1e-6, le=1.0)
+    init_log_std: float = ranged(-3.0, ge=-10.0, le=1.0)  # log of the exploration std after the warm start
+    # SAC: critic-only gradient steps on the prefilled buffer before RL starts
+    critic_steps: int = ranged(5000, ge=0, le=10**7, integer=True)
 
     def __post_init__(self) -> None:
-        checks = {"steps": (10, 10**6), "dagger_rounds": (0, 20), "epochs": (1, 1000), "batch_size": (16, 10**6),
-                  "critic_steps": (0, 10**7)}
-        for name, (lo, hi) in checks.items():
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
-                raise ValueError(f"BCConfig.{name} must be an int in [{lo}, {hi}] (got {value!r})")
-        floats = {"noise_std": (0.0, 1.0), "noise_corr_s": (0.0, 10.0), "learning_rate": (1e-6, 1.0),
-                  "init_log_std": (-10.0, 1.0)}
-        for name, (lo, hi) in floats.items():
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
-                    or not lo <= value <= hi:
-                raise ValueError(f"BCConfig.{name} must be a number in [{lo}, {hi}] (got {value!r})")
+        validate(self)
         if not isinstance(self.expert, str) or not self.expert:
             raise ValueError(f"BCConfig.expert must be a baseline name (got {self.expert!r})")
         if not isinstance(self.expert_preset, str) or not self.expert_preset:

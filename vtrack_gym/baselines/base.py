@@ -28,7 +28,6 @@ from __future__ import annotations
 import abc
 import bisect
 import dataclasses
-import math
 from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
 
@@ -39,29 +38,6 @@ from vtrack_gym.vehicle.params import DesignModel
 
 ENV_ATTRIBUTES = ("design_model", "observation_layout", "control_period_s")
 """What ``from_env`` reads from ``env.unwrapped`` (or an SB3 VecEnv's ``get_attr``)."""
-
-
-def require_range(owner: object, name: str, low: float | None = None, high: float | None = None, *,
-                  low_inclusive: bool = True, high_inclusive: bool = True) -> None:
-    """Raise ``ValueError`` naming ``Type.name`` and the allowed range unless the field is finite and in range."""
-    value = getattr(owner, name)
-    label = f"{type(owner).__name__}.{name}"
-    lo_txt = "-inf" if low is None else f"{low}"
-    hi_txt = "inf" if high is None else f"{high}"
-    allowed = f"{'[' if low_inclusive else '('}{lo_txt}, {hi_txt}{']' if high_inclusive else ')'}"
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise ValueError(f"{label} must be a finite number in {allowed} (got {value!r})")
-    too_low = low is not None and (value < low or (value == low and not low_inclusive))
-    too_high = high is not None and (value > high or (value == high and not high_inclusive))
-    if too_low or too_high:
-        raise ValueError(f"{label} must be in {allowed} (got {value})")
-
-
-def require_int(owner: object, name: str, low: int, high: int) -> None:
-    """Raise ``ValueError`` unless the field is an int in [low, high]."""
-    value = getattr(owner, name)
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not (low <= value <= high):
-        raise ValueError(f"{type(owner).__name__}.{name} must be an integer in [{low}, {high}] (got {value!r})")
 
 
 def require_choice(owner: object, name: str, choices: Sequence[str]) -> None:

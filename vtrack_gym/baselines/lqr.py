@@ -35,7 +35,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from vtrack_gym.baselines.base import Policy, SpeedSchedule, require_int, require_range
+from vtrack_gym._ranges import ranged, validate
+from vtrack_gym.baselines.base import Policy, SpeedSchedule
 from vtrack_gym.baselines.linear_models import error_model, sideslip_gain, understeer_gradient, zoh
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.vehicle.params import DesignModel
@@ -51,27 +52,19 @@ class LQRConfig:
     min_speed_mps / max_speed_mps / n_speeds: gain-schedule grid.
     """
 
-    q_e_y: float = 1.0
-    q_e_y_dot: float = 1.0
-    q_e_phi: float = 10.0
-    q_e_phi_dot: float = 1.0
-    r_delta: float = 30.0
+    q_e_y: float = ranged(1.0, ge=0.0, le=1e6, unit="1/m^2")
+    q_e_y_dot: float = ranged(1.0, ge=0.0, le=1e6, unit="s^2/m^2")
+    q_e_phi: float = ranged(10.0, ge=0.0, le=1e6, unit="1/rad^2")
+    q_e_phi_dot: float = ranged(1.0, ge=0.0, le=1e6, unit="s^2/rad^2")
+    r_delta: float = ranged(30.0, gt=0.0, le=1e6, unit="1/rad^2")
     feedforward: bool = True
-    feedforward_lead_s: float = 0.08
-    min_speed_mps: float = 1.0
-    max_speed_mps: float = 45.0
-    n_speeds: int = 60
+    feedforward_lead_s: float = ranged(0.08, ge=0.0, le=1.0, unit="s")
+    min_speed_mps: float = ranged(1.0, ge=0.5, le=80.0, unit="m/s")
+    max_speed_mps: float = ranged(45.0, gt="min_speed_mps", le=80.0, unit="m/s")
+    n_speeds: int = ranged(60, ge=2, le=400, integer=True)
 
     def __post_init__(self) -> None:
-        for name in ("q_e_y", "q_e_y_dot", "q_e_phi", "q_e_phi_dot"):
-            require_range(self, name, 0.0, 1e6)
-        require_range(self, "r_delta", 0.0, 1e6, low_inclusive=False)
-        if not isinstance(self.feedforward, bool):
-            raise ValueError(f"LQRConfig.feedforward must be a bool (got {self.feedforward!r})")
-        require_range(self, "feedforward_lead_s", 0.0, 1.0)
-        require_range(self, "min_speed_mps", 0.5, 80.0)
-        require_range(self, "max_speed_mps", self.min_speed_mps, 80.0, low_inclusive=False)
-        require_int(self, "n_speeds", 2, 400)
+        validate(self)
 
 
 LQR_PRESETS: dict[str, LQRConfig] = {"default": LQRConfig()}

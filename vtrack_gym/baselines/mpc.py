@@ -81,14 +81,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from vtrack_gym.baselines.base import (
-    Policy,
-    SpeedSchedule,
-    hold_steps,
-    require_choice,
-    require_int,
-    require_range,
-)
+from vtrack_gym._ranges import ranged, validate
+from vtrack_gym.baselines.base import Policy, SpeedSchedule, hold_steps, require_choice
 from vtrack_gym.baselines.linear_models import curvature_preview_operator, lateral_matrices, paper_model, zoh
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.vehicle.params import DesignModel
@@ -117,37 +111,28 @@ class MPCConfig:
     """
 
     weights: tuple[float, ...] = PAPER_WEIGHTS
-    input_weight: float = 0.1
-    prediction_horizon: int = 50
-    control_horizon: int = 5
-    sample_time_s: float = 0.02
+    input_weight: float = ranged(0.1, gt=0.0, le=1e6)
+    prediction_horizon: int = ranged(50, ge=1, le=400, integer=True)
+    control_horizon: int = ranged(5, ge=1, le="prediction_horizon", integer=True)
+    sample_time_s: float = ranged(0.02, ge=0.001, le=0.2, unit="s")
     interpretation: str = "augmented_outputs"
     use_preview: bool = True
     rate_limit: bool = True
-    min_speed_mps: float = 1.0
-    max_speed_mps: float = 45.0
-    n_speeds: int = 60
+    min_speed_mps: float = ranged(1.0, ge=0.5, le=80.0, unit="m/s")
+    max_speed_mps: float = ranged(45.0, gt="min_speed_mps", le=80.0, unit="m/s")
+    n_speeds: int = ranged(60, ge=2, le=400, integer=True)
 
     def __post_init__(self) -> None:
+        validate(self)
         if len(self.weights) != 12:
             raise ValueError(f"MPCConfig.weights must have 12 entries (got {len(self.weights)})")
         if any(not (isinstance(w, (int, float)) and math.isfinite(w) and w >= 0.0) for w in self.weights):
             raise ValueError(f"MPCConfig.weights must be finite numbers >= 0 (got {self.weights})")
         object.__setattr__(self, "weights", tuple(float(w) for w in self.weights))
-        require_range(self, "input_weight", 0.0, 1e6, low_inclusive=False)
-        require_int(self, "prediction_horizon", 1, 400)
-        require_int(self, "control_horizon", 1, self.prediction_horizon)
-        require_range(self, "sample_time_s", 0.001, 0.2)
         require_choice(self, "interpretation", INTERPRETATIONS)
         if self.interpretation == "siso_per_step" and self.prediction_horizon != len(self.weights):
             raise ValueError("MPCConfig.prediction_horizon must equal len(weights) = 12 for interpretation "
                              f"'siso_per_step' (got {self.prediction_horizon})")
-        require_range(self, "min_speed_mps", 0.5, 80.0)
-        require_range(self, "max_speed_mps", self.min_speed_mps, 80.0, low_inclusive=False)
-        require_int(self, "n_speeds", 2, 400)
-        for name in ("use_preview", "rate_limit"):
-            if not isinstance(getattr(self, name), bool):
-                raise ValueError(f"MPCConfig.{name} must be a bool (got {getattr(self, name)!r})")
 
 
 MPC_PRESETS: dict[str, MPCConfig] = {

@@ -52,7 +52,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from vtrack_gym.baselines.base import Policy, SpeedSchedule, hold_steps, require_int, require_range
+from vtrack_gym._ranges import Range, ranged, validate
+from vtrack_gym.baselines.base import Policy, SpeedSchedule, hold_steps
 from vtrack_gym.baselines.linear_models import (
     curvature_preview_operator,
     error_model,
@@ -83,42 +84,28 @@ class OSQPMPCConfig:
     [1e-9, 1e-1], max_iter in [10, 100000]: OSQP settings.
     """
 
-    sample_time_s: float = 0.02
-    prediction_horizon: int = 50
-    control_horizon: int = 10
-    q_e_y: float = 10.0
-    q_e_y_dot: float = 0.0
-    q_e_phi: float = 10.0
-    q_e_phi_dot: float = 0.0
-    r_delta: float = 1.0
-    r_rate: float = 10.0
+    sample_time_s: float = ranged(0.02, ge=0.001, le=0.2, unit="s")
+    prediction_horizon: int = ranged(50, ge=1, le=400, integer=True)
+    control_horizon: int = ranged(10, ge=1, le=50, integer=True)
+    q_e_y: float = ranged(10.0, ge=0.0, le=1e6, unit="1/m^2")
+    q_e_y_dot: float = ranged(0.0, ge=0.0, le=1e6, unit="s^2/m^2")
+    q_e_phi: float = ranged(10.0, ge=0.0, le=1e6, unit="1/rad^2")
+    q_e_phi_dot: float = ranged(0.0, ge=0.0, le=1e6, unit="s^2/rad^2")
+    r_delta: float = ranged(1.0, gt=0.0, le=1e6, unit="1/rad^2")
+    r_rate: float = ranged(10.0, ge=0.0, le=1e6, unit="1/rad^2")
     use_preview: bool = True
     rate_limit: bool = True
-    min_speed_mps: float = 1.0
-    max_speed_mps: float = 45.0
-    n_speeds: int = 60
-    speed_update_tol_mps: float = 0.05
-    eps_abs: float = 1e-7
-    eps_rel: float = 1e-7
-    max_iter: int = 4000
+    min_speed_mps: float = ranged(1.0, ge=0.5, le=80.0, unit="m/s")
+    max_speed_mps: float = ranged(45.0, gt="min_speed_mps", le=80.0, unit="m/s")
+    n_speeds: int = ranged(60, ge=2, le=400, integer=True)
+    speed_update_tol_mps: float = ranged(0.05, ge=0.0, le=5.0, unit="m/s")
+    eps_abs: float = ranged(1e-7, ge=1e-9, le=0.1)
+    eps_rel: float = ranged(1e-7, ge=1e-9, le=0.1)
+    max_iter: int = ranged(4000, ge=10, le=100000, integer=True)
 
     def __post_init__(self) -> None:
-        require_range(self, "sample_time_s", 0.001, 0.2)
-        require_int(self, "prediction_horizon", 1, 400)
-        require_int(self, "control_horizon", 1, min(self.prediction_horizon, 50))
-        for name in ("q_e_y", "q_e_y_dot", "q_e_phi", "q_e_phi_dot", "r_rate"):
-            require_range(self, name, 0.0, 1e6)
-        require_range(self, "r_delta", 0.0, 1e6, low_inclusive=False)
-        for name in ("use_preview", "rate_limit"):
-            if not isinstance(getattr(self, name), bool):
-                raise ValueError(f"OSQPMPCConfig.{name} must be a bool (got {getattr(self, name)!r})")
-        require_range(self, "min_speed_mps", 0.5, 80.0)
-        require_range(self, "max_speed_mps", self.min_speed_mps, 80.0, low_inclusive=False)
-        require_int(self, "n_speeds", 2, 400)
-        require_range(self, "speed_update_tol_mps", 0.0, 5.0)
-        require_range(self, "eps_abs", 1e-9, 0.1)
-        require_range(self, "eps_rel", 1e-9, 0.1)
-        require_int(self, "max_iter", 10, 100000)
+        validate(self)
+        Range(ge=1, le="prediction_horizon", integer=True).check(self, "control_horizon")
 
 
 OSQP_MPC_PRESETS: dict[str, OSQPMPCConfig] = {"default": OSQPMPCConfig()}

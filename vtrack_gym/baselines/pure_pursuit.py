@@ -43,7 +43,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from vtrack_gym.baselines.base import Policy, require_range
+from vtrack_gym._ranges import ranged, validate
+from vtrack_gym.baselines.base import Policy
 from vtrack_gym.baselines.linear_models import understeer_gradient
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.vehicle.params import DesignModel
@@ -59,20 +60,15 @@ class PurePursuitConfig:
     curvature_feedforward: pursue relative to the nominal goal (see the module docstring, step 5).
     """
 
-    lookahead_gain_s: float = 0.8
-    min_lookahead_m: float = 4.0
-    max_lookahead_m: float = 40.0
+    lookahead_gain_s: float = ranged(0.8, gt=0.0, le=5.0, unit="s")
+    min_lookahead_m: float = ranged(4.0, gt=0.0, le=200.0, unit="m")
+    max_lookahead_m: float = ranged(40.0, ge="min_lookahead_m", le=200.0, unit="m")
     understeer_compensation: bool = True
     use_course_angle: bool = True
     curvature_feedforward: bool = False
 
     def __post_init__(self) -> None:
-        require_range(self, "lookahead_gain_s", 0.0, 5.0, low_inclusive=False)
-        require_range(self, "min_lookahead_m", 0.0, 200.0, low_inclusive=False)
-        require_range(self, "max_lookahead_m", self.min_lookahead_m, 200.0)
-        for name in ("understeer_compensation", "use_course_angle", "curvature_feedforward"):
-            if not isinstance(getattr(self, name), bool):
-                raise ValueError(f"PurePursuitConfig.{name} must be a bool (got {getattr(self, name)!r})")
+        validate(self)
 
 
 PURE_PURSUIT_PRESETS: dict[str, PurePursuitConfig] = {"default": PurePursuitConfig()}

@@ -66,7 +66,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from vtrack_gym.baselines.base import Policy, require_range
+from vtrack_gym._ranges import ranged, validate
+from vtrack_gym.baselines.base import Policy
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.vehicle.params import DesignModel
 
@@ -108,23 +109,16 @@ class SMCConfig:
     guard_band_mps: half-width of the singular-speed guard [m/s], in [0, 3].
     """
 
-    pole_radps: float = 8.0
-    reaching_gain: float = 5.0
-    boundary_layer: float = 0.1
+    pole_radps: float = ranged(8.0, gt=0.0, le=100.0, unit="rad/s")
+    reaching_gain: float = ranged(5.0, gt=0.0, le=1e5, unit="rad/s^2")
+    boundary_layer: float = ranged(0.1, gt=0.0, le=1e3, unit="rad/s")
     sideslip_shift: bool = True
     limit_layer_rate: bool = True
-    min_speed_mps: float = 3.0
-    guard_band_mps: float = 0.3
+    min_speed_mps: float = ranged(3.0, ge=0.5, le=20.0, unit="m/s")
+    guard_band_mps: float = ranged(0.3, ge=0.0, le=3.0, unit="m/s")
 
     def __post_init__(self) -> None:
-        require_range(self, "pole_radps", 0.0, 100.0, low_inclusive=False)
-        require_range(self, "reaching_gain", 0.0, 1e5, low_inclusive=False)
-        require_range(self, "boundary_layer", 0.0, 1e3, low_inclusive=False)
-        require_range(self, "min_speed_mps", 0.5, 20.0)
-        require_range(self, "guard_band_mps", 0.0, 3.0)
-        for name in ("sideslip_shift", "limit_layer_rate"):
-            if not isinstance(getattr(self, name), bool):
-                raise ValueError(f"SMCConfig.{name} must be a bool (got {getattr(self, name)!r})")
+        validate(self)
 
 
 SMC_PRESETS: dict[str, SMCConfig] = {

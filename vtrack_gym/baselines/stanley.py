@@ -33,7 +33,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from vtrack_gym.baselines.base import Policy, require_range
+from vtrack_gym._ranges import ranged, validate
+from vtrack_gym.baselines.base import Policy
 from vtrack_gym.baselines.linear_models import understeer_gradient
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.vehicle.params import DesignModel
@@ -48,19 +49,14 @@ class StanleyConfig:
     feedforward: steady-state steer and sideslip compensation.
     """
 
-    gain_k: float = 2.0
-    softening_mps: float = 1.0
-    heading_gain: float = 1.0
-    yaw_damping_s: float = 0.03
+    gain_k: float = ranged(2.0, gt=0.0, le=50.0, unit="1/s")
+    softening_mps: float = ranged(1.0, gt=0.0, le=50.0, unit="m/s")
+    heading_gain: float = ranged(1.0, ge=0.0, le=5.0)
+    yaw_damping_s: float = ranged(0.03, ge=0.0, le=2.0, unit="s")
     feedforward: bool = True
 
     def __post_init__(self) -> None:
-        require_range(self, "gain_k", 0.0, 50.0, low_inclusive=False)
-        require_range(self, "softening_mps", 0.0, 50.0, low_inclusive=False)
-        require_range(self, "heading_gain", 0.0, 5.0)
-        require_range(self, "yaw_damping_s", 0.0, 2.0)
-        if not isinstance(self.feedforward, bool):
-            raise ValueError(f"StanleyConfig.feedforward must be a bool (got {self.feedforward!r})")
+        validate(self)
 
 
 STANLEY_PRESETS: dict[str, StanleyConfig] = {"default": StanleyConfig()}

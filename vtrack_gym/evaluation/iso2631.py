@@ -38,6 +38,8 @@ from types import MappingProxyType
 import numpy as np
 from numpy.typing import ArrayLike
 
+from vtrack_gym._ranges import ranged, validate
+
 MIN_FS_HZ = 200.0
 """Lowest accepted sampling rate for ``weighted`` [Hz]; 250 Hz or more is recommended."""
 INTERNAL_FS_HZ = 2000.0
@@ -51,24 +53,19 @@ class WeightingParams:
     ``f3_hz = inf`` drops the numerator of Ht; ``f5_hz = f6_hz = inf`` drops Hs (q5, q6 are then unused).
     """
 
-    f1_hz: float
-    f2_hz: float
+    f1_hz: float = ranged(gt=0.0, unit="Hz")
+    f2_hz: float = ranged(gt="f1_hz", unit="Hz")
     f3_hz: float
-    f4_hz: float
-    q4: float
+    f4_hz: float = ranged(gt=0.0, unit="Hz")
+    q4: float = ranged(gt=0.0)
     f5_hz: float = math.inf
     q5: float = math.nan
     f6_hz: float = math.inf
     q6: float = math.nan
-    gain: float = 1.0
+    gain: float = ranged(1.0, gt=0.0)
 
     def __post_init__(self) -> None:
-        for name in ("f1_hz", "f2_hz", "f4_hz", "q4", "gain"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0.0):
-                raise ValueError(f"WeightingParams.{name} must be a finite number > 0 (got {value!r})")
-        if not self.f1_hz < self.f2_hz:
-            raise ValueError(f"WeightingParams.f1_hz must be < f2_hz (got {self.f1_hz} >= {self.f2_hz})")
+        validate(self)
         if not (isinstance(self.f3_hz, (int, float)) and self.f3_hz > 0.0) or math.isnan(self.f3_hz):
             raise ValueError(f"WeightingParams.f3_hz must be > 0 or inf (got {self.f3_hz!r})")
         if math.isinf(self.f5_hz) != math.isinf(self.f6_hz):

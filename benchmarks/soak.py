@@ -42,10 +42,10 @@ import numpy as np
 import vtrack_gym  # noqa: F401  (registers the ids)
 from vtrack_gym.baselines.registry import make_policy
 from vtrack_gym.vehicle import layout as L
+from vtrack_gym.vehicle.params import GRAVITY_MPS2 as G
 
 ENV_ID = "LateralTrackingRandom-v0"
 DOCUMENTED_TERMINATIONS = {"", "completed", "off_road", "spin_out", "wheel_lift"}
-G = 9.81
 SPEED_JUMP_MPS = 1.5
 ROLL_LIMIT_RAD = 0.3
 SCRIPTED = ("smc", "mpc", "lqr", "stanley", "pure_pursuit")

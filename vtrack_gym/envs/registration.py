@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 ENV_IDS: tuple[str, ...] = ("LateralTracking-v0", "DLC120-v0", "LateralTrackingRandom-v0")
-_MAX_STEPS = {"LateralTracking-v0": 30000, "DLC120-v0": 3000, "LateralTrackingRandom-v0": 9000}
 
 
 def register_envs() -> None:

@@ -14,7 +14,7 @@ import numpy as np
 from vtrack_gym.envs.config import EnvConfig, ResetOptions, ScenarioConfig
 from vtrack_gym.envs.pdflc import PDFLCConfig
 from vtrack_gym.vehicle import layout as L
-from vtrack_gym.vehicle.params import VehicleParams
+from vtrack_gym.vehicle.params import GRAVITY_MPS2, VehicleParams
 from vtrack_gym.vehicle.plant import PARALLEL_THRESHOLD, Plant
 
 TERMINATION_NAMES: tuple[str, ...] = ("", "completed", "off_road", "spin_out", "wheel_lift", "invalid_state")
@@ -25,7 +25,7 @@ evaluation courses need (handling course: R >= 20 m; DLC120-v0: R >= 140 m), so 
 never meets a curvature it has not seen."""
 PROCEDURAL_MAX_DKAPPA: tuple[float, float] = (0.008, 0.004)
 """Curvature-rate bounds [1/m^2] of the two halves (handling course: 0.0063; DLC120-v0: 0.0020)."""
-FEASIBLE_LATERAL_ACC_MPS2 = 0.85 * 9.81
+FEASIBLE_LATERAL_ACC_MPS2 = 0.85 * GRAVITY_MPS2
 """Randomised target speeds are capped at sqrt(this / peak curvature) of the drawn track [m/s^2] (DLC120-v0's
 centre line peaks at 0.81 g)."""
 

@@ -26,9 +26,7 @@ import gymnasium as gym
 from vtrack_gym.evaluation.metrics import evaluate_trace
 from vtrack_gym.evaluation.rollout import rollout
 from vtrack_gym.evaluation.trace import Trace
-
-G_MPS2 = 9.81
-"""Standard gravity used to express lateral accelerations in g."""
+from vtrack_gym.vehicle.params import GRAVITY_MPS2
 
 TIMESTAMP_PREFIX = "Generated: "
 """The only line of the report that changes between two runs starts with this."""
@@ -143,7 +141,7 @@ def _cmp(key: str, unit: str = "") -> Callable[[Run, Run], str]:
 
 
 def _g(run: Run) -> float:
-    return run.metrics["max_a_y_mps2"] / G_MPS2
+    return run.metrics["max_a_y_mps2"] / GRAVITY_MPS2
 
 
 REASON_PLANT = ("different plant (our nonlinear two-track model with a roll DOF and a steering actuator, not "
@@ -335,7 +333,7 @@ def build_report(runs: dict[tuple[str, str, str], Run], figures: Sequence[Path],
         "also the `default` presets, what `vtrack benchmark` scores.",
         "- **hand**: SMC `hand` vs MPC `hand` (the hand-tuned configs the GA started from).",
         "",
-        "Deviation rates are (MPC - SMC) / |SMC| x 100 % (negative: MPC lower). g = 9.81 m/s^2.",
+        f"Deviation rates are (MPC - SMC) / |SMC| x 100 % (negative: MPC lower). g = {GRAVITY_MPS2} m/s^2.",
         "`not comparable`: one run of the pair failed (left the road or spun), so its metrics cover a different, "
         "shorter distance and the claim cannot be checked on that pair.",
         "",

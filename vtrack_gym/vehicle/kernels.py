@@ -36,8 +36,9 @@ import numpy as np
 from numba import njit, prange
 
 from vtrack_gym.vehicle import layout as L
+from vtrack_gym.vehicle.params import GRAVITY_MPS2
 
-_G = 9.81
+_G = GRAVITY_MPS2  # short name for the formulas; numba freezes it as a compile-time constant
 _V_SIGN_EPS = 0.1      # [m/s] speed scale of the smooth sign used by brakes and rolling resistance
 _V_DYN_MIN = 0.5       # [m/s] floor of v_x inside slip angles (the dynamic model's weight is 0 there)
 _V_LIN_MIN = 1.0       # [m/s] floor of v_x in the linear model's divisions

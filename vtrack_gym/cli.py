@@ -286,61 +286,29 @@ def _cmd_plot(args: argparse.Namespace) -> int:
 
 
 def _cmd_tune(args: argparse.Namespace) -> int:
-    import dataclasses
     import json
     import shlex
 
-    from vtrack_gym.baselines.preset_files import save_preset
-    from vtrack_gym.tuning.ga import tune
-    from vtrack_gym.tuning.population import FitnessConfig
-    from vtrack_gym.tuning.spaces import budget, search_space
+    from vtrack_gym.tuning.job import tune_to_preset
 
-    space = search_space(args.controller, args.space)
-    b = budget(args.controller, args.budget)
-    if args.generations is not None or args.pop_size is not None:
-        b = dataclasses.replace(b, name="custom", generations=args.generations or b.generations,
-                                pop_size=args.pop_size or b.pop_size)
     if args.backend != "ray" and (args.ray_address is not None or args.workers is not None):
         raise ValueError("--ray-address and --workers need --backend ray")
     if args.workers is not None and args.workers < 1:
         raise ValueError(f"--workers must be >= 1 (got {args.workers})")
-    fitness = FitnessConfig(comfort_weight=args.comfort_weight)
-    result = tune(space, b, seed=args.seed, fitness=fitness, progress=not args.no_progress, max_steps=args.max_steps,
-                  also_complete=tuple(e for e in args.also_complete.split(",") if e), backend=args.backend,
-                  ray_address=args.ray_address, num_workers=args.workers)
-    out = args.out or Path("vtrack_results") / f"{args.controller}_tuned.json"
     command = "vtrack " + " ".join(shlex.quote(a) for a in (sys.argv[1:] if args.argv is None else args.argv))
-    budget_info = {"name": b.name, "generations": b.generations, "pop_size": b.pop_size}
-    provenance = {"command": command, "seed": args.seed, "budget": budget_info, "space": space.as_dict(),
-                  "best_fitness": result.best_fitness, "metrics": result.best_metrics,
-                  "scenario": ",".join(["LateralTracking-v0", *[e for e in args.also_complete.split(",") if e]]),
-                  "wall_time_s": round(result.wall_s, 3),
-                  "episodes": result.episodes, "backend": result.backend}
-    if args.max_steps is not None:
-        provenance["note"] = f"episodes cut after {args.max_steps} steps (smoke test, not a tuning result)"
-    save_preset(out, args.controller, result.best_config, result.best_speed_config, provenance)
-    eps = result.episodes / max(result.wall_s, 1e-9)
+    outcome = tune_to_preset(
+        args.controller, args.space, args.budget, seed=args.seed, generations=args.generations,
+        pop_size=args.pop_size, comfort_weight=args.comfort_weight, max_steps=args.max_steps,
+        also_complete=tuple(e for e in args.also_complete.split(",") if e), backend=args.backend,
+        ray_address=args.ray_address, num_workers=args.workers, out=args.out, store=args.store, command=command,
+        progress=not args.no_progress)
+    result = outcome.result
     print(json.dumps({"best_fitness": result.best_fitness, "initial_best_fitness": result.initial_best_fitness,
                       "params": result.params, **result.best_metrics}, indent=2))
     where = f" on {result.workers} Ray workers" if result.backend == "ray" else ""
-    print(f"{result.episodes} episodes in {result.wall_s:.1f} s{where} ({eps:.2f} episodes/s); preset written to "
-          f"{out}", file=sys.stderr)
+    print(f"{result.episodes} episodes in {result.wall_s:.1f} s{where} ({outcome.episodes_per_s:.2f} episodes/s); "
+          f"preset written to {outcome.preset_file}", file=sys.stderr)
     if args.store is not None:
-        from vtrack_gym.evaluation.benchmark import policy_hash
-        from vtrack_gym.evaluation.store import ResultRow, ResultStore
-
-        class _Cfg:  # policy_hash reads .config
-            config = result.best_config
-
-        row = ResultRow(suite="tuning", env_id="LateralTracking-v0", policy_id=f"{args.controller}_tuned",
-                        policy_hash=policy_hash(_Cfg()), seed=args.seed,
-                        metrics={**result.best_metrics, "wall_time_s": result.wall_s,
-                                 "episodes": float(result.episodes)},
-                        termination="completed" if result.best_metrics.get("completed") else "not_completed",
-                        wall_time_per_step_s=result.wall_s / max(result.car_steps, 1),
-                        options={"space": f"{args.controller}/{args.space}", "budget": budget_info,
-                                 "preset_file": str(out)})
-        ResultStore(args.store).add([row])
         print(f"result stored in {args.store} (suite 'tuning')", file=sys.stderr)
     return 0
 

@@ -61,7 +61,7 @@ def test_message_names_field_range_unit_and_value():
 
 def test_docs_and_errors_come_from_one_table():
     docs = describe(_Demo)
-    assert docs == {"width_m": "in (0.0, 2.0] m", "share": "in [0.0, 1.0)", "count": ">= 1",
+    assert docs == {"width_m": "in (0.0, 2.0] m", "share": "in [0.0, 1.0)", "count": "int >= 1",
                     "limit_m": ">= width_m m", "optional_mps": "in [1.0, 45.0] m/s"}
     with pytest.raises(ValueError) as exc:
         _Demo(share=2.0)
@@ -100,3 +100,14 @@ def test_search_space_bounds_lie_inside_the_declared_ranges():
             owner = PDFLCConfig() if p.target == "speed" else owners[space.controller]
             rng = range_of(owner, p.field)
             assert rng.contains(p.low, owner) and rng.contains(p.high, owner), (space.name, p.name)
+
+
+def test_documented_configs_show_the_table_in_their_docstring():
+    from vtrack_gym.baselines.smc import SMCConfig
+    from vtrack_gym.vehicle.params import ChassisParams
+
+    for cls in (SMCConfig, ChassisParams):
+        doc = cls.__doc__ or ""
+        assert "Allowed values" in doc
+        for name, text in describe(cls).items():
+            assert re.search(rf"^\s+{name}\s+{re.escape(text)}$", doc, re.M), (cls.__name__, name)

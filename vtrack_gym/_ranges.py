@@ -2,6 +2,7 @@
 
 A field declares its allowed range with :func:`ranged`, and ``__post_init__`` calls :func:`validate` once::
 
+    @documented
     @dataclass(frozen=True)
     class Tyre:
         friction_mu: float = ranged(0.9, gt=0.0, le=2.0)
@@ -16,7 +17,8 @@ object, e.g. ``ge="min_hold_m"``. Values must be finite numbers (``bool`` is not
 requires an ``int``. Errors name ``Type.field``, the allowed range with its unit and the value, e.g.
 ``ValueError: ChassisParams.mass_kg must be > 0.0 kg (got -1.0)`` or
 ``ValueError: TyreParams.friction_mu must be in (0.0, 2.0] (got 3.0)``. :func:`describe` renders the same text
-for documentation.
+for documentation, and the :func:`documented` class decorator (put above ``@dataclass``) appends that table to
+the class docstring.
 """
 
 from __future__ import annotations
@@ -25,10 +27,12 @@ import dataclasses
 import math
 import numbers
 import operator
-from typing import Any
+from typing import Any, TypeVar
 
 RANGE_KEY = "range"
 """Key of the :class:`Range` in a dataclass field's ``metadata``."""
+
+_T = TypeVar("_T")
 
 Bound = float | str | None
 """A number, the name of another field of the same object, or ``None`` (unbounded)."""
@@ -148,7 +152,26 @@ def closed_ranges(cls: Any) -> dict[str, tuple[float, float]]:
     return out
 
 
+def documented(cls: _T) -> _T:
+    """Class decorator (outside ``@dataclass``): append the fields' allowed ranges to the class docstring, so that
+    ``help()`` and the API docs show the same table the errors quote."""
+    table = describe(cls)
+    if table:
+        width = max(map(len, table))
+        doc = (cls.__doc__ or "").rstrip()
+        body = [ln for ln in doc.splitlines()[1:] if ln.strip()]
+        indent = min((len(ln) - len(ln.lstrip()) for ln in body), default=4) if body else 4
+        pad = " " * indent
+        rows = "\n".join(f"{pad}    {name.ljust(width)}  {text}" for name, text in table.items())
+        cls.__doc__ = f"{doc}\n\n{pad}Allowed values (checked on construction):\n\n{rows}\n{pad}"
+    return cls
+
+
 def describe(cls: Any) -> dict[str, str]:
     """Field name -> allowed range as text, for every field of dataclass ``cls`` that declares one (for docs)."""
-    return {f.name: f.metadata[RANGE_KEY].text() or "any finite number"
-            for f in dataclasses.fields(cls) if RANGE_KEY in f.metadata}
+    out = {}
+    for f in dataclasses.fields(cls):
+        rng = f.metadata.get(RANGE_KEY)
+        if rng is not None:
+            out[f.name] = f"{'int ' if rng.integer else ''}{rng.text() or 'finite'}"
+    return out

@@ -34,12 +34,13 @@ from typing import Any
 
 import numpy as np
 
-from vtrack_gym._ranges import ranged, validate
+from vtrack_gym._ranges import documented, ranged, validate
 
 NOISE_REFERENCE_SPEED_MPS = 10.0
 """Above this speed the perturbation std falls as 1/v^2 (a constant lateral-acceleration perturbation)."""
 
 
+@documented
 @dataclass(frozen=True)
 class BCConfig:
     """Settings of the warm start (durations [s], actions as fractions of the steering range)."""

@@ -35,20 +35,21 @@ from typing import ClassVar
 
 import numpy as np
 
-from vtrack_gym._ranges import ranged, validate
+from vtrack_gym._ranges import documented, ranged, validate
 from vtrack_gym.baselines.base import Policy, SpeedSchedule
 from vtrack_gym.baselines.linear_models import error_model, sideslip_gain, understeer_gradient, zoh
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.vehicle.params import DesignModel
 
 
+@documented
 @dataclass(frozen=True)
 class LQRConfig:
     """LQR weights and schedule.
 
-    q_e_y [1/m^2], q_e_y_dot [s^2/m^2], q_e_phi [1/rad^2], q_e_phi_dot [s^2/rad^2]: state weights (>= 0, <= 1e6).
-    r_delta [1/rad^2]: steering weight (> 0).
-    feedforward: add delta_ff. feedforward_lead_s: preview time of the feedforward curvature [s], in [0, 1].
+    q_e_y [1/m^2], q_e_y_dot [s^2/m^2], q_e_phi [1/rad^2], q_e_phi_dot [s^2/rad^2]: state weights.
+    r_delta [1/rad^2]: steering weight.
+    feedforward: add delta_ff. feedforward_lead_s: preview time of the feedforward curvature [s].
     min_speed_mps / max_speed_mps / n_speeds: gain-schedule grid.
     """
 

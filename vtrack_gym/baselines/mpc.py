@@ -81,7 +81,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from vtrack_gym._ranges import ranged, validate
+from vtrack_gym._ranges import documented, ranged, validate
 from vtrack_gym.baselines.base import Policy, SpeedSchedule, hold_steps, require_choice
 from vtrack_gym.baselines.linear_models import curvature_preview_operator, lateral_matrices, paper_model, zoh
 from vtrack_gym.envs.observation import OBS, ObservationLayout
@@ -99,15 +99,16 @@ RELATIVE = (0, 2)
 TWO_PI = 2.0 * math.pi
 
 
+@documented
 @dataclass(frozen=True)
 class MPCConfig:
     """Paper MPC parameters.
 
-    weights: w1..w12 (>= 0). input_weight: w of W2 = w I (> 0).
-    prediction_horizon N_p in [1, 400]; control_horizon N_c in [1, N_p]; sample_time_s T_s in [0.001, 0.2] s.
+    weights: w1..w12 (>= 0). input_weight: w of W2 = w I.
+    prediction_horizon N_p; control_horizon N_c; sample_time_s T_s [s].
     interpretation: "augmented_outputs" (B1) or "siso_per_step" (A, needs N_p = len(weights)).
     use_preview: preview psi_ref_ddot from the curvature preview. rate_limit: clip Delta_u to the steering rate.
-    min_speed_mps / max_speed_mps / n_speeds: the gain-schedule grid (0.5 <= min < max <= 80 m/s, 2..400 points).
+    min_speed_mps / max_speed_mps / n_speeds: the gain-schedule grid [m/s].
     """
 
     weights: tuple[float, ...] = PAPER_WEIGHTS

@@ -52,7 +52,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from vtrack_gym._ranges import Range, ranged, validate
+from vtrack_gym._ranges import Range, documented, ranged, validate
 from vtrack_gym.baselines.base import Policy, SpeedSchedule, hold_steps
 from vtrack_gym.baselines.linear_models import (
     curvature_preview_operator,
@@ -72,16 +72,16 @@ SETUP_SPEED_MPS = 15.0
 """Speed [m/s] whose P is used at setup (OSQP computes its data scaling once, from the setup matrices)."""
 
 
+@documented
 @dataclass(frozen=True)
 class OSQPMPCConfig:
     """Constrained MPC parameters.
 
-    sample_time_s: T_s [s] in [0.001, 0.2]. prediction_horizon N_p in [1, 400]; control_horizon N_c in
-    [1, min(N_p, 50)]. q_e_y [1/m^2], q_e_y_dot [s^2/m^2], q_e_phi [1/rad^2], q_e_phi_dot [s^2/rad^2]: state
-    weights in [0, 1e6]. r_delta [1/rad^2] in (0, 1e6]: weight on u - u_ref. r_rate [1/rad^2] in [0, 1e6]:
-    weight on each move. use_preview, rate_limit: see the module docstring. Schedule grid: min/max speed
-    [m/s], n_speeds. speed_update_tol_mps [m/s] in [0, 5]: model-speed quantum (P refresh). eps_abs, eps_rel in
-    [1e-9, 1e-1], max_iter in [10, 100000]: OSQP settings.
+    sample_time_s: T_s [s]. prediction_horizon N_p; control_horizon N_c (also <= N_p). q_e_y [1/m^2], q_e_y_dot
+    [s^2/m^2], q_e_phi [1/rad^2], q_e_phi_dot [s^2/rad^2]: state weights. r_delta [1/rad^2]: weight on u - u_ref.
+    r_rate [1/rad^2]: weight on each move. use_preview, rate_limit: see the module docstring. Schedule grid:
+    min/max speed [m/s], n_speeds. speed_update_tol_mps [m/s]: model-speed quantum (P refresh). eps_abs, eps_rel,
+    max_iter: OSQP settings.
     """
 
     sample_time_s: float = ranged(0.02, ge=0.001, le=0.2, unit="s")

@@ -43,18 +43,19 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from vtrack_gym._ranges import ranged, validate
+from vtrack_gym._ranges import documented, ranged, validate
 from vtrack_gym.baselines.base import Policy
 from vtrack_gym.baselines.linear_models import understeer_gradient
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.vehicle.params import DesignModel
 
 
+@documented
 @dataclass(frozen=True)
 class PurePursuitConfig:
     """Pure pursuit parameters.
 
-    lookahead_gain_s: k_v [s], in (0, 5]; min_lookahead_m, max_lookahead_m: clip of L [m] (0 < min <= max <= 200).
+    lookahead_gain_s: k_v [s]; min_lookahead_m, max_lookahead_m: clip of L [m].
     understeer_compensation: delta = kappa_cmd (l + K_us v^2) instead of atan(l kappa_cmd).
     use_course_angle: frame along the CG velocity instead of the heading.
     curvature_feedforward: pursue relative to the nominal goal (see the module docstring, step 5).

@@ -66,7 +66,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from vtrack_gym._ranges import ranged, validate
+from vtrack_gym._ranges import documented, ranged, validate
 from vtrack_gym.baselines.base import Policy
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.vehicle.params import DesignModel
@@ -96,17 +96,18 @@ class SMCCoefficients:
     f6: float
 
 
+@documented
 @dataclass(frozen=True)
 class SMCConfig:
     """Sliding-mode controller parameters.
 
-    pole_radps: p, the triple pole of the sliding dynamics [rad/s], in (0, 100].
-    reaching_gain: eta [rad/s^2] (sigma' = -eta sat(sigma/Delta)), in (0, 1e5].
-    boundary_layer: Delta [rad/s], in (0, 1e3].
+    pole_radps: p, the triple pole of the sliding dynamics [rad/s].
+    reaching_gain: eta [rad/s^2] (sigma' = -eta sat(sigma/Delta)).
+    boundary_layer: Delta [rad/s].
     sideslip_shift: OPTION 2 (steady-state sideslip shift of the surface).
     limit_layer_rate: widen Delta so that eta/Delta <= 1/T_c (OPTION 4 rule).
-    min_speed_mps: speed clamp of the model [m/s], in [0.5, 20].
-    guard_band_mps: half-width of the singular-speed guard [m/s], in [0, 3].
+    min_speed_mps: speed clamp of the model [m/s].
+    guard_band_mps: half-width of the singular-speed guard [m/s].
     """
 
     pole_radps: float = ranged(8.0, gt=0.0, le=100.0, unit="rad/s")

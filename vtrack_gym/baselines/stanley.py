@@ -33,19 +33,20 @@ from typing import ClassVar
 
 import numpy as np
 
-from vtrack_gym._ranges import ranged, validate
+from vtrack_gym._ranges import documented, ranged, validate
 from vtrack_gym.baselines.base import Policy
 from vtrack_gym.baselines.linear_models import understeer_gradient
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.vehicle.params import DesignModel
 
 
+@documented
 @dataclass(frozen=True)
 class StanleyConfig:
     """Stanley gains.
 
-    gain_k: cross-track gain k [1/s], in (0, 50]. softening_mps: k_soft [m/s], in (0, 50].
-    heading_gain: k_h [-], in [0, 5]. yaw_damping_s: k_r [s], in [0, 2].
+    gain_k: cross-track gain k [1/s]. softening_mps: k_soft [m/s].
+    heading_gain: k_h [-]. yaw_damping_s: k_r [s].
     feedforward: steady-state steer and sideslip compensation.
     """
 

@@ -6,7 +6,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
-from vtrack_gym._ranges import closed_ranges, ranged, validate
+from vtrack_gym._ranges import closed_ranges, documented, ranged, validate
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.envs.pdflc import PDFLCConfig
 from vtrack_gym.vehicle.params import VehicleParams
@@ -14,6 +14,7 @@ from vtrack_gym.vehicle.params import VehicleParams
 KMH = 1.0 / 3.6
 
 
+@documented
 @dataclass(frozen=True)
 class RewardConfig:
     """Per-step reward ``r = alive - w_ey q_ey - w_ephi q_ephi - w_effort a^2 - w_rate (da/0.1)^2``.
@@ -39,6 +40,7 @@ class RewardConfig:
         validate(self)
 
 
+@documented
 @dataclass(frozen=True)
 class ScenarioConfig:
     """Which track, how the car starts and what speed the inner loop holds."""
@@ -78,6 +80,7 @@ RANDOM_TRACKS = ScenarioConfig("LateralTrackingRandom-v0", "procedural", 15.0, 1
 the car starts at the target speed, or at rest in 20 % of the episodes (Case 1 starts at rest)."""
 
 
+@documented
 @dataclass(frozen=True)
 class EnvConfig:
     """Everything an env instance needs besides its scenario."""
@@ -111,6 +114,7 @@ class EnvConfig:
         return round(self.control_period_s / self.physics_dt_s)
 
 
+@documented
 @dataclass(frozen=True)
 class ResetOptions:
     """Scenario knobs that ``reset(options=...)`` may override (``None`` = scenario default)."""

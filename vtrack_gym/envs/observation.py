@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vtrack_gym._ranges import ranged, validate
+from vtrack_gym._ranges import documented, ranged, validate
 
 # Bounds of the observation box per scalar field (generous physical limits; the envs terminate long before:
 # |e_y| beyond the road half width, |e_phi| > pi/2). Preview samples are bounded by PREVIEW_BOUND.
@@ -52,6 +52,7 @@ SCALAR_FIELDS: tuple[str, ...] = (
 )
 
 
+@documented
 @dataclass(frozen=True)
 class ObservationLayout:
     """Named positions in the flat observation vector (see the module docstring for units)."""

@@ -47,7 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from vtrack_gym._ranges import ranged, validate
+from vtrack_gym._ranges import documented, ranged, validate
 
 logger = logging.getLogger(__name__)
 
@@ -220,6 +220,7 @@ def pdflc_output(e_hat: ArrayLike, de_hat: ArrayLike, method: str = "mamdani",
     return u.reshape(shape)
 
 
+@documented
 @dataclass(frozen=True)
 class PDFLCConfig:
     """PD-FLC parameters; defaults are the paper's Table 3 gains (GA-tuned) and the spec's choices."""

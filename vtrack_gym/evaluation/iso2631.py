@@ -38,7 +38,7 @@ from types import MappingProxyType
 import numpy as np
 from numpy.typing import ArrayLike
 
-from vtrack_gym._ranges import ranged, validate
+from vtrack_gym._ranges import documented, ranged, validate
 
 MIN_FS_HZ = 200.0
 """Lowest accepted sampling rate for ``weighted`` [Hz]; 250 Hz or more is recommended."""
@@ -46,6 +46,7 @@ INTERNAL_FS_HZ = 2000.0
 """Minimum rate at which the bilinear-transformed filters run (by integer oversampling) [Hz]."""
 
 
+@documented
 @dataclass(frozen=True)
 class WeightingParams:
     """Annex A parameters of one frequency weighting: corner frequencies [Hz], quality factors [-], gain K [-].

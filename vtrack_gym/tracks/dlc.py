@@ -37,7 +37,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from vtrack_gym._ranges import ranged, validate
+from vtrack_gym._ranges import documented, ranged, validate
 from vtrack_gym.tracks.path import DEFAULT_DS_M, Gate, Path
 from vtrack_gym.tracks.profiles import CurvatureProfile
 
@@ -48,6 +48,7 @@ LANE_WIDTH_FACTORS = (1.1, 1.2, 1.3)                      # lanes 1, 3, 5: facto
 LANE_WIDTH_ADD_M = 0.25
 
 
+@documented
 @dataclass(frozen=True)
 class DoubleLaneChangeSpec:
     """Parameters of the double lane change (lengths [m], widths [m])."""
@@ -56,7 +57,7 @@ class DoubleLaneChangeSpec:
     length_scale: float = ranged(2.0, gt=0.5, le=10.0)  # CHOICE: multiplies every ISO longitudinal length (1.0 = ISO)
     approach_m: float = ranged(100.0, ge=0.0, le=10000.0, unit="m")  # straight before section 1
     lane_offset_m: float = ranged(3.5, gt=0.5, le=20.0, unit="m")  # lane-3 centre left of lane-1 centre (paper)
-    # transition shape: blend length / transition length, in (0, 0.25)
+    # transition shape: blend length / transition length
     ramp_fraction: float = ranged(0.135, gt=0.0, lt=0.25)
     half_width_m: float = ranged(4.0, gt=0.5, le=50.0, unit="m")  # drivable half width for off-road termination
     ds_m: float = ranged(DEFAULT_DS_M, gt=0.0, le=5.0, unit="m")  # table spacing

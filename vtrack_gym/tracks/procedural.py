@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vtrack_gym._ranges import ranged, validate
+from vtrack_gym._ranges import documented, ranged, validate
 from vtrack_gym.tracks.path import DEFAULT_DS_M, Path
 from vtrack_gym.tracks.profiles import CurvatureProfile, SineElevation
 
@@ -29,6 +29,7 @@ _N_WAVES = 3
 _SMOOTHERSTEP_PEAK_SLOPE = 1.875     # max dS/dt of the quintic blend
 
 
+@documented
 @dataclass(frozen=True)
 class ProceduralTrackConfig:
     """Knobs of :func:`procedural_track` (lengths [m], curvature [1/m], curvature rate [1/m^2], angles [rad])."""

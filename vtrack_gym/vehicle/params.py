@@ -15,12 +15,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, fields, replace
 
-from vtrack_gym._ranges import ranged, validate
+from vtrack_gym._ranges import documented, ranged, validate
 
 GRAVITY_MPS2 = 9.81
 """Standard gravity used by every model [m/s^2] (paper: g = 9.81)."""
 
 
+@documented
 @dataclass(frozen=True)
 class ChassisParams:
     """Rigid-body data of the whole car."""
@@ -44,6 +45,7 @@ class ChassisParams:
         return self.cg_to_front_axle_m + self.cg_to_rear_axle_m
 
 
+@documented
 @dataclass(frozen=True)
 class TyreParams:
     """Lateral tyre data: the paper's axle cornering stiffnesses and a normalised Pacejka shape.
@@ -71,6 +73,7 @@ class TyreParams:
         validate(self)
 
 
+@documented
 @dataclass(frozen=True)
 class RollParams:
     """Roll degree of freedom of the sprung mass (all CHOICE: the paper and CarSim data give none)."""
@@ -89,6 +92,7 @@ class RollParams:
         validate(self)
 
 
+@documented
 @dataclass(frozen=True)
 class SteeringParams:
     """Steering actuator: first-order lag with a rate limit; hand-wheel = road-wheel x ratio (all CHOICE)."""
@@ -109,6 +113,7 @@ class SteeringParams:
         return math.radians(self.max_hand_wheel_rate_dps) / self.steering_ratio
 
 
+@documented
 @dataclass(frozen=True)
 class PowertrainParams:
     """Front-wheel drive, power-limited: F_drive = throttle * min(F_max, P_max / max(v, v_eps)) (CHOICE)."""
@@ -124,6 +129,7 @@ class PowertrainParams:
         validate(self)
 
 
+@documented
 @dataclass(frozen=True)
 class BrakeParams:
     """Brake: total wheel brake force = gain x pedal force, split front/rear (CHOICE).
@@ -139,6 +145,7 @@ class BrakeParams:
         validate(self)
 
 
+@documented
 @dataclass(frozen=True)
 class LowSpeedParams:
     """Blend from the dynamic to the kinematic single-track model at low speed (CommonRoad-style, CHOICE)."""
@@ -206,6 +213,7 @@ class VehicleParams:
         return out
 
 
+@documented
 @dataclass(frozen=True)
 class DesignModel:
     """The linear single-track design model's parameters, as the controllers see them (paper Nomenclature)."""

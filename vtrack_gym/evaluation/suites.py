@@ -17,6 +17,8 @@ from typing import Any
 
 import numpy as np
 
+from vtrack_gym.envs.config import DLC120, LATERAL_TRACKING
+
 ROBUST_SEEDS: tuple[int, ...] = (101, 202, 303, 404, 505)
 
 
@@ -52,9 +54,8 @@ def suite_episodes(name: str, quick: bool = False) -> list[Episode]:
         return [Episode("LateralTracking-v0", 0), Episode("DLC120-v0", 0)]
     if name == "robust":
         seeds = ROBUST_SEEDS[:1] if quick else ROBUST_SEEDS
-        return ([Episode("LateralTracking-v0", s, robust_options(s, 40 / 3.6, ROBUST_FRICTION["LateralTracking-v0"]))
-                 for s in seeds]
-                + [Episode("DLC120-v0", s, robust_options(s, 120 / 3.6, ROBUST_FRICTION["DLC120-v0"])) for s in seeds])
+        return [Episode(sc.name, s, robust_options(s, sc.target_speed_mps, ROBUST_FRICTION[sc.name]))
+                for sc in (LATERAL_TRACKING, DLC120) for s in seeds]
     if name == "highway":
         return highway_episodes(quick=quick)
     raise ValueError(f"unknown suite {name!r}; valid: {', '.join(SUITES)}")

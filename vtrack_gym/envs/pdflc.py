@@ -237,8 +237,6 @@ class PDFLCConfig:
 
     def __post_init__(self) -> None:
         validate(self)
-        if not isinstance(self.speed_error_in_kmh, bool):
-            raise ValueError(f"PDFLCConfig.speed_error_in_kmh must be a bool (got {self.speed_error_in_kmh!r})")
         if self.method not in METHODS:
             raise ValueError(f"PDFLCConfig.method must be one of {METHODS} (got {self.method!r})")
         try:

@@ -6,7 +6,8 @@ import math
 
 import numpy as np
 
-from vtrack_gym.tracks.path import (
+from vtrack_gym.tracks.integration import gauss_legendre
+from vtrack_gym.tracks.table import (
     COL_DKAPPA,
     COL_GRADE,
     COL_KAPPA,
@@ -16,9 +17,8 @@ from vtrack_gym.tracks.path import (
     COL_Z,
     COL_ZPP,
     N_COLS,
-    _close_exactly,
-    _gauss_legendre,
-    _grid,
+    close_exactly,
+    uniform_grid,
 )
 
 MIN_POINTS = 4
@@ -94,7 +94,7 @@ def fit_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None, closed: bool,
     # Cumulative arc length on a fine parameter grid.
     n_fine = 4 * math.ceil(u_end / ds_m) + 16 * m
     grid_u = np.linspace(0.0, u_end, n_fine + 1)
-    xi, om = _gauss_legendre(8)
+    xi, om = gauss_legendre(8)
     h = np.diff(grid_u)
     nodes = grid_u[:-1, None] + h[:, None] * xi[None, :]
     seg = h * (speed(nodes.ravel()).reshape(nodes.shape) @ om)
@@ -103,7 +103,7 @@ def fit_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None, closed: bool,
     if length > MAX_LENGTH_GROWTH * u_end + 10.0 * ds_m:
         raise ValueError(f"the fitted centre-line ({length:.4g} m) is much longer than the points' polyline "
                          f"({u_end:.4g} m): smoothing_m = {smoothing_m} is too large for these points")
-    n, ds = _grid(length, ds_m)
+    n, ds = uniform_grid(length, ds_m)
     s_target = np.arange(n) * ds
 
     # Invert s(u) with Newton steps from linear interpolation.
@@ -136,5 +136,5 @@ def fit_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None, closed: bool,
         table[:, COL_GRADE] = z1 / sp
         table[:, COL_ZPP] = splev(uj, tck_z, der=2) / sp ** 2 - z1 * dot / sp ** 4
     if closed:
-        _close_exactly(table, s_target, "from_points")
+        close_exactly(table, s_target, "from_points")
     return table, ds

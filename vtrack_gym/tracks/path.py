@@ -1,70 +1,56 @@
-"""Arc-length parameterised, C^2-smooth centre-line stored as a uniformly sampled table.
+"""Arc-length parameterised, C^2-smooth centre-line (``Path``): a uniformly sampled table (schema in ``table``)
+with numpy interpolation and projection (``interpolation``), built by curvature integration (``integration``) or a
+spline fit of points (``fitting``).
 
 Conventions (ISO 8855): global X, Y, Z up; heading psi counter-clockwise from +X; curvature kappa > 0 for a left
-turn; lateral error e_y LEFT-positive, ``e_y = -(X - X_r) sin(psi_r) + (Y - Y_r) cos(psi_r)`` at the projection
-(closest point) s* of the point onto the path. Arc length s is measured in the horizontal plane.
-
-Table columns (float64, C-contiguous, row i at s = i * ds_m; closed paths repeat the start point at s = length_m
-with psi increased by 2 pi times the turning number):
-
-=====  ============  ======  ===============================
-index  constant      unit    meaning
-=====  ============  ======  ===============================
-0      COL_X         m       X
-1      COL_Y         m       Y
-2      COL_PSI       rad     heading psi, UNWRAPPED (continuous)
-3      COL_KAPPA     1/m     curvature kappa
-4      COL_DKAPPA    1/m^2   dkappa/ds
-5      COL_Z         m       elevation z
-6      COL_GRADE     -       grade dz/ds
-7      COL_ZPP       1/m     vertical curvature d2z/ds2
-=====  ============  ======  ===============================
-
-Interpolation between samples (identical here and in ``kernels.interp_row``): quintic Hermite for X and Y
-(values, unit tangent, curvature normal), psi (psi, kappa, dkappa) and z (z, grade, z''); cubic Hermite for kappa
-(kappa, dkappa) and grade (grade, z''); linear for dkappa and z''. It reproduces circular arcs to ~1e-15 m, so
-projections are exact on arcs and straights. The Python methods here use numpy only; the numba versions used by the
-env live in ``kernels`` (imported lazily, never by this module).
+turn; lateral error e_y LEFT-positive at the projection s* of the point onto the path. The numba versions used by
+the env live in ``kernels`` (imported lazily, never by this module).
 """
 
 from __future__ import annotations
 
-import logging
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any, NamedTuple, Protocol, runtime_checkable
+from typing import Any
 
 import numpy as np
 
+from vtrack_gym.tracks.integration import (
+    ElevationLike,
+    Profile1D,
+    derivative_fd,
+    elevation_columns,
+    integrate_curvature,
+)
+from vtrack_gym.tracks.interpolation import arc_step, interp, wrap_angle, wrap_s
 from vtrack_gym.tracks.profiles import CurvatureProfile
+from vtrack_gym.tracks.table import (
+    CLOSURE_TOL_M,
+    COL_DKAPPA,
+    COL_GRADE,
+    COL_KAPPA,
+    COL_PSI,
+    COL_X,
+    COL_Y,
+    COL_Z,
+    COL_ZPP,
+    COLUMN_NAMES,
+    DEFAULT_DS_M,
+    N_COLS,
+    PathSample,
+    Projection,
+    close_exactly,
+    uniform_grid,
+)
 
-logger = logging.getLogger(__name__)
+__all__ = ["COLUMN_NAMES", "COL_DKAPPA", "COL_GRADE", "COL_KAPPA", "COL_PSI", "COL_X", "COL_Y", "COL_Z", "COL_ZPP",
+           "DEFAULT_DS_M", "N_COLS", "ElevationLike", "Gate", "Path", "PathSample", "Profile1D", "Projection",
+           "wrap_angle"]
 
-COL_X, COL_Y, COL_PSI, COL_KAPPA, COL_DKAPPA, COL_Z, COL_GRADE, COL_ZPP = range(8)
-N_COLS = 8
-COLUMN_NAMES = ("x_m", "y_m", "psi_rad", "kappa_per_m", "dkappa_per_m2", "z_m", "grade", "zpp_per_m")
-DEFAULT_DS_M = 0.25
-CLOSURE_TOL_M = 1e-6            # closed paths: max start/end mismatch of X, Y [m] and psi (mod 2 pi) [rad]
 PROJECTION_TOL_M = 1e-10        # projection refinement stops when s moves less than this [m]
 PROJECTION_MAX_ITER = 12
-_GAUSS_ORDER = 8
-_CHUNK = 16384
-
-
-Profile1D = Callable[[np.ndarray], np.ndarray]
-
-
-@runtime_checkable
-class ElevationLike(Protocol):
-    """Elevation profile with analytic derivatives: z(s) [m], grade dz/ds [-], d2z/ds2 [1/m]."""
-
-    def z(self, s: np.ndarray) -> np.ndarray: ...
-
-    def grade(self, s: np.ndarray) -> np.ndarray: ...
-
-    def zpp(self, s: np.ndarray) -> np.ndarray: ...
 
 
 @dataclass(frozen=True)
@@ -93,174 +79,6 @@ class Gate:
         """Lane width y_left_m - y_right_m [m]."""
         return self.y_left_m - self.y_right_m
 
-
-class PathSample(NamedTuple):
-    """Interpolated path columns at the requested s (arrays of the shape of s)."""
-
-    x: np.ndarray       # [m]
-    y: np.ndarray       # [m]
-    psi: np.ndarray     # [rad], unwrapped
-    kappa: np.ndarray   # [1/m]
-    dkappa: np.ndarray  # [1/m^2]
-    z: np.ndarray       # [m]
-    grade: np.ndarray   # [-]
-    zpp: np.ndarray     # [1/m]
-
-
-class Projection(NamedTuple):
-    """Closest point of the path to each query point (arrays of shape (N,))."""
-
-    s: np.ndarray        # arc length of the projection s* [m] (wrapped / clamped)
-    e_y: np.ndarray      # lateral error, left-positive [m]
-    psi_ref: np.ndarray  # path heading at s* [rad], unwrapped table value
-    kappa: np.ndarray    # curvature at s* [1/m]
-    x_ref: np.ndarray    # X of the projection point [m]
-    y_ref: np.ndarray    # Y of the projection point [m]
-
-
-# ---------------------------------------------------------------------------------------------------------------
-# Interpolation (numpy twin of kernels.interp_row)
-# ---------------------------------------------------------------------------------------------------------------
-
-def _hermite5(p0: np.ndarray, d0: np.ndarray, c0: np.ndarray, p1: np.ndarray, d1: np.ndarray, c1: np.ndarray,
-              t: np.ndarray, h: float) -> np.ndarray:
-    """Quintic Hermite through values p, first derivatives d and second derivatives c at t = 0 and t = 1."""
-    t2 = t * t
-    t3 = t2 * t
-    t4 = t3 * t
-    t5 = t4 * t
-    h0 = 1.0 - 10.0 * t3 + 15.0 * t4 - 6.0 * t5
-    h1 = t - 6.0 * t3 + 8.0 * t4 - 3.0 * t5
-    h2 = 0.5 * (t2 - 3.0 * t3 + 3.0 * t4 - t5)
-    h3 = 0.5 * (t3 - 2.0 * t4 + t5)
-    h4 = -4.0 * t3 + 7.0 * t4 - 3.0 * t5
-    h5 = 10.0 * t3 - 15.0 * t4 + 6.0 * t5
-    return h0 * p0 + h1 * h * d0 + h2 * h * h * c0 + h3 * h * h * c1 + h4 * h * d1 + h5 * p1
-
-
-def _hermite3(p0: np.ndarray, d0: np.ndarray, p1: np.ndarray, d1: np.ndarray, t: np.ndarray, h: float) -> np.ndarray:
-    """Cubic Hermite through values p and derivatives d at t = 0 and t = 1."""
-    t2 = t * t
-    t3 = t2 * t
-    return ((2.0 * t3 - 3.0 * t2 + 1.0) * p0 + (t3 - 2.0 * t2 + t) * h * d0 + (-2.0 * t3 + 3.0 * t2) * p1
-            + (t3 - t2) * h * d1)
-
-
-def _wrap_s(s: np.ndarray, length: float, closed: bool) -> np.ndarray:
-    """s wrapped into [0, length) for closed paths, clamped to [0, length] for open ones [m]."""
-    if closed:
-        w = s - np.floor(s / length) * length
-        return np.where((w >= length) | (w < 0.0), 0.0, w)
-    return np.clip(s, 0.0, length)
-
-
-def _interp(table: np.ndarray, ds: float, length: float, closed: bool, s: np.ndarray) -> np.ndarray:
-    """All columns at arc lengths s (any shape) -> array of shape s.shape + (8,)."""
-    s = np.asarray(s, dtype=float)
-    sw = _wrap_s(s, length, closed)
-    n = table.shape[0]
-    i = np.minimum((sw / ds).astype(np.int64), n - 2)
-    t = (sw - i * ds) / ds
-    a = table[i]
-    b = table[i + 1]
-    out = np.empty((*s.shape, N_COLS))
-    ca, sa = np.cos(a[..., COL_PSI]), np.sin(a[..., COL_PSI])
-    cb, sb = np.cos(b[..., COL_PSI]), np.sin(b[..., COL_PSI])
-    ka, kb = a[..., COL_KAPPA], b[..., COL_KAPPA]
-    out[..., COL_X] = _hermite5(a[..., COL_X], ca, -ka * sa, b[..., COL_X], cb, -kb * sb, t, ds)
-    out[..., COL_Y] = _hermite5(a[..., COL_Y], sa, ka * ca, b[..., COL_Y], sb, kb * cb, t, ds)
-    out[..., COL_PSI] = _hermite5(a[..., COL_PSI], ka, a[..., COL_DKAPPA], b[..., COL_PSI], kb, b[..., COL_DKAPPA],
-                                  t, ds)
-    out[..., COL_KAPPA] = _hermite3(ka, a[..., COL_DKAPPA], kb, b[..., COL_DKAPPA], t, ds)
-    out[..., COL_DKAPPA] = a[..., COL_DKAPPA] + t * (b[..., COL_DKAPPA] - a[..., COL_DKAPPA])
-    out[..., COL_Z] = _hermite5(a[..., COL_Z], a[..., COL_GRADE], a[..., COL_ZPP], b[..., COL_Z], b[..., COL_GRADE],
-                                b[..., COL_ZPP], t, ds)
-    out[..., COL_GRADE] = _hermite3(a[..., COL_GRADE], a[..., COL_ZPP], b[..., COL_GRADE], b[..., COL_ZPP], t, ds)
-    out[..., COL_ZPP] = a[..., COL_ZPP] + t * (b[..., COL_ZPP] - a[..., COL_ZPP])
-    return out
-
-
-# ---------------------------------------------------------------------------------------------------------------
-# Curvature integration
-# ---------------------------------------------------------------------------------------------------------------
-
-def _gauss_legendre(order: int) -> tuple[np.ndarray, np.ndarray]:
-    """Gauss-Legendre nodes in (0, 1) and weights summing to 1."""
-    x, w = np.polynomial.legendre.leggauss(order)
-    return 0.5 * (x + 1.0), 0.5 * w
-
-
-def _integrate_curvature(kappa: Callable[[np.ndarray], np.ndarray], s_grid: np.ndarray, knots: np.ndarray,
-                         psi0: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Heading and position increments on s_grid [m] from kappa(s) [1/m].
-
-    Every grid interval is split at the profile knots; inside, heading is the nested Gauss-Legendre integral of
-    kappa and position the Gauss-Legendre integral of (cos psi, sin psi). Exact to round-off for piecewise
-    polynomial kappa of degree <= 15 between knots (arcs are exact circles, straights exact lines).
-    Returns (psi [rad], dX [m], dY [m]) with dX, dY relative to the start.
-    """
-    inner = knots[(knots > s_grid[0]) & (knots < s_grid[-1])]
-    b = np.union1d(s_grid, inner)
-    xi, om = _gauss_legendre(_GAUSS_ORDER)
-    n_int = b.size - 1
-    dpsi = np.empty(n_int)
-    dx = np.empty(n_int)
-    dy = np.empty(n_int)
-    psi_local = []
-    for lo in range(0, n_int, _CHUNK):
-        hi = min(lo + _CHUNK, n_int)
-        a = b[lo:hi]
-        w = b[lo + 1:hi + 1] - a
-        dpsi[lo:hi] = w * (kappa(a[:, None] + w[:, None] * xi[None, :]) @ om)
-        v = a[:, None, None] + w[:, None, None] * xi[None, :, None] * xi[None, None, :]
-        psi_local.append(w[:, None] * xi[None, :] * (kappa(v) @ om))
-    psi_b = psi0 + np.concatenate(([0.0], np.cumsum(dpsi)))
-    for k, lo in enumerate(range(0, n_int, _CHUNK)):
-        hi = min(lo + _CHUNK, n_int)
-        w = b[lo + 1:hi + 1] - b[lo:hi]
-        psi_u = psi_b[lo:hi, None] + psi_local[k]
-        dx[lo:hi] = w * (np.cos(psi_u) @ om)
-        dy[lo:hi] = w * (np.sin(psi_u) @ om)
-    x_b = np.concatenate(([0.0], np.cumsum(dx)))
-    y_b = np.concatenate(([0.0], np.cumsum(dy)))
-    idx = np.searchsorted(b, s_grid)
-    return psi_b[idx], x_b[idx], y_b[idx]
-
-
-def _derivative_fd(fn: Callable[[np.ndarray], np.ndarray], s: np.ndarray, h: float) -> np.ndarray:
-    """Fourth-order central finite difference of fn at s (fn must accept s +- 2h)."""
-    return (-fn(s + 2.0 * h) + 8.0 * fn(s + h) - 8.0 * fn(s - h) + fn(s - 2.0 * h)) / (12.0 * h)
-
-
-def _elevation_columns(elevation: Any, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(z [m], grade [-], z'' [1/m]) at s from None, an ElevationLike or a plain callable z(s)."""
-    if elevation is None:
-        zero = np.zeros_like(s)
-        return zero, zero.copy(), zero.copy()
-    if isinstance(elevation, ElevationLike):
-        return (np.asarray(elevation.z(s), dtype=float), np.asarray(elevation.grade(s), dtype=float),
-                np.asarray(elevation.zpp(s), dtype=float))
-    if callable(elevation):
-        z = np.asarray(elevation(s), dtype=float)
-        grade = _derivative_fd(elevation, s, 0.05)
-        zpp = (elevation(s + 0.1) - 2.0 * z + elevation(s - 0.1)) / 0.01
-        return z, np.asarray(grade, dtype=float), np.asarray(zpp, dtype=float)
-    raise ValueError(f"elevation must be None, an ElevationLike or a callable z(s) (got {type(elevation).__name__})")
-
-
-def _grid(length_m: float, ds_m: float) -> tuple[int, float]:
-    """Number of rows and the actual spacing [m] (<= ds_m) dividing length_m evenly."""
-    if not (math.isfinite(length_m) and length_m > 0.0):
-        raise ValueError(f"length_m must be > 0 (got {length_m})")
-    if not (math.isfinite(ds_m) and 0.0 < ds_m <= length_m):
-        raise ValueError(f"ds_m must be in (0, length_m={length_m}] (got {ds_m})")
-    n = math.ceil(length_m / ds_m - 1e-9) + 1
-    return n, length_m / (n - 1)
-
-
-# ---------------------------------------------------------------------------------------------------------------
-# Path
-# ---------------------------------------------------------------------------------------------------------------
 
 @dataclass(frozen=True, eq=False)
 class Path:
@@ -362,15 +180,15 @@ class Path:
             raise ValueError(f"kappa must be a CurvatureProfile or a callable (got {type(kappa).__name__})")
         if length_m is None:
             raise ValueError("length_m is required when kappa is a plain callable")
-        n, ds = _grid(float(length_m), float(ds_m))
+        n, ds = uniform_grid(float(length_m), float(ds_m))
         s = np.arange(n) * ds
 
         def kap(v: np.ndarray) -> np.ndarray:
             return np.asarray(kappa_fn(v), dtype=float)
 
-        psi, dx, dy = _integrate_curvature(kap, s, knots, float(psi0_rad))
+        psi, dx, dy = integrate_curvature(kap, s, knots, float(psi0_rad))
         if dkappa is None:
-            dk = _derivative_fd(kap, s, 1e-3)
+            dk = derivative_fd(kap, s, 1e-3)
         else:
             dk = np.asarray(dkappa(s), dtype=float)
         table = np.empty((n, N_COLS))
@@ -379,9 +197,9 @@ class Path:
         table[:, COL_PSI] = psi
         table[:, COL_KAPPA] = kap(s)
         table[:, COL_DKAPPA] = dk
-        table[:, COL_Z], table[:, COL_GRADE], table[:, COL_ZPP] = _elevation_columns(elevation, s)
+        table[:, COL_Z], table[:, COL_GRADE], table[:, COL_ZPP] = elevation_columns(elevation, s)
         if closed:
-            _close_exactly(table, s, name)
+            close_exactly(table, s, name)
         return cls(table, ds, closed=closed, half_width_m=half_width_m, name=name, version=version, gates=gates)
 
     @classmethod
@@ -415,22 +233,22 @@ class Path:
 
     def wrap_s(self, s: np.ndarray) -> np.ndarray:
         """Arc length wrapped into [0, length) (closed) or clamped to [0, length] (open) [m]."""
-        return _wrap_s(np.asarray(s, dtype=float), self.length_m, self.closed)
+        return wrap_s(np.asarray(s, dtype=float), self.length_m, self.closed)
 
     def sample(self, s: np.ndarray | float) -> PathSample:
         """Interpolated columns at arc length(s) s [m] (wrapped for closed, clamped for open paths)."""
-        out = _interp(self.table, self.ds_m, self.length_m, self.closed, np.asarray(s, dtype=float))
+        out = interp(self.table, self.ds_m, self.length_m, self.closed, np.asarray(s, dtype=float))
         return PathSample(*(out[..., k] for k in range(N_COLS)))
 
     def sample_array(self, s: np.ndarray | float) -> np.ndarray:
         """Interpolated columns at s [m] as an array of shape s.shape + (8,) in table column order."""
-        return _interp(self.table, self.ds_m, self.length_m, self.closed, np.asarray(s, dtype=float))
+        return interp(self.table, self.ds_m, self.length_m, self.closed, np.asarray(s, dtype=float))
 
     def preview(self, s: np.ndarray | float, distances: np.ndarray) -> np.ndarray:
         """Curvature [1/m] at s + d for every s (N,) [m] and preview distance d (K,) [m] -> shape (N, K)."""
         s = np.atleast_1d(np.asarray(s, dtype=float))
         d = np.atleast_1d(np.asarray(distances, dtype=float))
-        out = _interp(self.table, self.ds_m, self.length_m, self.closed, s[:, None] + d[None, :])
+        out = interp(self.table, self.ds_m, self.length_m, self.closed, s[:, None] + d[None, :])
         return out[..., COL_KAPPA]
 
     def bounds(self) -> tuple[float, float, float, float]:
@@ -482,16 +300,16 @@ class Path:
         s = self._coarse(x, y, guess, float(window_m)) * self.ds_m
         step_max = max(4.0 * self.ds_m, 2.0)
         for _ in range(PROJECTION_MAX_ITER):
-            row = _interp(self.table, self.ds_m, self.length_m, self.closed, s)
-            delta = _arc_step(x, y, row, step_max)
-            s_new = _wrap_s(s + delta, self.length_m, self.closed)
+            row = interp(self.table, self.ds_m, self.length_m, self.closed, s)
+            delta = arc_step(x, y, row, step_max)
+            s_new = wrap_s(s + delta, self.length_m, self.closed)
             moved = np.abs(s_new - s)
             if self.closed:
                 moved = np.minimum(moved, self.length_m - moved)
             s = s_new
             if np.all(moved < PROJECTION_TOL_M):
                 break
-        row = _interp(self.table, self.ds_m, self.length_m, self.closed, s)
+        row = interp(self.table, self.ds_m, self.length_m, self.closed, s)
         psi = row[:, COL_PSI]
         e_y = -(x - row[:, COL_X]) * np.sin(psi) + (y - row[:, COL_Y]) * np.cos(psi)
         return Projection(s, e_y, psi, row[:, COL_KAPPA], row[:, COL_X], row[:, COL_Y])
@@ -517,48 +335,3 @@ class Path:
             return polyline_min_gap_violated(sub, s_sub, self.length_m if self.closed else None, clearance_m)
         return False
 
-
-def wrap_angle(a: np.ndarray) -> np.ndarray:
-    """Angle(s) wrapped to (-pi, pi] [rad]."""
-    w = np.mod(np.asarray(a, dtype=float) + np.pi, 2.0 * np.pi)
-    w = np.where(w <= 0.0, w + 2.0 * np.pi, w)
-    return w - np.pi
-
-
-def _arc_step(x: np.ndarray, y: np.ndarray, row: np.ndarray, step_max: float) -> np.ndarray:
-    """Arc-length step from the reference point in ``row`` to the projection of (x, y) onto its osculating circle."""
-    psi = row[..., COL_PSI]
-    kap = row[..., COL_KAPPA]
-    c, s = np.cos(psi), np.sin(psi)
-    px = x - row[..., COL_X]
-    py = y - row[..., COL_Y]
-    along = px * c + py * s
-    lateral = -px * s + py * c
-    small = np.abs(kap) < 1e-12
-    safe = np.where(small, 1.0, kap)
-    arc = np.arctan2(safe * along, 1.0 - safe * lateral) / safe
-    return np.clip(np.where(small, along, arc), -step_max, step_max)
-
-
-def _close_exactly(table: np.ndarray, s: np.ndarray, name: str) -> None:
-    """Check the closure of a closed table and spread the (round-off) residual linearly along s, in place."""
-    length = s[-1]
-    gx = table[-1, COL_X] - table[0, COL_X]
-    gy = table[-1, COL_Y] - table[0, COL_Y]
-    dpsi = table[-1, COL_PSI] - table[0, COL_PSI]
-    turns = round(dpsi / (2.0 * math.pi))
-    rpsi = dpsi - 2.0 * math.pi * turns
-    if math.hypot(gx, gy) > CLOSURE_TOL_M or abs(rpsi) > CLOSURE_TOL_M or turns == 0:
-        raise ValueError(f"path {name!r} does not close: end - start = ({gx:.3g}, {gy:.3g}) m, heading change "
-                         f"{dpsi:.9f} rad (need |gap| <= {CLOSURE_TOL_M} m and a non-zero multiple of 2 pi)")
-    ramp = s / length
-    table[:, COL_X] -= gx * ramp
-    table[:, COL_Y] -= gy * ramp
-    table[:, COL_PSI] -= rpsi * ramp
-    table[-1, COL_X] = table[0, COL_X]
-    table[-1, COL_Y] = table[0, COL_Y]
-    for col, unit in ((COL_KAPPA, "1/m"), (COL_DKAPPA, "1/m^2"), (COL_Z, "m"), (COL_GRADE, "-")):
-        jump = abs(table[-1, col] - table[0, col])
-        if jump > 1e-6:
-            logger.warning("closed path %r: %s jumps by %.3g %s across the closure", name, COLUMN_NAMES[col], jump,
-                           unit)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -53,12 +54,21 @@ def check_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None) -> None:
         raise ValueError(f"points {k} and {k + 1} are duplicates ({x[k]}, {y[k]})")
 
 
+class Fit(NamedTuple):
+    """Result of :func:`fit_points`."""
+
+    table: np.ndarray                  # (n, 8) path table
+    ds_m: float                        # row spacing [m]
+    point_data: np.ndarray | None      # (n, k) per-point data carried to the rows, or None
+
+
 def fit_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None, closed: bool, smoothing_m: float,
-               ds_m: float) -> tuple[np.ndarray, float]:
+               ds_m: float, point_data: np.ndarray | None = None) -> Fit:
     """Path table (n, 8) and spacing [m] of a parametric spline through points x, y [m] (and elevation z [m]).
 
     Quintic (cubic below 8 points) ``scipy.interpolate.splprep`` spline, periodic when closed, smoothing factor
     ``n * smoothing_m^2``; arc length by Gauss-Legendre quadrature of |r'(u)|, inverted by Newton steps.
+    ``point_data`` (m, k), one row per point, is interpolated linearly in the chord parameter onto the rows.
     """
     from scipy.interpolate import splev, splprep
 
@@ -66,6 +76,9 @@ def fit_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None, closed: bool,
     if not (math.isfinite(smoothing_m) and smoothing_m >= 0.0):
         raise ValueError(f"smoothing_m must be >= 0 (got {smoothing_m})")
     pts = [x, y] if z is None else [x, y, z]
+    data = None if point_data is None else [point_data[:, k] for k in range(point_data.shape[1])]
+    if data is not None:
+        pts = pts + data
     if closed:
         scale = max(1.0, float(np.max(np.abs(x))), float(np.max(np.abs(y))))
         if math.hypot(x[-1] - x[0], y[-1] - y[0]) <= 1e-9 * scale:
@@ -73,6 +86,9 @@ def fit_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None, closed: bool,
         if pts[0].size < MIN_POINTS:
             raise ValueError(f"a closed path needs >= {MIN_POINTS} distinct points (got {pts[0].size})")
         pts = [np.append(p, p[0]) for p in pts]
+    if data is not None:
+        data = pts[-len(data):]
+        pts = pts[:-len(data)]
     m = pts[0].size
     chord = np.hypot(np.diff(pts[0]), np.diff(pts[1]))
     u = np.concatenate(([0.0], np.cumsum(chord)))
@@ -137,4 +153,5 @@ def fit_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None, closed: bool,
         table[:, COL_ZPP] = splev(uj, tck_z, der=2) / sp ** 2 - z1 * dot / sp ** 4
     if closed:
         close_exactly(table, s_target, "from_points")
-    return table, ds
+    rows = None if data is None else np.column_stack([np.interp(uj, u, d) for d in data])
+    return Fit(table, ds, rows)

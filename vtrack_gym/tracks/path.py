@@ -51,6 +51,8 @@ __all__ = ["COLUMN_NAMES", "COL_DKAPPA", "COL_GRADE", "COL_KAPPA", "COL_PSI", "C
 
 PROJECTION_TOL_M = 1e-10        # projection refinement stops when s moves less than this [m]
 PROJECTION_MAX_ITER = 12
+MAX_HALF_WIDTH_M = 100.0        # per-station half widths beyond this are not a road [m]
+MAX_V_REF_MPS = 150.0           # reference speeds beyond this are not a car's [m/s]
 
 
 @dataclass(frozen=True)
@@ -86,8 +88,11 @@ class Path:
 
     ``table`` (n, 8) float64 [see COL_*], ``ds_m`` sample spacing [m], ``length_m`` = (n - 1) ds_m [m] (derived),
     ``closed`` (s wraps modulo length_m), ``half_width_m`` drivable half width either side of the centre-line [m]
-    (off-road termination), ``name``, ``version`` and ``gates`` (cone gates, e.g. of the double lane change).
-    The table is copied and made read-only; equality is identity.
+    (off-road termination where no per-station widths are given), ``name``, ``version`` and ``gates`` (cone gates,
+    e.g. of the double lane change). Optional per-row data on the same s grid: ``widths_m`` (n, 2) the drivable half
+    widths LEFT and RIGHT of the centre-line [m] (query :meth:`half_widths`), ``v_ref_mps`` (n,) a reference speed
+    [m/s] (e.g. a racing line's speed column; used by ``speed_profiles.FileSpeed``). Closed paths repeat the first
+    row's values in the last row. Arrays are copied and made read-only; equality is identity.
     """
 
     table: np.ndarray = field(repr=False)
@@ -97,6 +102,8 @@ class Path:
     name: str = "path"
     version: str = "1"
     gates: tuple[Gate, ...] = ()
+    widths_m: np.ndarray | None = field(default=None, repr=False)
+    v_ref_mps: np.ndarray | None = field(default=None, repr=False)
     length_m: float = field(init=False)
 
     def __post_init__(self) -> None:
@@ -131,18 +138,41 @@ class Path:
                 raise ValueError(f"Path.gates[{k}] must be a Gate (got {type(g).__name__})")
             if g.s_start_m < 0.0 or g.s_end_m > length + 1e-9:
                 raise ValueError(f"Path.gates[{k}] must lie within [0, {length}] m (got [{g.s_start_m}, {g.s_end_m}])")
+        widths = self._row_data("widths_m", table.shape[0], 2, 0.0, MAX_HALF_WIDTH_M, "m")
+        v_ref = self._row_data("v_ref_mps", table.shape[0], 0, 0.0, MAX_V_REF_MPS, "m/s")
         table.flags.writeable = False
         object.__setattr__(self, "table", table)
+        object.__setattr__(self, "widths_m", widths)
+        object.__setattr__(self, "v_ref_mps", v_ref)
         object.__setattr__(self, "ds_m", float(ds))
         object.__setattr__(self, "closed", bool(self.closed))
         object.__setattr__(self, "half_width_m", float(hw))
         object.__setattr__(self, "gates", gates)
         object.__setattr__(self, "length_m", length)
 
+    def _row_data(self, name: str, n: int, width: int, low: float, high: float, unit: str) -> np.ndarray | None:
+        """Validated read-only copy of the optional per-row array ``name`` (shape (n,) or (n, width)), or None."""
+        value = getattr(self, name)
+        if value is None:
+            return None
+        arr = np.array(value, dtype=np.float64, order="C", copy=True)
+        shape = (n, width) if width else (n,)
+        if arr.shape != shape:
+            raise ValueError(f"Path.{name} must have shape {shape}, one row per table row (got {arr.shape})")
+        bad = ~(np.isfinite(arr) & (arr > low) & (arr <= high))
+        if np.any(bad):
+            row = int(np.argwhere(bad)[0][0])
+            raise ValueError(f"Path.{name} must be in ({low}, {high}] {unit} (row {row}: {arr[row]})")
+        if self.closed and not np.allclose(arr[0], arr[-1], rtol=0.0, atol=1e-9):
+            raise ValueError(f"Path.{name} of a closed path must repeat its first row in the last row "
+                             f"(got {arr[0]} and {arr[-1]})")
+        arr.flags.writeable = False
+        return arr
+
     def __reduce__(self) -> tuple[Any, ...]:
-        """Pickle through the constructor (re-validates; the restored table is read-only again)."""
+        """Pickle through the constructor (re-validates; the restored arrays are read-only again)."""
         return (type(self), (self.table, self.ds_m, self.closed, self.half_width_m, self.name, self.version,
-                             self.gates))
+                             self.gates, self.widths_m, self.v_ref_mps))
 
     # ----------------------------------------------------------------------------------------------- constructors
     @classmethod
@@ -205,20 +235,38 @@ class Path:
     @classmethod
     def from_points(cls, x: np.ndarray, y: np.ndarray, z: np.ndarray | None = None, closed: bool = False, *,
                     smoothing_m: float = 0.0, ds_m: float = DEFAULT_DS_M, half_width_m: float = 3.5,
-                    name: str = "path", version: str = "1") -> Path:
+                    name: str = "path", version: str = "1", widths_m: np.ndarray | None = None,
+                    v_ref_mps: np.ndarray | None = None) -> Path:
         """Fit a smooth parametric spline (scipy ``splprep``, quintic when >= 8 points, periodic when closed)
         through points x, y [m] (optional elevation z [m]) and resample it uniformly in arc length.
 
         ``smoothing_m`` [m] is the allowed RMS deviation from the points (0 interpolates). For a closed path do not
         repeat the first point at the end (an exact repeat is dropped). Curvature and its rate come from the
-        spline derivatives.
+        spline derivatives. Optional per-point ``widths_m`` (m, 2) [left, right half widths, m] and ``v_ref_mps``
+        (m,) [m/s] are carried to the table rows by linear interpolation along the points' chord length.
         """
         from vtrack_gym.tracks.fitting import fit_points
 
-        cols, ds = fit_points(np.asarray(x, dtype=float), np.asarray(y, dtype=float),
-                              None if z is None else np.asarray(z, dtype=float), bool(closed),
-                              float(smoothing_m), float(ds_m))
-        return cls(cols, ds, closed=bool(closed), half_width_m=half_width_m, name=name, version=version)
+        m = np.asarray(x).shape[0] if np.ndim(x) == 1 else -1
+        extra = []
+        if widths_m is not None:
+            w = np.asarray(widths_m, dtype=float)
+            if w.shape != (m, 2):
+                raise ValueError(f"widths_m must have shape ({m}, 2): left, right per point (got {w.shape})")
+            extra.append(w)
+        if v_ref_mps is not None:
+            v = np.asarray(v_ref_mps, dtype=float)
+            if v.shape != (m,):
+                raise ValueError(f"v_ref_mps must have shape ({m},), one speed per point (got {v.shape})")
+            extra.append(v[:, None])
+        fit = fit_points(np.asarray(x, dtype=float), np.asarray(y, dtype=float),
+                         None if z is None else np.asarray(z, dtype=float), bool(closed), float(smoothing_m),
+                         float(ds_m), np.hstack(extra) if extra else None)
+        rows = fit.point_data
+        widths = None if widths_m is None or rows is None else rows[:, :2]
+        v_ref = None if v_ref_mps is None or rows is None else rows[:, -1]
+        return cls(fit.table, fit.ds_m, closed=bool(closed), half_width_m=half_width_m, name=name, version=version,
+                   widths_m=widths, v_ref_mps=v_ref)
 
     # ---------------------------------------------------------------------------------------------------- queries
     @property
@@ -234,6 +282,28 @@ class Path:
     def wrap_s(self, s: np.ndarray) -> np.ndarray:
         """Arc length wrapped into [0, length) (closed) or clamped to [0, length] (open) [m]."""
         return wrap_s(np.asarray(s, dtype=float), self.length_m, self.closed)
+
+    def _linear_rows(self, data: np.ndarray, s: np.ndarray | float) -> np.ndarray:
+        """Per-row data linearly interpolated at s [m] (wrapped / clamped like the table)."""
+        sw = wrap_s(np.asarray(s, dtype=float), self.length_m, self.closed)
+        i = np.minimum((sw / self.ds_m).astype(np.int64), self.n_samples - 2)
+        t = (sw - i * self.ds_m) / self.ds_m
+        if data.ndim == 2:
+            t = t[..., None]
+        return data[i] + t * (data[i + 1] - data[i])
+
+    def half_widths(self, s: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
+        """Drivable half widths (left [m], right [m]) of the road at arc length(s) s [m].
+
+        Per-station widths where the path has them (``widths_m``), else ``half_width_m`` on both sides. A car is
+        off the road when e_y > left or -e_y > right (e_y left-positive).
+        """
+        s = np.asarray(s, dtype=float)
+        if self.widths_m is None:
+            full = np.full(s.shape, self.half_width_m)
+            return full, full.copy()
+        w = self._linear_rows(self.widths_m, s)
+        return w[..., 0], w[..., 1]
 
     def sample(self, s: np.ndarray | float) -> PathSample:
         """Interpolated columns at arc length(s) s [m] (wrapped for closed, clamped for open paths)."""

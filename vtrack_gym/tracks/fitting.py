@@ -27,6 +27,7 @@ MAX_COORDINATE_M = 1.0e6     # |x|, |y|, |z| beyond 1000 km is not a road
 MAX_LENGTH_M = 200_000.0     # longest centre-line accepted (polyline and fitted) [m]
 MAX_LENGTH_GROWTH = 1.5      # a fit may not be longer than this x the polyline (smoothing gone wrong)
 _NEWTON_ITER = 4
+FINE_PER_POINT = 2           # arc-length quadrature intervals per input point (plus 4 per table row)
 
 
 def check_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None) -> None:
@@ -108,7 +109,7 @@ def fit_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None, closed: bool,
         return np.hypot(d[0], d[1])
 
     # Cumulative arc length on a fine parameter grid.
-    n_fine = 4 * math.ceil(u_end / ds_m) + 16 * m
+    n_fine = 4 * math.ceil(u_end / ds_m) + FINE_PER_POINT * m
     grid_u = np.linspace(0.0, u_end, n_fine + 1)
     xi, om = gauss_legendre(8)
     h = np.diff(grid_u)

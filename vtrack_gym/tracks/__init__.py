@@ -1,6 +1,6 @@
 """Reference paths: an arc-length parameterised centre-line (``Path``), the paper's two scenarios (the Case-1
-handling course and the Case-2 ISO 3888-1 double lane change with cone gates), procedural training tracks and a
-CSV loader.
+handling course and the Case-2 ISO 3888-1 double lane change with cone gates), procedural training tracks, a CSV
+loader (``load_track`` resolves a built-in name, a CSV file or a Path) and speed profiles (``speed_table``).
 
 ``import vtrack_gym.tracks`` imports numpy only (no numba, no scipy); the numba kernels used by the env's compiled
 step live in ``vtrack_gym.tracks.kernels`` and are imported on demand.
@@ -28,8 +28,19 @@ from vtrack_gym.tracks.path import (
 )
 from vtrack_gym.tracks.procedural import ProceduralTrackConfig, procedural_track, procedural_track_from_config
 from vtrack_gym.tracks.profiles import CurvatureProfile, SineElevation
+from vtrack_gym.tracks.sources import BUILTIN_TRACKS, file_digest, load_track, path_digest
+from vtrack_gym.tracks.speed_profiles import (
+    ConstantSpeed,
+    CurvatureLimited,
+    FileSpeed,
+    SpeedProfile,
+    SpeedTable,
+    as_speed_profile,
+    speed_table,
+)
 
 __all__ = [
+    "BUILTIN_TRACKS",
     "COLUMN_NAMES",
     "COL_DKAPPA",
     "COL_GRADE",
@@ -40,20 +51,30 @@ __all__ = [
     "COL_Z",
     "COL_ZPP",
     "N_COLS",
+    "ConstantSpeed",
+    "CurvatureLimited",
     "CurvatureProfile",
     "DoubleLaneChangeSpec",
+    "FileSpeed",
     "Gate",
     "Path",
     "PathSample",
     "ProceduralTrackConfig",
     "Projection",
     "SineElevation",
+    "SpeedProfile",
+    "SpeedTable",
+    "as_speed_profile",
     "build_double_lane_change",
     "double_lane_change",
+    "file_digest",
     "gate_violations",
     "handling_course",
+    "load_track",
     "load_track_csv",
+    "path_digest",
     "procedural_track",
     "procedural_track_from_config",
+    "speed_table",
     "wrap_angle",
 ]

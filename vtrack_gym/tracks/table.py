@@ -71,15 +71,18 @@ def uniform_grid(length_m: float, ds_m: float) -> tuple[int, float]:
     return n, length_m / (n - 1)
 
 
-def close_exactly(table: np.ndarray, s: np.ndarray, name: str) -> None:
-    """Check the closure of a closed table and spread the (round-off) residual linearly along s, in place."""
+def close_exactly(table: np.ndarray, s: np.ndarray, name: str, allow_zero_turns: bool = False) -> None:
+    """Check the closure of a closed table and spread the (round-off) residual linearly along s, in place.
+
+    The heading must change by a multiple of 2 pi, non-zero unless ``allow_zero_turns`` (a figure-eight).
+    """
     length = s[-1]
     gx = table[-1, COL_X] - table[0, COL_X]
     gy = table[-1, COL_Y] - table[0, COL_Y]
     dpsi = table[-1, COL_PSI] - table[0, COL_PSI]
     turns = round(dpsi / (2.0 * math.pi))
     rpsi = dpsi - 2.0 * math.pi * turns
-    if math.hypot(gx, gy) > CLOSURE_TOL_M or abs(rpsi) > CLOSURE_TOL_M or turns == 0:
+    if math.hypot(gx, gy) > CLOSURE_TOL_M or abs(rpsi) > CLOSURE_TOL_M or (turns == 0 and not allow_zero_turns):
         raise ValueError(f"path {name!r} does not close: end - start = ({gx:.3g}, {gy:.3g}) m, heading change "
                          f"{dpsi:.9f} rad (need |gap| <= {CLOSURE_TOL_M} m and a non-zero multiple of 2 pi)")
     ramp = s / length

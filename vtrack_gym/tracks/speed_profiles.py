@@ -21,10 +21,10 @@ import numpy as np
 from vtrack_gym.tracks._validate import check_range
 from vtrack_gym.tracks.interpolation import wrap_s
 from vtrack_gym.tracks.path import MAX_V_REF_MPS, Path
-from vtrack_gym.tracks.table import COL_KAPPA
 
 MAX_ACCEL_MPS2 = 30.0      # upper bound of every acceleration parameter (3 g) [m/s^2]
 KAPPA_FLOOR_PER_M = 1e-9   # |kappa| below this is a straight for the lateral limit [1/m]
+SUBSTEPS = 16              # curvature samples per row interval for the lateral limit
 
 
 @runtime_checkable
@@ -72,14 +72,17 @@ class CurvatureLimited:
     def row_speeds(self, path: Path) -> np.ndarray:
         """Reference speed at every row of ``path`` [m/s].
 
-        The lateral limit at a row uses the largest |kappa| of the row and its two neighbours, so that the limit
-        also holds between rows where the interpolated curvature may exceed both ends slightly.
+        The lateral limit at a row uses the largest |kappa| on the two row intervals next to it (sampled
+        ``SUBSTEPS`` times per interval), so that with v^2 linear between rows the limit holds between rows too,
+        where the interpolated curvature may exceed both ends slightly.
         """
-        kappa = np.abs(path.table[:, COL_KAPPA])
-        n = kappa.size
+        n = path.n_samples
+        s_fine = np.arange((n - 1) * SUBSTEPS + 1) * (path.ds_m / SUBSTEPS)
+        s_fine[-1] = min(s_fine[-1], path.length_m)
+        k_fine = np.abs(path.sample(s_fine).kappa)
+        k_interval = np.maximum(k_fine[:-1].reshape(n - 1, SUBSTEPS).max(axis=1), k_fine[SUBSTEPS::SUBSTEPS])
         if path.closed:                                 # rows 0 and n - 1 are the same point
-            ring = kappa[:-1]
-            k_env = np.maximum(ring, np.maximum(np.roll(ring, 1), np.roll(ring, -1)))
+            k_env = np.maximum(k_interval, np.roll(k_interval, 1))          # intervals i - 1 and i of row i
             v2 = self.lateral_limit(k_env) ** 2
             start = int(np.argmin(v2))
             v2 = np.roll(v2, -start)
@@ -88,11 +91,9 @@ class CurvatureLimited:
             v2 = np.roll(v2[:-1], start)
             v2 = np.append(v2, v2[0])
         else:
-            padded = np.concatenate(([kappa[0]], kappa, [kappa[-1]]))
-            k_env = np.maximum(padded[1:-1], np.maximum(padded[:-2], padded[2:]))
+            k_env = np.maximum(np.append(k_interval, k_interval[-1]), np.insert(k_interval, 0, k_interval[0]))
             v2 = self.lateral_limit(k_env) ** 2
             _passes(v2, path.ds_m, self.max_accel_mps2, self.max_decel_mps2)
-        assert v2.size == n
         return np.sqrt(v2)
 
 

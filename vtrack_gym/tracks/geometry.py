@@ -45,6 +45,12 @@ class TooDenseError(ValueError):
         self.points = points
 
 
+def _sorted_unique(a: np.ndarray) -> np.ndarray:
+    """Sorted distinct values of a 1-D integer array (a sort and a mask: faster than np.unique's hashing here)."""
+    a = np.sort(a)
+    return a[np.concatenate(([True], a[1:] != a[:-1]))] if a.size else a
+
+
 def _pairs_within_groups(keys: np.ndarray, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """All (ids[p], ids[q]) with p < q inside each run of equal ``keys`` (keys sorted)."""
     n = keys.size
@@ -101,7 +107,7 @@ def segment_intersections(xy: np.ndarray, closed: bool, max_candidates_per_segme
             keys_list.append((cx[ok] - origin[0]) * span_y + (cy[ok] - origin[1]))
             ids_list.append(seg[ok])
     # one entry per (cell, segment); cells <= (4 n + 3)^2, so cell * n_seg + segment fits in int64
-    entry = np.unique(np.concatenate(keys_list) * n_seg + np.concatenate(ids_list))
+    entry = _sorted_unique(np.concatenate(keys_list) * n_seg + np.concatenate(ids_list))
     keys, ids = entry // n_seg, entry % n_seg
     start = np.flatnonzero(np.concatenate(([True], keys[1:] != keys[:-1])))
     size = np.diff(np.append(start, keys.size))
@@ -120,7 +126,7 @@ def segment_intersections(xy: np.ndarray, closed: bool, max_candidates_per_segme
         keep &= ~((i == 0) & (j == n_seg - 1))
     i, j = i[keep], j[keep]
     if i.size:
-        uniq = np.unique(i * n_seg + j)
+        uniq = _sorted_unique(i * n_seg + j)
         i, j = uniq // n_seg, uniq % n_seg
     hit = segments_intersect(a[i], b[i], a[j], b[j])
     return Intersections(np.column_stack((i[hit], j[hit])).astype(np.int64), int(i.size))

@@ -9,23 +9,7 @@ step live in ``vtrack_gym.tracks.kernels`` and are imported on demand.
 from vtrack_gym.tracks.csv_loader import load_track_csv
 from vtrack_gym.tracks.dlc import DoubleLaneChangeSpec, build_double_lane_change, double_lane_change, gate_violations
 from vtrack_gym.tracks.handling_course import handling_course
-from vtrack_gym.tracks.path import (
-    COL_DKAPPA,
-    COL_GRADE,
-    COL_KAPPA,
-    COL_PSI,
-    COL_X,
-    COL_Y,
-    COL_Z,
-    COL_ZPP,
-    COLUMN_NAMES,
-    N_COLS,
-    Gate,
-    Path,
-    PathSample,
-    Projection,
-    wrap_angle,
-)
+from vtrack_gym.tracks.path import Gate, Path, PathSample, Projection, wrap_angle
 from vtrack_gym.tracks.procedural import ProceduralTrackConfig, procedural_track, procedural_track_from_config
 from vtrack_gym.tracks.profiles import CurvatureProfile, SineElevation
 from vtrack_gym.tracks.sources import BUILTIN_TRACKS, file_digest, load_track, path_digest
@@ -37,6 +21,18 @@ from vtrack_gym.tracks.speed_profiles import (
     SpeedTable,
     as_speed_profile,
     speed_table,
+)
+from vtrack_gym.tracks.table import (
+    COL_DKAPPA,
+    COL_GRADE,
+    COL_KAPPA,
+    COL_PSI,
+    COL_X,
+    COL_Y,
+    COL_Z,
+    COL_ZPP,
+    COLUMN_NAMES,
+    N_COLS,
 )
 
 __all__ = [

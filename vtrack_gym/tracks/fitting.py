@@ -7,20 +7,9 @@ from typing import NamedTuple
 
 import numpy as np
 
+from vtrack_gym.tracks import table as tb
 from vtrack_gym.tracks.integration import gauss_legendre
-from vtrack_gym.tracks.table import (
-    COL_DKAPPA,
-    COL_GRADE,
-    COL_KAPPA,
-    COL_PSI,
-    COL_X,
-    COL_Y,
-    COL_Z,
-    COL_ZPP,
-    N_COLS,
-    close_exactly,
-    uniform_grid,
-)
+from vtrack_gym.tracks.table import close_exactly, uniform_grid
 
 MIN_POINTS = 4
 MAX_COORDINATE_M = 1.0e6     # |x|, |y|, |z| beyond 1000 km is not a road
@@ -141,17 +130,17 @@ def fit_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None, closed: bool,
     cross = p1[0] * p2[1] - p1[1] * p2[0]
     dot = p1[0] * p2[0] + p1[1] * p2[1]
     dcross = p1[0] * p3[1] - p1[1] * p3[0]
-    table = np.zeros((n, N_COLS))
-    table[:, COL_X] = p0[0]
-    table[:, COL_Y] = p0[1]
-    table[:, COL_PSI] = np.unwrap(np.arctan2(p1[1], p1[0]))
-    table[:, COL_KAPPA] = cross / sp ** 3
-    table[:, COL_DKAPPA] = (dcross / sp ** 3 - 3.0 * cross * dot / sp ** 5) / sp
+    table = np.zeros((n, tb.N_COLS))
+    table[:, tb.COL_X] = p0[0]
+    table[:, tb.COL_Y] = p0[1]
+    table[:, tb.COL_PSI] = np.unwrap(np.arctan2(p1[1], p1[0]))
+    table[:, tb.COL_KAPPA] = cross / sp ** 3
+    table[:, tb.COL_DKAPPA] = (dcross / sp ** 3 - 3.0 * cross * dot / sp ** 5) / sp
     if tck_z is not None:
         z1 = splev(uj, tck_z, der=1)
-        table[:, COL_Z] = splev(uj, tck_z)
-        table[:, COL_GRADE] = z1 / sp
-        table[:, COL_ZPP] = splev(uj, tck_z, der=2) / sp ** 2 - z1 * dot / sp ** 4
+        table[:, tb.COL_Z] = splev(uj, tck_z)
+        table[:, tb.COL_GRADE] = z1 / sp
+        table[:, tb.COL_ZPP] = splev(uj, tck_z, der=2) / sp ** 2 - z1 * dot / sp ** 4
     if closed:
         close_exactly(table, s_target, "from_points", allow_zero_turns=True)  # a figure-eight turns 0 times
     rows = None if data is None else np.column_stack([np.interp(uj, u, d) for d in data])

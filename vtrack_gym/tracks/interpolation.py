@@ -10,17 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vtrack_gym.tracks.table import (
-    COL_DKAPPA,
-    COL_GRADE,
-    COL_KAPPA,
-    COL_PSI,
-    COL_X,
-    COL_Y,
-    COL_Z,
-    COL_ZPP,
-    N_COLS,
-)
+from vtrack_gym.tracks import table as tb
 
 
 def hermite5(p0: np.ndarray, d0: np.ndarray, c0: np.ndarray, p1: np.ndarray, d1: np.ndarray, c1: np.ndarray,
@@ -62,22 +52,20 @@ def interp(table: np.ndarray, ds: float, length: float, closed: bool, s: np.ndar
     n = table.shape[0]
     i = np.minimum((sw / ds).astype(np.int64), n - 2)
     t = (sw - i * ds) / ds
-    a = table[i]
-    b = table[i + 1]
-    out = np.empty((*s.shape, N_COLS))
-    ca, sa = np.cos(a[..., COL_PSI]), np.sin(a[..., COL_PSI])
-    cb, sb = np.cos(b[..., COL_PSI]), np.sin(b[..., COL_PSI])
-    ka, kb = a[..., COL_KAPPA], b[..., COL_KAPPA]
-    out[..., COL_X] = hermite5(a[..., COL_X], ca, -ka * sa, b[..., COL_X], cb, -kb * sb, t, ds)
-    out[..., COL_Y] = hermite5(a[..., COL_Y], sa, ka * ca, b[..., COL_Y], sb, kb * cb, t, ds)
-    out[..., COL_PSI] = hermite5(a[..., COL_PSI], ka, a[..., COL_DKAPPA], b[..., COL_PSI], kb, b[..., COL_DKAPPA],
-                                  t, ds)
-    out[..., COL_KAPPA] = hermite3(ka, a[..., COL_DKAPPA], kb, b[..., COL_DKAPPA], t, ds)
-    out[..., COL_DKAPPA] = a[..., COL_DKAPPA] + t * (b[..., COL_DKAPPA] - a[..., COL_DKAPPA])
-    out[..., COL_Z] = hermite5(a[..., COL_Z], a[..., COL_GRADE], a[..., COL_ZPP], b[..., COL_Z], b[..., COL_GRADE],
-                                b[..., COL_ZPP], t, ds)
-    out[..., COL_GRADE] = hermite3(a[..., COL_GRADE], a[..., COL_ZPP], b[..., COL_GRADE], b[..., COL_ZPP], t, ds)
-    out[..., COL_ZPP] = a[..., COL_ZPP] + t * (b[..., COL_ZPP] - a[..., COL_ZPP])
+    # columns of the rows before (a) and after (b) each s
+    ax, ay, apsi, ak, adk, az, ag, azpp = np.moveaxis(table[i], -1, 0)
+    bx, by, bpsi, bk, bdk, bz, bg, bzpp = np.moveaxis(table[i + 1], -1, 0)
+    out = np.empty((*s.shape, tb.N_COLS))
+    ca, sa = np.cos(apsi), np.sin(apsi)
+    cb, sb = np.cos(bpsi), np.sin(bpsi)
+    out[..., tb.COL_X] = hermite5(ax, ca, -ak * sa, bx, cb, -bk * sb, t, ds)
+    out[..., tb.COL_Y] = hermite5(ay, sa, ak * ca, by, sb, bk * cb, t, ds)
+    out[..., tb.COL_PSI] = hermite5(apsi, ak, adk, bpsi, bk, bdk, t, ds)
+    out[..., tb.COL_KAPPA] = hermite3(ak, adk, bk, bdk, t, ds)
+    out[..., tb.COL_DKAPPA] = adk + t * (bdk - adk)
+    out[..., tb.COL_Z] = hermite5(az, ag, azpp, bz, bg, bzpp, t, ds)
+    out[..., tb.COL_GRADE] = hermite3(ag, azpp, bg, bzpp, t, ds)
+    out[..., tb.COL_ZPP] = azpp + t * (bzpp - azpp)
     return out
 
 
@@ -91,11 +79,11 @@ def wrap_angle(a: np.ndarray) -> np.ndarray:
 
 def arc_step(x: np.ndarray, y: np.ndarray, row: np.ndarray, step_max: float) -> np.ndarray:
     """Arc-length step from the reference point in ``row`` to the projection of (x, y) onto its osculating circle."""
-    psi = row[..., COL_PSI]
-    kap = row[..., COL_KAPPA]
+    psi = row[..., tb.COL_PSI]
+    kap = row[..., tb.COL_KAPPA]
     c, s = np.cos(psi), np.sin(psi)
-    px = x - row[..., COL_X]
-    py = y - row[..., COL_Y]
+    px = x - row[..., tb.COL_X]
+    py = y - row[..., tb.COL_Y]
     along = px * c + py * s
     lateral = -px * s + py * c
     small = np.abs(kap) < 1e-12

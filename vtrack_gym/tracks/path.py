@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from vtrack_gym.tracks import table as tb
 from vtrack_gym.tracks.integration import (
     ElevationLike,
     Profile1D,
@@ -26,28 +27,9 @@ from vtrack_gym.tracks.integration import (
 )
 from vtrack_gym.tracks.interpolation import arc_step, interp, wrap_angle, wrap_s
 from vtrack_gym.tracks.profiles import CurvatureProfile
-from vtrack_gym.tracks.table import (
-    CLOSURE_TOL_M,
-    COL_DKAPPA,
-    COL_GRADE,
-    COL_KAPPA,
-    COL_PSI,
-    COL_X,
-    COL_Y,
-    COL_Z,
-    COL_ZPP,
-    COLUMN_NAMES,
-    DEFAULT_DS_M,
-    N_COLS,
-    PathSample,
-    Projection,
-    close_exactly,
-    uniform_grid,
-)
+from vtrack_gym.tracks.table import CLOSURE_TOL_M, DEFAULT_DS_M, PathSample, Projection, close_exactly, uniform_grid
 
-__all__ = ["COLUMN_NAMES", "COL_DKAPPA", "COL_GRADE", "COL_KAPPA", "COL_PSI", "COL_X", "COL_Y", "COL_Z", "COL_ZPP",
-           "DEFAULT_DS_M", "N_COLS", "ElevationLike", "Gate", "Path", "PathSample", "Profile1D", "Projection",
-           "wrap_angle"]
+__all__ = ["DEFAULT_DS_M", "ElevationLike", "Gate", "Path", "PathSample", "Profile1D", "Projection", "wrap_angle"]
 
 PROJECTION_TOL_M = 1e-10        # projection refinement stops when s moves less than this [m]
 PROJECTION_MAX_ITER = 12
@@ -108,8 +90,8 @@ class Path:
 
     def __post_init__(self) -> None:
         table = np.array(self.table, dtype=np.float64, order="C", copy=True)
-        if table.ndim != 2 or table.shape[1] != N_COLS:
-            raise ValueError(f"Path.table must have shape (n, {N_COLS}) (got {table.shape})")
+        if table.ndim != 2 or table.shape[1] != tb.N_COLS:
+            raise ValueError(f"Path.table must have shape (n, {tb.N_COLS}) (got {table.shape})")
         if table.shape[0] < 4:
             raise ValueError(f"Path.table must have >= 4 rows (got {table.shape[0]})")
         if not np.all(np.isfinite(table)):
@@ -126,8 +108,8 @@ class Path:
             raise ValueError("Path.name and Path.version must be str")
         length = (table.shape[0] - 1) * float(ds)
         if self.closed:
-            gap = math.hypot(table[-1, COL_X] - table[0, COL_X], table[-1, COL_Y] - table[0, COL_Y])
-            turns = (table[-1, COL_PSI] - table[0, COL_PSI]) / (2.0 * math.pi)
+            gap = math.hypot(table[-1, tb.COL_X] - table[0, tb.COL_X], table[-1, tb.COL_Y] - table[0, tb.COL_Y])
+            turns = (table[-1, tb.COL_PSI] - table[0, tb.COL_PSI]) / (2.0 * math.pi)
             if gap > CLOSURE_TOL_M or abs(turns - round(turns)) * 2.0 * math.pi > CLOSURE_TOL_M:
                 raise ValueError("Path.table of a closed path must end where it starts (|dX, dY| <= "
                                  f"{CLOSURE_TOL_M} m, dpsi a multiple of 2 pi; got gap {gap:.3g} m, "
@@ -221,13 +203,13 @@ class Path:
             dk = derivative_fd(kap, s, 1e-3)
         else:
             dk = np.asarray(dkappa(s), dtype=float)
-        table = np.empty((n, N_COLS))
-        table[:, COL_X] = x0_m + dx
-        table[:, COL_Y] = y0_m + dy
-        table[:, COL_PSI] = psi
-        table[:, COL_KAPPA] = kap(s)
-        table[:, COL_DKAPPA] = dk
-        table[:, COL_Z], table[:, COL_GRADE], table[:, COL_ZPP] = elevation_columns(elevation, s)
+        table = np.empty((n, tb.N_COLS))
+        table[:, tb.COL_X] = x0_m + dx
+        table[:, tb.COL_Y] = y0_m + dy
+        table[:, tb.COL_PSI] = psi
+        table[:, tb.COL_KAPPA] = kap(s)
+        table[:, tb.COL_DKAPPA] = dk
+        table[:, tb.COL_Z], table[:, tb.COL_GRADE], table[:, tb.COL_ZPP] = elevation_columns(elevation, s)
         if closed:
             close_exactly(table, s, name)
         return cls(table, ds, closed=closed, half_width_m=half_width_m, name=name, version=version, gates=gates)
@@ -308,7 +290,7 @@ class Path:
     def sample(self, s: np.ndarray | float) -> PathSample:
         """Interpolated columns at arc length(s) s [m] (wrapped for closed, clamped for open paths)."""
         out = interp(self.table, self.ds_m, self.length_m, self.closed, np.asarray(s, dtype=float))
-        return PathSample(*(out[..., k] for k in range(N_COLS)))
+        return PathSample(*(out[..., k] for k in range(tb.N_COLS)))
 
     def sample_array(self, s: np.ndarray | float) -> np.ndarray:
         """Interpolated columns at s [m] as an array of shape s.shape + (8,) in table column order."""
@@ -319,12 +301,12 @@ class Path:
         s = np.atleast_1d(np.asarray(s, dtype=float))
         d = np.atleast_1d(np.asarray(distances, dtype=float))
         out = interp(self.table, self.ds_m, self.length_m, self.closed, s[:, None] + d[None, :])
-        return out[..., COL_KAPPA]
+        return out[..., tb.COL_KAPPA]
 
     def bounds(self) -> tuple[float, float, float, float]:
         """(xmin, xmax, ymin, ymax) of the centre-line samples [m]."""
-        x = self.table[:, COL_X]
-        y = self.table[:, COL_Y]
+        x = self.table[:, tb.COL_X]
+        y = self.table[:, tb.COL_Y]
         return float(x.min()), float(x.max()), float(y.min()), float(y.max())
 
     @cached_property
@@ -351,7 +333,7 @@ class Path:
             centre = np.rint(self.wrap_s(s_guess[loc]) / self.ds_m).astype(np.int64)
             cand = centre[:, None] + np.arange(-half, half + 1)[None, :]
             cand = np.mod(cand, period) if self.closed else np.clip(cand, 0, n - 1)
-            d2 = (self.table[cand, COL_X] - x[loc, None]) ** 2 + (self.table[cand, COL_Y] - y[loc, None]) ** 2
+            d2 = (self.table[cand, tb.COL_X] - x[loc, None]) ** 2 + (self.table[cand, tb.COL_Y] - y[loc, None]) ** 2
             idx[loc] = cand[np.arange(cand.shape[0]), np.argmin(d2, axis=1)]
         return idx
 
@@ -380,9 +362,9 @@ class Path:
             if np.all(moved < PROJECTION_TOL_M):
                 break
         row = interp(self.table, self.ds_m, self.length_m, self.closed, s)
-        psi = row[:, COL_PSI]
-        e_y = -(x - row[:, COL_X]) * np.sin(psi) + (y - row[:, COL_Y]) * np.cos(psi)
-        return Projection(s, e_y, psi, row[:, COL_KAPPA], row[:, COL_X], row[:, COL_Y])
+        psi = row[:, tb.COL_PSI]
+        e_y = -(x - row[:, tb.COL_X]) * np.sin(psi) + (y - row[:, tb.COL_Y]) * np.cos(psi)
+        return Projection(s, e_y, psi, row[:, tb.COL_KAPPA], row[:, tb.COL_X], row[:, tb.COL_Y])
 
     def frenet_errors(self, x: np.ndarray, y: np.ndarray, psi: np.ndarray,
                       s_guess: np.ndarray | float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -160,6 +160,8 @@ def test_semicolon_separated_file_loads(tmp_path: pathlib.Path) -> None:
      r"road\.csv, line 3: half width w_tr_right_m = -1\.0 m is outside \(0, 100\.0\] m"),
     ("x,y,v_mps\n0,0,3\n10,0,3\n20,1,0\n30,3,3\n", r"line 4: speed v_mps = 0\.0 m/s is outside"),
     ("x,y,x_m\n0,0,3\n10,0,3\n20,1,3\n30,3,3\n", r"line 1: header must name .*a column is named twice"),
+    ("# survey export\n# easting, northing, w_tr_right_m\n0,0,3\n10,0,3\n20,1,3\n30,3,3\n",
+     r"line 2: header must name .*unknown column\(s\) \['easting', 'northing'\]"),
 ])
 def test_refusals_name_the_line_and_the_fix(tmp_path: pathlib.Path, text: str, message: str) -> None:
     with pytest.raises(ValueError, match=message):
@@ -225,6 +227,7 @@ def test_path_widths_validation_and_pickle() -> None:
     n = base.n_samples
     widths = np.column_stack((np.full(n, 3.0), np.linspace(2.0, 5.0, n)))
     p = Path(base.table, 1.0, widths_m=widths, v_ref_mps=np.full(n, 12.0))
+    assert np.array_equal(p.half_widths_rows(), widths) and np.all(base.half_widths_rows() == base.half_width_m)
     left, right = p.half_widths(np.array([0.0, 50.5, 100.0, 500.0]))
     assert np.allclose(left, 3.0) and np.allclose(right, [2.0, 3.515, 5.0, 5.0])
     q = pickle.loads(pickle.dumps(p))

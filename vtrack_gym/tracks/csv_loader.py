@@ -72,10 +72,12 @@ def _is_number(text: str) -> bool:
 
 
 def _comment_header(line: str) -> list[str] | None:
-    """Fields of a ``#`` comment line that names at least x and y columns (a header), else None."""
+    """Fields of a ``#`` comment line that is a header, else None: it names both x and y, or any column by a
+    name longer than one letter (``x_m``, ``w_tr_right_m``, ``v_mps``, ...)."""
     fields = _split(line.lstrip("#").strip())
     roles = {_ROLE.get(f.lower()) for f in fields}
-    return fields if {"x", "y"} <= roles and len(fields) >= 2 else None
+    named = any(len(f) > 1 and f.lower() in _ROLE for f in fields)
+    return fields if len(fields) >= 2 and ({"x", "y"} <= roles or named) else None
 
 
 def _header_roles(fs_path: FsPath, lineno: int, fields: list[str]) -> list[str]:

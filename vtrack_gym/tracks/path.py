@@ -287,6 +287,13 @@ class Path:
         w = self._linear_rows(self.widths_m, s)
         return w[..., 0], w[..., 1]
 
+    def half_widths_rows(self) -> np.ndarray:
+        """Drivable half widths (left, right) [m] at every table row, shape (n, 2) (``half_width_m`` if the path
+        has no per-station widths): the array an env's compiled step can index like the table."""
+        if self.widths_m is None:
+            return np.full((self.n_samples, 2), self.half_width_m)
+        return np.array(self.widths_m)
+
     def sample(self, s: np.ndarray | float) -> PathSample:
         """Interpolated columns at arc length(s) s [m] (wrapped for closed, clamped for open paths)."""
         out = interp(self.table, self.ds_m, self.length_m, self.closed, np.asarray(s, dtype=float))

@@ -26,6 +26,7 @@ from vtrack_gym.tracks import (
     wrap_angle,
 )
 from vtrack_gym.tracks import path as path_module
+from vtrack_gym.tracks import table as table_module
 
 TRACKS_DIR = pathlib.Path(path_module.__file__).parent
 
@@ -37,8 +38,9 @@ def arc_path(radius: float, length: float, psi0: float = 0.0, closed: bool = Fal
 
 
 def test_column_order_is_fixed() -> None:
-    assert (path_module.COL_X, path_module.COL_Y, path_module.COL_PSI, path_module.COL_KAPPA,
-            path_module.COL_DKAPPA, path_module.COL_Z, path_module.COL_GRADE, path_module.COL_ZPP) == tuple(range(8))
+    assert (table_module.COL_X, table_module.COL_Y, table_module.COL_PSI, table_module.COL_KAPPA,
+            table_module.COL_DKAPPA, table_module.COL_Z, table_module.COL_GRADE, table_module.COL_ZPP) \
+        == tuple(range(8))
     assert N_COLS == 8
 
 

@@ -1,6 +1,6 @@
 """Reference paths: an arc-length parameterised centre-line (``Path``), the paper's two scenarios (the Case-1
-handling course and the Case-2 ISO 3888-1 double lane change with cone gates), procedural training tracks and a
-CSV loader.
+handling course and the Case-2 ISO 3888-1 double lane change with cone gates), procedural training tracks, a CSV
+loader (``load_track`` resolves a built-in name, a CSV file or a Path) and speed profiles (``speed_table``).
 
 ``import vtrack_gym.tracks`` imports numpy only (no numba, no scipy); the numba kernels used by the env's compiled
 step live in ``vtrack_gym.tracks.kernels`` and are imported on demand.
@@ -9,7 +9,20 @@ step live in ``vtrack_gym.tracks.kernels`` and are imported on demand.
 from vtrack_gym.tracks.csv_loader import load_track_csv
 from vtrack_gym.tracks.dlc import DoubleLaneChangeSpec, build_double_lane_change, double_lane_change, gate_violations
 from vtrack_gym.tracks.handling_course import handling_course
-from vtrack_gym.tracks.path import (
+from vtrack_gym.tracks.path import Gate, Path, PathSample, Projection, wrap_angle
+from vtrack_gym.tracks.procedural import ProceduralTrackConfig, procedural_track, procedural_track_from_config
+from vtrack_gym.tracks.profiles import CurvatureProfile, SineElevation
+from vtrack_gym.tracks.sources import BUILTIN_TRACKS, file_digest, load_track, path_digest
+from vtrack_gym.tracks.speed_profiles import (
+    ConstantSpeed,
+    CurvatureLimited,
+    FileSpeed,
+    SpeedProfile,
+    SpeedTable,
+    as_speed_profile,
+    speed_table,
+)
+from vtrack_gym.tracks.table import (
     COL_DKAPPA,
     COL_GRADE,
     COL_KAPPA,
@@ -20,16 +33,10 @@ from vtrack_gym.tracks.path import (
     COL_ZPP,
     COLUMN_NAMES,
     N_COLS,
-    Gate,
-    Path,
-    PathSample,
-    Projection,
-    wrap_angle,
 )
-from vtrack_gym.tracks.procedural import ProceduralTrackConfig, procedural_track, procedural_track_from_config
-from vtrack_gym.tracks.profiles import CurvatureProfile, SineElevation
 
 __all__ = [
+    "BUILTIN_TRACKS",
     "COLUMN_NAMES",
     "COL_DKAPPA",
     "COL_GRADE",
@@ -40,20 +47,30 @@ __all__ = [
     "COL_Z",
     "COL_ZPP",
     "N_COLS",
+    "ConstantSpeed",
+    "CurvatureLimited",
     "CurvatureProfile",
     "DoubleLaneChangeSpec",
+    "FileSpeed",
     "Gate",
     "Path",
     "PathSample",
     "ProceduralTrackConfig",
     "Projection",
     "SineElevation",
+    "SpeedProfile",
+    "SpeedTable",
+    "as_speed_profile",
     "build_double_lane_change",
     "double_lane_change",
+    "file_digest",
     "gate_violations",
     "handling_course",
+    "load_track",
     "load_track_csv",
+    "path_digest",
     "procedural_track",
     "procedural_track_from_config",
+    "speed_table",
     "wrap_angle",
 ]

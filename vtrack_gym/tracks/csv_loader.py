@@ -1,9 +1,19 @@
-"""Load a user's centre-line from a CSV file (columns x, y and optional z [m]); parse only, never evaluate.
+"""Load a user's centre-line from a CSV file; parse only, never evaluate.
 
-Format: one point per line, 2 (x, y) or 3 (x, y, z) numeric columns separated by commas or whitespace. An
-optional header row names the columns (``x``, ``y``, ``z`` in any order, case-insensitive; also ``x_m`` etc.).
-Blank lines and lines starting with ``#`` are ignored. Every problem raises ``ValueError`` naming the file, the
-line and the problem.
+Format: one point per line, fields separated by commas, semicolons or whitespace. Columns are found by name in a
+header row, which is either the first non-blank line (``x,y,z``) or a comment line starting with ``#`` just before
+the data (``# x_m, y_m, w_tr_right_m, w_tr_left_m``, the racetrack-database layout, loads as is). Accepted names
+(case-insensitive; see ``COLUMN_NAMES``): x and y [m] (required), z [m], the half widths right and left of the
+centre-line [m] (both or neither), and a reference speed [m/s]. Without a header, 2 columns are x, y and 3 are x,
+y, z. Other comment lines and blank lines are ignored. A header naming an unknown column, one width without the
+other, or rows whose column count differs from the header is an error naming the line and the fix; every problem
+raises ``ValueError`` naming the file (and the line where there is one).
+
+Closed loops are detected relative to the point spacing (a loop usually ends one sample short of its start),
+``closed=True/False`` forces it. A centre-line that crosses itself (a figure-eight with a bridge) is refused unless
+``allow_self_crossing=True``. Coordinates rounded to a decimal grid (mm, cm, ...) are smoothed by the rounding's RMS
+error by default, so curvature stays accurate on dense inputs. File size, point count and the work of the
+self-crossing check are bounded.
 """
 
 from __future__ import annotations
@@ -15,18 +25,41 @@ from pathlib import Path as FsPath
 import numpy as np
 
 from vtrack_gym.tracks.fitting import check_points
-from vtrack_gym.tracks.geometry import self_intersection_pairs
-from vtrack_gym.tracks.path import DEFAULT_DS_M, Path
+from vtrack_gym.tracks.geometry import TooDenseError, segment_intersections
+from vtrack_gym.tracks.path import DEFAULT_DS_M, MAX_HALF_WIDTH_M, MAX_V_REF_MPS, Path
 
-CLOSED_GAP_M = 1.0       # first and last points closer than this [m]: closed path (auto-detection)
+CLOSED_GAP_M = 1.0          # first and last points closer than this [m] always close the loop (auto-detection)
+CLOSED_GAP_SPACINGS = 3.0   # ... or an end gap up to this x the median point spacing,
+CLOSED_GAP_FRACTION = 0.03  # ... at most this fraction of the polyline length,
+CLOSED_GAP_TURN_DEG = 45.0  # ... and the closing chord within this angle of the end and start directions
 MIN_POINTS = 4
-_HEADER_NAMES = {"x": "x", "x_m": "x", "y": "y", "y_m": "y", "z": "z", "z_m": "z"}
+MAX_POINTS = 500_000
+MAX_FILE_BYTES = 64 * 2**20
+DEFAULT_HALF_WIDTH_M = 3.5
+DENSE_SPACING_M = 0.5       # points closer than this (median) [m] are averaged in blocks to about this spacing
+_MAX_DECIMALS = 6
+
+COLUMN_NAMES: dict[str, tuple[str, ...]] = {
+    "x": ("x", "x_m"),
+    "y": ("y", "y_m"),
+    "z": ("z", "z_m"),
+    "w_right": ("w_tr_right_m", "w_right_m", "w_right", "half_width_right_m"),
+    "w_left": ("w_tr_left_m", "w_left_m", "w_left", "half_width_left_m"),
+    "v": ("v_mps", "v_ref_mps", "vx_mps", "speed_mps"),
+}
+"""Column role -> accepted header names (lower case). Widths are half widths from the centre-line [m]."""
+
+_ROLE = {name: role for role, names in COLUMN_NAMES.items() for name in names}
+_HEADER_HELP = ("header must name the columns x, y and optionally z, the half widths w_tr_right_m and "
+                "w_tr_left_m [m] (both or neither) and a speed v_mps [m/s] (accepted names: "
+                + "; ".join(f"{role}: {', '.join(names)}" for role, names in COLUMN_NAMES.items()) + ")")
 
 
 def _split(line: str) -> list[str]:
-    """Fields of a line: comma-separated if it has a comma, else whitespace-separated."""
-    if "," in line:
-        return [f.strip() for f in line.split(",")]
+    """Fields of a line: comma- or semicolon-separated if it has one, else whitespace-separated."""
+    for sep in (",", ";"):
+        if sep in line:
+            return [f.strip() for f in line.split(sep)]
     return line.split()
 
 
@@ -38,41 +71,80 @@ def _is_number(text: str) -> bool:
     return True
 
 
-def read_track_csv(fs_path: FsPath) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, list[int]]:
-    """Parse a centre-line CSV -> (x [m], y [m], z [m] or None, file line number of every point).
+def _comment_header(line: str) -> list[str] | None:
+    """Fields of a ``#`` comment line that is a header, else None: it names both x and y, or any column by a
+    name longer than one letter (``x_m``, ``w_tr_right_m``, ``v_mps``, ...)."""
+    fields = _split(line.lstrip("#").strip())
+    roles = {_ROLE.get(f.lower()) for f in fields}
+    named = any(len(f) > 1 and f.lower() in _ROLE for f in fields)
+    return fields if len(fields) >= 2 and ({"x", "y"} <= roles or named) else None
+
+
+def _header_roles(fs_path: FsPath, lineno: int, fields: list[str]) -> list[str]:
+    """Column roles of a header line; ValueError naming the line and the fix if it does not fit."""
+    roles = [_ROLE.get(f.lower()) for f in fields]
+    unknown = [f for f, r in zip(fields, roles, strict=True) if r is None]
+    if unknown or len(set(roles)) != len(roles) or not {"x", "y"} <= set(roles):
+        problem = (f"unknown column(s) {unknown}" if unknown else
+                   "a column is named twice" if len(set(roles)) != len(roles) else "x or y is missing")
+        raise ValueError(f"{fs_path}, line {lineno}: {_HEADER_HELP} (got {fields}: {problem}); fix: rename the "
+                         "columns in that line, or delete it if it is not a header")
+    if ("w_right" in roles) != ("w_left" in roles):
+        have = "w_tr_right_m" if "w_right" in roles else "w_tr_left_m"
+        raise ValueError(f"{fs_path}, line {lineno}: the header names {have} without the other half width; fix: "
+                         "name both w_tr_right_m and w_tr_left_m, or neither (then half_width_m applies)")
+    return [str(r) for r in roles]
+
+
+def read_track_columns(fs_path: FsPath) -> tuple[dict[str, np.ndarray], list[int]]:
+    """Parse a centre-line CSV -> ({role: values}, file line number of every point); roles as in COLUMN_NAMES.
 
     ValueError naming file, line and problem on any malformed content.
     """
     if not fs_path.is_file():
         raise ValueError(f"{fs_path}: track file not found")
+    size = fs_path.stat().st_size
+    if size > MAX_FILE_BYTES:
+        raise ValueError(f"{fs_path}: the file is {size / 2**20:.1f} MiB; at most {MAX_FILE_BYTES // 2**20} MiB is "
+                         "accepted (thin the points, e.g. keep every k-th line)")
     try:
         text = fs_path.read_text(encoding="utf-8-sig")
     except (OSError, UnicodeDecodeError) as exc:
         raise ValueError(f"{fs_path}: cannot read the track file ({exc})") from exc
     order: list[str] | None = None
+    header_line = 0
+    comment_header: tuple[int, list[str]] | None = None
     rows: list[list[float]] = []
     lines: list[int] = []
     n_cols: int | None = None
     for lineno, raw in enumerate(text.splitlines(), start=1):
         line = raw.strip()
-        if not line or line.startswith("#"):
+        if not line:
+            continue
+        if line.startswith("#"):
+            if not rows and order is None:
+                found = _comment_header(line)
+                comment_header = (lineno, found) if found is not None else comment_header
             continue
         fields = _split(line)
         if order is None and not rows and not all(_is_number(f) for f in fields):
-            names = [_HEADER_NAMES.get(f.lower()) for f in fields]
-            if None in names or len(set(names)) != len(names) or not {"x", "y"} <= set(names) or len(names) > 3:
-                raise ValueError(f"{fs_path}, line {lineno}: header must name the columns x, y and optionally z "
-                                 f"(got {fields})")
-            order = [str(n) for n in names]
-            n_cols = len(order)
+            order = _header_roles(fs_path, lineno, fields)
+            header_line, n_cols = lineno, len(order)
             continue
         if n_cols is None:
-            n_cols = len(fields)
-            if n_cols not in (2, 3):
-                raise ValueError(f"{fs_path}, line {lineno}: expected 2 (x, y) or 3 (x, y, z) columns "
-                                 f"(got {n_cols})")
+            if comment_header is not None:
+                header_line, order = comment_header[0], _header_roles(fs_path, *comment_header)
+                n_cols = len(order)
+            else:
+                n_cols = len(fields)
+                if n_cols not in (2, 3):
+                    raise ValueError(f"{fs_path}, line {lineno}: expected 2 (x, y) or 3 (x, y, z) columns "
+                                     f"(got {n_cols}); fix: name the columns in a header line, e.g. "
+                                     "'# x_m, y_m, w_tr_right_m, w_tr_left_m'")
         if len(fields) != n_cols:
-            raise ValueError(f"{fs_path}, line {lineno}: expected {n_cols} columns (got {len(fields)})")
+            named = f" as named by the header on line {header_line}" if header_line else ""
+            raise ValueError(f"{fs_path}, line {lineno}: expected {n_cols} columns{named} (got {len(fields)})"
+                             + ("; fix: make the header name every column" if header_line else ""))
         values = []
         for k, f in enumerate(fields):
             try:
@@ -84,59 +156,189 @@ def read_track_csv(fs_path: FsPath) -> tuple[np.ndarray, np.ndarray, np.ndarray 
             values.append(v)
         rows.append(values)
         lines.append(lineno)
+        if len(rows) > MAX_POINTS:
+            raise ValueError(f"{fs_path}, line {lineno}: more than {MAX_POINTS} points; fix: thin the points "
+                             "(0.5-2 m spacing is plenty)")
     if len(rows) < MIN_POINTS:
         raise ValueError(f"{fs_path}: a track needs >= {MIN_POINTS} points (got {len(rows)})")
     data = np.asarray(rows, dtype=float)
     order = order or ["x", "y", "z"][: data.shape[1]]
-    col = {name: data[:, k] for k, name in enumerate(order)}
-    x, y, z = col["x"], col["y"], col.get("z")
+    columns = {role: data[:, k] for k, role in enumerate(order)}
+    _check_ranges(fs_path, columns, lines)
+    x, y = columns["x"], columns["y"]
     step = np.hypot(np.diff(x), np.diff(y))
     dup = np.flatnonzero(step <= 1e-9 * max(1.0, float(np.max(np.abs(x))), float(np.max(np.abs(y)))))
     if dup.size:
         k = int(dup[0])
         raise ValueError(f"{fs_path}, lines {lines[k]} and {lines[k + 1]}: duplicate consecutive points "
                          f"({x[k]}, {y[k]})")
-    return x, y, z, lines
+    return columns, lines
 
 
-def load_track_csv(path: str | os.PathLike[str], closed: bool | None = None, half_width_m: float = 3.5, *,
-                   smoothing_m: float = 0.0, ds_m: float = DEFAULT_DS_M, name: str | None = None) -> Path:
-    """Centre-line Path from a CSV of x, y [, z] points [m] (see the module docstring).
+def _check_ranges(fs_path: FsPath, columns: dict[str, np.ndarray], lines: list[int]) -> None:
+    """Widths in (0, MAX_HALF_WIDTH_M] m and speeds in (0, MAX_V_REF_MPS] m/s, naming the first bad line."""
+    limits = {"w_right": (MAX_HALF_WIDTH_M, "m", "half width"), "w_left": (MAX_HALF_WIDTH_M, "m", "half width"),
+              "v": (MAX_V_REF_MPS, "m/s", "speed")}
+    for role, (high, unit, what) in limits.items():
+        if role not in columns:
+            continue
+        bad = np.flatnonzero(~((columns[role] > 0.0) & (columns[role] <= high)))
+        if bad.size:
+            k = int(bad[0])
+            raise ValueError(f"{fs_path}, line {lines[k]}: {what} {COLUMN_NAMES[role][0]} = {columns[role][k]} "
+                             f"{unit} is outside (0, {high}] {unit}")
 
-    ``closed`` None: closed when the first and last points are within 1 m. ``half_width_m`` [m] is the drivable
-    half width; ``smoothing_m`` [m] the RMS deviation the spline fit may make (0 interpolates). Raises ValueError
-    (naming file, line and problem) for a missing file, fewer than 4 points, non-numeric or non-finite values, a
-    wrong column count, duplicate consecutive points or a self-intersecting centre-line.
+
+def read_track_csv(fs_path: FsPath) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, list[int]]:
+    """Parse a centre-line CSV -> (x [m], y [m], z [m] or None, file line number of every point)."""
+    columns, lines = read_track_columns(fs_path)
+    return columns["x"], columns["y"], columns.get("z"), lines
+
+
+def rounding_quantum_m(x: np.ndarray, y: np.ndarray) -> float:
+    """Decimal grid [m] all coordinates lie on (1, 0.1, ..., 1e-6), or 0.0 if they carry more digits."""
+    v = np.concatenate((x, y))
+    for decimals in range(_MAX_DECIMALS + 1):
+        scaled = v * 10.0 ** decimals
+        if np.all(np.abs(scaled - np.rint(scaled)) <= 1e-3 + 1e-15 * np.abs(scaled)):
+            return 10.0 ** -decimals
+    return 0.0
+
+
+def auto_smoothing_m(x: np.ndarray, y: np.ndarray) -> float:
+    """RMS 2-D deviation [m] the spline fit may make: the rounding error q / sqrt(6) of coordinates rounded to a
+    decimal grid q (uniform error of variance q^2 / 12 in x and in y); 0 for full-precision coordinates."""
+    return rounding_quantum_m(x, y) / math.sqrt(6.0)
+
+
+def average_dense_points(columns: dict[str, np.ndarray], closed: bool) -> tuple[dict[str, np.ndarray], int]:
+    """Average consecutive blocks of k points so that the median spacing becomes about DENSE_SPACING_M [m].
+
+    Returns the averaged columns and k (1: unchanged). Averaging k points spread over an arc of length L moves
+    the line inwards by about kappa L^2 / 24 (< 1 mm for L = 0.5 m and radii >= 6 m) and divides independent
+    rounding errors by sqrt(k). A closed loop keeps its first point (the last block may be shorter).
+    """
+    x, y = columns["x"], columns["y"]
+    h = float(np.median(np.hypot(np.diff(x), np.diff(y))))
+    k = int(DENSE_SPACING_M // h) if h > 0.0 else 1
+    m = x.size
+    if k < 2 or m // k < 2 * MIN_POINTS:
+        return columns, 1
+    starts = np.arange(0, m, k)
+    if not closed and m - starts[-1] < k:          # open line: keep both end points exactly
+        starts = starts[:-1]
+    out = {}
+    for role, v in columns.items():
+        sums = np.add.reduceat(v, starts)
+        counts = np.diff(np.append(starts, m))
+        out[role] = sums / counts
+    if not closed:
+        for role, v in columns.items():
+            out[role] = np.concatenate(([v[0]], out[role][1:-1], [v[-1]])) if out[role].size > 2 else out[role]
+    return out, k
+
+
+def detect_closed(x: np.ndarray, y: np.ndarray) -> bool:
+    """Whether points x, y [m] describe a loop that ends short of its start (see the CLOSED_GAP_* constants).
+
+    The end gap must be within 1 m, or within 3 median point spacings and 3 % of the polyline length with the
+    closing chord heading on (within 45 deg of the last and the first segment's direction).
+    """
+    gap = math.hypot(x[-1] - x[0], y[-1] - y[0])
+    if gap <= CLOSED_GAP_M:
+        return True
+    step = np.hypot(np.diff(x), np.diff(y))
+    if gap > CLOSED_GAP_SPACINGS * float(np.median(step)) or gap > CLOSED_GAP_FRACTION * float(step.sum()):
+        return False
+    chord = np.array([x[0] - x[-1], y[0] - y[-1]]) / gap
+    last = np.array([x[-1] - x[-2], y[-1] - y[-2]]) / step[-1]
+    first = np.array([x[1] - x[0], y[1] - y[0]]) / step[0]
+    limit = math.cos(math.radians(CLOSED_GAP_TURN_DEG))
+    return bool(chord @ last >= limit and chord @ first >= limit)
+
+
+def _check_crossing(fs_path: FsPath, px: np.ndarray, py: np.ndarray, closed: bool, lines: list[int]) -> None:
+    """ValueError naming the lines of the first pair of crossing segments (or of a cluster too dense to check)."""
+    def line(k: int) -> int:
+        return lines[k] if k < len(lines) else lines[0]
+
+    try:
+        hits = segment_intersections(np.column_stack((px, py)), closed).pairs
+    except TooDenseError as exc:
+        i, j = exc.points
+        raise ValueError(f"{fs_path}, lines {line(i)}-{line(j)}: {exc}; fix: thin or remove those points") from None
+    if hits.shape[0]:
+        i, j = (int(v) for v in hits[0])
+        raise ValueError(f"{fs_path}: the centre-line crosses itself (segment lines {line(i)}-{line(i + 1)} meets "
+                         f"segment lines {line(j)}-{line(j + 1)}); fix: if the road really crosses itself (a bridge), "
+                         "pass allow_self_crossing=True, else correct those points")
+
+
+def load_track_csv(path: str | os.PathLike[str], closed: bool | None = None, half_width_m: float | None = None, *,
+                   smoothing_m: float | None = None, ds_m: float = DEFAULT_DS_M, name: str | None = None,
+                   allow_self_crossing: bool = False) -> Path:
+    """Centre-line Path from a CSV of points (see the module docstring for the format).
+
+    ``closed`` None: detected from the end gap relative to the point spacing (:func:`detect_closed`).
+    ``half_width_m`` [m]: drivable half width on both sides; None uses the file's per-point widths if it has them
+    (then ``Path.half_width_m`` is their minimum) else 3.5 m; a number overrides the file's widths.
+    ``smoothing_m`` [m]: RMS deviation the spline fit may make; None chooses it from the coordinates' rounding
+    (:func:`auto_smoothing_m`; 0 for full-precision values, which the fit then interpolates) and first averages
+    points denser than 0.5 m (:func:`average_dense_points`). A speed column is
+    kept as ``Path.v_ref_mps``. ``allow_self_crossing`` accepts a centre-line that crosses itself (projection with
+    a station guess keeps continuity across the crossing). Raises ValueError naming file, line and problem.
     """
     fs_path = FsPath(path)
-    x, y, z, lines = read_track_csv(fs_path)
+    columns, lines = read_track_columns(fs_path)
+    x, y, z = columns["x"], columns["y"], columns.get("z")
     try:
         check_points(x, y, z)  # counts, finiteness, duplicates, extent: before any geometry on the points
     except ValueError as exc:
         raise ValueError(f"{fs_path}: {exc}") from exc
-    gap = math.hypot(x[-1] - x[0], y[-1] - y[0])
     if closed is None:
-        closed = gap <= CLOSED_GAP_M
+        closed = detect_closed(x, y)
+    widths = np.column_stack((columns["w_left"], columns["w_right"])) if "w_left" in columns else None
+    v_ref = columns.get("v")
     px, py = x, y
     if closed:
-        if gap > 1e-9 * max(1.0, float(np.max(np.abs(x))), float(np.max(np.abs(y)))):
+        if math.hypot(x[-1] - x[0], y[-1] - y[0]) > 1e-9 * max(1.0, float(np.max(np.abs(x))),
+                                                              float(np.max(np.abs(y)))):
             px, py = np.append(x, x[0]), np.append(y, y[0])
         else:
             x, y = x[:-1], y[:-1]
             z = None if z is None else z[:-1]
-    hits = self_intersection_pairs(np.column_stack((px, py)), bool(closed))
-    if hits.shape[0]:
-        i, j = (int(v) for v in hits[0])
-        line_j = lines[j] if j < len(lines) else lines[0]
-        line_j1 = lines[j + 1] if j + 1 < len(lines) else lines[0]
-        raise ValueError(f"{fs_path}: the centre-line crosses itself (segment lines {lines[i]}-{lines[i + 1]} "
-                         f"meets segment lines {line_j}-{line_j1})")
+            widths = None if widths is None else widths[:-1]
+            v_ref = None if v_ref is None else v_ref[:-1]
+    if not allow_self_crossing:
+        _check_crossing(fs_path, px, py, bool(closed), lines)
+    if smoothing_m is None:
+        smoothing_m = auto_smoothing_m(x, y)
+        cols = {"x": x, "y": y}
+        for role, c in (("z", z), ("v", v_ref)):
+            if c is not None:
+                cols[role] = c
+        if widths is not None:
+            cols["wl"], cols["wr"] = widths[:, 0], widths[:, 1]
+        cols, k = average_dense_points(cols, bool(closed))
+        if k > 1:
+            x, y, z, v_ref = cols["x"], cols["y"], cols.get("z"), cols.get("v")
+            widths = None if widths is None else np.column_stack((cols["wl"], cols["wr"]))
+            smoothing_m /= math.sqrt(k)
+    if half_width_m is None:
+        half_width_m = DEFAULT_HALF_WIDTH_M if widths is None else float(widths.min())
+    else:
+        widths = None
     try:
         result = Path.from_points(x, y, z, bool(closed), smoothing_m=smoothing_m, ds_m=ds_m,
-                                  half_width_m=half_width_m, name=name or fs_path.stem)
+                                  half_width_m=half_width_m, name=name or fs_path.stem, widths_m=widths,
+                                  v_ref_mps=v_ref)
     except ValueError as exc:
         raise ValueError(f"{fs_path}: {exc}") from exc
-    if result.self_intersects():
+    if not allow_self_crossing and result.self_intersects():
         raise ValueError(f"{fs_path}: the fitted centre-line crosses itself (points too sparse or too noisy; "
                          "add points or raise smoothing_m)")
     return result
+
+
+__all__ = ["COLUMN_NAMES", "auto_smoothing_m", "average_dense_points", "detect_closed", "load_track_csv",
+           "read_track_columns", "read_track_csv", "rounding_quantum_m"]

@@ -3,29 +3,20 @@
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
-from vtrack_gym.tracks.path import (
-    COL_DKAPPA,
-    COL_GRADE,
-    COL_KAPPA,
-    COL_PSI,
-    COL_X,
-    COL_Y,
-    COL_Z,
-    COL_ZPP,
-    N_COLS,
-    _close_exactly,
-    _gauss_legendre,
-    _grid,
-)
+from vtrack_gym.tracks import table as tb
+from vtrack_gym.tracks.integration import gauss_legendre
+from vtrack_gym.tracks.table import close_exactly, uniform_grid
 
 MIN_POINTS = 4
 MAX_COORDINATE_M = 1.0e6     # |x|, |y|, |z| beyond 1000 km is not a road
 MAX_LENGTH_M = 200_000.0     # longest centre-line accepted (polyline and fitted) [m]
 MAX_LENGTH_GROWTH = 1.5      # a fit may not be longer than this x the polyline (smoothing gone wrong)
 _NEWTON_ITER = 4
+FINE_PER_POINT = 2           # arc-length quadrature intervals per input point (plus 4 per table row)
 
 
 def check_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None) -> None:
@@ -53,12 +44,21 @@ def check_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None) -> None:
         raise ValueError(f"points {k} and {k + 1} are duplicates ({x[k]}, {y[k]})")
 
 
+class Fit(NamedTuple):
+    """Result of :func:`fit_points`."""
+
+    table: np.ndarray                  # (n, 8) path table
+    ds_m: float                        # row spacing [m]
+    point_data: np.ndarray | None      # (n, k) per-point data carried to the rows, or None
+
+
 def fit_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None, closed: bool, smoothing_m: float,
-               ds_m: float) -> tuple[np.ndarray, float]:
+               ds_m: float, point_data: np.ndarray | None = None) -> Fit:
     """Path table (n, 8) and spacing [m] of a parametric spline through points x, y [m] (and elevation z [m]).
 
     Quintic (cubic below 8 points) ``scipy.interpolate.splprep`` spline, periodic when closed, smoothing factor
     ``n * smoothing_m^2``; arc length by Gauss-Legendre quadrature of |r'(u)|, inverted by Newton steps.
+    ``point_data`` (m, k), one row per point, is interpolated linearly in the chord parameter onto the rows.
     """
     from scipy.interpolate import splev, splprep
 
@@ -66,6 +66,9 @@ def fit_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None, closed: bool,
     if not (math.isfinite(smoothing_m) and smoothing_m >= 0.0):
         raise ValueError(f"smoothing_m must be >= 0 (got {smoothing_m})")
     pts = [x, y] if z is None else [x, y, z]
+    data = None if point_data is None else [point_data[:, k] for k in range(point_data.shape[1])]
+    if data is not None:
+        pts = pts + data
     if closed:
         scale = max(1.0, float(np.max(np.abs(x))), float(np.max(np.abs(y))))
         if math.hypot(x[-1] - x[0], y[-1] - y[0]) <= 1e-9 * scale:
@@ -73,6 +76,9 @@ def fit_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None, closed: bool,
         if pts[0].size < MIN_POINTS:
             raise ValueError(f"a closed path needs >= {MIN_POINTS} distinct points (got {pts[0].size})")
         pts = [np.append(p, p[0]) for p in pts]
+    if data is not None:
+        data = pts[-len(data):]
+        pts = pts[:-len(data)]
     m = pts[0].size
     chord = np.hypot(np.diff(pts[0]), np.diff(pts[1]))
     u = np.concatenate(([0.0], np.cumsum(chord)))
@@ -92,9 +98,9 @@ def fit_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None, closed: bool,
         return np.hypot(d[0], d[1])
 
     # Cumulative arc length on a fine parameter grid.
-    n_fine = 4 * math.ceil(u_end / ds_m) + 16 * m
+    n_fine = 4 * math.ceil(u_end / ds_m) + FINE_PER_POINT * m
     grid_u = np.linspace(0.0, u_end, n_fine + 1)
-    xi, om = _gauss_legendre(8)
+    xi, om = gauss_legendre(8)
     h = np.diff(grid_u)
     nodes = grid_u[:-1, None] + h[:, None] * xi[None, :]
     seg = h * (speed(nodes.ravel()).reshape(nodes.shape) @ om)
@@ -103,7 +109,7 @@ def fit_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None, closed: bool,
     if length > MAX_LENGTH_GROWTH * u_end + 10.0 * ds_m:
         raise ValueError(f"the fitted centre-line ({length:.4g} m) is much longer than the points' polyline "
                          f"({u_end:.4g} m): smoothing_m = {smoothing_m} is too large for these points")
-    n, ds = _grid(length, ds_m)
+    n, ds = uniform_grid(length, ds_m)
     s_target = np.arange(n) * ds
 
     # Invert s(u) with Newton steps from linear interpolation.
@@ -124,17 +130,18 @@ def fit_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None, closed: bool,
     cross = p1[0] * p2[1] - p1[1] * p2[0]
     dot = p1[0] * p2[0] + p1[1] * p2[1]
     dcross = p1[0] * p3[1] - p1[1] * p3[0]
-    table = np.zeros((n, N_COLS))
-    table[:, COL_X] = p0[0]
-    table[:, COL_Y] = p0[1]
-    table[:, COL_PSI] = np.unwrap(np.arctan2(p1[1], p1[0]))
-    table[:, COL_KAPPA] = cross / sp ** 3
-    table[:, COL_DKAPPA] = (dcross / sp ** 3 - 3.0 * cross * dot / sp ** 5) / sp
+    table = np.zeros((n, tb.N_COLS))
+    table[:, tb.COL_X] = p0[0]
+    table[:, tb.COL_Y] = p0[1]
+    table[:, tb.COL_PSI] = np.unwrap(np.arctan2(p1[1], p1[0]))
+    table[:, tb.COL_KAPPA] = cross / sp ** 3
+    table[:, tb.COL_DKAPPA] = (dcross / sp ** 3 - 3.0 * cross * dot / sp ** 5) / sp
     if tck_z is not None:
         z1 = splev(uj, tck_z, der=1)
-        table[:, COL_Z] = splev(uj, tck_z)
-        table[:, COL_GRADE] = z1 / sp
-        table[:, COL_ZPP] = splev(uj, tck_z, der=2) / sp ** 2 - z1 * dot / sp ** 4
+        table[:, tb.COL_Z] = splev(uj, tck_z)
+        table[:, tb.COL_GRADE] = z1 / sp
+        table[:, tb.COL_ZPP] = splev(uj, tck_z, der=2) / sp ** 2 - z1 * dot / sp ** 4
     if closed:
-        _close_exactly(table, s_target, "from_points")
-    return table, ds
+        close_exactly(table, s_target, "from_points", allow_zero_turns=True)  # a figure-eight turns 0 times
+    rows = None if data is None else np.column_stack([np.interp(uj, u, d) for d in data])
+    return Fit(table, ds, rows)

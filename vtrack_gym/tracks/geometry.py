@@ -1,8 +1,10 @@
-"""Polyline validators: self-intersection and minimum clearance between distant parts (numpy + scipy KD-tree)."""
+"""Polyline validators: self-intersection (uniform-grid bucketing, linear work) and minimum clearance between distant
+parts (scipy KD-tree)."""
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -28,32 +30,114 @@ def segments_intersect(p: np.ndarray, q: np.ndarray, r: np.ndarray, t: np.ndarra
     return crossing & box
 
 
+class Intersections(NamedTuple):
+    """Result of :func:`segment_intersections`."""
+
+    pairs: np.ndarray     # (k, 2) int64 index pairs (i, j), i < j, of non-adjacent segments that meet
+    candidates: int       # segment pairs tested exactly (the work done; linear in the points for a road)
+
+
+class TooDenseError(ValueError):
+    """More segments share one grid cell than a road can: ``points`` (i, j) are the first and last segment there."""
+
+    def __init__(self, message: str, points: tuple[int, int]) -> None:
+        super().__init__(message)
+        self.points = points
+
+
+def _sorted_unique(a: np.ndarray) -> np.ndarray:
+    """Sorted distinct values of a 1-D integer array (a sort and a mask: faster than np.unique's hashing here)."""
+    a = np.sort(a)
+    return a[np.concatenate(([True], a[1:] != a[:-1]))] if a.size else a
+
+
+def _pairs_within_groups(keys: np.ndarray, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """All (ids[p], ids[q]) with p < q inside each run of equal ``keys`` (keys sorted)."""
+    n = keys.size
+    start = np.flatnonzero(np.concatenate(([True], keys[1:] != keys[:-1])))
+    end = np.append(start[1:], n)
+    size = end - start
+    group_end = np.repeat(end, size)
+    count = group_end - np.arange(n) - 1
+    first = np.repeat(np.arange(n), count)
+    offset = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
+    return ids[first], ids[first + 1 + offset]
+
+
+def segment_intersections(xy: np.ndarray, closed: bool, max_candidates_per_segment: int = 64) -> Intersections:
+    """Non-adjacent segments xy[i]-xy[i+1], xy[j]-xy[j+1] of a polyline that meet (touching counts).
+
+    Uniform-grid bucketing: the cell size is the median segment length (at least total length / (4 n)), segments
+    longer than a cell are split into cell-sized pieces, and only segments sharing a cell are tested exactly, so
+    the work is linear in the points for a road-like line. A cluster that would need more than
+    ``max_candidates_per_segment`` x n tests (thousands of points on a few centimetres) raises
+    :class:`TooDenseError` instead of going quadratic. For a closed polyline the last point is expected to repeat
+    the first (segment n-2 then touches segment 0).
+    """
+    xy = np.asarray(xy, dtype=float)
+    n_seg = xy.shape[0] - 1
+    empty = np.zeros((0, 2), dtype=np.int64)
+    if n_seg < 3:
+        return Intersections(empty, 0)
+    a = xy[:-1]
+    b = xy[1:]
+    seg_len = np.hypot(*(b - a).T)
+    scale = max(1.0, float(np.max(np.abs(xy))))
+    cell = max(float(np.median(seg_len)), float(seg_len.sum()) / (4.0 * n_seg), 1e-9 * scale)
+    pieces = np.maximum(1, np.ceil(seg_len / cell)).astype(np.int64)
+    seg = np.repeat(np.arange(n_seg), pieces)
+    k = np.arange(seg.size) - np.repeat(np.cumsum(pieces) - pieces, pieces)
+    t0 = (k / pieces[seg])[:, None]
+    t1 = ((k + 1) / pieces[seg])[:, None]
+    d = b[seg] - a[seg]
+    p0 = a[seg] + t0 * d
+    p1 = a[seg] + t1 * d
+    eps = 1e-9 * scale
+    lo = np.floor((np.minimum(p0, p1) - eps) / cell).astype(np.int64)
+    hi = np.floor((np.maximum(p0, p1) + eps) / cell).astype(np.int64)
+    keys_list = []
+    ids_list = []
+    origin = lo.min(axis=0)
+    span_y = int(hi[:, 1].max() - origin[1]) + 1
+    for dx in range(3):
+        for dy in range(3):
+            cx = lo[:, 0] + dx
+            cy = lo[:, 1] + dy
+            ok = (cx <= hi[:, 0]) & (cy <= hi[:, 1])
+            keys_list.append((cx[ok] - origin[0]) * span_y + (cy[ok] - origin[1]))
+            ids_list.append(seg[ok])
+    # one entry per (cell, segment); cells <= (4 n + 3)^2, so cell * n_seg + segment fits in int64
+    entry = _sorted_unique(np.concatenate(keys_list) * n_seg + np.concatenate(ids_list))
+    keys, ids = entry // n_seg, entry % n_seg
+    start = np.flatnonzero(np.concatenate(([True], keys[1:] != keys[:-1])))
+    size = np.diff(np.append(start, keys.size))
+    work = int(np.sum(size * (size - 1) // 2))
+    budget = max_candidates_per_segment * n_seg + 100_000
+    if work > budget:
+        g = int(np.argmax(size))
+        members = ids[start[g]:start[g] + size[g]]
+        raise TooDenseError(f"{int(size[g])} segments (points {int(members.min())}-{int(members.max()) + 1}) pass "
+                            f"through one {cell:.3g} m cell: the points cluster or double back on themselves",
+                            (int(members.min()), int(members.max()) + 1))
+    i, j = _pairs_within_groups(keys, ids)
+    i, j = np.minimum(i, j), np.maximum(i, j)
+    keep = (j - i) > 1
+    if closed:
+        keep &= ~((i == 0) & (j == n_seg - 1))
+    i, j = i[keep], j[keep]
+    if i.size:
+        uniq = _sorted_unique(i * n_seg + j)
+        i, j = uniq // n_seg, uniq % n_seg
+    hit = segments_intersect(a[i], b[i], a[j], b[j])
+    return Intersections(np.column_stack((i[hit], j[hit])).astype(np.int64), int(i.size))
+
+
 def self_intersection_pairs(xy: np.ndarray, closed: bool) -> np.ndarray:
     """Index pairs (i, j), i < j, of non-adjacent segments xy[i]-xy[i+1] and xy[j]-xy[j+1] that meet.
 
     For a closed polyline the last point is expected to repeat the first (segment n-2 then touches segment 0).
     """
-    from scipy.spatial import cKDTree
-
-    xy = np.asarray(xy, dtype=float)
-    n_seg = xy.shape[0] - 1
-    if n_seg < 3:
-        return np.zeros((0, 2), dtype=np.int64)
-    a = xy[:-1]
-    b = xy[1:]
-    seg_len = np.hypot(*(b - a).T)
-    mid = 0.5 * (a + b)
-    radius = float(seg_len.max()) * (1.0 + 1e-9) + 1e-12
-    pairs = cKDTree(mid).query_pairs(radius, output_type="ndarray")
-    if pairs.size == 0:
-        return np.zeros((0, 2), dtype=np.int64)
-    i, j = np.minimum(pairs[:, 0], pairs[:, 1]), np.maximum(pairs[:, 0], pairs[:, 1])
-    keep = (j - i) > 1
-    if closed:
-        keep &= ~((i == 0) & (j == n_seg - 1))
-    i, j = i[keep], j[keep]
-    hit = segments_intersect(a[i], b[i], a[j], b[j])
-    return np.column_stack((i[hit], j[hit]))
+    return segment_intersections(xy, closed).pairs
 
 
 def polyline_self_intersects(xy: np.ndarray, closed: bool) -> bool:

@@ -1,70 +1,40 @@
-"""Arc-length parameterised, C^2-smooth centre-line stored as a uniformly sampled table.
+"""Arc-length parameterised, C^2-smooth centre-line (``Path``): a uniformly sampled table (schema in ``table``)
+with numpy interpolation and projection (``interpolation``), built by curvature integration (``integration``) or a
+spline fit of points (``fitting``).
 
 Conventions (ISO 8855): global X, Y, Z up; heading psi counter-clockwise from +X; curvature kappa > 0 for a left
-turn; lateral error e_y LEFT-positive, ``e_y = -(X - X_r) sin(psi_r) + (Y - Y_r) cos(psi_r)`` at the projection
-(closest point) s* of the point onto the path. Arc length s is measured in the horizontal plane.
-
-Table columns (float64, C-contiguous, row i at s = i * ds_m; closed paths repeat the start point at s = length_m
-with psi increased by 2 pi times the turning number):
-
-=====  ============  ======  ===============================
-index  constant      unit    meaning
-=====  ============  ======  ===============================
-0      COL_X         m       X
-1      COL_Y         m       Y
-2      COL_PSI       rad     heading psi, UNWRAPPED (continuous)
-3      COL_KAPPA     1/m     curvature kappa
-4      COL_DKAPPA    1/m^2   dkappa/ds
-5      COL_Z         m       elevation z
-6      COL_GRADE     -       grade dz/ds
-7      COL_ZPP       1/m     vertical curvature d2z/ds2
-=====  ============  ======  ===============================
-
-Interpolation between samples (identical here and in ``kernels.interp_row``): quintic Hermite for X and Y
-(values, unit tangent, curvature normal), psi (psi, kappa, dkappa) and z (z, grade, z''); cubic Hermite for kappa
-(kappa, dkappa) and grade (grade, z''); linear for dkappa and z''. It reproduces circular arcs to ~1e-15 m, so
-projections are exact on arcs and straights. The Python methods here use numpy only; the numba versions used by the
-env live in ``kernels`` (imported lazily, never by this module).
+turn; lateral error e_y LEFT-positive at the projection s* of the point onto the path. The numba versions used by
+the env live in ``kernels`` (imported lazily, never by this module).
 """
 
 from __future__ import annotations
 
-import logging
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any, NamedTuple, Protocol, runtime_checkable
+from typing import Any
 
 import numpy as np
 
+from vtrack_gym.tracks import table as tb
+from vtrack_gym.tracks.integration import (
+    ElevationLike,
+    Profile1D,
+    derivative_fd,
+    elevation_columns,
+    integrate_curvature,
+)
+from vtrack_gym.tracks.interpolation import arc_step, interp, wrap_angle, wrap_s
 from vtrack_gym.tracks.profiles import CurvatureProfile
+from vtrack_gym.tracks.table import CLOSURE_TOL_M, DEFAULT_DS_M, PathSample, Projection, close_exactly, uniform_grid
 
-logger = logging.getLogger(__name__)
+__all__ = ["DEFAULT_DS_M", "ElevationLike", "Gate", "Path", "PathSample", "Profile1D", "Projection", "wrap_angle"]
 
-COL_X, COL_Y, COL_PSI, COL_KAPPA, COL_DKAPPA, COL_Z, COL_GRADE, COL_ZPP = range(8)
-N_COLS = 8
-COLUMN_NAMES = ("x_m", "y_m", "psi_rad", "kappa_per_m", "dkappa_per_m2", "z_m", "grade", "zpp_per_m")
-DEFAULT_DS_M = 0.25
-CLOSURE_TOL_M = 1e-6            # closed paths: max start/end mismatch of X, Y [m] and psi (mod 2 pi) [rad]
 PROJECTION_TOL_M = 1e-10        # projection refinement stops when s moves less than this [m]
 PROJECTION_MAX_ITER = 12
-_GAUSS_ORDER = 8
-_CHUNK = 16384
-
-
-Profile1D = Callable[[np.ndarray], np.ndarray]
-
-
-@runtime_checkable
-class ElevationLike(Protocol):
-    """Elevation profile with analytic derivatives: z(s) [m], grade dz/ds [-], d2z/ds2 [1/m]."""
-
-    def z(self, s: np.ndarray) -> np.ndarray: ...
-
-    def grade(self, s: np.ndarray) -> np.ndarray: ...
-
-    def zpp(self, s: np.ndarray) -> np.ndarray: ...
+MAX_HALF_WIDTH_M = 100.0        # per-station half widths beyond this are not a road [m]
+MAX_V_REF_MPS = 150.0           # reference speeds beyond this are not a car's [m/s]
 
 
 @dataclass(frozen=True)
@@ -94,182 +64,17 @@ class Gate:
         return self.y_left_m - self.y_right_m
 
 
-class PathSample(NamedTuple):
-    """Interpolated path columns at the requested s (arrays of the shape of s)."""
-
-    x: np.ndarray       # [m]
-    y: np.ndarray       # [m]
-    psi: np.ndarray     # [rad], unwrapped
-    kappa: np.ndarray   # [1/m]
-    dkappa: np.ndarray  # [1/m^2]
-    z: np.ndarray       # [m]
-    grade: np.ndarray   # [-]
-    zpp: np.ndarray     # [1/m]
-
-
-class Projection(NamedTuple):
-    """Closest point of the path to each query point (arrays of shape (N,))."""
-
-    s: np.ndarray        # arc length of the projection s* [m] (wrapped / clamped)
-    e_y: np.ndarray      # lateral error, left-positive [m]
-    psi_ref: np.ndarray  # path heading at s* [rad], unwrapped table value
-    kappa: np.ndarray    # curvature at s* [1/m]
-    x_ref: np.ndarray    # X of the projection point [m]
-    y_ref: np.ndarray    # Y of the projection point [m]
-
-
-# ---------------------------------------------------------------------------------------------------------------
-# Interpolation (numpy twin of kernels.interp_row)
-# ---------------------------------------------------------------------------------------------------------------
-
-def _hermite5(p0: np.ndarray, d0: np.ndarray, c0: np.ndarray, p1: np.ndarray, d1: np.ndarray, c1: np.ndarray,
-              t: np.ndarray, h: float) -> np.ndarray:
-    """Quintic Hermite through values p, first derivatives d and second derivatives c at t = 0 and t = 1."""
-    t2 = t * t
-    t3 = t2 * t
-    t4 = t3 * t
-    t5 = t4 * t
-    h0 = 1.0 - 10.0 * t3 + 15.0 * t4 - 6.0 * t5
-    h1 = t - 6.0 * t3 + 8.0 * t4 - 3.0 * t5
-    h2 = 0.5 * (t2 - 3.0 * t3 + 3.0 * t4 - t5)
-    h3 = 0.5 * (t3 - 2.0 * t4 + t5)
-    h4 = -4.0 * t3 + 7.0 * t4 - 3.0 * t5
-    h5 = 10.0 * t3 - 15.0 * t4 + 6.0 * t5
-    return h0 * p0 + h1 * h * d0 + h2 * h * h * c0 + h3 * h * h * c1 + h4 * h * d1 + h5 * p1
-
-
-def _hermite3(p0: np.ndarray, d0: np.ndarray, p1: np.ndarray, d1: np.ndarray, t: np.ndarray, h: float) -> np.ndarray:
-    """Cubic Hermite through values p and derivatives d at t = 0 and t = 1."""
-    t2 = t * t
-    t3 = t2 * t
-    return ((2.0 * t3 - 3.0 * t2 + 1.0) * p0 + (t3 - 2.0 * t2 + t) * h * d0 + (-2.0 * t3 + 3.0 * t2) * p1
-            + (t3 - t2) * h * d1)
-
-
-def _wrap_s(s: np.ndarray, length: float, closed: bool) -> np.ndarray:
-    """s wrapped into [0, length) for closed paths, clamped to [0, length] for open ones [m]."""
-    if closed:
-        w = s - np.floor(s / length) * length
-        return np.where((w >= length) | (w < 0.0), 0.0, w)
-    return np.clip(s, 0.0, length)
-
-
-def _interp(table: np.ndarray, ds: float, length: float, closed: bool, s: np.ndarray) -> np.ndarray:
-    """All columns at arc lengths s (any shape) -> array of shape s.shape + (8,)."""
-    s = np.asarray(s, dtype=float)
-    sw = _wrap_s(s, length, closed)
-    n = table.shape[0]
-    i = np.minimum((sw / ds).astype(np.int64), n - 2)
-    t = (sw - i * ds) / ds
-    a = table[i]
-    b = table[i + 1]
-    out = np.empty((*s.shape, N_COLS))
-    ca, sa = np.cos(a[..., COL_PSI]), np.sin(a[..., COL_PSI])
-    cb, sb = np.cos(b[..., COL_PSI]), np.sin(b[..., COL_PSI])
-    ka, kb = a[..., COL_KAPPA], b[..., COL_KAPPA]
-    out[..., COL_X] = _hermite5(a[..., COL_X], ca, -ka * sa, b[..., COL_X], cb, -kb * sb, t, ds)
-    out[..., COL_Y] = _hermite5(a[..., COL_Y], sa, ka * ca, b[..., COL_Y], sb, kb * cb, t, ds)
-    out[..., COL_PSI] = _hermite5(a[..., COL_PSI], ka, a[..., COL_DKAPPA], b[..., COL_PSI], kb, b[..., COL_DKAPPA],
-                                  t, ds)
-    out[..., COL_KAPPA] = _hermite3(ka, a[..., COL_DKAPPA], kb, b[..., COL_DKAPPA], t, ds)
-    out[..., COL_DKAPPA] = a[..., COL_DKAPPA] + t * (b[..., COL_DKAPPA] - a[..., COL_DKAPPA])
-    out[..., COL_Z] = _hermite5(a[..., COL_Z], a[..., COL_GRADE], a[..., COL_ZPP], b[..., COL_Z], b[..., COL_GRADE],
-                                b[..., COL_ZPP], t, ds)
-    out[..., COL_GRADE] = _hermite3(a[..., COL_GRADE], a[..., COL_ZPP], b[..., COL_GRADE], b[..., COL_ZPP], t, ds)
-    out[..., COL_ZPP] = a[..., COL_ZPP] + t * (b[..., COL_ZPP] - a[..., COL_ZPP])
-    return out
-
-
-# ---------------------------------------------------------------------------------------------------------------
-# Curvature integration
-# ---------------------------------------------------------------------------------------------------------------
-
-def _gauss_legendre(order: int) -> tuple[np.ndarray, np.ndarray]:
-    """Gauss-Legendre nodes in (0, 1) and weights summing to 1."""
-    x, w = np.polynomial.legendre.leggauss(order)
-    return 0.5 * (x + 1.0), 0.5 * w
-
-
-def _integrate_curvature(kappa: Callable[[np.ndarray], np.ndarray], s_grid: np.ndarray, knots: np.ndarray,
-                         psi0: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Heading and position increments on s_grid [m] from kappa(s) [1/m].
-
-    Every grid interval is split at the profile knots; inside, heading is the nested Gauss-Legendre integral of
-    kappa and position the Gauss-Legendre integral of (cos psi, sin psi). Exact to round-off for piecewise
-    polynomial kappa of degree <= 15 between knots (arcs are exact circles, straights exact lines).
-    Returns (psi [rad], dX [m], dY [m]) with dX, dY relative to the start.
-    """
-    inner = knots[(knots > s_grid[0]) & (knots < s_grid[-1])]
-    b = np.union1d(s_grid, inner)
-    xi, om = _gauss_legendre(_GAUSS_ORDER)
-    n_int = b.size - 1
-    dpsi = np.empty(n_int)
-    dx = np.empty(n_int)
-    dy = np.empty(n_int)
-    psi_local = []
-    for lo in range(0, n_int, _CHUNK):
-        hi = min(lo + _CHUNK, n_int)
-        a = b[lo:hi]
-        w = b[lo + 1:hi + 1] - a
-        dpsi[lo:hi] = w * (kappa(a[:, None] + w[:, None] * xi[None, :]) @ om)
-        v = a[:, None, None] + w[:, None, None] * xi[None, :, None] * xi[None, None, :]
-        psi_local.append(w[:, None] * xi[None, :] * (kappa(v) @ om))
-    psi_b = psi0 + np.concatenate(([0.0], np.cumsum(dpsi)))
-    for k, lo in enumerate(range(0, n_int, _CHUNK)):
-        hi = min(lo + _CHUNK, n_int)
-        w = b[lo + 1:hi + 1] - b[lo:hi]
-        psi_u = psi_b[lo:hi, None] + psi_local[k]
-        dx[lo:hi] = w * (np.cos(psi_u) @ om)
-        dy[lo:hi] = w * (np.sin(psi_u) @ om)
-    x_b = np.concatenate(([0.0], np.cumsum(dx)))
-    y_b = np.concatenate(([0.0], np.cumsum(dy)))
-    idx = np.searchsorted(b, s_grid)
-    return psi_b[idx], x_b[idx], y_b[idx]
-
-
-def _derivative_fd(fn: Callable[[np.ndarray], np.ndarray], s: np.ndarray, h: float) -> np.ndarray:
-    """Fourth-order central finite difference of fn at s (fn must accept s +- 2h)."""
-    return (-fn(s + 2.0 * h) + 8.0 * fn(s + h) - 8.0 * fn(s - h) + fn(s - 2.0 * h)) / (12.0 * h)
-
-
-def _elevation_columns(elevation: Any, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(z [m], grade [-], z'' [1/m]) at s from None, an ElevationLike or a plain callable z(s)."""
-    if elevation is None:
-        zero = np.zeros_like(s)
-        return zero, zero.copy(), zero.copy()
-    if isinstance(elevation, ElevationLike):
-        return (np.asarray(elevation.z(s), dtype=float), np.asarray(elevation.grade(s), dtype=float),
-                np.asarray(elevation.zpp(s), dtype=float))
-    if callable(elevation):
-        z = np.asarray(elevation(s), dtype=float)
-        grade = _derivative_fd(elevation, s, 0.05)
-        zpp = (elevation(s + 0.1) - 2.0 * z + elevation(s - 0.1)) / 0.01
-        return z, np.asarray(grade, dtype=float), np.asarray(zpp, dtype=float)
-    raise ValueError(f"elevation must be None, an ElevationLike or a callable z(s) (got {type(elevation).__name__})")
-
-
-def _grid(length_m: float, ds_m: float) -> tuple[int, float]:
-    """Number of rows and the actual spacing [m] (<= ds_m) dividing length_m evenly."""
-    if not (math.isfinite(length_m) and length_m > 0.0):
-        raise ValueError(f"length_m must be > 0 (got {length_m})")
-    if not (math.isfinite(ds_m) and 0.0 < ds_m <= length_m):
-        raise ValueError(f"ds_m must be in (0, length_m={length_m}] (got {ds_m})")
-    n = math.ceil(length_m / ds_m - 1e-9) + 1
-    return n, length_m / (n - 1)
-
-
-# ---------------------------------------------------------------------------------------------------------------
-# Path
-# ---------------------------------------------------------------------------------------------------------------
-
 @dataclass(frozen=True, eq=False)
 class Path:
     """Arc-length parameterised centre-line (see the module docstring for the table layout and conventions).
 
     ``table`` (n, 8) float64 [see COL_*], ``ds_m`` sample spacing [m], ``length_m`` = (n - 1) ds_m [m] (derived),
     ``closed`` (s wraps modulo length_m), ``half_width_m`` drivable half width either side of the centre-line [m]
-    (off-road termination), ``name``, ``version`` and ``gates`` (cone gates, e.g. of the double lane change).
-    The table is copied and made read-only; equality is identity.
+    (off-road termination where no per-station widths are given), ``name``, ``version`` and ``gates`` (cone gates,
+    e.g. of the double lane change). Optional per-row data on the same s grid: ``widths_m`` (n, 2) the drivable half
+    widths LEFT and RIGHT of the centre-line [m] (query :meth:`half_widths`), ``v_ref_mps`` (n,) a reference speed
+    [m/s] (e.g. a racing line's speed column; used by ``speed_profiles.FileSpeed``). Closed paths repeat the first
+    row's values in the last row. Arrays are copied and made read-only; equality is identity.
     """
 
     table: np.ndarray = field(repr=False)
@@ -279,12 +84,14 @@ class Path:
     name: str = "path"
     version: str = "1"
     gates: tuple[Gate, ...] = ()
+    widths_m: np.ndarray | None = field(default=None, repr=False)
+    v_ref_mps: np.ndarray | None = field(default=None, repr=False)
     length_m: float = field(init=False)
 
     def __post_init__(self) -> None:
         table = np.array(self.table, dtype=np.float64, order="C", copy=True)
-        if table.ndim != 2 or table.shape[1] != N_COLS:
-            raise ValueError(f"Path.table must have shape (n, {N_COLS}) (got {table.shape})")
+        if table.ndim != 2 or table.shape[1] != tb.N_COLS:
+            raise ValueError(f"Path.table must have shape (n, {tb.N_COLS}) (got {table.shape})")
         if table.shape[0] < 4:
             raise ValueError(f"Path.table must have >= 4 rows (got {table.shape[0]})")
         if not np.all(np.isfinite(table)):
@@ -301,8 +108,8 @@ class Path:
             raise ValueError("Path.name and Path.version must be str")
         length = (table.shape[0] - 1) * float(ds)
         if self.closed:
-            gap = math.hypot(table[-1, COL_X] - table[0, COL_X], table[-1, COL_Y] - table[0, COL_Y])
-            turns = (table[-1, COL_PSI] - table[0, COL_PSI]) / (2.0 * math.pi)
+            gap = math.hypot(table[-1, tb.COL_X] - table[0, tb.COL_X], table[-1, tb.COL_Y] - table[0, tb.COL_Y])
+            turns = (table[-1, tb.COL_PSI] - table[0, tb.COL_PSI]) / (2.0 * math.pi)
             if gap > CLOSURE_TOL_M or abs(turns - round(turns)) * 2.0 * math.pi > CLOSURE_TOL_M:
                 raise ValueError("Path.table of a closed path must end where it starts (|dX, dY| <= "
                                  f"{CLOSURE_TOL_M} m, dpsi a multiple of 2 pi; got gap {gap:.3g} m, "
@@ -313,18 +120,41 @@ class Path:
                 raise ValueError(f"Path.gates[{k}] must be a Gate (got {type(g).__name__})")
             if g.s_start_m < 0.0 or g.s_end_m > length + 1e-9:
                 raise ValueError(f"Path.gates[{k}] must lie within [0, {length}] m (got [{g.s_start_m}, {g.s_end_m}])")
+        widths = self._row_data("widths_m", table.shape[0], 2, 0.0, MAX_HALF_WIDTH_M, "m")
+        v_ref = self._row_data("v_ref_mps", table.shape[0], 0, 0.0, MAX_V_REF_MPS, "m/s")
         table.flags.writeable = False
         object.__setattr__(self, "table", table)
+        object.__setattr__(self, "widths_m", widths)
+        object.__setattr__(self, "v_ref_mps", v_ref)
         object.__setattr__(self, "ds_m", float(ds))
         object.__setattr__(self, "closed", bool(self.closed))
         object.__setattr__(self, "half_width_m", float(hw))
         object.__setattr__(self, "gates", gates)
         object.__setattr__(self, "length_m", length)
 
+    def _row_data(self, name: str, n: int, width: int, low: float, high: float, unit: str) -> np.ndarray | None:
+        """Validated read-only copy of the optional per-row array ``name`` (shape (n,) or (n, width)), or None."""
+        value = getattr(self, name)
+        if value is None:
+            return None
+        arr = np.array(value, dtype=np.float64, order="C", copy=True)
+        shape = (n, width) if width else (n,)
+        if arr.shape != shape:
+            raise ValueError(f"Path.{name} must have shape {shape}, one row per table row (got {arr.shape})")
+        bad = ~(np.isfinite(arr) & (arr > low) & (arr <= high))
+        if np.any(bad):
+            row = int(np.argwhere(bad)[0][0])
+            raise ValueError(f"Path.{name} must be in ({low}, {high}] {unit} (row {row}: {arr[row]})")
+        if self.closed and not np.allclose(arr[0], arr[-1], rtol=0.0, atol=1e-9):
+            raise ValueError(f"Path.{name} of a closed path must repeat its first row in the last row "
+                             f"(got {arr[0]} and {arr[-1]})")
+        arr.flags.writeable = False
+        return arr
+
     def __reduce__(self) -> tuple[Any, ...]:
-        """Pickle through the constructor (re-validates; the restored table is read-only again)."""
+        """Pickle through the constructor (re-validates; the restored arrays are read-only again)."""
         return (type(self), (self.table, self.ds_m, self.closed, self.half_width_m, self.name, self.version,
-                             self.gates))
+                             self.gates, self.widths_m, self.v_ref_mps))
 
     # ----------------------------------------------------------------------------------------------- constructors
     @classmethod
@@ -362,45 +192,63 @@ class Path:
             raise ValueError(f"kappa must be a CurvatureProfile or a callable (got {type(kappa).__name__})")
         if length_m is None:
             raise ValueError("length_m is required when kappa is a plain callable")
-        n, ds = _grid(float(length_m), float(ds_m))
+        n, ds = uniform_grid(float(length_m), float(ds_m))
         s = np.arange(n) * ds
 
         def kap(v: np.ndarray) -> np.ndarray:
             return np.asarray(kappa_fn(v), dtype=float)
 
-        psi, dx, dy = _integrate_curvature(kap, s, knots, float(psi0_rad))
+        psi, dx, dy = integrate_curvature(kap, s, knots, float(psi0_rad))
         if dkappa is None:
-            dk = _derivative_fd(kap, s, 1e-3)
+            dk = derivative_fd(kap, s, 1e-3)
         else:
             dk = np.asarray(dkappa(s), dtype=float)
-        table = np.empty((n, N_COLS))
-        table[:, COL_X] = x0_m + dx
-        table[:, COL_Y] = y0_m + dy
-        table[:, COL_PSI] = psi
-        table[:, COL_KAPPA] = kap(s)
-        table[:, COL_DKAPPA] = dk
-        table[:, COL_Z], table[:, COL_GRADE], table[:, COL_ZPP] = _elevation_columns(elevation, s)
+        table = np.empty((n, tb.N_COLS))
+        table[:, tb.COL_X] = x0_m + dx
+        table[:, tb.COL_Y] = y0_m + dy
+        table[:, tb.COL_PSI] = psi
+        table[:, tb.COL_KAPPA] = kap(s)
+        table[:, tb.COL_DKAPPA] = dk
+        table[:, tb.COL_Z], table[:, tb.COL_GRADE], table[:, tb.COL_ZPP] = elevation_columns(elevation, s)
         if closed:
-            _close_exactly(table, s, name)
+            close_exactly(table, s, name)
         return cls(table, ds, closed=closed, half_width_m=half_width_m, name=name, version=version, gates=gates)
 
     @classmethod
     def from_points(cls, x: np.ndarray, y: np.ndarray, z: np.ndarray | None = None, closed: bool = False, *,
                     smoothing_m: float = 0.0, ds_m: float = DEFAULT_DS_M, half_width_m: float = 3.5,
-                    name: str = "path", version: str = "1") -> Path:
+                    name: str = "path", version: str = "1", widths_m: np.ndarray | None = None,
+                    v_ref_mps: np.ndarray | None = None) -> Path:
         """Fit a smooth parametric spline (scipy ``splprep``, quintic when >= 8 points, periodic when closed)
         through points x, y [m] (optional elevation z [m]) and resample it uniformly in arc length.
 
         ``smoothing_m`` [m] is the allowed RMS deviation from the points (0 interpolates). For a closed path do not
         repeat the first point at the end (an exact repeat is dropped). Curvature and its rate come from the
-        spline derivatives.
+        spline derivatives. Optional per-point ``widths_m`` (m, 2) [left, right half widths, m] and ``v_ref_mps``
+        (m,) [m/s] are carried to the table rows by linear interpolation along the points' chord length.
         """
         from vtrack_gym.tracks.fitting import fit_points
 
-        cols, ds = fit_points(np.asarray(x, dtype=float), np.asarray(y, dtype=float),
-                              None if z is None else np.asarray(z, dtype=float), bool(closed),
-                              float(smoothing_m), float(ds_m))
-        return cls(cols, ds, closed=bool(closed), half_width_m=half_width_m, name=name, version=version)
+        m = np.asarray(x).shape[0] if np.ndim(x) == 1 else -1
+        extra = []
+        if widths_m is not None:
+            w = np.asarray(widths_m, dtype=float)
+            if w.shape != (m, 2):
+                raise ValueError(f"widths_m must have shape ({m}, 2): left, right per point (got {w.shape})")
+            extra.append(w)
+        if v_ref_mps is not None:
+            v = np.asarray(v_ref_mps, dtype=float)
+            if v.shape != (m,):
+                raise ValueError(f"v_ref_mps must have shape ({m},), one speed per point (got {v.shape})")
+            extra.append(v[:, None])
+        fit = fit_points(np.asarray(x, dtype=float), np.asarray(y, dtype=float),
+                         None if z is None else np.asarray(z, dtype=float), bool(closed), float(smoothing_m),
+                         float(ds_m), np.hstack(extra) if extra else None)
+        rows = fit.point_data
+        widths = None if widths_m is None or rows is None else rows[:, :2]
+        v_ref = None if v_ref_mps is None or rows is None else rows[:, -1]
+        return cls(fit.table, fit.ds_m, closed=bool(closed), half_width_m=half_width_m, name=name, version=version,
+                   widths_m=widths, v_ref_mps=v_ref)
 
     # ---------------------------------------------------------------------------------------------------- queries
     @property
@@ -415,28 +263,57 @@ class Path:
 
     def wrap_s(self, s: np.ndarray) -> np.ndarray:
         """Arc length wrapped into [0, length) (closed) or clamped to [0, length] (open) [m]."""
-        return _wrap_s(np.asarray(s, dtype=float), self.length_m, self.closed)
+        return wrap_s(np.asarray(s, dtype=float), self.length_m, self.closed)
+
+    def _linear_rows(self, data: np.ndarray, s: np.ndarray | float) -> np.ndarray:
+        """Per-row data linearly interpolated at s [m] (wrapped / clamped like the table)."""
+        sw = wrap_s(np.asarray(s, dtype=float), self.length_m, self.closed)
+        i = np.minimum((sw / self.ds_m).astype(np.int64), self.n_samples - 2)
+        t = (sw - i * self.ds_m) / self.ds_m
+        if data.ndim == 2:
+            t = t[..., None]
+        return data[i] + t * (data[i + 1] - data[i])
+
+    def half_widths(self, s: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
+        """Drivable half widths (left [m], right [m]) of the road at arc length(s) s [m].
+
+        Per-station widths where the path has them (``widths_m``), else ``half_width_m`` on both sides. A car is
+        off the road when e_y > left or -e_y > right (e_y left-positive).
+        """
+        s = np.asarray(s, dtype=float)
+        if self.widths_m is None:
+            full = np.full(s.shape, self.half_width_m)
+            return full, full.copy()
+        w = self._linear_rows(self.widths_m, s)
+        return w[..., 0], w[..., 1]
+
+    def half_widths_rows(self) -> np.ndarray:
+        """Drivable half widths (left, right) [m] at every table row, shape (n, 2) (``half_width_m`` if the path
+        has no per-station widths): the array an env's compiled step can index like the table."""
+        if self.widths_m is None:
+            return np.full((self.n_samples, 2), self.half_width_m)
+        return np.array(self.widths_m)
 
     def sample(self, s: np.ndarray | float) -> PathSample:
         """Interpolated columns at arc length(s) s [m] (wrapped for closed, clamped for open paths)."""
-        out = _interp(self.table, self.ds_m, self.length_m, self.closed, np.asarray(s, dtype=float))
-        return PathSample(*(out[..., k] for k in range(N_COLS)))
+        out = interp(self.table, self.ds_m, self.length_m, self.closed, np.asarray(s, dtype=float))
+        return PathSample(*(out[..., k] for k in range(tb.N_COLS)))
 
     def sample_array(self, s: np.ndarray | float) -> np.ndarray:
         """Interpolated columns at s [m] as an array of shape s.shape + (8,) in table column order."""
-        return _interp(self.table, self.ds_m, self.length_m, self.closed, np.asarray(s, dtype=float))
+        return interp(self.table, self.ds_m, self.length_m, self.closed, np.asarray(s, dtype=float))
 
     def preview(self, s: np.ndarray | float, distances: np.ndarray) -> np.ndarray:
         """Curvature [1/m] at s + d for every s (N,) [m] and preview distance d (K,) [m] -> shape (N, K)."""
         s = np.atleast_1d(np.asarray(s, dtype=float))
         d = np.atleast_1d(np.asarray(distances, dtype=float))
-        out = _interp(self.table, self.ds_m, self.length_m, self.closed, s[:, None] + d[None, :])
-        return out[..., COL_KAPPA]
+        out = interp(self.table, self.ds_m, self.length_m, self.closed, s[:, None] + d[None, :])
+        return out[..., tb.COL_KAPPA]
 
     def bounds(self) -> tuple[float, float, float, float]:
         """(xmin, xmax, ymin, ymax) of the centre-line samples [m]."""
-        x = self.table[:, COL_X]
-        y = self.table[:, COL_Y]
+        x = self.table[:, tb.COL_X]
+        y = self.table[:, tb.COL_Y]
         return float(x.min()), float(x.max()), float(y.min()), float(y.max())
 
     @cached_property
@@ -463,7 +340,7 @@ class Path:
             centre = np.rint(self.wrap_s(s_guess[loc]) / self.ds_m).astype(np.int64)
             cand = centre[:, None] + np.arange(-half, half + 1)[None, :]
             cand = np.mod(cand, period) if self.closed else np.clip(cand, 0, n - 1)
-            d2 = (self.table[cand, COL_X] - x[loc, None]) ** 2 + (self.table[cand, COL_Y] - y[loc, None]) ** 2
+            d2 = (self.table[cand, tb.COL_X] - x[loc, None]) ** 2 + (self.table[cand, tb.COL_Y] - y[loc, None]) ** 2
             idx[loc] = cand[np.arange(cand.shape[0]), np.argmin(d2, axis=1)]
         return idx
 
@@ -482,19 +359,19 @@ class Path:
         s = self._coarse(x, y, guess, float(window_m)) * self.ds_m
         step_max = max(4.0 * self.ds_m, 2.0)
         for _ in range(PROJECTION_MAX_ITER):
-            row = _interp(self.table, self.ds_m, self.length_m, self.closed, s)
-            delta = _arc_step(x, y, row, step_max)
-            s_new = _wrap_s(s + delta, self.length_m, self.closed)
+            row = interp(self.table, self.ds_m, self.length_m, self.closed, s)
+            delta = arc_step(x, y, row, step_max)
+            s_new = wrap_s(s + delta, self.length_m, self.closed)
             moved = np.abs(s_new - s)
             if self.closed:
                 moved = np.minimum(moved, self.length_m - moved)
             s = s_new
             if np.all(moved < PROJECTION_TOL_M):
                 break
-        row = _interp(self.table, self.ds_m, self.length_m, self.closed, s)
-        psi = row[:, COL_PSI]
-        e_y = -(x - row[:, COL_X]) * np.sin(psi) + (y - row[:, COL_Y]) * np.cos(psi)
-        return Projection(s, e_y, psi, row[:, COL_KAPPA], row[:, COL_X], row[:, COL_Y])
+        row = interp(self.table, self.ds_m, self.length_m, self.closed, s)
+        psi = row[:, tb.COL_PSI]
+        e_y = -(x - row[:, tb.COL_X]) * np.sin(psi) + (y - row[:, tb.COL_Y]) * np.cos(psi)
+        return Projection(s, e_y, psi, row[:, tb.COL_KAPPA], row[:, tb.COL_X], row[:, tb.COL_Y])
 
     def frenet_errors(self, x: np.ndarray, y: np.ndarray, psi: np.ndarray,
                       s_guess: np.ndarray | float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -517,48 +394,3 @@ class Path:
             return polyline_min_gap_violated(sub, s_sub, self.length_m if self.closed else None, clearance_m)
         return False
 
-
-def wrap_angle(a: np.ndarray) -> np.ndarray:
-    """Angle(s) wrapped to (-pi, pi] [rad]."""
-    w = np.mod(np.asarray(a, dtype=float) + np.pi, 2.0 * np.pi)
-    w = np.where(w <= 0.0, w + 2.0 * np.pi, w)
-    return w - np.pi
-
-
-def _arc_step(x: np.ndarray, y: np.ndarray, row: np.ndarray, step_max: float) -> np.ndarray:
-    """Arc-length step from the reference point in ``row`` to the projection of (x, y) onto its osculating circle."""
-    psi = row[..., COL_PSI]
-    kap = row[..., COL_KAPPA]
-    c, s = np.cos(psi), np.sin(psi)
-    px = x - row[..., COL_X]
-    py = y - row[..., COL_Y]
-    along = px * c + py * s
-    lateral = -px * s + py * c
-    small = np.abs(kap) < 1e-12
-    safe = np.where(small, 1.0, kap)
-    arc = np.arctan2(safe * along, 1.0 - safe * lateral) / safe
-    return np.clip(np.where(small, along, arc), -step_max, step_max)
-
-
-def _close_exactly(table: np.ndarray, s: np.ndarray, name: str) -> None:
-    """Check the closure of a closed table and spread the (round-off) residual linearly along s, in place."""
-    length = s[-1]
-    gx = table[-1, COL_X] - table[0, COL_X]
-    gy = table[-1, COL_Y] - table[0, COL_Y]
-    dpsi = table[-1, COL_PSI] - table[0, COL_PSI]
-    turns = round(dpsi / (2.0 * math.pi))
-    rpsi = dpsi - 2.0 * math.pi * turns
-    if math.hypot(gx, gy) > CLOSURE_TOL_M or abs(rpsi) > CLOSURE_TOL_M or turns == 0:
-        raise ValueError(f"path {name!r} does not close: end - start = ({gx:.3g}, {gy:.3g}) m, heading change "
-                         f"{dpsi:.9f} rad (need |gap| <= {CLOSURE_TOL_M} m and a non-zero multiple of 2 pi)")
-    ramp = s / length
-    table[:, COL_X] -= gx * ramp
-    table[:, COL_Y] -= gy * ramp
-    table[:, COL_PSI] -= rpsi * ramp
-    table[-1, COL_X] = table[0, COL_X]
-    table[-1, COL_Y] = table[0, COL_Y]
-    for col, unit in ((COL_KAPPA, "1/m"), (COL_DKAPPA, "1/m^2"), (COL_Z, "m"), (COL_GRADE, "-")):
-        jump = abs(table[-1, col] - table[0, col])
-        if jump > 1e-6:
-            logger.warning("closed path %r: %s jumps by %.3g %s across the closure", name, COLUMN_NAMES[col], jump,
-                           unit)

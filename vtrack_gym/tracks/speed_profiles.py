@@ -1,0 +1,190 @@
+"""Reference speed along a path, v_ref(s): constant, curvature-limited, or the path's own speed column.
+
+A profile is a frozen parameter dataclass; :func:`speed_table` evaluates it on a path's rows and returns a
+:class:`SpeedTable` (one speed per table row, the same s grid) with the queries ``v_ref(s)`` and ``preview``.
+Between rows v^2 is interpolated linearly, so a ramp of constant acceleration a is exact everywhere
+(v^2 linear in s with slope 2a), and a limit that holds at the rows holds in between.
+
+``CurvatureLimited`` is the usual two-pass profile: the lateral limit v <= sqrt(a_lat / |kappa|) (capped at
+the maximum speed), then a forward pass (v_{i+1}^2 <= v_i^2 + 2 a_accel ds) and a backward pass
+(v_i^2 <= v_{i+1}^2 + 2 a_decel ds). On a closed loop the passes start at the slowest point of the lateral
+limit, which no pass can lower, and run once around, so the profile is consistent across the wrap.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from vtrack_gym.tracks._validate import check_range
+from vtrack_gym.tracks.interpolation import wrap_s
+from vtrack_gym.tracks.path import MAX_V_REF_MPS, Path
+
+MAX_ACCEL_MPS2 = 30.0      # upper bound of every acceleration parameter (3 g) [m/s^2]
+KAPPA_FLOOR_PER_M = 1e-9   # |kappa| below this is a straight for the lateral limit [1/m]
+SUBSTEPS = 16              # curvature samples per row interval for the lateral limit
+
+
+@runtime_checkable
+class SpeedProfile(Protocol):
+    """A speed profile: reference speed [m/s] at every row of a path's table."""
+
+    def row_speeds(self, path: Path) -> np.ndarray: ...
+
+
+@dataclass(frozen=True)
+class ConstantSpeed:
+    """v_ref(s) = v_mps [m/s] everywhere."""
+
+    v_mps: float
+
+    def __post_init__(self) -> None:
+        check_range(self, "v_mps", 0.0, MAX_V_REF_MPS)
+
+    def row_speeds(self, path: Path) -> np.ndarray:
+        """Reference speed at every row of ``path`` [m/s]."""
+        return np.full(path.n_samples, float(self.v_mps))
+
+
+@dataclass(frozen=True)
+class CurvatureLimited:
+    """Fastest profile within the limits: speed <= ``max_speed_mps`` [m/s], lateral acceleration v^2 |kappa| <=
+    ``max_lateral_accel_mps2`` [m/s^2], longitudinal acceleration <= ``max_accel_mps2`` and deceleration <=
+    ``max_decel_mps2`` [m/s^2] (see the module docstring for the passes)."""
+
+    max_speed_mps: float
+    max_lateral_accel_mps2: float
+    max_accel_mps2: float = 2.0
+    max_decel_mps2: float = 3.0
+
+    def __post_init__(self) -> None:
+        check_range(self, "max_speed_mps", 0.0, MAX_V_REF_MPS)
+        for name in ("max_lateral_accel_mps2", "max_accel_mps2", "max_decel_mps2"):
+            check_range(self, name, 0.0, MAX_ACCEL_MPS2)
+
+    def lateral_limit(self, kappa_per_m: np.ndarray) -> np.ndarray:
+        """min(max_speed, sqrt(a_lat / |kappa|)) [m/s] for curvatures kappa [1/m]."""
+        k = np.maximum(np.abs(np.asarray(kappa_per_m, dtype=float)), KAPPA_FLOOR_PER_M)
+        return np.minimum(self.max_speed_mps, np.sqrt(self.max_lateral_accel_mps2 / k))
+
+    def row_speeds(self, path: Path) -> np.ndarray:
+        """Reference speed at every row of ``path`` [m/s].
+
+        The lateral limit at a row uses the largest |kappa| on the two row intervals next to it (sampled
+        ``SUBSTEPS`` times per interval), so that with v^2 linear between rows the limit holds between rows too,
+        where the interpolated curvature may exceed both ends slightly.
+        """
+        n = path.n_samples
+        s_fine = np.arange((n - 1) * SUBSTEPS + 1) * (path.ds_m / SUBSTEPS)
+        s_fine[-1] = min(s_fine[-1], path.length_m)
+        k_fine = np.abs(path.sample(s_fine).kappa)
+        k_interval = np.maximum(k_fine[:-1].reshape(n - 1, SUBSTEPS).max(axis=1), k_fine[SUBSTEPS::SUBSTEPS])
+        if path.closed:                                 # rows 0 and n - 1 are the same point
+            k_env = np.maximum(k_interval, np.roll(k_interval, 1))          # intervals i - 1 and i of row i
+            v2 = self.lateral_limit(k_env) ** 2
+            start = int(np.argmin(v2))
+            v2 = np.roll(v2, -start)
+            v2 = np.append(v2, v2[0])                   # once around, from the slowest point back to it
+            _passes(v2, path.ds_m, self.max_accel_mps2, self.max_decel_mps2)
+            v2 = np.roll(v2[:-1], start)
+            v2 = np.append(v2, v2[0])
+        else:
+            k_env = np.maximum(np.append(k_interval, k_interval[-1]), np.insert(k_interval, 0, k_interval[0]))
+            v2 = self.lateral_limit(k_env) ** 2
+            _passes(v2, path.ds_m, self.max_accel_mps2, self.max_decel_mps2)
+        return np.sqrt(v2)
+
+
+@dataclass(frozen=True)
+class FileSpeed:
+    """The path's own speed column (``Path.v_ref_mps``, e.g. a CSV ``v_mps`` column), times ``scale`` [-]."""
+
+    scale: float = 1.0
+
+    def __post_init__(self) -> None:
+        check_range(self, "scale", 0.0, 10.0)
+
+    def row_speeds(self, path: Path) -> np.ndarray:
+        """Reference speed at every row of ``path`` [m/s]; ValueError if the path has no speed column."""
+        if path.v_ref_mps is None:
+            raise ValueError(f"track {path.name!r} has no speed column: add a 'v_mps' column to the file, or use "
+                             "ConstantSpeed / CurvatureLimited")
+        return np.asarray(path.v_ref_mps, dtype=float) * float(self.scale)
+
+
+def _passes(v2: np.ndarray, ds_m: float, accel_mps2: float, decel_mps2: float) -> None:
+    """Forward (acceleration) then backward (deceleration) pass on squared speeds v2 [m^2/s^2], in place."""
+    up = 2.0 * accel_mps2 * ds_m
+    down = 2.0 * decel_mps2 * ds_m
+    for i in range(1, v2.size):
+        v2[i] = min(v2[i], v2[i - 1] + up)
+    for i in range(v2.size - 2, -1, -1):
+        v2[i] = min(v2[i], v2[i + 1] + down)
+
+
+@dataclass(frozen=True, eq=False)
+class SpeedTable:
+    """Reference speed on a path's rows: ``v_mps`` (n,) [m/s] at s = i ds_m, ``closed`` wraps s like the path.
+    Built by :func:`speed_table`; the array is read-only."""
+
+    v_mps: np.ndarray = field(repr=False)
+    ds_m: float
+    closed: bool
+    profile: SpeedProfile
+    length_m: float = field(init=False)
+
+    def __post_init__(self) -> None:
+        v = np.array(self.v_mps, dtype=np.float64, copy=True)
+        if v.ndim != 1 or v.size < 2 or not np.all(np.isfinite(v)) or np.any(v <= 0.0):
+            raise ValueError("SpeedTable.v_mps must be a 1-D array of >= 2 finite speeds > 0 m/s")
+        v.flags.writeable = False
+        object.__setattr__(self, "v_mps", v)
+        object.__setattr__(self, "length_m", (v.size - 1) * float(self.ds_m))
+
+    def v_ref(self, s: np.ndarray | float) -> np.ndarray:
+        """Reference speed [m/s] at arc length(s) s [m] (v^2 linear between rows; wrapped or clamped like the path)."""
+        sw = wrap_s(np.asarray(s, dtype=float), self.length_m, self.closed)
+        i = np.minimum((sw / self.ds_m).astype(np.int64), self.v_mps.size - 2)
+        t = (sw - i * self.ds_m) / self.ds_m
+        a = self.v_mps[i] ** 2
+        return np.sqrt(a + t * (self.v_mps[i + 1] ** 2 - a))
+
+    def preview(self, s: np.ndarray | float, distances: np.ndarray) -> np.ndarray:
+        """Reference speed [m/s] at s + d for every s (N,) [m] and preview distance d (K,) [m] -> shape (N, K)."""
+        s = np.atleast_1d(np.asarray(s, dtype=float))
+        d = np.atleast_1d(np.asarray(distances, dtype=float))
+        return self.v_ref(s[:, None] + d[None, :])
+
+
+def speed_table(path: Path, profile: SpeedProfile) -> SpeedTable:
+    """Evaluate ``profile`` on the rows of ``path`` -> :class:`SpeedTable`."""
+    if not isinstance(profile, SpeedProfile):
+        raise ValueError("speed profile must be ConstantSpeed, CurvatureLimited or FileSpeed (got "
+                         f"{type(profile).__name__})")
+    v = profile.row_speeds(path)
+    if v.shape != (path.n_samples,) or not np.all(np.isfinite(v)) or np.any(v <= 0.0):
+        raise ValueError(f"speed profile {profile!r} gave invalid speeds on track {path.name!r}")
+    return SpeedTable(v, path.ds_m, path.closed, profile)
+
+
+def as_speed_profile(spec: SpeedProfile | float | str) -> SpeedProfile:
+    """A profile from a profile object, a number (constant speed [m/s]) or ``"file"`` (the track's speed column)."""
+    if isinstance(spec, SpeedProfile):
+        return spec
+    if isinstance(spec, (int, float)) and not isinstance(spec, bool):
+        return ConstantSpeed(float(spec))
+    if spec == "file":
+        return FileSpeed()
+    raise ValueError(f"speed_profile must be ConstantSpeed, CurvatureLimited, FileSpeed, a speed in m/s or 'file' "
+                     f"(got {spec!r})")
+
+
+def lateral_accel_mps2(table: SpeedTable, path: Path, s: np.ndarray) -> np.ndarray:
+    """v_ref(s)^2 |kappa(s)| [m/s^2] at arc lengths s [m] (the lateral acceleration the profile asks for)."""
+    return table.v_ref(s) ** 2 * np.abs(path.sample(s).kappa)
+
+
+__all__ = ["ConstantSpeed", "CurvatureLimited", "FileSpeed", "SpeedProfile", "SpeedTable", "as_speed_profile",
+           "lateral_accel_mps2", "speed_table"]

@@ -124,12 +124,12 @@ def test_constant_and_file_profiles_and_preview() -> None:
 
 
 @pytest.mark.parametrize(("build", "message"), [
-    (lambda: ConstantSpeed(0.0), r"ConstantSpeed\.v_mps must be in \(0\.0, 150\.0\] \(got 0\.0\)"),
-    (lambda: ConstantSpeed(float("nan")), r"ConstantSpeed\.v_mps must be in"),
+    (lambda: ConstantSpeed(0.0), r"ConstantSpeed\.v_mps must be in \(0\.0, 150\.0\] m/s \(got 0\.0\)"),
+    (lambda: ConstantSpeed(float("nan")), r"ConstantSpeed\.v_mps must be a finite number in"),
     (lambda: CurvatureLimited(-1.0, 3.0), r"CurvatureLimited\.max_speed_mps must be in \(0\.0, 150\.0\]"),
     (lambda: CurvatureLimited(10.0, 0.0), r"CurvatureLimited\.max_lateral_accel_mps2 must be in \(0\.0, 30\.0\]"),
     (lambda: CurvatureLimited(10.0, 3.0, max_accel_mps2=31.0), r"CurvatureLimited\.max_accel_mps2 must be in"),
-    (lambda: CurvatureLimited(10.0, 3.0, max_decel_mps2=True), r"CurvatureLimited\.max_decel_mps2 must be in"),
+    (lambda: CurvatureLimited(10.0, 3.0, max_decel_mps2=True), r"CurvatureLimited\.max_decel_mps2 must be a finite number in"),
     (lambda: FileSpeed(scale=-1.0), r"FileSpeed\.scale must be in"),
 ])
 def test_parameters_are_validated(build, message) -> None:

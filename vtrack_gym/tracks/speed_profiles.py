@@ -18,7 +18,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from vtrack_gym.tracks._validate import check_range
+from vtrack_gym._ranges import documented, ranged, validate
 from vtrack_gym.tracks.interpolation import wrap_s
 from vtrack_gym.tracks.path import MAX_V_REF_MPS, Path
 
@@ -34,35 +34,35 @@ class SpeedProfile(Protocol):
     def row_speeds(self, path: Path) -> np.ndarray: ...
 
 
+@documented
 @dataclass(frozen=True)
 class ConstantSpeed:
     """v_ref(s) = v_mps [m/s] everywhere."""
 
-    v_mps: float
+    v_mps: float = ranged(gt=0.0, le=MAX_V_REF_MPS, unit="m/s")
 
     def __post_init__(self) -> None:
-        check_range(self, "v_mps", 0.0, MAX_V_REF_MPS)
+        validate(self)
 
     def row_speeds(self, path: Path) -> np.ndarray:
         """Reference speed at every row of ``path`` [m/s]."""
         return np.full(path.n_samples, float(self.v_mps))
 
 
+@documented
 @dataclass(frozen=True)
 class CurvatureLimited:
     """Fastest profile within the limits: speed <= ``max_speed_mps`` [m/s], lateral acceleration v^2 |kappa| <=
     ``max_lateral_accel_mps2`` [m/s^2], longitudinal acceleration <= ``max_accel_mps2`` and deceleration <=
     ``max_decel_mps2`` [m/s^2] (see the module docstring for the passes)."""
 
-    max_speed_mps: float
-    max_lateral_accel_mps2: float
-    max_accel_mps2: float = 2.0
-    max_decel_mps2: float = 3.0
+    max_speed_mps: float = ranged(gt=0.0, le=MAX_V_REF_MPS, unit="m/s")
+    max_lateral_accel_mps2: float = ranged(gt=0.0, le=MAX_ACCEL_MPS2, unit="m/s^2")
+    max_accel_mps2: float = ranged(2.0, gt=0.0, le=MAX_ACCEL_MPS2, unit="m/s^2")
+    max_decel_mps2: float = ranged(3.0, gt=0.0, le=MAX_ACCEL_MPS2, unit="m/s^2")
 
     def __post_init__(self) -> None:
-        check_range(self, "max_speed_mps", 0.0, MAX_V_REF_MPS)
-        for name in ("max_lateral_accel_mps2", "max_accel_mps2", "max_decel_mps2"):
-            check_range(self, name, 0.0, MAX_ACCEL_MPS2)
+        validate(self)
 
     def lateral_limit(self, kappa_per_m: np.ndarray) -> np.ndarray:
         """min(max_speed, sqrt(a_lat / |kappa|)) [m/s] for curvatures kappa [1/m]."""
@@ -97,14 +97,15 @@ class CurvatureLimited:
         return np.sqrt(v2)
 
 
+@documented
 @dataclass(frozen=True)
 class FileSpeed:
     """The path's own speed column (``Path.v_ref_mps``, e.g. a CSV ``v_mps`` column), times ``scale`` [-]."""
 
-    scale: float = 1.0
+    scale: float = ranged(1.0, gt=0.0, le=10.0)
 
     def __post_init__(self) -> None:
-        check_range(self, "scale", 0.0, 10.0)
+        validate(self)
 
     def row_speeds(self, path: Path) -> np.ndarray:
         """Reference speed at every row of ``path`` [m/s]; ValueError if the path has no speed column."""

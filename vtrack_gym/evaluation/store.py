@@ -169,7 +169,11 @@ class ResultStore:
             immutable = not wal.exists()
             try:
                 with closing(self._connect_ro(immutable)) as con:
-                    return fn(con)
+                    try:
+                        return fn(con)
+                    except (sqlite3.Error, UnicodeError) as exc:  # e.g. a text value that is not UTF-8
+                        raise StoreError(f"{self.path} is corrupted ({type(exc).__name__}: {exc}); it was left "
+                                         "untouched") from exc
             except StoreError:
                 if attempt == 0 and immutable and wal.exists():
                     continue
@@ -259,7 +263,8 @@ class ResultStore:
                                          ("rows_digest", "0" * 64)])
                     con.execute("COMMIT")
                 except BaseException:
-                    con.execute("ROLLBACK")
+                    if con.in_transaction:  # SQLite rolls back by itself on SQLITE_FULL
+                        con.execute("ROLLBACK")
                     raise
             except sqlite3.DatabaseError as exc:
                 raise StoreError(f"cannot create the store {self.path}: {_storage_problem(exc)}") from exc
@@ -292,7 +297,8 @@ class ResultStore:
                     self._insert(con, pending)
                     con.execute("COMMIT")
                 except BaseException:
-                    con.execute("ROLLBACK")
+                    if con.in_transaction:  # SQLite rolls back by itself on SQLITE_FULL
+                        con.execute("ROLLBACK")
                     raise
         except sqlite3.Error as exc:
             raise StoreError(f"could not write {len(pending)} rows to {self.path}: {_storage_problem(exc)}; "
@@ -329,7 +335,8 @@ class ResultStore:
         out = []
         for values in raw:
             stored_hash = values[-1]
-            if not isinstance(stored_hash, str) or row_sha256(values[:-1]) != stored_hash:
+            if (not all(v is None or isinstance(v, (str, int, float)) for v in values)
+                    or row_sha256(values[:-1]) != stored_hash):
                 raise StoreError(f"{self.path} is corrupted (row {values[0]!r} does not match its checksum)")
             digest ^= int(stored_hash, 16)
             d = dict(zip(_COLUMNS, values[:-1], strict=True))

@@ -25,7 +25,7 @@ _CSP = ("default-src 'none'; img-src data:; style-src 'unsafe-inline'; script-sr
 _STYLE = """
 body { font-family: system-ui, sans-serif; margin: 1.5em; color: #111; background: #fff; }
 table { border-collapse: collapse; font-size: 14px; }
-th, td { border: 1px solid #888; padding: 4px 8px; }
+th, td { border: 1px solid #888; padding: 4px 8px; white-space: nowrap; }
 th { background: #dde4f0; cursor: pointer; user-select: none; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; }
 tbody tr:nth-child(even) { background: #f2f2f2; }

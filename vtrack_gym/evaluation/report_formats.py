@@ -8,7 +8,7 @@ from stores that may have been written by someone else, so every format treats t
 * CSV: quoting by the csv module, and a cell starting with ``= + - @``, a tab or a carriage return (also after
   leading blanks) is prefixed with ``'`` so spreadsheets do not run it as a formula; NaN is an empty cell;
 * JSON: NaN/inf as ``null``;
-* LaTeX: the ten special characters escaped, control characters shown as escapes.
+* LaTeX: the ten special characters and ``| < >`` escaped, control characters shown as escapes.
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ import io
 import json
 import math
 import re
+from collections.abc import Callable
 from typing import Any
 
 from vtrack_gym.evaluation.board import metric_value
@@ -26,7 +27,8 @@ _CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u2028\u2029]")
 _MD_SPECIAL = re.compile(r"([\\`*\[\]<>|~&#!]|(?<![A-Za-z0-9])_|_(?![A-Za-z0-9]))")  # intraword _ is inert
 _CSV_FORMULA_START = ("=", "+", "-", "@", "\t", "\r", "\uff1d", "\uff0b", "\uff0d", "\uff20")
 _LATEX_SPECIAL = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#", "_": r"\_",
-                  "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}", "^": r"\textasciicircum{}"}
+                  "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}", "^": r"\textasciicircum{}",
+                  "|": r"\textbar{}", "<": r"\textless{}", ">": r"\textgreater{}"}
 
 
 def visible_controls(text: str) -> str:
@@ -45,6 +47,21 @@ def _is_missing(value: Any) -> bool:
     return (isinstance(value, float) and not math.isfinite(value)) or value is None
 
 
+def _text_cells(entry: dict[str, Any], cols: list[str], digits: int, missing: str,
+                escape: Callable[[str], str]) -> list[str]:
+    """Cells of one row: ``missing`` for NaN/None, numbers with ``digits`` significant digits, text escaped."""
+    cells = []
+    for c in cols:
+        v = entry[c]
+        if _is_missing(v):
+            cells.append(missing)
+        elif isinstance(v, (int, float)) and not isinstance(v, bool):
+            cells.append(format_number(v, digits))
+        else:
+            cells.append(escape(str(v)))
+    return cells
+
+
 def markdown_escape(text: str) -> str:
     """One Markdown table cell showing ``text`` literally (no row breaks, pipes, links, HTML or emphasis)."""
     return _MD_SPECIAL.sub(r"\\\1", visible_controls(text))
@@ -57,16 +74,7 @@ def to_markdown(board: list[dict[str, Any]], digits: int = 3) -> str:
     cols = list(board[0])
     lines = ["| " + " | ".join(markdown_escape(c) for c in cols) + " |", "|" + "|".join("---" for _ in cols) + "|"]
     for entry in board:
-        cells = []
-        for c in cols:
-            v = entry[c]
-            if _is_missing(v):
-                cells.append("–")
-            elif isinstance(v, (int, float)) and not isinstance(v, bool):
-                cells.append(format_number(v, digits))
-            else:
-                cells.append(markdown_escape(str(v)))
-        lines.append("| " + " | ".join(cells) + " |")
+        lines.append("| " + " | ".join(_text_cells(entry, cols, digits, "–", markdown_escape)) + " |")
     return "\n".join(lines)
 
 
@@ -126,15 +134,6 @@ def to_latex(board: list[dict[str, Any]], digits: int = 3) -> str:
     lines = [f"\\begin{{tabular}}{{{spec}}}", r"\toprule",
              " & ".join(latex_escape(c) for c in cols) + r" \\", r"\midrule"]
     for entry in board:
-        cells = []
-        for c in cols:
-            v = entry[c]
-            if _is_missing(v):
-                cells.append("--")
-            elif isinstance(v, (int, float)) and not isinstance(v, bool):
-                cells.append(format_number(v, digits))
-            else:
-                cells.append(latex_escape(str(v)))
-        lines.append(" & ".join(cells) + r" \\")
+        lines.append(" & ".join(_text_cells(entry, cols, digits, "--", latex_escape)) + r" \\")
     lines += [r"\bottomrule", r"\end{tabular}"]
     return "\n".join(lines)

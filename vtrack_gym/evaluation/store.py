@@ -20,6 +20,7 @@ A store file may come from someone else, so it is data, never code:
 
 from __future__ import annotations
 
+import contextlib
 import datetime as dt
 import functools
 import hashlib
@@ -27,7 +28,7 @@ import json
 import math
 import re
 import sqlite3
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -125,6 +126,20 @@ def _storage_problem(exc: sqlite3.Error | OSError) -> str:
     if errno == 13:
         return f"permission denied ({exc})"
     return str(exc)
+
+
+@contextlib.contextmanager
+def _write_transaction(con: sqlite3.Connection) -> Iterator[None]:
+    """``BEGIN IMMEDIATE`` ... ``COMMIT``, rolled back on any exception (unless SQLite already did, as on
+    SQLITE_FULL)."""
+    con.execute("BEGIN IMMEDIATE")
+    try:
+        yield
+        con.execute("COMMIT")
+    except BaseException:
+        if con.in_transaction:
+            con.execute("ROLLBACK")
+        raise
 
 
 class ResultStore:
@@ -253,19 +268,13 @@ class ResultStore:
         with closing(self._connect_rw()) as con:
             try:
                 con.execute("PRAGMA journal_mode = WAL")
-                con.execute("BEGIN IMMEDIATE")
-                try:
+                with _write_transaction(con):
                     if not con.execute("SELECT count(*) FROM sqlite_master").fetchone()[0]:
                         con.execute(_META_SQL)
                         con.execute(_RESULTS_SQL)
                         con.executemany("INSERT INTO vtrack_meta VALUES (?, ?)",
                                         [("schema_version", str(SCHEMA_VERSION)), ("row_count", "0"),
                                          ("rows_digest", "0" * 64)])
-                    con.execute("COMMIT")
-                except BaseException:
-                    if con.in_transaction:  # SQLite rolls back by itself on SQLITE_FULL
-                        con.execute("ROLLBACK")
-                    raise
             except sqlite3.DatabaseError as exc:
                 raise StoreError(f"cannot create the store {self.path}: {_storage_problem(exc)}") from exc
         self._read(self._verify)  # a concurrent initialiser may have written something else
@@ -291,15 +300,8 @@ class ResultStore:
                             json.dumps(r.options, sort_keys=True), r.termination, int(r.termination == "completed"),
                             wall, json.dumps(metrics, sort_keys=True)])
         try:
-            with closing(self._connect_rw()) as con:
-                con.execute("BEGIN IMMEDIATE")
-                try:
-                    self._insert(con, pending)
-                    con.execute("COMMIT")
-                except BaseException:
-                    if con.in_transaction:  # SQLite rolls back by itself on SQLITE_FULL
-                        con.execute("ROLLBACK")
-                    raise
+            with closing(self._connect_rw()) as con, _write_transaction(con):
+                self._insert(con, pending)
         except sqlite3.Error as exc:
             raise StoreError(f"could not write {len(pending)} rows to {self.path}: {_storage_problem(exc)}; "
                              "nothing was written") from exc

@@ -186,7 +186,7 @@ class ResultStore:
                 with closing(self._connect_ro(immutable)) as con:
                     try:
                         return fn(con)
-                    except (sqlite3.Error, UnicodeError) as exc:  # e.g. a text value that is not UTF-8
+                    except (sqlite3.Error, UnicodeError, TypeError, ValueError, KeyError) as exc:  # e.g. non-UTF-8
                         raise StoreError(f"{self.path} is corrupted ({type(exc).__name__}: {exc}); it was left "
                                          "untouched") from exc
             except StoreError:
@@ -224,7 +224,7 @@ class ResultStore:
                              "Move it away or pass another --store path.") from exc
         if not objects:
             raise StoreError(f"{self.path} is an empty SQLite file, not a vtrack_gym store; it was left untouched")
-        tables = sorted(o[1] for o in objects if o[0] == "table")
+        tables = sorted(str(o[1]) for o in objects if o[0] == "table")
         meta_def = next(o for o in expected_schema() if o[1] == "vtrack_meta")
         if meta_def not in objects:
             raise StoreError(f"{self.path} is an SQLite file but not a vtrack_gym store (tables: {tables}); "

@@ -28,9 +28,12 @@ def _add_store(p: argparse.ArgumentParser) -> None:
                    help=f"SQLite leaderboard file (created if missing; default: {DEFAULT_STORE_PATH})")
 
 
-def _add_format(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--format", choices=("md", "csv", "json"), default="md",
-                   help="how to print the leaderboard: Markdown table, CSV or JSON (default: md)")
+def _add_format(p: argparse.ArgumentParser, choices: Sequence[str] = ("md", "csv", "json")) -> None:
+    names = {"md": "Markdown table", "csv": "CSV", "json": "JSON", "latex": "LaTeX booktabs tabular",
+             "html": "self-contained HTML report (sortable table, figures embedded, no network)"}
+    p.add_argument("--format", choices=choices, default="md",
+                   help="how to print the leaderboard: " + ", ".join(f"{c} ({names[c]})" for c in choices)
+                   + " (default: md)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -70,10 +73,20 @@ def build_parser() -> argparse.ArgumentParser:
     _add_store(e)
 
     lb = sub.add_parser("leaderboard", help="print the stored leaderboard",
-                        description="Print the leaderboard of a suite from the store (mean over episodes).")
+                        description="Print the leaderboard of a suite from the store: one row per policy key (name, "
+                        "preset, config or weights hash) and env, the mean over episodes (a metric missing in any "
+                        "episode is shown as a dash). Opens the store read-only: it never creates or changes a file.")
     lb.add_argument("--suite", default="paper", help="suite to show: paper, robust or custom (default: paper)")
-    _add_store(lb)
-    _add_format(lb)
+    lb.add_argument("--store", type=Path, default=DEFAULT_STORE_PATH,
+                    help=f"SQLite leaderboard file, opened read-only (default: {DEFAULT_STORE_PATH})")
+    _add_format(lb, ("md", "csv", "json", "latex", "html"))
+    lb.add_argument("--out", type=Path, default=None, help="write the leaderboard to this file (default: stdout)")
+    lb.add_argument("--figures", type=Path, default=DEFAULT_FIGURES_DIR,
+                    help=f"--format html: embed the PNG figures of this folder if it exists (default: "
+                    f"{DEFAULT_FIGURES_DIR})")
+    lb.add_argument("--all-versions", action="store_true",
+                    help="aggregate every stored row (default: only rows of the newest package version in the "
+                    "suite, the newest row per policy key, env, seed and options)")
 
     tr = sub.add_parser("train", help="train an RL steering agent with stable-baselines3 (extra 'rl')",
                         description="Train PPO/SAC/TD3 on the native vector env (procedural tracks by default) with "
@@ -164,24 +177,35 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _print_board(board: list[dict], fmt: str) -> None:
-    from vtrack_gym.evaluation.store import to_csv, to_json, to_markdown
+def _render_board(board: list[dict], fmt: str, title: str = "vtrack leaderboard",
+                  figures: Sequence[Path] = ()) -> str:
+    from vtrack_gym.evaluation import report_formats as rf
 
-    print({"md": to_markdown, "csv": to_csv, "json": to_json}[fmt](board).rstrip())
+    if fmt == "html":
+        from vtrack_gym.evaluation.html_report import to_html
+
+        return to_html(board, title=title, figures=figures)
+    return {"md": rf.to_markdown, "csv": rf.to_csv, "json": rf.to_json, "latex": rf.to_latex}[fmt](board).rstrip()
+
+
+def _print_board(board: list[dict], fmt: str) -> None:
+    print(_render_board(board, fmt))
 
 
 def _cmd_benchmark(args: argparse.Namespace) -> int:
     from vtrack_gym.evaluation.benchmark import LEADERBOARD_COLUMNS, run_benchmark, summarise
     from vtrack_gym.evaluation.store import ResultStore
 
-    store = ResultStore(args.store)
+    store = ResultStore(args.store)  # verified before any rollout; written after the table is printed
     policies = [p for p in args.policies.split(",") if p] or None
-    result = run_benchmark(args.suite, store=store, policies=policies,
+    result = run_benchmark(args.suite, store=None, policies=policies,
                            figures_dir=None if args.no_figures else args.figures, quick=args.quick)
     _print_board(summarise(result["rows"], LEADERBOARD_COLUMNS), args.format)
-    print(f"\nresults stored in {args.store}", file=sys.stderr)
     for f in result["figures"]:
         print(f"figure: {f}", file=sys.stderr)
+    sys.stdout.flush()
+    store.add(result["rows"])
+    print(f"\nresults stored in {args.store}", file=sys.stderr)
     return 0
 
 
@@ -220,11 +244,12 @@ def _cmd_eval(args: argparse.Namespace) -> int:
     seeds = _parse_seeds(args.seeds)
     make = _policy_factory(args.policy, args.preset)
     env_id = _known_env(resolve_env_id(args.env))
+    store = ResultStore(args.store)  # verified before the rollouts; written after the table is printed
     rows, _ = score_policy(args.policy, make, [Episode(env_id, s) for s in seeds], "custom")
-    ResultStore(args.store).add(rows)
     table = [{"seed": r.seed, "termination": r.termination, **{k: v for k, v in r.metrics.items()
                                                                  if isinstance(v, float)}} for r in rows]
-    print(to_markdown(table))
+    print(to_markdown(table), flush=True)
+    store.add(rows)
     return 0
 
 
@@ -262,7 +287,18 @@ def _cmd_leaderboard(args: argparse.Namespace) -> int:
     if not args.store.exists():
         print(f"no store at {args.store}: run `vtrack benchmark` first (or pass --store)", file=sys.stderr)
         return 2
-    _print_board(ResultStore(args.store).leaderboard(args.suite, LEADERBOARD_COLUMNS), args.format)
+    store = ResultStore(args.store, read_only=True)
+    board = store.leaderboard(args.suite, LEADERBOARD_COLUMNS, latest_only=not args.all_versions)
+    figures = sorted(args.figures.glob("*.png")) if args.format == "html" and args.figures.is_dir() else []
+    text = _render_board(board, args.format, title=f"vtrack leaderboard: suite {args.suite}", figures=figures)
+    if args.out is None:
+        print(text.rstrip())
+        return 0
+    try:
+        args.out.write_text(text if text.endswith("\n") else text + "\n", encoding="utf-8")
+    except OSError as exc:
+        raise ValueError(f"cannot write --out {args.out}: {exc}") from None
+    print(f"leaderboard written to {args.out}", file=sys.stderr)
     return 0
 
 

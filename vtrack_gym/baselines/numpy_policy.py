@@ -32,6 +32,7 @@ Format version 1
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import zipfile
@@ -210,6 +211,17 @@ def _read_npz(path: Path, shapes: dict[str, tuple[int, ...]]) -> dict[str, np.nd
     return arrays
 
 
+def weights_sha256(spec: dict[str, Any], arrays: dict[str, np.ndarray]) -> str:
+    """Content hash of an agent: what determines its actions (spec minus provenance, arrays as float32 bytes)."""
+    h = hashlib.sha256()
+    h.update(json.dumps({k: v for k, v in spec.items() if k != "provenance"}, sort_keys=True).encode())
+    for key in sorted(arrays):
+        arr = np.ascontiguousarray(arrays[key], dtype=np.float32)
+        h.update(f"{key}:{arr.shape}:".encode())
+        h.update(arr.tobytes())
+    return h.hexdigest()
+
+
 class NumpyPolicy:
     """A trained MLP agent evaluated in pure numpy with SB3's ``predict`` signature (stateless).
 
@@ -227,6 +239,7 @@ class NumpyPolicy:
             if arrays[key].shape != shape or arrays[key].dtype != np.float32 or not np.isfinite(arrays[key]).all():
                 raise ValueError(f"array {key!r} must be finite float32 of shape {shape}")
         self.name = name
+        self._weights_hash = weights_sha256(spec, arrays)
         self.algo = spec["algo"]
         self.obs_dim = spec["obs_dim"]
         self.action_dim = spec["action_dim"]
@@ -246,6 +259,11 @@ class NumpyPolicy:
     @property
     def policy_id(self) -> str:
         return self.name
+
+    @property
+    def weights_hash(self) -> str:
+        """SHA-256 (hex) of the agent's content: the spec's network fields and every array (name, shape, bytes)."""
+        return self._weights_hash
 
     @property
     def provenance(self) -> dict[str, Any]:

@@ -11,8 +11,8 @@ from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
-import numpy as np
 
+from vtrack_gym.evaluation.board import build_board
 from vtrack_gym.evaluation.metrics import evaluate_trace
 from vtrack_gym.evaluation.rollout import rollout
 from vtrack_gym.evaluation.store import ResultRow, ResultStore
@@ -28,13 +28,33 @@ LEADERBOARD_COLUMNS: tuple[str, ...] = (
 
 
 def policy_hash(policy: Any) -> str:
-    """Short hash of a policy's parameters (its frozen config dataclass, or its repr)."""
+    """Short hash of what determines a policy's actions: an agent's weights hash, else its class and frozen
+    config dataclass (so every preset or tuned config has its own), else its class name."""
+    weights = getattr(policy, "weights_hash", None)
+    if isinstance(weights, str) and weights:
+        return weights[:12]
     cfg = getattr(policy, "config", None)
-    if dataclasses.is_dataclass(cfg):
-        text = json.dumps(dataclasses.asdict(cfg), sort_keys=True, default=repr)
-    else:
-        text = repr(getattr(policy, "fingerprint", type(policy).__name__))
+    text = type(policy).__name__
+    if dataclasses.is_dataclass(cfg) and not isinstance(cfg, type):
+        text += ":" + json.dumps(dataclasses.asdict(cfg), sort_keys=True, default=repr)
     return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
+def policy_preset(policy: Any) -> str:
+    """Name of the baseline preset whose config ``policy`` runs ("default" first), "custom" for another config,
+    "" for a policy without presets (an agent: its identity is the weights hash)."""
+    cfg = getattr(policy, "config", None)
+    names = getattr(type(policy), "preset_names", None)
+    if cfg is None or names is None:
+        return ""
+    ordered = sorted(names(), key=lambda n: n != "default")
+    for name in ordered:
+        try:
+            if type(policy).make_config(name) == cfg:
+                return name
+        except ValueError:  # a file preset that is missing or invalid
+            continue
+    return "custom"
 
 
 def cones_hit(env: gym.Env, trace: Trace) -> int | None:
@@ -62,7 +82,8 @@ def score_policy(name: str, make: Any, episodes: Sequence[Episode], suite: str,
         env.close()
         rows.append(ResultRow(suite=suite, env_id=ep.env_id, policy_id=name, policy_hash=policy_hash(policy),
                               seed=ep.seed, metrics=metrics, termination=trace.termination,
-                              wall_time_per_step_s=trace.wall_time_per_step_s, options=dict(ep.options)))
+                              wall_time_per_step_s=trace.wall_time_per_step_s, options=dict(ep.options),
+                              policy_preset=policy_preset(policy)))
         traces.append(trace)
         if progress is not None:
             progress.update(1)
@@ -139,16 +160,9 @@ def write_figures(traces_by_env: dict[str, list[Trace]], rows: Sequence[ResultRo
 
 
 def summarise(rows: Sequence[ResultRow], columns: Sequence[str] = LEADERBOARD_COLUMNS) -> list[dict[str, Any]]:
-    """Leaderboard entries (mean over episodes per env and policy) straight from result rows."""
-    groups: dict[tuple[str, str], list[ResultRow]] = {}
-    for r in rows:
-        groups.setdefault((r.env_id, r.policy_id), []).append(r)
-    board = []
-    for (env_id, policy_id), members in groups.items():
-        entry: dict[str, Any] = {"env_id": env_id, "policy_id": policy_id,
-                                 "completed": float(np.mean([m.termination == "completed" for m in members]))}
-        for col in columns:
-            vals = [m.metrics.get(col) for m in members if isinstance(m.metrics.get(col), (int, float))]
-            entry[col] = float(np.mean(vals)) if vals else float("nan")
-        board.append(entry)
-    return board
+    """Leaderboard entries straight from result rows: the same policy keys, aggregation and NaN rule as
+    ``ResultStore.leaderboard`` (``vtrack_gym.evaluation.board``)."""
+    return build_board(({"env_id": r.env_id, "policy_id": r.policy_id, "policy_preset": r.policy_preset,
+                         "policy_hash": r.policy_hash, "completed": int(r.termination == "completed"),
+                         "wall_time_per_step_s": r.wall_time_per_step_s, "metrics": r.metrics} for r in rows),
+                       columns)

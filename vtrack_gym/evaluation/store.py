@@ -2,30 +2,47 @@
 
 Safe under several concurrent writers (WAL journal, busy timeout, one transaction per batch of rows) and
 under a crash mid-write (SQLite's atomic commit: a killed writer leaves either all of its rows or none).
-A file that is not a vtrack store, is corrupted, or comes from a newer schema raises ``StoreError`` and is
-never overwritten.
+
+A store file may come from someone else, so it is data, never code:
+
+* opening verifies the schema objects exactly against the expected set (a trigger, view, index or table that
+  this version does not create is refused), runs ``PRAGMA integrity_check`` and honours every result row;
+* every row carries a SHA-256 of its content (``row_sha256``, not a signature: it detects corruption, not a
+  deliberate edit) and the meta table the row count and the XOR of all row hashes, so a flipped payload byte
+  or a lost row is a ``StoreError`` instead of a different table;
+* a read-only store (``read_only=True``, what ``vtrack leaderboard`` uses) is opened through a ``mode=ro``
+  URI, with ``immutable=1`` when no ``-wal`` file exists (plain ``mode=ro`` would create ``-wal``/``-shm``
+  files next to a WAL database): it never creates, modifies or deletes a file, journals included;
+* a writer verifies the file with the same read-only connection first, so a foreign file (or its hot journal)
+  is never rolled back, initialised or overwritten;
+* a full disk or a read-only file system is a ``StoreError`` that says so.
 """
 
 from __future__ import annotations
 
-import csv
+import contextlib
 import datetime as dt
-import io
+import functools
+import hashlib
 import json
 import math
+import re
 import sqlite3
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
-SCHEMA_VERSION = 1
+from vtrack_gym.evaluation.board import build_board
+from vtrack_gym.evaluation.report_formats import to_csv, to_json, to_markdown  # noqa: F401  (re-exported)
+
+SCHEMA_VERSION = 2
 DEFAULT_STORE_PATH = Path("vtrack_results") / "leaderboard.sqlite"
+T = TypeVar("T")
 
-_SCHEMA = """
-CREATE TABLE IF NOT EXISTS vtrack_meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
-CREATE TABLE IF NOT EXISTS results (
+_META_SQL = "CREATE TABLE IF NOT EXISTS vtrack_meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)"
+_RESULTS_SQL = """CREATE TABLE IF NOT EXISTS results (
     id INTEGER PRIMARY KEY AUTOINCREMENT,
     created_utc TEXT NOT NULL,
     package_version TEXT NOT NULL,
@@ -33,25 +50,28 @@ CREATE TABLE IF NOT EXISTS results (
     env_id TEXT NOT NULL,
     env_version TEXT NOT NULL,
     policy_id TEXT NOT NULL,
+    policy_preset TEXT NOT NULL DEFAULT '',
     policy_hash TEXT NOT NULL,
     seed INTEGER,
     options_json TEXT NOT NULL,
     termination TEXT NOT NULL,
     completed INTEGER NOT NULL,
     wall_time_per_step_s REAL NOT NULL,
-    metrics_json TEXT NOT NULL
-);
-CREATE INDEX IF NOT EXISTS results_board ON results (suite, env_id, policy_id);
-"""
+    metrics_json TEXT NOT NULL,
+    row_sha256 TEXT NOT NULL DEFAULT ''
+)"""
+_COLUMNS = ("id", "created_utc", "package_version", "suite", "env_id", "env_version", "policy_id", "policy_preset",
+            "policy_hash", "seed", "options_json", "termination", "completed", "wall_time_per_step_s", "metrics_json")
+_META_KEYS = frozenset({"schema_version", "row_count", "rows_digest"})
 
 
 class StoreError(RuntimeError):
-    """The store file cannot be used (not a vtrack store, corrupted, or a newer schema)."""
+    """The store file cannot be used (not a vtrack store, corrupted, a newer schema, disk full, read-only)."""
 
 
 @dataclass(frozen=True)
 class ResultRow:
-    """One evaluated episode and where it came from."""
+    """One evaluated episode and where it came from (``policy_preset``: preset name, empty for agents)."""
 
     suite: str
     env_id: str
@@ -65,6 +85,7 @@ class ResultRow:
     env_version: str = "v0"
     package_version: str = ""
     created_utc: str = ""
+    policy_preset: str = ""
 
 
 def _now() -> str:
@@ -80,157 +101,301 @@ def _clean(value: Any) -> Any:
     return value
 
 
-class ResultStore:
-    """Open (or create) the store at ``path`` (default ``vtrack_results/leaderboard.sqlite``)."""
+def row_sha256(values: Sequence[Any]) -> str:
+    """SHA-256 of one row's stored values in ``_COLUMNS`` order (the id included)."""
+    return hashlib.sha256(json.dumps(list(values), ensure_ascii=True).encode("ascii")).hexdigest()
 
-    def __init__(self, path: str | Path = DEFAULT_STORE_PATH, timeout_s: float = 60.0) -> None:
+
+@functools.lru_cache(maxsize=1)
+def expected_schema() -> frozenset[tuple[str, str, str, str | None]]:
+    """(type, name, tbl_name, sql) of every object in ``sqlite_master`` of a current, valid store."""
+    with closing(sqlite3.connect(":memory:")) as con:
+        con.execute(_META_SQL)
+        con.execute(_RESULTS_SQL)
+        return frozenset(con.execute("SELECT type, name, tbl_name, sql FROM sqlite_master"))
+
+
+def _storage_problem(exc: sqlite3.Error | OSError) -> str:
+    """A sentence naming disk-full and read-only-file-system failures, else the error text."""
+    code = getattr(exc, "sqlite_errorcode", None)
+    errno = getattr(exc, "errno", None)
+    if (code is not None and code & 0xFF == sqlite3.SQLITE_FULL) or errno == 28:
+        return f"the disk is full ({exc})"
+    if (code is not None and code & 0xFF == sqlite3.SQLITE_READONLY) or errno == 30:
+        return f"the store or its folder is read-only (read-only file system or no write permission: {exc})"
+    if errno == 13:
+        return f"permission denied ({exc})"
+    return str(exc)
+
+
+@contextlib.contextmanager
+def _write_transaction(con: sqlite3.Connection) -> Iterator[None]:
+    """``BEGIN IMMEDIATE`` ... ``COMMIT``, rolled back on any exception (unless SQLite already did, as on
+    SQLITE_FULL)."""
+    con.execute("BEGIN IMMEDIATE")
+    try:
+        yield
+        con.execute("COMMIT")
+    except BaseException:
+        if con.in_transaction:
+            con.execute("ROLLBACK")
+        raise
+
+
+class ResultStore:
+    """Open (or, unless ``read_only``, create) the store at ``path`` (default ``vtrack_results/leaderboard.sqlite``).
+
+    ``StoreError`` if the file is not a valid vtrack store of this schema version (see the module docstring).
+    """
+
+    def __init__(self, path: str | Path = DEFAULT_STORE_PATH, timeout_s: float = 60.0, read_only: bool = False) -> None:
         self.path = Path(path)
         self.timeout_s = timeout_s
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        with closing(self._connect()) as con:
-            self._check_or_init(con)
-
-    def _connect(self) -> sqlite3.Connection:
+        self.read_only = read_only
         if self.path.is_dir():
             raise StoreError(f"{self.path} is a directory, not a store file; pass a file path such as "
                              f"{self.path / 'leaderboard.sqlite'}")
+        exists = self.path.exists()
+        if read_only and not exists:
+            raise StoreError(f"no store at {self.path}")
+        if exists and self.path.stat().st_size > 0:
+            self._read(self._verify)
+            return
+        if read_only:
+            raise StoreError(f"{self.path} is an empty file, not a vtrack store; it was left untouched")
         try:
-            con = sqlite3.connect(self.path, timeout=self.timeout_s, isolation_level=None)
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise StoreError(f"cannot create the store folder {self.path.parent}: {_storage_problem(exc)}") from exc
+        self._initialise()
+
+    # ------------------------------------------------------------------------------------------ connections
+    def _uri(self, immutable: bool) -> str:
+        return self.path.resolve().as_uri() + ("?mode=ro&immutable=1" if immutable else "?mode=ro")
+
+    def _read(self, fn: Callable[[sqlite3.Connection], T]) -> T:
+        """``fn(con)`` on a read-only connection that creates and modifies no file (see the module docstring).
+
+        Without a ``-wal`` file the database is opened ``immutable``; if that read fails and a writer has
+        started meanwhile (a ``-wal`` file appeared), it is retried once without ``immutable``.
+        """
+        wal = self.path.with_name(self.path.name + "-wal")
+        for attempt in (0, 1):
+            immutable = not wal.exists()
+            try:
+                with closing(self._connect_ro(immutable)) as con:
+                    try:
+                        return fn(con)
+                    except (sqlite3.Error, UnicodeError, TypeError, ValueError, KeyError) as exc:  # e.g. non-UTF-8
+                        raise StoreError(f"{self.path} is corrupted ({type(exc).__name__}: {exc}); it was left "
+                                         "untouched") from exc
+            except StoreError:
+                if attempt == 0 and immutable and wal.exists():
+                    continue
+                raise
+        raise AssertionError("unreachable")
+
+    def _connect_ro(self, immutable: bool) -> sqlite3.Connection:
+        try:
+            con = sqlite3.connect(self._uri(immutable), uri=True, timeout=self.timeout_s, isolation_level=None)
+            con.execute("PRAGMA trusted_schema = OFF")
+            con.execute("PRAGMA query_only = ON")
+            con.execute(f"PRAGMA busy_timeout = {int(self.timeout_s * 1000)}")
         except sqlite3.Error as exc:
             raise StoreError(f"cannot open the store {self.path}: {exc}") from exc
-        con.execute(f"PRAGMA busy_timeout = {int(self.timeout_s * 1000)}")
         return con
 
-    def _check_or_init(self, con: sqlite3.Connection) -> None:
+    def _connect_rw(self) -> sqlite3.Connection:
         try:
-            tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+            con = sqlite3.connect(self.path, timeout=self.timeout_s, isolation_level=None)
+            con.execute("PRAGMA trusted_schema = OFF")
+            con.execute(f"PRAGMA busy_timeout = {int(self.timeout_s * 1000)}")
+        except sqlite3.Error as exc:
+            raise StoreError(f"cannot open the store {self.path}: {_storage_problem(exc)}") from exc
+        return con
+
+    # ------------------------------------------------------------------------------------------ verification
+    def _verify(self, con: sqlite3.Connection) -> None:
+        """Schema objects exactly as expected, integrity check clean, meta keys exact; else ``StoreError``."""
+        try:
+            objects = set(con.execute("SELECT type, name, tbl_name, sql FROM sqlite_master"))
         except sqlite3.DatabaseError as exc:
             raise StoreError(f"{self.path} is not a readable SQLite file ({exc}); it was left untouched. "
                              "Move it away or pass another --store path.") from exc
-        if tables and "vtrack_meta" not in tables:
-            raise StoreError(f"{self.path} is an SQLite file but not a vtrack_gym store (tables: {sorted(tables)}); "
+        if not objects:
+            raise StoreError(f"{self.path} is an empty SQLite file, not a vtrack_gym store; it was left untouched")
+        tables = sorted(str(o[1]) for o in objects if o[0] == "table")
+        meta_def = next(o for o in expected_schema() if o[1] == "vtrack_meta")
+        if meta_def not in objects:
+            raise StoreError(f"{self.path} is an SQLite file but not a vtrack_gym store (tables: {tables}); "
                              "it was left untouched")
-        if "vtrack_meta" in tables:
-            row = con.execute("SELECT value FROM vtrack_meta WHERE key='schema_version'").fetchone()
-            try:
-                version = int(row[0]) if row else 0
-            except (TypeError, ValueError):
-                raise StoreError(f"{self.path} is corrupted (schema version {row[0]!r}); left untouched") from None
-            if version > SCHEMA_VERSION:
-                raise StoreError(f"{self.path} has schema version {version}, newer than this vtrack_gym "
-                                 f"({SCHEMA_VERSION}); upgrade vtrack_gym to read it")
-            if version < SCHEMA_VERSION:
-                raise StoreError(f"{self.path} has an unknown old schema version {version}")
-            if "results" not in tables:
-                raise StoreError(f"{self.path} is corrupted (no results table); it was left untouched")
-            try:
-                con.execute("PRAGMA quick_check").fetchone()
-            except sqlite3.DatabaseError as exc:
-                raise StoreError(f"{self.path} is corrupted ({exc}); it was left untouched") from exc
-            return
-        con.execute("PRAGMA journal_mode = WAL")
-        con.execute("BEGIN IMMEDIATE")
         try:
-            for statement in filter(str.strip, _SCHEMA.split(";")):
-                con.execute(statement)
-            con.execute("INSERT OR IGNORE INTO vtrack_meta VALUES ('schema_version', ?)", (str(SCHEMA_VERSION),))
-            con.execute("COMMIT")
-        except BaseException:
-            con.execute("ROLLBACK")
-            raise
+            meta = dict(con.execute("SELECT key, value FROM vtrack_meta"))
+        except sqlite3.DatabaseError as exc:
+            raise StoreError(f"{self.path} is corrupted ({exc}); it was left untouched") from exc
+        raw = meta.get("schema_version")
+        try:
+            version = int(raw) if raw is not None else 0
+        except (TypeError, ValueError):
+            raise StoreError(f"{self.path} is corrupted (schema version {raw!r}); left untouched") from None
+        if version > SCHEMA_VERSION:
+            raise StoreError(f"{self.path} has schema version {version}, newer than this vtrack_gym "
+                             f"({SCHEMA_VERSION}); upgrade vtrack_gym to read it")
+        if version < SCHEMA_VERSION:
+            raise StoreError(f"{self.path} has schema version {version}, older than this vtrack_gym's "
+                             f"({SCHEMA_VERSION}, rows with policy presets and checksums); it was left untouched: "
+                             "move it away (or pass another --store) and rerun the evaluations")
+        unexpected = objects - expected_schema()
+        missing = expected_schema() - objects
+        if unexpected or missing:
+            names = [f"{o[0]} {o[1]!r}" for o in sorted(unexpected, key=str)]
+            lost = [f"{o[0]} {o[1]!r}" for o in sorted(missing, key=str)]
+            raise StoreError(f"{self.path} is not a valid vtrack_gym store: unexpected schema objects "
+                             f"{names or 'none'}, missing or altered {lost or 'none'} (triggers, views and extra "
+                             "tables or indices are refused); it was left untouched")
+        try:
+            problems = [r[0] for r in con.execute("PRAGMA integrity_check")]
+        except sqlite3.DatabaseError as exc:
+            raise StoreError(f"{self.path} is corrupted ({exc}); it was left untouched") from exc
+        if problems != ["ok"]:
+            shown = "; ".join(str(p) for p in problems[:5]) + (" ..." if len(problems) > 5 else "")
+            raise StoreError(f"{self.path} is corrupted (integrity check: {shown}); it was left untouched")
+        if set(meta) != _META_KEYS:
+            raise StoreError(f"{self.path} is corrupted (meta keys {sorted(meta)}, expected {sorted(_META_KEYS)})")
 
+    def _initialise(self) -> None:
+        """Create the schema in a missing or empty file (concurrent initialisers: the first one wins)."""
+        with closing(self._connect_rw()) as con:
+            try:
+                con.execute("PRAGMA journal_mode = WAL")
+                with _write_transaction(con):
+                    if not con.execute("SELECT count(*) FROM sqlite_master").fetchone()[0]:
+                        con.execute(_META_SQL)
+                        con.execute(_RESULTS_SQL)
+                        con.executemany("INSERT INTO vtrack_meta VALUES (?, ?)",
+                                        [("schema_version", str(SCHEMA_VERSION)), ("row_count", "0"),
+                                         ("rows_digest", "0" * 64)])
+            except sqlite3.DatabaseError as exc:
+                raise StoreError(f"cannot create the store {self.path}: {_storage_problem(exc)}") from exc
+        self._read(self._verify)  # a concurrent initialiser may have written something else
+
+    # ------------------------------------------------------------------------------------------ writing
     def add(self, rows: Iterable[ResultRow]) -> int:
-        """Insert rows atomically (all or none); returns how many were written."""
+        """Insert rows atomically (all or none); returns how many were written.
+
+        ``StoreError`` on a read-only store, a full disk or a read-only file system (nothing is written then).
+        """
         from vtrack_gym._version import __version__
 
-        records = []
+        if self.read_only:
+            raise StoreError(f"{self.path} was opened read-only")
+        pending = []
         for r in rows:
+            wall = float(r.wall_time_per_step_s)
+            if not (math.isfinite(wall) and wall >= 0.0):
+                raise ValueError(f"wall_time_per_step_s must be finite and >= 0 s (got {r.wall_time_per_step_s!r})")
             metrics = {k: _clean(v) for k, v in r.metrics.items()}
-            records.append((r.created_utc or _now(), r.package_version or __version__, r.suite, r.env_id,
-                            r.env_version, r.policy_id, r.policy_hash, r.seed, json.dumps(r.options, sort_keys=True),
-                            r.termination, int(r.termination == "completed"), float(r.wall_time_per_step_s),
-                            json.dumps(metrics, sort_keys=True)))
-        with closing(self._connect()) as con:
-            con.execute("BEGIN IMMEDIATE")
-            try:
-                con.executemany(
-                    "INSERT INTO results (created_utc, package_version, suite, env_id, env_version, policy_id, "
-                    "policy_hash, seed, options_json, termination, completed, wall_time_per_step_s, metrics_json) "
-                    "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", records)
-                con.execute("COMMIT")
-            except BaseException:
-                con.execute("ROLLBACK")
-                raise
-        return len(records)
+            pending.append([r.created_utc or _now(), r.package_version or __version__, r.suite, r.env_id,
+                            r.env_version, r.policy_id, r.policy_preset, r.policy_hash, r.seed,
+                            json.dumps(r.options, sort_keys=True), r.termination, int(r.termination == "completed"),
+                            wall, json.dumps(metrics, sort_keys=True)])
+        try:
+            with closing(self._connect_rw()) as con, _write_transaction(con):
+                self._insert(con, pending)
+        except sqlite3.Error as exc:
+            raise StoreError(f"could not write {len(pending)} rows to {self.path}: {_storage_problem(exc)}; "
+                             "nothing was written") from exc
+        return len(pending)
 
+    @staticmethod
+    def _insert(con: sqlite3.Connection, pending: list[list[Any]]) -> None:
+        """Insert ``pending`` with explicit ids, their row hashes, and update the count and digest (in a txn)."""
+        meta = dict(con.execute("SELECT key, value FROM vtrack_meta"))
+        seq = con.execute("SELECT seq FROM sqlite_sequence WHERE name = 'results'").fetchone()
+        top = con.execute("SELECT max(id) FROM results").fetchone()[0]
+        next_id = max(seq[0] if seq else 0, top or 0) + 1
+        digest = int(meta["rows_digest"], 16)
+        records = []
+        for i, values in enumerate(pending):
+            full = [next_id + i, *values]
+            h = row_sha256(full)
+            digest ^= int(h, 16)
+            records.append((*full, h))
+        con.executemany(f"INSERT INTO results ({', '.join(_COLUMNS)}, row_sha256) "
+                        f"VALUES ({', '.join('?' * (len(_COLUMNS) + 1))})", records)
+        con.executemany("UPDATE vtrack_meta SET value = ? WHERE key = ?",
+                        [(str(int(meta["row_count"]) + len(records)), "row_count"), (f"{digest:064x}", "rows_digest")])
+
+    # ------------------------------------------------------------------------------------------ reading
     def rows(self, suite: str | None = None) -> list[dict[str, Any]]:
-        """Every stored row (optionally of one suite) as dicts with the metrics unpacked."""
-        query = "SELECT * FROM results" + (" WHERE suite = ?" if suite else "") + " ORDER BY id"
-        with closing(self._connect()) as con:
-            con.row_factory = sqlite3.Row
-            out = []
-            for row in con.execute(query, (suite,) if suite else ()):
-                d = dict(row)
-                try:
-                    d["metrics"] = json.loads(d.pop("metrics_json"))
-                    d["options"] = json.loads(d.pop("options_json"))
-                except (TypeError, ValueError) as exc:
-                    raise StoreError(f"{self.path} is corrupted (row {d.get('id')}: {exc})") from exc
-                out.append(d)
+        """Every stored row (optionally of one suite) as dicts with the metrics unpacked.
+
+        All rows are read in one snapshot and checked against their hashes, the row count and the digest.
+        """
+        meta, raw = self._read(self._snapshot)
+        digest = 0
+        out = []
+        for values in raw:
+            stored_hash = values[-1]
+            if (not all(v is None or isinstance(v, (str, int, float)) for v in values)
+                    or row_sha256(values[:-1]) != stored_hash):
+                raise StoreError(f"{self.path} is corrupted (row {values[0]!r} does not match its checksum)")
+            digest ^= int(stored_hash, 16)
+            d = dict(zip(_COLUMNS, values[:-1], strict=True))
+            if suite is not None and d["suite"] != suite:
+                continue
+            try:
+                d["metrics"] = json.loads(d.pop("metrics_json"))
+                d["options"] = json.loads(d.pop("options_json"))
+            except (TypeError, ValueError) as exc:
+                raise StoreError(f"{self.path} is corrupted (row {d.get('id')}: {exc})") from exc
+            if not isinstance(d["metrics"], dict) or not isinstance(d["options"], dict):
+                raise StoreError(f"{self.path} is corrupted (row {d.get('id')}: metrics/options not objects)")
+            out.append(d)
+        if meta.get("row_count") != str(len(raw)) or meta.get("rows_digest") != f"{digest:064x}":
+            raise StoreError(f"{self.path} is corrupted (it holds {len(raw)} rows, its record says "
+                             f"{meta.get('row_count')!r}, or the rows' digest differs): rows were lost or altered")
         return out
 
+    def _snapshot(self, con: sqlite3.Connection) -> tuple[dict[str, str], list[tuple[Any, ...]]]:
+        """The meta table and every results row (with its hash) in one read transaction."""
+        try:
+            con.execute("BEGIN")
+            meta = dict(con.execute("SELECT key, value FROM vtrack_meta"))
+            raw = con.execute(f"SELECT {', '.join(_COLUMNS)}, row_sha256 FROM results ORDER BY id").fetchall()
+            con.execute("COMMIT")
+        except sqlite3.Error as exc:
+            raise StoreError(f"{self.path} could not be read ({exc})") from exc
+        return meta, raw
+
     def leaderboard(self, suite: str, columns: Sequence[str], latest_only: bool = True) -> list[dict[str, Any]]:
-        """Mean of ``columns`` per (env_id, policy_id) over the suite's rows (latest package version only)."""
+        """Aggregates of ``columns`` per policy key (``vtrack_gym.evaluation.board``) over the suite's rows.
+
+        ``latest_only``: only rows written by the newest package version present in the suite, and of those the
+        newest row per (env, policy key, seed, options); otherwise every row of every version.
+        """
         rows = self.rows(suite)
         if latest_only and rows:
-            latest = {}
-            for r in rows:  # keep, per (env, policy, seed), the newest row
-                latest[(r["env_id"], r["policy_id"], r["seed"], json.dumps(r["options"], sort_keys=True))] = r
+            newest = max((r["package_version"] for r in rows), key=version_sort_key)
+            latest: dict[tuple[Any, ...], dict[str, Any]] = {}
+            for r in rows:  # ordered by id: a later row replaces an earlier one
+                if r["package_version"] == newest:
+                    latest[(r["env_id"], r["policy_id"], r["policy_preset"], r["policy_hash"], r["seed"],
+                            json.dumps(r["options"], sort_keys=True))] = r
             rows = list(latest.values())
-        groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
-        for r in rows:
-            groups.setdefault((r["env_id"], r["policy_id"]), []).append(r)
-        board = []
-        for (env_id, policy_id), members in sorted(groups.items()):
-            entry: dict[str, Any] = {"env_id": env_id, "policy_id": policy_id, "episodes": len(members),
-                                     "completed": sum(m["completed"] for m in members) / len(members)}
-            for col in columns:
-                vals = [m["metrics"].get(col) for m in members]
-                vals = [v for v in vals if isinstance(v, (int, float)) and v is not None]
-                entry[col] = sum(vals) / len(vals) if vals else math.nan
-            entry["wall_time_per_step_us"] = 1e6 * sum(m["wall_time_per_step_s"] for m in members) / len(members)
-            board.append(entry)
-        return board
+        return build_board(rows, columns)
 
 
-def to_markdown(board: list[dict[str, Any]], digits: int = 3) -> str:
-    """A GitHub-flavoured Markdown table of a leaderboard."""
-    if not board:
-        return "(no results)"
-    cols = list(board[0])
-    lines = ["| " + " | ".join(cols) + " |", "|" + "|".join("---" for _ in cols) + "|"]
-    for entry in board:
-        cells = []
-        for c in cols:
-            v = entry[c]
-            if isinstance(v, float):
-                cells.append("–" if math.isnan(v) else f"{v:.{digits}g}")
-            else:
-                cells.append(str(v))
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+_RELEASE = re.compile(r"v?(\d+(?:\.\d+)*)(.*)")
 
 
-def to_csv(board: list[dict[str, Any]]) -> str:
-    """CSV text of a leaderboard."""
-    buf = io.StringIO()
-    if board:
-        writer = csv.DictWriter(buf, fieldnames=list(board[0]))
-        writer.writeheader()
-        writer.writerows(board)
-    return buf.getvalue()
-
-
-def to_json(board: list[dict[str, Any]]) -> str:
-    """JSON text of a leaderboard (NaN as null)."""
-    return json.dumps([{k: _clean(v) for k, v in e.items()} for e in board], indent=2)
+def version_sort_key(version: str) -> tuple[Any, ...]:
+    """Sort key of a package version string: release numbers, then a final release after its pre/dev/local
+    variants (ordered by text); a string without a release number sorts first."""
+    m = _RELEASE.fullmatch(version.strip())
+    if not m:
+        return ((), 0, version)
+    release = tuple(int(x) for x in m.group(1).split("."))
+    while release and release[-1] == 0:
+        release = release[:-1]  # 1.0 == 1.0.0
+    return (release, 1 if not m.group(2) else 0, m.group(2))

@@ -129,7 +129,8 @@ def test_constant_and_file_profiles_and_preview() -> None:
     (lambda: CurvatureLimited(-1.0, 3.0), r"CurvatureLimited\.max_speed_mps must be in \(0\.0, 150\.0\]"),
     (lambda: CurvatureLimited(10.0, 0.0), r"CurvatureLimited\.max_lateral_accel_mps2 must be in \(0\.0, 30\.0\]"),
     (lambda: CurvatureLimited(10.0, 3.0, max_accel_mps2=31.0), r"CurvatureLimited\.max_accel_mps2 must be in"),
-    (lambda: CurvatureLimited(10.0, 3.0, max_decel_mps2=True), r"CurvatureLimited\.max_decel_mps2 must be a finite number in"),
+    (lambda: CurvatureLimited(10.0, 3.0, max_decel_mps2=True),
+     r"CurvatureLimited\.max_decel_mps2 must be a finite number in"),
     (lambda: FileSpeed(scale=-1.0), r"FileSpeed\.scale must be in"),
 ])
 def test_parameters_are_validated(build, message) -> None:

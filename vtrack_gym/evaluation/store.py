@@ -163,6 +163,11 @@ class ResultStore:
                 raise
         return len(records)
 
+    def suites(self) -> dict[str, int]:
+        """``{suite: number of stored episodes}`` of every suite in the store, by name."""
+        with closing(self._connect()) as con:
+            return dict(con.execute("SELECT suite, COUNT(*) FROM results GROUP BY suite ORDER BY suite").fetchall())
+
     def rows(self, suite: str | None = None) -> list[dict[str, Any]]:
         """Every stored row (optionally of one suite) as dicts with the metrics unpacked."""
         query = "SELECT * FROM results" + (" WHERE suite = ?" if suite else "") + " ORDER BY id"

@@ -80,7 +80,7 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
     ``policy_id``: the name in the rows (default: ``policy.policy_id`` or the class name).
     """
     _check_seeds(seeds)
-    if hasattr(policy_or_factory, "predict"):
+    if hasattr(policy_or_factory, "predict") and not isinstance(policy_or_factory, type):
         make: Callable[[Any], Any] = lambda env: policy_or_factory  # noqa: E731
     elif callable(policy_or_factory):
         make = policy_or_factory

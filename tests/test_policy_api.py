@@ -231,8 +231,8 @@ def test_verbose_logs_every_episode(tmp_path):
     quiet = subprocess.run(argv, capture_output=True, text=True, cwd=tmp_path)
     loud = subprocess.run([*argv[:3], "-v", *argv[3:]], capture_output=True, text=True, cwd=tmp_path)
     assert quiet.returncode == loud.returncode == 0
-    assert "INFO" not in quiet.stderr
-    assert "INFO lqr on DLC120-v0 seed 0: completed" in loud.stderr
+    assert "lqr on DLC120-v0 seed 0" not in quiet.stderr
+    assert "DEBUG lqr on DLC120-v0 seed 0: completed" in loud.stderr
 
 
 def test_sb3_vec_env_methods_act_on_the_given_indices():

@@ -40,7 +40,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="vtrack", description="Benchmark steering controllers and RL agents on "
                                      "the paper's trajectory-tracking scenarios.")
     parser.add_argument("-v", "--verbose", action="store_true",
-                        help="log progress details (every episode's result, the phases) to stderr")
+                        help="log details to stderr: every episode's result, the kernel cache (the long phases "
+                        "are always announced)")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     b = sub.add_parser("benchmark", help="score every baseline and shipped agent on a suite; print the leaderboard",
@@ -349,13 +350,17 @@ def _user_factory(spec: str):
 
 def _announce_kernels() -> None:
     """Say that the first rollout compiles the numba kernels when no compiled cache exists yet."""
+    import os
+
     import vtrack_gym
 
-    root = Path(vtrack_gym.__file__).parent
-    if not any(root.glob("**/__pycache__/*.nbi")):
-        print("compiling the kernels (first run only, ~30 s)", file=sys.stderr)
+    cache_dir = os.environ.get("NUMBA_CACHE_DIR")
+    root = Path(cache_dir) if cache_dir else Path(vtrack_gym.__file__).parent
+    log = logging.getLogger("vtrack_gym.cli")
+    if not any(root.glob("**/*.nbi")):
+        log.info("compiling the kernels (first run only, ~30 s)")
     else:
-        logging.getLogger("vtrack").info("loading the compiled kernels")
+        log.debug("loading the compiled kernels from the numba cache")
 
 
 def _cmd_leaderboard(args: argparse.Namespace) -> int:
@@ -549,7 +554,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     args.argv = None if argv is None else list(argv)
-    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="%(levelname)s %(message)s")
+    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(message)s")
+    # the package says what its long phases do (INFO); -v adds every episode's result and the details (DEBUG)
+    logging.getLogger("vtrack_gym").setLevel(logging.DEBUG if args.verbose else logging.INFO)
     import vtrack_gym  # noqa: F401  (registers the env ids)
 
     missing = _missing_packages(args)

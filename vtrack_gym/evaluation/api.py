@@ -118,6 +118,6 @@ def _row(make: Callable[[Any], Any], env: gym.Env, ep: Episode, suite: str, poli
         raise ValueError(f"the factory returned {type(policy).__name__}, which has no predict method")
     name = policy_id or policy_id_of(policy)
     row, _ = score_episode(name, policy, env, ep, suite)
-    log.info("%s on %s seed %s: %s, max |e_y| %.4g m", name, ep.env_id, ep.seed, row.termination,
+    log.debug("%s on %s seed %s: %s, max |e_y| %.4g m", name, ep.env_id, ep.seed, row.termination,
              row.metrics.get("max_e_y_m", float("nan")))
     return row

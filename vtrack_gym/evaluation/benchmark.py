@@ -70,7 +70,7 @@ def score_policy(name: str, make: Any, episodes: Sequence[Episode], suite: str,
             row, trace = score_episode(name, make(env), env, ep, suite)
         finally:
             env.close()
-        log.info("%s on %s seed %s: %s", name, ep.env_id, ep.seed, row.termination)
+        log.debug("%s on %s seed %s: %s", name, ep.env_id, ep.seed, row.termination)
         rows.append(row)
         traces.append(trace)
         if progress is not None:

@@ -59,7 +59,7 @@ def policy_factory(spec: str, preset: str | None = None) -> Callable[[Any], Any]
         preset = spec_preset
     if name in baselines and (sep or spec in baselines):
         chosen = preset or "default"
-        if chosen not in ("default", *_presets(name)):
+        if chosen != "default" and chosen not in _presets(name):
             raise ValueError(f"unknown preset {chosen!r} of policy {name!r}; valid: {', '.join(_presets(name))}")
         return lambda env: make_baseline(name, env, preset=chosen)
     if preset not in (None, "default"):

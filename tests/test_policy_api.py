@@ -179,6 +179,13 @@ def test_agent_files_know_their_env(tmp_path, caplog):
     assert vtrack_gym.make_policy(str(tmp_path / "legacy.json"), gym.make("DLC120-v0")).obs_dim == 33
     with pytest.raises(ValueError, match="takes 33 observations; this env's layout has 23"):
         vtrack_gym.make_policy(str(tmp_path / "legacy.json"), other)
+    for bad, match in ((dict(ppo["env"], observation_names=list(OBS.names[:-1])), "32 names, obs_dim is 33"),
+                       (dict(ppo["env"], control_period_s=-1.0), r"control_period_s must be a number in \(0, 1.0\]"),
+                       (dict(ppo["env"], code="x"), "env must be an object with keys")):
+        (tmp_path / "bad.json").write_text(json.dumps(dict(ppo, env=bad)))
+        shutil.copy(SHIPPED / "ppo.npz", tmp_path / "bad.npz")
+        with pytest.raises(ValueError, match=match):
+            vtrack_gym.make_policy(str(tmp_path / "bad.json"), gym.make("DLC120-v0"))
     slow = dict(ppo, env=dict(ppo["env"], control_period_s=0.02))
     (tmp_path / "slow.json").write_text(json.dumps(slow))
     shutil.copy(SHIPPED / "ppo.npz", tmp_path / "slow.npz")

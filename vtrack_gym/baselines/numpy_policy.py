@@ -153,17 +153,17 @@ def validate_spec(spec: dict[str, Any]) -> dict[str, Any]:
     if prov["seed"] is not None and not _is_int(prov["seed"]):
         raise ValueError(f"agent json: provenance.seed must be an int or null (got {prov['seed']!r})")
     if "env" in spec:
-        _validate_env(spec["env"], spec["obs_dim"])
+        _validate_env(spec["env"])
     return spec
 
 
-def _validate_env(env: Any, obs_dim: int) -> None:
+def _validate_env(env: Any) -> None:
     if not isinstance(env, dict) or set(env) != ENV_KEYS:
         raise ValueError(f"agent json: env must be an object with keys {sorted(ENV_KEYS)}")
     names = env["observation_names"]
-    if (not isinstance(names, list) or len(names) != obs_dim
+    if (not isinstance(names, list) or not 1 <= len(names) <= MAX_DIM
             or not all(isinstance(n, str) and 0 < len(n) <= 64 for n in names)):
-        raise ValueError(f"agent json: env.observation_names must be a list of obs_dim = {obs_dim} names")
+        raise ValueError(f"agent json: env.observation_names must be a list of 1-{MAX_DIM} names (<= 64 chars)")
     for key, high in (("control_period_s", 1.0), ("max_road_wheel_angle_rad", 3.2)):
         v = env[key]
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not (0.0 < v <= high):
@@ -257,6 +257,9 @@ class NumpyPolicy:
         for key, shape in shapes.items():
             if arrays[key].shape != shape or arrays[key].dtype != np.float32 or not np.isfinite(arrays[key]).all():
                 raise ValueError(f"array {key!r} must be finite float32 of shape {shape}")
+        if "env" in spec and len(spec["env"]["observation_names"]) != spec["obs_dim"]:
+            raise ValueError(f"agent json: env.observation_names has {len(spec['env']['observation_names'])} names, "
+                             f"obs_dim is {spec['obs_dim']}")
         self.name = name
         self.algo = spec["algo"]
         self.obs_dim = spec["obs_dim"]

@@ -1,14 +1,40 @@
 """vtrack_gym: Gymnasium environments for driverless-car trajectory tracking.
 
 ``import vtrack_gym`` registers ``LateralTracking-v0``, ``DLC120-v0`` and ``LateralTrackingRandom-v0`` and
-loads nothing heavier than Gymnasium's registry (no numba, no torch).
+loads nothing heavier than Gymnasium's registry (no numba, no torch). ``make_policy`` and ``evaluate`` import
+what they need when called.
 """
+
+from typing import Any as _Any
 
 from vtrack_gym._version import __version__
 from vtrack_gym.envs.registration import ENV_IDS, register_envs
 from vtrack_gym.interop import register_highway_envs
 
-__all__ = ["ENV_IDS", "__version__", "register_envs"]
+__all__ = ["ENV_IDS", "__version__", "evaluate", "make_policy", "register_envs"]
+
+
+def make_policy(spec: str, env: _Any, preset: str | None = None) -> _Any:
+    """The policy ``spec`` names, built for ``env``: a baseline (``"mpc"``), ``"name:preset"`` (``"smc:paper"``),
+    a shipped agent (``"ppo"``, ``"sac"``) or a weights-only agent file (``"agent.json"``).
+
+    See ``vtrack_gym.baselines.resolve``; ``ValueError`` lists every valid name.
+    """
+    from vtrack_gym.baselines.resolve import resolve_policy
+
+    return resolve_policy(spec, env, preset)
+
+
+def evaluate(policy_or_factory: _Any, suite_or_env: _Any = "paper", seeds: _Any = None, **kwargs: _Any) -> list:
+    """Score any object with ``predict`` (or a factory ``make(env)``) on a suite or env; one row per episode.
+
+    Keywords: ``store`` (leaderboard file to add the rows to), ``vecnormalize`` (SB3 ``VecNormalize``
+    statistics), ``policy_id``. See ``vtrack_gym.evaluation.api.evaluate``.
+    """
+    from vtrack_gym.evaluation.api import evaluate as _evaluate
+
+    return _evaluate(policy_or_factory, suite_or_env, seeds, **kwargs)
+
 
 register_envs()
 register_highway_envs()  # the id only; highway-env loads on gym.make

@@ -20,7 +20,9 @@ from pathlib import Path
 from vtrack_gym.evaluation.store import DEFAULT_STORE_PATH, StoreError
 from vtrack_gym.tuning.backends import BackendError
 
-DEFAULT_FIGURES_DIR = Path("vtrack_results") / "figures"
+DEFAULT_RESULTS_DIR = Path("vtrack_results")
+DEFAULT_FIGURES_DIR = DEFAULT_RESULTS_DIR / "figures"
+DEFAULT_PLOTS_DIR = DEFAULT_RESULTS_DIR / "plots"
 
 
 def _add_store(p: argparse.ArgumentParser) -> None:
@@ -40,7 +42,9 @@ def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``vtrack`` (every option explained in --help)."""
     parser = argparse.ArgumentParser(prog="vtrack", description="Benchmark steering controllers and RL agents on "
                                      "the paper's trajectory-tracking scenarios.")
-    parser.add_argument("-v", "--verbose", action="store_true", help="log progress details")
+    parser.add_argument("-v", "--verbose", action="store_true",
+                        help="log details to stderr: every episode's result, the kernel cache (the long phases "
+                        "are always announced)")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     b = sub.add_parser("benchmark", help="score every baseline and shipped agent on a suite; print the leaderboard",
@@ -62,8 +66,12 @@ def build_parser() -> argparse.ArgumentParser:
     e = sub.add_parser("eval", help="score one policy on one env", description="Run one policy on one env for one "
                        "or more seeds, print its metrics and add them to the store (suite 'custom').")
     e.add_argument("--policy", required=True,
-                   help="a baseline name (smc, mpc, lqr, stanley, pure_pursuit, mpc_osqp), a shipped agent "
-                   "name, or a weights-only agent file (agent.json / agent.npz)")
+                   help="a baseline name (smc, mpc, lqr, stanley, pure_pursuit, mpc_osqp), NAME:PRESET (smc:paper), "
+                   "a shipped agent name (ppo, sac), a weights-only agent file (agent.json / agent.npz), or, with "
+                   "--trust-code, MODULE:NAME of your own policy class (called as NAME(env) or NAME())")
+    e.add_argument("--trust-code", action="store_true",
+                   help="allow --policy MODULE:NAME: imports and runs that Python module (your code; the working "
+                   "directory is on the import path)")
     e.add_argument("--env", required=True,
                    help="env id, e.g. LateralTracking-v0, DLC120-v0 or highway-env:lane-keeping-v0")
     e.add_argument("--preset", default="default",
@@ -76,7 +84,9 @@ def build_parser() -> argparse.ArgumentParser:
                         description="Print the leaderboard of a suite from the store: one row per policy key (name, "
                         "preset, config or weights hash) and env, the mean over episodes (a metric missing in any "
                         "episode is shown as a dash). Opens the store read-only: it never creates or changes a file.")
-    lb.add_argument("--suite", default="paper", help="suite to show: paper, robust or custom (default: paper)")
+    lb.add_argument("--suite", default="paper",
+                    help="suite to show: one present in the store, e.g. paper, robust, highway, custom (what "
+                    "`vtrack eval` adds) or tuning; the command lists the store's suites (default: paper)")
     lb.add_argument("--store", type=Path, default=DEFAULT_STORE_PATH,
                     help=f"SQLite leaderboard file, opened read-only (default: {DEFAULT_STORE_PATH})")
     _add_format(lb, ("md", "csv", "json", "latex", "html"))
@@ -116,10 +126,20 @@ def build_parser() -> argparse.ArgumentParser:
                     help="replace one hyperparameter of the YAML file, VALUE read as YAML (e.g. learning_rate=3e-5, "
                     "'policy_kwargs={net_arch: [64, 64]}', bc_weight=null to drop an entry); repeatable")
 
-    ex = sub.add_parser("export", help="export a trained SB3 run to the weights-only agent format",
-                        description="Load <run-dir>/model.zip and vecnormalize.pkl (your own training run: SB3 files "
-                        "are pickles, load only files you trust) and write <out>.json + <out>.npz.")
-    ex.add_argument("--run-dir", type=Path, required=True, help="folder written by `vtrack train`")
+    ex = sub.add_parser("export", help="turn a trained SB3 model into a weights-only agent file",
+                        description="Load <run-dir>/model.zip and vecnormalize.pkl, or --model M.zip (and "
+                        "--vecnormalize V.pkl), and write <out>.json + <out>.npz (weights, observation normalisation "
+                        "and the env's observation layout, control period and action scaling). SB3 files are "
+                        "pickles: load only files you trust. Needs the 'rl' extra.")
+    src = ex.add_mutually_exclusive_group(required=True)
+    src.add_argument("--run-dir", type=Path, help="folder written by `vtrack train`")
+    src.add_argument("--model", type=Path, help="an SB3 model file (model.zip) of a PPO/SAC/TD3 MlpPolicy")
+    ex.add_argument("--algo", choices=("ppo", "sac", "td3"), default=None, help="algorithm of --model (required "
+                    "with --model)")
+    ex.add_argument("--vecnormalize", type=Path, default=None,
+                    help="with --model: the VecNormalize statistics (vecnormalize.pkl) the model was trained with")
+    ex.add_argument("--env", default="LateralTrackingRandom-v0",
+                    help="with --model: the env whose contract the file records (default: %(default)s)")
     ex.add_argument("--out", type=Path, required=True, help="output path without suffix, e.g. agents/ppo_dlc")
 
     pl = sub.add_parser("plot", help="write the paper's figures for some policies",
@@ -128,7 +148,8 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("--policies", default="smc,mpc", help="comma-separated policy names (default: smc,mpc)")
     pl.add_argument("--env", default="LateralTracking-v0",
                     help="env id, also highway-env:lane-keeping-v0 (default: LateralTracking-v0)")
-    pl.add_argument("--out", type=Path, default=DEFAULT_FIGURES_DIR, help="output folder")
+    pl.add_argument("--out", type=Path, default=DEFAULT_PLOTS_DIR,
+                    help=f"output folder (default: {DEFAULT_PLOTS_DIR}; the benchmark's figures are left alone)")
 
     t = sub.add_parser("tune", help="GA-tune the SMC or MPC on Case 1 and write a tuned preset (JSON)",
                        description="Genetic algorithm (pymoo: rank selection, SBX 0.8, polynomial mutation 0.1) "
@@ -173,8 +194,54 @@ def build_parser() -> argparse.ArgumentParser:
                        "LateralTracking-v0 and DLC120-v0, write the paper-figure analogues to OUT/reproduction/ "
                        "and the claim-by-claim report OUT/REPRODUCTION.md (deterministic apart from a timestamp).")
     r.add_argument("--quick", action="store_true", help="cut every episode short (smoke test, not a reproduction)")
-    r.add_argument("--out", type=Path, default=Path("docs"), help="output folder (default: docs)")
+    r.add_argument("--out", type=Path, default=DEFAULT_RESULTS_DIR,
+                   help=f"output folder (default: {DEFAULT_RESULTS_DIR}; `--out docs` regenerates the shipped report)")
     return parser
+
+
+_EXTRAS: dict[str, tuple[str, str]] = {
+    "matplotlib": ("benchmark", "the figures"), "osqp": ("benchmark", "the mpc_osqp baseline"),
+    "highway_env": ("highway", "highway-env's lane-keeping-v0"), "stable_baselines3": ("rl", "SB3 training"),
+    "torch": ("rl", "SB3 training"), "yaml": ("rl", "the hyperparameter files"), "pymoo": ("tuning", "the GA"),
+}
+"""Importable module -> (extra that installs it, what needs it)."""
+
+
+def _needed_modules(args: argparse.Namespace) -> list[str]:
+    """The optional modules the chosen command will import, from its arguments alone."""
+    cmd = args.command
+    needed: list[str] = []
+    policies: list[str] = []
+    if cmd == "benchmark":
+        policies = [p for p in args.policies.split(",") if p] or ["mpc_osqp"]
+        needed += [] if args.no_figures else ["matplotlib"]
+        needed += ["highway_env"] if args.suite == "highway" else []
+    elif cmd in ("eval", "plot"):
+        policies = [args.policy] if cmd == "eval" else [p for p in args.policies.split(",") if p]
+        needed += ["matplotlib"] if cmd == "plot" else []
+        needed += ["highway_env"] if "highway" in args.env else []
+    elif cmd == "reproduce":
+        needed += ["matplotlib"]
+    elif cmd in ("train", "export"):
+        needed += ["stable_baselines3", "torch", "yaml"]
+    elif cmd == "tune":
+        needed += ["pymoo"]
+    needed += ["osqp"] if any(p.partition(":")[0] == "mpc_osqp" for p in policies) else []
+    return needed
+
+
+def _missing_packages(args: argparse.Namespace) -> str:
+    """'' if every optional package the command needs is installed, else which are missing and the extra."""
+    import importlib.util
+
+    missing = [m for m in dict.fromkeys(_needed_modules(args)) if importlib.util.find_spec(m) is None]
+    if not missing:
+        return ""
+    extras = sorted({_EXTRAS[m][0] for m in missing})
+    what = "; ".join(f"{m} ({_EXTRAS[m][1]})" for m in missing)
+    hint = " or pass --no-figures" if args.command == "benchmark" and "matplotlib" in missing else ""
+    return (f"missing optional packages: {what}. Install them with: pip install "
+            + " ".join(f'"vtrack_gym[{e}]"' for e in extras) + hint)
 
 
 def _render_board(board: list[dict], fmt: str, title: str = "vtrack leaderboard",
@@ -193,11 +260,14 @@ def _print_board(board: list[dict], fmt: str) -> None:
 
 
 def _cmd_benchmark(args: argparse.Namespace) -> int:
-    from vtrack_gym.evaluation.benchmark import LEADERBOARD_COLUMNS, run_benchmark, summarise
+    from vtrack_gym.evaluation.benchmark import LEADERBOARD_COLUMNS, policy_factories, run_benchmark, summarise
     from vtrack_gym.evaluation.store import ResultStore
 
-    store = ResultStore(args.store)  # verified before any rollout; written after the table is printed
     policies = [p for p in args.policies.split(",") if p] or None
+    if policies:
+        policy_factories(policies)  # every name checked before any work
+    store = ResultStore(args.store)  # verified before any rollout; written after the table is printed
+    _announce_kernels()
     result = run_benchmark(args.suite, store=None, policies=policies,
                            figures_dir=None if args.no_figures else args.figures, quick=args.quick)
     _print_board(summarise(result["rows"], LEADERBOARD_COLUMNS), args.format)
@@ -236,48 +306,88 @@ def _known_env(env_id: str) -> str:
 
 
 def _cmd_eval(args: argparse.Namespace) -> int:
-    from vtrack_gym.evaluation.benchmark import score_policy
-    from vtrack_gym.evaluation.store import ResultStore, to_markdown
-    from vtrack_gym.evaluation.suites import Episode
+    from vtrack_gym.evaluation.api import evaluate
+    from vtrack_gym.evaluation.report_formats import to_markdown
+    from vtrack_gym.evaluation.store import ResultStore
     from vtrack_gym.interop import resolve_env_id
 
     seeds = _parse_seeds(args.seeds)
-    make = _policy_factory(args.policy, args.preset)
+    make = _policy_factory(args.policy, args.preset, trust_code=args.trust_code)
     env_id = _known_env(resolve_env_id(args.env))
     store = ResultStore(args.store)  # verified before the rollouts; written after the table is printed
-    rows, _ = score_policy(args.policy, make, [Episode(env_id, s) for s in seeds], "custom")
+    _announce_kernels()
+    rows = evaluate(make, env_id, seeds, policy_id=args.policy)
     table = [{"seed": r.seed, "termination": r.termination, **{k: v for k, v in r.metrics.items()
                                                                  if isinstance(v, float)}} for r in rows]
     print(to_markdown(table), flush=True)
     store.add(rows)
+    print(f"results stored in {args.store} (suite 'custom': vtrack leaderboard --suite custom)", file=sys.stderr)
     return 0
 
 
-def _policy_factory(name: str, preset: str):
-    from vtrack_gym.evaluation.benchmark import policy_factories
+_USER_SPEC = re.compile(r"[A-Za-z_][\w.]*:[A-Za-z_]\w*")
 
-    suffix = Path(name).suffix
-    if suffix in (".json", ".npz"):
-        from vtrack_gym.baselines.numpy_policy import load_agent  # json + np.load(allow_pickle=False): no code runs
 
-        try:
-            agent = load_agent(name)
-        except (ValueError, OSError) as exc:
-            raise ValueError(f"{name!r} looks like an agent file but is not a valid weights-only vtrack agent: "
-                             f"{exc}") from None
-        return lambda env: agent
-    if suffix in (".zip", ".pkl") or Path(name).exists():
-        raise ValueError(f"{name!r} looks like an agent file; only weights-only vtrack agents (agent.json + "
-                         "agent.npz, written by `vtrack train` / `vtrack export`) are loaded: SB3 zips and "
-                         "pickles can run code")
-    if preset != "default":
-        from vtrack_gym.baselines.registry import make_policy
+def _policy_factory(name: str, preset: str, trust_code: bool = False):
+    """``make(env) -> policy`` for a ``--policy`` value: the package's resolver, or user code with --trust-code."""
+    from vtrack_gym.baselines.registry import available_policies
+    from vtrack_gym.baselines.resolve import policy_factory
 
-        return lambda env: make_policy(name, env, preset=preset)
-    factories = policy_factories()
-    if name not in factories:
-        raise ValueError(f"unknown policy {name!r}; valid: {', '.join(factories)} or an agent file path")
-    return factories[name]
+    module, sep, _ = name.partition(":")
+    if sep and module not in available_policies() and _USER_SPEC.fullmatch(name) and not Path(name).exists():
+        if not trust_code:
+            raise ValueError(f"--policy {name!r} names Python code (MODULE:NAME); importing it runs that code, so "
+                             "vtrack does it only with --trust-code")
+        if preset != "default":
+            raise ValueError("--preset applies to the baselines, not to MODULE:NAME")
+        return _user_factory(name)
+    if trust_code:
+        raise ValueError("--trust-code applies to --policy MODULE:NAME only")
+    return policy_factory(name, preset)
+
+
+def _user_factory(spec: str):
+    """Import ``MODULE`` (working directory first on the path) and return ``make(env)`` calling ``NAME``."""
+    import importlib
+    import inspect
+    import os
+
+    module_name, _, attr = spec.partition(":")
+    print(f"--trust-code: importing and running your module {module_name!r} (policy {attr})", file=sys.stderr)
+    if os.getcwd() not in sys.path:
+        sys.path.insert(0, os.getcwd())
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
+        raise ValueError(f"--policy {spec!r}: cannot import module {module_name!r} ({exc})") from None
+    obj = getattr(module, attr, None)
+    if obj is None:
+        raise ValueError(f"--policy {spec!r}: module {module_name!r} has no attribute {attr!r}")
+    if hasattr(obj, "predict") and not inspect.isclass(obj):
+        return lambda env: obj
+    if not callable(obj):
+        raise ValueError(f"--policy {spec!r}: {attr} is neither a class, a function nor an object with predict")
+    try:
+        params = [p for p in inspect.signature(obj).parameters.values()
+                  if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
+    except (TypeError, ValueError):
+        params = []
+    return (lambda env: obj(env)) if params else (lambda env: obj())
+
+
+def _announce_kernels() -> None:
+    """Say that the first rollout compiles the numba kernels when no compiled cache exists yet."""
+    import os
+
+    import vtrack_gym
+
+    cache_dir = os.environ.get("NUMBA_CACHE_DIR")
+    root = Path(cache_dir) if cache_dir else Path(vtrack_gym.__file__).parent
+    log = logging.getLogger("vtrack_gym.cli")
+    if not any(root.glob("**/*.nbi")):
+        log.info("compiling the kernels (first run only, ~30 s)")
+    else:
+        log.debug("loading the compiled kernels from the numba cache")
 
 
 def _cmd_leaderboard(args: argparse.Namespace) -> int:
@@ -288,6 +398,13 @@ def _cmd_leaderboard(args: argparse.Namespace) -> int:
         print(f"no store at {args.store}: run `vtrack benchmark` first (or pass --store)", file=sys.stderr)
         return 2
     store = ResultStore(args.store, read_only=True)
+    suites = store.suites()
+    listing = ", ".join(f"{name} ({n} episodes)" for name, n in suites.items()) or "none"
+    if args.suite not in suites:
+        raise ValueError(f"no suite {args.suite!r} in {args.store}; suites present: {listing}. Select one with "
+                         "--suite NAME")
+    print(f"suite {args.suite!r} of {args.store}; suites present: {listing} (select one with --suite NAME)",
+          file=sys.stderr)
     board = store.leaderboard(args.suite, LEADERBOARD_COLUMNS, latest_only=not args.all_versions)
     figures = sorted(args.figures.glob("*.png")) if args.format == "html" and args.figures.is_dir() else []
     text = _render_board(board, args.format, title=f"vtrack leaderboard: suite {args.suite}", figures=figures)
@@ -311,9 +428,11 @@ def _cmd_plot(args: argparse.Namespace) -> int:
     names = [p for p in args.policies.split(",") if p.strip()]
     if not names:
         raise ValueError("--policies needs at least one policy name, e.g. --policies smc,mpc")
+    makes = {name: _policy_factory(name, "default") for name in names}  # every name checked before any rollout
+    _announce_kernels()
     rows, traces = [], []
-    for name in names:
-        r, t = score_policy(name, _policy_factory(name, "default"), [Episode(env_id, 0)], "custom")
+    for name, make in makes.items():
+        r, t = score_policy(name, make, [Episode(env_id, 0)], "custom")
         rows += r
         traces += t
     for f in write_figures({env_id: traces}, rows, args.out):
@@ -419,9 +538,18 @@ def _cmd_train(args: argparse.Namespace) -> int:
 def _cmd_export(args: argparse.Namespace) -> int:
     import json
 
-    from vtrack_gym.agents.export import export_run
+    from vtrack_gym.agents.export import export_model, export_run
 
-    json_path, npz_path = export_run(args.run_dir, args.out)
+    if args.run_dir is not None:
+        if args.algo or args.vecnormalize:
+            raise ValueError("--algo and --vecnormalize go with --model; --run-dir reads them from the run")
+        json_path, npz_path = export_run(args.run_dir, args.out)
+    else:
+        if args.algo is None:
+            raise ValueError("--model needs --algo (ppo, sac or td3)")
+        _known_env(args.env)
+        json_path, npz_path = export_model(args.model, args.out, args.algo, args.vecnormalize, env_id=args.env,
+                                           command="vtrack export --model " + str(args.model))
     print(json.dumps({"json": str(json_path), "npz": str(npz_path)}))
     return 0
 
@@ -431,8 +559,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     args.argv = None if argv is None else list(argv)
-    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="%(levelname)s %(message)s")
+    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(message)s")
+    # the package says what its long phases do (INFO); -v adds every episode's result and the details (DEBUG)
+    logging.getLogger("vtrack_gym").setLevel(logging.DEBUG if args.verbose else logging.INFO)
     import vtrack_gym  # noqa: F401  (registers the env ids)
+
+    missing = _missing_packages(args)
+    if missing:
+        print(f"vtrack {args.command}: error: {missing}", file=sys.stderr)
+        return 2
 
     handlers = {"benchmark": _cmd_benchmark, "eval": _cmd_eval, "leaderboard": _cmd_leaderboard, "plot": _cmd_plot,
                 "train": _cmd_train, "export": _cmd_export,

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from vtrack_gym.baselines.numpy_policy import FORMAT, FORMAT_VERSION, save_agent
+from vtrack_gym.baselines.numpy_policy import FORMAT, FORMAT_VERSION, env_record, save_agent
 
 
 def _linear_stack(modules: Any) -> tuple[list[tuple[np.ndarray, np.ndarray]], list[str]]:
@@ -77,9 +77,11 @@ def policy_layers(model: Any) -> tuple[str, list[tuple[np.ndarray, np.ndarray]],
 
 
 def export(model: Any, vecnormalize: Any, path: str | Path, *, env_id: str = "", command: str = "",
-           seed: int | None = None, warm_start: str = "") -> tuple[Path, Path]:
+           seed: int | None = None, warm_start: str = "", env: Any = None) -> tuple[Path, Path]:
     """Write ``<path>.json`` + ``<path>.npz`` for ``model`` (PPO/SAC/TD3 MlpPolicy) and its ``VecNormalize``.
     ``warm_start``: how the actor was initialised before RL (recorded in the provenance if not empty).
+    ``env``: the env whose contract (observation layout, control period, action scaling) the file records;
+    default: ``gym.make(env_id)`` (a vtrack env id), none when ``env_id`` is empty.
 
     ``vecnormalize`` may be None (no observation normalisation) or a ``VecNormalize`` with ``norm_obs``.
     """
@@ -124,7 +126,47 @@ def export(model: Any, vecnormalize: Any, path: str | Path, *, env_id: str = "",
     }
     if warm_start:
         spec["provenance"]["warm_start"] = str(warm_start)
+    if env is None and env_id:
+        import gymnasium as gym
+
+        env = gym.make(env_id)
+    if env is not None:
+        spec["env"] = env_record(env)
+        if len(spec["env"]["observation_names"]) != obs_dim:
+            raise ValueError(f"the model takes {obs_dim} observations, the env's layout has "
+                             f"{len(spec['env']['observation_names'])}")
     return save_agent(path, spec, arrays)
+
+
+SB3_CLASSES = ("ppo", "sac", "td3")
+
+
+def export_model(model_zip: str | Path, out: str | Path, algo: str, vecnormalize_pkl: str | Path | None = None, *,
+                 env_id: str = "LateralTrackingRandom-v0", command: str = "",
+                 seed: int | None = None) -> tuple[Path, Path]:
+    """Export an SB3 ``model.zip`` (``algo`` ppo/sac/td3) and optionally its ``VecNormalize`` pickle to
+    ``<out>.json`` + ``<out>.npz``, recording ``env_id``'s contract (observation layout, control period, action
+    scaling). SB3's files are pickle-based: only export models you produced or trust.
+    """
+    from stable_baselines3 import PPO, SAC, TD3
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from vtrack_gym.agents.sb3_vec_env import TrackingSB3VecEnv
+
+    classes = {"ppo": PPO, "sac": SAC, "td3": TD3}
+    if algo not in classes:
+        raise ValueError(f"unknown algo {algo!r}; valid: {', '.join(classes)}")
+    model_zip = Path(model_zip)
+    if not model_zip.is_file():
+        raise ValueError(f"{model_zip}: SB3 model file not found")
+    model = classes[algo].load(model_zip, device="cpu")
+    vecnorm = None
+    if vecnormalize_pkl is not None:
+        if not Path(vecnormalize_pkl).is_file():
+            raise ValueError(f"{vecnormalize_pkl}: VecNormalize file not found")
+        vecnorm = VecNormalize.load(str(vecnormalize_pkl), TrackingSB3VecEnv(env_id or "DLC120-v0", 1))
+        vecnorm.training = False
+    return export(model, vecnorm, out, env_id=env_id, command=command, seed=seed)
 
 
 def export_run(run_dir: str | Path, out: str | Path) -> tuple[Path, Path]:
@@ -135,25 +177,15 @@ def export_run(run_dir: str | Path, out: str | Path) -> tuple[Path, Path]:
     """
     import json
 
-    from stable_baselines3 import PPO, SAC, TD3
-    from stable_baselines3.common.vec_env import VecNormalize
-
-    from vtrack_gym.agents.sb3_vec_env import TrackingSB3VecEnv
-
     run = Path(run_dir)
     config_file = run / "config.json"
     if not config_file.is_file():
         raise ValueError(f"{run} is not a `vtrack train` run folder (no config.json)")
     config = json.loads(config_file.read_text(encoding="utf-8"))
-    classes = {"ppo": PPO, "sac": SAC, "td3": TD3}
     algo = config.get("algo")
-    if algo not in classes:
-        raise ValueError(f"{config_file}: unknown algo {algo!r}; valid: {', '.join(classes)}")
+    if algo not in SB3_CLASSES:
+        raise ValueError(f"{config_file}: unknown algo {algo!r}; valid: {', '.join(SB3_CLASSES)}")
     env_id = str(config.get("env_id", config.get("env", "")))
-    model = classes[algo].load(run / "model.zip", device="cpu")
-    vecnorm = None
-    if (run / "vecnormalize.pkl").is_file():
-        vecnorm = VecNormalize.load(str(run / "vecnormalize.pkl"), TrackingSB3VecEnv(env_id or "DLC120-v0", 1))
-        vecnorm.training = False
-    return export(model, vecnorm, out, env_id=env_id, command=str(config.get("command", "")),
-                  seed=config.get("seed"))
+    vecnorm = run / "vecnormalize.pkl"
+    return export_model(run / "model.zip", out, algo, vecnorm if vecnorm.is_file() else None, env_id=env_id,
+                        command=str(config.get("command", "")), seed=config.get("seed"))

@@ -7,7 +7,7 @@ ended it. Seeding: ``seed(s)`` then ``reset()`` seeds sub-env i with ``s + i`` (
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -73,24 +73,51 @@ class TrackingSB3VecEnv(VecEnv):
         images = self.venv.render()
         return list(images) if images is not None else [None] * self.num_envs
 
-    def _indices(self, indices: VecEnvIndices) -> Iterable[int]:
+    def _indices(self, indices: VecEnvIndices) -> list[int]:
         if indices is None:
-            return range(self.num_envs)
-        if isinstance(indices, int):
-            return [indices]
-        return indices
+            return list(range(self.num_envs))
+        idx = [int(indices)] if isinstance(indices, (int, np.integer)) else [int(i) for i in indices]
+        bad = [i for i in idx if not 0 <= i < self.num_envs]
+        if bad:
+            raise IndexError(f"sub-env indices {bad} out of range [0, {self.num_envs})")
+        return idx
+
+    def _all_or_refuse(self, what: str, indices: VecEnvIndices) -> list[int]:
+        """The indices if they cover every sub-env; a shared attribute/method cannot act on a subset."""
+        idx = self._indices(indices)
+        if sorted(set(idx)) != list(range(self.num_envs)):
+            raise ValueError(f"{what} is shared by all {self.num_envs} sub-envs of this batched simulation; it "
+                             f"cannot act on sub-envs {idx} alone (use indices=None)")
+        return idx
 
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
         value = getattr(self.venv, attr_name)
         return [value for _ in self._indices(indices)]
 
     def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
+        """Set a shared attribute of the batched simulation; only with indices covering every sub-env."""
+        self._all_or_refuse(f"attribute {attr_name!r}", indices)
         setattr(self.venv, attr_name, value)
 
     def env_method(self, method_name: str, *method_args: Any, indices: VecEnvIndices = None,
                    **method_kwargs: Any) -> list[Any]:
-        method = getattr(self.venv, method_name)
-        return [method(*method_args, **method_kwargs) for _ in self._indices(indices)]
+        """``reset(seed=None, options=None)`` resets exactly the sub-envs ``indices`` (seed ``s`` for each, as a
+        single env would be) and returns their observations; any other method is shared by all sub-envs and is
+        called once, with indices covering every sub-env."""
+        if method_name == "reset":
+            return self._reset_some(self._indices(indices), *method_args, **method_kwargs)
+        idx = self._all_or_refuse(f"method {method_name!r}", indices)
+        result = getattr(self.venv, method_name)(*method_args, **method_kwargs)
+        return [result for _ in idx]
+
+    def _reset_some(self, idx: list[int], seed: int | None = None,
+                    options: dict[str, Any] | None = None) -> list[np.ndarray]:
+        mask = np.zeros(self.num_envs, dtype=bool)
+        mask[idx] = True
+        seeds: list[int | None] = [seed if mask[i] else None for i in range(self.num_envs)]
+        obs, _ = self.venv.reset(seed=seeds if seed is not None else None,
+                                 options={**(options or {}), "reset_mask": mask})
+        return [obs[i].copy() for i in idx]
 
     def env_is_wrapped(self, wrapper_class: type, indices: VecEnvIndices = None) -> list[bool]:
         return [False for _ in self._indices(indices)]

@@ -29,6 +29,7 @@ The run folder holds:
 from __future__ import annotations
 
 import json
+import logging
 import shlex
 import sys
 import time
@@ -37,6 +38,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+log = logging.getLogger(__name__)
 
 ALGOS = ("ppo", "sac", "td3")
 DEFAULT_ENV_ID = "LateralTrackingRandom-v0"
@@ -159,6 +162,8 @@ def _make_callbacks(run_dir: Path, vecnorm: Any, timesteps: int, eval_freq: int,
         def run(self, final: bool = False) -> None:
             self.count += 1
             full = final or (case1_full_every > 0 and self.count % case1_full_every == 0)
+            log.info("evaluating on LateralTracking-v0 (%s) and DLC120-v0 at step %d", "full lap" if full else
+                     f"first {case1_max_steps} steps", self.num_timesteps)
             t0 = time.perf_counter()
             res = evaluate_paper(_Wrapped(self.model, vecnorm), None if full else case1_max_steps)
             for eval_id, row in res.items():  # not env_id: that is the training env id exported below
@@ -287,6 +292,7 @@ def train(algo: str, env_id: str = DEFAULT_ENV_ID, timesteps: int = 1_000_000, s
         if eval_freq > 0:
             callbacks[0].init_callback(model)
             callbacks[0].run()
+    log.info("training %s for %d steps", type(model).__name__, timesteps)
     model.learn(total_timesteps=timesteps, callback=callbacks)
     train_s = time.perf_counter() - t0
     vecnorm.training = False
@@ -310,6 +316,8 @@ def _behaviour_clone(model: Any, venv: Any, vecnorm: Any, bc: Any, seed: int, ru
     from vtrack_gym.agents import imitation
 
     t0 = time.perf_counter()
+    log.info("warm start: %s drives %d x %d steps of expert data, %d DAgger rounds, then the actor is fitted",
+             bc.expert, bc.steps, venv.num_envs, bc.dagger_rounds)
     rounds, fit = imitation.warm_start(model, venv, vecnorm, bc, seed=seed)
     prefilled = 0
     if hasattr(model, "replay_buffer"):

@@ -20,6 +20,10 @@ Format version 1
   optionally ``"warm_start"`` (how the actor was initialised before RL, e.g. behaviour cloning; ``timesteps``
   counts RL steps only)
   (strings/ints, informational only)
+* ``env`` (optional; every file written by ``export`` has it): the env contract the agent was trained on,
+  ``{"observation_names": [...], "control_period_s": float, "max_road_wheel_angle_rad": float}`` (the
+  observation layout's names in order, the control period [s] and the road-wheel angle [rad] that action 1
+  commands). ``check_env`` refuses an env whose layout differs and warns when the period or the scaling do.
 
 ``<name>.npz`` (at most 64 MiB), exactly these float32 arrays (finite values):
 
@@ -34,6 +38,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import math
 import zipfile
 from pathlib import Path
@@ -56,6 +61,8 @@ JSON_KEYS = {"format", "format_version", "algo", "obs_dim", "action_dim", "hidde
 OBS_NORM_KEYS = {"enabled", "eps"}
 PROVENANCE_KEYS = {"env_id", "command", "timesteps", "seed", "package_version", "sb3_version"}
 OPTIONAL_PROVENANCE_KEYS = {"warm_start"}
+OPTIONAL_JSON_KEYS = {"env"}
+ENV_KEYS = {"observation_names", "control_period_s", "max_road_wheel_angle_rad"}
 
 
 def agent_paths(path: str | Path) -> tuple[Path, Path]:
@@ -104,8 +111,8 @@ def _read_json(path: Path) -> dict[str, Any]:
 def validate_spec(spec: dict[str, Any]) -> dict[str, Any]:
     """Check an agent description (the parsed json) field by field; return it unchanged."""
     keys = set(spec)
-    if keys != JSON_KEYS:
-        extra, missing = sorted(keys - JSON_KEYS), sorted(JSON_KEYS - keys)
+    if not JSON_KEYS <= keys <= JSON_KEYS | OPTIONAL_JSON_KEYS:
+        extra, missing = sorted(keys - JSON_KEYS - OPTIONAL_JSON_KEYS), sorted(JSON_KEYS - keys)
         raise ValueError(f"agent json: unexpected keys {extra} / missing keys {missing}")
     if spec["format"] != FORMAT:
         raise ValueError(f"agent json: format must be {FORMAT!r} (got {spec['format']!r})")
@@ -146,7 +153,31 @@ def validate_spec(spec: dict[str, Any]) -> dict[str, Any]:
         raise ValueError(f"agent json: provenance.timesteps must be a non-negative int (got {prov['timesteps']!r})")
     if prov["seed"] is not None and not _is_int(prov["seed"]):
         raise ValueError(f"agent json: provenance.seed must be an int or null (got {prov['seed']!r})")
+    if "env" in spec:
+        _validate_env(spec["env"])
     return spec
+
+
+def _validate_env(env: Any) -> None:
+    if not isinstance(env, dict) or set(env) != ENV_KEYS:
+        raise ValueError(f"agent json: env must be an object with keys {sorted(ENV_KEYS)}")
+    names = env["observation_names"]
+    if (not isinstance(names, list) or not 1 <= len(names) <= MAX_DIM
+            or not all(isinstance(n, str) and 0 < len(n) <= 64 for n in names)):
+        raise ValueError(f"agent json: env.observation_names must be a list of 1-{MAX_DIM} names (<= 64 chars)")
+    for key, high in (("control_period_s", 1.0), ("max_road_wheel_angle_rad", 3.2)):
+        v = env[key]
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not (0.0 < v <= high):
+            raise ValueError(f"agent json: env.{key} must be a number in (0, {high}] (got {v!r})")
+
+
+def env_record(env: Any) -> dict[str, Any]:
+    """The ``env`` field of an agent file for ``env`` (a Gymnasium env, vector env or SB3 VecEnv)."""
+    from vtrack_gym.baselines.base import env_contract
+
+    design, layout, period = env_contract(env)
+    return {"observation_names": list(layout.names), "control_period_s": float(period),
+            "max_road_wheel_angle_rad": float(design.max_road_wheel_angle_rad)}
 
 
 def expected_arrays(spec: dict[str, Any]) -> dict[str, tuple[int, ...]]:
@@ -238,6 +269,9 @@ class NumpyPolicy:
         for key, shape in shapes.items():
             if arrays[key].shape != shape or arrays[key].dtype != np.float32 or not np.isfinite(arrays[key]).all():
                 raise ValueError(f"array {key!r} must be finite float32 of shape {shape}")
+        if "env" in spec and len(spec["env"]["observation_names"]) != spec["obs_dim"]:
+            raise ValueError(f"agent json: env.observation_names has {len(spec['env']['observation_names'])} names, "
+                             f"obs_dim is {spec['obs_dim']}")
         self.name = name
         self._weights_hash = weights_sha256(spec, arrays)
         self.algo = spec["algo"]
@@ -259,6 +293,37 @@ class NumpyPolicy:
     @property
     def policy_id(self) -> str:
         return self.name
+
+    def check_env(self, env: Any) -> None:
+        """Refuse ``env`` if its observation layout is not the one the agent was trained on (``ValueError``).
+
+        Files with the ``env`` record compare the layout names in order, and log a warning when the control
+        period or the road-wheel angle of action 1 differ (the agent still runs, on a different plant timing or
+        scale, e.g. highway-env); files without it compare the observation size only.
+        """
+        from vtrack_gym.baselines.base import env_contract
+
+        design, layout, period = env_contract(env)
+        record = self.spec.get("env")
+        names = list(layout.names)
+        if record is None:
+            if layout.size != self.obs_dim:
+                raise ValueError(f"agent {self.name!r} takes {self.obs_dim} observations; this env's layout has "
+                                 f"{layout.size}")
+            return
+        if record["observation_names"] != names:
+            diff = next((i for i, (a, b) in enumerate(zip(record["observation_names"], names, strict=False))
+                         if a != b), min(len(names), self.obs_dim))
+            theirs = record["observation_names"][diff] if diff < self.obs_dim else "(end)"
+            ours = names[diff] if diff < len(names) else "(end)"
+            raise ValueError(f"agent {self.name!r} was trained on another observation layout: entry {diff} is "
+                             f"{theirs!r} for the agent and {ours!r} in this env ({self.obs_dim} vs {len(names)} "
+                             "entries); retrain or export it for this env's layout")
+        for key, value in (("control_period_s", period), ("max_road_wheel_angle_rad",
+                                                           design.max_road_wheel_angle_rad)):
+            if not math.isclose(record[key], float(value), rel_tol=1e-9):
+                logging.getLogger(__name__).warning("agent %r was trained with %s = %g, this env has %g",
+                                                    self.name, key, record[key], float(value))
 
     @property
     def weights_hash(self) -> str:

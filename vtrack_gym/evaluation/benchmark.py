@@ -69,21 +69,30 @@ def cones_hit(env: gym.Env, trace: Trace) -> int | None:
                                c.body_width_m, c.cg_to_front_end_m))
 
 
+def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str) -> tuple[ResultRow, Trace]:
+    """Run ``policy`` for one episode on ``env`` (reset with ``ep``'s seed and options); its row and trace."""
+    trace = rollout(policy, env, seed=ep.seed, options=ep.options)
+    trace.policy_id = name
+    metrics = evaluate_trace(trace, cones_hit(env, trace))
+    row = ResultRow(suite=suite, env_id=ep.env_id, policy_id=name, policy_hash=policy_hash(policy), seed=ep.seed,
+                    metrics=metrics, termination=trace.termination,
+                    wall_time_per_step_s=trace.wall_time_per_step_s, options=dict(ep.options),
+                    policy_preset=policy_preset(policy))
+    return row, trace
+
+
 def score_policy(name: str, make: Any, episodes: Sequence[Episode], suite: str,
                  progress: Any = None) -> tuple[list[ResultRow], list[Trace]]:
     """Run ``make(env) -> policy`` on every episode; returns the leaderboard rows and the traces."""
     rows, traces = [], []
     for ep in episodes:
         env = gym.make(ep.env_id)
-        policy = make(env)
-        trace = rollout(policy, env, seed=ep.seed, options=ep.options)
-        trace.policy_id = name
-        metrics = evaluate_trace(trace, cones_hit(env, trace))
-        env.close()
-        rows.append(ResultRow(suite=suite, env_id=ep.env_id, policy_id=name, policy_hash=policy_hash(policy),
-                              seed=ep.seed, metrics=metrics, termination=trace.termination,
-                              wall_time_per_step_s=trace.wall_time_per_step_s, options=dict(ep.options),
-                              policy_preset=policy_preset(policy)))
+        try:
+            row, trace = score_episode(name, make(env), env, ep, suite)
+        finally:
+            env.close()
+        log.debug("%s on %s seed %s: %s", name, ep.env_id, ep.seed, row.termination)
+        rows.append(row)
         traces.append(trace)
         if progress is not None:
             progress.update(1)
@@ -91,21 +100,11 @@ def score_policy(name: str, make: Any, episodes: Sequence[Episode], suite: str,
 
 
 def policy_factories(names: Sequence[str] | None = None) -> dict[str, Any]:
-    """``{display name: make(env) -> policy}`` for every baseline (default presets) and shipped agent."""
-    from vtrack_gym.baselines.registry import available_policies, make_policy
+    """``{display name: make(env) -> policy}`` for every baseline (default presets) and shipped agent, or for
+    ``names`` (policy specs, see ``vtrack_gym.baselines.resolve``; all checked before any is returned)."""
+    from vtrack_gym.baselines.resolve import policy_factory, policy_names
 
-    chosen = list(names) if names else list(available_policies())
-    factories: dict[str, Any] = {}
-    for name in chosen:
-        factories[name] = (lambda env, _n=name: make_policy(_n, env))
-    try:
-        from vtrack_gym.baselines.shipped import shipped_agent_factories
-    except ImportError:
-        return factories
-    for name, make in shipped_agent_factories().items():
-        if not names or name in names:
-            factories[name] = make
-    return factories
+    return {name: policy_factory(name) for name in (list(names) if names else policy_names())}
 
 
 def run_benchmark(suite: str = "paper", store: ResultStore | None = None, policies: Sequence[str] | None = None,

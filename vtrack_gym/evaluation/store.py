@@ -327,6 +327,13 @@ class ResultStore:
                         [(str(int(meta["row_count"]) + len(records)), "row_count"), (f"{digest:064x}", "rows_digest")])
 
     # ------------------------------------------------------------------------------------------ reading
+    def suites(self) -> dict[str, int]:
+        """``{suite: number of stored episodes}`` of every suite in the store, by name (rows verified)."""
+        counts: dict[str, int] = {}
+        for row in self.rows():
+            counts[row["suite"]] = counts.get(row["suite"], 0) + 1
+        return dict(sorted(counts.items()))
+
     def rows(self, suite: str | None = None) -> list[dict[str, Any]]:
         """Every stored row (optionally of one suite) as dicts with the metrics unpacked.
 

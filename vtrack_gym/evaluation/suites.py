@@ -12,6 +12,7 @@ in 0.9-1.1); below that every policy must fail, which would measure the road, no
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -48,16 +49,20 @@ def robust_options(seed: int, nominal_speed_mps: float, friction_range: tuple[fl
     }
 
 
-def suite_episodes(name: str, quick: bool = False) -> list[Episode]:
-    """The episodes of suite ``name`` (``quick`` keeps one robust seed, for smoke tests)."""
+def suite_episodes(name: str, quick: bool = False, seeds: Sequence[int] | None = None) -> list[Episode]:
+    """The episodes of suite ``name`` (``quick`` keeps one robust seed, for smoke tests).
+
+    ``seeds`` replaces the suite's seeds (paper: both scenarios at each seed; robust: the perturbations drawn
+    from each seed; highway: seeds 0-2 only, one initial condition each).
+    """
     if name == "paper":
-        return [Episode("LateralTracking-v0", 0), Episode("DLC120-v0", 0)]
+        return [Episode(env_id, s) for s in (seeds or (0,)) for env_id in ("LateralTracking-v0", "DLC120-v0")]
     if name == "robust":
-        seeds = ROBUST_SEEDS[:1] if quick else ROBUST_SEEDS
+        chosen = tuple(seeds) if seeds else (ROBUST_SEEDS[:1] if quick else ROBUST_SEEDS)
         return [Episode(sc.name, s, robust_options(s, sc.target_speed_mps, ROBUST_FRICTION[sc.name]))
-                for sc in (LATERAL_TRACKING, DLC120) for s in seeds]
+                for sc in (LATERAL_TRACKING, DLC120) for s in chosen]
     if name == "highway":
-        return highway_episodes(quick=quick)
+        return highway_episodes(quick=quick, seeds=seeds)
     raise ValueError(f"unknown suite {name!r}; valid: {', '.join(SUITES)}")
 
 
@@ -72,7 +77,7 @@ HIGHWAY_STARTS: dict[int, dict[str, float]] = {
 """Reset options of the ``highway`` suite's episodes, by seed."""
 
 
-def highway_episodes(quick: bool = False) -> list[Episode]:
+def highway_episodes(quick: bool = False, seeds: Sequence[int] | None = None) -> list[Episode]:
     """Episodes of the ``highway`` leaderboard suite: the adapter from three initial conditions (seed -> options).
 
     Seed 0 is highway-env's own initial offset (4 m right of the sine lane's centre line at its start); seed 1
@@ -82,8 +87,10 @@ def highway_episodes(quick: bool = False) -> list[Episode]:
     from vtrack_gym.interop import HIGHWAY_ENV_ID, register_highway_envs
 
     register_highway_envs()
-    seeds = HIGHWAY_SEEDS[:1] if quick else HIGHWAY_SEEDS
-    return [Episode(HIGHWAY_ENV_ID, s, dict(HIGHWAY_STARTS[s])) for s in seeds]
+    if seeds and not set(seeds) <= set(HIGHWAY_STARTS):
+        raise ValueError(f"highway suite seeds must be among {sorted(HIGHWAY_STARTS)} (got {list(seeds)})")
+    chosen = tuple(seeds) if seeds else (HIGHWAY_SEEDS[:1] if quick else HIGHWAY_SEEDS)
+    return [Episode(HIGHWAY_ENV_ID, s, dict(HIGHWAY_STARTS[s])) for s in chosen]
 
 
 SUITES: tuple[str, ...] = ("paper", "robust", "highway")

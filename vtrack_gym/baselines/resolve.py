@@ -1,0 +1,113 @@
+"""One resolver from a policy spec to a policy: what ``vtrack_gym.make_policy`` and the ``vtrack`` CLI use.
+
+A spec is, in this order (names always win over files, so a file or directory in the working directory named
+like a policy never shadows it):
+
+* a baseline name (``smc``, ``mpc``, ``lqr``, ``stanley``, ``pure_pursuit``, ``mpc_osqp``), default preset;
+* ``name:preset`` for a baseline (``smc:paper``, ``mpc:hand``);
+* a shipped agent name (``ppo``, ``sac``: ``vtrack_gym/baselines/shipped``);
+* a weights-only agent file path (``agent.json`` or ``agent.npz``; JSON + ``np.load(allow_pickle=False)``,
+  no code runs).
+
+Anything else raises ``ValueError`` listing every valid name. User code (``module:Class``) is never imported
+here: pass your object to ``vtrack_gym.evaluate`` or use ``vtrack eval --trust-code``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from vtrack_gym.baselines.registry import available_policies
+from vtrack_gym.baselines.registry import make_policy as make_baseline
+
+AGENT_SUFFIXES = (".json", ".npz")
+UNSAFE_SUFFIXES = (".zip", ".pkl", ".pickle", ".pt", ".pth")
+
+
+def shipped_names() -> tuple[str, ...]:
+    """Names of the shipped RL agents (trained and loadable)."""
+    from vtrack_gym.baselines.shipped import shipped_agent_factories
+
+    return tuple(shipped_agent_factories())
+
+
+def policy_names() -> tuple[str, ...]:
+    """Every policy name a spec may be: the baselines, then the shipped agents."""
+    return (*available_policies(), *shipped_names())
+
+
+def _valid_text() -> str:
+    return (f"valid: {', '.join(policy_names())} (a baseline may take :PRESET, e.g. smc:paper), or an agent file "
+            "path (agent.json)")
+
+
+def policy_factory(spec: str, preset: str | None = None) -> Callable[[Any], Any]:
+    """``make(env) -> policy`` for ``spec`` (see the module docstring), checked now, before any env exists.
+
+    ``preset`` (a baseline's preset) may also be given inside the spec as ``name:preset``, not both.
+    Raises ``ValueError`` for unknown names, presets, refused files and invalid agent files.
+    """
+    if not isinstance(spec, str) or not spec.strip():
+        raise ValueError(f"policy spec must be a non-empty string (got {spec!r}); {_valid_text()}")
+    name, sep, spec_preset = spec.partition(":")
+    baselines = available_policies()
+    if sep and name in baselines:
+        if preset not in (None, "default"):
+            raise ValueError(f"policy {spec!r} names a preset; do not also pass preset={preset!r}")
+        preset = spec_preset
+    if name in baselines and (sep or spec in baselines):
+        chosen = preset or "default"
+        if chosen != "default" and chosen not in _presets(name):
+            raise ValueError(f"unknown preset {chosen!r} of policy {name!r}; valid: {', '.join(_presets(name))}")
+        return lambda env: make_baseline(name, env, preset=chosen)
+    if preset not in (None, "default"):
+        raise ValueError(f"preset {preset!r} applies to the baselines ({', '.join(baselines)}), not to {spec!r}")
+    from vtrack_gym.baselines.shipped import shipped_agent_factories
+
+    shipped = shipped_agent_factories()
+    if spec in shipped:
+        agent = shipped[spec](None)
+        return lambda env: bind_agent(agent, env)
+    if sep and not Path(spec).exists():
+        raise ValueError(f"unknown policy {spec!r}; {_valid_text()}. A module:Class spec imports your code: pass "
+                         "your policy object to vtrack_gym.evaluate, or use `vtrack eval --policy module:Class "
+                         "--trust-code`")
+    return _file_factory(spec)
+
+
+def _presets(name: str) -> tuple[str, ...]:
+    from vtrack_gym.baselines.registry import available_presets
+
+    return available_presets(name)
+
+
+def _file_factory(spec: str) -> Callable[[Any], Any]:
+    path = Path(spec)
+    if path.suffix in AGENT_SUFFIXES:
+        from vtrack_gym.baselines.numpy_policy import load_agent
+
+        try:
+            agent = load_agent(path)
+        except (ValueError, OSError) as exc:
+            raise ValueError(f"{spec!r} looks like an agent file but is not a valid weights-only vtrack agent: "
+                             f"{exc}") from None
+        return lambda env: bind_agent(agent, env)
+    if path.suffix in UNSAFE_SUFFIXES or path.is_file():
+        raise ValueError(f"{spec!r} looks like an agent file; only weights-only vtrack agents (agent.json + "
+                         "agent.npz, written by `vtrack train` / `vtrack export`) are loaded: SB3 zips and "
+                         "pickles can run code (turn an SB3 model into an agent file with `vtrack export --model`)")
+    raise ValueError(f"unknown policy {spec!r}; {_valid_text()}")
+
+
+def bind_agent(agent: Any, env: Any) -> Any:
+    """``agent`` after checking it against ``env`` (``NumpyPolicy.check_env``); ``env=None`` skips the check."""
+    if env is not None:
+        agent.check_env(env)
+    return agent
+
+
+def resolve_policy(spec: str, env: Any, preset: str | None = None) -> Any:
+    """The policy ``spec`` names, built for ``env`` (see the module docstring)."""
+    return policy_factory(spec, preset)(env)

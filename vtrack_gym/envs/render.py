@@ -144,7 +144,7 @@ class TopDownRenderer:
         self.path = path
         self.config = config or RenderConfig()
         cfg = self.config
-        self._font = _font(max(10, cfg.height_px // 30))
+        self._text = GlyphText(_font(max(10, cfg.height_px // 30)))
         self._car = (float(chassis.cg_to_front_end_m), float(chassis.body_length_m - chassis.cg_to_front_end_m),
                      0.5 * float(chassis.body_width_m), float(chassis.cg_to_front_axle_m),
                      float(chassis.cg_to_rear_axle_m), 0.5 * float(chassis.track_width_m))
@@ -269,10 +269,12 @@ class TopDownRenderer:
                 draw.line([tuple(p) for p in px], fill=hex_to_rgb(car.colour), width=2)
         for k in range(len(cars) - 1, -1, -1):  # the first car on top, the others as outlines
             self._draw_car(draw, cars[k], off, filled=k == 0)
-        self._draw_scale_bar(draw)
+        bar_text = self._draw_scale_bar(draw)
+        out = np.array(img, dtype=np.uint8)
+        self._text.draw(out, *bar_text, TEXT)
         if cfg.show_readout:
-            self._draw_readout(draw, cars, time_s, title)
-        return np.asarray(img, dtype=np.uint8)
+            self._draw_readout(out, cars, time_s, title)
+        return out
 
     def _draw_car(self, draw: Any, car: CarView, off: np.ndarray, filled: bool = True) -> None:
         front, rear, half_w, lf, lr, half_t = self._car
@@ -303,7 +305,8 @@ class TopDownRenderer:
                                [0.2 * front, -0.7 * half_w], [0.2 * front, 0.7 * half_w]])
         draw.polygon(poly(windscreen), fill=(30, 40, 60))
 
-    def _draw_scale_bar(self, draw: Any) -> None:
+    def _draw_scale_bar(self, draw: Any) -> tuple[int, int, str]:
+        """Draws the bar; returns (x, y, text) of its label."""
         cfg = self.config
         length_m = nice_length(0.2 * cfg.width_px / self.px_per_m)
         n = max(1, round(length_m * self.px_per_m))
@@ -312,10 +315,9 @@ class TopDownRenderer:
         draw.line([(x0, y0), (x0 + n, y0)], fill=TEXT, width=3)
         for xe in (x0, x0 + n):
             draw.line([(xe, y0 - 5), (xe, y0 + 5)], fill=TEXT, width=2)
-        text = f"{length_m:g} m"
-        draw.text((x0 + n + 6, y0 - 8), text, fill=TEXT, font=self._font)
+        return x0 + n + 6, y0 - self._text.height // 2, f"{length_m:g} m"
 
-    def _draw_readout(self, draw: Any, cars: Sequence[CarView], time_s: float, title: str) -> None:
+    def _draw_readout(self, out: np.ndarray, cars: Sequence[CarView], time_s: float, title: str) -> None:
         lines = [f"{title}  t = {time_s:6.2f} s".strip()]
         colours = [TEXT]
         for car in cars:
@@ -323,11 +325,48 @@ class TopDownRenderer:
             lines.append(f"{name}v {car.v_mps * 3.6:5.1f} km/h  e_y {car.e_y_m:+6.3f} m  "
                          f"wheel {car.hand_wheel_deg:+6.1f} deg {car.status}".rstrip())
             colours.append(hex_to_rgb(car.colour) if len(cars) > 1 else TEXT)
-        line_h = self._font.size + 3 if hasattr(self._font, "size") else 13
-        width = max(draw.textlength(t, font=self._font) for t in lines)
-        draw.rectangle((4, 4, 12 + width, 8 + line_h * len(lines)), fill=PANEL)
+        line_h = self._text.height + 2
+        width = max(self._text.width(t) for t in lines)
+        out[4:min(8 + line_h * len(lines), out.shape[0]), 4:min(12 + width, out.shape[1])] = PANEL
         for k, (t, col) in enumerate(zip(lines, colours, strict=True)):
-            draw.text((8, 6 + k * line_h), t, fill=col, font=self._font)
+            self._text.draw(out, 8, 6 + k * line_h, t, col)
+
+
+class GlyphText:
+    """Text drawn from cached glyph masks (one Pillow call per new character, numpy blending per line)."""
+
+    def __init__(self, font: Any) -> None:
+        from PIL import Image, ImageDraw
+
+        self._font = font
+        self._Image, self._ImageDraw = Image, ImageDraw
+        ascent, descent = font.getmetrics() if hasattr(font, "getmetrics") else (11, 2)
+        self.height = int(ascent + descent)
+        self._glyphs: dict[str, np.ndarray] = {}
+
+    def _glyph(self, ch: str) -> np.ndarray:
+        g = self._glyphs.get(ch)
+        if g is None:
+            w = max(1, math.ceil(self._font.getlength(ch)))
+            img = self._Image.new("L", (w, self.height), 0)
+            self._ImageDraw.Draw(img).text((0, 0), ch, fill=255, font=self._font)
+            g = self._glyphs[ch] = np.asarray(img, dtype=np.float32)[..., None] / 255.0
+        return g
+
+    def width(self, text: str) -> int:
+        return sum(self._glyph(c).shape[1] for c in text)
+
+    def draw(self, out: np.ndarray, x: int, y: int, text: str, colour: tuple[int, int, int]) -> None:
+        """Blend ``text`` in ``colour`` into ``out`` (H, W, 3 uint8) with its top-left corner at (x, y)."""
+        if not text:
+            return
+        mask = np.concatenate([self._glyph(c) for c in text], axis=1)
+        h, w = min(mask.shape[0], out.shape[0] - y), min(mask.shape[1], out.shape[1] - x)
+        if h <= 0 or w <= 0 or x < 0 or y < 0:
+            return
+        region = out[y:y + h, x:x + w].astype(np.float32)
+        region += (np.asarray(colour, dtype=np.float32) - region) * mask[:h, :w]
+        out[y:y + h, x:x + w] = region.astype(np.uint8)
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:

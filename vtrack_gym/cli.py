@@ -317,6 +317,8 @@ def _cmd_video(args: argparse.Namespace) -> int:
     if (args.policy is None) == (args.policies is None):
         raise ValueError("give exactly one of --policy NAME or --policies A,B")
     out = check_video_path(args.out)
+    if args.seed < 0:
+        raise ValueError(f"--seed must be >= 0 (got {args.seed})")
     render = RenderConfig(width_px=args.width, height_px=args.height, view=args.view, view_width_m=args.view_width,
                           fps=args.fps)
     config = VideoConfig(fps=args.fps, speedup=args.speedup, arrangement=args.arrangement, max_seconds=args.seconds,

@@ -60,9 +60,9 @@ def highway_render_rate() -> float:
 
 def _drive(env, policy, max_steps: int | None = None) -> int:
     obs, _ = env.reset(seed=0)
-    steps, done = 0, False
+    steps, done, state = 0, False, None
     while not done and (max_steps is None or steps < max_steps):
-        action, _ = policy.predict(obs, deterministic=True)
+        action, state = policy.predict(obs, state=state, episode_start=np.array([steps == 0]), deterministic=True)
         obs, _, term, trunc, _ = env.step(np.asarray(action, dtype=np.float32).reshape(1))
         steps += 1
         done = term or trunc

@@ -288,22 +288,22 @@ class TopDownRenderer:
 
         body = np.array([[front, half_w], [front, -half_w], [-rear, -half_w], [-rear, half_w]])
         rgb = hex_to_rgb(car.colour)
-        wheel_l, wheel_w = 0.33, 0.11  # half length / half width of a tyre [m]
-        for ax, steer in ((lf, car.road_wheel_angle_rad), (-lr, 0.0)):
-            cs, sn = math.cos(steer), math.sin(steer)
-            for side in (half_t, -half_t):
-                tyre = np.array([[wheel_l, wheel_w], [wheel_l, -wheel_w], [-wheel_l, -wheel_w], [-wheel_l, wheel_w]])
-                tyre = tyre @ np.array([[cs, sn], [-sn, cs]]) + [ax, side]
-                draw.polygon(poly(tyre), fill=(20, 20, 20))
         if not filled:
             draw.polygon(poly(body), outline=rgb, width=2)
             return
         inner = body * [[0.92, 0.8]]
         draw.polygon(poly(body), fill=(0, 0, 0))
         draw.polygon(poly(inner), fill=rgb)
-        windscreen = np.array([[0.55 * front, 0.7 * half_w], [0.55 * front, -0.7 * half_w],
-                               [0.2 * front, -0.7 * half_w], [0.2 * front, 0.7 * half_w]])
+        windscreen = np.array([[0.45 * front, 0.7 * half_w], [0.45 * front, -0.7 * half_w],
+                               [0.1 * front, -0.7 * half_w], [0.1 * front, 0.7 * half_w]])
         draw.polygon(poly(windscreen), fill=(30, 40, 60))
+        wheel_l, wheel_w = 0.33, 0.11  # half length / half width of a tyre [m], drawn over the body
+        for ax, steer in ((lf, car.road_wheel_angle_rad), (-lr, 0.0)):
+            cs, sn = math.cos(steer), math.sin(steer)
+            for side in (half_t, -half_t):
+                tyre = np.array([[wheel_l, wheel_w], [wheel_l, -wheel_w], [-wheel_l, -wheel_w], [-wheel_l, wheel_w]])
+                tyre = tyre @ np.array([[cs, sn], [-sn, cs]]) + [ax, side]
+                draw.polygon(poly(tyre), fill=(20, 20, 20))
 
     def _draw_scale_bar(self, draw: Any) -> tuple[int, int, str]:
         """Draws the bar; returns (x, y, text) of its label."""

@@ -17,13 +17,19 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from vtrack_gym.envs.palette import policy_colour
+from vtrack_gym.envs import render as R
+from vtrack_gym.envs.palette import FALLBACK_COLOURS, KNOWN_POLICY_COLOURS, hex_to_rgb, policy_colour
 from vtrack_gym.envs.render import CarView, FrameClock, RenderConfig, TopDownRenderer
 
 VIDEO_SUFFIXES: tuple[str, ...] = (".mp4", ".gif")
 ARRANGEMENTS: tuple[str, ...] = ("side", "overlay")
 TRAIL_POINTS = 75  # frames of trail drawn behind each car
 MAX_GIF_FRAMES = 3000  # a GIF is assembled in memory: longer videos should be MP4
+
+
+_SCENE_COLOURS: list[tuple[int, int, int]] = [
+    *(hex_to_rgb(c) for c in (*KNOWN_POLICY_COLOURS.values(), *FALLBACK_COLOURS)),
+    R.GRASS, R.ROAD, R.EDGE, R.REFERENCE, R.CONE, R.PREVIEW, R.TEXT, R.PANEL]
 
 
 def check_video_path(out: str | Path) -> Path:
@@ -122,6 +128,7 @@ class _Writer:
     def __init__(self, out: Path, fps: int) -> None:
         self.out, self.fps, self.frames = out, fps, 0
         self._gif: list[Any] | None = None
+        self._palette: Any = None
         if out.suffix.lower() == ".gif":
             self._gif = []
             return
@@ -143,8 +150,13 @@ class _Writer:
                              "--seconds")
         from PIL import Image
 
-        self._gif.append(Image.fromarray(frame).quantize(colors=64, method=Image.Quantize.MEDIANCUT,
-                                                         dither=Image.Dither.NONE))
+        if self._palette is None:  # one palette for the whole GIF: the first frame plus every scene colour
+            swatch = np.repeat(np.array([_SCENE_COLOURS], dtype=np.uint8), 4, axis=0)
+            rows = np.zeros((4, frame.shape[1], 3), dtype=np.uint8)
+            rows[:, :swatch.shape[1]] = swatch[:, :frame.shape[1]]
+            self._palette = Image.fromarray(np.vstack([frame, rows])).quantize(
+                colors=96, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE)
+        self._gif.append(Image.fromarray(frame).quantize(palette=self._palette, dither=Image.Dither.NONE))
 
     def close(self) -> None:
         if self._gif is None:

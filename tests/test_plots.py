@@ -67,7 +67,7 @@ def test_signals_skip_constant_panels_and_pair_throttle_with_brake(case1, monkey
     assert not any("brake" in lab for lab in labels)
     assert "throttle [-] (solid)" in labels
     assert len(figs[0].axes) == 5  # hand-wheel, e_y, a_y, roll, throttle
-    assert "brake_n" in figs[0]._suptitle.get_text()  # named as constant
+    assert "constant, not drawn: brake pedal force" in figs[0]._suptitle.get_text()
     with_brake = [dataclasses.replace(t, signals={**t.signals, "brake_n": np.linspace(0, 50, t.n_steps)})
                   for t in traces]
     plots.plot_signals(with_brake, tmp_path / "s2.png")

@@ -198,7 +198,7 @@ def plot_signals(traces: Sequence[Trace], out_file: str | Path, title: str = "",
     axes[-1].set_xlabel("time [s]")
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 5), fontsize=8, frameon=False)
-    constant = [p[0] for p in SIGNAL_PANELS if not signal_varies(traces, p[0])]
+    constant = [p[1].split(" [")[0] for p in SIGNAL_PANELS if not signal_varies(traces, p[0])]
     head = title or "Signals"
     if constant:
         head += f" (constant, not drawn: {', '.join(constant)})"

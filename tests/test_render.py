@@ -155,3 +155,52 @@ def test_policy_colours_are_stable_and_distinct() -> None:
     assert policy_colour("SMC (paper)") == policy_colour("smc")
     assert policy_colour("my_agent") == policy_colour("my_agent")
     assert policy_colour("smcx") in FALLBACK_COLOURS  # a prefix counts only up to a separator
+
+
+def test_human_window_shows_frames_and_survives_being_closed(monkeypatch) -> None:
+    """The Tk window code path with stand-ins for tkinter and ImageTk (no display on the test machine)."""
+    import types
+
+    class TclError(Exception):
+        pass
+
+    events: list[str] = []
+
+    class Tk:
+        def title(self, text: str) -> None:
+            events.append(f"title {text}")
+
+        def update(self) -> None:
+            if len(events) > 3:
+                raise TclError("application has been destroyed")  # the user closed the window
+            events.append("update")
+
+        def destroy(self) -> None:
+            events.append("destroy")
+
+    class Label:
+        def __init__(self, root: Tk) -> None:
+            pass
+
+        def pack(self) -> None:
+            pass
+
+        def configure(self, image: object) -> None:
+            events.append(f"image {image.size}")
+
+    tk = types.SimpleNamespace(Tk=Tk, Label=Label, TclError=TclError)
+    image_tk = types.SimpleNamespace(PhotoImage=lambda img: img)
+    monkeypatch.setitem(sys.modules, "tkinter", tk)
+    monkeypatch.setattr("PIL.ImageTk", image_tk, raising=False)
+    monkeypatch.setitem(sys.modules, "PIL.ImageTk", image_tk)
+    monkeypatch.setattr(R, "display_problem", lambda: None)
+    window = R.HumanWindow("DLC120-v0", fps=1000)
+    frame = np.zeros((96, 128, 3), dtype=np.uint8)
+    window.show(frame)
+    assert events == ["title DLC120-v0", "image (128, 96)", "update"]
+    window.show(frame)
+    window.show(frame)  # update() raised: the window is marked closed, no exception reaches the env
+    assert window.closed
+    window.show(frame)  # a no-op once closed
+    window.close()
+    assert "destroy" not in events

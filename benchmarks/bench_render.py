@@ -37,7 +37,7 @@ def vtrack_render_rate(env_id: str, view: str) -> float:
     env.reset(seed=0)
     for _ in range(200):  # drive a little so the camera is mid-track
         env.step(np.zeros(1, dtype=np.float32))
-    return rate(env.render, 1.0)
+    return rate(env.render, 1.0, min_seconds=3.0, repeats=6)
 
 
 def highway_env():
@@ -55,7 +55,7 @@ def highway_render_rate() -> float:
     env = highway_env()
     for _ in range(5):
         env.step(np.zeros(env.action_space.shape, dtype=np.float32))
-    return rate(env.render, 1.0)
+    return rate(env.render, 1.0, min_seconds=3.0, repeats=6)
 
 
 def _drive(env, policy, max_steps: int | None = None) -> int:
@@ -113,6 +113,7 @@ def main() -> None:
         record_dlc(None, folder)  # warm-up: compiled kernels, policy set-up
         bare, steps = record_dlc(None, folder)
         driven = steps * 0.01
+        n_listed = 1 + int(driven * 25 + 1e-6)
         listed, _ = record_dlc("rgb_array_list", folder)
         every, _ = record_dlc("rgb_array", folder)
         cli = record_video("DLC120-v0", [("lqr", lambda env: make_policy("lqr", env))], folder / "cli.mp4",
@@ -120,14 +121,17 @@ def main() -> None:
         hw = record_highway(driven, folder)
     print(f"\nrecording one DLC120-v0 episode ({driven:.1f} s of driving, LQR) to MP4:")
     print(f"  rollout alone, no rendering                 {bare:6.2f} s")
-    print(f"  RecordVideo, rgb_array_list (25 frames/s)   {listed:6.2f} s  ({listed / driven:.2f} s per s driven)")
-    print(f"  RecordVideo, rgb_array (every 10 ms step)   {every:6.2f} s  ({every / driven:.2f} s per s driven)")
+    print(f"  RecordVideo, rgb_array_list (25 frames/s)   {listed:6.2f} s  ({listed / driven:.2f} s per s driven, "
+          f"{n_listed} frames, {1e3 * listed / n_listed:.1f} ms/frame)")
+    print(f"  RecordVideo, rgb_array (every 10 ms step)   {every:6.2f} s  ({every / driven:.2f} s per s driven, "
+          f"{steps + 1} frames, {1e3 * every / (steps + 1):.1f} ms/frame)")
     print(f"  vtrack video / record_video ({cli['frames']} frames)      {cli['wall_s']:6.2f} s  "
           f"({cli['wall_s'] / driven:.2f} s per s driven)")
+    n_hw = env_frames(driven)
     print(f"  highway-env lane-keeping-v0, RecordVideo    {hw:6.2f} s  ({hw / driven:.2f} s per s driven, "
-          f"{env_frames(driven)} frames)")
-    print(f"  ratio RecordVideo rgb_array_list / highway-env: {listed / hw:.2f}x the wall time "
-          f"(below 1: faster)")
+          f"{n_hw} frames, {1e3 * hw / n_hw:.1f} ms/frame)")
+    print(f"  ratio RecordVideo rgb_array_list / highway-env: {listed / hw:.2f}x the wall time per second driven, "
+          f"{(listed / n_listed) / (hw / n_hw):.2f}x per frame (below 1: faster)")
 
 
 def env_frames(driven_s: float) -> int:

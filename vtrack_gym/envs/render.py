@@ -92,10 +92,18 @@ def car_view(sim: Any, path: Any, i: int, label: str = "", colour: str = "#1f77b
     v = float(st[L.S_VX])
     delta = float(st[L.S_DELTA])
     s0 = float(sim.err[i, 0])
-    row = path.sample(s0 + sim.layout.preview_distances(v))
     ratio = float(sim.config.vehicle.steering.steering_ratio)
     return CarView(float(st[L.S_X]), float(st[L.S_Y]), float(st[L.S_PSI]), delta, v, float(sim.err[i, 1]),
-                   math.degrees(delta * ratio), label, colour, np.column_stack([row.x, row.y]), status)
+                   math.degrees(delta * ratio), label, colour,
+                   preview_points(path, s0 + sim.layout.preview_distances(v)), status)
+
+
+def preview_points(path: Any, s: np.ndarray) -> np.ndarray:
+    """(n, 2) centre-line points [m] at stations ``s`` (linear between the path's table rows: for drawing)."""
+    tab = path.table
+    grid = np.arange(len(tab)) * float(path.ds_m)
+    period = float(path.length_m) if path.closed else None
+    return np.column_stack([np.interp(s, grid, tab[:, 0], period=period), np.interp(s, grid, tab[:, 1], period=period)])
 
 
 def nice_length(target_m: float) -> float:
@@ -161,7 +169,7 @@ class TopDownRenderer:
             self.px_per_m = cfg.width_px / cfg.view_width_m
             self._origin = (x0 - margin, y1 + margin)
         self._static_px = self._static_geometry()
-        self._tiles: dict[tuple[int, int], np.ndarray] = {}
+        self._tiles: dict[tuple[int, int], Any] = {}
         self._background = self._draw_static_region(0, 0, cfg.width_px, cfg.height_px) if cfg.view == "track" \
             else None
 
@@ -192,8 +200,8 @@ class TopDownRenderer:
             geo["cones"] = np.vstack(cones)
         return geo
 
-    def _draw_static_region(self, left: int, top: int, width: int, height: int) -> np.ndarray:
-        """The static layer of global pixel rectangle (left, top, width, height) as an (h, w, 3) uint8 array."""
+    def _draw_static_region(self, left: int, top: int, width: int, height: int) -> Any:
+        """The static layer of global pixel rectangle (left, top, width, height) as a Pillow RGB image."""
         img = self._Image.new("RGB", (width, height), GRASS)
         draw = self._ImageDraw.Draw(img)
         geo = self._static_px
@@ -218,9 +226,9 @@ class TopDownRenderer:
         for cx, cy in geo["cones"] - off:
             if -r < cx < width + r and -r < cy < height + r:
                 draw.ellipse((cx - r, cy - r, cx + r, cy + r), fill=CONE, outline=(0, 0, 0))
-        return np.asarray(img, dtype=np.uint8)
+        return img
 
-    def _tile(self, tx: int, ty: int) -> np.ndarray:
+    def _tile(self, tx: int, ty: int) -> Any:
         key = (tx, ty)
         tile = self._tiles.get(key)
         if tile is None:
@@ -230,17 +238,13 @@ class TopDownRenderer:
             self._tiles[key] = tile
         return tile
 
-    def _window(self, left: int, top: int) -> np.ndarray:
-        """Static layer of the frame whose top-left corner is global pixel (left, top), assembled from tiles."""
+    def _window(self, left: int, top: int) -> Any:
+        """Static layer of the frame whose top-left corner is global pixel (left, top), pasted from tiles."""
         w, h = self.config.width_px, self.config.height_px
-        out = np.empty((h, w, 3), dtype=np.uint8)
+        out = self._Image.new("RGB", (w, h))
         for ty in range(math.floor(top / TILE_PX), math.floor((top + h - 1) / TILE_PX) + 1):
             for tx in range(math.floor(left / TILE_PX), math.floor((left + w - 1) / TILE_PX) + 1):
-                tile = self._tile(tx, ty)
-                gx0, gy0 = tx * TILE_PX, ty * TILE_PX
-                x_a, x_b = max(left, gx0), min(left + w, gx0 + TILE_PX)
-                y_a, y_b = max(top, gy0), min(top + h, gy0 + TILE_PX)
-                out[y_a - top:y_b - top, x_a - left:x_b - left] = tile[y_a - gy0:y_b - gy0, x_a - gx0:x_b - gx0]
+                out.paste(self._tile(tx, ty), (tx * TILE_PX - left, ty * TILE_PX - top))  # Pillow clips
         return out
 
     # ------------------------------------------------------------------ dynamic layer
@@ -249,12 +253,11 @@ class TopDownRenderer:
         cfg = self.config
         if cfg.view == "track":
             left, top = 0, 0
-            base = self._background.copy()
+            img = self._background.copy()
         else:
             gx, gy = self.to_px(cars[0].x_m, cars[0].y_m) if cars else (0.0, 0.0)
             left, top = round(float(gx)) - cfg.width_px // 2, round(float(gy)) - cfg.height_px // 2
-            base = self._window(left, top)
-        img = self._Image.fromarray(base)
+            img = self._window(left, top)
         draw = self._ImageDraw.Draw(img)
         off = np.array([left, top], dtype=np.float64)
         for car in cars:
@@ -270,11 +273,10 @@ class TopDownRenderer:
         for k in range(len(cars) - 1, -1, -1):  # the first car on top, the others as outlines
             self._draw_car(draw, cars[k], off, filled=k == 0)
         bar_text = self._draw_scale_bar(draw)
-        out = np.array(img, dtype=np.uint8)
-        self._text.draw(out, *bar_text, TEXT)
+        self._text.draw(img, *bar_text, TEXT)
         if cfg.show_readout:
-            self._draw_readout(out, cars, time_s, title)
-        return out
+            self._draw_readout(img, draw, cars, time_s, title)
+        return np.asarray(img, dtype=np.uint8)
 
     def _draw_car(self, draw: Any, car: CarView, off: np.ndarray, filled: bool = True) -> None:
         front, rear, half_w, lf, lr, half_t = self._car
@@ -317,7 +319,7 @@ class TopDownRenderer:
             draw.line([(xe, y0 - 5), (xe, y0 + 5)], fill=TEXT, width=2)
         return x0 + n + 6, y0 - self._text.height // 2, f"{length_m:g} m"
 
-    def _draw_readout(self, out: np.ndarray, cars: Sequence[CarView], time_s: float, title: str) -> None:
+    def _draw_readout(self, img: Any, draw: Any, cars: Sequence[CarView], time_s: float, title: str) -> None:
         lines = [f"{title}  t = {time_s:6.2f} s".strip()]
         colours = [TEXT]
         for car in cars:
@@ -326,14 +328,15 @@ class TopDownRenderer:
                          f"wheel {car.hand_wheel_deg:+6.1f} deg {car.status}".rstrip())
             colours.append(hex_to_rgb(car.colour) if len(cars) > 1 else TEXT)
         line_h = self._text.height + 2
-        width = max(self._text.width(t) for t in lines)
-        out[4:min(8 + line_h * len(lines), out.shape[0]), 4:min(12 + width, out.shape[1])] = PANEL
-        for k, (t, col) in enumerate(zip(lines, colours, strict=True)):
-            self._text.draw(out, 8, 6 + k * line_h, t, col)
+        masks = [self._text.mask(t) for t in lines]
+        width = max(m.shape[1] for m in masks)
+        draw.rectangle((4, 4, 12 + width, 8 + line_h * len(lines)), fill=PANEL)
+        for k, (m, col) in enumerate(zip(masks, colours, strict=True)):
+            self._text.draw(img, 8, 6 + k * line_h, m, col)
 
 
 class GlyphText:
-    """Text drawn from cached glyph masks (one Pillow call per new character, numpy blending per line)."""
+    """Text pasted from cached glyph masks (one FreeType call per new character, not per frame)."""
 
     def __init__(self, font: Any) -> None:
         from PIL import Image, ImageDraw
@@ -350,23 +353,21 @@ class GlyphText:
             w = max(1, math.ceil(self._font.getlength(ch)))
             img = self._Image.new("L", (w, self.height), 0)
             self._ImageDraw.Draw(img).text((0, 0), ch, fill=255, font=self._font)
-            g = self._glyphs[ch] = np.asarray(img, dtype=np.float32)[..., None] / 255.0
+            g = self._glyphs[ch] = np.asarray(img, dtype=np.uint8)
         return g
 
-    def width(self, text: str) -> int:
-        return sum(self._glyph(c).shape[1] for c in text)
-
-    def draw(self, out: np.ndarray, x: int, y: int, text: str, colour: tuple[int, int, int]) -> None:
-        """Blend ``text`` in ``colour`` into ``out`` (H, W, 3 uint8) with its top-left corner at (x, y)."""
+    def mask(self, text: str) -> np.ndarray:
+        """(height, width) uint8 coverage of ``text``."""
         if not text:
-            return
-        mask = np.concatenate([self._glyph(c) for c in text], axis=1)
-        h, w = min(mask.shape[0], out.shape[0] - y), min(mask.shape[1], out.shape[1] - x)
-        if h <= 0 or w <= 0 or x < 0 or y < 0:
-            return
-        region = out[y:y + h, x:x + w].astype(np.float32)
-        region += (np.asarray(colour, dtype=np.float32) - region) * mask[:h, :w]
-        out[y:y + h, x:x + w] = region.astype(np.uint8)
+            return np.zeros((self.height, 0), dtype=np.uint8)
+        return np.ascontiguousarray(np.concatenate([self._glyph(c) for c in text], axis=1))
+
+    def draw(self, img: Any, x: int, y: int, text: str | np.ndarray, colour: tuple[int, int, int]) -> None:
+        """Paint ``text`` (or its ``mask``) in ``colour`` onto the Pillow image ``img``, top-left corner at (x, y)."""
+        mask = self.mask(text) if isinstance(text, str) else text
+        h, w = mask.shape
+        if w:
+            img.paste(colour, (x, y, x + w, y + h), self._Image.fromarray(mask, mode="L"))
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:

@@ -71,11 +71,11 @@ def car_view_from_info(info: dict[str, Any], path: Any, layout: Any, label: str,
                        status: str = "", trail_xy: np.ndarray | None = None) -> CarView:
     """A ``CarView`` from a ``TrackingEnv`` step info (public signals only)."""
     v = float(info["v_mps"])
-    row = path.sample(float(info["station_m"]) + layout.preview_distances(v))
+    preview = R.preview_points(path, float(info["station_m"]) + layout.preview_distances(v))
     return CarView(float(info["x_m"]), float(info["y_m"]), float(info["psi_rad"]),
                    float(info["road_wheel_angle_rad"]), v, float(info["e_y_m"]),
                    math.degrees(float(info["hand_wheel_angle_rad"])), label, colour,
-                   np.column_stack([row.x, row.y]), status, trail_xy)
+                   preview, status, trail_xy)
 
 
 class _Driver:
@@ -138,7 +138,8 @@ class _Writer:
             raise ImportError('writing MP4 needs imageio and imageio-ffmpeg: pip install "vtrack_gym[render]"') \
                 from None
         self._mp4 = imageio.get_writer(out, format="FFMPEG", mode="I", fps=fps, codec="libx264", quality=7,
-                                       macro_block_size=2, ffmpeg_log_level="error")
+                                       macro_block_size=2, ffmpeg_log_level="error",
+                                       output_params=["-preset", "veryfast"])  # ~1.5x faster, files ~20 % larger
 
     def add(self, frame: np.ndarray) -> None:
         self.frames += 1

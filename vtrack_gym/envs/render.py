@@ -367,7 +367,7 @@ class GlyphText:
         mask = self.mask(text) if isinstance(text, str) else text
         h, w = mask.shape
         if w:
-            img.paste(colour, (x, y, x + w, y + h), self._Image.fromarray(mask, mode="L"))
+            img.paste(colour, (x, y, x + w, y + h), self._Image.fromarray(mask))
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:

@@ -453,6 +453,10 @@ class EnvRenderer:
     - ``rgb_array_list``: frames are taken at ``fps`` of simulated time during ``reset``/``step``;
       ``render()`` returns the frames since the previous call (what ``RecordVideo`` needs for real-time video);
     - ``human``: the same frames shown in a window at real time.
+
+    ``gymnasium.wrappers.RecordVideo`` asks for one frame per env step and plays them at ``render_fps``: with
+    ``rgb_array_list`` that is a real-time video at ``render_fps`` (Gymnasium warns once that the steps between
+    frames have none); with ``rgb_array`` it holds every 10 ms step, so pass ``fps=100`` for real time.
     """
 
     def __init__(self, mode: str, config: RenderConfig, chassis: Any, control_period_s: float, title: str) -> None:

@@ -5,6 +5,7 @@
     vtrack leaderboard --suite paper --format md
     vtrack plot --policies smc,mpc --env LateralTracking-v0
     vtrack tune --controller smc --budget paper --space working --out smc_tuned.json
+    vtrack video --policy mpc --env DLC120-v0 --out dlc.mp4
 """
 
 from __future__ import annotations
@@ -188,6 +189,29 @@ def build_parser() -> argparse.ArgumentParser:
                    help="Ray workers with --backend ray (default: the cluster's CPU count, at most the population "
                    "size)")
     t.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+    vd = sub.add_parser("video", help="write an MP4 or GIF of policies driving a scenario (extra 'render')",
+                        description="Drive one or more policies on one env (same seed) and write a top-down video: "
+                        "MP4 through imageio-ffmpeg or GIF through Pillow, at real time or --speedup. Several "
+                        "policies are shown side by side (one panel each) or overlaid in one frame.")
+    vd.add_argument("--policy", default=None, help="one policy name or agent file (as for `vtrack eval`)")
+    vd.add_argument("--policies", default=None, help="comma-separated policy names, e.g. mpc,smc")
+    vd.add_argument("--env", required=True, help="env id, e.g. DLC120-v0 or LateralTracking-v0")
+    vd.add_argument("--out", type=Path, required=True, help="output file ending in .mp4 or .gif")
+    vd.add_argument("--preset", default="default", help="baseline preset for every policy (default: default)")
+    vd.add_argument("--seed", type=int, default=0, help="episode seed (default: 0)")
+    vd.add_argument("--speedup", type=float, default=1.0,
+                    help="seconds of driving per second of video, in [0.05, 100] (default: 1 = real time)")
+    vd.add_argument("--fps", type=int, default=25, help="frames per second of video, 1-120 (default: 25)")
+    vd.add_argument("--seconds", type=float, default=None, help="stop after this much driving [s] (default: "
+                    "the whole episode)")
+    vd.add_argument("--arrangement", choices=("side", "overlay"), default="side",
+                    help="several policies: side by side or overlaid in one frame (default: side)")
+    vd.add_argument("--view", choices=("follow", "track"), default="follow",
+                    help="follow: camera on the (first) car; track: the whole track (default: follow)")
+    vd.add_argument("--view-width", type=float, default=60.0, help="follow view: metres across (default: 60)")
+    vd.add_argument("--width", type=int, default=640, help="panel width in pixels, even (default: 640)")
+    vd.add_argument("--height", type=int, default=384, help="panel height in pixels, even (default: 384)")
 
     r = sub.add_parser("reproduce", help="rerun the paper's Case 1 and Case 2 and check its claims",
                        description="Run PD-FLC + SMC and PD-FLC + MPC (paper presets and tuned/default presets) on "
@@ -440,6 +464,37 @@ def _cmd_plot(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_video(args: argparse.Namespace) -> int:
+    from vtrack_gym.envs.render import RenderConfig
+    from vtrack_gym.evaluation.video import VideoConfig, check_video_path, record_video
+    from vtrack_gym.interop import resolve_env_id
+
+    if (args.policy is None) == (args.policies is None):
+        raise ValueError("give exactly one of --policy NAME or --policies A,B")
+    out = check_video_path(args.out)
+    if args.seed < 0:
+        raise ValueError(f"--seed must be >= 0 (got {args.seed})")
+    render = RenderConfig(width_px=args.width, height_px=args.height, view=args.view, view_width_m=args.view_width,
+                          fps=args.fps)
+    config = VideoConfig(fps=args.fps, speedup=args.speedup, arrangement=args.arrangement, max_seconds=args.seconds,
+                         render=render)
+    import vtrack_gym
+
+    env_id = _known_env(resolve_env_id(args.env))
+    if env_id not in vtrack_gym.ENV_IDS:
+        raise ValueError(f"vtrack video draws the vtrack envs only: {', '.join(vtrack_gym.ENV_IDS)} (got --env "
+                         f"{args.env!r})")
+    names = [args.policy] if args.policy is not None else [p.strip() for p in args.policies.split(",") if p.strip()]
+    if not names:
+        raise ValueError("--policies needs at least one policy name, e.g. --policies mpc,smc")
+    policies = [(Path(n).stem if Path(n).suffix else n, _policy_factory(n, args.preset)) for n in names]
+    result = record_video(env_id, policies, out, config, seed=args.seed,
+                          progress=lambda msg: print(f"recording: {msg}", file=sys.stderr))
+    print(f"video: {result['path']} ({result['frames']} frames, {result['video_s']:.1f} s of video for "
+          f"{result['driven_s']:.1f} s of driving, written in {result['wall_s']:.1f} s)")
+    return 0
+
+
 def _cmd_tune(args: argparse.Namespace) -> int:
     import json
     import shlex
@@ -570,7 +625,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
 
     handlers = {"benchmark": _cmd_benchmark, "eval": _cmd_eval, "leaderboard": _cmd_leaderboard, "plot": _cmd_plot,
-                "train": _cmd_train, "export": _cmd_export,
+                "train": _cmd_train, "export": _cmd_export, "video": _cmd_video,
                 "tune": _cmd_tune, "reproduce": _cmd_reproduce}
     try:
         return handlers[args.command](args)

@@ -76,10 +76,11 @@ ACTION_SPACE = gym.spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
 class TrackingEnv(gym.Env):
     """One car tracking a path; see the module docstring for spaces, reward and termination."""
 
-    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 25}  # noqa: RUF012
+    metadata = {"render_modes": ["rgb_array", "rgb_array_list", "human"], "render_fps": 25}  # noqa: RUF012
 
     def __init__(self, scenario: str | ScenarioConfig = "LateralTracking-v0", config: EnvConfig | None = None,
-                 render_mode: str | None = None, **config_overrides: Any) -> None:
+                 render_mode: str | None = None, render_fps: int = 25, render_view: str = "follow",
+                 **config_overrides: Any) -> None:
         if isinstance(scenario, str):
             if scenario not in SCENARIOS:
                 raise ValueError(f"unknown scenario {scenario!r}; valid: {', '.join(SCENARIOS)}")
@@ -98,10 +99,16 @@ class TrackingEnv(gym.Env):
         self.design_model = DesignModel.from_vehicle(config.vehicle)
         self.observation_space = observation_space(config)
         self.action_space = ACTION_SPACE
-        self.metadata = {**self.metadata, "render_fps": round(1.0 / config.control_period_s)}
+        self.metadata = {**self.metadata, "render_fps": render_fps}
         self._sim = BatchSim(scenario, config, 1)
         self._steering_ratio = config.vehicle.steering.steering_ratio
         self._renderer = None
+        from vtrack_gym.envs.render import EnvRenderer, RenderConfig  # light: Pillow is imported on first draw
+
+        render_config = RenderConfig(fps=render_fps, view=render_view)  # validates both
+        if render_mode is not None:
+            self._renderer = EnvRenderer(render_mode, render_config, config.vehicle.chassis,
+                                         config.control_period_s, scenario.name)
         self._needs_reset = True
 
     @property
@@ -122,6 +129,8 @@ class TrackingEnv(gym.Env):
         self._sim.observe_after_reset(np.zeros(1, dtype=np.int64))
         self._needs_reset = False
         info = self._info(terminated=False)
+        if self._renderer is not None:
+            self._renderer.on_reset(self.current_path, self._sim)
         return self._sim.obs[0].copy(), info
 
     def step(self, action: Any):
@@ -132,8 +141,8 @@ class TrackingEnv(gym.Env):
         self._needs_reset = term or trunc
         info = self._info(terminated=term)
         info.update(zip(REWARD_TERM_NAMES, self._sim.terms[0].tolist(), strict=True))
-        if self.render_mode == "human":
-            self.render()
+        if self._renderer is not None:
+            self._renderer.on_step(self.current_path, self._sim)
         return self._sim.obs[0].copy(), reward, term, trunc, info
 
     def _info(self, terminated: bool) -> dict[str, Any]:
@@ -172,14 +181,13 @@ class TrackingEnv(gym.Env):
         }
 
     def render(self):
-        if self.render_mode is None:
-            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
-            return None
+        """rgb_array: the current frame; rgb_array_list: the frames taken at ``render_fps`` since the last call;
+        human: show the current frame (``envs.render.EnvRenderer``)."""
         if self._renderer is None:
-            from vtrack_gym.envs.render import TopDownRenderer
-
-            self._renderer = TopDownRenderer(self.config, human=self.render_mode == "human")
-        return self._renderer.draw(self.current_path, self._sim, 0)
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array', "
+                            "'rgb_array_list' or 'human'")
+            return None
+        return self._renderer.render(self.current_path, self._sim)
 
     def close(self) -> None:
         if self._renderer is not None:

@@ -117,11 +117,10 @@ class TrackingVectorEnv(VectorEnv):
         if self.render_mode != "rgb_array":
             gym.logger.warn("render() needs render_mode='rgb_array' on the vector env")
             return None
-        from vtrack_gym.envs.render import TopDownRenderer
+        from vtrack_gym.envs.render import EnvRenderer, RenderConfig
 
-        renderer = TopDownRenderer(self.config, human=False)
-        try:
-            return tuple(renderer.draw(self.sim.paths[self.sim.veh_track[i]], self.sim, i)
-                         for i in range(self.num_envs))
-        finally:
-            renderer.close()
+        if getattr(self, "_renderer", None) is None:
+            self._renderer = EnvRenderer("rgb_array", RenderConfig(), self.config.vehicle.chassis,
+                                         self.config.control_period_s, "")
+        return tuple(self._renderer.draw(self.sim.paths[self.sim.veh_track[i]], self.sim, i)
+                     for i in range(self.num_envs))

@@ -154,7 +154,8 @@ def write_figures(traces_by_env: dict[str, list[Trace]], rows: Sequence[ResultRo
             prefix = "max_" if env_id.startswith("DLC") else "rms_"
             keys = [f"{prefix}{k}" for k in ("hand_wheel_deg", "e_y_m", "e_phi_deg", "a_y_mps2", "roll_deg")]
             files.append(plots.plot_deviation_rates("smc", by_policy["smc"], "mpc", by_policy["mpc"], keys,
-                                                    out / f"{stem}_mpc_vs_smc.png"))
+                                                    out / f"{stem}_mpc_vs_smc.png", env_id=env_id,
+                                                    seed=traces[0].seed))
     return files
 
 

@@ -1,8 +1,13 @@
 """The paper's figures for any set of policies (matplotlib, imported lazily; files written as PNG).
 
-- ``plot_trajectories``: paths driven over the track (paper Figs. 8 / 15);
-- ``plot_signals``: hand-wheel angle, lateral acceleration, roll, throttle and brake over time (Figs. 9-12, 16-18);
-- ``plot_deviation_rates``: relative difference of each metric between two policies (Figs. 13 / 19).
+- ``plot_trajectories``: paths driven over the track (paper Figs. 8 / 15); on a long course an overview plus
+  zooms on the corners where the policies deviate most, legend outside the axes;
+- ``plot_signals``: hand-wheel angle, lateral error, lateral acceleration, roll, throttle + brake over time
+  (Figs. 9-12, 16-18), a panel only for signals that vary;
+- ``plot_deviation_rates``: relative difference of each metric between two policies (Figs. 13 / 19), with value
+  labels and a symmetric-log scale when bars differ by more than 20x.
+
+Every figure is titled with the scenario, preset and seed; each policy keeps its colour (``envs.palette``).
 """
 
 from __future__ import annotations
@@ -13,7 +18,13 @@ from typing import Any
 
 import numpy as np
 
+from vtrack_gym.envs.palette import policy_colour
 from vtrack_gym.evaluation.trace import Trace
+
+LINESTYLES: tuple[str, ...] = ("-", "--", ":", "-.")
+N_ZOOMS = 3
+ZOOM_HALF_SPAN_M = 40.0  # station window of a corner zoom, either side [m]
+VARIES_ABS: dict[str, float] = {"brake_n": 1.0, "throttle": 1e-3}  # below these ranges a signal "does not vary"
 
 
 def _pyplot():
@@ -25,37 +36,123 @@ def _pyplot():
     return plt
 
 
-POLICY_COLOURS: tuple[str, ...] = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown",
-                                   "tab:pink", "tab:olive", "tab:cyan", "black", "navy", "gold")
-"""Line colours per policy, in order: matplotlib's tab10 without its grey (the reference path's colour)."""
+def _styles(names: Sequence[str]) -> list[tuple[str, str]]:
+    """(colour, linestyle) per policy: the policy's colour; repeated colours get distinct line styles."""
+    seen: dict[str, int] = {}
+    out = []
+    for n in names:
+        c = policy_colour(n)
+        out.append((c, LINESTYLES[seen.get(c, 0) % len(LINESTYLES)]))
+        seen[c] = seen.get(c, 0) + 1
+    return out
 
 
-def _colour(k: int) -> str:
-    return POLICY_COLOURS[k % len(POLICY_COLOURS)]
+def figure_subtitle(env_id: str, seed: int | None, preset: str | None) -> str:
+    """'<scenario> | preset <preset> | seed <seed>' (the line every figure title carries)."""
+    return f"{env_id} | preset {preset or 'default'} | seed {seed if seed is not None else '-'}"
 
 
-def plot_trajectories(traces: Sequence[Trace], path: Any, out_file: str | Path, title: str = "") -> Path:
-    """Driven X-Y paths of ``traces`` over the track centre-line (and cone gates if the track has them)."""
-    plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(8, 6), dpi=110)
+def _title(fig: Any, head: str, traces: Sequence[Trace], preset: str | None) -> None:
+    fig.suptitle(f"{head}\n{figure_subtitle(traces[0].env_id, traces[0].seed, preset)}", fontsize=10)
+
+
+def hardest_stations(traces: Sequence[Trace], path: Any, n: int = N_ZOOMS, min_gap_m: float = 80.0) -> list[float]:
+    """Stations [m] of the ``n`` largest across-policy |e_y| peaks, at least ``min_gap_m`` apart."""
+    grid = np.arange(0.0, float(path.length_m), 1.0)
+    worst = np.zeros_like(grid)
+    for tr in traces:
+        idx = np.clip(np.searchsorted(grid, np.mod(tr["station_m"], path.length_m)), 0, len(grid) - 1)
+        np.maximum.at(worst, idx, np.abs(tr["e_y_m"]))
+    chosen: list[float] = []
+    for i in np.argsort(worst)[::-1]:
+        s = float(grid[i])
+        if worst[i] <= 0.0 or len(chosen) == n:
+            break
+        d = [abs(s - c) for c in chosen]
+        if path.closed:
+            d = [min(x, path.length_m - x) for x in d]
+        if all(x >= min_gap_m for x in d):
+            chosen.append(s)
+    return sorted(chosen)
+
+
+def _draw_track(ax: Any, path: Any, with_cones: bool = True) -> None:
     tab = path.table
-    ax.plot(tab[:, 0], tab[:, 1], color="0.6", lw=3, label="reference path")
-    for k, gate in enumerate(getattr(path, "gates", ()) or ()):
-        s = np.linspace(gate.s_start_m, gate.s_end_m, 6)
-        row = path.sample(s)
-        for lat in (gate.y_left_m, gate.y_right_m):
-            ax.plot(row.x - lat * np.sin(row.psi), row.y + lat * np.cos(row.psi), "^", color="tab:orange", ms=4,
-                    label="cones" if k == 0 and lat == gate.y_left_m else None)
-    for k, tr in enumerate(traces):
-        ax.plot(tr["x_m"], tr["y_m"], lw=1.2, color=_colour(k), label=f"{tr.policy_id} ({tr.termination})")
+    hw = float(path.half_width_m)
+    nx, ny = -np.sin(tab[:, 2]), np.cos(tab[:, 2])
+    for side in (1.0, -1.0):
+        ax.plot(tab[:, 0] + side * hw * nx, tab[:, 1] + side * hw * ny, color="0.35", lw=0.8,
+                label="road edge" if side > 0 else None)
+    ax.plot(tab[:, 0], tab[:, 1], color="0.6", lw=2.5, label="reference path", zorder=1)
+    if with_cones:
+        for k, gate in enumerate(getattr(path, "gates", ()) or ()):
+            row = path.sample(np.linspace(gate.s_start_m, gate.s_end_m, 6))
+            for lat in (gate.y_left_m, gate.y_right_m):
+                ax.plot(row.x - lat * np.sin(row.psi), row.y + lat * np.cos(row.psi), "^", color="goldenrod", ms=4,
+                        label="cones" if k == 0 and lat == gate.y_left_m else None)
+
+
+def _draw_traces(ax: Any, traces: Sequence[Trace], lw: float = 1.2) -> None:
+    for tr, (colour, ls) in zip(traces, _styles([t.policy_id for t in traces]), strict=True):
+        ax.plot(tr["x_m"], tr["y_m"], lw=lw, color=colour, ls=ls, label=f"{tr.policy_id} ({tr.termination})")
+
+
+def plot_trajectories(traces: Sequence[Trace], path: Any, out_file: str | Path, title: str = "",
+                      preset: str | None = None) -> Path:
+    """Driven X-Y paths of ``traces`` over the track (road edges, cone gates if any).
+
+    A closed course gets an overview plus, per corner with one of the ``N_ZOOMS`` largest |e_y| peaks, a zoom
+    on the lateral offset e_y against station (the track straightened, so centimetres show); an open track
+    one panel. The legend sits below the axes, never over the track.
+    """
+    plt = _pyplot()
+    stations = hardest_stations(traces, path) if path.closed else []
+    if stations:
+        fig = plt.figure(figsize=(12, 7.5), dpi=110)
+        grid = fig.add_gridspec(len(stations), 2, width_ratios=(1.6, 1.0))
+        ax = fig.add_subplot(grid[:, 0])
+        zooms = [fig.add_subplot(grid[k, 1]) for k in range(len(stations))]
+    else:
+        fig, ax = plt.subplots(figsize=(10, 5), dpi=110)
+        zooms = []
+    _draw_track(ax, path)
+    _draw_traces(ax, traces)
     ax.set_xlabel("X [m]")
     ax.set_ylabel("Y [m]")
+    tab = path.table
     if np.ptp(tab[:, 1]) > 0.1 * np.ptp(tab[:, 0]):
         ax.set_aspect("equal")
-    ax.legend(fontsize=8)
-    ax.set_title(title or f"Trajectories on {traces[0].env_id}")
     ax.grid(alpha=0.3)
-    return _save(fig, out_file)
+    styles = _styles([t.policy_id for t in traces])
+    for k, (zax, s) in enumerate(zip(zooms, stations, strict=True)):
+        label = chr(ord("A") + k)
+        row = path.sample(s)
+        ax.plot(float(row.x), float(row.y), "o", ms=9, mfc="none", mec="k")
+        ax.annotate(label, (float(row.x), float(row.y)), xytext=(6, 6), textcoords="offset points", fontsize=10,
+                    weight="bold")
+        _zoom_panel(zax, traces, styles, path, s)
+        zax.set_title(f"{label}: around s = {s:.0f} m (|e_y| peak {k + 1})", fontsize=8)
+    if zooms:
+        zooms[-1].set_xlabel("station s - corner [m]", fontsize=8)
+    handles, labels = ax.get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 4), fontsize=8, frameon=False)
+    _title(fig, title or "Driven trajectories", traces, preset)
+    fig.tight_layout(rect=(0, 0.06 + 0.02 * (len(labels) > 4), 1, 1))
+    return _save(fig, out_file, layout=False)
+
+
+def _zoom_panel(ax: Any, traces: Sequence[Trace], styles: Sequence[tuple[str, str]], path: Any, s0: float) -> None:
+    """Lateral offset e_y [m] against station within ``ZOOM_HALF_SPAN_M`` of ``s0`` (the track straightened)."""
+    for tr, (colour, ls) in zip(traces, styles, strict=True):
+        ds = np.mod(tr["station_m"] - s0 + 0.5 * path.length_m, path.length_m) - 0.5 * path.length_m \
+            if path.closed else tr["station_m"] - s0
+        near = np.abs(ds) <= ZOOM_HALF_SPAN_M
+        ax.plot(ds[near], tr["e_y_m"][near], color=colour, ls=ls, lw=1.3)
+    ax.axhline(0.0, color="0.6", lw=2.0, zorder=1)
+    ax.set_xlim(-ZOOM_HALF_SPAN_M, ZOOM_HALF_SPAN_M)
+    ax.set_ylabel("e_y [m]", fontsize=8)
+    ax.tick_params(labelsize=7)
+    ax.grid(alpha=0.3)
 
 
 SIGNAL_PANELS: tuple[tuple[str, str, float], ...] = (
@@ -68,19 +165,60 @@ SIGNAL_PANELS: tuple[tuple[str, str, float], ...] = (
 )
 
 
-def plot_signals(traces: Sequence[Trace], out_file: str | Path, title: str = "") -> Path:
-    """One panel per signal of ``SIGNAL_PANELS`` against time, one line per trace."""
+def signal_varies(traces: Sequence[Trace], name: str) -> bool:
+    """True if ``name`` changes by more than its ``VARIES_ABS`` threshold (default 1e-9) in any trace."""
+    tol = VARIES_ABS.get(name, 1e-9)
+    return any(float(np.ptp(tr[name])) > tol for tr in traces if tr.n_steps)
+
+
+def plot_signals(traces: Sequence[Trace], out_file: str | Path, title: str = "", preset: str | None = None) -> Path:
+    """Panels of ``SIGNAL_PANELS`` against time, one line per trace; a panel only for a signal that varies,
+    throttle and brake sharing one panel (brake on the right axis)."""
     plt = _pyplot()
-    fig, axes = plt.subplots(len(SIGNAL_PANELS), 1, figsize=(9, 2.0 * len(SIGNAL_PANELS)), dpi=110, sharex=True)
-    for ax, (name, label, scale) in zip(axes, SIGNAL_PANELS, strict=True):
-        for k, tr in enumerate(traces):
-            ax.plot(tr["time_s"], tr[name] * scale, lw=0.9, color=_colour(k), label=tr.policy_id)
+    pedals = [n for n in ("throttle", "brake_n") if signal_varies(traces, n)]
+    panels: list[Any] = [p for p in SIGNAL_PANELS
+                         if p[0] not in ("throttle", "brake_n") and signal_varies(traces, p[0])]
+    if pedals:
+        panels.append("pedals")
+    if not panels:
+        panels = [SIGNAL_PANELS[1]]
+    fig, axes = plt.subplots(len(panels), 1, figsize=(9, 1.9 * len(panels) + 1.0), dpi=110, sharex=True,
+                             squeeze=False)
+    axes = axes[:, 0]
+    styles = _styles([t.policy_id for t in traces])
+    for ax, panel in zip(axes, panels, strict=True):
+        if panel == "pedals":
+            _pedal_panel(ax, traces, styles, pedals)
+            continue
+        name, label, scale = panel
+        for tr, (colour, ls) in zip(traces, styles, strict=True):
+            ax.plot(tr["time_s"], tr[name] * scale, lw=0.9, color=colour, ls=ls, label=tr.policy_id)
         ax.set_ylabel(label, fontsize=8)
         ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=8, ncol=min(len(traces), 4))
     axes[-1].set_xlabel("time [s]")
-    fig.suptitle(title or f"Signals on {traces[0].env_id}")
-    return _save(fig, out_file)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 5), fontsize=8, frameon=False)
+    constant = [p[1].split(" [")[0] for p in SIGNAL_PANELS if not signal_varies(traces, p[0])]
+    head = title or "Signals"
+    if constant:
+        head += f" (constant, not drawn: {', '.join(constant)})"
+    _title(fig, head, traces, preset)
+    fig.tight_layout(rect=(0, 0.04, 1, 1))
+    return _save(fig, out_file, layout=False)
+
+
+def _pedal_panel(ax: Any, traces: Sequence[Trace], styles: Sequence[tuple[str, str]], pedals: Sequence[str]) -> None:
+    """Throttle on the left axis (solid), brake force on the right axis (dotted), same colour per policy."""
+    if "throttle" in pedals:
+        for tr, (colour, ls) in zip(traces, styles, strict=True):
+            ax.plot(tr["time_s"], tr["throttle"], lw=0.9, color=colour, ls=ls, label=tr.policy_id)
+        ax.set_ylabel("throttle [-] (solid)", fontsize=8)
+    ax.grid(alpha=0.3)
+    if "brake_n" in pedals:
+        bx = ax.twinx() if "throttle" in pedals else ax
+        for tr, (colour, _) in zip(traces, styles, strict=True):
+            bx.plot(tr["time_s"], tr["brake_n"], lw=0.9, color=colour, ls=":")
+        bx.set_ylabel("brake pedal force [N] (dotted)", fontsize=8)
 
 
 def deviation_rates(reference: dict[str, float], other: dict[str, float], keys: Sequence[str]) -> dict[str, float]:
@@ -92,26 +230,57 @@ def deviation_rates(reference: dict[str, float], other: dict[str, float], keys: 
     return out
 
 
+_UNIT_SUFFIXES: tuple[tuple[str, str], ...] = (("_mps2", "m/s^2"), ("_deg", "deg"), ("_rad", "rad"), ("_mps", "m/s"),
+                                               ("_m", "m"), ("_s", "s"), ("_n", "N"))
+
+
+def metric_label(key: str) -> str:
+    """'max_hand_wheel_deg' -> 'max hand-wheel [deg]', 'rms_e_y_m' -> 'rms e_y [m]'."""
+    stem, unit = key, ""
+    for suffix, u in _UNIT_SUFFIXES:
+        if key.endswith(suffix):
+            stem, unit = key[: -len(suffix)], f" [{u}]"
+            break
+    head, _, rest = stem.replace("hand_wheel", "hand-wheel").partition("_")
+    return f"{head} {rest}{unit}" if rest else f"{head}{unit}"
+
+
 def plot_deviation_rates(reference_name: str, reference: dict[str, float], other_name: str,
-                         other: dict[str, float], keys: Sequence[str], out_file: str | Path) -> Path:
-    """Bar chart of ``deviation_rates`` (negative: ``other`` is lower than ``reference``)."""
+                         other: dict[str, float], keys: Sequence[str], out_file: str | Path, *,
+                         env_id: str = "", seed: int | None = None, preset: str | None = None) -> Path:
+    """Bar chart of ``deviation_rates`` (negative: ``other`` is lower than ``reference``), each bar labelled
+    with its value; a symmetric-log axis when the largest bar is over 20x the smallest non-zero one."""
     plt = _pyplot()
     rates = deviation_rates(reference, other, keys)
-    fig, ax = plt.subplots(figsize=(8, 4), dpi=110)
-    vals = [rates[k] for k in keys]
-    ax.bar(range(len(keys)), vals, color=["tab:green" if v < 0 else "tab:red" for v in vals])
-    ax.set_xticks(range(len(keys)), keys, rotation=30, ha="right", fontsize=8)
+    vals = np.array([rates[k] for k in keys], dtype=np.float64)
+    fig, ax = plt.subplots(figsize=(8, 4.5), dpi=110)
+    colours = ["tab:green" if v < 0 else "tab:red" for v in vals]
+    shown = np.nan_to_num(vals)
+    ax.bar(range(len(keys)), shown, color=colours)
+    finite = np.abs(vals[np.isfinite(vals) & (vals != 0)])
+    if finite.size and finite.max() > 20.0 * finite.min():
+        ax.set_yscale("symlog", linthresh=max(float(finite.min()), 0.1))
+    for i, v in enumerate(vals):
+        text = "n/a" if not np.isfinite(v) else (f"{v:+.2f} %" if abs(v) < 1.0 else f"{v:+.1f} %")
+        ax.annotate(text, (i, shown[i]), xytext=(0, 3 if shown[i] >= 0 else -3), textcoords="offset points",
+                    ha="center", va="bottom" if shown[i] >= 0 else "top", fontsize=8)
+    lo, hi = ax.get_ylim()
+    ax.set_ylim(lo * 1.25 if lo < 0 else lo, hi * 1.25 if hi > 0 else hi)
+    ax.set_xticks(range(len(keys)), [metric_label(k) for k in keys], rotation=25, ha="right", fontsize=8)
     ax.axhline(0.0, color="k", lw=0.8)
-    ax.set_ylabel(f"{other_name} vs {reference_name} [%]")
-    ax.set_title(f"Deviation rate of {other_name} relative to {reference_name}")
+    ax.set_ylabel(f"({other_name} - {reference_name}) / |{reference_name}| [%]")
+    subtitle = figure_subtitle(env_id, seed, preset) if env_id else f"preset {preset or 'default'}"
+    ax.set_title(f"Deviation rate of {other_name} relative to {reference_name} (below 0: {other_name} lower)\n"
+                 f"{subtitle}", fontsize=10)
     ax.grid(axis="y", alpha=0.3)
     return _save(fig, out_file)
 
 
-def _save(fig: Any, out_file: str | Path) -> Path:
+def _save(fig: Any, out_file: str | Path, layout: bool = True) -> Path:
     out = Path(out_file)
     out.parent.mkdir(parents=True, exist_ok=True)
-    fig.tight_layout()
+    if layout:
+        fig.tight_layout()
     fig.savefig(out)
     import matplotlib.pyplot as plt
 

@@ -132,10 +132,11 @@ def write_figures(runs: dict[tuple[str, str, str], Run], out_dir: Path, dpi: int
                 stem = f"{case}_{pair.key}"
                 files.append(plots.plot_trajectories([smc.trace, mpc.trace], path,
                                                      out_dir / f"{f_traj}_{stem}_trajectories.png",
-                                                     title=f"{title}: {smc.name} vs {mpc.name}"))
+                                                     title=f"{title}: {smc.name} vs {mpc.name}", preset=pair.key))
                 files.append(plots.plot_signals([smc.trace, mpc.trace], out_dir / f"{f_sig}_{stem}_signals.png",
-                                                title=f"{title}: {smc.name} vs {mpc.name}"))
+                                                title=f"{title}: {smc.name} vs {mpc.name}", preset=pair.key))
                 files.append(plots.plot_deviation_rates(smc.name, smc.metrics, mpc.name, mpc.metrics, keys,
-                                                        out_dir / f"{f_dev}_{stem}_deviation_rates.png"))
+                                                        out_dir / f"{f_dev}_{stem}_deviation_rates.png",
+                                                        env_id=env_id, seed=0, preset=pair.key))
             env.close()
     return files

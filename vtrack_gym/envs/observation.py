@@ -48,6 +48,13 @@ SCALAR_FIELDS: tuple[str, ...] = (
     "e_y", "e_phi", "e_y_dot", "e_phi_dot", "v_x", "v_y", "yaw_rate", "road_wheel_angle",
     "target_speed", "yaw_rate_ref", "yaw_acc_ref", "curvature", "curvature_rate",
 )
+N_SCALARS = len(SCALAR_FIELDS)
+"""Number of scalar fields; the curvature preview starts at this index in every layout."""
+
+NOISY_FIELDS: tuple[str, ...] = (
+    "e_y", "e_phi", "e_y_dot", "e_phi_dot", "v_x", "v_y", "yaw_rate", "road_wheel_angle")
+"""The measured fields that ``reset(options={"sensor_noise": k})`` perturbs (``EnvConfig.noise_std`` order)."""
+NOISY_INDICES: tuple[int, ...] = tuple(SCALAR_FIELDS.index(name) for name in NOISY_FIELDS)
 
 
 @dataclass(frozen=True)
@@ -67,25 +74,25 @@ class ObservationLayout:
             raise ValueError("ObservationLayout.preview_min_speed_mps must be in (0, 20] m/s "
                              f"(got {self.preview_min_speed_mps})")
 
-    # Scalar indices as attributes (stable across layouts: the preview always comes last).
-    E_Y = 0
-    E_PHI = 1
-    E_Y_DOT = 2
-    E_PHI_DOT = 3
-    V_X = 4
-    V_Y = 5
-    YAW_RATE = 6
-    ROAD_WHEEL_ANGLE = 7
-    TARGET_SPEED = 8
-    YAW_RATE_REF = 9
-    YAW_ACC_REF = 10
-    CURVATURE = 11
-    CURVATURE_RATE = 12
+    # Scalar indices as attributes, derived from SCALAR_FIELDS (stable across layouts: the preview comes last).
+    E_Y = SCALAR_FIELDS.index("e_y")
+    E_PHI = SCALAR_FIELDS.index("e_phi")
+    E_Y_DOT = SCALAR_FIELDS.index("e_y_dot")
+    E_PHI_DOT = SCALAR_FIELDS.index("e_phi_dot")
+    V_X = SCALAR_FIELDS.index("v_x")
+    V_Y = SCALAR_FIELDS.index("v_y")
+    YAW_RATE = SCALAR_FIELDS.index("yaw_rate")
+    ROAD_WHEEL_ANGLE = SCALAR_FIELDS.index("road_wheel_angle")
+    TARGET_SPEED = SCALAR_FIELDS.index("target_speed")
+    YAW_RATE_REF = SCALAR_FIELDS.index("yaw_rate_ref")
+    YAW_ACC_REF = SCALAR_FIELDS.index("yaw_acc_ref")
+    CURVATURE = SCALAR_FIELDS.index("curvature")
+    CURVATURE_RATE = SCALAR_FIELDS.index("curvature_rate")
 
     @property
     def n_scalars(self) -> int:
         """Number of scalar fields before the preview."""
-        return len(SCALAR_FIELDS)
+        return N_SCALARS
 
     @property
     def size(self) -> int:

@@ -111,12 +111,11 @@ def mpc_action(p, obs, idx, pv0, pv1, pv_vmin, pv_dt, preview, n_out, ts, n_hold
 def _advance(i, k, action, sim, max_steps, dt, acc_buf, out) -> bool:
     """Apply ``action`` to car ``i`` for control step ``k`` (1-based), accumulate its fitness terms into
     ``out[i]`` (ITAE, last t|e_y|, max|a_y|, min F_z, steps, max|e_y|) and return True when its episode is over."""
-    (states, inputs, road, params, models, outputs, work, tables, tmeta, veh_track, car, cfg, obs, err, term,
-     rows, actions, terms, pd_mem, pd_gains, pd_surface, max_steer) = sim
-    actions[i] = action
-    inputs[i, L.U_DELTA] = action * max_steer
-    _step_one(i, states, inputs, road, params, models, outputs, work, tables, tmeta, veh_track, car, cfg, obs, err,
-              term, rows, actions, terms, pd_mem, pd_gains, pd_surface)
+    arrays, max_steer = sim  # (envs.kernels.SimArrays, max road-wheel angle [rad])
+    err, outputs, car, term = arrays.err, arrays.outputs, arrays.car, arrays.term
+    arrays.actions[i] = action
+    arrays.inputs[i, L.U_DELTA] = action * max_steer
+    _step_one(i, arrays)
     abs_ey = abs(err[i, 1])
     if abs_ey > out[i, 5]:
         out[i, 5] = abs_ey
@@ -145,7 +144,7 @@ def rollout_smc(sim, lanes, max_steps, dt, idx, k, pole, eta_k, inv_layer, min_s
     ``lanes``: number of parallel lanes (the thread count); each lane runs a contiguous block of cars, so two
     threads never write the same cache line except at a block boundary (interleaved cars ran ~1.45x slower on
     2 threads from false sharing)."""
-    obs = sim[12]
+    obs = sim[0].obs
     n = obs.shape[0]
     for lane in prange(lanes):
         for i in range(lane * n // lanes, (lane + 1) * n // lanes):
@@ -159,7 +158,7 @@ def rollout_smc(sim, lanes, max_steps, dt, idx, k, pole, eta_k, inv_layer, min_s
 def rollout_mpc(sim, lanes, max_steps, dt, idx, pv0, pv1, pv_vmin, pv_dt, preview, n_out, ts, n_hold, max_du,
                 max_steer, speeds, tables, slopes, inv_steer, state, z, acc_buf, out):
     """Whole episodes of every car under its own MPC gain table; ``state`` (n, 9), ``z`` (n, width) scratch."""
-    obs = sim[12]
+    obs = sim[0].obs
     n = obs.shape[0]
     for lane in prange(lanes):
         for i in range(lane * n // lanes, (lane + 1) * n // lanes):

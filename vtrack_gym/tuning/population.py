@@ -375,11 +375,7 @@ class PopulationEvaluator:
 
         n = sim.n
         lanes = max(1, min(n, numba.get_num_threads()))
-        actions = np.zeros(n)
-        sim_args = (sim.plant.state, sim.inputs, sim.road, sim.plant.param_rows, sim.plant.models, sim.outputs,
-                    sim.plant._work, sim.tables, sim.tmeta, sim.veh_track, sim.car, sim.cfg, sim.obs, sim.err,
-                    sim.term, sim.rows, actions, sim.terms, sim.pd_mem, sim.pd_gains, sim.pd_surface,
-                    float(sim._max_steer))
+        sim_args = (sim.arrays, float(sim._max_steer))
         inv_steer = 1.0 / policy.max_steer_rad
         if isinstance(policy, PopulationSMC):
             cfg = policy.config
@@ -437,7 +433,7 @@ class PopulationEvaluator:
                 break
             obs = sim.obs.astype(np.float64)
             obs[~active] = 0.0
-            obs[~active, 0] = 10.0  # a harmless speed for frozen rows (their output is discarded)
+            obs[~active, sim.layout.V_X] = 10.0  # a harmless speed for frozen rows (their output is discarded)
         return code, done_dist
 
 

@@ -144,13 +144,7 @@ SIG_STATION, SIG_PROGRESS, SIG_V_REF = (SIGNAL_ROW.index(n) for n in ("station_m
 SIG_REWARD = SIGNAL_ROW.index(REWARD_TERMS[0])   # the reward terms follow in REWARD_TERMS order
 N_TERMS = len(REWARD_TERMS)
 
-# Observation indices (envs.observation), derived from its field names.
-O_EY, O_EPHI, O_EYD, O_EPHID = (ObservationLayout.E_Y, ObservationLayout.E_PHI, ObservationLayout.E_Y_DOT,
-                                ObservationLayout.E_PHI_DOT)
-O_VX, O_VY, O_R, O_DELTA = (ObservationLayout.V_X, ObservationLayout.V_Y, ObservationLayout.YAW_RATE,
-                            ObservationLayout.ROAD_WHEEL_ANGLE)
-O_VREF, O_RREF, O_AREF = ObservationLayout.TARGET_SPEED, ObservationLayout.YAW_RATE_REF, ObservationLayout.YAW_ACC_REF
-O_KAPPA, O_DKAPPA = ObservationLayout.CURVATURE, ObservationLayout.CURVATURE_RATE
+# The curvature preview follows the scalar fields (envs.observation).
 O_PREVIEW = N_SCALARS
 
 
@@ -166,24 +160,16 @@ def _wrap(a: float) -> float:
 def write_observation(obs_row: np.ndarray, e_y: float, e_phi: float, e_y_dot: float, e_phi_dot: float, v_x: float,
                       v_y: float, yaw_rate: float, road_wheel_angle: float, target_speed: float, yaw_rate_ref: float,
                       yaw_acc_ref: float, curvature: float, curvature_rate: float) -> None:
-    """Write the scalar fields of one observation row at the layout's indices (units: ``envs.observation``).
+    """Write the scalar fields of one observation row (units: ``envs.observation``).
 
-    The one writer of the scalar fields, used by the env step and by the highway-env adapter; the curvature
-    preview follows at ``O_PREVIEW``.
+    The one writer of the scalar fields, used by the env step and by the highway-env adapter. The parameters are
+    the layout's ``SCALAR_FIELDS`` in order (``tests/test_info_schema.py`` checks it), so field j goes to index j;
+    the curvature preview follows at ``O_PREVIEW``.
     """
-    obs_row[O_EY] = e_y
-    obs_row[O_EPHI] = e_phi
-    obs_row[O_EYD] = e_y_dot
-    obs_row[O_EPHID] = e_phi_dot
-    obs_row[O_VX] = v_x
-    obs_row[O_VY] = v_y
-    obs_row[O_R] = yaw_rate
-    obs_row[O_DELTA] = road_wheel_angle
-    obs_row[O_VREF] = target_speed
-    obs_row[O_RREF] = yaw_rate_ref
-    obs_row[O_AREF] = yaw_acc_ref
-    obs_row[O_KAPPA] = curvature
-    obs_row[O_DKAPPA] = curvature_rate
+    values = (e_y, e_phi, e_y_dot, e_phi_dot, v_x, v_y, yaw_rate, road_wheel_angle, target_speed, yaw_rate_ref,
+              yaw_acc_ref, curvature, curvature_rate)
+    for j in range(N_SCALARS):
+        obs_row[j] = values[j]
 
 
 @njit(cache=True)

@@ -27,6 +27,10 @@ curvature_rate    1/m^2      d kappa / d s at the projection point
 Then ``n_preview`` curvature samples kappa(s* + d_k) [1/m] at the look-ahead distances
 ``d_k = max(v_x, preview_min_speed_mps) * k * preview_dt_s`` for k = 1..n_preview (default: 20 samples every
 0.1 s, i.e. two seconds of travel). ``OBS.preview_distances(v_x)`` returns those distances.
+
+Adding a scalar field touches three files: here (``SCALAR_FIELDS``, ``SCALAR_BOUNDS``, the ``ObservationLayout``
+index attribute and the table above), ``envs/kernels.py`` (a parameter of ``write_observation`` and its value in
+``observe_one``) and ``interop/lane_observation.py`` (its value on a highway-env lane).
 """
 
 from __future__ import annotations
@@ -74,20 +78,10 @@ class ObservationLayout:
             raise ValueError("ObservationLayout.preview_min_speed_mps must be in (0, 20] m/s "
                              f"(got {self.preview_min_speed_mps})")
 
-    # Scalar indices as attributes, derived from SCALAR_FIELDS (stable across layouts: the preview comes last).
-    E_Y = SCALAR_FIELDS.index("e_y")
-    E_PHI = SCALAR_FIELDS.index("e_phi")
-    E_Y_DOT = SCALAR_FIELDS.index("e_y_dot")
-    E_PHI_DOT = SCALAR_FIELDS.index("e_phi_dot")
-    V_X = SCALAR_FIELDS.index("v_x")
-    V_Y = SCALAR_FIELDS.index("v_y")
-    YAW_RATE = SCALAR_FIELDS.index("yaw_rate")
-    ROAD_WHEEL_ANGLE = SCALAR_FIELDS.index("road_wheel_angle")
-    TARGET_SPEED = SCALAR_FIELDS.index("target_speed")
-    YAW_RATE_REF = SCALAR_FIELDS.index("yaw_rate_ref")
-    YAW_ACC_REF = SCALAR_FIELDS.index("yaw_acc_ref")
-    CURVATURE = SCALAR_FIELDS.index("curvature")
-    CURVATURE_RATE = SCALAR_FIELDS.index("curvature_rate")
+    # Scalar indices as attributes (``OBS.E_Y`` = ``OBS.index("e_y")``: the upper-cased field names, in
+    # SCALAR_FIELDS order; stable across layouts because the preview comes last).
+    (E_Y, E_PHI, E_Y_DOT, E_PHI_DOT, V_X, V_Y, YAW_RATE, ROAD_WHEEL_ANGLE, TARGET_SPEED, YAW_RATE_REF, YAW_ACC_REF,
+     CURVATURE, CURVATURE_RATE) = range(N_SCALARS)
 
     @property
     def n_scalars(self) -> int:

@@ -31,8 +31,6 @@ FEASIBLE_LATERAL_ACC_MPS2 = 0.85 * 9.81
 """Randomised target speeds are capped at sqrt(this / peak curvature) of the drawn track [m/s^2] (DLC120-v0's
 centre line peaks at 0.81 g)."""
 
-REWARD_TERM_NAMES: tuple[str, ...] = REWARD_TERMS
-"""Alias of ``envs.schema.REWARD_TERMS``."""
 
 
 def _kernels():

@@ -1,8 +1,10 @@
 """``HighwayLaneKeeping``: highway-env's ``lane-keeping-v0`` behind vtrack's observation and action contract.
 
 Any vtrack policy (``make_policy(name, env)``) drives highway-env's ``BicycleVehicle`` unchanged: the adapter reads
-the car's state and the lane geometry after every highway-env step and builds the ``ObservationLayout``
-observation; it maps the normalised road-wheel command back to highway-env's steering action. highway-env is
+the car's state and the lane geometry (``interop.lane_geometry``) after every highway-env step and writes the
+``ObservationLayout`` observation through the native env's writer (``interop.lane_observation``); its ``info`` has
+the native env's keys (``envs.schema.INFO_KEYS``). It maps the normalised road-wheel command back to highway-env's
+steering action. highway-env is
 imported only when an adapter is constructed (``pip install vtrack_gym[highway]``); its source is not changed.
 
 Conventions (all checked against highway-env 1.12.1, see ``tests/test_highway_interop.py``):
@@ -50,9 +52,11 @@ car reaches the end of the last lane (``end_margin_m`` before it) or has covered
 checked by default for the sine start only (``terminate_off_road``); ``spin_out`` when ``|e_phi| > pi/2``;
 truncated at ``max_episode_s`` (120 s; the default course takes ~61 s). The reward is highway-env's own.
 
-``info`` carries every signal ``vtrack_gym.evaluation`` needs. What highway-env does not model is a documented
-constant: ``z_m = 0``, ``roll_rad = 0``, ``a_z_mps2 = 0`` (flat road, no roll or heave), ``throttle = 0``,
-``brake_n = 0``; ``fz_n`` are the static wheel loads ``m g a_{2,1} / (2 l)`` (FL, FR, RL, RR). ``a_y_mps2 =
+``info`` carries every signal ``vtrack_gym.evaluation`` needs, under ``envs.schema.INFO_KEYS``. What highway-env
+does not model is a documented constant: ``z_m = 0``, ``roll_rad = 0``, ``a_z_mps2 = 0`` (flat road, no roll or
+heave), ``throttle = 0``, ``brake_n = 0``, ``steering_command_rad`` = the applied road-wheel angle; the reward terms
+are ``reward_alive = 1`` and ``reward_tracking = reward - 1`` (0 at reset, the others always 0); ``fz_n`` are
+the static wheel loads ``m g a_{2,1} / (2 l)`` (FL, FR, RL, RR). ``a_y_mps2 =
 v_y' + r v_x = (F_yf + F_yr)/m`` and ``a_x_mps2 = v_x' - r v_y`` come from highway-env's own state derivative.
 highway-env exposes the state only once per control step, so ``acc_substeps_mps2`` holds the (a_x, a_y, a_z)
 of the previous and the current control step linearly interpolated onto ``n_acc = ceil(250 Hz x T_c)`` samples

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 from vtrack_gym._ranges import closed_ranges, documented, ranged, validate
-from vtrack_gym.envs.observation import OBS, ObservationLayout
+from vtrack_gym.envs.observation import NOISY_FIELDS, OBS, ObservationLayout
 from vtrack_gym.envs.pdflc import PDFLCConfig
 from vtrack_gym.vehicle.params import VehicleParams
 
@@ -92,8 +92,8 @@ class EnvConfig:
     reward: RewardConfig = field(default_factory=RewardConfig)
     layout: ObservationLayout = OBS
     speed_controller: PDFLCConfig = field(default_factory=PDFLCConfig)  # the inner PD-FLC loop (paper Table 3)
-    # Sensor noise standard deviations at ``sensor_noise = 1`` (reset option scales them), in observation
-    # order for the first 8 entries: e_y [m], e_phi [rad], e_y_dot [m/s], e_phi_dot [rad/s], v_x, v_y [m/s],
+    # Sensor noise standard deviations at ``sensor_noise = 1`` (reset option scales them), one per entry of
+    # ``observation.NOISY_FIELDS``: e_y [m], e_phi [rad], e_y_dot [m/s], e_phi_dot [rad/s], v_x, v_y [m/s],
     # r [rad/s], delta [rad].
     noise_std: tuple[float, ...] = (0.02, 0.005, 0.02, 0.005, 0.05, 0.02, 0.005, 0.002)
 
@@ -105,8 +105,9 @@ class EnvConfig:
                              f"(got {self.control_period_s} / {self.physics_dt_s} = {ratio})")
         if self.model not in ("nonlinear", "linear"):
             raise ValueError(f"EnvConfig.model must be 'nonlinear' or 'linear' (got {self.model!r})")
-        if len(self.noise_std) != 8 or any(not (s >= 0.0) for s in self.noise_std):
-            raise ValueError("EnvConfig.noise_std must be 8 numbers >= 0")
+        if len(self.noise_std) != len(NOISY_FIELDS) or any(not (s >= 0.0) for s in self.noise_std):
+            raise ValueError(f"EnvConfig.noise_std must be {len(NOISY_FIELDS)} numbers >= 0, one per "
+                             f"{', '.join(NOISY_FIELDS)}")
 
     @property
     def n_substeps(self) -> int:

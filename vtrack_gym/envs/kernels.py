@@ -1,23 +1,31 @@
-"""Compiled env step: physics for every car, projection on its path, observation, termination.
+"""Compiled env step: physics for every car, projection on its path, observation, termination, reward, signals.
 
 One numba call per control period for all N cars (N = 1 for the single env), so the single and the vector
 env run the same per-car code and give bit-identical results. Imported lazily by ``envs.sim``.
 
-Track data of all paths in use are concatenated: ``tables`` (M, 8) with the column order of
-``vtrack_gym.tracks.path``; ``tmeta`` (K, 6) holds per track k its first row, row count, spacing [m],
-length [m], closed flag (0/1) and half width [m]; ``veh_track[i]`` is car i's track.
-Constant settings travel in one vector ``cfg`` (``CFG_*`` offsets), per-car scalars in ``car`` (n, 6)
-(``CAR_*`` columns) so that the compiled call unboxes few arguments (the single env's hot path).
+Every array the step reads or writes travels in one ``SimArrays`` bundle (a NamedTuple: fields are read by
+name, so two arrays cannot be swapped silently). Track data of all paths in use are concatenated: ``tables``
+(M, 8) with the column order of ``vtrack_gym.tracks.path``; ``tmeta`` (K, 6) holds per track k its first row,
+row count, spacing [m], length [m], closed flag (0/1) and half width [m]; ``veh_track[i]`` is car i's track.
+Constant settings travel in one vector ``cfg``: the fields of ``StepConstants``, then of the observation layout,
+then of the ``RewardConfig``, each offset (``CFG_*``, ``RW_*``) derived from the dataclass fields by name.
+Per-car scalars sit in ``car`` (n, 6) (``CAR_*`` columns); ``sig`` (n, len(SIGNAL_ROW)) is the row of ``info``
+signals and reward terms (``envs.schema``); ``obs`` is written by ``write_observation`` at layout-derived indices.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import astuple, dataclass, fields
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
 
+from vtrack_gym.envs.config import EnvConfig, RewardConfig, ScenarioConfig
+from vtrack_gym.envs.observation import N_SCALARS, ObservationLayout
 from vtrack_gym.envs.pdflc_kernel import pdflc_step
+from vtrack_gym.envs.schema import REWARD_TERMS, SIGNAL_ROW
 from vtrack_gym.tracks.kernels import interp_row, project_point
 from vtrack_gym.vehicle import layout as L
 from vtrack_gym.vehicle.kernels import step_vehicle
@@ -26,24 +34,118 @@ from vtrack_gym.vehicle.kernels import step_vehicle
 C_X, C_Y, C_PSI, C_KAPPA, C_DKAPPA, C_Z, C_GRADE, C_ZPP = range(8)
 N_COLS = 8
 
-# Track metadata columns, per-car scalar columns, and offsets in the constant settings vector.
+# Track metadata columns and per-car scalar columns.
 TM_START, TM_N, TM_DS, TM_LEN, TM_CLOSED, TM_HALF_WIDTH = range(6)
 CAR_S_PREV, CAR_PROGRESS, CAR_V_REF, CAR_PREV_ACTION, CAR_REWARD, CAR_MIN_FZ = range(6)
 N_CAR = 6
-(CFG_DT, CFG_NSUB, CFG_NPREV, CFG_PREV_DT, CFG_PREV_VMIN, CFG_END_MARGIN, CFG_KINKS, CFG_STEER_MAX) = range(8)
-CFG_REWARD = 8   # 9 reward settings (RW_*) start here
-N_CFG = 17
+
+
+@dataclass(frozen=True)
+class StepConstants:
+    """The step's own constants (first part of ``cfg``; ``CFG_*`` offsets follow this field order)."""
+
+    physics_dt_s: float
+    n_substeps: int
+    end_margin_m: float          # open paths: completed this far before the end [m]
+    kink_aligned: bool           # PD-FLC surface interpolated along the Mamdani kinks
+    max_steer_rad: float         # road-wheel angle of action 1 [rad]
+    steering_ratio: float        # hand-wheel / road-wheel angle
+
+    @classmethod
+    def of(cls, scenario: ScenarioConfig, config: EnvConfig) -> StepConstants:
+        """The constants of an env with this scenario and config."""
+        return cls(config.physics_dt_s, config.n_substeps, scenario.end_margin_m,
+                   config.speed_controller.method == "mamdani", config.vehicle.steering.max_road_wheel_angle_rad,
+                   config.vehicle.steering.steering_ratio)
+
+
+def _offsets(cls: type, start: int) -> dict[str, int]:
+    """Field name -> position in ``cfg`` of a dataclass packed from ``start``."""
+    return {f.name: start + k for k, f in enumerate(fields(cls))}
+
+
+_STEP = _offsets(StepConstants, 0)
+_LAYOUT = _offsets(ObservationLayout, len(_STEP))
+CFG_REWARD = len(_STEP) + len(_LAYOUT)   # the RewardConfig fields start here (RW_* are relative to it)
+_REWARD = _offsets(RewardConfig, 0)
+N_RW = len(_REWARD)
+N_CFG = CFG_REWARD + N_RW
+CFG_DT = _STEP["physics_dt_s"]
+CFG_NSUB = _STEP["n_substeps"]
+CFG_END_MARGIN = _STEP["end_margin_m"]
+CFG_KINKS = _STEP["kink_aligned"]
+CFG_STEER_MAX = _STEP["max_steer_rad"]
+CFG_STEER_RATIO = _STEP["steering_ratio"]
+CFG_NPREV = _LAYOUT["n_preview"]
+CFG_PREV_DT = _LAYOUT["preview_dt_s"]
+CFG_PREV_VMIN = _LAYOUT["preview_min_speed_mps"]
+RW_ALIVE = _REWARD["alive"]
+RW_WEY = _REWARD["w_ey"]
+RW_EYSCALE = _REWARD["ey_scale_m"]
+RW_WEPHI = _REWARD["w_ephi"]
+RW_EPHISCALE = _REWARD["ephi_scale_rad"]
+RW_WEFFORT = _REWARD["w_effort"]
+RW_WRATE = _REWARD["w_rate"]
+RW_FAIL = _REWARD["failure_penalty"]
+RW_COMPLETE = _REWARD["completion_bonus"]
+
+
+def pack_cfg(step: StepConstants, layout: ObservationLayout, reward: RewardConfig) -> np.ndarray:
+    """The ``cfg`` vector (float64, ``N_CFG``) of these settings."""
+    cfg = np.array([*astuple(step), *astuple(layout), *astuple(reward)], dtype=np.float64)
+    assert cfg.shape == (N_CFG,)
+    return cfg
+
+
+class SimArrays(NamedTuple):
+    """Every array of one batch of cars that the compiled step reads or writes (shapes for n cars)."""
+
+    states: np.ndarray       # (n, N_STATE) plant state (vehicle.layout S_*)
+    inputs: np.ndarray       # (n, N_INPUT) steering command [rad], throttle [0..1], brake [N]
+    road: np.ndarray         # (n, N_ROAD) grade [rad], road vertical acceleration [m/s^2]
+    params: np.ndarray       # (n, N_PARAM) packed vehicle parameters
+    models: np.ndarray       # (n,) int64 model id
+    outputs: np.ndarray      # (n, n_sub, N_OUTPUT) accelerations and wheel loads per physics step
+    work: np.ndarray         # (n, WORKSPACE_SIZE) plant scratch
+    tables: np.ndarray       # (M, 8) concatenated track tables
+    tmeta: np.ndarray        # (K, 6) track metadata (TM_*)
+    veh_track: np.ndarray    # (n,) int64 track of each car
+    car: np.ndarray          # (n, N_CAR) per-car scalars (CAR_*)
+    cfg: np.ndarray          # (N_CFG,) constant settings (CFG_*, RW_*)
+    obs: np.ndarray          # (n, layout.size) float32 observations
+    err: np.ndarray          # (n, ERR_COLS) projection: s*, e_y, e_phi, kappa, s_dot, z (E_*)
+    term: np.ndarray         # (n,) int64 termination code (T_*)
+    rows: np.ndarray         # (n, 8) scratch track row per car
+    actions: np.ndarray      # (n,) normalised steering actions of this step
+    sig: np.ndarray          # (n, len(SIGNAL_ROW)) info signals and reward terms (SIG_*)
+    pd_mem: np.ndarray       # (n, 3) PD-FLC memory
+    pd_gains: np.ndarray     # (n, 7) PD-FLC gains per car
+    pd_surface: np.ndarray   # (r, r) PD-FLC control surface (shared)
+
 
 # Termination codes (names in ``TERMINATION_NAMES`` of envs.sim).
 T_NONE, T_COMPLETED, T_OFF_ROAD, T_SPIN_OUT, T_WHEEL_LIFT, T_INVALID = range(6)
 
 SPIN_HEADING_RAD = 0.5 * math.pi   # |e_phi| beyond this: spun out / driving the wrong way
 SPIN_SIDESLIP_RAD = 0.3            # |atan(v_y / v_x)| beyond this above 3 m/s: spun out
-# Reward configuration vector and reward-term columns (see envs.config.RewardConfig).
-RW_ALIVE, RW_WEY, RW_EYSCALE, RW_WEPHI, RW_EPHISCALE, RW_WEFFORT, RW_WRATE, RW_FAIL, RW_COMPLETE = range(9)
-N_TERMS = 6  # alive, tracking, heading, effort, rate, terminal
 ERR_COLS = 6                       # s*, e_y, e_phi, kappa, s_dot, z of the projection
 E_S, E_EY, E_EPHI, E_KAPPA, E_SDOT, E_Z = range(ERR_COLS)
+
+# Signal-row columns (envs.schema.SIGNAL_ROW), derived by name.
+N_SIG = len(SIGNAL_ROW)
+SIG_X, SIG_Y, SIG_Z, SIG_PSI = (SIGNAL_ROW.index(n) for n in ("x_m", "y_m", "z_m", "psi_rad"))
+SIG_EY, SIG_EPHI, SIG_V, SIG_VY, SIG_R = (SIGNAL_ROW.index(n) for n in (
+    "e_y_m", "e_phi_rad", "v_mps", "v_y_mps", "yaw_rate_radps"))
+SIG_DELTA, SIG_HAND, SIG_CMD, SIG_ROLL = (SIGNAL_ROW.index(n) for n in (
+    "road_wheel_angle_rad", "hand_wheel_angle_rad", "steering_command_rad", "roll_rad"))
+SIG_THROTTLE, SIG_BRAKE, SIG_AX, SIG_AY, SIG_AZ, SIG_MIN_FZ = (SIGNAL_ROW.index(n) for n in (
+    "throttle", "brake_n", "a_x_mps2", "a_y_mps2", "a_z_mps2", "min_fz_n"))
+SIG_STATION, SIG_PROGRESS, SIG_V_REF = (SIGNAL_ROW.index(n) for n in ("station_m", "progress_m", "target_speed_mps"))
+SIG_REWARD = SIGNAL_ROW.index(REWARD_TERMS[0])   # the reward terms follow in REWARD_TERMS order
+N_TERMS = len(REWARD_TERMS)
+
+# The curvature preview follows the scalar fields (envs.observation).
+O_PREVIEW = N_SCALARS
 
 
 @njit(cache=True)
@@ -55,16 +157,31 @@ def _wrap(a: float) -> float:
 
 
 @njit(cache=True)
-def observe_one(i: int, state: np.ndarray, a_x: float, tables: np.ndarray, tmeta: np.ndarray,
-                veh_track: np.ndarray, car: np.ndarray, window_m: float, first: bool, cfg: np.ndarray,
-                obs: np.ndarray, road: np.ndarray, err: np.ndarray, row: np.ndarray) -> None:
+def write_observation(obs_row: np.ndarray, e_y: float, e_phi: float, e_y_dot: float, e_phi_dot: float, v_x: float,
+                      v_y: float, yaw_rate: float, road_wheel_angle: float, target_speed: float, yaw_rate_ref: float,
+                      yaw_acc_ref: float, curvature: float, curvature_rate: float) -> None:
+    """Write the scalar fields of one observation row (units: ``envs.observation``).
+
+    The one writer of the scalar fields, used by the env step and by the highway-env adapter. The parameters are
+    the layout's ``SCALAR_FIELDS`` in order (``tests/test_info_schema.py`` checks it), so field j goes to index j;
+    the curvature preview follows at ``O_PREVIEW``.
+    """
+    values = (e_y, e_phi, e_y_dot, e_phi_dot, v_x, v_y, yaw_rate, road_wheel_angle, target_speed, yaw_rate_ref,
+              yaw_acc_ref, curvature, curvature_rate)
+    for j in range(N_SCALARS):
+        obs_row[j] = values[j]
+
+
+@njit(cache=True)
+def observe_one(i: int, a: SimArrays, a_x: float, window_m: float, first: bool) -> None:
     """Project car ``i`` on its path and write its observation row, road inputs and error row."""
-    k = veh_track[i]
-    start = int(tmeta[k, TM_START])
-    table = tables[start:start + int(tmeta[k, TM_N])]
-    ds = tmeta[k, TM_DS]
-    length = tmeta[k, TM_LEN]
-    closed = tmeta[k, TM_CLOSED] != 0.0
+    state, car, cfg, row = a.states[i], a.car, a.cfg, a.rows[i]
+    k = a.veh_track[i]
+    start = int(a.tmeta[k, TM_START])
+    table = a.tables[start:start + int(a.tmeta[k, TM_N])]
+    ds = a.tmeta[k, TM_DS]
+    length = a.tmeta[k, TM_LEN]
+    closed = a.tmeta[k, TM_CLOSED] != 0.0
     n_preview = int(cfg[CFG_NPREV])
     preview_dt = cfg[CFG_PREV_DT]
     preview_vmin = cfg[CFG_PREV_VMIN]
@@ -104,30 +221,20 @@ def observe_one(i: int, state: np.ndarray, a_x: float, tables: np.ndarray, tmeta
     yaw_rate_ref = kappa * s_dot
     yaw_acc_ref = dkappa * s_dot * s_dot + kappa * a_x
 
-    obs[i, 0] = e_y
-    obs[i, 1] = e_phi
-    obs[i, 2] = vx * sin_e + vy * cos_e
-    obs[i, 3] = r - yaw_rate_ref
-    obs[i, 4] = vx
-    obs[i, 5] = vy
-    obs[i, 6] = r
-    obs[i, 7] = state[L.S_DELTA]
-    obs[i, 8] = car[i, CAR_V_REF]
-    obs[i, 9] = yaw_rate_ref
-    obs[i, 10] = yaw_acc_ref
-    obs[i, 11] = kappa
-    obs[i, 12] = dkappa
-    base = 13
+    obs = a.obs
+    write_observation(obs[i], e_y, e_phi, vx * sin_e + vy * cos_e, r - yaw_rate_ref, vx, vy, r, state[L.S_DELTA],
+                      car[i, CAR_V_REF], yaw_rate_ref, yaw_acc_ref, kappa, dkappa)
     v_prev = vx if vx > preview_vmin else preview_vmin
     for j in range(n_preview):
         interp_row(table, ds, length, closed, s + v_prev * (j + 1) * preview_dt, row)
-        obs[i, base + j] = row[C_KAPPA]
+        obs[i, O_PREVIEW + j] = row[C_KAPPA]
 
     # Road inputs for the next control period: grade and vertical acceleration v^2 z''(s) at the projection.
     interp_row(table, ds, length, closed, s, row)
-    road[i, L.R_GRADE] = math.atan(row[C_GRADE])
-    road[i, L.R_AZ] = vx * vx * row[C_ZPP]
+    a.road[i, L.R_GRADE] = math.atan(row[C_GRADE])
+    a.road[i, L.R_AZ] = vx * vx * row[C_ZPP]
 
+    err = a.err
     err[i, E_S] = s
     err[i, E_EY] = e_y
     err[i, E_EPHI] = e_phi
@@ -137,9 +244,9 @@ def observe_one(i: int, state: np.ndarray, a_x: float, tables: np.ndarray, tmeta
 
 
 @njit(cache=True)
-def termination_one(i: int, state: np.ndarray, outputs: np.ndarray, err: np.ndarray, car: np.ndarray,
-                    tmeta: np.ndarray, veh_track: np.ndarray, end_margin_m: float) -> int:
+def termination_one(i: int, a: SimArrays) -> int:
     """Termination code of car ``i`` after a step (``T_NONE`` if it goes on); stores its min wheel load."""
+    state, outputs, err, car, tmeta = a.states[i], a.outputs[i], a.err, a.car, a.tmeta
     for j in range(state.shape[0]):
         if not math.isfinite(state[j]):
             return T_INVALID
@@ -151,7 +258,7 @@ def termination_one(i: int, state: np.ndarray, outputs: np.ndarray, err: np.ndar
     car[i, CAR_MIN_FZ] = min_fz
     if min_fz <= 0.0:
         return T_WHEEL_LIFT
-    k = veh_track[i]
+    k = a.veh_track[i]
     vx = state[L.S_VX]
     if abs(err[i, E_EPHI]) > SPIN_HEADING_RAD:
         return T_SPIN_OUT
@@ -162,77 +269,104 @@ def termination_one(i: int, state: np.ndarray, outputs: np.ndarray, err: np.ndar
     if tmeta[k, TM_CLOSED] != 0.0:
         if car[i, CAR_PROGRESS] >= tmeta[k, TM_LEN]:
             return T_COMPLETED
-    elif err[i, E_S] >= tmeta[k, TM_LEN] - end_margin_m:
+    elif err[i, E_S] >= tmeta[k, TM_LEN] - a.cfg[CFG_END_MARGIN]:
         return T_COMPLETED
     return T_NONE
 
 
 @njit(cache=True)
-def reward_one(i: int, code: int, e_y: float, e_phi: float, action: float, prev_action: float, rw: np.ndarray,
+def reward_one(code: int, e_y: float, e_phi: float, action: float, prev_action: float, rw: np.ndarray,
                terms: np.ndarray) -> float:
-    """Reward of car ``i`` for one step; its six terms go to ``terms[i]``."""
+    """Reward of one car for one step; its six terms (``REWARD_TERMS`` order) go to ``terms``."""
     q_ey = (e_y / rw[RW_EYSCALE]) ** 2
     q_ephi = (e_phi / rw[RW_EPHISCALE]) ** 2
-    terms[i, 0] = rw[RW_ALIVE]
-    terms[i, 1] = -rw[RW_WEY] * (q_ey if q_ey < 4.0 else 4.0)
-    terms[i, 2] = -rw[RW_WEPHI] * (q_ephi if q_ephi < 4.0 else 4.0)
-    terms[i, 3] = -rw[RW_WEFFORT] * action * action
+    terms[0] = rw[RW_ALIVE]
+    terms[1] = -rw[RW_WEY] * (q_ey if q_ey < 4.0 else 4.0)
+    terms[2] = -rw[RW_WEPHI] * (q_ephi if q_ephi < 4.0 else 4.0)
+    terms[3] = -rw[RW_WEFFORT] * action * action
     da = (action - prev_action) / 0.1
-    terms[i, 4] = -rw[RW_WRATE] * da * da
+    terms[4] = -rw[RW_WRATE] * da * da
     if code == T_COMPLETED:
-        terms[i, 5] = rw[RW_COMPLETE]
+        terms[5] = rw[RW_COMPLETE]
     elif code != T_NONE:
-        terms[i, 5] = rw[RW_FAIL]
+        terms[5] = rw[RW_FAIL]
     else:
-        terms[i, 5] = 0.0
-    return terms[i, 0] + terms[i, 1] + terms[i, 2] + terms[i, 3] + terms[i, 4] + terms[i, 5]
+        terms[5] = 0.0
+    return terms[0] + terms[1] + terms[2] + terms[3] + terms[4] + terms[5]
 
 
 @njit(cache=True)
-def _step_one(i: int, states: np.ndarray, inputs: np.ndarray, road: np.ndarray, params: np.ndarray,
-              models: np.ndarray, outputs: np.ndarray, work: np.ndarray, tables: np.ndarray, tmeta: np.ndarray,
-              veh_track: np.ndarray, car: np.ndarray, cfg: np.ndarray, obs: np.ndarray, err: np.ndarray,
-              term: np.ndarray, rows: np.ndarray, actions: np.ndarray, terms: np.ndarray, pd_mem: np.ndarray,
-              pd_gains: np.ndarray, pd_surface: np.ndarray) -> None:
+def write_signals(i: int, a: SimArrays) -> None:
+    """Car ``i``'s row of ``info`` signals (``envs.schema.ROW_SIGNALS``; the reward terms are written apart)."""
+    st, sig, car = a.states[i], a.sig[i], a.car
+    last = a.outputs[i, a.outputs.shape[1] - 1]
+    sig[SIG_X] = st[L.S_X]
+    sig[SIG_Y] = st[L.S_Y]
+    sig[SIG_Z] = a.err[i, E_Z]
+    sig[SIG_PSI] = st[L.S_PSI]
+    sig[SIG_EY] = a.err[i, E_EY]
+    sig[SIG_EPHI] = a.err[i, E_EPHI]
+    sig[SIG_V] = st[L.S_VX]
+    sig[SIG_VY] = st[L.S_VY]
+    sig[SIG_R] = st[L.S_R]
+    sig[SIG_DELTA] = st[L.S_DELTA]
+    sig[SIG_HAND] = st[L.S_DELTA] * a.cfg[CFG_STEER_RATIO]
+    sig[SIG_CMD] = a.inputs[i, L.U_DELTA]
+    sig[SIG_ROLL] = st[L.S_ROLL]
+    sig[SIG_THROTTLE] = a.inputs[i, L.U_THROTTLE]
+    sig[SIG_BRAKE] = a.inputs[i, L.U_BRAKE]
+    sig[SIG_AX] = last[L.O_AX]
+    sig[SIG_AY] = last[L.O_AY]
+    sig[SIG_AZ] = last[L.O_AZ]
+    sig[SIG_MIN_FZ] = car[i, CAR_MIN_FZ]
+    sig[SIG_STATION] = a.err[i, E_S]
+    sig[SIG_PROGRESS] = car[i, CAR_PROGRESS]
+    sig[SIG_V_REF] = car[i, CAR_V_REF]
+
+
+@njit(cache=True)
+def _step_one(i: int, a: SimArrays) -> None:
     """One control period of car ``i``: speed loop, physics, projection, observation, termination, reward."""
+    cfg, car, states, inputs, outputs = a.cfg, a.car, a.states, a.inputs, a.outputs
     dt = cfg[CFG_DT]
     n_sub = int(cfg[CFG_NSUB])
-    throttle, brake = pdflc_step(states[i, L.S_VX], car[i, CAR_V_REF], pd_mem[i], pd_gains[i], pd_surface,
+    throttle, brake = pdflc_step(states[i, L.S_VX], car[i, CAR_V_REF], a.pd_mem[i], a.pd_gains[i], a.pd_surface,
                                  cfg[CFG_KINKS] != 0.0)
     inputs[i, L.U_THROTTLE] = throttle
     inputs[i, L.U_BRAKE] = brake
-    step_vehicle(states[i], inputs[i], road[i], params[i], models[i], dt, n_sub, outputs[i], work[i])
+    step_vehicle(states[i], inputs[i], a.road[i], a.params[i], a.models[i], dt, n_sub, outputs[i], a.work[i])
     travel = abs(states[i, L.S_VX]) * dt * n_sub
     window = 5.0 + 3.0 * travel
     a_x = outputs[i, n_sub - 1, L.O_AX]
-    observe_one(i, states[i], a_x, tables, tmeta, veh_track, car, window, False, cfg, obs, road, err, rows[i])
-    code = termination_one(i, states[i], outputs[i], err, car, tmeta, veh_track, cfg[CFG_END_MARGIN])
-    term[i] = code
-    car[i, CAR_REWARD] = reward_one(i, code, err[i, E_EY], err[i, E_EPHI], actions[i], car[i, CAR_PREV_ACTION],
-                                    cfg[CFG_REWARD:CFG_REWARD + 9], terms)
-    car[i, CAR_PREV_ACTION] = actions[i]
+    observe_one(i, a, a_x, window, False)
+    code = termination_one(i, a)
+    a.term[i] = code
+    action = a.actions[i]
+    car[i, CAR_REWARD] = reward_one(code, a.err[i, E_EY], a.err[i, E_EPHI], action, car[i, CAR_PREV_ACTION],
+                                    cfg[CFG_REWARD:CFG_REWARD + N_RW], a.sig[i, SIG_REWARD:SIG_REWARD + N_TERMS])
+    car[i, CAR_PREV_ACTION] = action
+    write_signals(i, a)
 
 
 @njit(cache=True)
-def step_serial(states, inputs, road, params, models, outputs, work, tables, tmeta, veh_track, car,
-                cfg, obs, err, term, rows, actions, terms, pd_mem, pd_gains, pd_surface) -> None:
+def step_serial(a: SimArrays) -> None:
     """One control period for every car, single-threaded."""
-    for i in range(states.shape[0]):
-        _step_one(i, states, inputs, road, params, models, outputs, work, tables, tmeta, veh_track, car, cfg, obs,
-                  err, term, rows, actions, terms, pd_mem, pd_gains, pd_surface)
+    for i in range(a.states.shape[0]):
+        _step_one(i, a)
 
 
 @njit(cache=True, parallel=True)
-def step_parallel(states, inputs, road, params, models, outputs, work, tables, tmeta, veh_track, car,
-                  cfg, obs, err, term, rows, actions, terms, pd_mem, pd_gains, pd_surface) -> None:
+def step_parallel(a: SimArrays) -> None:
     """One control period for every car, cars spread over threads (same per-car code)."""
-    for i in prange(states.shape[0]):
-        _step_one(i, states, inputs, road, params, models, outputs, work, tables, tmeta, veh_track, car, cfg, obs,
-                  err, term, rows, actions, terms, pd_mem, pd_gains, pd_surface)
+    for i in prange(a.states.shape[0]):
+        _step_one(i, a)
 
 
 @njit(cache=True)
-def observe_indices(idx, states, tables, tmeta, veh_track, car, cfg, obs, road, err, rows) -> None:
-    """Fresh observation (global projection search, progress reset) for the cars in ``idx`` (a_x = 0)."""
+def observe_indices(idx: np.ndarray, a: SimArrays) -> None:
+    """Fresh observation (global projection search, progress reset) and signal row (reward terms 0) for the
+    cars in ``idx`` (a_x = 0)."""
     for i in idx:
-        observe_one(i, states[i], 0.0, tables, tmeta, veh_track, car, 0.0, True, cfg, obs, road, err, rows[i])
+        observe_one(i, a, 0.0, 0.0, True)
+        a.sig[i, SIG_REWARD:SIG_REWARD + N_TERMS] = 0.0
+        write_signals(i, a)

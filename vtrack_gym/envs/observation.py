@@ -27,6 +27,10 @@ curvature_rate    1/m^2      d kappa / d s at the projection point
 Then ``n_preview`` curvature samples kappa(s* + d_k) [1/m] at the look-ahead distances
 ``d_k = max(v_x, preview_min_speed_mps) * k * preview_dt_s`` for k = 1..n_preview (default: 20 samples every
 0.1 s, i.e. two seconds of travel). ``OBS.preview_distances(v_x)`` returns those distances.
+
+Adding a scalar field touches three files: here (``SCALAR_FIELDS``, ``SCALAR_BOUNDS``, the ``ObservationLayout``
+index attribute and the table above), ``envs/kernels.py`` (a parameter of ``write_observation`` and its value in
+``observe_one``) and ``interop/lane_observation.py`` (its value on a highway-env lane).
 """
 
 from __future__ import annotations
@@ -50,6 +54,13 @@ SCALAR_FIELDS: tuple[str, ...] = (
     "e_y", "e_phi", "e_y_dot", "e_phi_dot", "v_x", "v_y", "yaw_rate", "road_wheel_angle",
     "target_speed", "yaw_rate_ref", "yaw_acc_ref", "curvature", "curvature_rate",
 )
+N_SCALARS = len(SCALAR_FIELDS)
+"""Number of scalar fields; the curvature preview starts at this index in every layout."""
+
+NOISY_FIELDS: tuple[str, ...] = (
+    "e_y", "e_phi", "e_y_dot", "e_phi_dot", "v_x", "v_y", "yaw_rate", "road_wheel_angle")
+"""The measured fields that ``reset(options={"sensor_noise": k})`` perturbs (``EnvConfig.noise_std`` order)."""
+NOISY_INDICES: tuple[int, ...] = tuple(SCALAR_FIELDS.index(name) for name in NOISY_FIELDS)
 
 
 @documented
@@ -64,25 +75,15 @@ class ObservationLayout:
     def __post_init__(self) -> None:
         validate(self)
 
-    # Scalar indices as attributes (stable across layouts: the preview always comes last).
-    E_Y = 0
-    E_PHI = 1
-    E_Y_DOT = 2
-    E_PHI_DOT = 3
-    V_X = 4
-    V_Y = 5
-    YAW_RATE = 6
-    ROAD_WHEEL_ANGLE = 7
-    TARGET_SPEED = 8
-    YAW_RATE_REF = 9
-    YAW_ACC_REF = 10
-    CURVATURE = 11
-    CURVATURE_RATE = 12
+    # Scalar indices as attributes (``OBS.E_Y`` = ``OBS.index("e_y")``: the upper-cased field names, in
+    # SCALAR_FIELDS order; stable across layouts because the preview comes last).
+    (E_Y, E_PHI, E_Y_DOT, E_PHI_DOT, V_X, V_Y, YAW_RATE, ROAD_WHEEL_ANGLE, TARGET_SPEED, YAW_RATE_REF, YAW_ACC_REF,
+     CURVATURE, CURVATURE_RATE) = range(N_SCALARS)
 
     @property
     def n_scalars(self) -> int:
         """Number of scalar fields before the preview."""
-        return len(SCALAR_FIELDS)
+        return N_SCALARS
 
     @property
     def size(self) -> int:

@@ -7,7 +7,10 @@ loop drives throttle and brake inside the env.
 
 Reward (per control step; weights in ``RewardConfig``):
 ``1 - w_ey min((e_y/0.5 m)^2, 4) - w_ephi min((e_phi/0.1 rad)^2, 4) - w_effort a^2 - w_rate ((a - a_prev)/0.1)^2``
-plus ``failure_penalty`` (-100) once on a failure termination. Terms in ``info["reward_*"]``.
+plus ``failure_penalty`` (-100) once on a failure termination. Terms in ``info["reward_*"]`` (0 at reset).
+
+Info: the keys of ``envs.schema.INFO_KEYS`` at reset and at every step (numpy float64 scalars, ``fz_n`` (4,),
+``acc_substeps_mps2`` (n_sub, 3), ``termination`` str).
 
 Termination (``info["termination"]``): ``completed`` (one lap of a closed course, or the end of an open
 track), ``off_road`` (|e_y| beyond the track's half width), ``spin_out`` (|e_phi| > 90 deg, or sideslip >
@@ -24,7 +27,8 @@ import gymnasium as gym
 import numpy as np
 
 from vtrack_gym.envs.config import DLC120, LATERAL_TRACKING, RANDOM_TRACKS, EnvConfig, ResetOptions, ScenarioConfig
-from vtrack_gym.envs.sim import REWARD_TERM_NAMES, TERMINATION_NAMES, BatchSim
+from vtrack_gym.envs.schema import info_dict
+from vtrack_gym.envs.sim import TERMINATION_NAMES, BatchSim
 from vtrack_gym.vehicle import layout as L
 from vtrack_gym.vehicle.params import DesignModel
 
@@ -140,45 +144,17 @@ class TrackingEnv(gym.Env):
         term = code != 0
         self._needs_reset = term or trunc
         info = self._info(terminated=term)
-        info.update(zip(REWARD_TERM_NAMES, self._sim.terms[0].tolist(), strict=True))
         if self._renderer is not None:
             self._renderer.on_step(self.current_path, self._sim)
         return self._sim.obs[0].copy(), reward, term, trunc, info
 
     def _info(self, terminated: bool) -> dict[str, Any]:
-        """Scalar signals of the car (everything the metrics need), cheap enough for every step."""
+        """Every ``envs.schema.INFO_KEYS`` entry of the car (numpy scalars and arrays), cheap enough per step."""
         sim = self._sim
-        x, y, psi, v_x, _, _, roll, _, delta, _, _ = sim.plant.state[0].tolist()
-        s_star, e_y, e_phi, _, _, z = sim.err[0].tolist()
-        _, throttle, brake = sim.inputs[0].tolist()
-        _, progress, v_ref, _, _, min_fz = sim.car[0].tolist()
         out = sim.outputs[0]
-        a_x, a_y, a_z = out[-1, L.O_AX:L.O_AZ + 1].tolist()
-        return {
-            "time_s": int(sim.steps[0]) * self.control_period_s,
-            "x_m": x,
-            "y_m": y,
-            "z_m": z,
-            "psi_rad": psi,
-            "e_y_m": e_y,
-            "e_phi_rad": e_phi,
-            "v_mps": v_x,
-            "road_wheel_angle_rad": delta,
-            "hand_wheel_angle_rad": delta * self._steering_ratio,
-            "roll_rad": roll,
-            "throttle": throttle,
-            "brake_n": brake,
-            "a_x_mps2": a_x,
-            "a_y_mps2": a_y,
-            "a_z_mps2": a_z,
-            "fz_n": out[-1, L.O_FZFL:L.O_FZRR + 1].copy(),
-            "min_fz_n": min_fz,
-            "acc_substeps_mps2": out[:, L.O_AX:L.O_AZ + 1].copy(),
-            "station_m": s_star,
-            "progress_m": progress,
-            "target_speed_mps": v_ref,
-            "termination": TERMINATION_NAMES[int(sim.term[0])] if terminated else "",
-        }
+        return info_dict(int(sim.steps[0]) * self.control_period_s, sim.sig[0], out[-1, L.O_FZFL:L.O_FZRR + 1].copy(),
+                         out[:, L.O_AX:L.O_AZ + 1].copy(),
+                         TERMINATION_NAMES[int(sim.term[0])] if terminated else "")
 
     def render(self):
         """rgb_array: the current frame; rgb_array_list: the frames taken at ``render_fps`` since the last call;

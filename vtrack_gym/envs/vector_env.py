@@ -104,9 +104,8 @@ class TrackingVectorEnv(VectorEnv):
         return sim.obs.copy(), reward, terminated, truncated, self._infos(terminated)
 
     def _infos(self, terminated: np.ndarray) -> dict[str, Any]:
-        """Every signal as an (num_envs, ...) array, with Gymnasium's ``_key`` masks."""
-        infos: dict[str, Any] = self.sim.signals()
-        infos.update(self.sim.reward_terms())
+        """Every ``envs.schema.INFO_KEYS`` entry as a (num_envs, ...) array, with Gymnasium's ``_key`` masks."""
+        infos: dict[str, Any] = self.sim.signals()  # envs.schema.INFO_KEYS order
         names = np.array(TERMINATION_NAMES, dtype=object)[self.sim.term]
         infos["termination"] = np.where(terminated, names, "")
         for key in list(infos):

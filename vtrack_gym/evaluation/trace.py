@@ -7,12 +7,10 @@ from typing import Any
 
 import numpy as np
 
-# Scalar per-step signals copied from the env's info dict (name in info -> attribute of the trace).
-STEP_SIGNALS: tuple[str, ...] = (
-    "time_s", "x_m", "y_m", "z_m", "psi_rad", "e_y_m", "e_phi_rad", "v_mps", "road_wheel_angle_rad",
-    "hand_wheel_angle_rad", "roll_rad", "throttle", "brake_n", "a_x_mps2", "a_y_mps2", "a_z_mps2",
-    "min_fz_n", "station_m", "progress_m", "target_speed_mps",
-)
+from vtrack_gym.envs.schema import SCALAR_SIGNALS
+
+STEP_SIGNALS: tuple[str, ...] = SCALAR_SIGNALS
+"""Scalar per-step signals copied from the env's info dict (``envs.schema.SCALAR_SIGNALS``)."""
 
 
 @dataclass

@@ -1,8 +1,10 @@
 """``HighwayLaneKeeping``: highway-env's ``lane-keeping-v0`` behind vtrack's observation and action contract.
 
 Any vtrack policy (``make_policy(name, env)``) drives highway-env's ``BicycleVehicle`` unchanged: the adapter reads
-the car's state and the lane geometry after every highway-env step and builds the ``ObservationLayout``
-observation; it maps the normalised road-wheel command back to highway-env's steering action. highway-env is
+the car's state and the lane geometry (``interop.lane_geometry``) after every highway-env step and writes the
+``ObservationLayout`` observation through the native env's writer (``interop.lane_observation``); its ``info`` has
+the native env's keys (``envs.schema.INFO_KEYS``). It maps the normalised road-wheel command back to highway-env's
+steering action. highway-env is
 imported only when an adapter is constructed (``pip install vtrack_gym[highway]``); its source is not changed.
 
 Conventions (all checked against highway-env 1.12.1, see ``tests/test_highway_interop.py``):
@@ -50,9 +52,11 @@ car reaches the end of the last lane (``end_margin_m`` before it) or has covered
 checked by default for the sine start only (``terminate_off_road``); ``spin_out`` when ``|e_phi| > pi/2``;
 truncated at ``max_episode_s`` (120 s; the default course takes ~61 s). The reward is highway-env's own.
 
-``info`` carries every signal ``vtrack_gym.evaluation`` needs. What highway-env does not model is a documented
-constant: ``z_m = 0``, ``roll_rad = 0``, ``a_z_mps2 = 0`` (flat road, no roll or heave), ``throttle = 0``,
-``brake_n = 0``; ``fz_n`` are the static wheel loads ``m g a_{2,1} / (2 l)`` (FL, FR, RL, RR). ``a_y_mps2 =
+``info`` carries every signal ``vtrack_gym.evaluation`` needs, under ``envs.schema.INFO_KEYS``. What highway-env
+does not model is a documented constant: ``z_m = 0``, ``roll_rad = 0``, ``a_z_mps2 = 0`` (flat road, no roll or
+heave), ``throttle = 0``, ``brake_n = 0``, ``steering_command_rad`` = the applied road-wheel angle; the reward terms
+are ``reward_alive = 1`` and ``reward_tracking = reward - 1`` (0 at reset, the others always 0); ``fz_n`` are
+the static wheel loads ``m g a_{2,1} / (2 l)`` (FL, FR, RL, RR). ``a_y_mps2 =
 v_y' + r v_x = (F_yf + F_yr)/m`` and ``a_x_mps2 = v_x' - r v_y`` come from highway-env's own state derivative.
 highway-env exposes the state only once per control step, so ``acc_substeps_mps2`` holds the (a_x, a_y, a_z)
 of the previous and the current control step linearly interpolated onto ``n_acc = ceil(250 Hz x T_c)`` samples
@@ -73,12 +77,15 @@ import numpy as np
 
 from vtrack_gym.envs.config import validate_numeric_options
 from vtrack_gym.envs.observation import OBS, ObservationLayout
+from vtrack_gym.envs.schema import REWARD_TERMS, info_dict, signal_row
 from vtrack_gym.envs.tracking_env import check_action
 from vtrack_gym.interop import HIGHWAY_ENV_ID
+from vtrack_gym.interop.lane_geometry import LaneGeometry
+from vtrack_gym.interop.lane_observation import observe_on_lane
 from vtrack_gym.vehicle.params import GRAVITY_MPS2, DesignModel
 
 __all__ = ["HIGHWAY_ENV_ID", "HighwayConfig", "HighwayLaneKeeping", "LaneGeometry", "design_model_from_bicycle",
-           "import_highway_env"]
+           "import_highway_env"]  # LaneGeometry lives in interop.lane_geometry (re-exported here)
 
 HIGHWAY_SOURCE_ID = "lane-keeping-v0"
 """The highway-env id the adapter wraps."""
@@ -124,116 +131,6 @@ def design_model_from_bicycle(vehicle_cls: Any, max_road_wheel_angle_rad: float,
         steering_ratio=float(steering_ratio),
         friction_mu=float(friction_mu),
     )
-
-
-class LaneGeometry:
-    """Centre line of a highway-env ``StraightLane`` or ``SineLane`` with exact projection and arc length.
-
-    In the lane's chord frame (origin ``lane.start``, unit x along ``lane.direction``, y along
-    ``lane.direction_lateral``) the centre line is ``y = A sin(w x + phase)`` (A = 0 for a straight lane), so
-    heading ``atan(y')``, curvature ``y'' / (1 + y'^2)^1.5`` and its arc-length derivative are analytic. Arc
-    length s(x) is tabulated once (trapezoid, ``step_m``) over the lane plus margins so the preview can map
-    stations back to chord abscissae.
-    """
-
-    def __init__(self, lane: Any, step_m: float = 0.25, margin_before_m: float = 100.0,
-                 margin_after_m: float = 200.0) -> None:
-        from highway_env.road.lane import SineLane, StraightLane
-
-        if not isinstance(lane, StraightLane):
-            raise NotImplementedError(f"only StraightLane/SineLane centre lines are supported (got "
-                                      f"{type(lane).__name__})")
-        self.lane = lane
-        is_sine = isinstance(lane, SineLane)
-        self.amp = float(lane.amplitude) if is_sine else 0.0
-        self.w = float(lane.pulsation) if is_sine else 0.0
-        self.phase = float(lane.phase) if is_sine else 0.0
-        self.x0, self.y0 = (float(c) for c in lane.start)
-        self.ux, self.uy = (float(c) for c in lane.direction)
-        self.chord_heading = math.atan2(self.uy, self.ux)
-        self.length = float(lane.length)  # chord length [m]
-        self.half_width = 0.5 * float(lane.width_at(0.0))
-        x = np.arange(-margin_before_m, self.length + margin_after_m + step_m, step_m)
-        slope = self.amp * self.w * np.cos(self.w * x + self.phase)
-        ds = np.sqrt(1.0 + slope * slope)
-        s = np.concatenate(([0.0], np.cumsum(0.5 * (ds[1:] + ds[:-1]) * step_m)))
-        self._x_tab = x
-        self._s_tab = s - np.interp(0.0, x, s)  # s = 0 at the lane start (x = 0)
-        curv = -self.amp * self.w * self.w * np.sin(self.w * x + self.phase)
-        self._k_tab = curv / (ds * ds * ds)  # y'' / (1 + y'^2)^1.5 on the grid (preview: linear in s, < 1e-6 1/m)
-        self._x_first, self._inv_step = float(x[0]), 1.0 / step_m
-        self._s_list = self._s_tab.tolist()
-        self.arc_length = self.station_at(self.length)
-
-    # ----------------------------------------------------------------------------------------- chord frame
-    def to_chord(self, px: float, py: float) -> tuple[float, float]:
-        """World point -> chord-frame (x, y)."""
-        dx, dy = px - self.x0, py - self.y0
-        return dx * self.ux + dy * self.uy, -dx * self.uy + dy * self.ux
-
-    def centre(self, x: float) -> tuple[float, float]:
-        """World position of the centre line at chord abscissa ``x``."""
-        yc = self.amp * math.sin(self.w * x + self.phase)
-        return self.x0 + x * self.ux - yc * self.uy, self.y0 + x * self.uy + yc * self.ux
-
-    def _derivatives(self, x: float) -> tuple[float, float, float, float]:
-        """(y, y', y'', y''') of the centre line at chord abscissa ``x``."""
-        th = self.w * x + self.phase
-        sn, cs = math.sin(th), math.cos(th)
-        a, w = self.amp, self.w
-        return a * sn, a * w * cs, -a * w * w * sn, -a * w * w * w * cs
-
-    def project(self, px: float, py: float) -> tuple[float, float, float, float, float]:
-        """Closest centre-line point of world point (px, py).
-
-        Returns ``(x*, e_y, psi_ref, kappa, dkappa_ds)``: chord abscissa [m], signed perpendicular offset
-        (left-positive) [m], world heading of the centre line [rad], curvature [1/m], d kappa / d s [1/m^2].
-        """
-        qx, qy = self.to_chord(px, py)
-        x = qx
-        if self.amp != 0.0:
-            for _ in range(12):  # Newton on g(x) = (x - qx) + (y(x) - qy) y'(x) = 0
-                y, y1, y2, _ = self._derivatives(x)
-                g = (x - qx) + (y - qy) * y1
-                dg = 1.0 + y1 * y1 + (y - qy) * y2
-                step = g / dg if dg > 0.1 else g
-                x -= step
-                if abs(step) < 1e-10:
-                    break
-        y, y1, y2, y3 = self._derivatives(x)
-        q = 1.0 + y1 * y1
-        root = math.sqrt(q)
-        e_y = (-(qx - x) * y1 + (qy - y)) / root  # (q - c) . n with n = (-y', 1)/sqrt(1 + y'^2)
-        kappa = y2 / (q * root)
-        dkappa_ds = (y3 / (q * root) - 3.0 * y1 * y2 * y2 / (q * q * root)) / root
-        return x, e_y, self.chord_heading + math.atan(y1), kappa, dkappa_ds
-
-    # ------------------------------------------------------------------------------------------ arc length
-    def station_at(self, x: float) -> float:
-        """Arc length [m] from the lane start to chord abscissa ``x`` (clamped to the tabulated range)."""
-        u = (x - self._x_first) * self._inv_step
-        last = len(self._s_list) - 1
-        if u <= 0.0:
-            return self._s_list[0]
-        if u >= last:
-            return self._s_list[last]
-        i = int(u)
-        s0 = self._s_list[i]
-        return s0 + (u - i) * (self._s_list[i + 1] - s0)
-
-    def abscissa_at(self, s: float) -> float:
-        """Chord abscissa [m] of arc-length station ``s``."""
-        return float(np.interp(s, self._s_tab, self._x_tab))
-
-    def curvature_at_stations(self, s: np.ndarray) -> np.ndarray:
-        """Curvature [1/m] at arc-length stations ``s`` (beyond the tabulated margin: clamped)."""
-        return np.interp(s, self._s_tab, self._k_tab)
-
-    def polyline(self, step_m: float = 1.0) -> np.ndarray:
-        """(N, 2) world points of the centre line over the lane's chord."""
-        x = np.arange(0.0, self.length + step_m, step_m)
-        yc = self.amp * np.sin(self.w * x + self.phase)
-        return np.column_stack((self.x0 + x * self.ux - yc * self.uy, self.y0 + x * self.uy + yc * self.ux))
 
 
 @dataclass(frozen=True)
@@ -340,9 +237,6 @@ class HighwayLaneKeeping(gym.Env):
         low, high = layout.bounds()
         self.observation_space = gym.spaces.Box(low, high, dtype=np.float32)
         self.action_space = gym.spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
-        self._n_scalars = layout.n_scalars
-        self._preview_k = np.arange(1, layout.n_preview + 1, dtype=np.float64) * layout.preview_dt_s
-        self._preview_vmin = layout.preview_min_speed_mps
         a1, a2 = self.design_model.cg_to_front_axle_m, self.design_model.cg_to_rear_axle_m
         w = self.design_model.mass_kg * GRAVITY_MPS2 / (2.0 * (a1 + a2))
         self._fz = np.array([w * a2, w * a2, w * a1, w * a1])  # static FL, FR, RL, RR [N]
@@ -412,7 +306,7 @@ class HighwayLaneKeeping(gym.Env):
         self._steps = 0
         self._progress = 0.0
         self._geom = None
-        obs, info = self._observe(stepped=False)
+        obs, info = self._observe(stepped=False, reward=None)
         self._acc_prev = info["acc_substeps_mps2"][-1].copy()
         self._needs_reset = False
         return obs, info
@@ -424,7 +318,7 @@ class HighwayLaneKeeping(gym.Env):
         u = 2.0 * (delta - self._steer_lo) / self._steer_span - 1.0  # inverse of highway-env's utils.lmap
         _, reward, _, _, _ = self._hw.step(np.array([u]))
         self._steps += 1
-        obs, info = self._observe(stepped=True)
+        obs, info = self._observe(stepped=True, reward=float(reward))
         e_y, e_phi = info["e_y_m"], info["e_phi_rad"]
         termination = ""
         if not (math.isfinite(e_y) and math.isfinite(e_phi)):
@@ -447,7 +341,7 @@ class HighwayLaneKeeping(gym.Env):
         """Observation and info of highway-env's CURRENT state (e.g. after moving its car by hand)."""
         if self._geom is None:
             raise RuntimeError("call reset() first")
-        return self._observe(stepped=False)
+        return self._observe(stepped=False, reward=None)
 
     def render(self):
         return self._hw.render()
@@ -503,53 +397,35 @@ class HighwayLaneKeeping(gym.Env):
         prev, self._acc_prev = self._acc_prev, cur
         return prev + self._acc_frac * (cur - prev)
 
-    def _observe(self, stepped: bool) -> tuple[np.ndarray, dict[str, Any]]:
+    def _observe(self, stepped: bool, reward: float | None) -> tuple[np.ndarray, dict[str, Any]]:
+        """Observation and ``info`` (``envs.schema.INFO_KEYS``) of highway-env's current state.
+
+        ``reward``: highway-env's reward of the step just taken (``None`` at reset: all reward terms 0). It is
+        reported as ``reward_alive = 1`` plus ``reward_tracking = reward - 1`` (its ``1 - (lat / width)^2``).
+        """
         veh = self._hw.vehicle
         px, py = (float(c) for c in veh.position)
         psi = float(veh.heading)
         v_x, v_y, r = float(veh.speed), float(veh.lateral_speed), float(veh.yaw_rate)
         delta = float(veh.action["steering"])
-        geom = self._geometry(self._reference_lane())
-        x_star, e_y, psi_ref, kappa, dkappa = geom.project(px, py)
-        station = geom.station_at(x_star)
-        if stepped and geom is self._geom:  # no progress across a lane switch (the stations restart)
-            self._progress += station - self._station
-        self._geom, self._station = geom, station
-        e_phi = (psi - psi_ref + math.pi) % (2.0 * math.pi) - math.pi
-        sin_e, cos_e = math.sin(e_phi), math.cos(e_phi)
-        s_dot = (v_x * cos_e - v_y * sin_e) / (1.0 - kappa * e_y)
         deriv = veh.derivative  # highway-env's own state derivative d/dt [x, y, psi, v_x, v_y, r]
         v_x_dot, v_y_dot = float(deriv[3, 0]), float(deriv[4, 0])
         a_x, a_y = v_x_dot - r * v_y, v_y_dot + r * v_x
-        rate_ref = kappa * s_dot
-        n = self._n_scalars
-        obs = np.empty(n + self._preview_k.size, dtype=np.float32)
-        obs[:n] = (e_y, e_phi, v_x * sin_e + v_y * cos_e, r - rate_ref, v_x, v_y, r, delta, self._target_speed,
-                   rate_ref, dkappa * s_dot * s_dot + kappa * v_x_dot, kappa, dkappa)
-        obs[n:] = geom.curvature_at_stations(station + max(v_x, self._preview_vmin) * self._preview_k)
-        info = {
-            "time_s": self._steps * self.control_period_s,
-            "x_m": px,
-            "y_m": py,
-            "z_m": 0.0,
-            "psi_rad": psi,
-            "e_y_m": e_y,
-            "e_phi_rad": e_phi,
-            "v_mps": v_x,
-            "road_wheel_angle_rad": delta,
-            "hand_wheel_angle_rad": delta * self.design_model.steering_ratio,
-            "roll_rad": 0.0,
-            "throttle": 0.0,
-            "brake_n": 0.0,
-            "a_x_mps2": a_x,
-            "a_y_mps2": a_y,
-            "a_z_mps2": 0.0,
-            "fz_n": self._fz.copy(),
-            "min_fz_n": float(self._fz[0] if self._fz[0] < self._fz[2] else self._fz[2]),
-            "acc_substeps_mps2": self._acc_samples(a_x, a_y, stepped),
-            "station_m": station,
-            "progress_m": self._progress,
-            "target_speed_mps": self._target_speed,
-            "termination": "",
-        }
+        geom = self._geometry(self._reference_lane())
+        obs, station, e_y, e_phi = observe_on_lane(geom, self.observation_layout, px, py, psi, v_x, v_y, r, delta,
+                                                   v_x_dot, self._target_speed)
+        if stepped and geom is self._geom:  # no progress across a lane switch (the stations restart)
+            self._progress += station - self._station
+        self._geom, self._station = geom, station
+        terms = dict.fromkeys(REWARD_TERMS, 0.0)
+        if reward is not None:
+            terms["reward_alive"], terms["reward_tracking"] = 1.0, reward - 1.0
+        row = signal_row(
+            x_m=px, y_m=py, z_m=0.0, psi_rad=psi, e_y_m=e_y, e_phi_rad=e_phi, v_mps=v_x, v_y_mps=v_y,
+            yaw_rate_radps=r, road_wheel_angle_rad=delta, hand_wheel_angle_rad=delta * self.design_model.steering_ratio,
+            steering_command_rad=delta, roll_rad=0.0, throttle=0.0, brake_n=0.0, a_x_mps2=a_x, a_y_mps2=a_y,
+            a_z_mps2=0.0, min_fz_n=float(self._fz[0] if self._fz[0] < self._fz[2] else self._fz[2]),
+            station_m=station, progress_m=self._progress, target_speed_mps=self._target_speed, **terms)
+        info = info_dict(self._steps * self.control_period_s, row, self._fz.copy(),
+                         self._acc_samples(a_x, a_y, stepped), "")
         return obs, info

@@ -108,15 +108,13 @@ def mpc_action(p, obs, idx, pv0, pv1, pv_vmin, pv_dt, preview, n_out, ts, n_hold
 
 
 @njit(cache=True)
-def _advance(i, k, action, sim, max_steps, dt, acc_buf, out) -> bool:
+def _advance(i, k, action, arrays, max_steer, max_steps, dt, acc_buf, out) -> bool:
     """Apply ``action`` to car ``i`` for control step ``k`` (1-based), accumulate its fitness terms into
     ``out[i]`` (ITAE, last t|e_y|, max|a_y|, min F_z, steps, max|e_y|) and return True when its episode is over."""
-    (states, inputs, road, params, models, outputs, work, tables, tmeta, veh_track, car, cfg, obs, err, term,
-     rows, actions, terms, pd_mem, pd_gains, pd_surface, max_steer) = sim
-    actions[i] = action
-    inputs[i, L.U_DELTA] = action * max_steer
-    _step_one(i, states, inputs, road, params, models, outputs, work, tables, tmeta, veh_track, car, cfg, obs, err,
-              term, rows, actions, terms, pd_mem, pd_gains, pd_surface)
+    err, outputs, car, term = arrays.err, arrays.outputs, arrays.car, arrays.term
+    arrays.actions[i] = action
+    arrays.inputs[i, L.U_DELTA] = action * max_steer
+    _step_one(i, arrays)
     abs_ey = abs(err[i, 1])
     if abs_ey > out[i, 5]:
         out[i, 5] = abs_ey
@@ -139,32 +137,33 @@ def _advance(i, k, action, sim, max_steps, dt, acc_buf, out) -> bool:
 
 
 @njit(cache=True, parallel=True)
-def rollout_smc(sim, lanes, max_steps, dt, idx, k, pole, eta_k, inv_layer, min_speed, v_star, guard, shift,
-                inv_steer, acc_buf, out):
+def rollout_smc(arrays, env_max_steer, lanes, max_steps, dt, idx, k, pole, eta_k, inv_layer, min_speed, v_star, guard,
+                shift, inv_steer, acc_buf, out):
     """Whole episodes of every car under its own SMC gains (see the module docstring); ``out`` (n, 6).
+    ``arrays``: the env's ``envs.kernels.SimArrays``; ``env_max_steer``: its road-wheel angle of action 1 [rad].
     ``lanes``: number of parallel lanes (the thread count); each lane runs a contiguous block of cars, so two
     threads never write the same cache line except at a block boundary (interleaved cars ran ~1.45x slower on
     2 threads from false sharing)."""
-    obs = sim[12]
+    obs = arrays.obs
     n = obs.shape[0]
     for lane in prange(lanes):
         for i in range(lane * n // lanes, (lane + 1) * n // lanes):
             for step in range(1, max_steps + 1):
                 a = smc_action(i, obs, idx, k, pole, eta_k, inv_layer, min_speed, v_star, guard, shift, inv_steer)
-                if _advance(i, step, a, sim, max_steps, dt, acc_buf, out):
+                if _advance(i, step, a, arrays, env_max_steer, max_steps, dt, acc_buf, out):
                     break
 
 
 @njit(cache=True, parallel=True)
-def rollout_mpc(sim, lanes, max_steps, dt, idx, pv0, pv1, pv_vmin, pv_dt, preview, n_out, ts, n_hold, max_du,
-                max_steer, speeds, tables, slopes, inv_steer, state, z, acc_buf, out):
+def rollout_mpc(arrays, env_max_steer, lanes, max_steps, dt, idx, pv0, pv1, pv_vmin, pv_dt, preview, n_out, ts, n_hold,
+                max_du, max_steer, speeds, tables, slopes, inv_steer, state, z, acc_buf, out):
     """Whole episodes of every car under its own MPC gain table; ``state`` (n, 9), ``z`` (n, width) scratch."""
-    obs = sim[12]
+    obs = arrays.obs
     n = obs.shape[0]
     for lane in prange(lanes):
         for i in range(lane * n // lanes, (lane + 1) * n // lanes):
             for step in range(1, max_steps + 1):
                 a = mpc_action(i, obs, idx, pv0, pv1, pv_vmin, pv_dt, preview, n_out, ts, n_hold, max_du, max_steer,
                                speeds, tables, slopes, inv_steer, state, z[i])
-                if _advance(i, step, a, sim, max_steps, dt, acc_buf, out):
+                if _advance(i, step, a, arrays, env_max_steer, max_steps, dt, acc_buf, out):
                     break

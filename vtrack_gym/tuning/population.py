@@ -375,22 +375,18 @@ class PopulationEvaluator:
 
         n = sim.n
         lanes = max(1, min(n, numba.get_num_threads()))
-        actions = np.zeros(n)
-        sim_args = (sim.plant.state, sim.inputs, sim.road, sim.plant.param_rows, sim.plant.models, sim.outputs,
-                    sim.plant._work, sim.tables, sim.tmeta, sim.veh_track, sim.car, sim.cfg, sim.obs, sim.err,
-                    sim.term, sim.rows, actions, sim.terms, sim.pd_mem, sim.pd_gains, sim.pd_surface,
-                    float(sim._max_steer))
+        sim_args = (sim.arrays, float(sim._max_steer))
         inv_steer = 1.0 / policy.max_steer_rad
         if isinstance(policy, PopulationSMC):
             cfg = policy.config
-            K.rollout_smc(sim_args, lanes, max_steps, dt, np.asarray(policy._idx, dtype=np.int64),
+            K.rollout_smc(*sim_args, lanes, max_steps, dt, np.asarray(policy._idx, dtype=np.int64),
                           np.asarray(policy._k, dtype=np.float64), policy._pole, policy._eta_k, policy._inv_layer,
                           float(cfg.min_speed_mps), float(policy.v_star), float(cfg.guard_band_mps),
                           bool(cfg.sideslip_shift), inv_steer, acc_buf, out)
         elif isinstance(policy, PopulationMPC):
             sch = policy.schedule
             state = np.ascontiguousarray(policy._initial_state_batch(sim.obs.astype(np.float64)))
-            K.rollout_mpc(sim_args, lanes, max_steps, dt, np.asarray(policy._idx, dtype=np.int64), policy._pv[0],
+            K.rollout_mpc(*sim_args, lanes, max_steps, dt, np.asarray(policy._idx, dtype=np.int64), policy._pv[0],
                           policy._pv[1], float(policy._pv_vmin), float(policy._pv_dt), bool(policy._preview),
                           policy._n_out, float(policy._ts), float(policy.n_hold), float(policy._max_du),
                           float(policy.max_steer_rad), sch.speeds, sch.tables, sch.slopes, inv_steer, state,
@@ -437,7 +433,7 @@ class PopulationEvaluator:
                 break
             obs = sim.obs.astype(np.float64)
             obs[~active] = 0.0
-            obs[~active, 0] = 10.0  # a harmless speed for frozen rows (their output is discarded)
+            obs[~active, sim.layout.V_X] = 10.0  # a harmless speed for frozen rows (their output is discarded)
         return code, done_dist
 
 

@@ -126,21 +126,6 @@ class LQR(Policy):
         self._pv = (layout.preview.start, layout.preview.stop)
         self._pv_vmin, self._pv_dt = layout.preview_min_speed_mps, layout.preview_dt_s
 
-    def _lead_fraction(self, v: float) -> tuple[int, float]:
-        """Preview sample index (0 = current curvature) and fraction for a look-ahead of ``lead`` seconds."""
-        pos = self._lead * max(v, 0.0) / (max(v, self._pv_vmin) * self._pv_dt)
-        j = min(int(pos), self.layout.n_preview - 1)
-        return j, min(pos - j, 1.0)
-
-    def _act_single(self, row: list[float], state: None) -> tuple[float, None]:
-        iv, iey, ieyd, iep, iepd, ik = self._idx
-        kappa = row[ik]
-        if self._lead > 0.0:
-            j, t = self._lead_fraction(row[iv])
-            k0 = kappa if j == 0 else row[self._pv[0] + j - 1]
-            kappa = k0 + t * (row[self._pv[0] + j] - k0)
-        return self.schedule.dot(row[iv], (row[iey], row[ieyd], row[iep], row[iepd], kappa)), None
-
     def _act_batch(self, obs: np.ndarray, state: None) -> tuple[np.ndarray, None]:
         iv, iey, ieyd, iep, iepd, ik = self._idx
         kappa = obs[:, ik]

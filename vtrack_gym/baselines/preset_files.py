@@ -57,11 +57,11 @@ def _check_json_value(value: Any, where: str, depth: int = 0) -> None:
 
 def _config_type(controller: str) -> type:
     if controller == "smc":
-        from vtrack_gym.baselines.smc import SMCConfig
+        from vtrack_gym.baselines.configs import SMCConfig
 
         return SMCConfig
     if controller == "mpc":
-        from vtrack_gym.baselines.mpc import MPCConfig
+        from vtrack_gym.baselines.configs import MPCConfig
 
         return MPCConfig
     raise PresetError(f"controller must be 'smc' or 'mpc' (got {controller!r})")

@@ -37,9 +37,8 @@ env's DLC120-v0), longer cuts more (k_v = 1.0: R 100 132 mm).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 
@@ -102,45 +101,6 @@ class PurePursuit(Policy):
         cfg: PurePursuitConfig = self.config
         return min(max(cfg.lookahead_gain_s * max(v, 0.0), cfg.min_lookahead_m), cfg.max_lookahead_m)
 
-    def _steer(self, kappa_cmd: float, v: float) -> float:
-        if self.config.understeer_compensation:
-            return kappa_cmd * (self._l + self._kus * v * v)
-        return math.atan(self._l * kappa_cmd)
-
-    def _pursuit_single(self, row: list[float], x: float, y: float, th: float, goal: float,
-                        spacing: float) -> float:
-        """kappa_cmd [1/m] of the arc to the goal on the path starting at (x, y) with heading th."""
-        g2 = goal * goal
-        k_prev, s_prev = row[self._idx[4]], 0.0
-        px, py = x, y
-        if x * x + y * y < g2:
-            for dk, k_next in zip(self._steps, row[self._pv[0]:self._pv[1]], strict=True):
-                s_next = spacing * dk
-                h = s_next - s_prev
-                th_mid = th + h * (3.0 * k_prev + k_next) * 0.125
-                nx, ny = x + h * math.cos(th_mid), y + h * math.sin(th_mid)
-                th += 0.5 * h * (k_prev + k_next)
-                if nx * nx + ny * ny >= g2:
-                    x, y = _circle_crossing(x, y, nx, ny, g2)
-                    break
-                x, y, k_prev, s_prev = nx, ny, k_next, s_next
-            px, py = x, y
-        dist2 = px * px + py * py
-        return 2.0 * py / dist2 if dist2 > 1e-12 else 0.0
-
-    def _act_single(self, row: list[float], state: None) -> tuple[float, None]:
-        iv, ivy, iey, iep, ik = self._idx
-        v = max(row[iv], 0.0)
-        beta = math.atan2(row[ivy], v) if (self.config.use_course_angle and v > 0.1) else 0.0
-        th = -row[iep] - beta
-        e_y = row[iey]
-        goal = self.lookahead(v)
-        spacing = max(v, self._vmin)
-        kappa_cmd = self._pursuit_single(row, e_y * math.sin(th), -e_y * math.cos(th), th, goal, spacing)
-        if self.config.curvature_feedforward:
-            kappa_cmd += row[ik] - self._pursuit_single(row, 0.0, 0.0, 0.0, goal, spacing)
-        return self._steer(kappa_cmd, v), None
-
     def _pursuit_batch(self, obs: np.ndarray, x: np.ndarray, y: np.ndarray, th: np.ndarray, goal: np.ndarray,
                        spacing: np.ndarray) -> np.ndarray:
         n = obs.shape[0]
@@ -188,16 +148,14 @@ class PurePursuit(Policy):
         return np.arctan(self._l * kappa_cmd), None
 
 
-def _circle_crossing(x0: Any, y0: Any, x1: Any, y1: Any, r2: Any) -> tuple[Any, Any]:
-    """Point of the segment (x0, y0)-(x1, y1) [m] at squared distance ``r2`` [m^2] from the origin
-    (|P0|^2 < r2 <= |P1|^2); floats or arrays."""
+def _circle_crossing(x0: np.ndarray, y0: np.ndarray, x1: np.ndarray, y1: np.ndarray,
+                     r2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Points of the segments (x0, y0)-(x1, y1) [m] at squared distance ``r2`` [m^2] from the origin
+    (|P0|^2 < r2 <= |P1|^2)."""
     dx, dy = x1 - x0, y1 - y0
     a = dx * dx + dy * dy
     b = x0 * dx + y0 * dy
     c = x0 * x0 + y0 * y0 - r2
     disc = b * b - a * c
-    if isinstance(a, np.ndarray):
-        t = np.where(a > 0.0, (-b + np.sqrt(np.maximum(disc, 0.0))) / np.where(a > 0.0, a, 1.0), 1.0)
-    else:
-        t = (-b + math.sqrt(max(disc, 0.0))) / a if a > 0.0 else 1.0
+    t = np.where(a > 0.0, (-b + np.sqrt(np.maximum(disc, 0.0))) / np.where(a > 0.0, a, 1.0), 1.0)
     return x0 + t * dx, y0 + t * dy

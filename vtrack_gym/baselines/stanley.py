@@ -27,7 +27,6 @@ LateralTracking-v0 0.08 m).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -85,19 +84,6 @@ class Stanley(Policy):
         L = layout
         self._idx = (L.index("v_x"), L.index("e_y"), L.index("e_phi"), L.index("yaw_rate"),
                      L.index("yaw_rate_ref"), L.index("curvature"))
-
-    def _act_single(self, row: list[float], state: None) -> tuple[float, None]:
-        iv, iey, iep, ir, irr, ik = self._idx
-        a1, l, kus, b0, b2 = self._k
-        cfg: StanleyConfig = self.config
-        v = max(row[iv], 0.0)
-        kappa = row[ik]
-        ep_rel = row[iep] + kappa * (b0 - b2 * v * v)
-        e_f = row[iey] + a1 * math.sin(ep_rel)
-        delta = (kappa * (l + kus * v * v) - cfg.heading_gain * ep_rel
-                 - math.atan(cfg.gain_k * e_f / (cfg.softening_mps + v))
-                 - cfg.yaw_damping_s * (row[ir] - row[irr]))
-        return delta, None
 
     def _act_batch(self, obs: np.ndarray, state: None) -> tuple[np.ndarray, None]:
         iv, iey, iep, ir, irr, ik = self._idx

@@ -9,18 +9,24 @@ stable-baselines3's signature, so ``stable_baselines3.common.evaluation.evaluate
 
 * ``observation`` of shape ``(obs_dim,)`` gives an action of shape ``(1,)``; ``(N, obs_dim)`` gives ``(N, 1)``.
 * Stateless controllers return ``state = None``. Stateful ones (MPC: previous measurement, previous applied
-  steering, previous disturbance, hold counter) keep ALL their memory in the returned float64 array of shape
-  ``(N, state_size)`` (``(1, state_size)`` for a single observation). Pass it back on the next call.
-  ``state=None`` initialises every row from the current observation; rows whose ``episode_start`` is True are
-  re-initialised. The policy object itself holds no per-episode memory, so one instance serves any number of
-  independent envs.
+  steering, previous disturbance, hold counter) return their memory as a float64 array of shape
+  ``(N, state_size)`` (``(1, state_size)`` for a single observation).
+* Two ways to carry that memory, with identical episodes:
+
+  - SB3 protocol: pass the returned ``state`` back, with ``episode_start`` (bool, or N bools) True on the first
+    step of an episode; those rows are re-initialised from the observation. The policy object keeps nothing for
+    such calls, so one instance serves any number of independent envs (one state array each).
+  - Plain loop, ``action, _ = policy.predict(obs)``: with ``state=None`` the policy continues from its own
+    memory of its last ``state=None`` call (same N), or initialises from the observation if it has none, and
+    re-initialises the rows whose ``episode_start`` is True. Call ``policy.reset()`` (or pass
+    ``episode_start=True``) when a new episode starts; a fresh policy starts fresh.
 * Non-finite observations raise ``ValueError``. ``deterministic`` is accepted and ignored (all controllers are
   deterministic).
 
-Single observations (and batches of one) take a fast path on Python floats (``_act_single``); larger batches
-take the vectorised numpy path (``_act_batch``). Both evaluate the same formulas; results agree to float64
-rounding (well below the float32 resolution of the action), except ``mpc_osqp`` whose iterative solver agrees
-to its tolerance (~1e-6 rad).
+Each controller implements its law once, on a batch (``_act_batch``: float64 observations (N, obs_dim) ->
+road-wheel angles [rad] (N,)); a single observation is the batch N = 1. The SMC and MPC laws are compiled
+(``vtrack_gym.baselines.laws``) and also run inside the GA's population rollout; ``act`` is the public,
+unchecked entry to the law.
 """
 
 from __future__ import annotations
@@ -167,7 +173,7 @@ class Policy(abc.ABC):
     """Base class of every steering baseline (see the module docstring for the ``predict`` contract).
 
     Subclasses set ``name``, ``PRESETS`` (preset name -> frozen config), ``config_type`` and ``state_size`` and
-    implement ``_act_batch`` (and, for speed, ``_act_single``; stateful ones also the two ``_initial_state*``).
+    implement ``_act_batch`` (stateful ones also ``_initial_state_batch``).
     Controllers work in road-wheel radians; the base class scales by ``design.max_road_wheel_angle_rad``.
     """
 

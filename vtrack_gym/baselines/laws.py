@@ -89,10 +89,9 @@ def smc_layer(eta: np.ndarray, delta: np.ndarray, control_period_s: float, limit
 
 def smc_law(design: DesignModel, layout: ObservationLayout, pole: Any, eta: Any, layer: Any, min_speed_mps: float,
             guard_band_mps: float, sideslip_shift: bool) -> SMCLaw:
-    """``SMCLaw`` for poles p [rad/s], gains eta [rad/s^2] and effective layers [rad/s] (scalars or (R,) arrays)."""
+    """``SMCLaw`` for poles p [rad/s], gains eta [rad/s^2] and effective layers [rad/s] (scalars or (R,) arrays,
+    positive, checked by the caller)."""
     pole, eta, layer = (np.ascontiguousarray(np.asarray(a, dtype=np.float64).reshape(-1)) for a in (pole, eta, layer))
-    if not (pole.shape == eta.shape == layer.shape) or np.any(pole <= 0) or np.any(eta <= 0) or np.any(layer <= 0):
-        raise ValueError("SMC law: pole, eta, layer must be positive arrays of one shape")
     k = np.array(smc_design_constants(design))
     return SMCLaw(np.array([layout.index(n) for n in SMC_SIGNALS], dtype=np.int64), k, pole, eta * k[7],
                   1.0 / layer, float(min_speed_mps), float(smc_singular_speed(design)), float(guard_band_mps),

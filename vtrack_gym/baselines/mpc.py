@@ -236,6 +236,28 @@ class GainTable:
     runtime: np.ndarray
 
 
+def speed_grid(config: MPCConfig) -> np.ndarray:
+    """The gain-schedule speeds [m/s]: ``np.geomspace(min_speed_mps, max_speed_mps, n_speeds)``."""
+    return np.geomspace(config.min_speed_mps, config.max_speed_mps, config.n_speeds)
+
+
+def measured_outputs(config: MPCConfig) -> list[int]:
+    """Indices in the augmented state of the measured (not car-relative) outputs."""
+    return [8 + j for j, xi in enumerate(OUTPUTS[config.interpretation]) if xi not in RELATIVE]
+
+
+def preview_slope_difference(layout: ObservationLayout, v: float, config: MPCConfig) -> np.ndarray | None:
+    """(N_p - 1, n_preview + 2): d(k+i) - d(k), i = 1..N_p-1, as linear maps of (kappa(0), preview...,
+    kappa'(0)) at speed ``v`` [m/s] (the step averages of the piecewise-linear curvature, see the module
+    docstring); None without preview (or N_p = 1)."""
+    npred, ts = config.prediction_horizon, config.sample_time_s
+    if not (config.use_preview and npred > 1):
+        return None
+    kap, _ = curvature_preview_operator(layout, v, v * ts * np.arange(npred + 1))
+    slope = (v / ts) * np.diff(kap, axis=0)            # d(k+i) - c, i = 0..N_p-1, rows on p
+    return slope[1:] - slope[0]
+
+
 @functools.lru_cache(maxsize=32)
 def gain_table(design: DesignModel, config: MPCConfig, layout: ObservationLayout = OBS) -> GainTable:
     """Gains on ``np.geomspace(min_speed, max_speed, n_speeds)``; cached per (design, config, layout).
@@ -243,10 +265,8 @@ def gain_table(design: DesignModel, config: MPCConfig, layout: ObservationLayout
     Run-time row = [K_x on Delta x_m (8), K_x on the measured outputs (e_y, e_phi for B1; e_y for A), K_d[0],
     folded preview gains (P + 2, on (kappa(0), preview..., kappa'(0)); zero without preview)].
     """
-    speeds = np.geomspace(config.min_speed_mps, config.max_speed_mps, config.n_speeds)
-    outputs = OUTPUTS[config.interpretation]
-    measured = [8 + j for j, xi in enumerate(outputs) if xi not in RELATIVE]
-    npred, ts = config.prediction_horizon, config.sample_time_s
+    speeds = speed_grid(config)
+    measured = measured_outputs(config)
     kxs, kds, krs, rows = [], [], [], []
     for v in speeds:
         g = mpc_gains(design, float(v), config)
@@ -254,11 +274,10 @@ def gain_table(design: DesignModel, config: MPCConfig, layout: ObservationLayout
         kds.append(g.kd)
         krs.append(g.kr)
         preview = np.zeros(layout.n_preview + 2)
-        if config.use_preview and npred > 1:
-            kap, _ = curvature_preview_operator(layout, float(v), v * ts * np.arange(npred + 1))
-            slope = (v / ts) * np.diff(kap, axis=0)            # d(k+i) - c, i = 0..N_p-1, rows on p
+        slope_diff = preview_slope_difference(layout, float(v), config)
+        if slope_diff is not None:
             kd_next = np.append(g.kd[1:], 0.0)
-            preview = (g.kd - kd_next)[1:] @ (slope[1:] - slope[0])
+            preview = (g.kd - kd_next)[1:] @ slope_diff
         rows.append(np.concatenate((g.kx[:8], g.kx[measured], g.kd[:1], preview)))
     table = GainTable(speeds, np.array(kxs), np.array(kds), np.array(krs), np.array(rows))
     for arr in (table.speeds, table.kx, table.kd, table.kr, table.runtime):
@@ -293,7 +312,7 @@ class MPC(Policy):
         self.n_hold = hold_steps(cfg.sample_time_s, self.control_period_s, "MPCConfig")
         self.table = gain_table(design, cfg, layout)
         max_du = design.max_road_wheel_rate_radps * cfg.sample_time_s if cfg.rate_limit else math.inf
-        n_out = len([xi for xi in OUTPUTS[cfg.interpretation] if xi not in RELATIVE])
+        n_out = len(measured_outputs(cfg))
         self.law = mpc_law(layout, self.table.speeds, self.table.runtime if tables is None else tables,
                            preview=cfg.use_preview, n_out=n_out, sample_time_s=cfg.sample_time_s, n_hold=self.n_hold,
                            max_du=max_du, max_steer=self.max_steer_rad)

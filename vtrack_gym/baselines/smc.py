@@ -130,19 +130,28 @@ class SMC(Policy):
         return tuned_config(cls.name)
 
     def __init__(self, design: DesignModel, config: SMCConfig | None = None, layout: ObservationLayout = OBS,
-                 control_period_s: float = 0.01) -> None:
+                 control_period_s: float = 0.01, rows: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> None:
+        """``rows``: (p, eta, Delta) arrays (R,) used instead of the config's, row i for observation row i (the
+        GA's populations); the limit_layer_rate rule is then applied per row, silently."""
         super().__init__(design, config, layout, control_period_s)
         cfg: SMCConfig = self.config
         self.v_star = singular_speed(design)
-        self.boundary_layer = float(smc_layer(np.array([cfg.reaching_gain]), np.array([cfg.boundary_layer]),
-                                              self.control_period_s, cfg.limit_layer_rate)[0])
-        if self.boundary_layer != cfg.boundary_layer:
-            logger.warning("SMC: eta/Delta = %.1f 1/s exceeds 1/T_c = %.1f 1/s; boundary layer widened from %.4g "
-                           "to %.4g rad/s (limit_layer_rate rule, paper-math 5.6.3 / OPTION 4)",
-                           cfg.reaching_gain / cfg.boundary_layer, 1.0 / self.control_period_s,
-                           cfg.boundary_layer, self.boundary_layer)
-        self.law = smc_law(design, layout, cfg.pole_radps, cfg.reaching_gain, self.boundary_layer,
-                           cfg.min_speed_mps, cfg.guard_band_mps, cfg.sideslip_shift)
+        pole, eta, delta = rows if rows is not None else (cfg.pole_radps, cfg.reaching_gain, cfg.boundary_layer)
+        pole, eta, delta = (np.asarray(a, dtype=np.float64).reshape(-1) for a in (pole, eta, delta))
+        if not (pole.shape == eta.shape == delta.shape) or np.any(pole <= 0) or np.any(eta <= 0) \
+                or np.any(delta <= 0):
+            raise ValueError("SMC rows: pole, eta, delta must be positive arrays of one shape")
+        layer = smc_layer(eta, delta, self.control_period_s, cfg.limit_layer_rate)
+        self.law = smc_law(design, layout, pole, eta, layer, cfg.min_speed_mps, cfg.guard_band_mps,
+                           cfg.sideslip_shift)
+        self.boundary_layer: float | np.ndarray = layer
+        if rows is None:
+            self.boundary_layer = float(layer[0])
+            if self.boundary_layer != cfg.boundary_layer:
+                logger.warning("SMC: eta/Delta = %.1f 1/s exceeds 1/T_c = %.1f 1/s; boundary layer widened from "
+                               "%.4g to %.4g rad/s (limit_layer_rate rule, paper-math 5.6.3 / OPTION 4)",
+                               cfg.reaching_gain / cfg.boundary_layer, 1.0 / self.control_period_s,
+                               cfg.boundary_layer, self.boundary_layer)
 
     def model_speed(self, v_x: float) -> float:
         """Speed [m/s] the coefficients are evaluated at: clamped to min_speed_mps, then guarded around v*."""

@@ -11,10 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from vtrack_gym.baselines.base import Policy
-from vtrack_gym.baselines.laws import smc_law, smc_layer
 from vtrack_gym.baselines.mpc import MPC, MPCConfig
-from vtrack_gym.baselines.smc import SMC, SMCConfig, singular_speed
+from vtrack_gym.baselines.smc import SMC, SMCConfig
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.tuning.gains import population_gain_tables
 from vtrack_gym.vehicle.params import DesignModel
@@ -31,16 +29,8 @@ class PopulationSMC(SMC):
 
     def __init__(self, design: DesignModel, config: SMCConfig, pole: np.ndarray, eta: np.ndarray,
                  delta: np.ndarray, layout: ObservationLayout = OBS, control_period_s: float = 0.01) -> None:
-        Policy.__init__(self, design, config, layout, control_period_s)   # not SMC's: no per-row warning
-        pole, eta, delta = (np.asarray(a, dtype=np.float64).reshape(-1) for a in (pole, eta, delta))
-        if not (pole.shape == eta.shape == delta.shape) or np.any(pole <= 0) or np.any(eta <= 0) \
-                or np.any(delta <= 0):
-            raise ValueError("PopulationSMC: pole, eta, delta must be positive arrays of one shape")
-        self.rows = pole.size
-        self.v_star = singular_speed(design)
-        self.boundary_layer = smc_layer(eta, delta, self.control_period_s, config.limit_layer_rate)
-        self.law = smc_law(design, layout, pole, eta, self.boundary_layer, config.min_speed_mps,
-                           config.guard_band_mps, config.sideslip_shift)
+        super().__init__(design, config, layout, control_period_s, rows=(pole, eta, delta))
+        self.rows = self.law.pole.size
 
     def _act_batch(self, obs: np.ndarray, state: None) -> tuple[np.ndarray, None]:
         _check_rows("PopulationSMC", self.rows, obs)

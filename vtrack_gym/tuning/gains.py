@@ -13,8 +13,7 @@ import functools
 
 import numpy as np
 
-from vtrack_gym.baselines.linear_models import curvature_preview_operator
-from vtrack_gym.baselines.mpc import OUTPUTS, RELATIVE, MPCConfig, mpc_model
+from vtrack_gym.baselines.mpc import MPCConfig, measured_outputs, mpc_model, preview_slope_difference, speed_grid
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.vehicle.params import DesignModel
 
@@ -23,18 +22,16 @@ from vtrack_gym.vehicle.params import DesignModel
 def _weight_free_models(design: DesignModel, config: MPCConfig, layout: ObservationLayout) -> tuple:
     """Prediction matrices stacked over the speed grid, independent of the weights: (speeds (S,), phi
     (S, R, N_c), f (S, R, n_x), tau (S, R, n_d), preview slope difference (S, N_p - 1, n_preview + 2) or None)."""
-    speeds = np.geomspace(config.min_speed_mps, config.max_speed_mps, config.n_speeds)
-    npred, ts = config.prediction_horizon, config.sample_time_s
+    speeds = speed_grid(config)
     phis, fs, taus, slopes = [], [], [], []
     for v in speeds:
         mdl = mpc_model(design, float(v), config)
         phis.append(mdl.phi)
         fs.append(mdl.f)
         taus.append(mdl.tau)
-        if config.use_preview and npred > 1:
-            kap, _ = curvature_preview_operator(layout, float(v), v * ts * np.arange(npred + 1))
-            slope = (v / ts) * np.diff(kap, axis=0)
-            slopes.append(slope[1:] - slope[0])
+        slope_diff = preview_slope_difference(layout, float(v), config)
+        if slope_diff is not None:
+            slopes.append(slope_diff)
     slope_diff = np.stack(slopes) if slopes else None
     return speeds, np.stack(phis), np.stack(fs), np.stack(taus), slope_diff
 
@@ -55,8 +52,7 @@ def population_gain_tables(design: DesignModel, config: MPCConfig, weights: np.n
                                                           layout)
     npred, nc = config.prediction_horizon, config.control_horizon
     w1 = np.tile(w, (1, npred)) if config.interpretation == "augmented_outputs" else w     # (P, R)
-    outputs = OUTPUTS[config.interpretation]
-    measured = [8 + j for j, xi in enumerate(outputs) if xi not in RELATIVE]
+    measured = measured_outputs(config)
     # H = Phi' diag(w) Phi + r I for every speed and individual: one product with the weight-free Phi_c Phi_d.
     outer = (phi[..., :, None] * phi[..., None, :]).reshape(phi.shape[0], phi.shape[1], nc * nc)  # (S, R, N_c^2)
     # einsum, not BLAS matmul: BLAS rounding depends on how many rows (individuals) it gets, and a row's gains

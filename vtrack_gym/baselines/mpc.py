@@ -92,6 +92,7 @@ from vtrack_gym.baselines.configs import (  # noqa: F401  (re-exported: the MPC'
 )
 from vtrack_gym.baselines.laws import MPC_STATE_SIZE, TWO_PI, mpc_initial_rows, mpc_law, mpc_rows  # noqa: F401
 from vtrack_gym.baselines.linear_models import curvature_preview_operator, lateral_matrices, paper_model, zoh
+from vtrack_gym.baselines.preset_files import TunedPresets
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.vehicle.params import DesignModel
 
@@ -285,7 +286,7 @@ def gain_table(design: DesignModel, config: MPCConfig, layout: ObservationLayout
     return table
 
 
-class MPC(Policy):
+class MPC(TunedPresets, Policy):
     """The paper's MPC (paper-math 4) with precomputed speed-scheduled gains; see the module docstring.
 
     The law itself is ``vtrack_gym.baselines.laws.mpc_row`` (compiled); ``self.law`` holds its parameters.
@@ -293,15 +294,8 @@ class MPC(Policy):
 
     name: ClassVar[str] = "mpc"
     PRESETS: ClassVar[dict[str, MPCConfig]] = MPC_PRESETS
-    FILE_PRESETS: ClassVar[tuple[str, ...]] = ("default", "tuned")
     config_type: ClassVar[type] = MPCConfig
     state_size = MPC_STATE_SIZE
-
-    @classmethod
-    def _file_preset(cls, preset: str) -> MPCConfig:
-        from vtrack_gym.baselines.preset_files import tuned_config
-
-        return tuned_config(cls.name)
 
     def __init__(self, design: DesignModel, config: MPCConfig | None = None, layout: ObservationLayout = OBS,
                  control_period_s: float = 0.01, tables: np.ndarray | None = None) -> None:

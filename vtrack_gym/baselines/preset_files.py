@@ -22,7 +22,7 @@ import datetime as dt
 import json
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 FORMAT = "vtrack-tuned-preset"
 FORMAT_VERSION = 1
@@ -214,3 +214,14 @@ def tuned_config(controller: str) -> Any:
     if loaded["controller"] != controller:
         raise ValueError(f"{path} holds a {loaded['controller']} preset, not {controller}")
     return loaded["config"]
+
+
+class TunedPresets:
+    """Mixin of the GA-tunable policies (SMC, MPC): presets ``default`` and ``tuned`` are the packaged file."""
+
+    name: ClassVar[str]
+    FILE_PRESETS: ClassVar[tuple[str, ...]] = ("default", "tuned")
+
+    @classmethod
+    def _file_preset(cls, preset: str) -> Any:
+        return tuned_config(cls.name)

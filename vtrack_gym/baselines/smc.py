@@ -83,6 +83,7 @@ from vtrack_gym.baselines.laws import (
     smc_rows,
 )
 from vtrack_gym.baselines.laws import smc_singular_speed as singular_speed
+from vtrack_gym.baselines.preset_files import TunedPresets
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.vehicle.params import DesignModel
 
@@ -111,7 +112,7 @@ def smc_coefficients(design: DesignModel, v: float, p: float) -> SMCCoefficients
     return SMCCoefficients(*(float(c) for c in values))
 
 
-class SMC(Policy):
+class SMC(TunedPresets, Policy):
     """Decoupled SMC steering (paper-math 5); stateless. See the module docstring for the law and presets.
 
     The law itself is ``vtrack_gym.baselines.laws.smc_row`` (compiled); ``self.law`` holds its parameters.
@@ -119,15 +120,8 @@ class SMC(Policy):
 
     name: ClassVar[str] = "smc"
     PRESETS: ClassVar[dict[str, SMCConfig]] = SMC_PRESETS
-    FILE_PRESETS: ClassVar[tuple[str, ...]] = ("default", "tuned")
     config_type: ClassVar[type] = SMCConfig
     state_size = 0
-
-    @classmethod
-    def _file_preset(cls, preset: str) -> SMCConfig:
-        from vtrack_gym.baselines.preset_files import tuned_config
-
-        return tuned_config(cls.name)
 
     def __init__(self, design: DesignModel, config: SMCConfig | None = None, layout: ObservationLayout = OBS,
                  control_period_s: float = 0.01, rows: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> None:

@@ -51,7 +51,7 @@ class PopulationEvaluator:
         self.seed = int(seed)
         self.max_steps = max_steps
         self.also_complete = tuple(also_complete)  # extra scenarios an individual must complete (else penalised)
-        self.compiled = compiled  # False: the numpy PopulationSMC/PopulationMPC path (reference, ~20x slower)
+        self.compiled = compiled  # False: the step-by-step reference path (tuning.rollouts.run_stepwise)
         self.policy_cls = policy_class(space.controller)
         self.base_config = self.policy_cls.make_config(space.base_preset)
         self._envs: dict[tuple[str, int], Any] = {}

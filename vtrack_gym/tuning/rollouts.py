@@ -4,7 +4,7 @@
   law, the env's own per-car step and the ITAE / max|a_y| (physics substeps) / min F_z accumulators, cars spread
   over the threads in contiguous blocks); a car that terminates stops costing time. Nominal scenarios only.
 * ``run_stepwise``: the reference: the policy's numpy-facing ``act`` and ``BatchSim.step``, one control period at
-  a time (~20x slower; the tests compare the compiled rollout against it: SMC bit-identical, MPC the same law).
+  a time (slower; the tests compare the compiled rollout against it).
 
 Both fill ``out`` (n, 6): ITAE [m s^2], last t|e_y| [m s], max|a_y| [m/s^2], min F_z [N], steps driven, max|e_y|
 [m]; and ``acc_buf`` (n, steps * substeps, 3) with the body accelerations when it has room (comfort scoring).

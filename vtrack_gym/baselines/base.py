@@ -259,7 +259,8 @@ class Policy(abc.ABC):
         elif obs.ndim != 2 or obs.shape[1] != self.obs_dim:
             raise ValueError(f"observation must have shape ({self.obs_dim},) or (N, {self.obs_dim}) "
                              f"(got {obs.shape})")
-        self._check_finite(obs)
+        if not math.isfinite(obs.sum()):  # NaN or inf somewhere (or an overflowing sum: check exactly)
+            self._check_finite(obs)
         n = obs.shape[0]
         st = None
         own = state is None
@@ -280,7 +281,11 @@ class Policy(abc.ABC):
         delta, st = self._act_batch(obs, st)
         if own and st is not None:
             self._memory = st.copy()
-        action = np.clip(delta * self._inv_max_steer, -1.0, 1.0).astype(np.float32)
+        if n == 1:  # a Python-float clip: much cheaper than np.clip on one value
+            a = float(delta[0]) * self._inv_max_steer
+            action = np.array((1.0 if a > 1.0 else (-1.0 if a < -1.0 else a),), dtype=np.float32)
+        else:
+            action = np.clip(delta * self._inv_max_steer, -1.0, 1.0).astype(np.float32)
         return (action if single else action.reshape(n, 1)), st
 
     def reset(self) -> None:

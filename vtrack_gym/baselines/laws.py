@@ -147,6 +147,22 @@ def smc_rows(law: SMCLaw, obs: np.ndarray, delta: np.ndarray, sigma: np.ndarray)
     return guarded
 
 
+# ---------------------------------------------------------------------------------------- gain schedules
+@njit(cache=True)
+def schedule_dot(speeds: np.ndarray, table: np.ndarray, slopes: np.ndarray, v: float, z: np.ndarray) -> float:
+    """``row(v) . z`` of a gain schedule: rows ``table`` (S, W) on ``speeds`` (S,) [m/s], ``slopes`` (S - 1, W)
+    their differences; the speed is clamped to the grid and each entry interpolated linearly."""
+    s_last = speeds.shape[0] - 2
+    vc = min(max(v, speeds[0]), speeds[s_last + 1])
+    s = np.searchsorted(speeds, vc, side="right") - 1
+    s = 0 if s < 0 else (s_last if s > s_last else s)
+    t = (vc - speeds[s]) / (speeds[s + 1] - speeds[s])
+    acc = 0.0
+    for c in range(table.shape[1]):
+        acc += (table[s, c] + t * slopes[s, c]) * z[c]
+    return acc
+
+
 # ------------------------------------------------------------------------------------------------------ MPC
 class MPCLaw(NamedTuple):
     """Parameters of the speed-scheduled MPC law for R gain tables (R = 1: one controller)."""
@@ -212,9 +228,7 @@ def mpc_row(law: MPCLaw, obs: np.ndarray, i: int, st: np.ndarray, z: np.ndarray)
         return st[6]
     idx = law.idx
     r = i if law.tables.shape[0] > 1 else 0
-    speeds = law.speeds
     half = 0.5 * law.ts
-    s_last = speeds.shape[0] - 2
     width = law.tables.shape[2]
     vy, yr, ey, eyd, ep, epd = float(obs[i, idx[1]]), float(obs[i, idx[2]]), float(obs[i, idx[3]]), \
         float(obs[i, idx[4]]), float(obs[i, idx[5]]), float(obs[i, idx[6]])
@@ -238,13 +252,7 @@ def mpc_row(law: MPCLaw, obs: np.ndarray, i: int, st: np.ndarray, z: np.ndarray)
     for q in range(law.pv1 - law.pv0):
         z[j + 2 + q] = float(obs[i, law.pv0 + q])
     z[width - 1] = float(obs[i, idx[10]])
-    vc = min(max(v_x, speeds[0]), speeds[s_last + 1])
-    s = np.searchsorted(speeds, vc, side="right") - 1
-    s = 0 if s < 0 else (s_last if s > s_last else s)
-    t = (vc - speeds[s]) / (speeds[s + 1] - speeds[s])
-    acc = 0.0
-    for c in range(width):
-        acc += (law.tables[r, s, c] + t * law.slopes[r, s, c]) * z[c]
+    acc = schedule_dot(law.speeds, law.tables[r], law.slopes[r], v_x, z)
     du = -acc
     du = law.max_du if du > law.max_du else (-law.max_du if du < -law.max_du else du)
     u = st[6] + du

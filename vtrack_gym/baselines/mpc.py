@@ -90,7 +90,7 @@ from vtrack_gym.baselines.configs import (  # noqa: F401  (re-exported: the MPC'
     RELATIVE,
     MPCConfig,
 )
-from vtrack_gym.baselines.laws import MPC_STATE_SIZE, TWO_PI, mpc_initial_rows, mpc_law, mpc_rows  # noqa: F401
+from vtrack_gym.baselines.laws import MPC_STATE_SIZE, mpc_initial_rows, mpc_law, mpc_rows
 from vtrack_gym.baselines.linear_models import curvature_preview_operator, lateral_matrices, paper_model, zoh
 from vtrack_gym.baselines.preset_files import TunedPresets
 from vtrack_gym.envs.observation import OBS, ObservationLayout

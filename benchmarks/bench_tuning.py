@@ -5,7 +5,8 @@ For each controller this runs the exact search of the shipped preset (``vtrack_g
 ``--also-complete DLC120-v0``, seed 0), prints wall time, episodes/s and car-steps/s, and says whether the best
 parameters equal the shipped preset's (same seed, same result). Then, as a peer measured in the same run, it
 evaluates one population on the first 3000 steps of Case 1 with the compiled whole-episode rollout and with the
-reference path (numpy controllers stepping ``BatchSim.step`` one control period at a time) and prints the ratio.
+reference path (the same compiled laws called through ``Policy.act``, stepping ``BatchSim.step`` one control
+period at a time) and prints the ratio.
 Run: ``python benchmarks/bench_tuning.py [--controllers smc,mpc] [--generations N]`` (N: a shorter run, which
 then cannot reproduce the shipped preset).
 """

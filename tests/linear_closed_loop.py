@@ -182,12 +182,12 @@ def simulate_many(policy, plants: list[LinearPlant], t_end: float, control_perio
     for k in range(n_steps + 1):
         if batched:
             obs = np.stack([p.observation() for p in plants])
-            action, state = policy.predict(obs, state)
+            action, state = policy.predict(obs, state, episode_start=state is None)
             deltas = action.reshape(-1).astype(np.float64) * max_steer
         else:
             deltas = []
             for i, p in enumerate(plants):
-                action, states[i] = policy.predict(p.observation(), states[i])
+                action, states[i] = policy.predict(p.observation(), states[i], episode_start=states[i] is None)
                 deltas.append(float(action[0]) * max_steer)
         for i, (p, d) in enumerate(zip(plants, deltas, strict=True)):
             logs[i].append((k * control_period_s, p.x[0], p.x[1], float(d), p.x[4], p.x[2], p.x[3]))

@@ -202,9 +202,10 @@ def test_policy_batch_and_single_paths_agree(name, tol):
     batch_state, single_states = None, [None] * n
     worst = 0.0
     for _ in range(40):
-        action, batch_state = policy.predict(obs, state=batch_state)
+        action, batch_state = policy.predict(obs, state=batch_state, episode_start=batch_state is None)
         for i in range(n):
-            a_i, single_states[i] = policy.predict(obs[i], state=single_states[i])
+            a_i, single_states[i] = policy.predict(
+                obs[i], state=single_states[i], episode_start=single_states[i] is None)
             worst = max(worst, float(np.max(np.abs(np.asarray(a_i, dtype=np.float64) - action[i]))))
         obs, _, term, trunc, _ = envs.step(action)
         assert not (term.any() or trunc.any())

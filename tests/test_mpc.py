@@ -236,7 +236,7 @@ def test_hold_rule_recomputes_every_second_step(paper_mpc: MPC) -> None:
     plant = LinearPlant(11.11, curve_entry(11.11, 100.0, t_start=0.0), e_y0=0.2)
     actions, state = [], None
     for _ in range(8):
-        a, state = paper_mpc.predict(plant.observation(), state)
+        a, state = paper_mpc.predict(plant.observation(), state, episode_start=state is None)
         actions.append(float(a[0]))
         plant.step(float(a[0]) * paper_mpc.max_steer_rad, 0.01)
     assert actions[0] == actions[1] and actions[2] == actions[3] and actions[4] == actions[5]
@@ -250,7 +250,7 @@ def test_anti_windup_uses_saturated_value() -> None:
     plant = LinearPlant(11.11, straight(), e_y0=-30.0)          # huge error: saturates
     state = None
     for _ in range(6):
-        a, state = pol.predict(plant.observation(), state)
+        a, state = pol.predict(plant.observation(), state, episode_start=state is None)
         assert abs(state[0, 6]) <= pol.max_steer_rad          # stored u(k-1) is the applied, saturated value
     assert a[0] == pytest.approx(1.0)
 
@@ -260,7 +260,7 @@ def test_rate_limit_per_sample(paper_mpc: MPC) -> None:
     state, prev = None, 0.0
     limit = DESIGN.max_road_wheel_rate_radps * 0.02
     for _ in range(20):
-        a, state = paper_mpc.predict(plant.observation(), state)
+        a, state = paper_mpc.predict(plant.observation(), state, episode_start=state is None)
         delta = float(a[0]) * paper_mpc.max_steer_rad
         assert abs(delta - prev) <= limit + 1e-6
         prev = delta
@@ -271,7 +271,7 @@ def test_first_call_starts_from_observed_steering(paper_mpc: MPC) -> None:
     plant = LinearPlant(11.11, straight())
     obs = plant.observation()
     obs[paper_mpc.layout.ROAD_WHEEL_ANGLE] = 0.1
-    a, state = paper_mpc.predict(obs)
+    a, state = paper_mpc.predict(obs, episode_start=True)
     assert state[0, 6] == pytest.approx(float(a[0]) * paper_mpc.max_steer_rad, abs=1e-6)
     assert abs(state[0, 6] - 0.1) <= DESIGN.max_road_wheel_rate_radps * 0.02 + 1e-9
 

@@ -121,7 +121,7 @@ def test_single_equals_batch_on_random_observations(name: str, policies: dict[st
     atol = ACTION_ATOL.get(name, 1e-6)
     ab, sb = pol.predict(obs)
     for i in range(obs.shape[0]):
-        a, s = pol.predict(obs[i])
+        a, s = pol.predict(obs[i], episode_start=True)
         np.testing.assert_allclose(a, ab[i], rtol=0, atol=atol)
         if s is not None:
             assert_state_close(name, s[0], sb[i], pol)
@@ -143,7 +143,7 @@ def test_episode_start_reinitialises_rows(name: str, policies: dict[str, Policy]
     starts = np.array([False, True, False, True])
     atol = ACTION_ATOL.get(name, 1e-6)
     a, s = pol.predict(obs, state, episode_start=starts)
-    fresh_a, fresh_s = pol.predict(obs[starts])
+    fresh_a, fresh_s = pol.predict(obs[starts], episode_start=True)
     np.testing.assert_allclose(a[starts], fresh_a, rtol=0, atol=atol)
     assert_state_close(name, s[starts], fresh_s, pol)
     kept_a, _ = pol.predict(obs[~starts], state[~starts])

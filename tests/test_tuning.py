@@ -64,10 +64,10 @@ def test_population_smc_equals_individual_smcs():
     obs[:, 0] = [5.0, 10.9, 25.0]  # v_x, one inside the singular-speed guard band
     params = [(8.0, 5.0, 0.1), (3.0, 40.0, 0.02), (12.0, 1.0, 0.9)]
     pop = PopulationSMC(design, SMCConfig(), *map(np.array, zip(*params, strict=True)))
-    got, _ = pop._act_batch(obs, None)
+    got, _ = pop.act(obs, None)
     for i, (p, eta, delta) in enumerate(params):
         single = SMC(design, SMCConfig(pole_radps=p, reaching_gain=eta, boundary_layer=delta))
-        want, _ = single._act_batch(obs[i:i + 1], None)
+        want, _ = single.act(obs[i:i + 1], None)
         assert got[i] == pytest.approx(want[0], rel=1e-12, abs=1e-12)
 
 

@@ -9,18 +9,24 @@ stable-baselines3's signature, so ``stable_baselines3.common.evaluation.evaluate
 
 * ``observation`` of shape ``(obs_dim,)`` gives an action of shape ``(1,)``; ``(N, obs_dim)`` gives ``(N, 1)``.
 * Stateless controllers return ``state = None``. Stateful ones (MPC: previous measurement, previous applied
-  steering, previous disturbance, hold counter) keep ALL their memory in the returned float64 array of shape
-  ``(N, state_size)`` (``(1, state_size)`` for a single observation). Pass it back on the next call.
-  ``state=None`` initialises every row from the current observation; rows whose ``episode_start`` is True are
-  re-initialised. The policy object itself holds no per-episode memory, so one instance serves any number of
-  independent envs.
+  steering, previous disturbance, hold counter) return their memory as a float64 array of shape
+  ``(N, state_size)`` (``(1, state_size)`` for a single observation).
+* Two ways to carry that memory, with identical episodes:
+
+  - SB3 protocol: pass the returned ``state`` back, with ``episode_start`` (bool, or N bools) True on the first
+    step of an episode; those rows are re-initialised from the observation. The policy object keeps nothing for
+    such calls, so one instance serves any number of independent envs (one state array each).
+  - Plain loop, ``action, _ = policy.predict(obs)``: with ``state=None`` the policy continues from its own
+    memory of its last ``state=None`` call (same N), or initialises from the observation if it has none, and
+    re-initialises the rows whose ``episode_start`` is True. Call ``policy.reset()`` (or pass
+    ``episode_start=True``) when a new episode starts; a fresh policy starts fresh.
 * Non-finite observations raise ``ValueError``. ``deterministic`` is accepted and ignored (all controllers are
   deterministic).
 
-Single observations (and batches of one) take a fast path on Python floats (``_act_single``); larger batches
-take the vectorised numpy path (``_act_batch``). Both evaluate the same formulas; results agree to float64
-rounding (well below the float32 resolution of the action), except ``mpc_osqp`` whose iterative solver agrees
-to its tolerance (~1e-6 rad).
+Each controller implements its law once, on a batch (``_act_batch``: float64 observations (N, obs_dim) ->
+road-wheel angles [rad] (N,)); a single observation is the batch N = 1. The SMC and MPC laws are compiled
+(``vtrack_gym.baselines.laws``) and also run inside the GA's population rollout; ``act`` is the public,
+unchecked entry to the law.
 """
 
 from __future__ import annotations
@@ -28,6 +34,7 @@ from __future__ import annotations
 import abc
 import bisect
 import dataclasses
+import math
 from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
 
@@ -143,7 +150,7 @@ class Policy(abc.ABC):
     """Base class of every steering baseline (see the module docstring for the ``predict`` contract).
 
     Subclasses set ``name``, ``PRESETS`` (preset name -> frozen config), ``config_type`` and ``state_size`` and
-    implement ``_act_batch`` (and, for speed, ``_act_single``; stateful ones also the two ``_initial_state*``).
+    implement ``_act_batch`` (stateful ones also ``_initial_state_batch``).
     Controllers work in road-wheel radians; the base class scales by ``design.max_road_wheel_angle_rad``.
     """
 
@@ -173,6 +180,7 @@ class Policy(abc.ABC):
         self.max_steer_rad = float(design.max_road_wheel_angle_rad)
         self._inv_max_steer = 1.0 / self.max_steer_rad
         self.obs_dim = layout.size
+        self._memory: np.ndarray | None = None
 
     @property
     def policy_id(self) -> str:
@@ -219,58 +227,55 @@ class Policy(abc.ABC):
     def predict(self, observation: Any, state: np.ndarray | None = None, episode_start: Any = None,
                 deterministic: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
         """SB3-compatible steering: see the module docstring for shapes and the state contract."""
-        obs = observation if isinstance(observation, np.ndarray) else np.asarray(observation, dtype=np.float64)
-        if obs.ndim == 1 or (obs.ndim == 2 and obs.shape[0] == 1):
-            single = obs.ndim == 1
-            if obs.shape[-1] != self.obs_dim:
+        obs = np.asarray(observation, dtype=np.float64)
+        single = obs.ndim == 1
+        if single:
+            if obs.shape[0] != self.obs_dim:
                 raise ValueError(f"observation must have {self.obs_dim} entries (got shape {obs.shape})")
-            action, new_state = self._predict_one(obs.reshape(-1).tolist(), state, episode_start)
-            return (action if single else action.reshape(1, 1)), new_state
-        if obs.ndim != 2 or obs.shape[1] != self.obs_dim:
+            obs = obs.reshape(1, -1)
+        elif obs.ndim != 2 or obs.shape[1] != self.obs_dim:
             raise ValueError(f"observation must have shape ({self.obs_dim},) or (N, {self.obs_dim}) "
                              f"(got {obs.shape})")
-        return self._predict_batch(np.asarray(obs, dtype=np.float64), state, episode_start)
-
-    def _predict_one(self, row: list[float], state: Any, episode_start: Any) -> tuple[np.ndarray, np.ndarray | None]:
-        """Single observation given as a list of Python floats."""
-        total = sum(row)
-        if total - total != 0.0:  # NaN or inf somewhere (or an overflowing sum: check exactly)
-            self._check_finite(np.asarray(row))
-        if self.state_size == 0:
-            delta, _ = self._act_single(row, None)
-            new_state = None
-        else:
-            if state is None or _first_flag(episode_start):
-                st = self._initial_state_single(row)
-            else:
-                st = _state_row(state, self.state_size)
-            delta, st = self._act_single(row, st)
-            new_state = np.array((st,), dtype=np.float64)
-        a = delta * self._inv_max_steer
-        a = 1.0 if a > 1.0 else (-1.0 if a < -1.0 else a)
-        return np.array((a,), dtype=np.float32), new_state
-
-    def _predict_batch(self, obs: np.ndarray, state: Any, episode_start: Any) -> tuple[np.ndarray, np.ndarray | None]:
-        """Batch of N observations (float64, shape (N, obs_dim))."""
-        self._check_finite(obs)
+        with np.errstate(over="ignore", invalid="ignore"):
+            total = obs.sum()
+        if not math.isfinite(total):  # NaN or inf somewhere (or an overflowing sum: check exactly)
+            self._check_finite(obs)
         n = obs.shape[0]
         st = None
+        own = state is None
         if self.state_size:
+            starts = _episode_starts(episode_start, n)
+            if own and self._memory is not None and self._memory.shape[0] == n:
+                state = self._memory
             if state is None:
                 st = self._initial_state_batch(obs)
             else:
                 st = np.array(state, dtype=np.float64, copy=True)
+                if n == 1 and st.shape == (self.state_size,):
+                    st = st.reshape(1, -1)
                 if st.shape != (n, self.state_size):
                     raise ValueError(f"state must have shape ({n}, {self.state_size}) (got {st.shape})")
-                if episode_start is not None:
-                    mask = np.asarray(episode_start, dtype=bool).reshape(-1)
-                    if mask.size != n:
-                        raise ValueError(f"episode_start must have {n} entries (got {mask.size})")
-                    if mask.any():
-                        st[mask] = self._initial_state_batch(obs[mask])
+                if starts is not None and starts.any():
+                    st[starts] = self._initial_state_batch(obs[starts])
         delta, st = self._act_batch(obs, st)
-        action = np.clip(delta * self._inv_max_steer, -1.0, 1.0).astype(np.float32).reshape(n, 1)
-        return action, st
+        if own and st is not None:
+            self._memory = st.copy()
+        if n == 1:  # a Python-float clip: much cheaper than np.clip on one value
+            a = float(delta[0]) * self._inv_max_steer
+            action = np.array((1.0 if a > 1.0 else (-1.0 if a < -1.0 else a),), dtype=np.float32)
+        else:
+            action = np.clip(delta * self._inv_max_steer, -1.0, 1.0).astype(np.float32)
+        return (action if single else action.reshape(n, 1)), st
+
+    def reset(self) -> None:
+        """Forget the policy's own memory (kept between ``predict`` calls made without ``state``)."""
+        self._memory = None
+
+    def act(self, observation: np.ndarray, state: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
+        """The law without checks, scaling or clipping: road-wheel angles [rad] (N,) and the new memory for
+        float64 observations (N, obs_dim) and memory ``state`` (N, state_size) (updated in place; None for
+        stateless controllers)."""
+        return self._act_batch(observation, state)
 
     @staticmethod
     def _check_finite(obs: np.ndarray) -> None:
@@ -281,17 +286,8 @@ class Policy(abc.ABC):
     # ------------------------------------------------------------------------------------ to implement
     @abc.abstractmethod
     def _act_batch(self, obs: np.ndarray, state: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
-        """Road-wheel angles [rad] (N,) and the new state (N, state_size) for float64 observations (N, obs_dim)."""
-
-    def _act_single(self, row: list[float], state: list[float] | None) -> tuple[float, list[float] | None]:
-        """Road-wheel angle [rad] and new state for one observation (default: the batch path with N = 1)."""
-        st = None if state is None else np.array((state,), dtype=np.float64)
-        delta, st = self._act_batch(np.array((row,), dtype=np.float64), st)
-        return float(delta[0]), (None if st is None else st[0].tolist())
-
-    def _initial_state_single(self, row: list[float]) -> list[float]:
-        """Initial memory for one observation (stateful controllers override)."""
-        return self._initial_state_batch(np.array((row,), dtype=np.float64))[0].tolist()
+        """Road-wheel angles [rad] (N,) and the new state (N, state_size) for float64 observations (N, obs_dim)
+        (the one implementation of the law: a single observation is the batch N = 1)."""
 
     def _initial_state_batch(self, obs: np.ndarray) -> np.ndarray:
         """Initial memory (N, state_size) for a batch of observations (stateful controllers override)."""
@@ -309,21 +305,13 @@ class Policy(abc.ABC):
         return f"{type(self).__name__}({self.config!r}, control_period_s={self.control_period_s})"
 
 
-def _first_flag(episode_start: Any) -> bool:
-    """Truth of the single-observation ``episode_start`` (None, a bool or a one-element array)."""
+def _episode_starts(episode_start: Any, n: int) -> np.ndarray | None:
+    """``episode_start`` as a bool mask of ``n`` rows (None: no row starts; a bool: every row)."""
     if episode_start is None:
-        return False
+        return None
     if isinstance(episode_start, (bool, np.bool_)):
-        return bool(episode_start)
-    flags = np.asarray(episode_start, dtype=bool).reshape(-1)
-    if flags.size != 1:
-        raise ValueError(f"episode_start must have 1 entry for a single observation (got {flags.size})")
-    return bool(flags[0])
-
-
-def _state_row(state: Any, size: int) -> list[float]:
-    """The single-observation state as a list of floats (accepts shape (size,) or (1, size))."""
-    arr = state if isinstance(state, np.ndarray) else np.asarray(state, dtype=np.float64)
-    if arr.shape not in ((size,), (1, size)):
-        raise ValueError(f"state must have shape (1, {size}) for a single observation (got {arr.shape})")
-    return arr.reshape(-1).tolist()
+        return np.full(n, bool(episode_start))
+    mask = np.asarray(episode_start, dtype=bool).reshape(-1)
+    if mask.size != n:
+        raise ValueError(f"episode_start must have {n} entries (got {mask.size})")
+    return mask

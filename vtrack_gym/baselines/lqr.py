@@ -31,12 +31,14 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, NamedTuple
 
 import numpy as np
+from numba import njit
 
 from vtrack_gym._ranges import documented, ranged, validate
 from vtrack_gym.baselines.base import Policy, SpeedSchedule
+from vtrack_gym.baselines.laws import schedule_dot
 from vtrack_gym.baselines.linear_models import error_model, sideslip_gain, understeer_gradient, zoh
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.vehicle.params import DesignModel
@@ -113,38 +115,52 @@ class LQR(Policy):
         cfg: LQRConfig = self.config
         speeds, table = lqr_table(design, cfg, self.control_period_s)
         self.schedule = SpeedSchedule(speeds, table)
-        L = layout
-        self._idx = (L.index("v_x"), L.index("e_y"), L.index("e_y_dot"), L.index("e_phi"), L.index("e_phi_dot"),
-                     L.index("curvature"))
-        self._lead = cfg.feedforward_lead_s
-        self._pv = (layout.preview.start, layout.preview.stop)
-        self._pv_vmin, self._pv_dt = layout.preview_min_speed_mps, layout.preview_dt_s
-
-    def _lead_fraction(self, v: float) -> tuple[int, float]:
-        """Preview sample index (0 = current curvature) and fraction for a look-ahead of ``lead`` seconds."""
-        pos = self._lead * max(v, 0.0) / (max(v, self._pv_vmin) * self._pv_dt)
-        j = min(int(pos), self.layout.n_preview - 1)
-        return j, min(pos - j, 1.0)
-
-    def _act_single(self, row: list[float], state: None) -> tuple[float, None]:
-        iv, iey, ieyd, iep, iepd, ik = self._idx
-        kappa = row[ik]
-        if self._lead > 0.0:
-            j, t = self._lead_fraction(row[iv])
-            k0 = kappa if j == 0 else row[self._pv[0] + j - 1]
-            kappa = k0 + t * (row[self._pv[0] + j] - k0)
-        return self.schedule.dot(row[iv], (row[iey], row[ieyd], row[iep], row[iepd], kappa)), None
+        idx = np.array([layout.index(n) for n in ("v_x", "e_y", "e_y_dot", "e_phi", "e_phi_dot", "curvature")])
+        self.law = LQRLaw(idx, layout.preview.start, layout.n_preview, float(layout.preview_min_speed_mps),
+                          float(layout.preview_dt_s), float(cfg.feedforward_lead_s), self.schedule.speeds,
+                          self.schedule.table, np.ascontiguousarray(np.diff(self.schedule.table, axis=0)))
 
     def _act_batch(self, obs: np.ndarray, state: None) -> tuple[np.ndarray, None]:
-        iv, iey, ieyd, iep, iepd, ik = self._idx
-        kappa = obs[:, ik]
-        if self._lead > 0.0:
-            v = obs[:, iv]
-            pos = self._lead * np.maximum(v, 0.0) / (np.maximum(v, self._pv_vmin) * self._pv_dt)
-            j = np.minimum(pos.astype(np.int64), self.layout.n_preview - 1)
-            t = np.minimum(pos - j, 1.0)
-            samples = np.column_stack((obs[:, ik], obs[:, self._pv[0]:self._pv[1]]))
-            rows = np.arange(obs.shape[0])
-            kappa = samples[rows, j] + t * (samples[rows, j + 1] - samples[rows, j])
-        z = np.column_stack((obs[:, iey], obs[:, ieyd], obs[:, iep], obs[:, iepd], kappa))
-        return self.schedule.dot_batch(obs[:, iv], z), None
+        delta = np.empty(obs.shape[0])
+        lqr_rows(self.law, obs, delta)
+        return delta, None
+
+
+class LQRLaw(NamedTuple):
+    """Parameters of the scheduled LQR law (``lqr_row``)."""
+
+    idx: np.ndarray     # int64 (6,): v_x, e_y, e_y_dot, e_phi, e_phi_dot, curvature
+    pv0: int            # first preview entry of the observation
+    n_preview: int
+    pv_vmin: float      # preview spacing speed floor [m/s]
+    pv_dt: float        # preview spacing [s]
+    lead_s: float       # feedforward look-ahead [s]
+    speeds: np.ndarray  # (S,) [m/s]
+    table: np.ndarray   # (S, 5) gains on (e_y, e_y_dot, e_phi, e_phi_dot, kappa)
+    slopes: np.ndarray  # (S - 1, 5)
+
+
+@njit(cache=True)
+def lqr_row(law: LQRLaw, obs: np.ndarray, i: int, z: np.ndarray) -> float:
+    """Road-wheel angle [rad] of observation row ``i`` (``z`` (5,) scratch)."""
+    idx = law.idx
+    v = float(obs[i, idx[0]])
+    kappa = float(obs[i, idx[5]])
+    if law.lead_s > 0.0:
+        pos = law.lead_s * max(v, 0.0) / (max(v, law.pv_vmin) * law.pv_dt)
+        j = min(int(pos), law.n_preview - 1)
+        t = min(pos - j, 1.0)
+        k0 = kappa if j == 0 else float(obs[i, law.pv0 + j - 1])
+        kappa = k0 + t * (float(obs[i, law.pv0 + j]) - k0)
+    for c in range(4):
+        z[c] = obs[i, idx[1 + c]]
+    z[4] = kappa
+    return schedule_dot(law.speeds, law.table, law.slopes, v, z)
+
+
+@njit(cache=True)
+def lqr_rows(law: LQRLaw, obs: np.ndarray, delta: np.ndarray) -> None:
+    """``lqr_row`` of every row of ``obs`` into ``delta`` [rad]."""
+    z = np.empty(5)
+    for i in range(obs.shape[0]):
+        delta[i] = lqr_row(law, obs, i, z)

@@ -81,66 +81,20 @@ from typing import ClassVar
 
 import numpy as np
 
-from vtrack_gym._ranges import documented, ranged, validate
-from vtrack_gym.baselines.base import Policy, SpeedSchedule, hold_steps, require_choice
+from vtrack_gym.baselines.base import Policy, hold_steps
+from vtrack_gym.baselines.configs import (  # noqa: F401  (re-exported: the MPC's config, presets and constants)
+    INTERPRETATIONS,
+    MPC_PRESETS,
+    OUTPUTS,
+    PAPER_WEIGHTS,
+    RELATIVE,
+    MPCConfig,
+)
+from vtrack_gym.baselines.laws import MPC_STATE_SIZE, mpc_initial_rows, mpc_law, mpc_rows
 from vtrack_gym.baselines.linear_models import curvature_preview_operator, lateral_matrices, paper_model, zoh
+from vtrack_gym.baselines.preset_files import TunedPresets
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.vehicle.params import DesignModel
-
-PAPER_WEIGHTS: tuple[float, ...] = (0.0015, 0.3626, 0.0152, 0.6179, 0.2788, 0.2453, 0.1527, 0.8068,
-                                    0.0012, 0.0207, 0.7908, 0.7904)
-"""Table 3 MPC weights w1..w12 (B1: on Delta x_m (8) and y, phi, e_y, e_phi)."""
-INTERPRETATIONS = ("augmented_outputs", "siso_per_step")
-"""B1 (paper-math 4.1, chosen) and A."""
-OUTPUTS = {"augmented_outputs": (0, 2, 4, 6), "siso_per_step": (4,)}
-"""Indices in x_m of the outputs y of each interpretation."""
-RELATIVE = (0, 2)
-"""x_m indices (y, phi) whose output value is zero in the car-fixed frame (relative outputs)."""
-TWO_PI = 2.0 * math.pi
-
-
-@documented
-@dataclass(frozen=True)
-class MPCConfig:
-    """Paper MPC parameters.
-
-    weights: w1..w12 (>= 0). input_weight: w of W2 = w I.
-    prediction_horizon N_p; control_horizon N_c; sample_time_s T_s [s].
-    interpretation: "augmented_outputs" (B1) or "siso_per_step" (A, needs N_p = len(weights)).
-    use_preview: preview psi_ref_ddot from the curvature preview. rate_limit: clip Delta_u to the steering rate.
-    min_speed_mps / max_speed_mps / n_speeds: the gain-schedule grid [m/s].
-    """
-
-    weights: tuple[float, ...] = PAPER_WEIGHTS
-    input_weight: float = ranged(0.1, gt=0.0, le=1e6)
-    prediction_horizon: int = ranged(50, ge=1, le=400, integer=True)
-    control_horizon: int = ranged(5, ge=1, le="prediction_horizon", integer=True)
-    sample_time_s: float = ranged(0.02, ge=0.001, le=0.2, unit="s")
-    interpretation: str = "augmented_outputs"
-    use_preview: bool = True
-    rate_limit: bool = True
-    min_speed_mps: float = ranged(1.0, ge=0.5, le=80.0, unit="m/s")
-    max_speed_mps: float = ranged(45.0, gt="min_speed_mps", le=80.0, unit="m/s")
-    n_speeds: int = ranged(60, ge=2, le=400, integer=True)
-
-    def __post_init__(self) -> None:
-        validate(self)
-        if len(self.weights) != 12:
-            raise ValueError(f"MPCConfig.weights must have 12 entries (got {len(self.weights)})")
-        if any(not (isinstance(w, (int, float)) and math.isfinite(w) and w >= 0.0) for w in self.weights):
-            raise ValueError(f"MPCConfig.weights must be finite numbers >= 0 (got {self.weights})")
-        object.__setattr__(self, "weights", tuple(float(w) for w in self.weights))
-        require_choice(self, "interpretation", INTERPRETATIONS)
-        if self.interpretation == "siso_per_step" and self.prediction_horizon != len(self.weights):
-            raise ValueError("MPCConfig.prediction_horizon must equal len(weights) = 12 for interpretation "
-                             f"'siso_per_step' (got {self.prediction_horizon})")
-
-
-MPC_PRESETS: dict[str, MPCConfig] = {
-    "paper": MPCConfig(),
-    "hand": MPCConfig(input_weight=100.0),
-    "paper_siso": MPCConfig(interpretation="siso_per_step", prediction_horizon=12, control_horizon=5),
-}
 
 
 @dataclass(frozen=True)
@@ -283,6 +237,28 @@ class GainTable:
     runtime: np.ndarray
 
 
+def speed_grid(config: MPCConfig) -> np.ndarray:
+    """The gain-schedule speeds [m/s]: ``np.geomspace(min_speed_mps, max_speed_mps, n_speeds)``."""
+    return np.geomspace(config.min_speed_mps, config.max_speed_mps, config.n_speeds)
+
+
+def measured_outputs(config: MPCConfig) -> list[int]:
+    """Indices in the augmented state of the measured (not car-relative) outputs."""
+    return [8 + j for j, xi in enumerate(OUTPUTS[config.interpretation]) if xi not in RELATIVE]
+
+
+def preview_slope_difference(layout: ObservationLayout, v: float, config: MPCConfig) -> np.ndarray | None:
+    """(N_p - 1, n_preview + 2): d(k+i) - d(k), i = 1..N_p-1, as linear maps of (kappa(0), preview...,
+    kappa'(0)) at speed ``v`` [m/s] (the step averages of the piecewise-linear curvature, see the module
+    docstring); None without preview (or N_p = 1)."""
+    npred, ts = config.prediction_horizon, config.sample_time_s
+    if not (config.use_preview and npred > 1):
+        return None
+    kap, _ = curvature_preview_operator(layout, v, v * ts * np.arange(npred + 1))
+    slope = (v / ts) * np.diff(kap, axis=0)            # d(k+i) - c, i = 0..N_p-1, rows on p
+    return slope[1:] - slope[0]
+
+
 @functools.lru_cache(maxsize=32)
 def gain_table(design: DesignModel, config: MPCConfig, layout: ObservationLayout = OBS) -> GainTable:
     """Gains on ``np.geomspace(min_speed, max_speed, n_speeds)``; cached per (design, config, layout).
@@ -290,10 +266,8 @@ def gain_table(design: DesignModel, config: MPCConfig, layout: ObservationLayout
     Run-time row = [K_x on Delta x_m (8), K_x on the measured outputs (e_y, e_phi for B1; e_y for A), K_d[0],
     folded preview gains (P + 2, on (kappa(0), preview..., kappa'(0)); zero without preview)].
     """
-    speeds = np.geomspace(config.min_speed_mps, config.max_speed_mps, config.n_speeds)
-    outputs = OUTPUTS[config.interpretation]
-    measured = [8 + j for j, xi in enumerate(outputs) if xi not in RELATIVE]
-    npred, ts = config.prediction_horizon, config.sample_time_s
+    speeds = speed_grid(config)
+    measured = measured_outputs(config)
     kxs, kds, krs, rows = [], [], [], []
     for v in speeds:
         g = mpc_gains(design, float(v), config)
@@ -301,11 +275,10 @@ def gain_table(design: DesignModel, config: MPCConfig, layout: ObservationLayout
         kds.append(g.kd)
         krs.append(g.kr)
         preview = np.zeros(layout.n_preview + 2)
-        if config.use_preview and npred > 1:
-            kap, _ = curvature_preview_operator(layout, float(v), v * ts * np.arange(npred + 1))
-            slope = (v / ts) * np.diff(kap, axis=0)            # d(k+i) - c, i = 0..N_p-1, rows on p
+        slope_diff = preview_slope_difference(layout, float(v), config)
+        if slope_diff is not None:
             kd_next = np.append(g.kd[1:], 0.0)
-            preview = (g.kd - kd_next)[1:] @ (slope[1:] - slope[0])
+            preview = (g.kd - kd_next)[1:] @ slope_diff
         rows.append(np.concatenate((g.kx[:8], g.kx[measured], g.kd[:1], preview)))
     table = GainTable(speeds, np.array(kxs), np.array(kds), np.array(krs), np.array(rows))
     for arr in (table.speeds, table.kx, table.kd, table.kr, table.runtime):
@@ -313,129 +286,37 @@ def gain_table(design: DesignModel, config: MPCConfig, layout: ObservationLayout
     return table
 
 
-class MPC(Policy):
-    """The paper's MPC (paper-math 4) with precomputed speed-scheduled gains; see the module docstring."""
+class MPC(TunedPresets, Policy):
+    """The paper's MPC (paper-math 4) with precomputed speed-scheduled gains; see the module docstring.
+
+    The law itself is ``vtrack_gym.baselines.laws.mpc_row`` (compiled); ``self.law`` holds its parameters.
+    """
 
     name: ClassVar[str] = "mpc"
     PRESETS: ClassVar[dict[str, MPCConfig]] = MPC_PRESETS
-    FILE_PRESETS: ClassVar[tuple[str, ...]] = ("default", "tuned")
     config_type: ClassVar[type] = MPCConfig
-    state_size = 9
-
-    @classmethod
-    def _file_preset(cls, preset: str) -> MPCConfig:
-        from vtrack_gym.baselines.preset_files import tuned_config
-
-        return tuned_config(cls.name)
+    state_size = MPC_STATE_SIZE
 
     def __init__(self, design: DesignModel, config: MPCConfig | None = None, layout: ObservationLayout = OBS,
-                 control_period_s: float = 0.01) -> None:
+                 control_period_s: float = 0.01, tables: np.ndarray | None = None) -> None:
+        """``tables``: run-time gain rows (R, S, W) on the config's speed grid to use instead of the config's
+        own (one table per observation row, as in the GA's populations; ``gain_table(...).runtime`` layout)."""
         super().__init__(design, config, layout, control_period_s)
         cfg: MPCConfig = self.config
         self.n_hold = hold_steps(cfg.sample_time_s, self.control_period_s, "MPCConfig")
         self.table = gain_table(design, cfg, layout)
-        self.schedule = SpeedSchedule(self.table.speeds, self.table.runtime)
-        self._ts = cfg.sample_time_s
-        self._max_du = design.max_road_wheel_rate_radps * cfg.sample_time_s if cfg.rate_limit else math.inf
-        self._n_out = len([xi for xi in OUTPUTS[cfg.interpretation] if xi not in RELATIVE])
-        self._preview = cfg.use_preview
-        L = layout
-        self._idx = (L.index("v_x"), L.index("v_y"), L.index("yaw_rate"), L.index("e_y"), L.index("e_y_dot"),
-                     L.index("e_phi"), L.index("e_phi_dot"), L.index("yaw_acc_ref"), L.index("road_wheel_angle"),
-                     L.index("curvature"), L.index("curvature_rate"))
-        self._pv = (layout.preview.start, layout.preview.stop)
-        self._pv_vmin, self._pv_dt = layout.preview_min_speed_mps, layout.preview_dt_s
-
-    # ----------------------------------------------------------------------------------------- memory
-    def _initial_state_single(self, row: list[float]) -> list[float]:
-        _, ivy, ir, iey, ieyd, iep, iepd, _, idel, _, _ = self._idx
-        u = min(max(row[idel], -self.max_steer_rad), self.max_steer_rad)
-        return [row[ivy], row[ir], row[iey], row[ieyd], row[iep], row[iepd], u, self._d_now_single(row), 0.0]
+        max_du = design.max_road_wheel_rate_radps * cfg.sample_time_s if cfg.rate_limit else math.inf
+        n_out = len(measured_outputs(cfg))
+        self.law = mpc_law(layout, self.table.speeds, self.table.runtime if tables is None else tables,
+                           preview=cfg.use_preview, n_out=n_out, sample_time_s=cfg.sample_time_s, n_hold=self.n_hold,
+                           max_du=max_du, max_steer=self.max_steer_rad)
 
     def _initial_state_batch(self, obs: np.ndarray) -> np.ndarray:
-        _, ivy, ir, iey, ieyd, iep, iepd, _, idel, _, _ = self._idx
-        st = np.zeros((obs.shape[0], 9))
-        st[:, :6] = obs[:, [ivy, ir, iey, ieyd, iep, iepd]]
-        st[:, 6] = np.clip(obs[:, idel], -self.max_steer_rad, self.max_steer_rad)
-        st[:, 7] = self._d_now_batch(obs)
-        return st
-
-    def _d_now_single(self, row: list[float]) -> float:
-        """d(k) [rad/s^2]: yaw_acc_ref, with preview its average over the first preview interval (see docstring)."""
-        iv, _, _, _, _, _, _, iacc, _, ik, ikr = self._idx
-        if not self._preview:
-            return row[iacc]
-        v = max(row[iv], 0.0)
-        x1 = max(v, self._pv_vmin) * self._pv_dt
-        return row[iacc] + v * v * ((row[self._pv[0]] - row[ik]) / x1 - row[ikr])
-
-    def _d_now_batch(self, obs: np.ndarray) -> np.ndarray:
-        iv, _, _, _, _, _, _, iacc, _, ik, ikr = self._idx
-        if not self._preview:
-            return obs[:, iacc].copy()
-        v = np.maximum(obs[:, iv], 0.0)
-        x1 = np.maximum(v, self._pv_vmin) * self._pv_dt
-        return obs[:, iacc] + v * v * ((obs[:, self._pv[0]] - obs[:, ik]) / x1 - obs[:, ikr])
-
-    # ------------------------------------------------------------------------------------------ control
-    def _act_single(self, row: list[float], state: list[float]) -> tuple[float, list[float]]:
-        vy0, r0, ey0, eyd0, ep0, epd0, u_prev, d_prev, count = state
-        if count >= 0.5:
-            state[8] = count - 1.0
-            return u_prev, state
-        iv, ivy, ir, iey, ieyd, iep, iepd, _, _, ik, ikr = self._idx
-        vy, r, ey, eyd, ep, epd = row[ivy], row[ir], row[iey], row[ieyd], row[iep], row[iepd]
-        d0 = self._d_now_single(row)
-        half = 0.5 * self._ts
-        dep = (ep - ep0 + math.pi) % TWO_PI - math.pi
-        z = [half * (vy + vy0), vy - vy0, half * (r + r0), r - r0, ey - ey0, eyd - eyd0, dep, epd - epd0, ey]
-        if self._n_out == 2:
-            z.append(ep)
-        z.append(d0 - d_prev)
-        z.append(row[ik])
-        z.extend(row[self._pv[0]:self._pv[1]])
-        z.append(row[ikr])
-        du = -self.schedule.dot(row[iv], z)
-        lim = self._max_du
-        du = lim if du > lim else (-lim if du < -lim else du)
-        u = u_prev + du
-        m = self.max_steer_rad
-        u = m if u > m else (-m if u < -m else u)
-        return u, [vy, r, ey, eyd, ep, epd, u, d0, self.n_hold - 1.0]
+        state = np.empty((obs.shape[0], self.state_size))
+        mpc_initial_rows(self.law, obs, state)
+        return state
 
     def _act_batch(self, obs: np.ndarray, state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        iv, ivy, ir, iey, ieyd, iep, iepd, _, _, ik, ikr = self._idx
-        n = obs.shape[0]
-        now = obs[:, [ivy, ir, iey, ieyd, iep, iepd]]
-        prev = state[:, :6]
-        half = 0.5 * self._ts
-        z = np.empty((n, self.schedule.width))
-        z[:, 0] = half * (now[:, 0] + prev[:, 0])
-        z[:, 1] = now[:, 0] - prev[:, 0]
-        z[:, 2] = half * (now[:, 1] + prev[:, 1])
-        z[:, 3] = now[:, 1] - prev[:, 1]
-        z[:, 4] = now[:, 2] - prev[:, 2]
-        z[:, 5] = now[:, 3] - prev[:, 3]
-        z[:, 6] = np.mod(now[:, 4] - prev[:, 4] + math.pi, TWO_PI) - math.pi
-        z[:, 7] = now[:, 5] - prev[:, 5]
-        z[:, 8] = now[:, 2]
-        j = 9
-        if self._n_out == 2:
-            z[:, 9] = now[:, 4]
-            j = 10
-        d0 = self._d_now_batch(obs)
-        z[:, j] = d0 - state[:, 7]
-        z[:, j + 1] = obs[:, ik]
-        z[:, j + 2:-1] = obs[:, self._pv[0]:self._pv[1]]
-        z[:, -1] = obs[:, ikr]
-        du = np.clip(-self.schedule.dot_batch(obs[:, iv], z), -self._max_du, self._max_du)
-        u_new = np.clip(state[:, 6] + du, -self.max_steer_rad, self.max_steer_rad)
-        hold = state[:, 8] >= 0.5
-        new = np.empty_like(state)
-        new[:, :6] = now
-        new[:, 6] = u_new
-        new[:, 7] = d0
-        new[:, 8] = self.n_hold - 1.0
-        new[hold] = state[hold]
-        new[hold, 8] -= 1.0
-        return new[:, 6], new
+        delta = np.empty(obs.shape[0])
+        mpc_rows(self.law, obs, state, delta)
+        return delta, state

@@ -279,12 +279,9 @@ class OSQPMPC(Policy):
         st[:, 2:2 + self._nc] = u[:, None]
         return st
 
-    def _initial_state_single(self, row: list[float]) -> list[float]:
-        u = min(max(row[self._idx[7]], -self.max_steer_rad), self.max_steer_rad)
-        return [u, 0.0] + [u] * self._nc + [0.0] * (2 * self._nc)
-
     # ------------------------------------------------------------------------------------------ control
-    def _act_single(self, row: list[float], state: list[float]) -> tuple[float, list[float]]:
+    def _act_row(self, row: list[float], state: list[float]) -> tuple[float, list[float]]:
+        """Road-wheel angle [rad] and new memory for one observation row (the law; ``_act_batch`` loops it)."""
         u_prev, count = state[0], state[1]
         if count >= 0.5:
             state[1] = count - 1.0
@@ -306,7 +303,7 @@ class OSQPMPC(Policy):
         new = state.copy()
         out = np.empty(obs.shape[0])
         for n in range(obs.shape[0]):
-            u, st = self._act_single(obs[n].tolist(), state[n].tolist())
+            u, st = self._act_row(obs[n].tolist(), state[n].tolist())
             out[n] = u
             new[n] = st
         return out, new

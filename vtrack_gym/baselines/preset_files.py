@@ -22,7 +22,7 @@ import datetime as dt
 import json
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 FORMAT = "vtrack-tuned-preset"
 FORMAT_VERSION = 1
@@ -57,11 +57,11 @@ def _check_json_value(value: Any, where: str, depth: int = 0) -> None:
 
 def _config_type(controller: str) -> type:
     if controller == "smc":
-        from vtrack_gym.baselines.smc import SMCConfig
+        from vtrack_gym.baselines.configs import SMCConfig
 
         return SMCConfig
     if controller == "mpc":
-        from vtrack_gym.baselines.mpc import MPCConfig
+        from vtrack_gym.baselines.configs import MPCConfig
 
         return MPCConfig
     raise PresetError(f"controller must be 'smc' or 'mpc' (got {controller!r})")
@@ -214,3 +214,14 @@ def tuned_config(controller: str) -> Any:
     if loaded["controller"] != controller:
         raise ValueError(f"{path} holds a {loaded['controller']} preset, not {controller}")
     return loaded["config"]
+
+
+class TunedPresets:
+    """Mixin of the GA-tunable policies (SMC, MPC): presets ``default`` and ``tuned`` are the packaged file."""
+
+    name: ClassVar[str]
+    FILE_PRESETS: ClassVar[tuple[str, ...]] = ("default", "tuned")
+
+    @classmethod
+    def _file_preset(cls, preset: str) -> Any:
+        return tuned_config(cls.name)

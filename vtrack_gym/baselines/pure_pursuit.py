@@ -39,9 +39,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import ClassVar, NamedTuple
 
 import numpy as np
+from numba import njit
 
 from vtrack_gym._ranges import documented, ranged, validate
 from vtrack_gym.baselines.base import Policy
@@ -86,115 +87,100 @@ class PurePursuit(Policy):
     def __init__(self, design: DesignModel, config: PurePursuitConfig | None = None,
                  layout: ObservationLayout = OBS, control_period_s: float = 0.01) -> None:
         super().__init__(design, config, layout, control_period_s)
-        self._l = design.wheelbase_m
-        self._kus = understeer_gradient(design) if self.config.understeer_compensation else 0.0
-        L = layout
-        self._idx = (L.index("v_x"), L.index("v_y"), L.index("e_y"), L.index("e_phi"), L.index("curvature"))
-        self._pv = (layout.preview.start, layout.preview.stop)
-        self._steps = (np.arange(1, layout.n_preview + 1) * layout.preview_dt_s).tolist()
-        self._vmin = layout.preview_min_speed_mps
+        cfg: PurePursuitConfig = self.config
+        kus = understeer_gradient(design) if cfg.understeer_compensation else 0.0
+        idx = np.array([layout.index(n) for n in ("v_x", "v_y", "e_y", "e_phi", "curvature")])
+        steps = np.arange(1, layout.n_preview + 1) * layout.preview_dt_s
+        self.law = PurePursuitLaw(idx, layout.preview.start, steps, float(layout.preview_min_speed_mps),
+                                  float(cfg.lookahead_gain_s), float(cfg.min_lookahead_m), float(cfg.max_lookahead_m),
+                                  bool(cfg.use_course_angle), bool(cfg.curvature_feedforward),
+                                  bool(cfg.understeer_compensation), float(design.wheelbase_m), float(kus))
 
     def lookahead(self, v: float) -> float:
         """Look-ahead distance [m] at speed ``v`` [m/s]."""
         cfg: PurePursuitConfig = self.config
         return min(max(cfg.lookahead_gain_s * max(v, 0.0), cfg.min_lookahead_m), cfg.max_lookahead_m)
 
-    def _steer(self, kappa_cmd: float, v: float) -> float:
-        if self.config.understeer_compensation:
-            return kappa_cmd * (self._l + self._kus * v * v)
-        return math.atan(self._l * kappa_cmd)
-
-    def _pursuit_single(self, row: list[float], x: float, y: float, th: float, goal: float,
-                        spacing: float) -> float:
-        """kappa_cmd [1/m] of the arc to the goal on the path starting at (x, y) with heading th."""
-        g2 = goal * goal
-        k_prev, s_prev = row[self._idx[4]], 0.0
-        px, py = x, y
-        if x * x + y * y < g2:
-            for dk, k_next in zip(self._steps, row[self._pv[0]:self._pv[1]], strict=True):
-                s_next = spacing * dk
-                h = s_next - s_prev
-                th_mid = th + h * (3.0 * k_prev + k_next) * 0.125
-                nx, ny = x + h * math.cos(th_mid), y + h * math.sin(th_mid)
-                th += 0.5 * h * (k_prev + k_next)
-                if nx * nx + ny * ny >= g2:
-                    x, y = _circle_crossing(x, y, nx, ny, g2)
-                    break
-                x, y, k_prev, s_prev = nx, ny, k_next, s_next
-            px, py = x, y
-        dist2 = px * px + py * py
-        return 2.0 * py / dist2 if dist2 > 1e-12 else 0.0
-
-    def _act_single(self, row: list[float], state: None) -> tuple[float, None]:
-        iv, ivy, iey, iep, ik = self._idx
-        v = max(row[iv], 0.0)
-        beta = math.atan2(row[ivy], v) if (self.config.use_course_angle and v > 0.1) else 0.0
-        th = -row[iep] - beta
-        e_y = row[iey]
-        goal = self.lookahead(v)
-        spacing = max(v, self._vmin)
-        kappa_cmd = self._pursuit_single(row, e_y * math.sin(th), -e_y * math.cos(th), th, goal, spacing)
-        if self.config.curvature_feedforward:
-            kappa_cmd += row[ik] - self._pursuit_single(row, 0.0, 0.0, 0.0, goal, spacing)
-        return self._steer(kappa_cmd, v), None
-
-    def _pursuit_batch(self, obs: np.ndarray, x: np.ndarray, y: np.ndarray, th: np.ndarray, goal: np.ndarray,
-                       spacing: np.ndarray) -> np.ndarray:
-        n = obs.shape[0]
-        g2 = goal * goal
-        found = x * x + y * y >= g2
-        px, py = x.copy(), y.copy()
-        k_prev, s_prev = obs[:, self._idx[4]].copy(), np.zeros(n)
-        for j, dk in enumerate(self._steps):
-            k_next = obs[:, self._pv[0] + j]
-            s_next = spacing * dk
-            h = s_next - s_prev
-            th_mid = th + h * (3.0 * k_prev + k_next) * 0.125
-            nx, ny = x + h * np.cos(th_mid), y + h * np.sin(th_mid)
-            th = th + 0.5 * h * (k_prev + k_next)
-            cross = ~found & (nx * nx + ny * ny >= g2)
-            if cross.any():
-                cx, cy = _circle_crossing(x[cross], y[cross], nx[cross], ny[cross], g2[cross])
-                px[cross], py[cross] = cx, cy
-                found |= cross
-            x, y, k_prev, s_prev = nx, ny, k_next, s_next
-        px[~found], py[~found] = x[~found], y[~found]
-        dist2 = px * px + py * py
-        safe = dist2 > 1e-12
-        return np.where(safe, 2.0 * py / np.where(safe, dist2, 1.0), 0.0)
-
     def _act_batch(self, obs: np.ndarray, state: None) -> tuple[np.ndarray, None]:
-        iv, ivy, iey, iep, ik = self._idx
-        n = obs.shape[0]
-        v = np.maximum(obs[:, iv], 0.0)
-        beta = np.zeros(n)
-        cfg: PurePursuitConfig = self.config
-        if cfg.use_course_angle:
-            moving = v > 0.1
-            beta[moving] = np.arctan2(obs[moving, ivy], v[moving])
-        th = -obs[:, iep] - beta
-        e_y = obs[:, iey]
-        goal = np.clip(cfg.lookahead_gain_s * v, cfg.min_lookahead_m, cfg.max_lookahead_m)
-        spacing = np.maximum(v, self._vmin)
-        kappa_cmd = self._pursuit_batch(obs, e_y * np.sin(th), -e_y * np.cos(th), th, goal, spacing)
-        if cfg.curvature_feedforward:
-            zero = np.zeros(n)
-            kappa_cmd += obs[:, ik] - self._pursuit_batch(obs, zero, zero, zero, goal, spacing)
-        if cfg.understeer_compensation:
-            return kappa_cmd * (self._l + self._kus * v * v), None
-        return np.arctan(self._l * kappa_cmd), None
+        delta = np.empty(obs.shape[0])
+        pure_pursuit_rows(self.law, obs, delta)
+        return delta, None
 
 
-def _circle_crossing(x0: Any, y0: Any, x1: Any, y1: Any, r2: Any) -> tuple[Any, Any]:
+class PurePursuitLaw(NamedTuple):
+    """Parameters of the pure-pursuit law (``pure_pursuit_row``)."""
+
+    idx: np.ndarray          # int64 (5,): v_x, v_y, e_y, e_phi, curvature
+    pv0: int                 # first preview entry of the observation
+    steps: np.ndarray        # (P,) preview sample times [s] (distance = spacing speed x time)
+    pv_vmin: float           # preview spacing speed floor [m/s]
+    gain_s: float            # look-ahead gain [s]
+    min_lookahead_m: float
+    max_lookahead_m: float
+    use_course_angle: bool
+    curvature_feedforward: bool
+    understeer_compensation: bool
+    wheelbase_m: float
+    kus: float               # understeer gradient [rad s^2/m] (0 without compensation)
+
+
+@njit(cache=True)
+def _circle_crossing(x0: float, y0: float, x1: float, y1: float, r2: float) -> tuple[float, float]:
     """Point of the segment (x0, y0)-(x1, y1) [m] at squared distance ``r2`` [m^2] from the origin
-    (|P0|^2 < r2 <= |P1|^2); floats or arrays."""
+    (|P0|^2 < r2 <= |P1|^2)."""
     dx, dy = x1 - x0, y1 - y0
     a = dx * dx + dy * dy
     b = x0 * dx + y0 * dy
     c = x0 * x0 + y0 * y0 - r2
     disc = b * b - a * c
-    if isinstance(a, np.ndarray):
-        t = np.where(a > 0.0, (-b + np.sqrt(np.maximum(disc, 0.0))) / np.where(a > 0.0, a, 1.0), 1.0)
-    else:
-        t = (-b + math.sqrt(max(disc, 0.0))) / a if a > 0.0 else 1.0
+    t = (-b + math.sqrt(max(disc, 0.0))) / a if a > 0.0 else 1.0
     return x0 + t * dx, y0 + t * dy
+
+
+@njit(cache=True)
+def _pursuit(law: PurePursuitLaw, obs: np.ndarray, i: int, x: float, y: float, th: float, goal: float,
+             spacing: float) -> float:
+    """kappa_cmd [1/m] of the arc to the goal on the path starting at (x, y) with heading th."""
+    g2 = goal * goal
+    k_prev, s_prev = float(obs[i, law.idx[4]]), 0.0
+    px, py = x, y
+    if x * x + y * y < g2:
+        for j in range(law.steps.shape[0]):
+            k_next = float(obs[i, law.pv0 + j])
+            s_next = spacing * law.steps[j]
+            h = s_next - s_prev
+            th_mid = th + h * (3.0 * k_prev + k_next) * 0.125
+            nx, ny = x + h * math.cos(th_mid), y + h * math.sin(th_mid)
+            th += 0.5 * h * (k_prev + k_next)
+            if nx * nx + ny * ny >= g2:
+                x, y = _circle_crossing(x, y, nx, ny, g2)
+                break
+            x, y, k_prev, s_prev = nx, ny, k_next, s_next
+        px, py = x, y
+    dist2 = px * px + py * py
+    return 2.0 * py / dist2 if dist2 > 1e-12 else 0.0
+
+
+@njit(cache=True)
+def pure_pursuit_row(law: PurePursuitLaw, obs: np.ndarray, i: int) -> float:
+    """Road-wheel angle [rad] of observation row ``i``."""
+    idx = law.idx
+    v = max(float(obs[i, idx[0]]), 0.0)
+    beta = math.atan2(float(obs[i, idx[1]]), v) if (law.use_course_angle and v > 0.1) else 0.0
+    th = -float(obs[i, idx[3]]) - beta
+    e_y = float(obs[i, idx[2]])
+    goal = min(max(law.gain_s * v, law.min_lookahead_m), law.max_lookahead_m)
+    spacing = max(v, law.pv_vmin)
+    kappa_cmd = _pursuit(law, obs, i, e_y * math.sin(th), -e_y * math.cos(th), th, goal, spacing)
+    if law.curvature_feedforward:
+        kappa_cmd += float(obs[i, idx[4]]) - _pursuit(law, obs, i, 0.0, 0.0, 0.0, goal, spacing)
+    if law.understeer_compensation:
+        return kappa_cmd * (law.wheelbase_m + law.kus * v * v)
+    return math.atan(law.wheelbase_m * kappa_cmd)
+
+
+@njit(cache=True)
+def pure_pursuit_rows(law: PurePursuitLaw, obs: np.ndarray, delta: np.ndarray) -> None:
+    """``pure_pursuit_row`` of every row of ``obs`` into ``delta`` [rad]."""
+    for i in range(obs.shape[0]):
+        delta[i] = pure_pursuit_row(law, obs, i)

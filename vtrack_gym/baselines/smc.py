@@ -62,24 +62,32 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 
-from vtrack_gym._ranges import documented, ranged, validate
 from vtrack_gym.baselines.base import Policy
+from vtrack_gym.baselines.configs import (  # noqa: F401  (re-exported: the SMC's config and presets)
+    PAPER_BOUNDARY_LAYER,
+    PAPER_POLE_RADPS,
+    PAPER_REACHING_GAIN,
+    SMC_PRESETS,
+    SMCConfig,
+)
+from vtrack_gym.baselines.laws import (
+    guarded_speed,
+    smc_coefficient_values,
+    smc_design_constants,
+    smc_law,
+    smc_layer,
+    smc_rows,
+)
+from vtrack_gym.baselines.laws import smc_singular_speed as singular_speed
+from vtrack_gym.baselines.preset_files import TunedPresets
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.vehicle.params import DesignModel
 
 logger = logging.getLogger(__name__)
-
-PAPER_POLE_RADPS = 0.0445
-"""Table 3 "P": the triple pole of the surface dynamics [rad/s]."""
-PAPER_REACHING_GAIN = 973.4083
-"""Table 3 "H": eta [rad/s^2]."""
-PAPER_BOUNDARY_LAYER = 0.6124
-"""Table 3 Delta [rad/s]."""
-
 
 @dataclass(frozen=True)
 class SMCCoefficients:
@@ -96,138 +104,53 @@ class SMCCoefficients:
     f6: float
 
 
-@documented
-@dataclass(frozen=True)
-class SMCConfig:
-    """Sliding-mode controller parameters.
-
-    pole_radps: p, the triple pole of the sliding dynamics [rad/s].
-    reaching_gain: eta [rad/s^2] (sigma' = -eta sat(sigma/Delta)).
-    boundary_layer: Delta [rad/s].
-    sideslip_shift: OPTION 2 (steady-state sideslip shift of the surface).
-    limit_layer_rate: widen Delta so that eta/Delta <= 1/T_c (OPTION 4 rule).
-    min_speed_mps: speed clamp of the model [m/s].
-    guard_band_mps: half-width of the singular-speed guard [m/s].
-    """
-
-    pole_radps: float = ranged(8.0, gt=0.0, le=100.0, unit="rad/s")
-    reaching_gain: float = ranged(5.0, gt=0.0, le=1e5, unit="rad/s^2")
-    boundary_layer: float = ranged(0.1, gt=0.0, le=1e3, unit="rad/s")
-    sideslip_shift: bool = True
-    limit_layer_rate: bool = True
-    min_speed_mps: float = ranged(3.0, ge=0.5, le=20.0, unit="m/s")
-    guard_band_mps: float = ranged(0.3, ge=0.0, le=3.0, unit="m/s")
-
-    def __post_init__(self) -> None:
-        validate(self)
-
-
-SMC_PRESETS: dict[str, SMCConfig] = {
-    "paper": SMCConfig(pole_radps=PAPER_POLE_RADPS, reaching_gain=PAPER_REACHING_GAIN,
-                       boundary_layer=PAPER_BOUNDARY_LAYER, sideslip_shift=False),
-    "hand": SMCConfig(),
-}
-
-
-def singular_speed(design: DesignModel) -> float:
-    """v* = sqrt(C_ar l (m a1 a2 - I_z)) / (m a1) [m/s] (10.807 for the paper's car); NaN if m a1 a2 <= I_z."""
-    m, iz, a1, a2 = design.mass_kg, design.yaw_inertia_kgm2, design.cg_to_front_axle_m, design.cg_to_rear_axle_m
-    arg = design.rear_cornering_stiffness_npr * design.wheelbase_m * (m * a1 * a2 - iz)
-    return math.sqrt(arg) / (m * a1) if arg > 0.0 else math.nan
-
-
-def guarded_speed(v: float, v_star: float, band: float = 0.3) -> float:
-    """``v`` [m/s], or ``v* -+ band`` on the side of ``v`` if ``|v - v*| < band`` (paper-math 5.7 guard)."""
-    if band > 0.0 and abs(v - v_star) < band:
-        return v_star - band if v < v_star else v_star + band
-    return v
-
-
-def _design_constants(design: DesignModel) -> tuple[float, ...]:
-    """(m a1, a2 C_ar l, C_ar l, lambda, I_z, a1^2 C_af + a2^2 C_ar, h, I_z/(a1 C_af))."""
-    m, iz, a1, a2 = design.mass_kg, design.yaw_inertia_kgm2, design.cg_to_front_axle_m, design.cg_to_rear_axle_m
-    cf, cr, l = design.front_cornering_stiffness_npr, design.rear_cornering_stiffness_npr, design.wheelbase_m
-    return (m * a1, a2 * cr * l, cr * l, iz / (m * a1), iz, a1 * a1 * cf + a2 * a2 * cr, a1 * cf - a2 * cr,
-            iz / (a1 * cf))
-
-
-def _coefficients(k: tuple[float, ...], v: Any, p: float) -> tuple[Any, ...]:
-    """(lam, f3, f4, G, c1, c2, c3, f5, f6); ``v`` a float or an array (same arithmetic for both paths)."""
-    ma1, a2crl, crl, lam, iz, yaw_c, h, _ = k
-    f3 = (a2crl - ma1 * v * v) / (ma1 * v)
-    f4 = -crl / (ma1 * v)
-    g = v + f3 + lam * f4
-    c1 = p * p * p / (v * f4)
-    c2 = (3.0 * p * p + c1 * g + 3.0 * p * f4 + f4 * f4) / (f4 * (v - g))
-    c3 = -3.0 * p - f4 - c2 * g
-    f5 = -yaw_c / (iz * v) - c2 * f3
-    f6 = -h / (iz * v) - c2 * f4
-    return lam, f3, f4, g, c1, c2, c3, f5, f6
-
-
 def smc_coefficients(design: DesignModel, v: float, p: float) -> SMCCoefficients:
     """Exact coefficients at speed ``v`` [m/s] (> 0, no clamp, no guard) for pole ``p`` [rad/s]."""
     if not (v > 0.0 and math.isfinite(v)):
         raise ValueError(f"v must be a finite speed > 0 m/s (got {v})")
-    return SMCCoefficients(*(float(c) for c in _coefficients(_design_constants(design), float(v), float(p))))
+    values = smc_coefficient_values(smc_design_constants(design), float(v), float(p))
+    return SMCCoefficients(*(float(c) for c in values))
 
 
-def _law(k: tuple[float, ...], cf: tuple[Any, ...], v: Any, p_shift: bool, e_y: Any, e_phi: Any, e_y_dot: Any,
-         e_phi_dot: Any, v_y: Any, r: Any, rate_ref: Any, acc_ref: Any) -> tuple[Any, Any]:
-    """``(sigma [rad/s], delta_eq [rad])``: the surface and the law (31) without the switching term."""
-    lam, f3, f4, _, c1, c2, c3, f5, f6 = cf
-    x1 = e_y - lam * e_phi
-    x2 = e_y_dot - lam * e_phi_dot
-    bracket = acc_ref * (1.0 + c2 * lam) - f5 * r - f6 * v_y + c1 * x2 + (c2 * v + c3) * e_phi_dot
-    if p_shift:
-        x3s = f3 * rate_ref / (v * f4)
-        x3s_dot = f3 * acc_ref / (v * f4)
-        sigma = e_phi_dot - c1 * (x1 + lam * x3s) - c2 * x2 - c3 * (e_phi - x3s)
-        bracket = bracket - (c3 - c1 * lam) * x3s_dot
-    else:
-        sigma = e_phi_dot - c1 * x1 - c2 * x2 - c3 * e_phi
-    return sigma, k[7] * bracket
+class SMC(TunedPresets, Policy):
+    """Decoupled SMC steering (paper-math 5); stateless. See the module docstring for the law and presets.
 
-
-class SMC(Policy):
-    """Decoupled SMC steering (paper-math 5); stateless. See the module docstring for the law and presets."""
+    The law itself is ``vtrack_gym.baselines.laws.smc_row`` (compiled); ``self.law`` holds its parameters.
+    """
 
     name: ClassVar[str] = "smc"
     PRESETS: ClassVar[dict[str, SMCConfig]] = SMC_PRESETS
-    FILE_PRESETS: ClassVar[tuple[str, ...]] = ("default", "tuned")
     config_type: ClassVar[type] = SMCConfig
     state_size = 0
 
-    @classmethod
-    def _file_preset(cls, preset: str) -> SMCConfig:
-        from vtrack_gym.baselines.preset_files import tuned_config
-
-        return tuned_config(cls.name)
-
     def __init__(self, design: DesignModel, config: SMCConfig | None = None, layout: ObservationLayout = OBS,
-                 control_period_s: float = 0.01) -> None:
+                 control_period_s: float = 0.01, rows: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> None:
+        """``rows``: (p, eta, Delta) arrays (R,) used instead of the config's, row i for observation row i (the
+        GA's populations); the limit_layer_rate rule is then applied per row, silently."""
         super().__init__(design, config, layout, control_period_s)
         cfg: SMCConfig = self.config
-        self._k = _design_constants(design)
         self.v_star = singular_speed(design)
-        self.boundary_layer = cfg.boundary_layer
-        if cfg.limit_layer_rate and cfg.reaching_gain * self.control_period_s > cfg.boundary_layer:
-            self.boundary_layer = cfg.reaching_gain * self.control_period_s
-            logger.warning("SMC: eta/Delta = %.1f 1/s exceeds 1/T_c = %.1f 1/s; boundary layer widened from %.4g "
-                           "to %.4g rad/s (limit_layer_rate rule, paper-math 5.6.3 / OPTION 4)",
-                           cfg.reaching_gain / cfg.boundary_layer, 1.0 / self.control_period_s,
-                           cfg.boundary_layer, self.boundary_layer)
-        self._eta_k = cfg.reaching_gain * self._k[7]
-        self._inv_layer = 1.0 / self.boundary_layer
-        self._idx = tuple(layout.index(n) for n in ("v_x", "e_y", "e_phi", "e_y_dot", "e_phi_dot", "v_y",
-                                                    "yaw_rate", "yaw_rate_ref", "yaw_acc_ref"))
+        pole, eta, delta = rows if rows is not None else (cfg.pole_radps, cfg.reaching_gain, cfg.boundary_layer)
+        pole, eta, delta = (np.asarray(a, dtype=np.float64).reshape(-1) for a in (pole, eta, delta))
+        if not (pole.shape == eta.shape == delta.shape) or np.any(pole <= 0) or np.any(eta <= 0) \
+                or np.any(delta <= 0):
+            raise ValueError("SMC rows: pole, eta, delta must be positive arrays of one shape")
+        layer = smc_layer(eta, delta, self.control_period_s, cfg.limit_layer_rate)
+        self.law = smc_law(design, layout, pole, eta, layer, cfg.min_speed_mps, cfg.guard_band_mps,
+                           cfg.sideslip_shift)
+        self.boundary_layer: float | np.ndarray = layer
+        if rows is None:
+            self.boundary_layer = float(layer[0])
+            if self.boundary_layer != cfg.boundary_layer:
+                logger.warning("SMC: eta/Delta = %.1f 1/s exceeds 1/T_c = %.1f 1/s; boundary layer widened from "
+                               "%.4g to %.4g rad/s (limit_layer_rate rule, paper-math 5.6.3 / OPTION 4)",
+                               cfg.reaching_gain / cfg.boundary_layer, 1.0 / self.control_period_s,
+                               cfg.boundary_layer, self.boundary_layer)
 
     def model_speed(self, v_x: float) -> float:
         """Speed [m/s] the coefficients are evaluated at: clamped to min_speed_mps, then guarded around v*."""
         cfg: SMCConfig = self.config
         v = max(v_x, cfg.min_speed_mps)
-        if math.isnan(self.v_star):
-            return v
         vg = guarded_speed(v, self.v_star, cfg.guard_band_mps)
         if vg != v:
             logger.debug("SMC: speed %.3f m/s within %.2f m/s of v* = %.3f m/s; coefficients at %.3f m/s",
@@ -237,34 +160,17 @@ class SMC(Policy):
     def sliding_variable(self, observation: np.ndarray) -> np.ndarray:
         """sigma [rad/s] for a batch (N, obs_dim) or one observation (diagnostics)."""
         obs = np.atleast_2d(np.asarray(observation, dtype=np.float64))
-        sigma, _ = self._evaluate(obs)
-        return sigma
+        return self._evaluate(obs)[1]
 
     def _evaluate(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        iv, iey, iep, ieyd, iepd, ivy, ir, irr, iar = self._idx
-        cfg: SMCConfig = self.config
-        v = np.maximum(obs[:, iv], cfg.min_speed_mps)
-        if not math.isnan(self.v_star) and cfg.guard_band_mps > 0.0:
-            near = np.abs(v - self.v_star) < cfg.guard_band_mps
-            if near.any():
-                logger.debug("SMC: %d speed(s) within the singular-speed guard band", int(near.sum()))
-                side = np.where(v < self.v_star, -cfg.guard_band_mps, cfg.guard_band_mps)
-                v = np.where(near, self.v_star + side, v)
-        cf = _coefficients(self._k, v, cfg.pole_radps)
-        return _law(self._k, cf, v, cfg.sideslip_shift, obs[:, iey], obs[:, iep], obs[:, ieyd], obs[:, iepd],
-                    obs[:, ivy], obs[:, ir], obs[:, irr], obs[:, iar])
+        """(road-wheel angles [rad], sigma [rad/s]) of every row."""
+        n = obs.shape[0]
+        delta, sigma = np.empty(n), np.empty(n)
+        guarded = smc_rows(self.law, obs, delta, sigma)
+        if guarded:
+            logger.debug("SMC: %d speed(s) within %.2f m/s of v* = %.3f m/s (singular-speed guard)", guarded,
+                         self.config.guard_band_mps, self.v_star)
+        return delta, sigma
 
     def _act_batch(self, obs: np.ndarray, state: np.ndarray | None) -> tuple[np.ndarray, None]:
-        sigma, delta_eq = self._evaluate(obs)
-        sat = np.clip(sigma * self._inv_layer, -1.0, 1.0)
-        return delta_eq - self._eta_k * sat, None
-
-    def _act_single(self, row: list[float], state: list[float] | None) -> tuple[float, None]:
-        iv, iey, iep, ieyd, iepd, ivy, ir, irr, iar = self._idx
-        v = self.model_speed(row[iv])
-        cf = _coefficients(self._k, v, self.config.pole_radps)
-        sigma, delta_eq = _law(self._k, cf, v, self.config.sideslip_shift, row[iey], row[iep], row[ieyd],
-                               row[iepd], row[ivy], row[ir], row[irr], row[iar])
-        z = sigma * self._inv_layer
-        sat = 1.0 if z > 1.0 else (-1.0 if z < -1.0 else z)
-        return delta_eq - self._eta_k * sat, None
+        return self._evaluate(obs)[0], None

@@ -29,9 +29,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, NamedTuple
 
 import numpy as np
+from numba import njit
 
 from vtrack_gym._ranges import documented, ranged, validate
 from vtrack_gym.baselines.base import Policy
@@ -78,33 +79,44 @@ class Stanley(Policy):
         cr, l = design.rear_cornering_stiffness_npr, design.wheelbase_m
         ff = 1.0 if self.config.feedforward else 0.0
         # kappa multipliers: delta_ss = kappa (l + kus v^2); e_phi,ss = -kappa (b0 - b2 v^2)
-        self._k = (a1, ff * l, ff * understeer_gradient(design), ff * a2, ff * m * a1 / (cr * l))
-        L = layout
-        self._idx = (L.index("v_x"), L.index("e_y"), L.index("e_phi"), L.index("yaw_rate"),
-                     L.index("yaw_rate_ref"), L.index("curvature"))
-
-    def _act_single(self, row: list[float], state: None) -> tuple[float, None]:
-        iv, iey, iep, ir, irr, ik = self._idx
-        a1, l, kus, b0, b2 = self._k
         cfg: StanleyConfig = self.config
-        v = max(row[iv], 0.0)
-        kappa = row[ik]
-        ep_rel = row[iep] + kappa * (b0 - b2 * v * v)
-        e_f = row[iey] + a1 * math.sin(ep_rel)
-        delta = (kappa * (l + kus * v * v) - cfg.heading_gain * ep_rel
-                 - math.atan(cfg.gain_k * e_f / (cfg.softening_mps + v))
-                 - cfg.yaw_damping_s * (row[ir] - row[irr]))
-        return delta, None
+        k = np.array((a1, ff * l, ff * understeer_gradient(design), ff * a2, ff * m * a1 / (cr * l)))
+        idx = np.array([layout.index(n) for n in ("v_x", "e_y", "e_phi", "yaw_rate", "yaw_rate_ref", "curvature")])
+        self.law = StanleyLaw(idx, k, float(cfg.gain_k), float(cfg.softening_mps), float(cfg.heading_gain),
+                              float(cfg.yaw_damping_s))
 
     def _act_batch(self, obs: np.ndarray, state: None) -> tuple[np.ndarray, None]:
-        iv, iey, iep, ir, irr, ik = self._idx
-        a1, l, kus, b0, b2 = self._k
-        cfg: StanleyConfig = self.config
-        v = np.maximum(obs[:, iv], 0.0)
-        kappa = obs[:, ik]
-        ep_rel = obs[:, iep] + kappa * (b0 - b2 * v * v)
-        e_f = obs[:, iey] + a1 * np.sin(ep_rel)
-        delta = (kappa * (l + kus * v * v) - cfg.heading_gain * ep_rel
-                 - np.arctan(cfg.gain_k * e_f / (cfg.softening_mps + v))
-                 - cfg.yaw_damping_s * (obs[:, ir] - obs[:, irr]))
+        delta = np.empty(obs.shape[0])
+        stanley_rows(self.law, obs, delta)
         return delta, None
+
+
+class StanleyLaw(NamedTuple):
+    """Parameters of the Stanley law (``stanley_row``)."""
+
+    idx: np.ndarray      # int64 (6,): v_x, e_y, e_phi, yaw_rate, yaw_rate_ref, curvature
+    k: np.ndarray        # (5,): a1 [m], l [m], K_us [rad s^2/m], b0 [m], b2 [s^2/m] (feedforward terms, 0 if off)
+    gain_k: float        # [1/s]
+    softening_mps: float
+    heading_gain: float
+    yaw_damping_s: float
+
+
+@njit(cache=True)
+def stanley_row(law: StanleyLaw, obs: np.ndarray, i: int) -> float:
+    """Road-wheel angle [rad] of observation row ``i``."""
+    idx, k = law.idx, law.k
+    v = max(float(obs[i, idx[0]]), 0.0)
+    kappa = float(obs[i, idx[5]])
+    ep_rel = float(obs[i, idx[2]]) + kappa * (k[3] - k[4] * v * v)
+    e_f = float(obs[i, idx[1]]) + k[0] * math.sin(ep_rel)
+    return (kappa * (k[1] + k[2] * v * v) - law.heading_gain * ep_rel
+            - math.atan(law.gain_k * e_f / (law.softening_mps + v))
+            - law.yaw_damping_s * (float(obs[i, idx[3]]) - float(obs[i, idx[4]])))
+
+
+@njit(cache=True)
+def stanley_rows(law: StanleyLaw, obs: np.ndarray, delta: np.ndarray) -> None:
+    """``stanley_row`` of every row of ``obs`` into ``delta`` [rad]."""
+    for i in range(obs.shape[0]):
+        delta[i] = stanley_row(law, obs, i)

@@ -116,7 +116,7 @@ class BatchSim:
         self._noisy = np.asarray(NOISY_INDICES, dtype=np.intp)
         self.any_noise = False
         self.any_delay = False
-        self._max_steer = config.vehicle.steering.max_road_wheel_angle_rad
+        self.max_steer_rad = config.vehicle.steering.max_road_wheel_angle_rad  # road-wheel angle of action 1 [rad]
         # The attributes above are the arrays of this bundle: modify them in place, never rebind them.
         self.arrays = k.SimArrays(
             states=self.plant.state, inputs=self.inputs, road=self.road, params=self.plant.param_rows,
@@ -215,7 +215,7 @@ class BatchSim:
         """
         self.actions[:] = actions
         cmd = self._delayed(self.actions) if self.any_delay else self.actions
-        self.inputs[:, L.U_DELTA] = cmd * self._max_steer
+        self.inputs[:, L.U_DELTA] = cmd * self.max_steer_rad
         self._run_kernel()
         self.steps += 1
         terminated = self.term != 0
@@ -228,7 +228,7 @@ class BatchSim:
         """Fast path for a single car (n = 1): returns (reward, termination code, truncated)."""
         self.actions[0] = action
         cmd = self._delayed(self.actions)[0] if self.any_delay else action
-        self.inputs[0, L.U_DELTA] = cmd * self._max_steer
+        self.inputs[0, L.U_DELTA] = cmd * self.max_steer_rad
         self._run_kernel()
         steps = int(self.steps[0]) + 1
         self.steps[0] = steps

@@ -25,8 +25,10 @@ Spaces:
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -165,3 +167,20 @@ def budget(controller: str, name: str) -> Budget:
         raise ValueError(f"unknown budget {name!r} for {controller}; valid: "
                          f"{', '.join(b for c, b in BUDGETS if c == controller)}")
     return BUDGETS[key]
+
+
+def configs_from_vector(space: SearchSpace, x: np.ndarray, base_config: Any, base_speed: Any) -> tuple[Any, Any]:
+    """(controller config, PDFLCConfig) of one GA vector ``x`` (fields not in the space from the bases)."""
+    ctrl: dict[str, Any] = {}
+    speed: dict[str, float] = {}
+    weights = list(getattr(base_config, "weights", ()))
+    for p, value in zip(space.params, np.asarray(x, dtype=np.float64).tolist(), strict=True):
+        if p.target == "speed":
+            speed[p.field] = value
+        elif p.index is not None:
+            weights[p.index] = value
+        else:
+            ctrl[p.field] = value
+    if any(p.index is not None for p in space.params):
+        ctrl["weights"] = tuple(weights)
+    return dataclasses.replace(base_config, **ctrl), dataclasses.replace(base_speed, **speed)

@@ -1,0 +1,272 @@
+"""The SMC and MPC control laws, written once: compiled per-row laws used by the policies and the GA kernels.
+
+Each law takes its parameters as one ``NamedTuple`` (``SMCLaw``, ``MPCLaw``, built by ``smc_law`` /
+``mpc_law``) and works on row ``i`` of an observation array (N, obs_dim). A parameter array of R rows serves
+either one controller (R = 1: every observation row uses it) or a population (R = N: row i uses its own
+parameters, as in the GA). ``smc_rows`` / ``mpc_rows`` loop the per-row law over a batch; ``SMC.predict`` and
+``MPC.predict`` call them with N = 1 for a single observation, and ``vtrack_gym.tuning`` calls the per-row laws
+inside its compiled population rollout. The arithmetic is plain IEEE float64 (no fast-math), so all paths give
+the same bits for the same inputs.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, NamedTuple
+
+import numpy as np
+from numba import njit
+
+from vtrack_gym.envs.observation import ObservationLayout
+from vtrack_gym.vehicle.params import DesignModel
+
+SMC_SIGNALS = ("v_x", "e_y", "e_phi", "e_y_dot", "e_phi_dot", "v_y", "yaw_rate", "yaw_rate_ref", "yaw_acc_ref")
+"""Observation entries the SMC law reads (order of ``SMCLaw.idx``)."""
+MPC_SIGNALS = ("v_x", "v_y", "yaw_rate", "e_y", "e_y_dot", "e_phi", "e_phi_dot", "yaw_acc_ref", "road_wheel_angle",
+               "curvature", "curvature_rate")
+"""Observation entries the MPC law reads (order of ``MPCLaw.idx``)."""
+MPC_STATE_SIZE = 9
+"""MPC memory per row: v_y, r, e_y, e_y_dot, e_phi, e_phi_dot at the last sample, u(k-1), d(k-1), hold count."""
+TWO_PI = 2.0 * math.pi
+
+
+# ------------------------------------------------------------------------------------------------------ SMC
+def smc_design_constants(design: DesignModel) -> tuple[float, ...]:
+    """(m a1, a2 C_ar l, C_ar l, lambda, I_z, a1^2 C_af + a2^2 C_ar, h, I_z/(a1 C_af)) of paper-math 5."""
+    m, iz, a1, a2 = design.mass_kg, design.yaw_inertia_kgm2, design.cg_to_front_axle_m, design.cg_to_rear_axle_m
+    cf, cr, l = design.front_cornering_stiffness_npr, design.rear_cornering_stiffness_npr, design.wheelbase_m
+    return (m * a1, a2 * cr * l, cr * l, iz / (m * a1), iz, a1 * a1 * cf + a2 * a2 * cr, a1 * cf - a2 * cr,
+            iz / (a1 * cf))
+
+
+def smc_singular_speed(design: DesignModel) -> float:
+    """v* = sqrt(C_ar l (m a1 a2 - I_z)) / (m a1) [m/s] (10.807 for the paper's car); NaN if m a1 a2 <= I_z."""
+    m, iz, a1, a2 = design.mass_kg, design.yaw_inertia_kgm2, design.cg_to_front_axle_m, design.cg_to_rear_axle_m
+    arg = design.rear_cornering_stiffness_npr * design.wheelbase_m * (m * a1 * a2 - iz)
+    return math.sqrt(arg) / (m * a1) if arg > 0.0 else math.nan
+
+
+def guarded_speed(v: float, v_star: float, band: float = 0.3) -> float:
+    """``v`` [m/s], or ``v* -+ band`` on the side of ``v`` if ``|v - v*| < band`` (paper-math 5.7 guard;
+    a NaN ``v*`` never guards)."""
+    if band > 0.0 and abs(v - v_star) < band:
+        return v_star - band if v < v_star else v_star + band
+    return v
+
+
+def smc_coefficient_values(k: Any, v: float, p: float) -> tuple[float, ...]:
+    """(lam, f3, f4, G, c1, c2, c3, f5, f6) of (25), (29), (39) at speed ``v`` [m/s] for pole ``p`` [rad/s]."""
+    ma1, a2crl, crl, lam, iz, yaw_c, h = k[0], k[1], k[2], k[3], k[4], k[5], k[6]
+    f3 = (a2crl - ma1 * v * v) / (ma1 * v)
+    f4 = -crl / (ma1 * v)
+    g = v + f3 + lam * f4
+    c1 = p * p * p / (v * f4)
+    c2 = (3.0 * p * p + c1 * g + 3.0 * p * f4 + f4 * f4) / (f4 * (v - g))
+    c3 = -3.0 * p - f4 - c2 * g
+    f5 = -yaw_c / (iz * v) - c2 * f3
+    f6 = -h / (iz * v) - c2 * f4
+    return lam, f3, f4, g, c1, c2, c3, f5, f6
+
+
+class SMCLaw(NamedTuple):
+    """Parameters of the SMC law (31) for R parameter rows (R = 1: one controller)."""
+
+    idx: np.ndarray        # int64 (9,): observation indices of SMC_SIGNALS
+    k: np.ndarray          # (8,): smc_design_constants
+    pole: np.ndarray       # (R,): p [rad/s]
+    eta_k: np.ndarray      # (R,): eta I_z/(a1 C_af) [rad]
+    inv_layer: np.ndarray  # (R,): 1/Delta_eff [s/rad]
+    min_speed: float       # speed clamp [m/s]
+    v_star: float          # singular speed [m/s] (NaN: none)
+    guard: float           # guard half-band [m/s]
+    shift: bool            # OPTION 2 sideslip shift
+
+
+def smc_layer(eta: np.ndarray, delta: np.ndarray, control_period_s: float, limit_layer_rate: bool) -> np.ndarray:
+    """Effective boundary layer [rad/s]: ``max(Delta, eta T_c)`` under the limit_layer_rate rule, else Delta."""
+    return np.maximum(delta, eta * control_period_s) if limit_layer_rate else np.asarray(delta, dtype=np.float64)
+
+
+def smc_law(design: DesignModel, layout: ObservationLayout, pole: Any, eta: Any, layer: Any, min_speed_mps: float,
+            guard_band_mps: float, sideslip_shift: bool) -> SMCLaw:
+    """``SMCLaw`` for poles p [rad/s], gains eta [rad/s^2] and effective layers [rad/s] (scalars or (R,) arrays,
+    positive, checked by the caller)."""
+    pole, eta, layer = (np.ascontiguousarray(np.asarray(a, dtype=np.float64).reshape(-1)) for a in (pole, eta, layer))
+    k = np.array(smc_design_constants(design))
+    return SMCLaw(np.array([layout.index(n) for n in SMC_SIGNALS], dtype=np.int64), k, pole, eta * k[7],
+                  1.0 / layer, float(min_speed_mps), float(smc_singular_speed(design)), float(guard_band_mps),
+                  bool(sideslip_shift))
+
+
+def smc_surface_and_law(k: Any, cf: Any, v: float, p_shift: bool, e_y: float, e_phi: float, e_y_dot: float,
+                        e_phi_dot: float, v_y: float, r: float, rate_ref: float, acc_ref: float) -> tuple[float, float]:
+    """``(sigma [rad/s], delta_eq [rad])``: the surface (27) and the law (31) without the switching term."""
+    lam, f3, f4, c1, c2, c3, f5, f6 = cf[0], cf[1], cf[2], cf[4], cf[5], cf[6], cf[7], cf[8]
+    x1 = e_y - lam * e_phi
+    x2 = e_y_dot - lam * e_phi_dot
+    bracket = acc_ref * (1.0 + c2 * lam) - f5 * r - f6 * v_y + c1 * x2 + (c2 * v + c3) * e_phi_dot
+    if p_shift:
+        x3s = f3 * rate_ref / (v * f4)
+        x3s_dot = f3 * acc_ref / (v * f4)
+        sigma = e_phi_dot - c1 * (x1 + lam * x3s) - c2 * x2 - c3 * (e_phi - x3s)
+        bracket = bracket - (c3 - c1 * lam) * x3s_dot
+    else:
+        sigma = e_phi_dot - c1 * x1 - c2 * x2 - c3 * e_phi
+    return sigma, k[7] * bracket
+
+
+_guarded_speed = njit(cache=True)(guarded_speed)
+_smc_coefficients = njit(cache=True)(smc_coefficient_values)
+_smc_surface_and_law = njit(cache=True)(smc_surface_and_law)
+
+
+@njit(cache=True)
+def smc_row(law: SMCLaw, obs: np.ndarray, i: int) -> tuple[float, float, bool]:
+    """SMC on observation row ``i``: (road-wheel angle [rad], sigma [rad/s], speed was guarded)."""
+    r = i if law.pole.shape[0] > 1 else 0
+    idx = law.idx
+    v_clamped = max(float(obs[i, idx[0]]), law.min_speed)
+    v = _guarded_speed(v_clamped, law.v_star, law.guard)
+    cf = _smc_coefficients(law.k, v, law.pole[r])
+    sigma, delta_eq = _smc_surface_and_law(law.k, cf, v, law.shift, float(obs[i, idx[1]]), float(obs[i, idx[2]]),
+                                           float(obs[i, idx[3]]), float(obs[i, idx[4]]), float(obs[i, idx[5]]),
+                                           float(obs[i, idx[6]]), float(obs[i, idx[7]]), float(obs[i, idx[8]]))
+    z = sigma * law.inv_layer[r]
+    sat = 1.0 if z > 1.0 else (-1.0 if z < -1.0 else z)
+    return delta_eq - law.eta_k[r] * sat, sigma, v != v_clamped
+
+
+@njit(cache=True)
+def smc_rows(law: SMCLaw, obs: np.ndarray, delta: np.ndarray, sigma: np.ndarray) -> int:
+    """``smc_row`` for every row of ``obs`` into ``delta`` [rad] and ``sigma`` [rad/s]; returns the number of
+    rows whose speed was guarded."""
+    guarded = 0
+    for i in range(obs.shape[0]):
+        delta[i], sigma[i], g = smc_row(law, obs, i)
+        guarded += g
+    return guarded
+
+
+# ---------------------------------------------------------------------------------------- gain schedules
+@njit(cache=True)
+def schedule_dot(speeds: np.ndarray, table: np.ndarray, slopes: np.ndarray, v: float, z: np.ndarray) -> float:
+    """``row(v) . z`` of a gain schedule: rows ``table`` (S, W) on ``speeds`` (S,) [m/s], ``slopes`` (S - 1, W)
+    their differences; the speed is clamped to the grid and each entry interpolated linearly."""
+    s_last = speeds.shape[0] - 2
+    vc = min(max(v, speeds[0]), speeds[s_last + 1])
+    s = np.searchsorted(speeds, vc, side="right") - 1
+    s = 0 if s < 0 else (s_last if s > s_last else s)
+    t = (vc - speeds[s]) / (speeds[s + 1] - speeds[s])
+    acc = 0.0
+    for c in range(table.shape[1]):
+        acc += (table[s, c] + t * slopes[s, c]) * z[c]
+    return acc
+
+
+# ------------------------------------------------------------------------------------------------------ MPC
+class MPCLaw(NamedTuple):
+    """Parameters of the speed-scheduled MPC law for R gain tables (R = 1: one controller)."""
+
+    idx: np.ndarray     # int64 (11,): observation indices of MPC_SIGNALS
+    pv0: int            # first preview entry of the observation
+    pv1: int            # one past the last preview entry
+    pv_vmin: float      # preview spacing speed floor [m/s]
+    pv_dt: float        # preview spacing [s]
+    preview: bool       # use the curvature preview for d
+    n_out: int          # measured outputs (2: e_y, e_phi; 1: e_y)
+    ts: float           # MPC sample time [s]
+    n_hold: float       # env steps per MPC sample
+    max_du: float       # |Delta u| limit per sample [rad] (inf: none)
+    max_steer: float    # |u| limit [rad]
+    speeds: np.ndarray  # (S,) gain-schedule grid [m/s]
+    tables: np.ndarray  # (R, S, W) run-time gain rows
+    slopes: np.ndarray  # (R, S - 1, W) differences of consecutive rows
+
+
+def mpc_law(layout: ObservationLayout, speeds: np.ndarray, tables: np.ndarray, *, preview: bool, n_out: int,
+            sample_time_s: float, n_hold: int, max_du: float, max_steer: float) -> MPCLaw:
+    """``MPCLaw`` for run-time gain tables (S, W) or (R, S, W) on ``speeds`` (S,) [m/s]."""
+    speeds = np.ascontiguousarray(speeds, dtype=np.float64)
+    tables = np.ascontiguousarray(np.asarray(tables, dtype=np.float64).reshape(-1, *np.shape(tables)[-2:]))
+    return MPCLaw(np.array([layout.index(n) for n in MPC_SIGNALS], dtype=np.int64), layout.preview.start,
+                  layout.preview.stop, float(layout.preview_min_speed_mps), float(layout.preview_dt_s), bool(preview),
+                  int(n_out), float(sample_time_s), float(n_hold), float(max_du), float(max_steer), speeds, tables,
+                  np.ascontiguousarray(np.diff(tables, axis=1)))
+
+
+@njit(cache=True)
+def mpc_disturbance(law: MPCLaw, obs: np.ndarray, i: int) -> float:
+    """d(k) [rad/s^2] of row ``i``: yaw_acc_ref, with preview its average over the first preview interval."""
+    idx = law.idx
+    if not law.preview:
+        return float(obs[i, idx[7]])
+    v = max(float(obs[i, idx[0]]), 0.0)
+    x1 = max(v, law.pv_vmin) * law.pv_dt
+    return float(obs[i, idx[7]]) + v * v * ((float(obs[i, law.pv0]) - float(obs[i, idx[9]])) / x1
+                                             - float(obs[i, idx[10]]))
+
+
+@njit(cache=True)
+def mpc_initial_rows(law: MPCLaw, obs: np.ndarray, state: np.ndarray) -> None:
+    """Initial memory of every row into ``state`` (N, 9): x_m(k-1) = x_m(k), u(k-1) = the observed road-wheel
+    angle (clipped), d(k-1) = d(k), next call samples."""
+    idx = law.idx
+    for i in range(obs.shape[0]):
+        for j in range(6):
+            state[i, j] = obs[i, idx[1 + j]]
+        state[i, 6] = min(max(float(obs[i, idx[8]]), -law.max_steer), law.max_steer)
+        state[i, 7] = mpc_disturbance(law, obs, i)
+        state[i, 8] = 0.0
+
+
+@njit(cache=True)
+def mpc_row(law: MPCLaw, obs: np.ndarray, i: int, st: np.ndarray, z: np.ndarray) -> float:
+    """MPC on observation row ``i`` with memory ``st`` (9,), updated in place; ``z`` (W,) scratch. Returns the
+    road-wheel angle u(k) [rad] (held between samples)."""
+    if st[8] >= 0.5:
+        st[8] -= 1.0
+        return st[6]
+    idx = law.idx
+    r = i if law.tables.shape[0] > 1 else 0
+    half = 0.5 * law.ts
+    width = law.tables.shape[2]
+    vy, yr, ey, eyd, ep, epd = float(obs[i, idx[1]]), float(obs[i, idx[2]]), float(obs[i, idx[3]]), \
+        float(obs[i, idx[4]]), float(obs[i, idx[5]]), float(obs[i, idx[6]])
+    v_x = float(obs[i, idx[0]])
+    d0 = mpc_disturbance(law, obs, i)
+    z[0] = half * (vy + st[0])
+    z[1] = vy - st[0]
+    z[2] = half * (yr + st[1])
+    z[3] = yr - st[1]
+    z[4] = ey - st[2]
+    z[5] = eyd - st[3]
+    z[6] = (ep - st[4] + math.pi) % TWO_PI - math.pi
+    z[7] = epd - st[5]
+    z[8] = ey
+    j = 9
+    if law.n_out == 2:
+        z[9] = ep
+        j = 10
+    z[j] = d0 - st[7]
+    z[j + 1] = float(obs[i, idx[9]])
+    for q in range(law.pv1 - law.pv0):
+        z[j + 2 + q] = float(obs[i, law.pv0 + q])
+    z[width - 1] = float(obs[i, idx[10]])
+    acc = schedule_dot(law.speeds, law.tables[r], law.slopes[r], v_x, z)
+    du = -acc
+    du = law.max_du if du > law.max_du else (-law.max_du if du < -law.max_du else du)
+    u = st[6] + du
+    u = law.max_steer if u > law.max_steer else (-law.max_steer if u < -law.max_steer else u)
+    st[0], st[1], st[2], st[3], st[4], st[5] = vy, yr, ey, eyd, ep, epd
+    st[6] = u
+    st[7] = d0
+    st[8] = law.n_hold - 1.0
+    return u
+
+
+@njit(cache=True)
+def mpc_rows(law: MPCLaw, obs: np.ndarray, state: np.ndarray, delta: np.ndarray) -> None:
+    """``mpc_row`` for every row of ``obs`` (memory ``state`` (N, 9) updated in place) into ``delta`` [rad]."""
+    z = np.empty(law.tables.shape[2])
+    for i in range(obs.shape[0]):
+        delta[i] = mpc_row(law, obs, i, state[i], z)

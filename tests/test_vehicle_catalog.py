@@ -110,7 +110,7 @@ def test_files_by_path_regular_and_capped(tmp_path: Path) -> None:
     own.write_text(json.dumps(doc))
     assert load_vehicle(own).name == "My van"
     assert load_vehicle(str(own)).chassis == load_vehicle("suv").chassis
-    with pytest.raises(VehicleFileError, match="unknown vehicle 'truck'.*hatchback"):
+    with pytest.raises(VehicleFileError, match=r"unknown vehicle 'truck'.*hatchback"):
         load_vehicle("truck")
     with pytest.raises(VehicleFileError, match="cannot open"):
         load_vehicle(tmp_path / "missing.json")

@@ -196,7 +196,7 @@ class VehicleParams:
                              f"(got {self.roll.roll_centre_height_m} >= {self.chassis.cg_height_m})")
         c = self.chassis
         m_s = c.mass_kg - self.roll.unsprung_mass_kg
-        for axle, (m_axle, m_u_axle) in zip(("front", "rear"), self.axle_masses_kg()):
+        for axle, (m_axle, m_u_axle) in zip(("front", "rear"), self.axle_masses_kg(), strict=True):
             if m_u_axle >= m_axle:
                 raise ValueError(f"the {axle} axle's unsprung mass (RollParams.unsprung_mass_kg x share = "
                                  f"{m_u_axle:.1f} kg) must be < its static mass {m_axle:.1f} kg")

@@ -1,8 +1,9 @@
-"""Vehicle parameters and the batched plant (linear design model and nonlinear plant).
+"""Vehicle parameters, the shipped cars as data (``load_vehicle``/``list_vehicles``) and the batched plant.
 
 ``Plant`` and the numba kernels are imported lazily; importing this package only loads dataclasses.
 """
 
+from vtrack_gym.vehicle.catalog import VehicleFileError, list_vehicles, load_vehicle, resolve_vehicle
 from vtrack_gym.vehicle.params import (
     GRAVITY_MPS2,
     BrakeParams,
@@ -28,8 +29,12 @@ __all__ = [
     "RollParams",
     "SteeringParams",
     "TyreParams",
+    "VehicleFileError",
     "VehicleParams",
+    "list_vehicles",
+    "load_vehicle",
     "paper_vehicle",
+    "resolve_vehicle",
 ]
 
 

@@ -12,10 +12,12 @@ Models (selected per vehicle by an integer id, see ``layout.MODEL_IDS``):
     ``g(F_z) = F_z (1 - eps (F_z/F_z0 - 1))``, so that each wheel's slope at the static load F_z0 equals the
     paper's C_af/2, C_ar/2 and both the cornering stiffness and the peak force grow less than linearly with
     load (which is what makes load transfer matter), times a friction ellipse against the longitudinal
-    force; longitudinal load transfer
-    ``m a_x h / l`` and lateral load transfer from
-    the roll spring/damper moment (front share) plus the roll-centre part ``m a_y h_rc / t``; a roll degree
-    of freedom of the sprung mass about the roll axis; steering actuator (first-order lag with rate limit);
+    force; longitudinal load transfer ``m a_x h / l`` with the whole car's CG height h, and lateral load
+    transfer per axle from the roll spring/damper moment (front share), the sprung mass that axle carries at
+    the roll centre ``m_s,axle a_y h_rc / t`` and the axle's unsprung mass at the wheel centres
+    ``m_u,axle a_y h_u / t``; at steady state the total is the rigid-body ``m a_y h / t`` plus the lateral shift
+    of the rolled sprung mass ``m_s g h_s sin(phi) / t``. A roll degree of freedom of the sprung mass about the
+    roll axis; steering actuator (first-order lag with rate limit);
     front-wheel drive limited by power and traction; brakes split front/rear; aerodynamic drag; rolling
     resistance; road grade and road vertical acceleration; blend to the kinematic single-track model
     between ``v_blend_lo`` and ``v_blend_hi`` so standstill is regular. No wheel-spin degree of freedom:
@@ -113,8 +115,8 @@ def _derivatives(x: np.ndarray, cmd: float, throttle: float, pedal: float, cos_g
     else:
         m_roll = p[L.P_KROLL] * roll + p[L.P_CROLL] * roll_rate
         share = p[L.P_ROLL_SHARE_F]
-        d_f = (share * m_roll + m * ay_lag * (a2 / wb) * p[L.P_HRC]) / tw
-        d_r = ((1.0 - share) * m_roll + m * ay_lag * (a1 / wb) * p[L.P_HRC]) / tw
+        d_f = (share * m_roll + ay_lag * p[L.P_LT_DIRECT_F]) / tw
+        d_r = ((1.0 - share) * m_roll + ay_lag * p[L.P_LT_DIRECT_R]) / tw
     fz_fl = 0.5 * fzf_axle - d_f
     fz_fr = 0.5 * fzf_axle + d_f
     fz_rl = 0.5 * fzr_axle - d_r

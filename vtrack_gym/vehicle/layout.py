@@ -49,17 +49,19 @@ MODEL_NONLINEAR = 0
 MODEL_LINEAR = 1
 MODEL_IDS: dict[str, int] = {"nonlinear": MODEL_NONLINEAR, "linear": MODEL_LINEAR}
 
-# Packed parameter vector (derived quantities the kernel needs, one row per vehicle).
+# Packed parameter vector (derived quantities the kernel needs, one row per vehicle). ``h_cg`` is the whole car's
+# CG height; ``h_s`` the sprung CG above the roll axis; ``lt_direct_f/r`` [kg m] the lateral load-transfer moment
+# per unit a_y that bypasses the roll springs on each axle: m_s,axle h_rc + m_u,axle h_u.
 PARAM_NAMES: tuple[str, ...] = (
     "m", "iz", "a1", "a2", "l", "h_cg", "track", "m_s", "h_s", "h_rc", "i_roll", "k_roll", "c_roll",
     "roll_share_f", "c_f", "c_r", "mu", "b0_f", "b0_r", "shape_c_f", "shape_c_r", "peak_d_f", "peak_d_r",
     "load_sens", "f_roll", "delta_max", "delta_rate_max", "tau_steer", "p_max", "f_drive_max",
     "drive_share_f", "drag_k", "brake_gain", "pedal_max", "brake_share_f", "v_blend_lo", "v_blend_hi",
-    "tau_kin", "tau_lt",
+    "tau_kin", "tau_lt", "lt_direct_f", "lt_direct_r",
 )
 (P_M, P_IZ, P_A1, P_A2, P_L, P_HCG, P_TRACK, P_MS, P_HS, P_HRC, P_IROLL, P_KROLL, P_CROLL,
  P_ROLL_SHARE_F, P_CF, P_CR, P_MU, P_B0F, P_B0R, P_SHAPE_CF, P_SHAPE_CR, P_PEAK_DF, P_PEAK_DR,
  P_LOAD_SENS, P_FROLL, P_DELTA_MAX, P_DELTA_RATE, P_TAU_STEER, P_PMAX, P_FDRIVE_MAX,
  P_DRIVE_SHARE_F, P_DRAG_K, P_BRAKE_GAIN, P_PEDAL_MAX, P_BRAKE_SHARE_F, P_VBLEND_LO, P_VBLEND_HI,
- P_TAU_KIN, P_TAU_LT) = range(len(PARAM_NAMES))
+ P_TAU_KIN, P_TAU_LT, P_LT_DIRECT_F, P_LT_DIRECT_R) = range(len(PARAM_NAMES))
 N_PARAM = len(PARAM_NAMES)

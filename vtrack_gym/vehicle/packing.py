@@ -31,9 +31,9 @@ def pack_params(params: VehicleParams) -> np.ndarray:
     row[L.P_A1] = c.cg_to_front_axle_m
     row[L.P_A2] = c.cg_to_rear_axle_m
     row[L.P_L] = c.wheelbase_m
-    row[L.P_HCG] = c.cg_height_m
+    row[L.P_HCG] = params.total_cg_height_m
     row[L.P_TRACK] = c.track_width_m
-    row[L.P_MS] = c.mass_kg - r.unsprung_mass_kg
+    row[L.P_MS] = params.sprung_mass_kg
     row[L.P_HS] = c.cg_height_m - r.roll_centre_height_m
     row[L.P_HRC] = r.roll_centre_height_m
     row[L.P_IROLL] = r.roll_inertia_kgm2
@@ -65,6 +65,11 @@ def pack_params(params: VehicleParams) -> np.ndarray:
     row[L.P_VBLEND_HI] = lo.blend_end_mps
     row[L.P_TAU_KIN] = lo.relaxation_time_s
     row[L.P_TAU_LT] = lo.load_transfer_lag_s
+    # Sprung mass carried by each axle (the whole car's static split minus that axle's two unsprung corners), at
+    # the roll-centre height; the axle's unsprung mass at the wheel-centre height.
+    (m_f, m_uf), (m_r, m_ur) = params.axle_masses_kg()
+    row[L.P_LT_DIRECT_F] = (m_f - m_uf) * r.roll_centre_height_m + m_uf * r.unsprung_cg_height_m
+    row[L.P_LT_DIRECT_R] = (m_r - m_ur) * r.roll_centre_height_m + m_ur * r.unsprung_cg_height_m
     return row
 
 

@@ -1,5 +1,11 @@
 """Vehicle parameters as frozen, validated dataclasses (SI units throughout).
 
+Mass model: the sprung mass ``m_s = mass_kg - unsprung_mass_kg`` has its CG at ``cg_height_m`` (CarSim states the
+sprung mass's CG; so does the paper's data set), the unsprung mass sits at the wheel centres
+(``unsprung_cg_height_m``, split front/rear by ``front_unsprung_share``). The whole car's CG height
+(:attr:`VehicleParams.total_cg_height_m`) is their mass-weighted mean; lateral and longitudinal load transfer both
+use it (see ``kernels.py``), so the total load transfer equals the rigid-body value ``m a h``.
+
 The default car is the paper's CarSim "C-Class, Hatchback". Values from the paper's Nomenclature are marked
 ``paper``; values from the public reproduction of the same CarSim data set (ETH IDSC ``car_model``,
 ``bare/ctype_hatchback.m``) are marked ``IDSC``; everything else is our own modelling choice and is marked
@@ -27,10 +33,13 @@ class ChassisParams:
     """Rigid-body data of the whole car."""
 
     mass_kg: float = ranged(1413.0, gt=0.0, unit="kg")  # paper (IDSC: 1412 = 1270 sprung + 4 x 35.5 unsprung)
-    yaw_inertia_kgm2: float = ranged(1536.7, gt=0.0, unit="kg m^2")  # paper, I_z
+    # paper, I_z. This is CarSim's SPRUNG-mass I_zz; the paper (and so the design model and our plant) uses it as
+    # the whole car's yaw inertia. The four unsprung corners would add ~430 kg m^2 (not modelled, CHOICE).
+    yaw_inertia_kgm2: float = ranged(1536.7, gt=0.0, unit="kg m^2")
     cg_to_front_axle_m: float = ranged(1.015, gt=0.0, unit="m")  # paper, a1
     cg_to_rear_axle_m: float = ranged(1.895, gt=0.0, unit="m")  # paper, a2
-    cg_height_m: float = ranged(0.54, gt=0.0, unit="m")  # IDSC
+    # IDSC: CG height of the SPRUNG mass above ground (whole car: VehicleParams.total_cg_height_m)
+    cg_height_m: float = ranged(0.54, gt=0.0, unit="m")
     track_width_m: float = ranged(1.675, gt=0.0, unit="m")  # IDSC (front = rear)
     body_width_m: float = ranged(1.916, gt=0.0, unit="m")  # IDSC
     body_length_m: float = ranged(4.75, gt=0.0, unit="m")  # IDSC
@@ -79,6 +88,11 @@ class RollParams:
     """Roll degree of freedom of the sprung mass (all CHOICE: the paper and CarSim data give none)."""
 
     unsprung_mass_kg: float = ranged(142.0, ge=0.0, unit="kg")  # IDSC: 4 x 35.5 kg
+    # CHOICE: the unsprung mass acts at the wheel centres, height = loaded tyre radius (IDSC rolling radius 0.325 m)
+    unsprung_cg_height_m: float = ranged(0.325, gt=0.0, unit="m")
+    # CHOICE: front axle's share of the unsprung mass; a FWD car's front corners (drive shafts, larger brakes,
+    # strut) are heavier than a twist-beam rear's: ~ the static front axle load share a2 / l = 0.651
+    front_unsprung_share: float = ranged(0.65, ge=0.0, le=1.0)
     # CHOICE: C-segment sprung-mass roll inertia 400-500 kg m^2
     roll_inertia_kgm2: float = ranged(450.0, gt=0.0, unit="kg m^2")
     roll_stiffness_nmpr: float = ranged(75000.0, gt=0.0, unit="N m/rad")  # CHOICE: total (front + rear) 60-90 kN m/rad
@@ -180,11 +194,34 @@ class VehicleParams:
         if self.roll.roll_centre_height_m >= self.chassis.cg_height_m:
             raise ValueError("RollParams.roll_centre_height_m must be < ChassisParams.cg_height_m "
                              f"(got {self.roll.roll_centre_height_m} >= {self.chassis.cg_height_m})")
-        m_s = self.chassis.mass_kg - self.roll.unsprung_mass_kg
-        h_s = self.chassis.cg_height_m - self.roll.roll_centre_height_m
+        c = self.chassis
+        m_s = c.mass_kg - self.roll.unsprung_mass_kg
+        for axle, (m_axle, m_u_axle) in zip(("front", "rear"), self.axle_masses_kg(), strict=True):
+            if m_u_axle >= m_axle:
+                raise ValueError(f"the {axle} axle's unsprung mass (RollParams.unsprung_mass_kg x share = "
+                                 f"{m_u_axle:.1f} kg) must be < its static mass {m_axle:.1f} kg")
+        h_s = c.cg_height_m - self.roll.roll_centre_height_m
         if self.roll.roll_stiffness_nmpr <= m_s * GRAVITY_MPS2 * h_s:
             raise ValueError("RollParams.roll_stiffness_nmpr must exceed m_s g h_s = "
                              f"{m_s * GRAVITY_MPS2 * h_s:.0f} N m/rad (else the body rolls over statically)")
+
+    @property
+    def sprung_mass_kg(self) -> float:
+        """m_s = m - m_u [kg]."""
+        return self.chassis.mass_kg - self.roll.unsprung_mass_kg
+
+    def axle_masses_kg(self) -> tuple[tuple[float, float], tuple[float, float]]:
+        """((front static mass, front unsprung mass), (rear ..., rear ...)) [kg]; static mass = m a2 / l, m a1 / l."""
+        c, r = self.chassis, self.roll
+        m_uf = r.unsprung_mass_kg * r.front_unsprung_share
+        return ((c.mass_kg * c.cg_to_rear_axle_m / c.wheelbase_m, m_uf),
+                (c.mass_kg * c.cg_to_front_axle_m / c.wheelbase_m, r.unsprung_mass_kg - m_uf))
+
+    @property
+    def total_cg_height_m(self) -> float:
+        """Whole-car CG height h = (m_s h_s,cg + m_u h_u) / m [m] (the rigid-body load-transfer height)."""
+        c, r = self.chassis, self.roll
+        return (self.sprung_mass_kg * c.cg_height_m + r.unsprung_mass_kg * r.unsprung_cg_height_m) / c.mass_kg
 
     def with_mass_scale(self, scale: float) -> VehicleParams:
         """Return a copy with mass and yaw/roll inertias multiplied by ``scale`` (0.5..2)."""

@@ -220,7 +220,7 @@ def train(algo: str, env_id: str = DEFAULT_ENV_ID, timesteps: int = 1_000_000, s
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
     from vtrack_gym._version import __version__
-    from vtrack_gym.agents.export import export
+    from vtrack_gym.agents.export import export, sign_run
     from vtrack_gym.agents.sb3_vec_env import TrackingSB3VecEnv
 
     if not isinstance(timesteps, int) or timesteps < 1:
@@ -298,6 +298,7 @@ def train(algo: str, env_id: str = DEFAULT_ENV_ID, timesteps: int = 1_000_000, s
     vecnorm.training = False
     model.save(run_dir / "model.zip")
     vecnorm.save(str(run_dir / "vecnormalize.pkl"))
+    sign_run(run_dir)  # lets `vtrack export --run-dir` unpickle this run's files without --trust
     agent_json, _ = export(model, vecnorm, run_dir / "agent", env_id=env_id, command=command, seed=seed,
                            warm_start=warm_start)
     final = None

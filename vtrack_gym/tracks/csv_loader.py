@@ -24,6 +24,7 @@ from pathlib import Path as FsPath
 
 import numpy as np
 
+from vtrack_gym._io import read_regular_file
 from vtrack_gym.tracks.fitting import check_points
 from vtrack_gym.tracks.geometry import TooDenseError, segment_intersections
 from vtrack_gym.tracks.path import DEFAULT_DS_M, MAX_HALF_WIDTH_M, MAX_V_REF_MPS, Path
@@ -107,9 +108,9 @@ def read_track_columns(fs_path: FsPath) -> tuple[dict[str, np.ndarray], list[int
     if size > MAX_FILE_BYTES:
         raise ValueError(f"{fs_path}: the file is {size / 2**20:.1f} MiB; at most {MAX_FILE_BYTES // 2**20} MiB is "
                          "accepted (thin the points, e.g. keep every k-th line)")
-    try:
-        text = fs_path.read_text(encoding="utf-8-sig")
-    except (OSError, UnicodeDecodeError) as exc:
+    try:  # regular files only, never more than MAX_FILE_BYTES even if the file grows meanwhile
+        text = read_regular_file(fs_path, MAX_FILE_BYTES, "track file").decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
         raise ValueError(f"{fs_path}: cannot read the track file ({exc})") from exc
     order: list[str] | None = None
     header_line = 0

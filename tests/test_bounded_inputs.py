@@ -1,0 +1,423 @@
+"""Issue 20: outputs never clobber non-regular files, loaders are bounded, crafted files give the loader's
+ValueError, numeric CLI options are range-checked before any work, and SB3 pickles need trust."""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import stat
+import subprocess
+import sys
+import textwrap
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from vtrack_gym._io import check_output_dir, check_output_file, read_regular_file, write_atomic
+from vtrack_gym.baselines.numpy_policy import load_agent, save_agent
+from vtrack_gym.baselines.preset_files import PresetError, load_preset
+from vtrack_gym.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+SETTINGS = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+
+
+# ---------------------------------------------------------------- class 1: output paths
+
+def _special(tmp: Path, kind: str) -> Path:
+    """A path of the given kind: a directory, a FIFO, a device (/dev/null), a symlink to one of them, ..."""
+    if kind == "dir":
+        (tmp / "d").mkdir(exist_ok=True)
+        return tmp / "d"
+    if kind == "fifo":
+        p = tmp / "fifo"
+        if not p.exists():
+            os.mkfifo(p)
+        return p
+    if kind == "device":
+        return Path("/dev/null")
+    if kind == "under_file":
+        (tmp / "plain").write_text("x")
+        return tmp / "plain" / "out.json"
+    link = tmp / f"link_{kind}"
+    if not link.is_symlink():
+        link.symlink_to(_special(tmp, kind.removeprefix("link_")))
+    return link
+
+
+BAD_OUTPUTS = ["dir", "fifo", "device", "under_file", "link_fifo", "link_device", "link_dir"]
+
+
+@given(kind=st.sampled_from(BAD_OUTPUTS), data=st.binary(max_size=64))
+@SETTINGS
+def test_write_atomic_never_replaces_a_non_regular_file(tmp_path, kind, data):
+    target = _special(tmp_path, kind)
+    before = os.stat("/dev/null")
+    with pytest.raises(ValueError, match="--out"):
+        write_atomic(target, data, "--out")
+    after = os.stat("/dev/null")
+    assert stat.S_ISCHR(after.st_mode) and after.st_rdev == before.st_rdev
+    if kind in ("fifo", "link_fifo"):
+        assert stat.S_ISFIFO(os.stat(tmp_path / "fifo").st_mode)
+    assert not list(tmp_path.rglob("*.tmp"))
+
+
+@given(data=st.binary(max_size=256), existing=st.booleans(), via_link=st.booleans())
+@SETTINGS
+def test_write_atomic_regular_targets(tmp_path, data, existing, via_link):
+    real = tmp_path / "sub" / "out.bin"
+    if existing:
+        real.parent.mkdir(exist_ok=True)
+        real.write_bytes(b"old")
+    target = real
+    if via_link:
+        real.parent.mkdir(exist_ok=True)
+        target = tmp_path / "link.bin"
+        if not target.is_symlink():
+            target.symlink_to(real)
+    write_atomic(target, data)
+    assert real.read_bytes() == data and stat.S_ISREG(os.lstat(real).st_mode)
+    assert not via_link or target.is_symlink()  # the link is followed, not replaced
+    assert [p.name for p in real.parent.iterdir() if p.name.endswith(".tmp")] == []
+
+
+def test_output_dir_checks(tmp_path):
+    assert check_output_dir(tmp_path / "a" / "b").is_dir()
+    (tmp_path / "f").write_text("x")
+    for bad in (tmp_path / "f", tmp_path / "f" / "sub", Path("/dev/null")):
+        with pytest.raises(ValueError, match="--figures"):
+            check_output_dir(bad, "--figures")
+
+
+def test_read_only_folder_is_refused(tmp_path):
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o555)
+    try:
+        if os.access(ro, os.W_OK) and os.geteuid() == 0:
+            pytest.skip("running as root: permission bits do not stop root (chattr needs CAP_LINUX_IMMUTABLE)")
+        with pytest.raises(ValueError, match="cannot create files"):
+            check_output_file(ro / "x.json", "--out")
+    finally:
+        ro.chmod(0o755)
+
+
+@pytest.mark.parametrize("kind", ["dir", "fifo", "device", "under_file"])
+def test_cli_outputs_are_checked_before_any_work(tmp_path, capsys, kind):
+    bad = str(_special(tmp_path, kind))
+    store = str(tmp_path / "s.sqlite")
+    cases = [
+        ["tune", "--controller", "smc", "--budget", "quick", "--out", bad],
+        ["tune", "--controller", "smc", "--budget", "quick", "--out", str(tmp_path / "ok.json"), "--store", bad],
+        ["eval", "--policy", "lqr", "--env", "DLC120-v0", "--store", bad],
+        ["benchmark", "--store", bad, "--no-figures"],
+        ["export", "--trust", "--model", str(tmp_path / "m.zip"), "--algo", "ppo", "--out",
+         bad.removesuffix(".json") if kind == "under_file" else str(_special(tmp_path, "dir") / "x")],
+    ]
+    if kind != "dir":  # folder outputs: a FIFO, a device or a path under a file
+        cases += [["plot", "--out", bad], ["reproduce", "--out", bad],
+                  ["benchmark", "--store", store, "--figures", bad]]
+    for argv in cases:
+        if argv[0] == "export" and kind != "dir":
+            continue
+        if argv[0] == "export":  # a directory where <out>.json goes
+            (Path(argv[-1] + ".json")).mkdir(exist_ok=True)
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert "error:" in err and "Traceback" not in err, (argv, err)
+    assert stat.S_ISCHR(os.stat("/dev/null").st_mode)
+    assert not (tmp_path / "ok.json").exists() and not (tmp_path / "s.sqlite").exists()
+
+
+def test_leaderboard_out_refuses_non_regular_before_reading(tmp_path, capsys):
+    os.mkfifo(tmp_path / "fifo")
+    for bad in (tmp_path, tmp_path / "fifo", Path("/dev/null")):
+        assert main(["leaderboard", "--store", str(tmp_path / "none.sqlite"), "--out", str(bad)]) == 2
+        assert "--out" in capsys.readouterr().err
+    assert stat.S_ISFIFO(os.stat(tmp_path / "fifo").st_mode)
+
+
+# ---------------------------------------------------------------- class 4: CLI numeric options
+
+@pytest.mark.parametrize("argv, option", [
+    (["tune", "--controller", "smc", "--generations", "0"], "--generations"),
+    (["tune", "--controller", "smc", "--pop-size", "1"], "--pop-size"),
+    (["tune", "--controller", "smc", "--max-steps", "-5"], "--max-steps"),
+    (["tune", "--controller", "smc", "--seed", str(2**63)], "--seed"),
+    (["tune", "--controller", "smc", "--seed", "9" * 5000], "--seed"),
+    (["tune", "--controller", "smc", "--comfort-weight", "nan"], "--comfort-weight"),
+    (["tune", "--controller", "smc", "--comfort-weight", "1e309"], "--comfort-weight"),
+    (["tune", "--controller", "smc", "--backend", "ray", "--workers", "0"], "--workers"),
+    (["train", "--algo", "ppo", "--run-dir", "x", "--timesteps", "-1"], "--timesteps"),
+    (["train", "--algo", "ppo", "--run-dir", "x", "--num-envs", "10" * 40], "--num-envs"),
+    (["train", "--algo", "ppo", "--run-dir", "x", "--seed", "-1"], "--seed"),
+])
+def test_numeric_options_name_the_option_and_range(argv, option, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert option in err and "must be" in err and "Traceback" not in err
+
+
+@given(seed=st.one_of(st.integers(min_value=2**63, max_value=2**400), st.integers(max_value=-1)))
+@settings(max_examples=30, deadline=None)
+def test_huge_or_negative_seeds_refused_before_any_work(seed):
+    import contextlib
+
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        code = main(["eval", "--policy", "lqr", "--env", "DLC120-v0", "--seeds", str(seed), "--store",
+                     "/nonexistent-dir-vtrack/s.sqlite"])
+    assert code == 2 and "--seeds" in err.getvalue()
+
+
+def test_generations_zero_is_not_the_default():
+    from vtrack_gym.tuning.job import tune_to_preset
+
+    for kwargs in ({"generations": 0}, {"pop_size": 0}, {"max_steps": -5}, {"seed": 2**63}):
+        with pytest.raises(ValueError):
+            tune_to_preset("smc", "paper", "quick", out=Path("/nonexistent-dir-vtrack/x.json"), progress=False,
+                           **kwargs)
+
+
+def test_mpc_config_range_bounds_build_in_seconds():
+    from vtrack_gym.baselines.mpc import MPCConfig
+
+    for field, value in (("prediction_horizon", 400), ("n_speeds", 400)):
+        with pytest.raises(ValueError, match=field):
+            MPCConfig(**{field: value})
+
+
+# ---------------------------------------------------------------- class 2 and 3: loaders
+
+def _tiny_agent(tmp_path: Path) -> Path:
+    spec = {"format": "vtrack_gym.agent", "format_version": 1, "algo": "ppo", "obs_dim": 3, "action_dim": 1,
+            "hidden_sizes": [4], "activation": "tanh", "output": "clip", "obs_norm": {"enabled": False, "eps": 1e-8},
+            "provenance": {"env_id": "", "command": "", "timesteps": 0, "seed": 0, "package_version": "0",
+                           "sb3_version": "0"}}
+    rng = np.random.default_rng(0)
+    arrays = {"w0": rng.normal(size=(3, 4)).astype(np.float32), "b0": np.zeros(4, np.float32),
+              "w1": rng.normal(size=(4, 1)).astype(np.float32), "b1": np.zeros(1, np.float32),
+              "action_low": -np.ones(1, np.float32), "action_high": np.ones(1, np.float32)}
+    save_agent(tmp_path / "agent", spec, arrays)
+    return tmp_path / "agent"
+
+
+def _npy_header(shape: tuple[int, ...], dtype: str = "<f4") -> bytes:
+    buf = io.BytesIO()
+    np.lib.format.write_array_header_1_0(buf, {"descr": dtype, "fortran_order": False, "shape": shape})
+    return buf.getvalue()
+
+
+def _crafted_npz(path: Path, member: str, payload: bytes, compress: int = zipfile.ZIP_STORED) -> None:
+    with zipfile.ZipFile(io.BytesIO(path.read_bytes())) as src:
+        members = {i.filename: src.read(i) for i in src.infolist()}
+    members[member] = payload
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as zf:
+        for name, data in members.items():
+            zf.writestr(name, data, compress_type=compress if name == member else zipfile.ZIP_STORED)
+    path.write_bytes(buf.getvalue())
+
+
+CRAFTED_NPZ = {
+    "not_npy": b"hello, not an npy file at all",
+    "huge_header": _npy_header((1 << 40, 1 << 2)),
+    "wrong_dtype_object": _npy_header((3, 4), "|O"),
+    "truncated": _npy_header((3, 4)) + b"\x00" * 7,
+    "big_endian": _npy_header((3, 4), ">f4") + b"\x00" * 48,
+}
+
+
+@pytest.mark.parametrize("case", sorted(CRAFTED_NPZ))
+def test_crafted_npz_members_are_valueerror(tmp_path, case):
+    agent = _tiny_agent(tmp_path)
+    _crafted_npz(agent.with_suffix(".npz"), "w0.npy", CRAFTED_NPZ[case])
+    with pytest.raises(ValueError, match="w0"):
+        load_agent(agent)
+
+
+@pytest.mark.parametrize("flag, compress", [(0x1, zipfile.ZIP_STORED), (0, zipfile.ZIP_LZMA),
+                                            (0, zipfile.ZIP_BZIP2)])
+def test_encrypted_or_unsupported_zip_members_are_valueerror(tmp_path, flag, compress):
+    agent = _tiny_agent(tmp_path)
+    npz = agent.with_suffix(".npz")
+    _crafted_npz(npz, "w0.npy", zipfile.ZipFile(npz).read("w0.npy"), compress)
+    if flag:  # set the "encrypted" bit of w0.npy in its local header and central directory entry
+        raw = bytearray(npz.read_bytes())
+        for sig, off in ((b"PK\x03\x04", 6), (b"PK\x01\x02", 8)):
+            start = 0
+            while (i := raw.find(sig, start)) >= 0:
+                name_at = i + (30 if sig == b"PK\x03\x04" else 46)
+                if raw[name_at:name_at + 6] == b"w0.npy":
+                    raw[i + off] |= flag
+                start = i + 4
+        npz.write_bytes(bytes(raw))
+    with pytest.raises(ValueError):
+        load_agent(agent)
+
+
+@given(depth=st.integers(min_value=50, max_value=200_000), digits=st.integers(min_value=4000, max_value=20_000),
+       which=st.sampled_from(["nest", "bigint", "bigint_field"]))
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+def test_crafted_agent_json_is_valueerror(tmp_path, depth, digits, which):
+    agent = _tiny_agent(tmp_path)
+    spec = json.loads(agent.with_suffix(".json").read_text())
+    text = json.dumps(spec)
+    if which == "nest":
+        text = text.replace('"sb3_version": "0"', '"sb3_version": ' + "[" * min(depth, 30000) + "]" *
+                            min(depth, 30000))
+    elif which == "bigint":
+        text = text.replace('"timesteps": 0', '"timesteps": ' + "9" * digits)
+    else:
+        text = text.replace('"obs_dim": 3', '"obs_dim": ' + "9" * min(digits, 4000))
+    agent.with_suffix(".json").write_text(text)
+    with pytest.raises(ValueError):
+        load_agent(agent)
+
+
+@given(depth=st.integers(min_value=10, max_value=100_000), digits=st.integers(min_value=4000, max_value=9000))
+@settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+def test_crafted_presets_are_preseterror(tmp_path, depth, digits):
+    base = {"format": "vtrack-tuned-preset", "format_version": 1, "controller": "smc", "config": {}}
+    for text in (json.dumps(base).replace('"config": {}', '"config": {}, "provenance": {"metrics": '
+                                          + "[" * depth + "]" * depth + "}"),
+                 json.dumps(base).replace('"config": {}', '"config": {"pole_radps": ' + "9" * digits + "}")):
+        (tmp_path / "p.json").write_text(text)
+        with pytest.raises(PresetError):
+            load_preset(tmp_path / "p.json")
+
+
+def test_mpc_preset_beyond_the_bounded_ranges_is_refused(tmp_path):
+    preset = {"format": "vtrack-tuned-preset", "format_version": 1, "controller": "mpc",
+              "config": {"prediction_horizon": 400, "control_horizon": 400, "n_speeds": 400}}
+    (tmp_path / "p.json").write_text(json.dumps(preset))
+    with pytest.raises(PresetError, match="prediction_horizon"):
+        load_preset(tmp_path / "p.json")
+
+
+@pytest.mark.parametrize("loader", ["preset", "agent", "csv"])
+@pytest.mark.parametrize("kind", ["fifo", "device", "dir"])
+def test_loaders_read_regular_files_only_and_never_block(tmp_path, loader, kind):
+    from vtrack_gym.tracks.csv_loader import load_track_csv
+
+    path = Path("/dev/zero") if kind == "device" else _special(tmp_path, kind)
+    call = {"preset": load_preset, "agent": load_agent, "csv": load_track_csv}[loader]
+    if loader == "agent" and kind != "dir":
+        link = tmp_path / "a.json"
+        link.symlink_to(path)
+        path = link
+    with pytest.raises(ValueError):
+        call(path)
+    with pytest.raises(ValueError):
+        read_regular_file(path, 10, "file")
+
+
+WORST_INPUTS = """
+import os, resource, sys, json
+from pathlib import Path
+resource.setrlimit(resource.RLIMIT_AS, (1536 * 2**20, 1536 * 2**20))
+from vtrack_gym.baselines.preset_files import load_preset
+from vtrack_gym.baselines.numpy_policy import load_agent
+from vtrack_gym.tracks.csv_loader import load_track_csv
+tmp = Path(sys.argv[1])
+os.mkfifo(tmp / "fifo.json")
+big = tmp / "big.json"
+with open(big, "wb") as fh:
+    fh.truncate(8 * 2**30)      # sparse 8 GiB file
+cases = [(load_preset, "/dev/zero"), (load_preset, tmp / "fifo.json"), (load_preset, big),
+         (load_agent, tmp / "fifo.json"), (load_agent, big), (load_track_csv, "/dev/zero"),
+         (load_track_csv, tmp / "fifo.json"), (load_track_csv, big), (load_preset, "/dev/urandom")]
+for fn, arg in cases:
+    try:
+        fn(arg)
+    except ValueError:
+        pass
+    else:
+        sys.exit(f"{fn.__name__}({arg}) accepted")
+print("ok")
+"""
+
+
+def test_worst_inputs_under_memory_and_time_limits(tmp_path):
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    out = subprocess.run([sys.executable, "-c", textwrap.dedent(WORST_INPUTS), str(tmp_path)], env=env,
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr[-2000:]
+
+
+CSV_WORST = """
+import resource, sys, time
+from pathlib import Path
+resource.setrlimit(resource.RLIMIT_AS, (3 * 2**30, 3 * 2**30))
+from vtrack_gym.tracks.csv_loader import load_track_csv
+path = Path(sys.argv[1])
+start = time.perf_counter()
+try:
+    load_track_csv(path)
+except ValueError as exc:
+    print("ValueError", str(exc)[:200])
+print(f"{time.perf_counter() - start:.1f}")
+"""
+
+
+@pytest.mark.parametrize("case", ["long_segment", "too_many_points"])
+def test_csv_worst_cases_bounded(tmp_path, case):
+    path = tmp_path / "t.csv"
+    if case == "long_segment":  # 40k points bunched at one end of a 5 km segment
+        xs = np.concatenate([np.linspace(0.0, 200.0, 40_000), [5000.0, 5000.0]])
+        ys = np.concatenate([np.zeros(40_000), [0.0, 50.0]])
+    else:  # one more point than MAX_POINTS
+        xs = np.arange(500_001, dtype=float) * 0.4
+        ys = np.zeros_like(xs)
+    path.write_text("x,y\n" + "\n".join(f"{x:.3f},{y:.3f}" for x, y in zip(xs, ys, strict=True)) + "\n")
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    out = subprocess.run([sys.executable, "-c", textwrap.dedent(CSV_WORST), str(path)], env=env,
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert float(out.stdout.strip().splitlines()[-1]) < 60.0
+
+
+# ---------------------------------------------------------------- class 6: SB3 pickles need trust
+
+def test_export_model_needs_trust(tmp_path, capsys):
+    payload = tmp_path / "model.zip"
+    payload.write_bytes(b"not even a zip")
+    assert main(["export", "--model", str(payload), "--algo", "ppo", "--out", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err
+    assert "--trust" in err and "pickle" in err
+
+
+def test_export_run_dir_not_signed_is_refused(tmp_path, capsys, monkeypatch):
+    from vtrack_gym.agents.export import run_is_trusted, sign_run
+
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "config"))
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "config.json").write_text(json.dumps({"algo": "ppo", "env_id": "DLC120-v0"}))
+    (run / "model.zip").write_bytes(b"pretend pickle")
+    assert not run_is_trusted(run)
+    assert main(["export", "--run-dir", str(run), "--out", str(tmp_path / "x")]) == 2
+    assert "--trust" in capsys.readouterr().err
+    sign_run(run)
+    assert run_is_trusted(run)
+    (run / "model.zip").write_bytes(b"changed after training")
+    assert not run_is_trusted(run)
+    sign_run(run)
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "other_user"))
+    assert not run_is_trusted(run)  # another key (user / machine)
+    assert "pickles" in _export_help()
+
+
+def _export_help() -> str:
+    from vtrack_gym.cli import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command")
+    return sub.choices["export"].format_help()

@@ -421,3 +421,11 @@ def _export_help() -> str:
     parser = build_parser()
     sub = next(a for a in parser._actions if a.dest == "command")
     return sub.choices["export"].format_help()
+
+
+def test_leaderboard_store_fifo_or_device_is_refused_without_blocking(tmp_path, capsys):
+    os.mkfifo(tmp_path / "store.sqlite")
+    for store in (tmp_path / "store.sqlite", Path("/dev/zero")):
+        assert main(["leaderboard", "--store", str(store)]) == 2
+        err = capsys.readouterr().err
+        assert "not a regular file" in err and "Traceback" not in err

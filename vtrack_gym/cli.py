@@ -28,6 +28,8 @@ DEFAULT_PLOTS_DIR = DEFAULT_RESULTS_DIR / "plots"
 
 MAX_SEED = 2**63 - 1
 """Largest seed of ``--seeds`` (the store keeps seeds as SQLite INTEGER, a signed 64-bit number)."""
+MAX_FIGURE_BYTES = 32 * 2**20
+"""Largest PNG ``leaderboard --format html`` embeds [bytes] (larger ones and non-regular files are skipped)."""
 MAX_RNG_SEED = 2**32 - 1
 """Largest ``--seed`` of ``train`` and ``tune`` (numpy's legacy seeding, used by SB3 and pymoo, takes 32 bits)."""
 
@@ -460,7 +462,8 @@ def _cmd_leaderboard(args: argparse.Namespace) -> int:
     print(f"suite {args.suite!r} of {args.store}; suites present: {listing} (select one with --suite NAME)",
           file=sys.stderr)
     board = store.leaderboard(args.suite, LEADERBOARD_COLUMNS, latest_only=not args.all_versions)
-    figures = sorted(args.figures.glob("*.png")) if args.format == "html" and args.figures.is_dir() else []
+    figures = sorted(f for f in args.figures.glob("*.png") if f.is_file() and f.stat().st_size <= MAX_FIGURE_BYTES) \
+        if args.format == "html" and args.figures.is_dir() else []  # regular files only: a FIFO would block
     text = _render_board(board, args.format, title=f"vtrack leaderboard: suite {args.suite}", figures=figures)
     if args.out is None:
         print(text.rstrip())

@@ -87,7 +87,8 @@ def test_write_atomic_regular_targets(tmp_path, data, existing, via_link):
 
 
 def test_output_dir_checks(tmp_path):
-    assert check_output_dir(tmp_path / "a" / "b").is_dir()
+    assert check_output_dir(tmp_path / "a" / "b") == tmp_path / "a" / "b"
+    assert not (tmp_path / "a").exists() and list(tmp_path.iterdir()) == []  # checking creates nothing
     (tmp_path / "f").write_text("x")
     for bad in (tmp_path / "f", tmp_path / "f" / "sub", Path("/dev/null")):
         with pytest.raises(ValueError, match="--figures"):
@@ -429,3 +430,28 @@ def test_leaderboard_store_fifo_or_device_is_refused_without_blocking(tmp_path, 
         assert main(["leaderboard", "--store", str(store)]) == 2
         err = capsys.readouterr().err
         assert "not a regular file" in err and "Traceback" not in err
+
+
+@given(scale=st.floats(min_value=1.0, max_value=1e4), obs_scale=st.floats(min_value=0.0, max_value=1e6),
+       relu=st.booleans(), depth=st.integers(min_value=0, max_value=8), seed=st.integers(0, 2**32 - 1))
+@settings(max_examples=60, deadline=None)
+def test_agents_within_the_limits_always_predict_finite_actions(scale, obs_scale, relu, depth, seed):
+    from vtrack_gym.baselines.numpy_policy import NumpyPolicy
+
+    rng = np.random.default_rng(seed)
+    sizes = [3, *([16] * depth), 1]
+    arrays = {}
+    for i in range(len(sizes) - 1):
+        arrays[f"w{i}"] = (scale * rng.choice([-1.0, 1.0], size=(sizes[i], sizes[i + 1]))).astype(np.float32)
+        arrays[f"b{i}"] = (scale * rng.choice([-1.0, 1.0], size=sizes[i + 1])).astype(np.float32)
+    arrays["action_low"], arrays["action_high"] = -np.ones(1, np.float32), np.ones(1, np.float32)
+    spec = {"format": "vtrack_gym.agent", "format_version": 1, "algo": "ppo", "obs_dim": 3, "action_dim": 1,
+            "hidden_sizes": sizes[1:-1], "activation": "relu" if relu else "tanh", "output": "clip",
+            "obs_norm": {"enabled": False, "eps": 1e-8},
+            "provenance": {"env_id": "", "command": "", "timesteps": 0, "seed": 0, "package_version": "0",
+                           "sb3_version": "0"}}
+    action, _ = NumpyPolicy(spec, arrays).predict(obs_scale * rng.choice([-1.0, 1.0], size=(4, 3)))
+    assert np.isfinite(action).all()
+    arrays["w0"] = np.full((3, sizes[1]), 3e38, np.float32)  # float32 weights that overflow are refused
+    with pytest.raises(ValueError, match="w0"):
+        NumpyPolicy(spec, arrays)

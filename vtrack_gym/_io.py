@@ -5,9 +5,12 @@ with :func:`check_output_file` or :func:`check_output_dir` when the command star
 :func:`write_atomic` (a temporary file in the same folder, then ``os.replace``). Rules, for a path after its
 symlinks are resolved:
 
-* an output file is absent or a regular file (never a directory, device, FIFO or socket), its folder is a folder
-  the process can create files in; missing folders are created (a path under a regular file is refused);
-* an output folder is absent (then created) or a folder the process can create files in.
+* an output file is absent or a regular file (never a directory, device, FIFO or socket), and its folder, or the
+  nearest existing ancestor of a missing folder, is a folder the process can create files in (a path under a
+  regular file is refused);
+* an output folder is a folder, or missing with such an ancestor.
+
+Checking creates nothing; :func:`write_atomic` creates the missing folders when it writes.
 
 Every loader reads through :func:`read_regular_file`: the file is opened with ``O_NONBLOCK`` (a FIFO never
 blocks), must be a regular file and at most ``max_bytes`` long, and is read in bounded memory.
@@ -44,31 +47,36 @@ def _probe_writable(folder: Path, label: str) -> None:
     os.unlink(name)
 
 
-def _make_dirs(folder: Path, label: str) -> None:
-    """``mkdir -p folder``; ``ValueError`` if a component is not a directory."""
-    for part in (*reversed(folder.parents), folder):
+def _existing_folder(folder: Path, label: str) -> Path:
+    """The nearest existing ancestor of ``folder`` (itself included); ``ValueError`` unless it is a directory."""
+    for part in (folder, *folder.parents):
         try:
             st = os.stat(part)
         except FileNotFoundError:
-            try:
-                part.mkdir()
-            except FileExistsError:
-                st = os.stat(part)
-            except OSError as exc:
-                raise ValueError(f"{label}: cannot create the folder {part} ({exc.strerror or exc})") from None
-            else:
-                continue
+            continue
         except OSError as exc:
             raise ValueError(f"{label}: cannot use the folder {part} ({exc.strerror or exc})") from None
         if not stat.S_ISDIR(st.st_mode):
             raise ValueError(f"{label}: {part} is {_kind(st.st_mode)} where a folder is needed")
+        return part
+    raise ValueError(f"{label}: no existing folder above {folder}")  # pragma: no cover - "/" exists
+
+
+def _make_dirs(folder: Path, label: str) -> None:
+    """``mkdir -p folder``; ``ValueError`` naming ``label`` if it cannot be created."""
+    _existing_folder(folder, label)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"{label}: cannot create the folder {folder} ({exc.strerror or exc})") from None
 
 
 def check_output_file(path: str | os.PathLike[str], option: str = "") -> Path:
     """Check that a regular file can be written at ``path``; returns the resolved path (symlinks followed).
 
     Refuses (``ValueError`` naming ``option`` and the path) a directory, device, FIFO or socket, a path under a
-    regular file and a folder the process cannot create files in. Missing parent folders are created.
+    regular file and a folder the process cannot create files in (missing folders: their nearest existing
+    ancestor). Leaves nothing behind: missing folders are created only when writing.
     """
     label = _label(option, path)
     target = Path(os.path.realpath(os.fspath(path)))
@@ -80,17 +88,16 @@ def check_output_file(path: str | os.PathLike[str], option: str = "") -> Path:
         raise ValueError(f"{label}: cannot use this path ({exc.strerror or exc})") from None
     if st is not None and not stat.S_ISREG(st.st_mode):
         raise ValueError(f"{label} is {_kind(st.st_mode)}; an output must be a regular file (or not exist yet)")
-    _make_dirs(target.parent, label)
-    _probe_writable(target.parent, label)
+    _probe_writable(_existing_folder(target.parent, label), label)
     return target
 
 
 def check_output_dir(path: str | os.PathLike[str], option: str = "") -> Path:
-    """Check (creating it if missing) that ``path`` is a folder the process can create files in; resolved path."""
+    """Check that ``path`` is (or can be created as) a folder the process can create files in; resolved path.
+    Creates nothing."""
     label = _label(option, path)
     target = Path(os.path.realpath(os.fspath(path)))
-    _make_dirs(target, label)
-    _probe_writable(target, label)
+    _probe_writable(_existing_folder(target, label), label)
     return target
 
 
@@ -100,6 +107,7 @@ def write_atomic(path: str | os.PathLike[str], data: bytes | str, option: str = 
     an existing file keeps its permission bits, a new one gets ``0o666`` minus the umask. Returns the resolved path.
     """
     target = check_output_file(path, option)
+    _make_dirs(target.parent, _label(option, path))
     payload = data.encode("utf-8") if isinstance(data, str) else bytes(data)
     try:
         mode = stat.S_IMODE(os.stat(target).st_mode)

@@ -25,7 +25,9 @@ Format version 1
   observation layout's names in order, the control period [s] and the road-wheel angle [rad] that action 1
   commands). ``check_env`` refuses an env whose layout differs and warns when the period or the scaling do.
 
-``<name>.npz`` (at most 64 MiB), exactly these float32 arrays (finite values):
+``<name>.npz`` (at most 64 MiB, stored or deflated members, each ``.npy`` header checked before its data is read),
+exactly these float32 arrays (finite values; weights, biases and ``clip_obs`` within +-1e4, action bounds within
++-1e6, so ``predict`` on finite observations up to 1e6 never overflows):
 
 * ``w0 .. w{L}`` of shape ``(in, out)`` and ``b0 .. b{L}`` of shape ``(out,)`` for the L hidden layers plus the
   output layer (``y = x @ w + b``)
@@ -60,6 +62,10 @@ MAX_LAYERS = 8
 MAX_WIDTH = 4096
 MAX_DIM = 4096
 MAX_TIMESTEPS = 10**15
+MAX_WEIGHT = 1e4
+"""Largest |weight|, |bias| and ``clip_obs`` of an agent (trained SB3 actors stay below 10)."""
+MAX_ACTION_BOUND = 1e6
+"""Largest |action_low|, |action_high| of an agent."""
 MAX_SEED = 2**64 - 1
 JSON_KEYS = {"format", "format_version", "algo", "obs_dim", "action_dim", "hidden_sizes", "activation",
              "output", "obs_norm", "provenance"}
@@ -276,6 +282,16 @@ def _read_npz(path: Path, shapes: dict[str, tuple[int, ...]]) -> dict[str, np.nd
     return arrays
 
 
+def _magnitude_limits(shapes: dict[str, tuple[int, ...]]) -> dict[str, float]:
+    """Largest |entry| of each array: with these, 9 layers of width 4096 fed observations up to 1e6 (or clipped
+    normalised ones) stay below 1e200, so ``predict`` never overflows to inf or NaN."""
+    limits = {name: MAX_WEIGHT for name in shapes if name[0] in "wb" and name[1:].isdigit()}
+    limits.update({name: MAX_ACTION_BOUND for name in ("action_low", "action_high")})
+    if "clip_obs" in shapes:
+        limits["clip_obs"] = MAX_WEIGHT
+    return limits
+
+
 def weights_sha256(spec: dict[str, Any], arrays: dict[str, np.ndarray]) -> str:
     """Content hash of an agent: what determines its actions (spec minus provenance, arrays as float32 bytes)."""
     h = hashlib.sha256()
@@ -303,6 +319,10 @@ class NumpyPolicy:
         for key, shape in shapes.items():
             if arrays[key].shape != shape or arrays[key].dtype != np.float32 or not np.isfinite(arrays[key]).all():
                 raise ValueError(f"array {key!r} must be finite float32 of shape {shape}")
+        for key, limit in _magnitude_limits(shapes).items():
+            if np.abs(arrays[key]).max(initial=0.0) > limit:
+                raise ValueError(f"array {key!r} has an entry beyond +-{limit:g} (the limit that keeps every action "
+                                 "finite in float64)")
         if "env" in spec and len(spec["env"]["observation_names"]) != spec["obs_dim"]:
             raise ValueError(f"agent json: env.observation_names has {len(spec['env']['observation_names'])} names, "
                              f"obs_dim is {spec['obs_dim']}")

@@ -96,15 +96,27 @@ def test_output_dir_checks(tmp_path):
 
 
 def test_read_only_folder_is_refused(tmp_path):
+    """Permission bits for a normal user; as root (they do not stop root) the immutable attribute (chattr +i)."""
+    import shutil
+
     ro = tmp_path / "ro"
     ro.mkdir()
     ro.chmod(0o555)
+    immutable = False
+    if os.geteuid() == 0:
+        chattr = shutil.which("chattr")
+        immutable = chattr is not None and subprocess.run([chattr, "+i", str(ro)], capture_output=True).returncode == 0
+        if not immutable:
+            pytest.skip("running as root without chattr +i (CAP_LINUX_IMMUTABLE): nothing makes a folder read-only")
     try:
-        if os.access(ro, os.W_OK) and os.geteuid() == 0:
-            pytest.skip("running as root: permission bits do not stop root (chattr needs CAP_LINUX_IMMUTABLE)")
-        with pytest.raises(ValueError, match="cannot create files"):
-            check_output_file(ro / "x.json", "--out")
+        for call in (lambda: check_output_file(ro / "x.json", "--out"), lambda: check_output_dir(ro / "sub", "--out"),
+                     lambda: write_atomic(ro / "x.json", b"{}", "--out")):
+            with pytest.raises(ValueError, match="cannot create files"):
+                call()
+        assert list(ro.iterdir()) == []
     finally:
+        if immutable:
+            subprocess.run(["chattr", "-i", str(ro)], check=True)
         ro.chmod(0o755)
 
 
@@ -375,7 +387,9 @@ def test_csv_worst_cases_bounded(tmp_path, case):
         xs = np.concatenate([np.linspace(0.0, 200.0, 40_000), [5000.0, 5000.0]])
         ys = np.concatenate([np.zeros(40_000), [0.0, 50.0]])
     else:  # one more point than MAX_POINTS
-        xs = np.arange(500_001, dtype=float) * 0.4
+        from vtrack_gym.tracks.csv_loader import MAX_POINTS
+
+        xs = np.arange(MAX_POINTS + 1, dtype=float) * 0.4
         ys = np.zeros_like(xs)
     path.write_text("x,y\n" + "\n".join(f"{x:.3f},{y:.3f}" for x, y in zip(xs, ys, strict=True)) + "\n")
     env = {**os.environ, "PYTHONPATH": str(ROOT)}

@@ -469,3 +469,30 @@ def test_agents_within_the_limits_always_predict_finite_actions(scale, obs_scale
     arrays["w0"] = np.full((3, sizes[1]), 3e38, np.float32)  # float32 weights that overflow are refused
     with pytest.raises(ValueError, match="w0"):
         NumpyPolicy(spec, arrays)
+
+
+STORE_SPECIALS = """
+import os, sys
+from pathlib import Path
+from vtrack_gym.evaluation.store import ResultStore, StoreError
+tmp = Path(sys.argv[1])
+os.mkfifo(tmp / "fifo.sqlite")
+for path in (tmp / "fifo.sqlite", Path("/dev/null"), Path("/dev/zero")):
+    for read_only in (False, True):
+        try:
+            ResultStore(path, read_only=read_only)
+        except StoreError as exc:
+            assert "not a regular file" in str(exc), exc
+        else:
+            sys.exit(f"ResultStore({path}) accepted")
+print("ok")
+"""
+
+
+def test_store_refuses_fifos_and_devices_without_blocking(tmp_path):
+    before = os.stat("/dev/null")
+    out = subprocess.run([sys.executable, "-c", STORE_SPECIALS, str(tmp_path)], capture_output=True, text=True,
+                         timeout=60, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr[-2000:]
+    after = os.stat("/dev/null")
+    assert stat.S_ISCHR(after.st_mode) and after.st_rdev == before.st_rdev

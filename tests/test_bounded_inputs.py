@@ -496,3 +496,20 @@ def test_store_refuses_fifos_and_devices_without_blocking(tmp_path):
     assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr[-2000:]
     after = os.stat("/dev/null")
     assert stat.S_ISCHR(after.st_mode) and after.st_rdev == before.st_rdev
+
+
+@pytest.mark.parametrize("item", ["n_steps=" + "9" * 5000, "n_steps=" + "9" * 30, "x=" + "[" * 5000 + "]" * 5000,
+                                  "gamma=.inf", "net=" + "[" * 12 + "1" + "]" * 12, "x=" + "a" * 5000])
+def test_train_set_values_are_bounded_before_any_work(tmp_path, capsys, item):
+    run = tmp_path / "run"
+    assert main(["train", "--algo", "ppo", "--timesteps", "64", "--run-dir", str(run), "--no-progress",
+                 "--set", item]) == 2
+    err = capsys.readouterr().err
+    assert "--set" in err and "Traceback" not in err
+    assert not (run / "model.zip").exists()
+
+
+def test_too_many_seeds_refused(capsys):
+    assert main(["eval", "--policy", "lqr", "--env", "DLC120-v0", "--seeds", ",".join(map(str, range(10_001))),
+                 "--store", "/nonexistent-dir-vtrack/s.sqlite"]) == 2
+    assert "at most 10000 seeds" in capsys.readouterr().err

@@ -28,6 +28,8 @@ DEFAULT_PLOTS_DIR = DEFAULT_RESULTS_DIR / "plots"
 
 MAX_SEED = 2**63 - 1
 """Largest seed of ``--seeds`` (the store keeps seeds as SQLite INTEGER, a signed 64-bit number)."""
+MAX_SEEDS = 10_000
+"""Most seeds one ``vtrack eval`` runs."""
 MAX_FIGURE_BYTES = 32 * 2**20
 """Largest PNG ``leaderboard --format html`` embeds [bytes] (larger ones and non-regular files are skipped)."""
 MAX_RNG_SEED = 2**32 - 1
@@ -344,6 +346,8 @@ def _parse_seeds(text: str) -> list[int]:
         seeds.append(int(item))
     if not seeds:
         raise ValueError("--seeds needs at least one seed, e.g. --seeds 0,1,2")
+    if len(seeds) > MAX_SEEDS:
+        raise ValueError(f"--seeds takes at most {MAX_SEEDS} seeds (got {len(seeds)})")
     return seeds
 
 
@@ -541,6 +545,31 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 _EXPONENT_FLOAT = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+")
 
 
+MAX_SET_CHARS = 4096
+"""Longest ``--set`` VALUE [characters]."""
+
+
+def _check_set_value(key: str, value: object, depth: int = 0) -> None:
+    """``ValueError`` naming ``--set KEY`` for nesting deeper than 8, integers beyond +-2^63 or non-finite numbers."""
+    import math
+
+    if depth > 8:
+        raise ValueError(f"--set {key}: VALUE is nested deeper than 8 levels")
+    if isinstance(value, bool) or value is None or isinstance(value, str):
+        return
+    if isinstance(value, int) and not -2**63 <= value < 2**63:
+        raise ValueError(f"--set {key}: integer out of the range [-2^63, 2^63 - 1]")
+    if isinstance(value, float) and not math.isfinite(value):
+        raise ValueError(f"--set {key}: {value} is not a finite number")
+    if isinstance(value, dict):
+        for k, v in value.items():
+            _check_set_value(key, k, depth + 1)
+            _check_set_value(key, v, depth + 1)
+    elif isinstance(value, (list, tuple)):
+        for v in value:
+            _check_set_value(key, v, depth + 1)
+
+
 def _parse_hyperparams(items: Sequence[str]) -> dict[str, object]:
     """``--set KEY=VALUE`` items as a dict, each VALUE read with ``yaml.safe_load`` (never evaluated)."""
     import yaml
@@ -550,10 +579,13 @@ def _parse_hyperparams(items: Sequence[str]) -> dict[str, object]:
         key, sep, text = item.partition("=")
         if not sep or not key.strip().isidentifier():
             raise ValueError(f"--set expects KEY=VALUE with KEY a hyperparameter name (got {item!r})")
+        if len(text) > MAX_SET_CHARS:
+            raise ValueError(f"--set {key.strip()}: VALUE is longer than {MAX_SET_CHARS} characters")
         try:
             value = yaml.safe_load(text)
-        except yaml.YAMLError as exc:
-            raise ValueError(f"--set {key.strip()}: VALUE is not valid YAML ({text!r}): {exc}") from None
+        except (yaml.YAMLError, RecursionError, ValueError) as exc:
+            raise ValueError(f"--set {key.strip()}: VALUE is not valid YAML ({text[:80]!r}): {exc}"[:400]) from None
+        _check_set_value(key.strip(), value)
         if isinstance(value, str) and _EXPONENT_FLOAT.fullmatch(value.strip()):
             value = float(value)  # YAML 1.1 reads 3e-5 (no dot) as a string
         out[key.strip()] = value

@@ -513,3 +513,42 @@ def test_too_many_seeds_refused(capsys):
     assert main(["eval", "--policy", "lqr", "--env", "DLC120-v0", "--seeds", ",".join(map(str, range(10_001))),
                  "--store", "/nonexistent-dir-vtrack/s.sqlite"]) == 2
     assert "at most 10000 seeds" in capsys.readouterr().err
+
+
+@given(member=st.sampled_from(["w0.npy", "b0.npy", "action_low.npy"]),
+       payload=st.one_of(st.binary(max_size=300),
+                         st.builds(lambda shape, tail: _npy_header(shape) + tail,
+                                   st.tuples(st.integers(0, 2**40), st.integers(0, 2**20)), st.binary(max_size=64))))
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+def test_random_npz_members_are_valueerror(tmp_path, member, payload):
+    agent = _tiny_agent(tmp_path)
+    _crafted_npz(agent.with_suffix(".npz"), member, payload, zipfile.ZIP_DEFLATED)
+    with pytest.raises(ValueError, match=member.removesuffix(".npy")):
+        load_agent(agent)
+
+
+NUMERIC_OPTIONS = [("tune", "--generations", 1, 10_000), ("tune", "--pop-size", 2, 10_000),
+                   ("tune", "--seed", 0, 2**32 - 1), ("tune", "--max-steps", 1, 10**7), ("tune", "--workers", 1, 4096),
+                   ("train", "--timesteps", 1, 10**10), ("train", "--num-envs", 1, 4096),
+                   ("train", "--eval-freq", 0, 10**10), ("train", "--bc-dagger-rounds", 0, 100)]
+
+
+@given(option=st.sampled_from(NUMERIC_OPTIONS),
+       value=st.one_of(st.integers(min_value=-2**80, max_value=2**80).map(str), st.text(max_size=12)))
+@settings(max_examples=200, deadline=None)
+def test_numeric_options_parse_in_range_or_exit_2(option, value):
+    import contextlib
+
+    from vtrack_gym.cli import build_parser
+
+    command, flag, low, high = option
+    base = ["tune", "--controller", "smc"] if command == "tune" else ["train", "--algo", "ppo", "--run-dir", "r"]
+    err = io.StringIO()
+    try:
+        with contextlib.redirect_stderr(err):
+            args = build_parser().parse_args([*base, f"{flag}={value}"])
+    except SystemExit as exc:
+        assert exc.code == 2 and flag in err.getvalue()
+        return
+    parsed = getattr(args, flag.lstrip("-").replace("-", "_"))
+    assert isinstance(parsed, int) and low <= parsed <= high

@@ -57,7 +57,7 @@ def _float_in(low: float, high: float):
     """An argparse ``type``: a finite number in [low, high]."""
     def parse(text: str) -> float:
         try:
-            value = float(text) if len(text) <= 40 else float("nan")
+            value = float(text) if len(text) <= 40 and "_" not in text else float("nan")  # no "1_0"
         except ValueError:
             value = float("nan")
         if not low <= value <= high:  # also NaN and inf

@@ -509,8 +509,6 @@ def _cmd_tune(args: argparse.Namespace) -> int:
 
     if args.backend != "ray" and (args.ray_address is not None or args.workers is not None):
         raise ValueError("--ray-address and --workers need --backend ray")
-    if args.workers is not None and args.workers < 1:
-        raise ValueError(f"--workers must be >= 1 (got {args.workers})")
     command = "vtrack " + " ".join(shlex.quote(a) for a in (sys.argv[1:] if args.argv is None else args.argv))
     outcome = tune_to_preset(
         args.controller, args.space, args.budget, seed=args.seed, generations=args.generations,

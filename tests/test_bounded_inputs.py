@@ -9,6 +9,7 @@ import os
 import stat
 import subprocess
 import sys
+import tempfile
 import textwrap
 import zipfile
 from pathlib import Path
@@ -24,6 +25,8 @@ from vtrack_gym.baselines.preset_files import PresetError, load_preset
 from vtrack_gym.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
+UNUSED_STORE = Path(tempfile.gettempdir()) / "vtrack-never-created" / "s.sqlite"
+"""A store path the refused commands below must never create."""
 SETTINGS = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 
 
@@ -186,8 +189,8 @@ def test_huge_or_negative_seeds_refused_before_any_work(seed):
     err = io.StringIO()
     with contextlib.redirect_stderr(err):
         code = main(["eval", "--policy", "lqr", "--env", "DLC120-v0", "--seeds", str(seed), "--store",
-                     "/nonexistent-dir-vtrack/s.sqlite"])
-    assert code == 2 and "--seeds" in err.getvalue()
+                     str(UNUSED_STORE)])
+    assert code == 2 and "--seeds" in err.getvalue() and not UNUSED_STORE.parent.exists()
 
 
 def test_generations_zero_is_not_the_default():
@@ -195,7 +198,7 @@ def test_generations_zero_is_not_the_default():
 
     for kwargs in ({"generations": 0}, {"pop_size": 0}, {"max_steps": -5}, {"seed": 2**63}):
         with pytest.raises(ValueError):
-            tune_to_preset("smc", "paper", "quick", out=Path("/nonexistent-dir-vtrack/x.json"), progress=False,
+            tune_to_preset("smc", "paper", "quick", out=UNUSED_STORE.parent / "x.json", progress=False,
                            **kwargs)
 
 
@@ -511,7 +514,8 @@ def test_train_set_values_are_bounded_before_any_work(tmp_path, capsys, item):
 
 def test_too_many_seeds_refused(capsys):
     assert main(["eval", "--policy", "lqr", "--env", "DLC120-v0", "--seeds", ",".join(map(str, range(10_001))),
-                 "--store", "/nonexistent-dir-vtrack/s.sqlite"]) == 2
+                 "--store", str(UNUSED_STORE)]) == 2
+    assert not UNUSED_STORE.parent.exists()
     assert "at most 10000 seeds" in capsys.readouterr().err
 
 
@@ -552,3 +556,13 @@ def test_numeric_options_parse_in_range_or_exit_2(option, value):
         return
     parsed = getattr(args, flag.lstrip("-").replace("-", "_"))
     assert isinstance(parsed, int) and low <= parsed <= high
+
+
+@pytest.mark.parametrize("name", ["config.json", "model.zip", "evaluations.jsonl"])
+def test_train_refuses_a_run_dir_with_non_regular_outputs(tmp_path, capsys, name):
+    run = tmp_path / "run"
+    run.mkdir()
+    os.mkfifo(run / name)
+    assert main(["train", "--algo", "ppo", "--timesteps", "64", "--run-dir", str(run), "--no-progress"]) == 2
+    assert "is a FIFO" in capsys.readouterr().err
+    assert [p.name for p in run.iterdir()] == [name]

@@ -28,6 +28,9 @@ DEFAULT_PLOTS_DIR = DEFAULT_RESULTS_DIR / "plots"
 
 MAX_SEED = 2**63 - 1
 """Largest seed of ``--seeds`` (the store keeps seeds as SQLite INTEGER, a signed 64-bit number)."""
+RUN_FILES = ("config.json", "model.zip", "vecnormalize.pkl", "best_model.zip", "agent.json", "agent.npz",
+             "best_agent.json", "best_agent.npz", "bc.json", "evaluations.jsonl", "vtrack-train.sig")
+"""Files ``vtrack train`` writes into ``--run-dir`` (each must be absent or a regular file)."""
 MAX_SEEDS = 10_000
 """Most seeds one ``vtrack eval`` runs."""
 MAX_FIGURE_BYTES = 32 * 2**20
@@ -658,6 +661,8 @@ def _check_outputs(args: argparse.Namespace) -> None:
         check_output_dir(args.out, "--out")
     if cmd == "train":
         check_output_dir(args.run_dir, "--run-dir")
+        for name in RUN_FILES:
+            check_output_file(args.run_dir / name, "--run-dir")
     if cmd == "export":
         for suffix in (".json", ".npz"):
             check_output_file(args.out.parent / (args.out.name + suffix), "--out")

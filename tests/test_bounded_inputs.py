@@ -566,3 +566,15 @@ def test_train_refuses_a_run_dir_with_non_regular_outputs(tmp_path, capsys, name
     assert main(["train", "--algo", "ppo", "--timesteps", "64", "--run-dir", str(run), "--no-progress"]) == 2
     assert "is a FIFO" in capsys.readouterr().err
     assert [p.name for p in run.iterdir()] == [name]
+
+
+def test_folder_outputs_that_are_regular_files_are_refused_before_any_work(tmp_path, capsys):
+    plain = tmp_path / "plain"
+    plain.write_text("keep me")
+    for argv in (["reproduce", "--quick", "--out", str(plain)], ["plot", "--out", str(plain)],
+                 ["benchmark", "--store", str(tmp_path / "s.sqlite"), "--figures", str(plain)],
+                 ["train", "--algo", "ppo", "--timesteps", "64", "--run-dir", str(plain)]):
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert "is a regular file where a folder is needed" in err, err
+    assert plain.read_text() == "keep me" and sorted(p.name for p in tmp_path.iterdir()) == ["plain"]

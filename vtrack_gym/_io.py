@@ -24,13 +24,14 @@ import stat
 import tempfile
 from pathlib import Path
 
-_KINDS = ((stat.S_ISDIR, "a directory"), (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+_KINDS = ((stat.S_ISREG, "a regular file"), (stat.S_ISDIR, "a directory"),
+          (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
           (stat.S_ISFIFO, "a FIFO"), (stat.S_ISSOCK, "a socket"))
 
 
 def _kind(mode: int) -> str:
-    """What a non-regular file is, for messages ("a FIFO", ...)."""
-    return next((name for test, name in _KINDS if test(mode)), "not a regular file")
+    """What a file is, for messages ("a FIFO", "a regular file", ...)."""
+    return next((name for test, name in _KINDS if test(mode)), "a special file")
 
 
 def _label(option: str, path: str | os.PathLike[str]) -> str:
@@ -52,7 +53,7 @@ def _existing_folder(folder: Path, label: str) -> Path:
     for part in (folder, *folder.parents):
         try:
             st = os.stat(part)
-        except FileNotFoundError:
+        except (FileNotFoundError, NotADirectoryError):  # missing, or under a file (found further up)
             continue
         except OSError as exc:
             raise ValueError(f"{label}: cannot use the folder {part} ({exc.strerror or exc})") from None
@@ -82,7 +83,7 @@ def check_output_file(path: str | os.PathLike[str], option: str = "") -> Path:
     target = Path(os.path.realpath(os.fspath(path)))
     try:
         st = os.stat(target)
-    except FileNotFoundError:
+    except (FileNotFoundError, NotADirectoryError):
         st = None
     except OSError as exc:
         raise ValueError(f"{label}: cannot use this path ({exc.strerror or exc})") from None

@@ -18,12 +18,57 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from vtrack_gym._io import check_output_dir, check_output_file, check_regular_input, write_atomic
 from vtrack_gym.evaluation.store import DEFAULT_STORE_PATH, StoreError
 from vtrack_gym.tuning.backends import BackendError
 
 DEFAULT_RESULTS_DIR = Path("vtrack_results")
 DEFAULT_FIGURES_DIR = DEFAULT_RESULTS_DIR / "figures"
 DEFAULT_PLOTS_DIR = DEFAULT_RESULTS_DIR / "plots"
+
+
+MAX_SEED = 2**63 - 1
+"""Largest seed of ``--seeds`` (the store keeps seeds as SQLite INTEGER, a signed 64-bit number)."""
+RUN_FILES = ("config.json", "model.zip", "vecnormalize.pkl", "best_model.zip", "agent.json", "agent.npz",
+             "best_agent.json", "best_agent.npz", "bc.json", "evaluations.jsonl", "vtrack-train.sig")
+"""Files ``vtrack train`` writes into ``--run-dir`` (each must be absent or a regular file)."""
+MAX_SEEDS = 10_000
+"""Most seeds one ``vtrack eval`` runs."""
+MAX_FIGURE_BYTES = 32 * 2**20
+"""Largest PNG ``leaderboard --format html`` embeds [bytes] (larger ones and non-regular files are skipped)."""
+MAX_RNG_SEED = 2**32 - 1
+"""Largest ``--seed`` of ``train`` and ``tune`` (numpy's legacy seeding, used by SB3 and pymoo, takes 32 bits)."""
+
+
+_INTEGER = re.compile(r"[+-]?[0-9]+")
+
+
+def _int_in(low: int, high: int):
+    """An argparse ``type``: an integer in [low, high]; argparse names the option in its error."""
+    def parse(text: str) -> int:
+        t = text.strip()
+        if len(t) > 30 or not _INTEGER.fullmatch(t):
+            raise argparse.ArgumentTypeError(f"must be an integer in [{low}, {high}] (got {text[:40]!r})")
+        value = int(t)
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"must be an integer in [{low}, {high}] (got {value})")
+        return value
+    parse.__name__ = "integer"
+    return parse
+
+
+def _float_in(low: float, high: float):
+    """An argparse ``type``: a finite number in [low, high]."""
+    def parse(text: str) -> float:
+        try:
+            value = float(text) if len(text) <= 40 and "_" not in text else float("nan")  # no "1_0"
+        except ValueError:
+            value = float("nan")
+        if not low <= value <= high:  # also NaN and inf
+            raise argparse.ArgumentTypeError(f"must be a number in [{low:g}, {high:g}] (got {text[:40]!r})")
+        return value
+    parse.__name__ = "number"
+    return parse
 
 
 def _add_store(p: argparse.ArgumentParser) -> None:
@@ -106,22 +151,26 @@ def build_parser() -> argparse.ArgumentParser:
                         "`vtrack eval` and the benchmark load without torch.")
     tr.add_argument("--algo", choices=("ppo", "sac", "td3"), required=True, help="SB3 algorithm")
     tr.add_argument("--env", default="LateralTrackingRandom-v0", help="training env id (default: %(default)s)")
-    tr.add_argument("--timesteps", type=int, default=1_000_000, help="environment steps (default: %(default)s)")
-    tr.add_argument("--seed", type=int, default=0, help="training seed (default: 0)")
+    tr.add_argument("--timesteps", type=_int_in(1, 10**10), default=1_000_000,
+                    help="environment steps (default: %(default)s)")
+    tr.add_argument("--seed", type=_int_in(0, MAX_RNG_SEED), default=0, help="training seed (default: 0)")
     tr.add_argument("--run-dir", type=Path, required=True, help="folder for config, logs, checkpoints and the agent")
-    tr.add_argument("--num-envs", type=int, default=None, help="parallel cars (default: from the hyperparameters)")
-    tr.add_argument("--eval-freq", type=int, default=100_000, help="evaluate every N steps (default: %(default)s)")
-    tr.add_argument("--case1-max-steps", type=int, default=3000,
+    tr.add_argument("--num-envs", type=_int_in(1, 4096), default=None,
+                    help="parallel cars (default: from the hyperparameters)")
+    tr.add_argument("--eval-freq", type=_int_in(0, 10**10), default=100_000,
+                    help="evaluate every N steps, 0 = never (default: %(default)s)")
+    tr.add_argument("--case1-max-steps", type=_int_in(1, 10**6), default=3000,
                     help="cap of the periodic LateralTracking-v0 evaluation (full lap every --case1-full-every)")
-    tr.add_argument("--case1-full-every", type=int, default=5, help="full-lap evaluation period (default: 5)")
+    tr.add_argument("--case1-full-every", type=_int_in(1, 10**6), default=5,
+                    help="full-lap evaluation period (default: 5)")
     tr.add_argument("--no-progress", action="store_true", help="no progress bar")
     tr.add_argument("--no-final-eval", action="store_true", help="skip the full evaluation at the end")
     tr.add_argument("--bc-expert", default=None, metavar="POLICY[:PRESET]",
                     help="ppo/sac: start from a behaviour-cloned actor of this scripted baseline (e.g. lqr or "
                     "mpc:hand), driven on the training env; RL then fine-tunes it (default: none, from scratch)")
-    tr.add_argument("--bc-steps", type=int, default=None,
+    tr.add_argument("--bc-steps", type=_int_in(1, 10**6), default=None,
                     help="vector-env steps of expert data for --bc-expert (x num-envs transitions; default: 3000)")
-    tr.add_argument("--bc-dagger-rounds", type=int, default=None,
+    tr.add_argument("--bc-dagger-rounds", type=_int_in(0, 100), default=None,
                     help="DAgger rounds after the expert's own round, each --bc-steps long (default: 2)")
     tr.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="hyperparams",
                     help="replace one hyperparameter of the YAML file, VALUE read as YAML (e.g. learning_rate=3e-5, "
@@ -131,10 +180,17 @@ def build_parser() -> argparse.ArgumentParser:
                         description="Load <run-dir>/model.zip and vecnormalize.pkl, or --model M.zip (and "
                         "--vecnormalize V.pkl), and write <out>.json + <out>.npz (weights, observation normalisation "
                         "and the env's observation layout, control period and action scaling). SB3 files are "
-                        "pickles: load only files you trust. Needs the 'rl' extra.")
+                        "pickles: loading one runs any code it contains. A --run-dir written by `vtrack train` on "
+                        "this machine (it holds a signature made with this user's key and the run's files) is "
+                        "exported as is; any other run folder and every --model need --trust. Needs the 'rl' extra.")
     src = ex.add_mutually_exclusive_group(required=True)
-    src.add_argument("--run-dir", type=Path, help="folder written by `vtrack train`")
-    src.add_argument("--model", type=Path, help="an SB3 model file (model.zip) of a PPO/SAC/TD3 MlpPolicy")
+    src.add_argument("--run-dir", type=Path, help="folder written by `vtrack train` (its model.zip and "
+                     "vecnormalize.pkl are unpickled: another machine's run folder needs --trust)")
+    src.add_argument("--model", type=Path, help="an SB3 model file (model.zip) of a PPO/SAC/TD3 MlpPolicy; it is "
+                     "unpickled, so it needs --trust")
+    ex.add_argument("--trust", action="store_true",
+                    help="unpickle the SB3 files even though vtrack cannot vouch for them (a --model file, a run "
+                    "folder copied from elsewhere or changed since training): only for files you trust")
     ex.add_argument("--algo", choices=("ppo", "sac", "td3"), default=None, help="algorithm of --model (required "
                     "with --model)")
     ex.add_argument("--vecnormalize", type=Path, default=None,
@@ -164,10 +220,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="search space: paper (Table 2 bounds), working (SMC: p in [1, 15], eta in [1, 50], "
                    "Delta in [0.02, 1], the paper's G1..G4) or steering (SMC: the working p, eta, Delta with the "
                    "env's PD-FLC gains) (default: paper)")
-    t.add_argument("--generations", type=int, default=None, help="override the budget's generations")
-    t.add_argument("--pop-size", type=int, default=None, help="override the budget's population size")
-    t.add_argument("--seed", type=int, default=0, help="GA seed (default: 0)")
-    t.add_argument("--comfort-weight", type=float, default=0.0,
+    t.add_argument("--generations", type=_int_in(1, 10_000), default=None,
+                   help="override the budget's generations (1-10000)")
+    t.add_argument("--pop-size", type=_int_in(2, 10_000), default=None,
+                   help="override the budget's population size (2-10000)")
+    t.add_argument("--seed", type=_int_in(0, MAX_RNG_SEED), default=0, help="GA seed, 0 to 2^32-1 (default: 0)")
+    t.add_argument("--comfort-weight", type=_float_in(0.0, 1e6), default=0.0,
                    help="weight of the ISO 2631-1 comfort a_v in the fitness (default: 0 = off)")
     t.add_argument("--out", type=Path, default=None,
                    help="preset file to write (default: vtrack_results/<controller>_tuned.json)")
@@ -176,7 +234,7 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--also-complete", default="",
                    help="comma-separated env ids every individual must also complete, e.g. DLC120-v0 (a failure "
                    "adds the incomplete-run penalty; default: none, the paper's Case-1-only fitness)")
-    t.add_argument("--max-steps", type=int, default=None,
+    t.add_argument("--max-steps", type=_int_in(1, 10**7), default=None,
                    help="cut every episode after this many steps (smoke tests only; default: full episodes)")
     t.add_argument("--backend", choices=("local", "ray"), default="local",
                    help="where each generation is evaluated: local (one batched rollout in this process) or ray "
@@ -185,7 +243,7 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--ray-address", default=None, metavar="ADDR",
                    help="Ray cluster to connect to with --backend ray, e.g. 10.0.0.5:6379 (default: $RAY_ADDRESS "
                    "if set, else a local Ray instance started and stopped by this command)")
-    t.add_argument("--workers", type=int, default=None, metavar="N",
+    t.add_argument("--workers", type=_int_in(1, 4096), default=None, metavar="N",
                    help="Ray workers with --backend ray (default: the cluster's CPU count, at most the population "
                    "size)")
     t.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -304,16 +362,19 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
 
 
 def _parse_seeds(text: str) -> list[int]:
-    """Comma-separated non-negative integer seeds; ``ValueError`` naming the bad one."""
+    """Comma-separated integer seeds in [0, 2^63 - 1]; ``ValueError`` naming the bad one (before any work)."""
     seeds = []
     for item in (t.strip() for t in text.split(",")):
         if not item:
             continue
-        if not item.isdigit():
-            raise ValueError(f"--seeds must be comma-separated integers >= 0 (got {item!r})")
+        if len(item) > 19 or not (item.isascii() and item.isdigit()) or int(item) > MAX_SEED:
+            raise ValueError(f"--seeds must be comma-separated integers in [0, 2^63 - 1 = {MAX_SEED}] "
+                             f"(got {item[:40]!r})")
         seeds.append(int(item))
     if not seeds:
         raise ValueError("--seeds needs at least one seed, e.g. --seeds 0,1,2")
+    if len(seeds) > MAX_SEEDS:
+        raise ValueError(f"--seeds takes at most {MAX_SEEDS} seeds (got {len(seeds)})")
     return seeds
 
 
@@ -421,6 +482,8 @@ def _cmd_leaderboard(args: argparse.Namespace) -> int:
     if not args.store.exists():
         print(f"no store at {args.store}: run `vtrack benchmark` first (or pass --store)", file=sys.stderr)
         return 2
+    if not args.store.is_dir():  # a directory is the store's own error (StoreError)
+        check_regular_input(args.store, "store (--store)")
     store = ResultStore(args.store, read_only=True)
     suites = store.suites()
     listing = ", ".join(f"{name} ({n} episodes)" for name, n in suites.items()) or "none"
@@ -430,13 +493,14 @@ def _cmd_leaderboard(args: argparse.Namespace) -> int:
     print(f"suite {args.suite!r} of {args.store}; suites present: {listing} (select one with --suite NAME)",
           file=sys.stderr)
     board = store.leaderboard(args.suite, LEADERBOARD_COLUMNS, latest_only=not args.all_versions)
-    figures = sorted(args.figures.glob("*.png")) if args.format == "html" and args.figures.is_dir() else []
+    figures = sorted(f for f in args.figures.glob("*.png") if f.is_file() and f.stat().st_size <= MAX_FIGURE_BYTES) \
+        if args.format == "html" and args.figures.is_dir() else []  # regular files only: a FIFO would block
     text = _render_board(board, args.format, title=f"vtrack leaderboard: suite {args.suite}", figures=figures)
     if args.out is None:
         print(text.rstrip())
         return 0
     try:
-        args.out.write_text(text if text.endswith("\n") else text + "\n", encoding="utf-8")
+        write_atomic(args.out, text if text.endswith("\n") else text + "\n", "--out")
     except OSError as exc:
         raise ValueError(f"cannot write --out {args.out}: {exc}") from None
     print(f"leaderboard written to {args.out}", file=sys.stderr)
@@ -503,8 +567,6 @@ def _cmd_tune(args: argparse.Namespace) -> int:
 
     if args.backend != "ray" and (args.ray_address is not None or args.workers is not None):
         raise ValueError("--ray-address and --workers need --backend ray")
-    if args.workers is not None and args.workers < 1:
-        raise ValueError(f"--workers must be >= 1 (got {args.workers})")
     command = "vtrack " + " ".join(shlex.quote(a) for a in (sys.argv[1:] if args.argv is None else args.argv))
     outcome = tune_to_preset(
         args.controller, args.space, args.budget, seed=args.seed, generations=args.generations,
@@ -539,6 +601,31 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 _EXPONENT_FLOAT = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+")
 
 
+MAX_SET_CHARS = 4096
+"""Longest ``--set`` VALUE [characters]."""
+
+
+def _check_set_value(key: str, value: object, depth: int = 0) -> None:
+    """``ValueError`` naming ``--set KEY`` for nesting deeper than 8, integers beyond +-2^63 or non-finite numbers."""
+    import math
+
+    if depth > 8:
+        raise ValueError(f"--set {key}: VALUE is nested deeper than 8 levels")
+    if isinstance(value, bool) or value is None or isinstance(value, str):
+        return
+    if isinstance(value, int) and not -2**63 <= value < 2**63:
+        raise ValueError(f"--set {key}: integer out of the range [-2^63, 2^63 - 1]")
+    if isinstance(value, float) and not math.isfinite(value):
+        raise ValueError(f"--set {key}: {value} is not a finite number")
+    if isinstance(value, dict):
+        for k, v in value.items():
+            _check_set_value(key, k, depth + 1)
+            _check_set_value(key, v, depth + 1)
+    elif isinstance(value, (list, tuple)):
+        for v in value:
+            _check_set_value(key, v, depth + 1)
+
+
 def _parse_hyperparams(items: Sequence[str]) -> dict[str, object]:
     """``--set KEY=VALUE`` items as a dict, each VALUE read with ``yaml.safe_load`` (never evaluated)."""
     import yaml
@@ -548,10 +635,13 @@ def _parse_hyperparams(items: Sequence[str]) -> dict[str, object]:
         key, sep, text = item.partition("=")
         if not sep or not key.strip().isidentifier():
             raise ValueError(f"--set expects KEY=VALUE with KEY a hyperparameter name (got {item!r})")
+        if len(text) > MAX_SET_CHARS:
+            raise ValueError(f"--set {key.strip()}: VALUE is longer than {MAX_SET_CHARS} characters")
         try:
             value = yaml.safe_load(text)
-        except yaml.YAMLError as exc:
-            raise ValueError(f"--set {key.strip()}: VALUE is not valid YAML ({text!r}): {exc}") from None
+        except (yaml.YAMLError, RecursionError, ValueError) as exc:
+            raise ValueError(f"--set {key.strip()}: VALUE is not valid YAML ({text[:80]!r}): {exc}"[:400]) from None
+        _check_set_value(key.strip(), value)
         if isinstance(value, str) and _EXPONENT_FLOAT.fullmatch(value.strip()):
             value = float(value)  # YAML 1.1 reads 3e-5 (no dot) as a string
         out[key.strip()] = value
@@ -598,15 +688,46 @@ def _cmd_export(args: argparse.Namespace) -> int:
     if args.run_dir is not None:
         if args.algo or args.vecnormalize:
             raise ValueError("--algo and --vecnormalize go with --model; --run-dir reads them from the run")
-        json_path, npz_path = export_run(args.run_dir, args.out)
+        json_path, npz_path = export_run(args.run_dir, args.out, trust=args.trust)
     else:
         if args.algo is None:
             raise ValueError("--model needs --algo (ppo, sac or td3)")
+        if not args.trust:
+            raise ValueError(f"--model {args.model} is an SB3 pickle: loading it runs any code it contains. Pass "
+                             "--trust if you produced it or trust its source (or export a `vtrack train` run "
+                             "folder of this machine with --run-dir)")
         _known_env(args.env)
         json_path, npz_path = export_model(args.model, args.out, args.algo, args.vecnormalize, env_id=args.env,
                                            command="vtrack export --model " + str(args.model))
     print(json.dumps({"json": str(json_path), "npz": str(npz_path)}))
     return 0
+
+
+def _check_outputs(args: argparse.Namespace) -> None:
+    """Every output location of the command checked (and missing folders created) before any work starts."""
+    cmd = args.command
+    if cmd in ("benchmark", "eval"):
+        check_output_file(args.store, "--store")
+    if cmd == "benchmark" and not args.no_figures:
+        check_output_dir(args.figures, "--figures")
+    if cmd == "leaderboard" and args.out is not None:
+        check_output_file(args.out, "--out")
+    if cmd == "plot":
+        check_output_dir(args.out, "--out")
+    if cmd == "train":
+        check_output_dir(args.run_dir, "--run-dir")
+        for name in RUN_FILES:
+            check_output_file(args.run_dir / name, "--run-dir")
+    if cmd == "export":
+        for suffix in (".json", ".npz"):
+            check_output_file(args.out.parent / (args.out.name + suffix), "--out")
+    if cmd == "reproduce":
+        check_output_dir(args.out / "reproduction", "--out")
+        check_output_file(args.out / "REPRODUCTION.md", "--out")
+    if cmd == "tune":
+        check_output_file(args.out or DEFAULT_RESULTS_DIR / f"{args.controller}_tuned.json", "--out")
+        if args.store is not None:
+            check_output_file(args.store, "--store")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -628,6 +749,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 "train": _cmd_train, "export": _cmd_export, "video": _cmd_video,
                 "tune": _cmd_tune, "reproduce": _cmd_reproduce}
     try:
+        _check_outputs(args)
         return handlers[args.command](args)
     except (ValueError, FileNotFoundError, ImportError, StoreError, sqlite3.Error, BackendError) as exc:
         print(f"vtrack {args.command}: error: {exc}", file=sys.stderr)

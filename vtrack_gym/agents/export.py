@@ -169,23 +169,104 @@ def export_model(model_zip: str | Path, out: str | Path, algo: str, vecnormalize
     return export(model, vecnorm, out, env_id=env_id, command=command, seed=seed)
 
 
-def export_run(run_dir: str | Path, out: str | Path) -> tuple[Path, Path]:
+TRUST_MARKER = "vtrack-train.sig"
+"""File of a ``vtrack train`` run folder: an HMAC-SHA256, with this user's key, of the folder's resolved path and
+the SHA-256 of its ``config.json``, ``model.zip`` and ``vecnormalize.pkl``."""
+_SIGNED_FILES = ("config.json", "model.zip", "vecnormalize.pkl")
+
+
+def _trust_key(create: bool) -> bytes | None:
+    """This user's run-signing key (32 random bytes in ``$XDG_CONFIG_HOME/vtrack_gym/trust.key``, mode 0600)."""
+    import os
+    import secrets
+
+    base = Path(os.environ.get("XDG_CONFIG_HOME") or Path.home() / ".config")
+    key_file = base / "vtrack_gym" / "trust.key"
+    try:
+        return bytes.fromhex(key_file.read_text(encoding="ascii").strip())
+    except (OSError, ValueError):
+        if not create:
+            return None
+    key_file.parent.mkdir(parents=True, exist_ok=True, mode=0o700)
+    key = secrets.token_bytes(32)
+    try:
+        fd = os.open(key_file, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+    except FileExistsError:  # another process made it first
+        return bytes.fromhex(key_file.read_text(encoding="ascii").strip())
+    with os.fdopen(fd, "w", encoding="ascii") as fh:
+        fh.write(key.hex() + "\n")
+    return key
+
+
+def _run_signature(run: Path, key: bytes) -> str:
+    import hashlib
+    import hmac
+
+    mac = hmac.new(key, str(run.resolve()).encode(), hashlib.sha256)
+    for name in _SIGNED_FILES:
+        file = run / name
+        digest = hashlib.sha256()
+        if file.is_file():
+            with file.open("rb") as fh:
+                for chunk in iter(lambda: fh.read(1 << 20), b""):
+                    digest.update(chunk)
+        mac.update(f"{name}:{digest.hexdigest() if file.is_file() else '-'};".encode())
+    return mac.hexdigest()
+
+
+def sign_run(run_dir: str | Path) -> Path:
+    """Write ``run_dir``/``TRUST_MARKER`` (``vtrack train`` calls this after saving the model); returns its path."""
+    from vtrack_gym._io import write_atomic
+
+    run = Path(run_dir)
+    key = _trust_key(create=True)
+    assert key is not None
+    return write_atomic(run / TRUST_MARKER, _run_signature(run, key) + "\n")
+
+
+def run_is_trusted(run_dir: str | Path) -> bool:
+    """True if ``run_dir`` holds a valid signature by this user's key over its current path and SB3 files."""
+    import hmac
+
+    run = Path(run_dir)
+    key = _trust_key(create=False)
+    marker = run / TRUST_MARKER
+    if key is None or not marker.is_file() or marker.stat().st_size > 200:
+        return False
+    return hmac.compare_digest(marker.read_text(encoding="ascii", errors="replace").strip(),
+                               _run_signature(run, key))
+
+
+def export_run(run_dir: str | Path, out: str | Path, *, trust: bool = False) -> tuple[Path, Path]:
     """Export the SB3 model of a ``vtrack train`` run folder to ``<out>.json`` + ``<out>.npz``.
 
     Reads ``config.json`` (algo, env, seed, command), ``model.zip`` and ``vecnormalize.pkl``. Those two are
-    SB3's own pickle-based formats: only export runs you produced or trust.
+    SB3's own pickle-based formats (loading them runs any code they contain): unless ``trust`` is true, the folder
+    must carry the signature ``vtrack train`` wrote with this user's key (``run_is_trusted``), else ``ValueError``.
     """
     import json
+
+    from vtrack_gym._io import read_regular_file
 
     run = Path(run_dir)
     config_file = run / "config.json"
     if not config_file.is_file():
         raise ValueError(f"{run} is not a `vtrack train` run folder (no config.json)")
-    config = json.loads(config_file.read_text(encoding="utf-8"))
+    if not trust and not run_is_trusted(run):
+        raise ValueError(f"{run} was not written by `vtrack train` as this user on this machine, or its files "
+                         "changed since (no valid vtrack-train.sig). Its model.zip and vecnormalize.pkl are "
+                         "pickles that can run code when loaded: pass --trust only if you trust where they came from")
+    try:
+        config = json.loads(read_regular_file(config_file, 1 << 20, "run config"))
+    except (ValueError, RecursionError) as exc:
+        raise ValueError(f"{config_file}: not a JSON run config ({exc})"[:400]) from None
+    if not isinstance(config, dict):
+        raise ValueError(f"{config_file}: not a JSON object")
     algo = config.get("algo")
     if algo not in SB3_CLASSES:
         raise ValueError(f"{config_file}: unknown algo {algo!r}; valid: {', '.join(SB3_CLASSES)}")
     env_id = str(config.get("env_id", config.get("env", "")))
+    seed = config.get("seed")
     vecnorm = run / "vecnormalize.pkl"
     return export_model(run / "model.zip", out, algo, vecnorm if vecnorm.is_file() else None, env_id=env_id,
-                        command=str(config.get("command", "")), seed=config.get("seed"))
+                        command=str(config.get("command", "")), seed=seed if isinstance(seed, int) else None)

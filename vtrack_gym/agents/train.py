@@ -39,6 +39,8 @@ from typing import Any
 
 import numpy as np
 
+from vtrack_gym._io import write_atomic
+
 log = logging.getLogger(__name__)
 
 ALGOS = ("ppo", "sac", "td3")
@@ -220,7 +222,7 @@ def train(algo: str, env_id: str = DEFAULT_ENV_ID, timesteps: int = 1_000_000, s
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
     from vtrack_gym._version import __version__
-    from vtrack_gym.agents.export import export
+    from vtrack_gym.agents.export import export, sign_run
     from vtrack_gym.agents.sb3_vec_env import TrackingSB3VecEnv
 
     if not isinstance(timesteps, int) or timesteps < 1:
@@ -251,7 +253,7 @@ def train(algo: str, env_id: str = DEFAULT_ENV_ID, timesteps: int = 1_000_000, s
                                                            "case1_full_every": case1_full_every},
               "bc": None if bc is None else bc.as_dict(),
               "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
-    (run_dir / "config.json").write_text(json.dumps(config, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+    write_atomic(run_dir / "config.json", json.dumps(config, indent=2, sort_keys=True) + "\n")
 
     n_envs = int(params.pop("n_envs", 8))
     params.pop("policy", "MlpPolicy")
@@ -298,6 +300,7 @@ def train(algo: str, env_id: str = DEFAULT_ENV_ID, timesteps: int = 1_000_000, s
     vecnorm.training = False
     model.save(run_dir / "model.zip")
     vecnorm.save(str(run_dir / "vecnormalize.pkl"))
+    sign_run(run_dir)  # lets `vtrack export --run-dir` unpickle this run's files without --trust
     agent_json, _ = export(model, vecnorm, run_dir / "agent", env_id=env_id, command=command, seed=seed,
                            warm_start=warm_start)
     final = None
@@ -327,4 +330,4 @@ def _behaviour_clone(model: Any, venv: Any, vecnorm: Any, bc: Any, seed: int, ru
         model.set_demonstrations(*imitation.labelled_states(rounds))
     record = {"config": bc.as_dict(), "transitions": sum(d.transitions for d in rounds), "fit": fit,
               "replay_buffer_prefilled": prefilled, "wall_s": round(time.perf_counter() - t0, 1)}
-    (run_dir / "bc.json").write_text(json.dumps(record, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+    write_atomic(run_dir / "bc.json", json.dumps(record, indent=2, sort_keys=True) + "\n")

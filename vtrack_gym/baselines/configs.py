@@ -78,7 +78,7 @@ class MPCConfig:
 
     weights: tuple[float, ...] = PAPER_WEIGHTS
     input_weight: float = ranged(0.1, gt=0.0, le=1e6)
-    prediction_horizon: int = ranged(50, ge=1, le=400, integer=True)
+    prediction_horizon: int = ranged(50, ge=1, le=60, integer=True)
     control_horizon: int = ranged(5, ge=1, le="prediction_horizon", integer=True)
     sample_time_s: float = ranged(0.02, ge=0.001, le=0.2, unit="s")
     interpretation: str = "augmented_outputs"
@@ -86,7 +86,7 @@ class MPCConfig:
     rate_limit: bool = True
     min_speed_mps: float = ranged(1.0, ge=0.5, le=80.0, unit="m/s")
     max_speed_mps: float = ranged(45.0, gt="min_speed_mps", le=80.0, unit="m/s")
-    n_speeds: int = ranged(60, ge=2, le=400, integer=True)
+    n_speeds: int = ranged(60, ge=2, le=100, integer=True)
 
     def __post_init__(self) -> None:
         validate(self)

@@ -25,7 +25,9 @@ Format version 1
   observation layout's names in order, the control period [s] and the road-wheel angle [rad] that action 1
   commands). ``check_env`` refuses an env whose layout differs and warns when the period or the scaling do.
 
-``<name>.npz`` (at most 64 MiB), exactly these float32 arrays (finite values):
+``<name>.npz`` (at most 64 MiB, stored or deflated members, each ``.npy`` header checked before its data is read),
+exactly these float32 arrays (finite values; weights, biases and ``clip_obs`` within +-1e4, action bounds within
++-1e6, so ``predict`` on finite observations up to 1e6 never overflows):
 
 * ``w0 .. w{L}`` of shape ``(in, out)`` and ``b0 .. b{L}`` of shape ``(out,)`` for the L hidden layers plus the
   output layer (``y = x @ w + b``)
@@ -37,10 +39,13 @@ Format version 1
 from __future__ import annotations
 
 import hashlib
+import io
 import json
 import logging
 import math
+import struct
 import zipfile
+import zlib
 from pathlib import Path
 from typing import Any
 
@@ -56,6 +61,12 @@ MAX_NPZ_BYTES = 64 * 1024 * 1024
 MAX_LAYERS = 8
 MAX_WIDTH = 4096
 MAX_DIM = 4096
+MAX_TIMESTEPS = 10**15
+MAX_WEIGHT = 1e4
+"""Largest |weight|, |bias| and ``clip_obs`` of an agent (trained SB3 actors stay below 10)."""
+MAX_ACTION_BOUND = 1e6
+"""Largest |action_low|, |action_high| of an agent."""
+MAX_SEED = 2**64 - 1
 JSON_KEYS = {"format", "format_version", "algo", "obs_dim", "action_dim", "hidden_sizes", "activation",
              "output", "obs_norm", "provenance"}
 OBS_NORM_KEYS = {"enabled", "eps"}
@@ -84,7 +95,7 @@ def _is_int(x: Any) -> bool:
 
 def _check_int(value: Any, name: str, low: int, high: int) -> int:
     if not _is_int(value) or not (low <= value <= high):
-        raise ValueError(f"agent json: {name} must be an integer in [{low}, {high}] (got {value!r})")
+        raise ValueError(f"agent json: {name} must be an integer in [{low}, {high}] (got {str(value)[:40]})")
     return value
 
 
@@ -93,16 +104,13 @@ def _reject_constant(name: str) -> None:
 
 
 def _read_json(path: Path) -> dict[str, Any]:
-    if not path.is_file():
-        raise ValueError(f"{path}: agent json not found")
-    size = path.stat().st_size
-    if size > MAX_JSON_BYTES:
-        raise ValueError(f"{path}: agent json is {size} bytes (limit {MAX_JSON_BYTES})")
-    raw = path.read_bytes()
+    from vtrack_gym._io import read_regular_file
+
+    raw = read_regular_file(path, MAX_JSON_BYTES, "agent json")
     try:
         spec = json.loads(raw.decode("utf-8"), parse_constant=_reject_constant)
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ValueError(f"{path}: not a UTF-8 JSON agent description ({exc})") from None
+    except (UnicodeDecodeError, ValueError, RecursionError) as exc:  # also: deep nesting, integers > 4300 digits
+        raise ValueError(f"{path}: not a UTF-8 JSON agent description ({type(exc).__name__}: {exc})"[:600]) from None
     if not isinstance(spec, dict):
         raise ValueError(f"{path}: agent json must be an object (got {type(spec).__name__})")
     return spec
@@ -149,10 +157,12 @@ def validate_spec(spec: dict[str, Any]) -> dict[str, Any]:
     for name in ("env_id", "command", "package_version", "sb3_version", *(OPTIONAL_PROVENANCE_KEYS & set(prov))):
         if not isinstance(prov[name], str) or len(prov[name]) > 4096:
             raise ValueError(f"agent json: provenance.{name} must be a string (<= 4096 chars)")
-    if not _is_int(prov["timesteps"]) or prov["timesteps"] < 0:
-        raise ValueError(f"agent json: provenance.timesteps must be a non-negative int (got {prov['timesteps']!r})")
-    if prov["seed"] is not None and not _is_int(prov["seed"]):
-        raise ValueError(f"agent json: provenance.seed must be an int or null (got {prov['seed']!r})")
+    if not _is_int(prov["timesteps"]) or not 0 <= prov["timesteps"] <= MAX_TIMESTEPS:
+        raise ValueError(f"agent json: provenance.timesteps must be an int in [0, {MAX_TIMESTEPS}] "
+                         f"(got {str(prov['timesteps'])[:40]})")
+    if prov["seed"] is not None and not (_is_int(prov["seed"]) and 0 <= prov["seed"] <= MAX_SEED):
+        raise ValueError(f"agent json: provenance.seed must be an int in [0, 2^64 - 1] or null "
+                         f"(got {str(prov['seed'])[:40]})")
     if "env" in spec:
         _validate_env(spec["env"])
     return spec
@@ -196,42 +206,72 @@ def expected_arrays(spec: dict[str, Any]) -> dict[str, tuple[int, ...]]:
     return shapes
 
 
+_NPZ_ERRORS = (ValueError, OSError, EOFError, zipfile.BadZipFile, RuntimeError, NotImplementedError, zlib.error,
+               struct.error, SyntaxError, TypeError, KeyError, RecursionError, MemoryError, AttributeError)
+"""What a crafted zip member can make ``zipfile`` / ``numpy.lib.format`` raise; all become the loader's ValueError."""
+
+
+def _read_member(zf: zipfile.ZipFile, info: zipfile.ZipInfo, shape: tuple[int, ...]) -> np.ndarray:
+    """One ``.npy`` member: its header must declare little-endian float32 of ``shape`` before any data is read."""
+    if info.flag_bits & 0x1:
+        raise ValueError("encrypted member")
+    if info.compress_type not in (zipfile.ZIP_STORED, zipfile.ZIP_DEFLATED):
+        raise ValueError(f"unsupported compression method {info.compress_type}")
+    with zf.open(info) as fh:
+        version = np.lib.format.read_magic(fh)
+        if version == (1, 0):
+            header = np.lib.format.read_array_header_1_0(fh)
+        elif version == (2, 0):
+            header = np.lib.format.read_array_header_2_0(fh)
+        else:
+            raise ValueError(f"unsupported .npy version {version}")
+        declared, fortran, dtype = header
+        if dtype != np.dtype("<f4"):
+            raise ValueError(f"must be float32 (got {dtype})")
+        if tuple(declared) != shape:
+            raise ValueError(f"must have shape {shape} (got {tuple(declared)})")
+        count = math.prod(shape)
+        data = fh.read(4 * count)
+        if len(data) != 4 * count:
+            raise ValueError("truncated array data")
+    arr = np.frombuffer(data, dtype="<f4", count=count).reshape(shape, order="F" if fortran else "C")
+    return np.ascontiguousarray(arr, dtype=np.float32)
+
+
 def _read_npz(path: Path, shapes: dict[str, tuple[int, ...]]) -> dict[str, np.ndarray]:
-    if not path.is_file():
-        raise ValueError(f"{path}: agent npz not found")
-    size = path.stat().st_size
-    if size > MAX_NPZ_BYTES:
-        raise ValueError(f"{path}: agent npz is {size} bytes (limit {MAX_NPZ_BYTES})")
-    if not zipfile.is_zipfile(path):
+    """The arrays of an agent npz, read member by member with their headers checked first (bounded memory)."""
+    from vtrack_gym._io import read_regular_file
+
+    raw = read_regular_file(path, MAX_NPZ_BYTES, "agent npz")
+    if not zipfile.is_zipfile(io.BytesIO(raw)):
         raise ValueError(f"{path}: not an npz archive (pickles and other files are refused)")
-    expected_members = {f"{name}.npy" for name in shapes}
-    with zipfile.ZipFile(path) as zf:
-        infos = zf.infolist()
-        members = [info.filename for info in infos]
-        if len(members) != len(set(members)) or set(members) != expected_members:
-            raise ValueError(f"{path}: npz members {sorted(members)[:20]} do not match the expected "
-                             f"{sorted(expected_members)} (an SB3 .zip or a tampered file?)")
-        declared = sum(info.file_size for info in infos)
-        if declared > MAX_NPZ_BYTES:
-            raise ValueError(f"{path}: npz uncompressed size {declared} bytes exceeds {MAX_NPZ_BYTES}")
+    expected_members = {f"{name}.npy": name for name in shapes}
     arrays: dict[str, np.ndarray] = {}
     try:
-        with np.load(path, allow_pickle=False) as data:
-            for name, shape in shapes.items():
-                arr = data[name]
-                if arr.dtype != np.float32:
-                    raise ValueError(f"{path}: array {name!r} must be float32 (got {arr.dtype})")
-                if arr.shape != shape:
-                    raise ValueError(f"{path}: array {name!r} must have shape {shape} (got {arr.shape})")
+        with zipfile.ZipFile(io.BytesIO(raw)) as zf:
+            infos = zf.infolist()
+            members = [info.filename for info in infos]
+            if len(members) != len(set(members)) or set(members) != set(expected_members):
+                raise ValueError(f"{path}: npz members {sorted(members)[:20]} do not match the expected "
+                                 f"{sorted(expected_members)} (an SB3 .zip or a tampered file?)")
+            declared = sum(info.file_size for info in infos)
+            if declared > MAX_NPZ_BYTES:
+                raise ValueError(f"{path}: npz uncompressed size {declared} bytes exceeds {MAX_NPZ_BYTES}")
+            for info in infos:
+                name = expected_members[info.filename]
+                try:
+                    arr = _read_member(zf, info, shapes[name])
+                except _NPZ_ERRORS as exc:
+                    raise ValueError(f"{path}: array {name!r}: {type(exc).__name__}: {exc}"[:600]) from None
                 if not np.isfinite(arr).all():
                     raise ValueError(f"{path}: array {name!r} contains NaN/inf")
                 arrays[name] = arr
     except ValueError as exc:
         if str(exc).startswith(str(path)):
             raise
-        raise ValueError(f"{path}: unreadable npz array ({exc})") from None
-    except (OSError, zipfile.BadZipFile, EOFError) as exc:
-        raise ValueError(f"{path}: unreadable npz ({exc})") from None
+        raise ValueError(f"{path}: unreadable npz ({exc})"[:600]) from None
+    except _NPZ_ERRORS as exc:
+        raise ValueError(f"{path}: unreadable npz ({type(exc).__name__}: {exc})"[:600]) from None
     if not np.all(arrays["action_low"] < arrays["action_high"]):
         raise ValueError(f"{path}: action_low must be < action_high")
     if "obs_var" in arrays:
@@ -240,6 +280,16 @@ def _read_npz(path: Path, shapes: dict[str, tuple[int, ...]]) -> dict[str, np.nd
         if not arrays["clip_obs"][0] > 0:
             raise ValueError(f"{path}: clip_obs must be > 0")
     return arrays
+
+
+def _magnitude_limits(shapes: dict[str, tuple[int, ...]]) -> dict[str, float]:
+    """Largest |entry| of each array: with these, 9 layers of width 4096 fed observations up to 1e6 (or clipped
+    normalised ones) stay below 1e200, so ``predict`` never overflows to inf or NaN."""
+    limits = {name: MAX_WEIGHT for name in shapes if name[0] in "wb" and name[1:].isdigit()}
+    limits.update({name: MAX_ACTION_BOUND for name in ("action_low", "action_high")})
+    if "clip_obs" in shapes:
+        limits["clip_obs"] = MAX_WEIGHT
+    return limits
 
 
 def weights_sha256(spec: dict[str, Any], arrays: dict[str, np.ndarray]) -> str:
@@ -269,6 +319,10 @@ class NumpyPolicy:
         for key, shape in shapes.items():
             if arrays[key].shape != shape or arrays[key].dtype != np.float32 or not np.isfinite(arrays[key]).all():
                 raise ValueError(f"array {key!r} must be finite float32 of shape {shape}")
+        for key, limit in _magnitude_limits(shapes).items():
+            if np.abs(arrays[key]).max(initial=0.0) > limit:
+                raise ValueError(f"array {key!r} has an entry beyond +-{limit:g} (the limit that keeps every action "
+                                 "finite in float64)")
         if "env" in spec and len(spec["env"]["observation_names"]) != spec["obs_dim"]:
             raise ValueError(f"agent json: env.observation_names has {len(spec['env']['observation_names'])} names, "
                              f"obs_dim is {spec['obs_dim']}")
@@ -381,8 +435,13 @@ def save_agent(path: str | Path, spec: dict[str, Any], arrays: dict[str, np.ndar
     """Validate and write an agent (used by ``export``); returns the json and npz paths."""
     validate_spec(spec)
     NumpyPolicy(spec, arrays)  # full check before anything is written
+    from vtrack_gym._io import check_output_file, write_atomic
+
     json_path, npz_path = agent_paths(path)
-    json_path.parent.mkdir(parents=True, exist_ok=True)
-    np.savez(npz_path, **{k: np.ascontiguousarray(v, dtype=np.float32) for k, v in arrays.items()})
-    json_path.write_text(json.dumps(spec, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+    check_output_file(json_path)
+    check_output_file(npz_path)
+    buffer = io.BytesIO()
+    np.savez(buffer, **{k: np.ascontiguousarray(v, dtype=np.float32) for k, v in arrays.items()})
+    write_atomic(npz_path, buffer.getvalue())
+    write_atomic(json_path, json.dumps(spec, indent=2, sort_keys=True) + "\n")
     return json_path, npz_path

@@ -68,9 +68,13 @@ def _config_type(controller: str) -> type:
 
 
 def _number(value: Any, where: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise PresetError(f"{where} must be a finite number (got {value!r})")
-    return float(value)
+    try:  # float() of an int beyond 1.8e308 raises OverflowError
+        number = float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) else math.nan
+    except OverflowError:
+        number = math.nan
+    if not math.isfinite(number):
+        raise PresetError(f"{where} must be a finite number (got {str(value)[:40]!r})")
+    return number
 
 
 def parse_preset(text: str | bytes) -> dict[str, Any]:
@@ -89,7 +93,7 @@ def parse_preset(text: str | bytes) -> dict[str, Any]:
         data = json.loads(text, parse_constant=_reject_constant)
     except PresetError:
         raise
-    except (json.JSONDecodeError, RecursionError) as exc:
+    except (ValueError, RecursionError) as exc:  # JSONDecodeError, integers over 4300 digits, deep nesting
         raise PresetError(f"preset is not valid JSON ({exc})") from None
     if not isinstance(data, dict):
         raise PresetError("preset must be a JSON object")
@@ -156,12 +160,17 @@ def parse_preset(text: str | bytes) -> dict[str, Any]:
 
 
 def load_preset(path: str | Path) -> dict[str, Any]:
-    """Read and validate a preset file (see ``parse_preset``)."""
+    """Read and validate a preset file (see ``parse_preset``): a regular file of at most ``MAX_BYTES`` bytes
+    (a FIFO or device is refused without blocking)."""
+    from vtrack_gym._io import read_regular_file
+
     p = Path(path)
-    if p.stat().st_size > MAX_BYTES:
-        raise PresetError(f"{p}: larger than {MAX_BYTES} bytes")
     try:
-        return parse_preset(p.read_bytes())
+        data = read_regular_file(p, MAX_BYTES, "preset file")
+    except ValueError as exc:
+        raise PresetError(str(exc)) from None
+    try:
+        return parse_preset(data)
     except PresetError as exc:
         raise PresetError(f"{p}: {exc}") from None
 
@@ -186,16 +195,15 @@ def preset_dict(controller: str, config: Any, speed_config: Any = None,
 
 def save_preset(path: str | Path, controller: str, config: Any, speed_config: Any = None,
                 provenance: dict[str, Any] | None = None) -> Path:
-    """Write a preset file (JSON, sorted keys); refuses anything ``parse_preset`` would refuse."""
+    """Write a preset file (JSON, sorted keys) atomically; refuses anything ``parse_preset`` would refuse and an
+    output path that is not (or cannot become) a regular file (``vtrack_gym._io.write_atomic``)."""
+    from vtrack_gym._io import write_atomic
+
     data = preset_dict(controller, config, speed_config, provenance)
     text = json.dumps(data, indent=2, sort_keys=True, allow_nan=False)
     parse_preset(text)
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    tmp = p.with_name(p.name + ".tmp")
-    tmp.write_text(text + "\n", encoding="utf-8")
-    tmp.replace(p)
-    return p
+    write_atomic(path, text + "\n")
+    return Path(path)
 
 
 def packaged_preset_path(controller: str) -> Path:

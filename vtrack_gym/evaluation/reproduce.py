@@ -22,6 +22,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from vtrack_gym._io import write_atomic
 from vtrack_gym.evaluation.reproduce_report import CLAIMS, CORRECTIONS, TIMESTAMP_PREFIX, build_report
 from vtrack_gym.evaluation.reproduce_runs import CASES, PAIRS, QUICK_MAX_STEPS, Run, run_all, write_figures
 
@@ -40,5 +41,5 @@ def reproduce(out_dir: str | Path = "docs", quick: bool = False, figures: bool =
     stamp = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC")
     report = out / "REPRODUCTION.md"
     out.mkdir(parents=True, exist_ok=True)
-    report.write_text(build_report(runs, files, quick, stamp), encoding="utf-8")
+    write_atomic(report, build_report(runs, files, quick, stamp), "--out")
     return {"report": report, "figures": files, "runs": runs}

@@ -156,6 +156,9 @@ class ResultStore:
             raise StoreError(f"{self.path} is a directory, not a store file; pass a file path such as "
                              f"{self.path / 'leaderboard.sqlite'}")
         exists = self.path.exists()
+        if exists and not self.path.is_file():  # a FIFO would block SQLite, a device would be written into
+            raise StoreError(f"{self.path} is not a regular file (a FIFO, device or socket), not a store; it was "
+                             "left untouched")
         if read_only and not exists:
             raise StoreError(f"no store at {self.path}")
         if exists and self.path.stat().st_size > 0:

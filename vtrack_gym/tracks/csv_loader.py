@@ -24,6 +24,7 @@ from pathlib import Path as FsPath
 
 import numpy as np
 
+from vtrack_gym._io import read_regular_file
 from vtrack_gym.tracks.fitting import check_points
 from vtrack_gym.tracks.geometry import TooDenseError, segment_intersections
 from vtrack_gym.tracks.path import DEFAULT_DS_M, MAX_HALF_WIDTH_M, MAX_V_REF_MPS, Path
@@ -33,7 +34,7 @@ CLOSED_GAP_SPACINGS = 3.0   # ... or an end gap up to this x the median point sp
 CLOSED_GAP_FRACTION = 0.03  # ... at most this fraction of the polyline length,
 CLOSED_GAP_TURN_DEG = 45.0  # ... and the closing chord within this angle of the end and start directions
 MIN_POINTS = 4
-MAX_POINTS = 500_000
+MAX_POINTS = 200_000
 MAX_FILE_BYTES = 64 * 2**20
 DEFAULT_HALF_WIDTH_M = 3.5
 DENSE_SPACING_M = 0.5       # points closer than this (median) [m] are averaged in blocks to about this spacing
@@ -107,9 +108,9 @@ def read_track_columns(fs_path: FsPath) -> tuple[dict[str, np.ndarray], list[int
     if size > MAX_FILE_BYTES:
         raise ValueError(f"{fs_path}: the file is {size / 2**20:.1f} MiB; at most {MAX_FILE_BYTES // 2**20} MiB is "
                          "accepted (thin the points, e.g. keep every k-th line)")
-    try:
-        text = fs_path.read_text(encoding="utf-8-sig")
-    except (OSError, UnicodeDecodeError) as exc:
+    try:  # regular files only, never more than MAX_FILE_BYTES even if the file grows meanwhile
+        text = read_regular_file(fs_path, MAX_FILE_BYTES, "track file").decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
         raise ValueError(f"{fs_path}: cannot read the track file ({exc})") from exc
     order: list[str] | None = None
     header_line = 0

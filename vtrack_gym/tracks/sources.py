@@ -43,11 +43,10 @@ def load_track(track: TrackSource, *, closed: bool | None = None, half_width_m: 
 
 def file_digest(file: str | os.PathLike[str]) -> str:
     """SHA-256 hex digest of a track file's bytes (for provenance of results on a user's track)."""
-    h = hashlib.sha256()
-    with open(file, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
+    from vtrack_gym._io import read_regular_file
+    from vtrack_gym.tracks.csv_loader import MAX_FILE_BYTES
+
+    return hashlib.sha256(read_regular_file(file, MAX_FILE_BYTES, "track file")).hexdigest()
 
 
 def path_digest(path: Path) -> str:

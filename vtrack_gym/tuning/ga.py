@@ -81,6 +81,26 @@ class TuneResult:
         return {name: float(v) for name, v in zip(self.space.names, self.best_x.tolist(), strict=True)}
 
 
+MAX_GENERATIONS = 10_000
+MAX_POP_SIZE = 10_000
+MAX_SEED = 2**32 - 1
+MAX_EPISODE_STEPS = 10**7
+
+
+def check_tune_args(budget: Budget, seed: int, max_steps: int | None) -> None:
+    """``ValueError`` naming the argument unless generations in [1, 10000], pop_size in [2, 10000], seed in
+    [0, 2^32 - 1] (pymoo seeds numpy's legacy generator) and ``max_steps`` None or in [1, 1e7]."""
+    def check(name: str, value: object, low: int, high: int) -> None:
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not low <= value <= high:
+            raise ValueError(f"{name} must be an integer in [{low}, {high}] (got {value!r})"[:300])
+
+    check("generations", budget.generations, 1, MAX_GENERATIONS)
+    check("pop_size", budget.pop_size, 2, MAX_POP_SIZE)
+    check("seed", seed, 0, MAX_SEED)
+    if max_steps is not None:
+        check("max_steps", max_steps, 1, MAX_EPISODE_STEPS)
+
+
 def tune(space: SearchSpace, budget: Budget, seed: int = 0, scenario: str = "LateralTracking-v0",
          fitness: FitnessConfig | None = None, progress: bool = True, max_steps: int | None = None,
          also_complete: tuple[str, ...] = (), backend: str = "local", ray_address: str | None = None,
@@ -97,6 +117,7 @@ def tune(space: SearchSpace, budget: Budget, seed: int = 0, scenario: str = "Lat
     from pymoo.operators.sampling.rnd import FloatRandomSampling
     from pymoo.problems.static import StaticProblem
 
+    check_tune_args(budget, seed, max_steps)
     start = time.perf_counter()
     evaluator = make_evaluator(backend, space, ray_address=ray_address, num_workers=num_workers,
                                pop_size=budget.pop_size, scenario=scenario, fitness=fitness, seed=0,

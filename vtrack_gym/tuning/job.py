@@ -40,21 +40,26 @@ def tune_to_preset(controller: str, space: str = "paper", budget: str = "paper",
     ``vtrack_results/<controller>_tuned.json``; ``command`` is recorded as the preset's provenance; ``store``: also
     add a row to that result store (suite ``tuning``). The other arguments are :func:`vtrack_gym.tuning.ga.tune`'s.
     """
+    from vtrack_gym._io import check_output_file
     from vtrack_gym.baselines.preset_files import save_preset
-    from vtrack_gym.tuning.ga import tune
+    from vtrack_gym.tuning.ga import check_tune_args, tune
     from vtrack_gym.tuning.population import FitnessConfig
     from vtrack_gym.tuning.spaces import budget as named_budget
     from vtrack_gym.tuning.spaces import search_space
 
     search = search_space(controller, space)
     b = named_budget(controller, budget)
-    if generations is not None or pop_size is not None:
-        b = dataclasses.replace(b, name="custom", generations=generations or b.generations,
-                                pop_size=pop_size or b.pop_size)
+    if generations is not None or pop_size is not None:  # 0 is an error (check_tune_args), not the default
+        b = dataclasses.replace(b, name="custom", generations=b.generations if generations is None else generations,
+                                pop_size=b.pop_size if pop_size is None else pop_size)
+    check_tune_args(b, seed, max_steps)
+    preset_file = Path(out) if out is not None else Path("vtrack_results") / f"{controller}_tuned.json"
+    check_output_file(preset_file, "--out")  # both outputs checked before the GA runs
+    if store is not None:
+        check_output_file(store, "--store")
     result = tune(search, b, seed=seed, fitness=FitnessConfig(comfort_weight=comfort_weight), progress=progress,
                   max_steps=max_steps, also_complete=also_complete, backend=backend, ray_address=ray_address,
                   num_workers=num_workers)
-    preset_file = out or Path("vtrack_results") / f"{controller}_tuned.json"
     budget_info = {"name": b.name, "generations": b.generations, "pop_size": b.pop_size}
     provenance: dict[str, Any] = {
         "command": command, "seed": seed, "budget": budget_info, "space": search.as_dict(),

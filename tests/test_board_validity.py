@@ -178,6 +178,9 @@ def test_ties_are_reported() -> None:
     assert notes == {"a": "b", "b": "a", "c": ""}
     twins = build_board([record("a", 0, 0.1), {**record("a", 0, 0.1), "policy_hash": "other"}], COLUMNS)
     assert sorted(e["tied_with"] for e in twins) == ["a@ha", "a@other"]
+    presets = build_board([{**record("s", 0, 0.1), "policy_preset": p, "policy_hash": p} for p in ("default", "paper")],
+                          COLUMNS)
+    assert sorted(e["tied_with"] for e in presets) == ["s", "s:paper"]
 
 
 def test_every_format_shows_the_intervals(tmp_path: Path) -> None:

@@ -23,7 +23,7 @@ the same interval). With fewer than two episodes the interval is undefined (NaN,
 zero variance it is the point value. Two entries of one env are *tied* (``tied_with``) when their success rates are
 equal and their primary-metric intervals overlap (an undefined interval counts as the point value; two entries
 without any successful episode are tied when their completion rates are equal). Ties are named
-``policy_id[:preset]``, with ``@policy_hash`` where that is ambiguous.
+``policy_id[:preset]`` (no ``:default``), with ``@policy_hash`` where that is ambiguous.
 """
 
 from __future__ import annotations
@@ -126,8 +126,8 @@ def _tied(a: Mapping[str, Any], b: Mapping[str, Any], primary: str) -> bool:
 
 
 def _labels(entries: Sequence[Mapping[str, Any]]) -> list[str]:
-    """``policy_id[:preset]`` of each entry, with ``@policy_hash`` where that alone is ambiguous."""
-    short = [e["policy_id"] + (f":{e['preset']}" if e["preset"] else "") for e in entries]
+    """``policy_id[:preset]`` of each entry (no ``:default``), with ``@policy_hash`` where that is ambiguous."""
+    short = [e["policy_id"] + (f":{e['preset']}" if e["preset"] not in ("", "default") else "") for e in entries]
     return [s if short.count(s) == 1 else f"{s}@{e['policy_hash']}" for s, e in zip(short, entries, strict=True)]
 
 

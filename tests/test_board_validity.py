@@ -221,3 +221,14 @@ def test_eval_over_seeds_prints_intervals(tmp_path: Path, capsys: pytest.Capture
     assert main(["leaderboard", "--suite", "custom", "--store", store, "--format", "csv"]) == 0
     parsed = list(csv.DictReader(io.StringIO(capsys.readouterr().out)))
     assert len(parsed) == 1 and parsed[0]["episodes"] == "3" and parsed[0]["max_e_y_m_lo"] != ""
+
+
+def test_benchmark_seeds_paper_suite_is_deterministic(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Two seeds of the paper suite give identical episodes (no noise), so every interval is the point value."""
+    assert main(["benchmark", "--policies", "stanley", "--seeds", "0-1", "--no-figures", "--format", "json",
+                 "--store", str(tmp_path / "s.sqlite")]) == 0
+    board = json.loads(capsys.readouterr().out)
+    assert [(e["env_id"], e["episodes"]) for e in board] == [("DLC120-v0", 2), ("LateralTracking-v0", 2)]
+    lateral = board[1]
+    assert lateral["success_rate"] == 1.0
+    assert lateral["max_e_y_m_lo"] == lateral["max_e_y_m"] == lateral["max_e_y_m_hi"]

@@ -85,8 +85,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     lb = sub.add_parser("leaderboard", help="print the stored leaderboard",
                         description="Print the leaderboard of a suite from the store: one row per policy key (name, "
-                        "preset, config or weights hash) and env, the mean over episodes (a metric missing in any "
-                        "episode is shown as a dash). Opens the store read-only: it never creates or changes a file.")
+                        "preset, config or weights hash) and env, ranked by success rate, then the suite's primary "
+                        "metric over successful episodes (failed episodes are counted apart); means with 95 % "
+                        "bootstrap intervals (a metric missing in any episode is shown as a dash). Opens the store "
+                        "read-only: it never creates or changes a file.")
     lb.add_argument("--suite", default="paper",
                     help="suite to show: one present in the store, e.g. paper, robust, highway, custom (what "
                     "`vtrack eval` adds) or tuning; the command lists the store's suites (default: paper)")

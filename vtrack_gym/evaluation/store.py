@@ -16,6 +16,9 @@ A store file may come from someone else, so it is data, never code:
 * a writer verifies the file with the same read-only connection first, so a foreign file (or its hot journal)
   is never rolled back, initialised or overwritten;
 * a full disk or a read-only file system is a ``StoreError`` that says so.
+
+Each row stores the episode's success verdict (``success`` 0/1, schema version 3); a row written without one
+(``DEFAULT 0``) never counts as a success.
 """
 
 from __future__ import annotations
@@ -56,7 +59,7 @@ _RESULTS_SQL = """CREATE TABLE IF NOT EXISTS results (
     options_json TEXT NOT NULL,
     termination TEXT NOT NULL,
     completed INTEGER NOT NULL,
-    success INTEGER NOT NULL,
+    success INTEGER NOT NULL DEFAULT 0,
     wall_time_per_step_s REAL NOT NULL,
     metrics_json TEXT NOT NULL,
     row_sha256 TEXT NOT NULL DEFAULT ''

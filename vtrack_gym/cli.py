@@ -106,6 +106,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"folder for the PNG figures (default: {DEFAULT_FIGURES_DIR})")
     b.add_argument("--no-figures", action="store_true", help="skip the figures")
     b.add_argument("--quick", action="store_true", help="robust/highway suites: one seed only")
+    b.add_argument("--seeds", default=None,
+                   help="seeds to score, e.g. 0-9 or 0,3,5 (default: the suite's: paper 0, deterministic without "
+                   "noise; robust five fixed seeds; highway 0-2); the table shows 95 %% bootstrap intervals")
     _add_store(b)
     _add_format(b)
 
@@ -123,13 +126,15 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--preset", default="default",
                    help="baseline preset: default (for smc and mpc the shipped GA-tuned preset), tuned, hand "
                         "(hand-tuned smc/mpc) or paper (Table 3) (default: default)")
-    e.add_argument("--seeds", default="0", help="comma-separated seeds (default: 0)")
+    e.add_argument("--seeds", default="0", help="seeds, e.g. 0-9 or 0,3,5 (default: 0)")
     _add_store(e)
 
     lb = sub.add_parser("leaderboard", help="print the stored leaderboard",
                         description="Print the leaderboard of a suite from the store: one row per policy key (name, "
-                        "preset, config or weights hash) and env, the mean over episodes (a metric missing in any "
-                        "episode is shown as a dash). Opens the store read-only: it never creates or changes a file.")
+                        "preset, config or weights hash) and env, ranked by success rate, then the suite's primary "
+                        "metric over successful episodes (failed episodes are counted apart); means with 95 % "
+                        "bootstrap intervals (a metric missing in any episode is shown as a dash). Opens the store "
+                        "read-only: it never creates or changes a file.")
     lb.add_argument("--suite", default="paper",
                     help="suite to show: one present in the store, e.g. paper, robust, highway, custom (what "
                     "`vtrack eval` adds) or tuning; the command lists the store's suites (default: paper)")
@@ -327,13 +332,13 @@ def _missing_packages(args: argparse.Namespace) -> str:
 
 
 def _render_board(board: list[dict], fmt: str, title: str = "vtrack leaderboard",
-                  figures: Sequence[Path] = ()) -> str:
+                  figures: Sequence[Path] = (), notes: Sequence[str] = ()) -> str:
     from vtrack_gym.evaluation import report_formats as rf
 
     if fmt == "html":
         from vtrack_gym.evaluation.html_report import to_html
 
-        return to_html(board, title=title, figures=figures)
+        return to_html(board, title=title, figures=figures, notes=notes)
     return {"md": rf.to_markdown, "csv": rf.to_csv, "json": rf.to_json, "latex": rf.to_latex}[fmt](board).rstrip()
 
 
@@ -350,9 +355,11 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
         policy_factories(policies)  # every name checked before any work
     store = ResultStore(args.store)  # verified before any rollout; written after the table is printed
     _announce_kernels()
+    seeds = _parse_seeds(args.seeds) if args.seeds is not None else None
     result = run_benchmark(args.suite, store=None, policies=policies,
-                           figures_dir=None if args.no_figures else args.figures, quick=args.quick)
+                           figures_dir=None if args.no_figures else args.figures, quick=args.quick, seeds=seeds)
     _print_board(summarise(result["rows"], LEADERBOARD_COLUMNS), args.format)
+    print(_ranking_note(args.suite), file=sys.stderr)
     for f in result["figures"]:
         print(f"figure: {f}", file=sys.stderr)
     sys.stdout.flush()
@@ -361,18 +368,37 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
     return 0
 
 
+def _ranking_note(suite: str) -> str:
+    from vtrack_gym.evaluation.board import ranking_note
+    from vtrack_gym.evaluation.suites import primary_metric
+
+    return ranking_note(primary_metric(suite))
+
+
+def _seed_text_ok(text: str) -> bool:
+    """``text`` is a decimal integer in [0, 2^63 - 1] (checked on the text first: no 5000-digit conversions)."""
+    return len(text) <= 19 and text.isascii() and text.isdigit() and int(text) <= MAX_SEED
+
+
 def _parse_seeds(text: str) -> list[int]:
-    """Comma-separated integer seeds in [0, 2^63 - 1]; ``ValueError`` naming the bad one (before any work)."""
-    seeds = []
+    """Seeds from ``0-9`` / ``0,3,5`` / ``0-4,10`` (integers in [0, 2^63 - 1], ranges inclusive, duplicates
+    dropped); ``ValueError`` naming the bad item (before any work)."""
+    seeds: list[int] = []
     for item in (t.strip() for t in text.split(",")):
         if not item:
             continue
-        if len(item) > 19 or not (item.isascii() and item.isdigit()) or int(item) > MAX_SEED:
-            raise ValueError(f"--seeds must be comma-separated integers in [0, 2^63 - 1 = {MAX_SEED}] "
-                             f"(got {item[:40]!r})")
-        seeds.append(int(item))
+        lo, sep, hi = item.partition("-")
+        lo, hi = lo.strip(), hi.strip()
+        if not _seed_text_ok(lo) or (sep and not _seed_text_ok(hi)):
+            raise ValueError(f"--seeds must be integers in [0, 2^63 - 1 = {MAX_SEED}] or ranges A-B, "
+                             f"comma-separated, e.g. 0-9 or 0,3,5 (got {item[:40]!r})")
+        first, last = int(lo), int(hi) if sep else int(lo)
+        if last < first or last - first >= MAX_SEEDS:
+            raise ValueError(f"--seeds range {item!r} must go up (A <= B) and take at most {MAX_SEEDS} seeds")
+        seeds.extend(range(first, last + 1))
+    seeds = list(dict.fromkeys(seeds))
     if not seeds:
-        raise ValueError("--seeds needs at least one seed, e.g. --seeds 0,1,2")
+        raise ValueError("--seeds needs at least one seed, e.g. --seeds 0-4 or --seeds 0,1,2")
     if len(seeds) > MAX_SEEDS:
         raise ValueError(f"--seeds takes at most {MAX_SEEDS} seeds (got {len(seeds)})")
     return seeds
@@ -402,9 +428,13 @@ def _cmd_eval(args: argparse.Namespace) -> int:
     store = ResultStore(args.store)  # verified before the rollouts; written after the table is printed
     _announce_kernels()
     rows = evaluate(make, env_id, seeds, policy_id=args.policy)
-    table = [{"seed": r.seed, "termination": r.termination, **{k: v for k, v in r.metrics.items()
-                                                                 if isinstance(v, float)}} for r in rows]
+    table = [{"seed": r.seed, "termination": r.termination, "success": int(r.verdict()),
+              **{k: v for k, v in r.metrics.items() if isinstance(v, float)}} for r in rows]
     print(to_markdown(table), flush=True)
+    if len(rows) > 1:
+        from vtrack_gym.evaluation.benchmark import LEADERBOARD_COLUMNS, summarise
+
+        print("\n" + to_markdown(summarise(rows, LEADERBOARD_COLUMNS)), flush=True)
     store.add(rows)
     print(f"results stored in {args.store} (suite 'custom': vtrack leaderboard --suite custom)", file=sys.stderr)
     return 0
@@ -495,7 +525,10 @@ def _cmd_leaderboard(args: argparse.Namespace) -> int:
     board = store.leaderboard(args.suite, LEADERBOARD_COLUMNS, latest_only=not args.all_versions)
     figures = sorted(f for f in args.figures.glob("*.png") if f.is_file() and f.stat().st_size <= MAX_FIGURE_BYTES) \
         if args.format == "html" and args.figures.is_dir() else []  # regular files only: a FIFO would block
-    text = _render_board(board, args.format, title=f"vtrack leaderboard: suite {args.suite}", figures=figures)
+    note = _ranking_note(args.suite)
+    print(note, file=sys.stderr)
+    text = _render_board(board, args.format, title=f"vtrack leaderboard: suite {args.suite}", figures=figures,
+                         notes=[note])
     if args.out is None:
         print(text.rstrip())
         return 0

@@ -16,7 +16,8 @@ from vtrack_gym.evaluation.board import build_board
 from vtrack_gym.evaluation.metrics import evaluate_trace
 from vtrack_gym.evaluation.rollout import rollout
 from vtrack_gym.evaluation.store import ResultRow, ResultStore
-from vtrack_gym.evaluation.suites import Episode, suite_episodes
+from vtrack_gym.evaluation.success import episode_success
+from vtrack_gym.evaluation.suites import Episode, primary_metric, suite_episodes
 from vtrack_gym.evaluation.trace import Trace
 
 log = logging.getLogger(__name__)
@@ -70,14 +71,19 @@ def cones_hit(env: gym.Env, trace: Trace) -> int | None:
 
 
 def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str) -> tuple[ResultRow, Trace]:
-    """Run ``policy`` for one episode on ``env`` (reset with ``ep``'s seed and options); its row and trace."""
+    """Run ``policy`` for one episode on ``env`` (reset with ``ep``'s seed and options); its row and trace.
+
+    The row's ``success`` is the env's verdict (the last info's ``"success"``) when it gives one, else the interim
+    rule ``vtrack_gym.evaluation.success.episode_success``."""
     trace = rollout(policy, env, seed=ep.seed, options=ep.options)
     trace.policy_id = name
     metrics = evaluate_trace(trace, cones_hit(env, trace))
     row = ResultRow(suite=suite, env_id=ep.env_id, policy_id=name, policy_hash=policy_hash(policy), seed=ep.seed,
                     metrics=metrics, termination=trace.termination,
                     wall_time_per_step_s=trace.wall_time_per_step_s, options=dict(ep.options),
-                    policy_preset=policy_preset(policy))
+                    policy_preset=policy_preset(policy),
+                    success=trace.success if trace.success is not None else episode_success(
+                        ep.env_id, trace.termination, metrics))
     return row, trace
 
 
@@ -109,14 +115,17 @@ def policy_factories(names: Sequence[str] | None = None) -> dict[str, Any]:
 
 def run_benchmark(suite: str = "paper", store: ResultStore | None = None, policies: Sequence[str] | None = None,
                   figures_dir: str | Path | None = None, quick: bool = False,
-                  show_progress: bool = True) -> dict[str, Any]:
+                  show_progress: bool = True, seeds: Sequence[int] | None = None) -> dict[str, Any]:
     """Score every policy on ``suite``; write rows to ``store`` and figures to ``figures_dir``.
+
+    ``seeds`` replaces the suite's seeds (``suite_episodes``; default: seed 0 for ``paper``, which is deterministic
+    without sensor noise, five fixed seeds for ``robust``).
 
     Returns ``{"rows": [...], "traces": {env_id: [Trace, ...]}, "figures": [paths]}``.
     """
     from tqdm.auto import tqdm
 
-    episodes = suite_episodes(suite, quick=quick)
+    episodes = suite_episodes(suite, quick=quick, seeds=seeds)
     factories = policy_factories(policies)
     all_rows: list[ResultRow] = []
     traces_by_env: dict[str, list[Trace]] = {}
@@ -160,9 +169,13 @@ def write_figures(traces_by_env: dict[str, list[Trace]], rows: Sequence[ResultRo
 
 
 def summarise(rows: Sequence[ResultRow], columns: Sequence[str] = LEADERBOARD_COLUMNS) -> list[dict[str, Any]]:
-    """Leaderboard entries straight from result rows: the same policy keys, aggregation and NaN rule as
-    ``ResultStore.leaderboard`` (``vtrack_gym.evaluation.board``)."""
+    """Leaderboard entries straight from result rows: the same policy keys, success verdicts, ranking,
+    aggregation and NaN rule as ``ResultStore.leaderboard`` (``vtrack_gym.evaluation.board``; primary metric of
+    the rows' suite)."""
+    suites = {r.suite for r in rows}
+    primary = primary_metric(suites.pop() if len(suites) == 1 else "")
     return build_board(({"env_id": r.env_id, "policy_id": r.policy_id, "policy_preset": r.policy_preset,
                          "policy_hash": r.policy_hash, "completed": int(r.termination == "completed"),
+                         "success": int(r.verdict()), "termination": r.termination,
                          "wall_time_per_step_s": r.wall_time_per_step_s, "metrics": r.metrics} for r in rows),
-                       columns)
+                       columns, primary)

@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from vtrack_gym.evaluation.report_formats import format_number, visible_controls
+from vtrack_gym.evaluation.report_formats import format_estimate, visible_controls
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 MAX_FIGURE_BYTES = 20_000_000
@@ -74,7 +74,7 @@ def _cell(value: Any, digits: int) -> str:
         number = float(value)
         if number != number or number in (float("inf"), float("-inf")):
             return '<td class="num" data-sort="">–</td>'
-        return f'<td class="num" data-sort="{number!r}">{_esc(format_number(value, digits))}</td>'
+        return f'<td class="num" data-sort="{number!r}">{_esc(format_estimate(value, digits))}</td>'
     if value is None:
         return '<td class="num" data-sort="">–</td>'
     return f"<td>{_esc(str(value))}</td>"

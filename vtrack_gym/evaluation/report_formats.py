@@ -9,6 +9,10 @@ from stores that may have been written by someone else, so every format treats t
   leading blanks) is prefixed with ``'`` so spreadsheets do not run it as a formula; NaN is an empty cell;
 * JSON: NaN/inf as ``null``;
 * LaTeX: the ten special characters and ``| < >`` escaped, control characters shown as escapes.
+
+Confidence intervals (``vtrack_gym.evaluation.board.Estimate`` values): Markdown, LaTeX and HTML show one cell
+``mean [lo, hi]`` (the bare mean when the interval is undefined); CSV and JSON give three columns ``name``,
+``name_lo``, ``name_hi``.
 """
 
 from __future__ import annotations
@@ -21,7 +25,7 @@ import re
 from collections.abc import Callable
 from typing import Any
 
-from vtrack_gym.evaluation.board import metric_value
+from vtrack_gym.evaluation.board import Estimate, metric_value
 
 _CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u2028\u2029]")
 _MD_SPECIAL = re.compile(r"([\\`*\[\]<>|~&#!]|(?<![A-Za-z0-9])_|_(?![A-Za-z0-9]))")  # intraword _ is inert
@@ -43,6 +47,25 @@ def format_number(value: float, digits: int = 3) -> str:
     return f"{value:.{digits}g}"
 
 
+def format_estimate(value: float, digits: int = 3) -> str:
+    """``mean [lo, hi]`` of an ``Estimate`` (the bare mean when its interval is undefined or it is a float)."""
+    text = format_number(value, digits)
+    if isinstance(value, Estimate) and math.isfinite(value.lo) and math.isfinite(value.hi):
+        text += f" [{format_number(value.lo, digits)}, {format_number(value.hi, digits)}]"
+    return text
+
+
+def expand_estimates(entry: dict[str, Any]) -> dict[str, Any]:
+    """``entry`` with every ``Estimate`` as three plain numbers ``name``, ``name_lo``, ``name_hi`` (CSV, JSON)."""
+    out: dict[str, Any] = {}
+    for k, v in entry.items():
+        if isinstance(v, Estimate):
+            out[k], out[f"{k}_lo"], out[f"{k}_hi"] = float(v), v.lo, v.hi
+        else:
+            out[k] = v
+    return out
+
+
 def _is_missing(value: Any) -> bool:
     return (isinstance(value, float) and not math.isfinite(value)) or value is None
 
@@ -56,7 +79,7 @@ def _text_cells(entry: dict[str, Any], cols: list[str], digits: int, missing: st
         if _is_missing(v):
             cells.append(missing)
         elif isinstance(v, (int, float)) and not isinstance(v, bool):
-            cells.append(format_number(v, digits))
+            cells.append(format_estimate(v, digits))
         else:
             cells.append(escape(str(v)))
     return cells
@@ -94,6 +117,7 @@ def to_csv(board: list[dict[str, Any]]) -> str:
     """CSV text of a leaderboard (header row first; see the module docstring for the escaping)."""
     buf = io.StringIO()
     if board:
+        board = [expand_estimates(e) for e in board]
         cols = list(board[0])
         writer = csv.writer(buf, lineterminator="\n")
         writer.writerow([csv_cell(c) for c in cols])
@@ -116,7 +140,8 @@ def json_value(value: Any) -> Any:
 
 def to_json(board: list[dict[str, Any]]) -> str:
     """JSON text of a leaderboard (a list of objects; NaN as null)."""
-    return json.dumps([{k: json_value(v) for k, v in e.items()} for e in board], indent=2, allow_nan=False)
+    return json.dumps([{k: json_value(v) for k, v in expand_estimates(e).items()} for e in board], indent=2,
+                      allow_nan=False)
 
 
 def latex_escape(text: str) -> str:

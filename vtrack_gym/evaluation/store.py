@@ -16,6 +16,9 @@ A store file may come from someone else, so it is data, never code:
 * a writer verifies the file with the same read-only connection first, so a foreign file (or its hot journal)
   is never rolled back, initialised or overwritten;
 * a full disk or a read-only file system is a ``StoreError`` that says so.
+
+Each row stores the episode's success verdict (``success`` 0/1, schema version 3); a row written without one
+(``DEFAULT 0``) never counts as a success.
 """
 
 from __future__ import annotations
@@ -37,7 +40,7 @@ from typing import Any, TypeVar
 from vtrack_gym.evaluation.board import build_board
 from vtrack_gym.evaluation.report_formats import to_csv, to_json, to_markdown  # noqa: F401  (re-exported)
 
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3  # 3: the per-episode success verdict (column ``success``)
 DEFAULT_STORE_PATH = Path("vtrack_results") / "leaderboard.sqlite"
 T = TypeVar("T")
 
@@ -56,12 +59,14 @@ _RESULTS_SQL = """CREATE TABLE IF NOT EXISTS results (
     options_json TEXT NOT NULL,
     termination TEXT NOT NULL,
     completed INTEGER NOT NULL,
+    success INTEGER NOT NULL DEFAULT 0,
     wall_time_per_step_s REAL NOT NULL,
     metrics_json TEXT NOT NULL,
     row_sha256 TEXT NOT NULL DEFAULT ''
 )"""
 _COLUMNS = ("id", "created_utc", "package_version", "suite", "env_id", "env_version", "policy_id", "policy_preset",
-            "policy_hash", "seed", "options_json", "termination", "completed", "wall_time_per_step_s", "metrics_json")
+            "policy_hash", "seed", "options_json", "termination", "completed", "success", "wall_time_per_step_s",
+            "metrics_json")
 _META_KEYS = frozenset({"schema_version", "row_count", "rows_digest"})
 
 
@@ -71,7 +76,11 @@ class StoreError(RuntimeError):
 
 @dataclass(frozen=True)
 class ResultRow:
-    """One evaluated episode and where it came from (``policy_preset``: preset name, empty for agents)."""
+    """One evaluated episode and where it came from (``policy_preset``: preset name, empty for agents).
+
+    ``success``: the episode's success verdict; None derives it with the interim rule
+    ``vtrack_gym.evaluation.success.episode_success`` when the row is stored.
+    """
 
     suite: str
     env_id: str
@@ -86,6 +95,14 @@ class ResultRow:
     package_version: str = ""
     created_utc: str = ""
     policy_preset: str = ""
+    success: bool | None = None
+
+    def verdict(self) -> bool:
+        """``success``, or the interim rule's verdict when it is None."""
+        from vtrack_gym.evaluation.success import episode_success
+
+        return bool(self.success) if self.success is not None else episode_success(self.env_id, self.termination,
+                                                                                    self.metrics)
 
 
 def _now() -> str:
@@ -246,8 +263,8 @@ class ResultStore:
                              f"({SCHEMA_VERSION}); upgrade vtrack_gym to read it")
         if version < SCHEMA_VERSION:
             raise StoreError(f"{self.path} has schema version {version}, older than this vtrack_gym's "
-                             f"({SCHEMA_VERSION}, rows with policy presets and checksums); it was left untouched: "
-                             "move it away (or pass another --store) and rerun the evaluations")
+                             f"({SCHEMA_VERSION}, rows with policy presets, checksums and success verdicts); it was "
+                             "left untouched: move it away (or pass another --store) and rerun the evaluations")
         unexpected = objects - expected_schema()
         missing = expected_schema() - objects
         if unexpected or missing:
@@ -301,7 +318,7 @@ class ResultStore:
             pending.append([r.created_utc or _now(), r.package_version or __version__, r.suite, r.env_id,
                             r.env_version, r.policy_id, r.policy_preset, r.policy_hash, r.seed,
                             json.dumps(r.options, sort_keys=True), r.termination, int(r.termination == "completed"),
-                            wall, json.dumps(metrics, sort_keys=True)])
+                            int(r.verdict()), wall, json.dumps(metrics, sort_keys=True)])
         try:
             with closing(self._connect_rw()) as con, _write_transaction(con):
                 self._insert(con, pending)
@@ -379,7 +396,8 @@ class ResultStore:
         return meta, raw
 
     def leaderboard(self, suite: str, columns: Sequence[str], latest_only: bool = True) -> list[dict[str, Any]]:
-        """Aggregates of ``columns`` per policy key (``vtrack_gym.evaluation.board``) over the suite's rows.
+        """Aggregates of ``columns`` per policy key (``vtrack_gym.evaluation.board``) over the suite's rows, ranked
+        validity first on the suite's primary metric (``vtrack_gym.evaluation.suites.primary_metric``).
 
         ``latest_only``: only rows written by the newest package version present in the suite, and of those the
         newest row per (env, policy key, seed, options); otherwise every row of every version.
@@ -393,7 +411,9 @@ class ResultStore:
                     latest[(r["env_id"], r["policy_id"], r["policy_preset"], r["policy_hash"], r["seed"],
                             json.dumps(r["options"], sort_keys=True))] = r
             rows = list(latest.values())
-        return build_board(rows, columns)
+        from vtrack_gym.evaluation.suites import primary_metric
+
+        return build_board(rows, columns, primary_metric(suite))
 
 
 _RELEASE = re.compile(r"v?(\d+(?:\.\d+)*)(.*)")

@@ -94,3 +94,17 @@ def highway_episodes(quick: bool = False, seeds: Sequence[int] | None = None) ->
 
 
 SUITES: tuple[str, ...] = ("paper", "robust", "highway")
+
+PRIMARY_METRICS: dict[str, str] = {"paper": "max_e_y_m", "robust": "max_e_y_m", "highway": "itae"}
+"""The metric each suite ranks on after the success rate (lower is better; over successful episodes only).
+
+paper/robust: the largest lateral error |e_y| [m], the worst case that decides whether the car stays in its lane
+or clears the cones, independent of the course length and of when the error occurs. highway: ITAE [m s^2],
+because every policy starts 4 m off the lane centre there, so the maximum is the initial offset for all of them;
+ITAE weights the error by time and measures how fast and how well the offset is removed. Other suites (custom,
+tuning) rank on ``max_e_y_m``."""
+
+
+def primary_metric(suite: str) -> str:
+    """The metric ``suite``'s leaderboard ranks on after the success rate (see ``PRIMARY_METRICS``)."""
+    return PRIMARY_METRICS.get(suite, "max_e_y_m")

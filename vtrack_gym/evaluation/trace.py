@@ -32,6 +32,8 @@ class Trace:
     termination: str
     wall_time_per_step_s: float
     meta: dict[str, Any] = field(default_factory=dict)
+    success: bool | None = None
+    """The env's own success verdict (the last info's ``"success"``), None when the env gives none."""
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.signals[name]
@@ -56,5 +58,6 @@ class Trace:
         signals = {name: np.array([info[name] for info in infos], dtype=np.float64) for name in STEP_SIGNALS}
         fz = np.array([info["fz_n"] for info in infos], dtype=np.float64)
         acc = np.concatenate([info["acc_substeps_mps2"] for info in infos], axis=0)
+        verdict = infos[-1].get("success")
         return cls(env_id, policy_id, seed, signals, fz, acc, physics_rate_hz, control_period_s, termination,
-                   wall_time_s / len(infos), dict(meta or {}))
+                   wall_time_s / len(infos), dict(meta or {}), None if verdict is None else bool(verdict))

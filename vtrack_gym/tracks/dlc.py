@@ -26,11 +26,14 @@ and C^2 transitions only inside sections 2 and 4. A transition is a trapezoidal 
 (0 -> +K -> -K -> 0, smootherstep blends over ``ramp_fraction`` of its length at the ends and twice that at the
 reversal), antisymmetric so the heading returns exactly to 0; K and its arc length are solved so that it spans
 exactly the section length in X and the lane offset in Y. Built with ``Path.from_curvature`` (exact kappa and
-dkappa/ds). Open path; ``half_width_m`` = 4.0 m for termination. Start at (0, 0), heading +X.
+dkappa/ds). Open path; ``half_width_m`` = 4.0 m for termination. Start at (0, 0), heading +X. With ``overlap_m``
+> 0 the transitions also reach that far into the lanes (gentler, the gates become anchored rectangles; see
+``tracks.lanes``); the default 0 is the paper's construction.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -38,7 +41,7 @@ import numpy as np
 
 from vtrack_gym._ranges import documented, ranged, validate
 from vtrack_gym.tracks.lanes import LaneSection, lane_sequence_path
-from vtrack_gym.tracks.path import DEFAULT_DS_M, Path
+from vtrack_gym.tracks.path import DEFAULT_DS_M, Gate, Path
 
 VERSION = "1"
 ISO_SECTION_LENGTHS_M = (15.0, 30.0, 25.0, 25.0, 15.0)   # sections 1..5 at length_scale = 1
@@ -59,6 +62,8 @@ class DoubleLaneChangeSpec:
     lane_offset_m: float = ranged(3.5, gt=0.5, le=20.0, unit="m")  # lane-3 centre left of lane-1 centre (paper)
     # transition shape: blend length / transition length
     ramp_fraction: float = ranged(0.135, gt=0.0, lt=0.25)
+    # transitions reach this far into the lanes before/after them; > 0 anchors the gates (see tracks.lanes)
+    overlap_m: float = ranged(0.0, ge=0.0, le=50.0, unit="m")
     half_width_m: float = ranged(4.0, gt=0.5, le=50.0, unit="m")  # drivable half width for off-road termination
     ds_m: float = ranged(DEFAULT_DS_M, gt=0.0, le=5.0, unit="m")  # table spacing
 
@@ -88,9 +93,11 @@ def build_double_lane_change(spec: DoubleLaneChangeSpec) -> Path:
     lanes = (LaneSection(l1, w1, y1, "lane 1 (entry)"), LaneSection(l3, w3, y3, "lane 3 (side lane)"),
              LaneSection(l5, w5, y5, "lane 5 (exit)"))
     name = f"dlc_iso3888-1_w{spec.vehicle_width_m:g}_x{spec.length_scale:g}"
+    if spec.overlap_m > 0.0:
+        name += f"_o{spec.overlap_m:g}"
     return lane_sequence_path(lanes, (l2, l4), approach_m=spec.approach_m, run_out_m=l_out,
                               ramp_fraction=spec.ramp_fraction, half_width_m=spec.half_width_m, ds_m=spec.ds_m,
-                              name=name, version=VERSION)
+                              name=name, version=VERSION, overlap_m=spec.overlap_m)
 
 
 @lru_cache(maxsize=16)
@@ -125,22 +132,55 @@ def car_outline(x: np.ndarray, y: np.ndarray, psi: np.ndarray, vehicle_length_m:
     return x[:, None] + c * lon - s * lat, y[:, None] + s * lon + c * lat
 
 
+def gate_boundaries(path: Path, gate: Gate, n: int = 6) -> tuple[np.ndarray, np.ndarray]:
+    """Global X, Y [m] of ``n`` points along the left and the right boundary (the cone lines) of ``gate`` on
+    ``path`` -> two arrays of shape (n, 2): offsets from the centre-line, or from the anchor line of an anchored
+    gate. Use it to draw cones."""
+    if n < 2:
+        raise ValueError(f"n must be >= 2 (got {n})")
+    out = []
+    if gate.anchor is None:
+        row = path.sample(np.linspace(gate.s_start_m, gate.s_end_m, n))
+        x, y, c, s = row.x, row.y, np.cos(row.psi), np.sin(row.psi)
+    else:
+        x0, y0, psi0 = gate.anchor
+        u = np.linspace(0.0, gate.lane_length_m, n)
+        c, s = np.full(n, math.cos(psi0)), np.full(n, math.sin(psi0))
+        x, y = x0 + u * c, y0 + u * s
+    for lat in (gate.y_left_m, gate.y_right_m):
+        out.append(np.column_stack((x - lat * s, y + lat * c)))
+    return out[0], out[1]
+
+
 def gate_violations(path: Path, x: np.ndarray, y: np.ndarray, psi: np.ndarray, vehicle_length_m: float,
                     vehicle_width_m: float, cg_to_front_m: float | None = None) -> int:
     """Number of ``path.gates`` in which any point of the car's outline (corners and sides, sampled every
     ``OUTLINE_STEP_M``) left the lane at any sample of the trajectory x, y [m], psi [rad] (arrays of shape (T,));
     the "cones hit" count of ISO 3888. Sampling the sides as well as the corners catches a single-cone gate (a
-    slalom cone, shorter than the car) that the body passes between its corners."""
+    slalom cone, shorter than the car) that the body passes between its corners. A gate without an anchor is
+    checked in the path's Frenet frame (station window, e_y bounds), an anchored gate against its fixed
+    rectangle."""
     if not (vehicle_length_m > 0.0 and vehicle_width_m > 0.0):
         raise ValueError(f"vehicle_length_m and vehicle_width_m must be > 0 (got {vehicle_length_m}, "
                          f"{vehicle_width_m})")
     if not path.gates:
         return 0
     cx, cy = car_outline(x, y, psi, vehicle_length_m, vehicle_width_m, cg_to_front_m)
-    proj = path.project(cx.ravel(), cy.ravel())
+    cx, cy = cx.ravel(), cy.ravel()
+    proj = path.project(cx, cy) if any(g.anchor is None for g in path.gates) else None
     count = 0
     for gate in path.gates:
-        inside = (proj.s >= gate.s_start_m) & (proj.s <= gate.s_end_m)
-        out = (proj.e_y > gate.y_left_m) | (proj.e_y < gate.y_right_m)
+        if gate.anchor is None:
+            assert proj is not None
+            along, lat = proj.s - gate.s_start_m, proj.e_y
+            length = gate.s_end_m - gate.s_start_m
+        else:
+            x0, y0, psi0 = gate.anchor
+            c, s = math.cos(psi0), math.sin(psi0)
+            along = (cx - x0) * c + (cy - y0) * s
+            lat = -(cx - x0) * s + (cy - y0) * c
+            length = gate.lane_length_m
+        inside = (along >= 0.0) & (along <= length)
+        out = (lat > gate.y_left_m) | (lat < gate.y_right_m)
         count += int(np.any(inside & out))
     return count

@@ -16,6 +16,7 @@ lateral acceleration of at least 4 v^2 dy / dx^2 on the centre-line.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -90,29 +91,52 @@ def pulse_segments(k_peak: float, length: float, ramp: float) -> list[tuple[floa
 
 def lane_sequence_path(lanes: Sequence[LaneSection], gaps_m: Sequence[float], *, approach_m: float,
                        run_out_m: float, ramp_fraction: float, half_width_m: float, ds_m: float, name: str,
-                       version: str) -> Path:
+                       version: str, overlap_m: float = 0.0) -> Path:
     """Path through ``lanes`` with ``gaps_m[i]`` [m] of X between lane i and lane i + 1, ``approach_m`` [m] of
     straight before the first lane and ``run_out_m`` [m] after the last; it starts at (0, lanes[0].centre_y_m)
-    heading +X. One ``Gate`` per lane (named like the lane). See the module docstring."""
+    heading +X. One ``Gate`` per lane (named like the lane).
+
+    ``overlap_m`` = 0: the centre-line is straight inside every lane and the gates are centre-line offsets (see
+    the module docstring). ``overlap_m`` > 0 [m]: every transition starts ``overlap_m`` before the end of its lane
+    and ends ``overlap_m`` after the start of the next (it spans gap + 2 overlap of X, so it is gentler), and the
+    gates are anchored rectangles (``Gate.anchor``) at the lanes' fixed positions."""
     if len(lanes) < 1 or len(gaps_m) != len(lanes) - 1:
         raise ValueError(f"need >= 1 lane and one gap between consecutive lanes (got {len(lanes)} lanes, "
                          f"{len(gaps_m)} gaps)")
-    if approach_m < 0.0 or run_out_m < 0.0:
-        raise ValueError(f"approach_m and run_out_m must be >= 0 m (got {approach_m}, {run_out_m})")
+    if approach_m < 0.0 or run_out_m < 0.0 or overlap_m < 0.0:
+        raise ValueError(f"approach_m, run_out_m and overlap_m must be >= 0 m (got {approach_m}, {run_out_m}, "
+                         f"{overlap_m})")
     segs: list[tuple[float, float]] = []
     if approach_m > 0.0:
         segs.append((approach_m, 0.0))
     gates: list[Gate] = []
     s = approach_m
-    y0 = lanes[0].centre_y_m
+    last = len(lanes) - 1
     for k, lane in enumerate(lanes):
-        last = k == len(lanes) - 1
-        segs.append((lane.length_m + (run_out_m if last else 0.0), 0.0))
+        straight = lane.length_m - overlap_m * ((k > 0) + (k < last)) + (run_out_m if k == last else 0.0)
+        if straight < 0.0 or (straight == 0.0 and k == last):
+            raise ValueError(f"overlap_m = {overlap_m} m leaves no straight in {lane.name or f'lane {k}'} "
+                             f"({lane.length_m} m long)")
+        if straight > 0.0:
+            segs.append((straight, 0.0))
         gates.append(Gate(s, s + lane.length_m, 0.5 * lane.width_m, -0.5 * lane.width_m, lane.name))
         s += lane.length_m
-        if not last:
-            k_peak, length = transition(lanes[k + 1].centre_y_m - lane.centre_y_m, float(gaps_m[k]), ramp_fraction)
+        if k < last:
+            k_peak, length = transition(lanes[k + 1].centre_y_m - lane.centre_y_m, float(gaps_m[k]) + 2.0 * overlap_m,
+                                        ramp_fraction)
             segs += pulse_segments(k_peak, length, ramp_fraction)
-            s += length
-    return Path.from_curvature(CurvatureProfile.from_segments(0.0, segs), ds_m=ds_m, closed=False, y0_m=y0,
-                               half_width_m=half_width_m, name=name, version=version, gates=tuple(gates))
+            s += length - 2.0 * overlap_m
+    path = Path.from_curvature(CurvatureProfile.from_segments(0.0, segs), ds_m=ds_m, closed=False,
+                               y0_m=lanes[0].centre_y_m, half_width_m=half_width_m, name=name, version=version,
+                               gates=tuple(gates) if overlap_m == 0.0 else ())
+    if overlap_m == 0.0:
+        return path
+    steps = [ln.length_m + g for ln, g in zip(lanes, gaps_m, strict=False)]   # lane k start -> lane k + 1 start
+    x_start = approach_m + np.concatenate(([0.0], np.cumsum(steps)))
+    x_rows = path.table[:, 0]                                   # increasing: every heading stays within +-90 deg
+    anchored = []
+    for lane, x0 in zip(lanes, x_start, strict=False):
+        s0, s1 = np.interp([x0, x0 + lane.length_m], x_rows, path.s_m)
+        anchored.append(Gate(float(s0), float(s1), 0.5 * lane.width_m, -0.5 * lane.width_m, lane.name,
+                             anchor=(float(x0), lane.centre_y_m, 0.0), length_m=lane.length_m))
+    return dataclasses.replace(path, gates=tuple(anchored))

@@ -11,7 +11,7 @@ Build one with its builder and a parameter object (every parameter validated, un
 name                   test                                       speed      key geometry (w = vehicle width)
 =====================  =========================================  =========  ====================================
 ``iso3888_1``          ISO 3888-1 double lane change              80 km/h    lanes 15 / 25 / 15 m, gaps 30 / 25 m
-``iso3888_2``          ISO 3888-2 obstacle avoidance ("moose")    80 km/h    lanes 12 / 11 / 12 m, gaps 13.5/12.5
+``iso3888_2``          ISO 3888-2 obstacle avoidance ("moose")    80 km/h    lanes 12 / 11 / 12 m, gaps 13.5 / 12.5
 ``iso4138_circle``     ISO 4138 steady-state circle, speed ramp   ramp       R = 40 m, 0.2 m/s^2 up to 1.1 v_grip
 ``slalom``             slalom (no standard: CHOICE)               40 km/h    10 cones, 18 m apart
 ``step_curvature``     straight into a constant radius            54 km/h    60 m straight, R = 50 m, 180 deg
@@ -27,14 +27,16 @@ Success criteria (``ManeuverSpec.success_criterion`` is one of ``SUCCESS_CRITERI
 - ``completes``: the car reaches the end of the path without leaving the road; report the e_y overshoot after the
   curvature step.
 
-Reference lines: straight at the lane centres inside every gate, C^2 curvature pulses between lanes
-(``tracks.lanes``). A line that is straight inside the gates is a stiff reference for the two ISO 3888 tests at
-their nominal speeds: ``Maneuver.peak_lateral_accel_mps2`` (v^2 max|kappa| of the line at the nominal speed) is
-13.9 m/s^2 (1.41 g) for ISO 3888-1 and 52.6 m/s^2 (5.4 g) for ISO 3888-2 with w = 1.916 m, above mu g; the
-bang-bang lower bound 4 v^2 dy / dx^2 of any line straight in the gates is 1.07 g and 4.3 g. A car passes those
-tests at 80 km/h only by using the lane width and yawing inside the gates, so a controller that tracks this line
-exactly cannot pass them at that speed; lower speeds (the spec's speed profile can be replaced) or a reference
-that curves inside the gates are the ways round it.
+Reference lines (``tracks.lanes``): straight at the lane centres, C^2 curvature pulses between lanes. A line that
+is straight inside the whole of every gate is too stiff for the two ISO 3888 tests at 80 km/h: its peak v^2 kappa
+is 1.41 g (ISO 3888-1) and 5.4 g (ISO 3888-2) for w = 1.916 m, and any line straight in the gates needs at least
+4 v^2 dy / dx^2 (1.07 g and 4.3 g). A driver passes by turning inside the lanes, so here the transitions reach
+``overlap_m`` into the lanes on both sides (7 m for ISO 3888-1, 5 m for ISO 3888-2) and the gates are anchored
+rectangles at the cones' fixed positions (``Gate.anchor``). Then the peak v^2 kappa at 80 km/h is 0.59 g for
+ISO 3888-1 (below mu g = 0.9 g: exact tracking can pass) and 1.75 g for ISO 3888-2 (above it: no car on mu = 0.9
+follows this line at 80 km/h; the speed at which it asks 0.8 g is ~54 km/h). ``Maneuver.peak_lateral_accel_mps2``
+gives the figure for any parameters. The body of a car of the gates' width, driven exactly on either line, hits no
+gate (tested).
 """
 
 from __future__ import annotations
@@ -145,6 +147,7 @@ class DoubleLaneChangeParams:
     vehicle_width_m: float = ranged(PAPER_CAR_WIDTH_M, gt=0.5, le=4.0, unit="m")
     speed_mps: float = ranged(80.0 * KMH_TO_MPS, gt=0.0, le=100.0, unit="m/s")   # nominal test speed 80 km/h
     approach_m: float = ranged(100.0, ge=0.0, le=10000.0, unit="m")
+    overlap_m: float = ranged(7.0, ge=0.0, le=7.5, unit="m")       # CHOICE: transitions reach 7 m into the lanes
 
     def __post_init__(self) -> None:
         validate(self)
@@ -157,11 +160,12 @@ def iso3888_1_double_lane_change(params: DoubleLaneChangeParams = DoubleLaneChan
     ``ISO3888_Helper``, ISO 3888-1): lane 1 15 m long, 1.1 w + 0.25 m wide, centred on y = 0; section 2 30 m;
     lane 3 25 m, 1.2 w + 0.25 m, centre 3.5 m left of lane 1's (the paper's "3.5 m between the two lanes");
     section 4 25 m; lane 5 15 m, 1.3 w + 0.25 m, right boundary on lane 1's; run-out 15 m. Built by
-    :func:`tracks.dlc.build_double_lane_change` with ``length_scale = 1``. Speed: 80 km/h is the nominal test
-    speed the brief gives; the standard's own text was not available to verify it (not verified).
+    :func:`tracks.dlc.build_double_lane_change` with ``length_scale = 1`` and ``overlap_m`` = 7 m (CHOICE: the
+    transitions span 44 m and 39 m of X; peak v^2 kappa 0.59 g at 80 km/h; gates anchored at the cones). Speed:
+    80 km/h is the nominal test speed the issue gives; the standard's own text was not available to verify it.
     """
     spec = DoubleLaneChangeSpec(vehicle_width_m=params.vehicle_width_m, length_scale=1.0,
-                                approach_m=params.approach_m)
+                                approach_m=params.approach_m, overlap_m=params.overlap_m)
     path = build_double_lane_change(spec)
     return Maneuver(path, ManeuverSpec(
         name="iso3888_1", standard="ISO 3888-1:2018", nominal_speed_mps=params.speed_mps,
@@ -187,6 +191,7 @@ class ObstacleAvoidanceParams:
     approach_m: float = ranged(100.0, ge=0.0, le=10000.0, unit="m")
     run_out_m: float = ranged(30.0, ge=0.0, le=10000.0, unit="m")                 # CHOICE: straight after lane 5
     ramp_fraction: float = ranged(0.135, gt=0.0, lt=0.25)                         # transition shape, as the DLC's
+    overlap_m: float = ranged(5.0, ge=0.0, le=5.5, unit="m")       # CHOICE: transitions reach 5 m into the lanes
     half_width_m: float = ranged(5.0, gt=0.5, le=50.0, unit="m")                  # road half width (termination)
     ds_m: float = ranged(DEFAULT_DS_M, gt=0.0, le=5.0, unit="m")
 
@@ -226,7 +231,9 @@ def iso3888_2_obstacle_avoidance(params: ObstacleAvoidanceParams = ObstacleAvoid
     12 + 13.5 + 11 + 12.5 + 12 = 61 m. Chrono uses a fixed 3 m for lane 5, which equals max(1.3 w + 0.25, 3) for
     w <= 2.115 m. Entry speed: 80 km/h is the commonly cited entry speed (throttle released at the entry of
     section 1); the standard's Annex A text was not available, so this value is NOT verified here. The run-out
-    after lane 5 (``run_out_m``) is a CHOICE. Reference line: see the module docstring (5.4 g at 80 km/h).
+    after lane 5 (``run_out_m``) is a CHOICE. Reference line: transitions reaching ``overlap_m`` = 5 m into the
+    lanes (lane 3 keeps 1 m of straight), gates anchored at the cones; peak v^2 kappa 1.75 g at 80 km/h (see the
+    module docstring).
     """
     p = params
     w1, w3, w5 = p.lane_widths_m()
@@ -236,7 +243,8 @@ def iso3888_2_obstacle_avoidance(params: ObstacleAvoidanceParams = ObstacleAvoid
              LaneSection(l5, w5, y5, "lane 5 (exit)"))
     path = lane_sequence_path(lanes, MOOSE_GAP_LENGTHS_M, approach_m=p.approach_m, run_out_m=p.run_out_m,
                               ramp_fraction=p.ramp_fraction, half_width_m=p.half_width_m, ds_m=p.ds_m,
-                              name=f"iso3888-2_w{p.vehicle_width_m:g}", version=VERSION)
+                              name=f"iso3888-2_w{p.vehicle_width_m:g}_o{p.overlap_m:g}", version=VERSION,
+                              overlap_m=p.overlap_m)
     return Maneuver(path, ManeuverSpec(
         name="iso3888_2", standard="ISO 3888-2:2011", nominal_speed_mps=p.speed_mps,
         speed_profile=ConstantSpeed(p.speed_mps), time_limit_s=_time_limit_s(path.length_m, p.speed_mps),
@@ -346,8 +354,8 @@ def slalom(params: SlalomParams = SlalomParams()) -> Maneuver:
     (18 m is a spacing used in magazine handling tests; not verified here). Reference line: at each cone it is
     straight and parallel to the cone line at y = +-A, A = w / 2 + clearance (1.458 m for w = 1.916 m), and
     between cones a C^2 lane-change pulse moves it 2 A sideways; peak v^2 kappa at 40 km/h is 0.59 g for the
-    defaults. Gates: one per cone, s in [s_cone - r, s_cone + r] (r the cone base radius), the allowed side
-    from the cone's edge (e_y = -(A - r) or A - r) to the road edge (``half_width_m``).
+    defaults. Gates: one per cone, anchored at the cone (x in [x_cone - r, x_cone + r], r the cone base radius),
+    the allowed side from the cone's edge (y = +r or -r from the cone line) to the road edge.
     """
     p = params
     a = p.amplitude_m
@@ -358,10 +366,11 @@ def slalom(params: SlalomParams = SlalomParams()) -> Maneuver:
     r = p.cone_radius_m
     for i in range(p.n_cones):
         left_of_cone = i % 2 == 0                 # the car passes cone i on the cone's left
-        if left_of_cone:
-            gates.append(Gate(s - r, s + r, p.half_width_m, -(a - r), f"cone {i + 1} (pass left)"))
-        else:
-            gates.append(Gate(s - r, s + r, a - r, -p.half_width_m, f"cone {i + 1} (pass right)"))
+        x_cone = p.approach_m + i * p.cone_spacing_m
+        far = a + p.half_width_m                  # the road edge on the passing side, from the cone line
+        lane = (far, r) if left_of_cone else (-r, -far)
+        gates.append(Gate(s - r, s + r, *lane, f"cone {i + 1} (pass {'left' if left_of_cone else 'right'})",
+                          anchor=(x_cone - r, 0.0, 0.0), length_m=2.0 * r))
         if i < p.n_cones - 1:
             segs += pulse_segments(k_peak if left_of_cone else -k_peak, length, p.ramp_fraction)
             s += length

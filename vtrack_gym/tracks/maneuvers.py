@@ -138,6 +138,15 @@ def _time_limit_s(length_m: float, speed_mps: float) -> float:
     return float(math.ceil(TIME_FACTOR * length_m / speed_mps + TIME_MARGIN_S))
 
 
+def _at_constant_speed(path: Path, name: str, standard: str, speed_mps: float, criterion: str,
+                       vehicle_width_m: float, source: str) -> Maneuver:
+    """A manoeuvre driven at one speed [m/s] (time limit from the path length)."""
+    return Maneuver(path, ManeuverSpec(
+        name=name, standard=standard, nominal_speed_mps=speed_mps, speed_profile=ConstantSpeed(speed_mps),
+        time_limit_s=_time_limit_s(path.length_m, speed_mps), success_criterion=criterion,
+        vehicle_width_m=vehicle_width_m, source=source))
+
+
 # ------------------------------------------------------------------------------------------------ ISO 3888-1
 @documented
 @dataclass(frozen=True)
@@ -167,11 +176,9 @@ def iso3888_1_double_lane_change(params: DoubleLaneChangeParams = DoubleLaneChan
     spec = DoubleLaneChangeSpec(vehicle_width_m=params.vehicle_width_m, length_scale=1.0,
                                 approach_m=params.approach_m, overlap_m=params.overlap_m)
     path = build_double_lane_change(spec)
-    return Maneuver(path, ManeuverSpec(
-        name="iso3888_1", standard="ISO 3888-1:2018", nominal_speed_mps=params.speed_mps,
-        speed_profile=ConstantSpeed(params.speed_mps), time_limit_s=_time_limit_s(path.length_m, params.speed_mps),
-        success_criterion="no_cones_hit", vehicle_width_m=params.vehicle_width_m,
-        source="ISO 3888-1 section table (reference-data.md section 3; Project Chrono ISO3888_Helper)"))
+    return _at_constant_speed(path, "iso3888_1", "ISO 3888-1:2018", params.speed_mps, "no_cones_hit",
+                              params.vehicle_width_m,
+                              "ISO 3888-1 section table (reference-data.md section 3; Project Chrono ISO3888_Helper)")
 
 
 # ------------------------------------------------------------------------------------------------ ISO 3888-2
@@ -245,11 +252,9 @@ def iso3888_2_obstacle_avoidance(params: ObstacleAvoidanceParams = ObstacleAvoid
                               ramp_fraction=p.ramp_fraction, half_width_m=p.half_width_m, ds_m=p.ds_m,
                               name=f"iso3888-2_w{p.vehicle_width_m:g}_o{p.overlap_m:g}", version=VERSION,
                               overlap_m=p.overlap_m)
-    return Maneuver(path, ManeuverSpec(
-        name="iso3888_2", standard="ISO 3888-2:2011", nominal_speed_mps=p.speed_mps,
-        speed_profile=ConstantSpeed(p.speed_mps), time_limit_s=_time_limit_s(path.length_m, p.speed_mps),
-        success_criterion="no_cones_hit", vehicle_width_m=p.vehicle_width_m,
-        source="ISO 3888-2:2011 clause 4.1 / Table 1 as in Project Chrono ISO3888_Helper (ISO3888_2)"))
+    return _at_constant_speed(path, "iso3888_2", "ISO 3888-2:2011", p.speed_mps, "no_cones_hit",
+                              p.vehicle_width_m,
+                              "ISO 3888-2:2011 clause 4.1 / Table 1 as in Project Chrono ISO3888_Helper (ISO3888_2)")
 
 
 # ------------------------------------------------------------------------------------------------ ISO 4138
@@ -378,11 +383,9 @@ def slalom(params: SlalomParams = SlalomParams()) -> Maneuver:
     path = Path.from_curvature(CurvatureProfile.from_segments(0.0, segs), ds_m=p.ds_m, closed=False, y0_m=a,
                                half_width_m=p.half_width_m, name=f"slalom_{p.cone_spacing_m:g}m_{p.n_cones}",
                                version=VERSION, gates=tuple(gates))
-    return Maneuver(path, ManeuverSpec(
-        name="slalom", standard="none (CHOICE)", nominal_speed_mps=p.speed_mps,
-        speed_profile=ConstantSpeed(p.speed_mps), time_limit_s=_time_limit_s(path.length_m, p.speed_mps),
-        success_criterion="no_cones_hit", vehicle_width_m=p.vehicle_width_m,
-        source="CHOICE: 18 m cone spacing, 10 cones, 40 km/h, 0.5 m clearance"))
+    return _at_constant_speed(path, "slalom", "none (CHOICE)", p.speed_mps, "no_cones_hit",
+                              p.vehicle_width_m,
+                              "CHOICE: 18 m cone spacing, 10 cones, 40 km/h, 0.5 m clearance")
 
 
 # ------------------------------------------------------------------------------------------------ step curvature
@@ -416,11 +419,9 @@ def step_curvature(params: StepCurvatureParams = StepCurvatureParams()) -> Maneu
     segs = [(p.approach_m, 0.0), (p.step_length_m, k), (arc_m, k)]
     path = Path.from_curvature(CurvatureProfile.from_segments(0.0, segs), ds_m=p.ds_m, closed=False,
                                half_width_m=p.half_width_m, name=f"step_curvature_r{p.radius_m:g}", version=VERSION)
-    return Maneuver(path, ManeuverSpec(
-        name="step_curvature", standard="none (CHOICE)", nominal_speed_mps=p.speed_mps,
-        speed_profile=ConstantSpeed(p.speed_mps), time_limit_s=_time_limit_s(path.length_m, p.speed_mps),
-        success_criterion="completes", vehicle_width_m=PAPER_CAR_WIDTH_M,
-        source="CHOICE: R = 50 m, 15 m/s, 60 m straight, 1 m curvature blend"))
+    return _at_constant_speed(path, "step_curvature", "none (CHOICE)", p.speed_mps, "completes",
+                              PAPER_CAR_WIDTH_M,
+                              "CHOICE: R = 50 m, 15 m/s, 60 m straight, 1 m curvature blend")
 
 
 # ------------------------------------------------------------------------------------------------ by name

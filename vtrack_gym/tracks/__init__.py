@@ -1,5 +1,6 @@
 """Reference paths: an arc-length parameterised centre-line (``Path``), the paper's two scenarios (the Case-1
-handling course and the Case-2 ISO 3888-1 double lane change with cone gates), procedural training tracks, a CSV
+handling course and the Case-2 ISO 3888-1 double lane change with cone gates), standard manoeuvres as data
+(``tracks.maneuvers``: ISO 3888-1/-2, ISO 4138, slalom, step curvature), procedural training tracks, a CSV
 loader (``load_track`` resolves a built-in name, a CSV file or a Path) and speed profiles (``speed_table``).
 
 ``import vtrack_gym.tracks`` imports numpy only (no numba, no scipy); the numba kernels used by the env's compiled
@@ -7,8 +8,23 @@ step live in ``vtrack_gym.tracks.kernels`` and are imported on demand.
 """
 
 from vtrack_gym.tracks.csv_loader import load_track_csv
-from vtrack_gym.tracks.dlc import DoubleLaneChangeSpec, build_double_lane_change, double_lane_change, gate_violations
+from vtrack_gym.tracks.dlc import (
+    DoubleLaneChangeSpec,
+    build_double_lane_change,
+    double_lane_change,
+    gate_boundaries,
+    gate_violations,
+)
 from vtrack_gym.tracks.handling_course import handling_course
+from vtrack_gym.tracks.lanes import LaneSection, lane_sequence_path
+from vtrack_gym.tracks.maneuvers import (
+    MANEUVERS,
+    SUCCESS_CRITERIA,
+    Maneuver,
+    ManeuverSpec,
+    build_maneuver,
+    grip_limit_speed_mps,
+)
 from vtrack_gym.tracks.path import Gate, Path, PathSample, Projection, wrap_angle
 from vtrack_gym.tracks.procedural import ProceduralTrackConfig, procedural_track, procedural_track_from_config
 from vtrack_gym.tracks.profiles import CurvatureProfile, SineElevation
@@ -18,6 +34,7 @@ from vtrack_gym.tracks.speed_profiles import (
     CurvatureLimited,
     FileSpeed,
     SpeedProfile,
+    SpeedRamp,
     SpeedTable,
     as_speed_profile,
     speed_table,
@@ -46,26 +63,36 @@ __all__ = [
     "COL_Y",
     "COL_Z",
     "COL_ZPP",
+    "MANEUVERS",
     "N_COLS",
+    "SUCCESS_CRITERIA",
     "ConstantSpeed",
     "CurvatureLimited",
     "CurvatureProfile",
     "DoubleLaneChangeSpec",
     "FileSpeed",
     "Gate",
+    "LaneSection",
+    "Maneuver",
+    "ManeuverSpec",
     "Path",
     "PathSample",
     "ProceduralTrackConfig",
     "Projection",
     "SineElevation",
     "SpeedProfile",
+    "SpeedRamp",
     "SpeedTable",
     "as_speed_profile",
     "build_double_lane_change",
+    "build_maneuver",
     "double_lane_change",
     "file_digest",
+    "gate_boundaries",
     "gate_violations",
+    "grip_limit_speed_mps",
     "handling_course",
+    "lane_sequence_path",
     "load_track",
     "load_track_csv",
     "path_digest",

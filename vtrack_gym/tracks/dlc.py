@@ -26,7 +26,9 @@ and C^2 transitions only inside sections 2 and 4. A transition is a trapezoidal 
 (0 -> +K -> -K -> 0, smootherstep blends over ``ramp_fraction`` of its length at the ends and twice that at the
 reversal), antisymmetric so the heading returns exactly to 0; K and its arc length are solved so that it spans
 exactly the section length in X and the lane offset in Y. Built with ``Path.from_curvature`` (exact kappa and
-dkappa/ds). Open path; ``half_width_m`` = 4.0 m for termination. Start at (0, 0), heading +X.
+dkappa/ds). Open path; ``half_width_m`` = 4.0 m for termination. Start at (0, 0), heading +X. With ``overlap_m``
+> 0 the transitions also reach that far into the lanes (gentler, the gates become anchored rectangles; see
+``tracks.lanes``); the default 0 is the paper's construction.
 """
 
 from __future__ import annotations
@@ -38,14 +40,15 @@ from functools import lru_cache
 import numpy as np
 
 from vtrack_gym._ranges import documented, ranged, validate
+from vtrack_gym.tracks.lanes import LaneSection, lane_sequence_path
 from vtrack_gym.tracks.path import DEFAULT_DS_M, Gate, Path
-from vtrack_gym.tracks.profiles import CurvatureProfile
 
 VERSION = "1"
 ISO_SECTION_LENGTHS_M = (15.0, 30.0, 25.0, 25.0, 15.0)   # sections 1..5 at length_scale = 1
 ISO_RUN_OUT_M = 15.0
 LANE_WIDTH_FACTORS = (1.1, 1.2, 1.3)                      # lanes 1, 3, 5: factor * w + 0.25 m
 LANE_WIDTH_ADD_M = 0.25
+OUTLINE_STEP_M = 0.25                                     # spacing of the body-outline points [m]
 
 
 @documented
@@ -59,6 +62,8 @@ class DoubleLaneChangeSpec:
     lane_offset_m: float = ranged(3.5, gt=0.5, le=20.0, unit="m")  # lane-3 centre left of lane-1 centre (paper)
     # transition shape: blend length / transition length
     ramp_fraction: float = ranged(0.135, gt=0.0, lt=0.25)
+    # transitions reach this far into the lanes before/after them; > 0 anchors the gates (see tracks.lanes)
+    overlap_m: float = ranged(0.0, ge=0.0, le=50.0, unit="m")
     half_width_m: float = ranged(4.0, gt=0.5, le=50.0, unit="m")  # drivable half width for off-road termination
     ds_m: float = ranged(DEFAULT_DS_M, gt=0.0, le=5.0, unit="m")  # table spacing
 
@@ -80,69 +85,19 @@ class DoubleLaneChangeSpec:
         return tuple(self.length_scale * v for v in (*ISO_SECTION_LENGTHS_M, ISO_RUN_OUT_M))
 
 
-def _unit_pulse(ramp: float) -> CurvatureProfile:
-    """Antisymmetric curvature pulse on u in [0, 1]: 0 -> 1 -> 1 -> -1 -> -1 -> 0."""
-    return CurvatureProfile((0.0, ramp, 0.5 - ramp, 0.5 + ramp, 1.0 - ramp, 1.0), (0.0, 1.0, 1.0, -1.0, -1.0, 0.0))
-
-
-def _transition(dy_m: float, dx_m: float, ramp: float) -> tuple[float, float]:
-    """Peak curvature K [1/m] and arc length L [m] of the pulse that moves dy_m sideways over dx_m."""
-    pulse = _unit_pulse(ramp)
-    xi, om = np.polynomial.legendre.leggauss(32)
-    knots = np.asarray(pulse.knots_m)
-    width = np.diff(knots)
-    u = (knots[:-1, None] + width[:, None] * 0.5 * (xi + 1.0)).ravel()
-    w = (width[:, None] * 0.5 * om).ravel()
-    heading = pulse.heading(u)                      # psi(u) / (K L)
-
-    def excess(a: float) -> float:                  # sign of (dy/dx of the pulse with K L = a) - target
-        return float(w @ np.sin(a * heading)) * dx_m - float(w @ np.cos(a * heading)) * dy_m
-
-    lo, hi = 0.0, math.copysign(8.0, dy_m)
-    for _ in range(200):
-        mid = 0.5 * (lo + hi)
-        if excess(mid) * math.copysign(1.0, dy_m) > 0.0:
-            hi = mid
-        else:
-            lo = mid
-        if lo == mid == hi:
-            break
-    a = 0.5 * (lo + hi)
-    length = dx_m / float(w @ np.cos(a * heading))
-    return a / length, length
-
-
-def _pulse_segments(k_peak: float, length: float, ramp: float) -> list[tuple[float, float]]:
-    """Segments (length_m, kappa_end) of a scaled pulse."""
-    hold = (0.5 - 2.0 * ramp) * length
-    return [(ramp * length, k_peak), (hold, k_peak), (2.0 * ramp * length, -k_peak), (hold, -k_peak),
-            (ramp * length, 0.0)]
-
-
 def build_double_lane_change(spec: DoubleLaneChangeSpec) -> Path:
     """Path of the double lane change described by ``spec`` (see the module docstring)."""
     l1, l2, l3, l4, l5, l_out = spec.section_lengths_m()
     y1, y3, y5 = spec.lane_centres_m()
     w1, w3, w5 = spec.lane_widths_m()
-    k2, len2 = _transition(y3 - y1, l2, spec.ramp_fraction)
-    k4, len4 = _transition(y5 - y3, l4, spec.ramp_fraction)
-    segs: list[tuple[float, float]] = []
-    if spec.approach_m > 0.0:
-        segs.append((spec.approach_m, 0.0))
-    segs.append((l1, 0.0))
-    segs += _pulse_segments(k2, len2, spec.ramp_fraction)
-    segs.append((l3, 0.0))
-    segs += _pulse_segments(k4, len4, spec.ramp_fraction)
-    segs.append((l5 + l_out, 0.0))
-    s1 = spec.approach_m
-    s3 = s1 + l1 + len2
-    s5 = s3 + l3 + len4
-    gates = (Gate(s1, s1 + l1, 0.5 * w1, -0.5 * w1, "lane 1 (entry)"),
-             Gate(s3, s3 + l3, 0.5 * w3, -0.5 * w3, "lane 3 (side lane)"),
-             Gate(s5, s5 + l5, 0.5 * w5, -0.5 * w5, "lane 5 (exit)"))
+    lanes = (LaneSection(l1, w1, y1, "lane 1 (entry)"), LaneSection(l3, w3, y3, "lane 3 (side lane)"),
+             LaneSection(l5, w5, y5, "lane 5 (exit)"))
     name = f"dlc_iso3888-1_w{spec.vehicle_width_m:g}_x{spec.length_scale:g}"
-    return Path.from_curvature(CurvatureProfile.from_segments(0.0, segs), ds_m=spec.ds_m, closed=False,
-                               half_width_m=spec.half_width_m, name=name, version=VERSION, gates=gates)
+    if spec.overlap_m > 0.0:
+        name += f"_o{spec.overlap_m:g}"
+    return lane_sequence_path(lanes, (l2, l4), approach_m=spec.approach_m, run_out_m=l_out,
+                              ramp_fraction=spec.ramp_fraction, half_width_m=spec.half_width_m, ds_m=spec.ds_m,
+                              name=name, version=VERSION, overlap_m=spec.overlap_m)
 
 
 @lru_cache(maxsize=16)
@@ -153,36 +108,79 @@ def double_lane_change(vehicle_width_m: float = 1.916, length_scale: float = 2.0
                                                          approach_m=approach_m))
 
 
-def car_corners(x: np.ndarray, y: np.ndarray, psi: np.ndarray, vehicle_length_m: float, vehicle_width_m: float,
-                cg_to_front_m: float | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Global X, Y [m] of the 4 body corners (FL, FR, RR, RL) of cars at CG (x, y) [m] with heading psi [rad]
-    -> two arrays of shape (T, 4). ``cg_to_front_m`` [m] defaults to half the length (CG at the body centre)."""
+def car_outline(x: np.ndarray, y: np.ndarray, psi: np.ndarray, vehicle_length_m: float, vehicle_width_m: float,
+                cg_to_front_m: float | None = None, step_m: float = OUTLINE_STEP_M) -> tuple[np.ndarray, np.ndarray]:
+    """Global X, Y [m] of points around the body rectangle (the 4 corners and points along every side at most
+    ``step_m`` [m] apart) of cars at CG (x, y) [m] with heading psi [rad] -> two arrays of shape (T, P)."""
+    if not step_m > 0.0:
+        raise ValueError(f"step_m must be > 0 m (got {step_m})")
     x = np.atleast_1d(np.asarray(x, dtype=float))
     y = np.atleast_1d(np.asarray(y, dtype=float))
     psi = np.atleast_1d(np.asarray(psi, dtype=float))
     front = 0.5 * vehicle_length_m if cg_to_front_m is None else cg_to_front_m
     rear = front - vehicle_length_m
     half = 0.5 * vehicle_width_m
-    lon = np.array([front, front, rear, rear])
-    lat = np.array([half, -half, -half, half])
+    n_long = max(1, int(np.ceil(vehicle_length_m / step_m)))
+    n_lat = max(1, int(np.ceil(vehicle_width_m / step_m)))
+    t_long = np.linspace(0.0, 1.0, n_long + 1)[:-1]
+    t_lat = np.linspace(0.0, 1.0, n_lat + 1)[:-1]
+    lon = np.concatenate((front + (rear - front) * t_long, np.full(n_lat, rear),      # left side FL -> RL, rear
+                          rear + (front - rear) * t_long, np.full(n_lat, front)))     # right side RR -> FR, front
+    lat = np.concatenate((np.full(n_long, half), half - 2.0 * half * t_lat,
+                          np.full(n_long, -half), -half + 2.0 * half * t_lat))
     c, s = np.cos(psi)[:, None], np.sin(psi)[:, None]
     return x[:, None] + c * lon - s * lat, y[:, None] + s * lon + c * lat
 
 
+def gate_boundaries(path: Path, gate: Gate, n: int = 6) -> tuple[np.ndarray, np.ndarray]:
+    """Global X, Y [m] of ``n`` points along the left and the right boundary (the cone lines) of ``gate`` on
+    ``path`` -> two arrays of shape (n, 2): offsets from the centre-line, or from the anchor line of an anchored
+    gate. Use it to draw cones."""
+    if n < 2:
+        raise ValueError(f"n must be >= 2 (got {n})")
+    out = []
+    if gate.anchor is None:
+        row = path.sample(np.linspace(gate.s_start_m, gate.s_end_m, n))
+        x, y, c, s = row.x, row.y, np.cos(row.psi), np.sin(row.psi)
+    else:
+        x0, y0, psi0 = gate.anchor
+        u = np.linspace(0.0, gate.lane_length_m, n)
+        c, s = np.full(n, math.cos(psi0)), np.full(n, math.sin(psi0))
+        x, y = x0 + u * c, y0 + u * s
+    for lat in (gate.y_left_m, gate.y_right_m):
+        out.append(np.column_stack((x - lat * s, y + lat * c)))
+    return out[0], out[1]
+
+
 def gate_violations(path: Path, x: np.ndarray, y: np.ndarray, psi: np.ndarray, vehicle_length_m: float,
                     vehicle_width_m: float, cg_to_front_m: float | None = None) -> int:
-    """Number of ``path.gates`` in which any corner of the car's rectangle left the lane at any sample of the
-    trajectory x, y [m], psi [rad] (arrays of shape (T,)); the "cones hit" count of ISO 3888-1."""
+    """Number of ``path.gates`` in which any point of the car's outline (corners and sides, sampled every
+    ``OUTLINE_STEP_M``) left the lane at any sample of the trajectory x, y [m], psi [rad] (arrays of shape (T,));
+    the "cones hit" count of ISO 3888. Sampling the sides as well as the corners catches a single-cone gate (a
+    slalom cone, shorter than the car) that the body passes between its corners. A gate without an anchor is
+    checked in the path's Frenet frame (station window, e_y bounds), an anchored gate against its fixed
+    rectangle."""
     if not (vehicle_length_m > 0.0 and vehicle_width_m > 0.0):
         raise ValueError(f"vehicle_length_m and vehicle_width_m must be > 0 (got {vehicle_length_m}, "
                          f"{vehicle_width_m})")
     if not path.gates:
         return 0
-    cx, cy = car_corners(x, y, psi, vehicle_length_m, vehicle_width_m, cg_to_front_m)
-    proj = path.project(cx.ravel(), cy.ravel())
+    cx, cy = car_outline(x, y, psi, vehicle_length_m, vehicle_width_m, cg_to_front_m)
+    cx, cy = cx.ravel(), cy.ravel()
+    proj = path.project(cx, cy) if any(g.anchor is None for g in path.gates) else None
     count = 0
     for gate in path.gates:
-        inside = (proj.s >= gate.s_start_m) & (proj.s <= gate.s_end_m)
-        out = (proj.e_y > gate.y_left_m) | (proj.e_y < gate.y_right_m)
+        if gate.anchor is None:
+            assert proj is not None
+            along, lat = proj.s - gate.s_start_m, proj.e_y
+            length = gate.s_end_m - gate.s_start_m
+        else:
+            x0, y0, psi0 = gate.anchor
+            c, s = math.cos(psi0), math.sin(psi0)
+            along = (cx - x0) * c + (cy - y0) * s
+            lat = -(cx - x0) * s + (cy - y0) * c
+            length = gate.lane_length_m
+        inside = (along >= 0.0) & (along <= length)
+        out = (lat > gate.y_left_m) | (lat < gate.y_right_m)
         count += int(np.any(inside & out))
     return count

@@ -40,19 +40,36 @@ MAX_V_REF_MPS = 150.0           # reference speeds beyond this are not a car's [
 @dataclass(frozen=True)
 class Gate:
     """A cone gate: the lane section s in [s_start_m, s_end_m] [m] along the path, with lane boundaries y_right_m <
-    y_left_m [m] as lateral offsets from the centre-line (left-positive, like e_y)."""
+    y_left_m [m] as lateral offsets from the centre-line (left-positive, like e_y).
+
+    With ``anchor`` = (x [m], y [m], psi [rad]) the lane is instead a fixed straight rectangle (the cone lines of a
+    test track): it starts at the anchor point, runs ``length_m`` [m] (default s_end_m - s_start_m) along the
+    heading psi, and y_left_m / y_right_m are offsets from the line through the anchor; s_start_m / s_end_m are then
+    the stations of the path where it enters and leaves the lane. Use it when the centre-line curves
+    inside the lane; without an anchor the centre-line must be straight there for the boundaries to be straight.
+    """
 
     s_start_m: float
     s_end_m: float
     y_left_m: float
     y_right_m: float
     name: str = ""
+    anchor: tuple[float, float, float] | None = None
+    length_m: float | None = None
 
     def __post_init__(self) -> None:
         for name in ("s_start_m", "s_end_m", "y_left_m", "y_right_m"):
             value = getattr(self, name)
             if not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise ValueError(f"Gate.{name} must be a finite number (got {value!r})")
+        if self.anchor is not None:
+            anchor = tuple(float(v) for v in self.anchor)
+            if len(anchor) != 3 or not all(math.isfinite(v) for v in anchor):
+                raise ValueError(f"Gate.anchor must be (x_m, y_m, psi_rad), 3 finite numbers (got {self.anchor!r})")
+            object.__setattr__(self, "anchor", anchor)
+        if self.length_m is not None and (self.anchor is None or not (math.isfinite(self.length_m)
+                                                                        and self.length_m > 0.0)):
+            raise ValueError(f"Gate.length_m must be > 0 m and needs an anchor (got {self.length_m!r})")
         if self.s_end_m <= self.s_start_m:
             raise ValueError(f"Gate.s_end_m must be > s_start_m (got {self.s_end_m} <= {self.s_start_m})")
         if self.y_left_m <= self.y_right_m:
@@ -62,6 +79,11 @@ class Gate:
     def width_m(self) -> float:
         """Lane width y_left_m - y_right_m [m]."""
         return self.y_left_m - self.y_right_m
+
+    @property
+    def lane_length_m(self) -> float:
+        """Length of the lane [m]: ``length_m`` if given, else s_end_m - s_start_m."""
+        return self.s_end_m - self.s_start_m if self.length_m is None else float(self.length_m)
 
 
 @dataclass(frozen=True, eq=False)

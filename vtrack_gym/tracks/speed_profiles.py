@@ -1,4 +1,4 @@
-"""Reference speed along a path, v_ref(s): constant, curvature-limited, or the path's own speed column.
+"""Reference speed along a path, v_ref(s): constant, curvature-limited, a slow ramp, or the path's own speed column.
 
 A profile is a frozen parameter dataclass; :func:`speed_table` evaluates it on a path's rows and returns a
 :class:`SpeedTable` (one speed per table row, the same s grid) with the queries ``v_ref(s)`` and ``preview``.
@@ -99,6 +99,43 @@ class CurvatureLimited:
 
 @documented
 @dataclass(frozen=True)
+class SpeedRamp:
+    """A slow speed ramp: ``v_start_mps`` [m/s] up to s = ``s_start_m`` [m], then a constant acceleration
+    ``accel_mps2`` [m/s^2] (speed linear in time, v^2 linear in s) up to ``v_end_mps`` [m/s], held after that.
+    Also a ramp down when ``v_end_mps`` < ``v_start_mps`` (then ``accel_mps2`` is the deceleration's size)."""
+
+    v_start_mps: float = ranged(gt=0.0, le=MAX_V_REF_MPS, unit="m/s")
+    v_end_mps: float = ranged(gt=0.0, le=MAX_V_REF_MPS, unit="m/s")
+    accel_mps2: float = ranged(gt=0.0, le=MAX_ACCEL_MPS2, unit="m/s^2")
+    s_start_m: float = ranged(0.0, ge=0.0, le=1.0e6, unit="m")
+
+    def __post_init__(self) -> None:
+        validate(self)
+
+    @property
+    def ramp_length_m(self) -> float:
+        """Distance over which the speed changes, |v_end^2 - v_start^2| / (2 accel) [m]."""
+        return abs(self.v_end_mps ** 2 - self.v_start_mps ** 2) / (2.0 * self.accel_mps2)
+
+    @property
+    def ramp_duration_s(self) -> float:
+        """Time the ramp takes at the reference speed, |v_end - v_start| / accel [s]."""
+        return abs(self.v_end_mps - self.v_start_mps) / self.accel_mps2
+
+    def speed_at(self, s_m: np.ndarray | float) -> np.ndarray:
+        """Reference speed [m/s] at arc length(s) s_m [m] (not wrapped)."""
+        s = np.asarray(s_m, dtype=float)
+        v0, v1 = self.v_start_mps, self.v_end_mps
+        frac = np.clip((s - self.s_start_m) / max(self.ramp_length_m, 1e-12), 0.0, 1.0)
+        return np.sqrt(v0 * v0 + frac * (v1 * v1 - v0 * v0))
+
+    def row_speeds(self, path: Path) -> np.ndarray:
+        """Reference speed at every row of ``path`` [m/s] (exact between rows: v^2 is linear in s)."""
+        return self.speed_at(path.s_m)
+
+
+@documented
+@dataclass(frozen=True)
 class FileSpeed:
     """The path's own speed column (``Path.v_ref_mps``, e.g. a CSV ``v_mps`` column), times ``scale`` [-]."""
 
@@ -162,7 +199,7 @@ class SpeedTable:
 def speed_table(path: Path, profile: SpeedProfile) -> SpeedTable:
     """Evaluate ``profile`` on the rows of ``path`` -> :class:`SpeedTable`."""
     if not isinstance(profile, SpeedProfile):
-        raise ValueError("speed profile must be ConstantSpeed, CurvatureLimited or FileSpeed (got "
+        raise ValueError("speed profile must be ConstantSpeed, CurvatureLimited, SpeedRamp or FileSpeed (got "
                          f"{type(profile).__name__})")
     v = profile.row_speeds(path)
     if v.shape != (path.n_samples,) or not np.all(np.isfinite(v)) or np.any(v <= 0.0):
@@ -187,5 +224,5 @@ def lateral_accel_mps2(table: SpeedTable, path: Path, s: np.ndarray) -> np.ndarr
     return table.v_ref(s) ** 2 * np.abs(path.sample(s).kappa)
 
 
-__all__ = ["ConstantSpeed", "CurvatureLimited", "FileSpeed", "SpeedProfile", "SpeedTable", "as_speed_profile",
-           "lateral_accel_mps2", "speed_table"]
+__all__ = ["ConstantSpeed", "CurvatureLimited", "FileSpeed", "SpeedProfile", "SpeedRamp", "SpeedTable",
+           "as_speed_profile", "lateral_accel_mps2", "speed_table"]

@@ -26,13 +26,12 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from vtrack_gym.envs.config import DLC120, LATERAL_TRACKING, RANDOM_TRACKS, EnvConfig, ResetOptions, ScenarioConfig
+from vtrack_gym.envs.config import EnvConfig, ResetOptions, ScenarioConfig
+from vtrack_gym.envs.scenarios import resolve_scenario
 from vtrack_gym.envs.schema import info_dict
 from vtrack_gym.envs.sim import TERMINATION_NAMES, BatchSim
 from vtrack_gym.vehicle import layout as L
 from vtrack_gym.vehicle.params import DesignModel
-
-SCENARIOS: dict[str, ScenarioConfig] = {s.name: s for s in (LATERAL_TRACKING, DLC120, RANDOM_TRACKS)}
 
 
 def _as_float_array(action: Any) -> np.ndarray:
@@ -84,11 +83,9 @@ class TrackingEnv(gym.Env):
 
     def __init__(self, scenario: str | ScenarioConfig = "LateralTracking-v0", config: EnvConfig | None = None,
                  render_mode: str | None = None, render_fps: int = 25, render_view: str = "follow",
+                 track: Any = None, speed_profile: Any = None, half_width_m: float | None = None,
                  **config_overrides: Any) -> None:
-        if isinstance(scenario, str):
-            if scenario not in SCENARIOS:
-                raise ValueError(f"unknown scenario {scenario!r}; valid: {', '.join(SCENARIOS)}")
-            scenario = SCENARIOS[scenario]
+        scenario = resolve_scenario(scenario, track, speed_profile, half_width_m)
         if config is None:
             config = EnvConfig(**config_overrides)
         elif config_overrides:
@@ -105,6 +102,7 @@ class TrackingEnv(gym.Env):
         self.action_space = ACTION_SPACE
         self.metadata = {**self.metadata, "render_fps": render_fps}
         self._sim = BatchSim(scenario, config, 1)
+        self.scenario = scenario = self._sim.scenario  # with its time limit resolved
         self._steering_ratio = config.vehicle.steering.steering_ratio
         self._renderer = None
         from vtrack_gym.envs.render import EnvRenderer, RenderConfig  # light: Pillow is imported on first draw

@@ -86,6 +86,13 @@ def _speed_tables(paths: tuple, scenario: ScenarioConfig) -> tuple:
     return tuple(speed_table(p, profile) for p in paths)
 
 
+def _criterion(success: str, path) -> str:
+    """The success criterion of a scenario on one of its paths (``auto`` resolved; ``gates`` needs gates)."""
+    if success == "auto" or (success == "gates" and not path.gates):
+        return "gates" if path.gates else ("lap" if path.closed else "end")
+    return success
+
+
 TIME_LIMIT_FACTOR = 1.5
 TIME_LIMIT_MARGIN_S = 30.0
 
@@ -177,6 +184,10 @@ class BatchSim:
         self._step_kernel = k.step_parallel if n >= PARALLEL_THRESHOLD else k.step_serial
         self._step_compiled = None  # the kernel's compiled entry point for ``self.arrays`` (see _run_kernel)
         self._observe = k.observe_indices
+        # Success verdicts: cone gates left by the body so far (only paths with gates are checked).
+        self.gate_hit = np.zeros(n, dtype=bool)
+        self._gated = tuple(k for k, p in enumerate(self.paths) if p.gates)
+        self.criteria = tuple(_criterion(scenario.success, p) for p in self.paths)
 
     # ------------------------------------------------------------------ reset
     def set_speed_controller(self, index: int | np.ndarray | slice, config: PDFLCConfig) -> None:
@@ -257,6 +268,7 @@ class BatchSim:
         self.any_delay = bool(self.delay_steps.any())
         self.pd_mem[i] = (0.0, 0.0, 1.0)  # fresh: the first derivative of the speed error is 0
         self.term[i] = 0
+        self.gate_hit[i] = False
 
     def observe_after_reset(self, idx: np.ndarray) -> None:
         """Project freshly reset cars (global search) and fill their observation rows."""
@@ -273,6 +285,8 @@ class BatchSim:
         self.inputs[:, L.U_DELTA] = cmd * self.max_steer_rad
         self._run_kernel()
         self.steps += 1
+        if self._gated:
+            self._check_gates()
         terminated = self.term != 0
         truncated = (self.steps >= self.max_steps) & ~terminated
         if self.any_noise:
@@ -287,6 +301,8 @@ class BatchSim:
         self._run_kernel()
         steps = int(self.steps[0]) + 1
         self.steps[0] = steps
+        if self._gated:
+            self._check_gates()
         code = int(self.term[0])
         if self.any_noise:
             self._add_noise()
@@ -309,6 +325,41 @@ class BatchSim:
             self._step_compiled = self._step_kernel.get_overload((typeof(self.arrays),))
         except KeyError:  # no exact overload (should not happen): keep the dispatcher
             self._step_compiled = self._step_kernel
+
+    def _check_gates(self) -> None:
+        """Mark the cars whose body left a cone gate this step (corners projected on the path, as
+        ``tracks.gate_violations`` does on a whole trajectory); only cars near the gates are checked."""
+        from vtrack_gym.tracks.dlc import car_corners
+
+        k = _kernels()
+        c = self.config.vehicle.chassis
+        st = self.plant.state
+        s_car = self.err[:, k.E_S]
+        for track in self._gated:
+            path = self.paths[track]
+            lo = min(g.s_start_m for g in path.gates) - c.body_length_m
+            hi = max(g.s_end_m for g in path.gates) + c.body_length_m
+            sel = np.flatnonzero((self.veh_track == track) & (s_car >= lo) & (s_car <= hi) & ~self.gate_hit)
+            if sel.size == 0:
+                continue
+            cx, cy = car_corners(st[sel, L.S_X], st[sel, L.S_Y], st[sel, L.S_PSI], c.body_length_m,
+                                 c.body_width_m, c.cg_to_front_end_m)
+            proj = path.project(cx.ravel(), cy.ravel(), s_guess=np.repeat(s_car[sel], 4))
+            s = proj.s.reshape(-1, 4)
+            e_y = proj.e_y.reshape(-1, 4)
+            hit = np.zeros(sel.size, dtype=bool)
+            for g in path.gates:
+                hit |= np.any((s >= g.s_start_m) & (s <= g.s_end_m) & ((e_y > g.y_left_m) | (e_y < g.y_right_m)),
+                              axis=1)
+            self.gate_hit[sel] |= hit
+
+    def success(self) -> np.ndarray:
+        """Each car's verdict if its episode ended now (bool (n,)): the course completed (a lap of a closed course /
+        the end of an open one, within the road) and, under the ``gates`` criterion, no cone gate left."""
+        k = _kernels()
+        done = self.term == k.T_COMPLETED
+        gates = np.array([self.criteria[t] == "gates" for t in self.veh_track], dtype=bool)
+        return done & ~(gates & self.gate_hit)
 
     def _delayed(self, actions: np.ndarray) -> np.ndarray:
         """Commands delayed by ``delay_steps`` control periods (FIFO per car; zero before the first)."""

@@ -152,7 +152,8 @@ class TrackingEnv(gym.Env):
         out = sim.outputs[0]
         return info_dict(int(sim.steps[0]) * self.control_period_s, sim.sig[0], out[-1, L.O_FZFL:L.O_FZRR + 1].copy(),
                          out[:, L.O_AX:L.O_AZ + 1].copy(),
-                         TERMINATION_NAMES[int(sim.term[0])] if terminated else "")
+                         TERMINATION_NAMES[int(sim.term[0])] if terminated else "",
+                         terminated and bool(sim.success()[0]))
 
     def render(self):
         """rgb_array: the current frame; rgb_array_list: the frames taken at ``render_fps`` since the last call;

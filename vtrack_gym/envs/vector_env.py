@@ -113,6 +113,7 @@ class TrackingVectorEnv(VectorEnv):
         infos: dict[str, Any] = self.sim.signals()  # envs.schema.INFO_KEYS order
         names = np.array(TERMINATION_NAMES, dtype=object)[self.sim.term]
         infos["termination"] = np.where(terminated, names, "")
+        infos["success"] = terminated & self.sim.success()
         for key in list(infos):
             infos["_" + key] = self._all
         return infos

@@ -76,6 +76,7 @@ def rollout_batch(policy: PolicyLike, env_id: str, seeds: list[int], options: di
     active = np.ones(n, dtype=bool)
     records: list[dict[str, list]] = [{k: [] for k in (*STEP_SIGNALS, "fz_n", "acc")} for _ in range(n)]
     terminations = ["max_steps"] * n
+    successes = [False] * n
     state = None
     episode_start = np.ones(n, dtype=bool)
     start = time.perf_counter()
@@ -94,6 +95,7 @@ def rollout_batch(policy: PolicyLike, env_id: str, seeds: list[int], options: di
             rec["acc"].append(sig["acc_substeps_mps2"][i])
             if terminated[i] or truncated[i]:
                 terminations[i] = str(sig["termination"][i]) if terminated[i] else "time_limit"
+                successes[i] = bool(sig["success"][i])
                 active[i] = False
     wall = time.perf_counter() - start
     del sim
@@ -104,5 +106,5 @@ def rollout_batch(policy: PolicyLike, env_id: str, seeds: list[int], options: di
         traces.append(Trace(env_id, policy_id_of(policy), seed, signals, np.asarray(rec["fz_n"]),
                             np.concatenate(rec["acc"], axis=0), 1.0 / cfg.physics_dt_s, cfg.control_period_s,
                             terminations[i], wall / max(steps, 1) / n, {"options": dict(options or {}),
-                                                                         "model": cfg.model}))
+                                                                         "model": cfg.model}, successes[i]))
     return traces

@@ -19,6 +19,7 @@ class Trace:
 
     Attributes are arrays of shape (T,) named as in ``STEP_SIGNALS`` (``signals[name]``), ``fz_n`` (T, 4)
     wheel loads FL, FR, RL, RR [N], ``acc_physics_mps2`` (T * n_sub, 3) a_x, a_y, a_z at ``physics_rate_hz``.
+    ``success``: the scenario's verdict on the episode (``info["success"]`` of its last step).
     """
 
     env_id: str
@@ -32,6 +33,7 @@ class Trace:
     termination: str
     wall_time_per_step_s: float
     meta: dict[str, Any] = field(default_factory=dict)
+    success: bool = False
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.signals[name]
@@ -57,4 +59,4 @@ class Trace:
         fz = np.array([info["fz_n"] for info in infos], dtype=np.float64)
         acc = np.concatenate([info["acc_substeps_mps2"] for info in infos], axis=0)
         return cls(env_id, policy_id, seed, signals, fz, acc, physics_rate_hz, control_period_s, termination,
-                   wall_time_s / len(infos), dict(meta or {}))
+                   wall_time_s / len(infos), dict(meta or {}), bool(infos[-1].get("success", False)))

@@ -143,3 +143,33 @@ def test_per_station_widths_decide_off_road_per_side(steer: float, side: str) ->
         assert e_y[-1] > 1.0 and max(e_y[:-1]) <= 1.0
     else:
         assert e_y[-1] < -3.0 and min(e_y[:-1]) >= -3.0
+
+
+def test_cli_track_option_records_provenance(circuit_csv: Path, tmp_path: Path, capsys) -> None:
+    from vtrack_gym.cli import main
+    from vtrack_gym.evaluation.store import ResultStore
+    from vtrack_gym.tracks import file_digest
+
+    store = tmp_path / "board.db"
+    assert main(["eval", "--policy", "lqr", "--track", str(circuit_csv), "--store", str(store)]) == 0
+    assert main(["benchmark", "--policies", "stanley", "--track", str(circuit_csv), "--speed-profile", "constant",
+                 "--max-speed-kmh", "20", "--no-figures", "--store", str(store)]) == 0
+    same_name = tmp_path / "other" / circuit_csv.name  # same file name, other content
+    same_name.parent.mkdir()
+    same_name.write_text(circuit_csv.read_text().replace(",4.500", ",4.400"))  # a narrower left side
+    assert main(["eval", "--policy", "lqr", "--track", str(same_name), "--store", str(store)]) == 0
+    rows = ResultStore(store, read_only=True).rows()
+    assert len(rows) == 3 and len({r["env_id"] for r in rows}) == 3  # never mixed on the board
+    first, bench, other = rows
+    assert first["options"]["track_sha256"] == file_digest(circuit_csv) != other["options"]["track_sha256"]
+    assert first["options"]["speed_profile"] == {"kind": "CurvatureLimited", "max_speed_mps": 40.0 / 3.6,
+                                                 "max_lateral_accel_mps2": 0.7 * 9.81, "max_accel_mps2": 2.0,
+                                                 "max_decel_mps2": 3.0}
+    assert bench["options"]["speed_profile"] == {"kind": "ConstantSpeed", "v_mps": 20.0 / 3.6}
+    assert first["metrics"]["success"] == 1.0 and first["termination"] == "completed"
+    capsys.readouterr()
+    for argv in (["--env", "DLC120-v0", "--track", str(circuit_csv)], []):  # exactly one of --env, --track
+        with pytest.raises(SystemExit) as exc:
+            main(["eval", "--policy", "lqr", *argv])
+        assert exc.value.code == 2 and "--track" in capsys.readouterr().err
+    assert main(["eval", "--policy", "lqr", "--track", str(circuit_csv), "--max-lateral-g", "0"]) == 2

@@ -12,6 +12,9 @@ with ``max_episode_steps=`` scaled accordingly (or ``None`` to leave the truncat
 
 from __future__ import annotations
 
+import os
+from typing import Any
+
 from vtrack_gym.envs.scenarios import LEGACY_IDS, SCENARIOS
 
 ENV_IDS: tuple[str, ...] = LEGACY_IDS
@@ -39,3 +42,43 @@ def register_envs() -> None:
             max_episode_steps=scenario.max_episode_steps,
             disable_env_checker=False,
         )
+
+
+def register_track(track_file: str | os.PathLike[str], speed_profile: Any) -> tuple[str, dict[str, Any]]:
+    """Register ``vtrack/Track-<stem>-<key>-v0`` driving a CSV track file with a speed profile (idempotent).
+
+    ``key`` hashes the file's content and the profile's parameters, so two tracks with the same file name (or one
+    track with two profiles) get two ids and never mix on a leaderboard. Returns the id and the provenance to
+    record with results: ``{"track_file", "track_sha256", "speed_profile": {"kind", parameters...}}``. The id is
+    registered in this process only (``make_vec`` in other processes needs ``Track-v0`` with ``track=``).
+    """
+    import hashlib
+    import json
+    import re
+    from dataclasses import asdict
+    from pathlib import Path as FsPath
+
+    from gymnasium.envs.registration import register, registry
+
+    from vtrack_gym.tracks.sources import file_digest
+    from vtrack_gym.tracks.speed_profiles import as_speed_profile
+
+    file = FsPath(track_file)
+    if not file.is_file():
+        raise ValueError(f"--track {track_file}: track file not found")
+    profile = as_speed_profile(speed_profile)
+    params = {"kind": type(profile).__name__, **asdict(profile)}
+    file_sha = file_digest(file)
+    key = hashlib.sha256(json.dumps([file_sha, params], sort_keys=True).encode()).hexdigest()[:10]
+    stem = re.sub(r"[^A-Za-z0-9_.]", "_", file.stem)[:40] or "track"
+    env_id = f"{TRACK_ID_PREFIX}{stem}-{key}-v0"
+    if env_id not in registry:
+        register(id=env_id, entry_point="vtrack_gym.envs.tracking_env:TrackingEnv",
+                 vector_entry_point="vtrack_gym.envs.vector_env:TrackingVectorEnv",
+                 kwargs={"scenario": "Track-v0", "track": str(file.resolve()), "speed_profile": profile},
+                 max_episode_steps=None, disable_env_checker=False)
+    return env_id, {"track_file": file.name, "track_sha256": file_sha, "speed_profile": params}
+
+
+TRACK_ID_PREFIX = "vtrack/Track-"
+"""Prefix of the ids ``register_track`` generates (and of ``vtrack/Track-v0``)."""

@@ -172,7 +172,24 @@ def with_track(scenario: ScenarioConfig, track: Any = None, speed_profile: Any =
 def resolve_scenario(scenario: str | ScenarioConfig, track: Any = None, speed_profile: Any = None,
                      half_width_m: float | None = None) -> ScenarioConfig:
     """The scenario an env is made with: a registered name or id, or a ``ScenarioConfig``, then ``with_track``."""
+    if isinstance(scenario, str) and _registered_track(scenario) is not None:  # an id of registration.register_track
+        kwargs = _registered_track(scenario)
+        scenario = kwargs["scenario"]
+        track = kwargs.get("track") if track is None else track
+        speed_profile = kwargs.get("speed_profile") if speed_profile is None else speed_profile
     sc = scenario_named(scenario) if isinstance(scenario, str) else scenario
     if not isinstance(sc, ScenarioConfig):
         raise ValueError(f"scenario must be a scenario id or a ScenarioConfig (got {type(scenario).__name__})")
     return with_track(sc, track, speed_profile, half_width_m)
+
+
+def _registered_track(env_id: str) -> dict[str, Any] | None:
+    """The make kwargs of a Gymnasium id registered for a user's track (``registration.register_track``), else None."""
+    if env_id in SCENARIOS or not env_id.startswith(f"{NAMESPACE}/Track-"):
+        return None
+    from gymnasium.envs.registration import registry
+
+    spec = registry.get(env_id)
+    if spec is None or spec.kwargs.get("scenario") not in SCENARIOS or "track" not in spec.kwargs:
+        return None
+    return dict(spec.kwargs)

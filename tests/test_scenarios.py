@@ -173,3 +173,12 @@ def test_cli_track_option_records_provenance(circuit_csv: Path, tmp_path: Path, 
             main(["eval", "--policy", "lqr", *argv])
         assert exc.value.code == 2 and "--track" in capsys.readouterr().err
     assert main(["eval", "--policy", "lqr", "--track", str(circuit_csv), "--max-lateral-g", "0"]) == 2
+
+
+@pytest.mark.parametrize("name", own_tracks.POLICIES)
+def test_every_default_baseline_laps_a_circuit_with_6m_hairpins(name: str, circuit_csv: Path) -> None:
+    if name == "mpc_osqp":
+        pytest.importorskip("osqp")
+    result = own_tracks.drive(circuit_csv, name)
+    assert result["termination"] == "completed" and result["success"] is True
+    assert result["max_e_y_m"] < 4.0  # inside the narrower (right) half width of the road

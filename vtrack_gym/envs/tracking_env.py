@@ -1,5 +1,12 @@
 """``TrackingEnv``: the single Gymnasium env behind every registered id.
 
+Scenario: a registered id or name (``envs.scenarios.SCENARIOS``) or a ``ScenarioConfig``; ``track=`` (a CSV file,
+a ``tracks.Path`` or a built-in name), ``speed_profile=`` (a tracks speed profile, a speed in m/s or ``"file"``)
+and ``half_width_m=`` (a constant road half width [m]) replace the scenario's, e.g.
+``gym.make("vtrack/Track-v0", track="my_track.csv")`` (default profile: curvature-limited, 40 km/h, 0.7 g). With a
+speed profile the PD-FLC holds v_ref(s) at the car's station (``target_speed`` in the observation and in
+``info["target_speed_mps"]``, a preview of it at the end of the observation).
+
 Observation: ``Box(float32)`` laid out by ``env.unwrapped.observation_layout`` (see ``envs.observation``).
 Action: ``Box(-1, 1, (1,))``, the steering command as a fraction of the road-wheel limit (0.6 rad by
 default); out-of-range values are clipped, NaN/inf or a wrong shape raise ``ValueError``. The PD-FLC speed
@@ -10,12 +17,14 @@ Reward (per control step; weights in ``RewardConfig``):
 plus ``failure_penalty`` (-100) once on a failure termination. Terms in ``info["reward_*"]`` (0 at reset).
 
 Info: the keys of ``envs.schema.INFO_KEYS`` at reset and at every step (numpy float64 scalars, ``fz_n`` (4,),
-``acc_substeps_mps2`` (n_sub, 3), ``termination`` str).
+``acc_substeps_mps2`` (n_sub, 3), ``termination`` str, ``success`` bool: the scenario's verdict, False until the
+step that ends the episode).
 
 Termination (``info["termination"]``): ``completed`` (one lap of a closed course, or the end of an open
-track), ``off_road`` (|e_y| beyond the track's half width), ``spin_out`` (|e_phi| > 90 deg, or sideslip >
-0.3 rad above 3 m/s), ``wheel_lift`` (a wheel's F_z <= 0), ``invalid_state`` (non-finite physics; never
-expected). ``truncated`` only from the scenario's time limit.
+track), ``off_road`` (e_y beyond the road's left half width, or -e_y beyond its right one, at the car's
+station), ``spin_out`` (|e_phi| > 90 deg, or sideslip > 0.3 rad above 3 m/s), ``wheel_lift`` (a wheel's
+F_z <= 0), ``invalid_state`` (non-finite physics; never expected). ``truncated`` only from the scenario's
+time limit (``spec.max_episode_steps`` is the same limit).
 """
 
 from __future__ import annotations

@@ -70,12 +70,15 @@ def test_alias_and_namespaced_id_give_identical_episodes_and_the_same_truncation
 
 
 def test_zero_steering_is_not_a_success_on_dlc120_but_mpc_is() -> None:
-    zero = rollout(Zero(), "DLC120-v0", seed=0)
+    from vtrack_gym.evaluation.benchmark import cones_hit
+
+    env = gym.make("DLC120-v0")
+    zero = rollout(Zero(), env, seed=0)
     assert zero.termination == "completed" and not zero.success
     assert evaluate_trace(zero)["success"] == 0.0
-    env = gym.make("DLC120-v0")
+    assert cones_hit(env, zero) > 0  # the incremental check agrees with the whole-trajectory gate count
     mpc = rollout(vtrack_gym.make_policy("mpc", env), env, seed=0)
-    assert mpc.termination == "completed" and mpc.success
+    assert mpc.termination == "completed" and mpc.success and cones_hit(env, mpc) == 0
 
 
 def test_track_env_follows_the_speed_profile_and_completes_a_lap(circuit_csv: Path) -> None:

@@ -399,3 +399,24 @@ def observe_indices(idx: np.ndarray, a: SimArrays) -> None:
         observe_one(i, a, 0.0, 0.0, True)
         a.sig[i, SIG_REWARD:SIG_REWARD + N_TERMS] = 0.0
         write_signals(i, a)
+
+
+@njit(cache=True)
+def body_outside_gates(table: np.ndarray, ds: float, length: float, closed: bool, gates: np.ndarray, x: np.ndarray,
+                       y: np.ndarray, psi: np.ndarray, s_guess: np.ndarray, lon: np.ndarray, lat: np.ndarray,
+                       out: np.ndarray, row: np.ndarray) -> None:
+    """``out[i] = True`` where a body corner of car i (CG x, y [m], heading psi [rad]; corner offsets ``lon``,
+    ``lat`` (4,) [m] in the body frame) projects into a gate's s range outside its lane. ``gates`` (G, 4): s_start,
+    s_end, y_left, y_right [m] (``tracks.Gate``); the projection starts near ``s_guess`` [m] (the car's station)."""
+    for i in range(x.shape[0]):
+        c = math.cos(psi[i])
+        sn = math.sin(psi[i])
+        for j in range(lon.shape[0]):
+            cx = x[i] + c * lon[j] - sn * lat[j]
+            cy = y[i] + sn * lon[j] + c * lat[j]
+            s = project_point(table, ds, length, closed, cx, cy, s_guess[i], 10.0)
+            interp_row(table, ds, length, closed, s, row)
+            e_y = -(cx - row[C_X]) * math.sin(row[C_PSI]) + (cy - row[C_Y]) * math.cos(row[C_PSI])
+            for g in range(gates.shape[0]):
+                if gates[g, 0] <= s <= gates[g, 1] and (e_y > gates[g, 2] or e_y < gates[g, 3]):
+                    out[i] = True

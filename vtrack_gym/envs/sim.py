@@ -187,7 +187,18 @@ class BatchSim:
         # Success verdicts: cone gates left by the body so far (only paths with gates are checked).
         self.gate_hit = np.zeros(n, dtype=bool)
         self._gated = tuple(k for k, p in enumerate(self.paths) if p.gates)
+        c = config.vehicle.chassis
+        front = c.cg_to_front_end_m
+        self._corner_lon = np.array([front, front, front - c.body_length_m, front - c.body_length_m])
+        self._corner_lat = 0.5 * c.body_width_m * np.array([1.0, -1.0, -1.0, 1.0])
+        self._gate_row = np.zeros(k.N_COLS)
+        self._gate_data = {t: (self.paths[t], np.array([(g.s_start_m, g.s_end_m, g.y_left_m, g.y_right_m)
+                                                        for g in self.paths[t].gates], dtype=np.float64),
+                               min(g.s_start_m for g in self.paths[t].gates) - c.body_length_m,
+                               max(g.s_end_m for g in self.paths[t].gates) + c.body_length_m)
+                           for t in self._gated}
         self.criteria = tuple(_criterion(scenario.success, p) for p in self.paths)
+        self._by_gates = np.array([c == "gates" for c in self.criteria], dtype=bool)  # per track
 
     # ------------------------------------------------------------------ reset
     def set_speed_controller(self, index: int | np.ndarray | slice, config: PDFLCConfig) -> None:
@@ -327,30 +338,20 @@ class BatchSim:
             self._step_compiled = self._step_kernel
 
     def _check_gates(self) -> None:
-        """Mark the cars whose body left a cone gate this step (corners projected on the path, as
-        ``tracks.gate_violations`` does on a whole trajectory); only cars near the gates are checked."""
-        from vtrack_gym.tracks.dlc import car_corners
-
+        """Mark the cars whose body left a cone gate this step (body corners projected on the path, like
+        ``tracks.gate_violations`` on a whole trajectory); only cars near the gates are checked (compiled)."""
         k = _kernels()
-        c = self.config.vehicle.chassis
         st = self.plant.state
         s_car = self.err[:, k.E_S]
         for track in self._gated:
-            path = self.paths[track]
-            lo = min(g.s_start_m for g in path.gates) - c.body_length_m
-            hi = max(g.s_end_m for g in path.gates) + c.body_length_m
+            path, gates, lo, hi = self._gate_data[track]
             sel = np.flatnonzero((self.veh_track == track) & (s_car >= lo) & (s_car <= hi) & ~self.gate_hit)
             if sel.size == 0:
                 continue
-            cx, cy = car_corners(st[sel, L.S_X], st[sel, L.S_Y], st[sel, L.S_PSI], c.body_length_m,
-                                 c.body_width_m, c.cg_to_front_end_m)
-            proj = path.project(cx.ravel(), cy.ravel(), s_guess=np.repeat(s_car[sel], 4))
-            s = proj.s.reshape(-1, 4)
-            e_y = proj.e_y.reshape(-1, 4)
-            hit = np.zeros(sel.size, dtype=bool)
-            for g in path.gates:
-                hit |= np.any((s >= g.s_start_m) & (s <= g.s_end_m) & ((e_y > g.y_left_m) | (e_y < g.y_right_m)),
-                              axis=1)
+            hit = np.zeros(sel.size, dtype=np.bool_)
+            k.body_outside_gates(path.table, path.ds_m, path.length_m, path.closed, gates, st[sel, L.S_X],
+                                 st[sel, L.S_Y], st[sel, L.S_PSI], s_car[sel], self._corner_lon, self._corner_lat,
+                                 hit, self._gate_row)
             self.gate_hit[sel] |= hit
 
     def success(self) -> np.ndarray:
@@ -358,8 +359,7 @@ class BatchSim:
         the end of an open one, within the road) and, under the ``gates`` criterion, no cone gate left."""
         k = _kernels()
         done = self.term == k.T_COMPLETED
-        gates = np.array([self.criteria[t] == "gates" for t in self.veh_track], dtype=bool)
-        return done & ~(gates & self.gate_hit)
+        return done & ~(self._by_gates[self.veh_track] & self.gate_hit)
 
     def _delayed(self, actions: np.ndarray) -> np.ndarray:
         """Commands delayed by ``delay_steps`` control periods (FIFO per car; zero before the first)."""

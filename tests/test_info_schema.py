@@ -23,6 +23,7 @@ def _check_single_info(info: dict, n_sub: int) -> None:
     assert info["fz_n"].dtype == np.float64 and info["fz_n"].shape == (4,)
     assert info["acc_substeps_mps2"].dtype == np.float64 and info["acc_substeps_mps2"].shape == (n_sub, 3)
     assert type(info["termination"]) is str
+    assert type(info["success"]) is bool and (info["success"] is False or info["termination"] != "")
 
 
 def _check_vector_info(info: dict, n: int, n_sub: int) -> None:
@@ -33,11 +34,12 @@ def _check_vector_info(info: dict, n: int, n_sub: int) -> None:
     assert info["fz_n"].dtype == np.float64 and info["fz_n"].shape == (n, 4)
     assert info["acc_substeps_mps2"].dtype == np.float64 and info["acc_substeps_mps2"].shape == (n, n_sub, 3)
     assert info["termination"].shape == (n,) and all(type(t) is str for t in info["termination"])
+    assert info["success"].dtype == bool and info["success"].shape == (n,)
 
 
 def test_schema_tuples_partition_the_keys() -> None:
     assert len(set(INFO_KEYS)) == len(INFO_KEYS)
-    assert set(INFO_KEYS) == {*SCALAR_SIGNALS, *REWARD_TERMS, *ARRAY_SIGNALS, "termination"}
+    assert set(INFO_KEYS) == {*SCALAR_SIGNALS, *REWARD_TERMS, *ARRAY_SIGNALS, "termination", "success"}
     assert SIGNAL_ROW == SCALAR_SIGNALS[1:] + REWARD_TERMS
     assert STEP_SIGNALS == SCALAR_SIGNALS
 

@@ -163,12 +163,14 @@ def test_agent_files_know_their_env(tmp_path, caplog):
     from vtrack_gym.envs.observation import ObservationLayout
 
     ppo = json.loads((SHIPPED / "ppo.json").read_text())
-    assert ppo["env"] == {"observation_names": list(OBS.names), "control_period_s": 0.01,
+    shipped = ObservationLayout()  # the shipped agents' layout: OBS without the speed preview appended to it
+    assert ppo["env"] == {"observation_names": list(shipped.names), "control_period_s": 0.01,
                           "max_road_wheel_angle_rad": 0.6}
     other = gym.make("DLC120-v0", layout=ObservationLayout(n_preview=10))
     with pytest.raises(ValueError, match="another observation layout: entry 23 is 'kappa_preview_11'"):
         vtrack_gym.make_policy("ppo", other)
-    swapped = dict(ppo, env=dict(ppo["env"], observation_names=[OBS.names[1], OBS.names[0], *OBS.names[2:]]))
+    swapped = dict(ppo, env=dict(ppo["env"], observation_names=[shipped.names[1], shipped.names[0],
+                                                                *shipped.names[2:]]))
     (tmp_path / "swapped.json").write_text(json.dumps(swapped))
     shutil.copy(SHIPPED / "ppo.npz", tmp_path / "swapped.npz")
     with pytest.raises(ValueError, match="entry 0 is 'e_phi' for the agent and 'e_y' in this env"):
@@ -179,7 +181,7 @@ def test_agent_files_know_their_env(tmp_path, caplog):
     assert vtrack_gym.make_policy(str(tmp_path / "legacy.json"), gym.make("DLC120-v0")).obs_dim == 33
     with pytest.raises(ValueError, match="takes 33 observations; this env's layout has 23"):
         vtrack_gym.make_policy(str(tmp_path / "legacy.json"), other)
-    for bad, match in ((dict(ppo["env"], observation_names=list(OBS.names[:-1])), "32 names, obs_dim is 33"),
+    for bad, match in ((dict(ppo["env"], observation_names=list(shipped.names[:-1])), "32 names, obs_dim is 33"),
                        (dict(ppo["env"], control_period_s=-1.0), r"control_period_s must be a number in \(0, 1.0\]"),
                        (dict(ppo["env"], code="x"), "env must be an object with keys")):
         (tmp_path / "bad.json").write_text(json.dumps(dict(ppo, env=bad)))

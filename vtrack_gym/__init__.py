@@ -1,6 +1,7 @@
 """vtrack_gym: Gymnasium environments for driverless-car trajectory tracking.
 
-``import vtrack_gym`` registers ``LateralTracking-v0``, ``DLC120-v0`` and ``LateralTrackingRandom-v0`` and
+``import vtrack_gym`` registers ``vtrack/LateralTracking-v0``, ``vtrack/DLC120-v0``, ``vtrack/LateralTrackingRandom-v0``
+and ``vtrack/Track-v0`` (any track: ``track=``, ``speed_profile=``), the first three also without the namespace, and
 loads nothing heavier than Gymnasium's registry (no numba, no torch). ``make_policy`` and ``evaluate`` import
 what they need when called.
 """
@@ -8,10 +9,10 @@ what they need when called.
 from typing import Any as _Any
 
 from vtrack_gym._version import __version__
-from vtrack_gym.envs.registration import ENV_IDS, register_envs
+from vtrack_gym.envs.registration import ALL_ENV_IDS, ENV_IDS, register_envs
 from vtrack_gym.interop import register_highway_envs
 
-__all__ = ["ENV_IDS", "__version__", "evaluate", "make_policy", "register_envs"]
+__all__ = ["ALL_ENV_IDS", "ENV_IDS", "__version__", "evaluate", "make_policy", "register_envs"]
 
 
 def make_policy(spec: str, env: _Any, preset: str | None = None) -> _Any:

@@ -17,6 +17,7 @@ import sqlite3
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from vtrack_gym._io import check_output_dir, check_output_file, check_regular_input, write_atomic
 from vtrack_gym.evaluation.store import DEFAULT_STORE_PATH, StoreError
@@ -109,6 +110,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--seeds", default=None,
                    help="seeds to score, e.g. 0-9 or 0,3,5 (default: the suite's: paper 0, deterministic without "
                    "noise; robust five fixed seeds; highway 0-2); the table shows 95 %% bootstrap intervals")
+    _add_track(b, "score the policies on this CSV track file (suite 'custom') instead of --suite")
     _add_store(b)
     _add_format(b)
 
@@ -121,8 +123,10 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--trust-code", action="store_true",
                    help="allow --policy MODULE:NAME: imports and runs that Python module (your code; the working "
                    "directory is on the import path)")
-    e.add_argument("--env", required=True,
-                   help="env id, e.g. LateralTracking-v0, DLC120-v0 or highway-env:lane-keeping-v0")
+    where = e.add_mutually_exclusive_group(required=True)
+    where.add_argument("--env", default=None,
+                       help="env id, e.g. LateralTracking-v0, DLC120-v0 or highway-env:lane-keeping-v0")
+    _add_track(e, where=where)
     e.add_argument("--preset", default="default",
                    help="baseline preset: default (for smc and mpc the shipped GA-tuned preset), tuned, hand "
                         "(hand-tuned smc/mpc) or paper (Table 3) (default: default)")
@@ -208,8 +212,9 @@ def build_parser() -> argparse.ArgumentParser:
                         description="Roll out the given policies on one env and write trajectory, signal and "
                         "deviation-rate figures.")
     pl.add_argument("--policies", default="smc,mpc", help="comma-separated policy names (default: smc,mpc)")
-    pl.add_argument("--env", default="LateralTracking-v0",
-                    help="env id, also highway-env:lane-keeping-v0 (default: LateralTracking-v0)")
+    pl.add_argument("--env", default=None,
+                    help="env id, also highway-env:lane-keeping-v0 (default: LateralTracking-v0, or --track)")
+    _add_track(pl)
     pl.add_argument("--out", type=Path, default=DEFAULT_PLOTS_DIR,
                     help=f"output folder (default: {DEFAULT_PLOTS_DIR}; the benchmark's figures are left alone)")
 
@@ -239,6 +244,7 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--also-complete", default="",
                    help="comma-separated env ids every individual must also complete, e.g. DLC120-v0 (a failure "
                    "adds the incomplete-run penalty; default: none, the paper's Case-1-only fitness)")
+    _add_track(t, "a CSV track file every individual must also complete (like --also-complete; local backend)")
     t.add_argument("--max-steps", type=_int_in(1, 10**7), default=None,
                    help="cut every episode after this many steps (smoke tests only; default: full episodes)")
     t.add_argument("--backend", choices=("local", "ray"), default="local",
@@ -259,7 +265,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "policies are shown side by side (one panel each) or overlaid in one frame.")
     vd.add_argument("--policy", default=None, help="one policy name or agent file (as for `vtrack eval`)")
     vd.add_argument("--policies", default=None, help="comma-separated policy names, e.g. mpc,smc")
-    vd.add_argument("--env", required=True, help="env id, e.g. DLC120-v0 or LateralTracking-v0")
+    where = vd.add_mutually_exclusive_group(required=True)
+    where.add_argument("--env", default=None, help="env id, e.g. DLC120-v0 or LateralTracking-v0")
+    _add_track(vd, where=where)
     vd.add_argument("--out", type=Path, required=True, help="output file ending in .mp4 or .gif")
     vd.add_argument("--preset", default="default", help="baseline preset for every policy (default: default)")
     vd.add_argument("--seed", type=int, default=0, help="episode seed (default: 0)")
@@ -306,7 +314,7 @@ def _needed_modules(args: argparse.Namespace) -> list[str]:
     elif cmd in ("eval", "plot"):
         policies = [args.policy] if cmd == "eval" else [p for p in args.policies.split(",") if p]
         needed += ["matplotlib"] if cmd == "plot" else []
-        needed += ["highway_env"] if "highway" in args.env else []
+        needed += ["highway_env"] if "highway" in (args.env or "") else []
     elif cmd == "reproduce":
         needed += ["matplotlib"]
     elif cmd in ("train", "export"):
@@ -355,9 +363,12 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
         policy_factories(policies)  # every name checked before any work
     store = ResultStore(args.store)  # verified before any rollout; written after the table is printed
     _announce_kernels()
-    seeds = _parse_seeds(args.seeds) if args.seeds is not None else None
-    result = run_benchmark(args.suite, store=None, policies=policies,
-                           figures_dir=None if args.no_figures else args.figures, quick=args.quick, seeds=seeds)
+    if args.track is not None:
+        result = _benchmark_track(args, policies)
+    else:
+        seeds = _parse_seeds(args.seeds) if args.seeds is not None else None
+        result = run_benchmark(args.suite, store=None, policies=policies,
+                               figures_dir=None if args.no_figures else args.figures, quick=args.quick, seeds=seeds)
     _print_board(summarise(result["rows"], LEADERBOARD_COLUMNS), args.format)
     print(_ranking_note(args.suite), file=sys.stderr)
     for f in result["figures"]:
@@ -404,6 +415,76 @@ def _parse_seeds(text: str) -> list[int]:
     return seeds
 
 
+def _add_track(p: argparse.ArgumentParser, text: str | None = None, where: Any = None) -> None:
+    """``--track FILE`` (in the group ``where`` if given, e.g. exclusive with --env) and its speed-profile options."""
+    (where if where is not None else p).add_argument("--track", type=Path, default=None, metavar="FILE",
+                   help=text or "drive on this CSV track file instead of --env (columns by header: x_m, y_m, optional "
+                   "z_m, w_tr_right_m, w_tr_left_m, v_mps; vtrack/Track-v0)")
+    p.add_argument("--speed-profile", choices=("constant", "curvature", "file"), default="curvature",
+                   help="--track: target speed: constant (--max-speed-kmh), curvature (the fastest profile within "
+                   "--max-speed-kmh and --max-lateral-g, 2 m/s^2 up, 3 m/s^2 down) or file (the v_mps column) "
+                   "(default: curvature)")
+    p.add_argument("--max-speed-kmh", type=float, default=40.0, help="--track: maximum speed [km/h] (default: 40)")
+    p.add_argument("--max-lateral-g", type=float, default=0.7,
+                   help="--track with --speed-profile curvature: lateral acceleration limit [g] (default: 0.7)")
+
+
+def _speed_profile(args: argparse.Namespace):
+    """The tracks speed profile of --speed-profile / --max-speed-kmh / --max-lateral-g."""
+    from vtrack_gym.envs.scenarios import GRAVITY_MPS2, KMH
+    from vtrack_gym.tracks import ConstantSpeed, CurvatureLimited, FileSpeed
+
+    for name, value in (("--max-speed-kmh", args.max_speed_kmh), ("--max-lateral-g", args.max_lateral_g)):
+        if not (value > 0.0 and value < float("inf")):
+            raise ValueError(f"{name} must be a number > 0 (got {value})")
+    if args.speed_profile == "constant":
+        return ConstantSpeed(args.max_speed_kmh * KMH)
+    if args.speed_profile == "file":
+        return FileSpeed()
+    return CurvatureLimited(args.max_speed_kmh * KMH, args.max_lateral_g * GRAVITY_MPS2)
+
+
+def _env_or_track(args: argparse.Namespace, default: str | None = None) -> tuple[str, dict[str, Any]]:
+    """The env id of ``--env`` or ``--track`` (registered for this track file and profile) and the provenance to
+    record in the rows' options (empty for ``--env``)."""
+    from vtrack_gym.interop import resolve_env_id
+
+    if args.track is not None:
+        if getattr(args, "env", None) is not None:
+            raise ValueError("give --env or --track, not both")
+        from vtrack_gym.envs.registration import register_track
+
+        return register_track(args.track, _speed_profile(args))
+    env = args.env if args.env is not None else default
+    if env is None:
+        raise ValueError("give --env ID (e.g. DLC120-v0) or --track FILE")
+    return _known_env(resolve_env_id(env)), {}
+
+
+def _with_provenance(rows: list, provenance: dict[str, Any]) -> list:
+    """Rows with the track's provenance added to their ``options`` (no store schema change)."""
+    if not provenance:
+        return rows
+    import dataclasses
+
+    return [dataclasses.replace(r, options={**r.options, **provenance}) for r in rows]
+
+
+def _benchmark_track(args: argparse.Namespace, policies: list[str] | None) -> dict[str, Any]:
+    """``vtrack benchmark --track``: every policy on the track (seed 0, suite 'custom'), rows with provenance."""
+    from vtrack_gym.evaluation.benchmark import policy_factories, score_policy, write_figures
+    from vtrack_gym.evaluation.suites import Episode
+
+    env_id, provenance = _env_or_track(args)
+    rows, traces = [], []
+    for name, make in policy_factories(policies).items():
+        r, t = score_policy(name, make, [Episode(env_id, 0)], "custom")
+        rows += _with_provenance(r, provenance)
+        traces += t
+    figures = [] if args.no_figures else write_figures({env_id: traces}, rows, args.figures)
+    return {"rows": rows, "traces": {env_id: traces}, "figures": figures}
+
+
 def _known_env(env_id: str) -> str:
     """``env_id`` if Gymnasium knows it (vtrack ids, the highway adapter), else a ValueError listing ours."""
     from gymnasium.envs.registration import registry
@@ -420,14 +501,13 @@ def _cmd_eval(args: argparse.Namespace) -> int:
     from vtrack_gym.evaluation.api import evaluate
     from vtrack_gym.evaluation.report_formats import to_markdown
     from vtrack_gym.evaluation.store import ResultStore
-    from vtrack_gym.interop import resolve_env_id
 
     seeds = _parse_seeds(args.seeds)
     make = _policy_factory(args.policy, args.preset, trust_code=args.trust_code)
-    env_id = _known_env(resolve_env_id(args.env))
+    env_id, provenance = _env_or_track(args)
     store = ResultStore(args.store)  # verified before the rollouts; written after the table is printed
     _announce_kernels()
-    rows = evaluate(make, env_id, seeds, policy_id=args.policy)
+    rows = _with_provenance(evaluate(make, env_id, seeds, policy_id=args.policy), provenance)
     table = [{"seed": r.seed, "termination": r.termination, "success": int(r.verdict()),
               **{k: v for k, v in r.metrics.items() if isinstance(v, float)}} for r in rows]
     print(to_markdown(table), flush=True)
@@ -543,9 +623,8 @@ def _cmd_leaderboard(args: argparse.Namespace) -> int:
 def _cmd_plot(args: argparse.Namespace) -> int:
     from vtrack_gym.evaluation.benchmark import score_policy, write_figures
     from vtrack_gym.evaluation.suites import Episode
-    from vtrack_gym.interop import resolve_env_id
 
-    env_id = _known_env(resolve_env_id(args.env))
+    env_id, _ = _env_or_track(args, default="LateralTracking-v0")
     names = [p for p in args.policies.split(",") if p.strip()]
     if not names:
         raise ValueError("--policies needs at least one policy name, e.g. --policies smc,mpc")
@@ -564,7 +643,6 @@ def _cmd_plot(args: argparse.Namespace) -> int:
 def _cmd_video(args: argparse.Namespace) -> int:
     from vtrack_gym.envs.render import RenderConfig
     from vtrack_gym.evaluation.video import VideoConfig, check_video_path, record_video
-    from vtrack_gym.interop import resolve_env_id
 
     if (args.policy is None) == (args.policies is None):
         raise ValueError("give exactly one of --policy NAME or --policies A,B")
@@ -576,9 +654,10 @@ def _cmd_video(args: argparse.Namespace) -> int:
     config = VideoConfig(fps=args.fps, speedup=args.speedup, arrangement=args.arrangement, max_seconds=args.seconds,
                          render=render)
     import vtrack_gym
+    from vtrack_gym.envs.registration import TRACK_ID_PREFIX
 
-    env_id = _known_env(resolve_env_id(args.env))
-    if env_id not in vtrack_gym.ENV_IDS:
+    env_id, _ = _env_or_track(args)
+    if env_id not in vtrack_gym.ALL_ENV_IDS and not env_id.startswith(TRACK_ID_PREFIX):
         raise ValueError(f"vtrack video draws the vtrack envs only: {', '.join(vtrack_gym.ENV_IDS)} (got --env "
                          f"{args.env!r})")
     names = [args.policy] if args.policy is not None else [p.strip() for p in args.policies.split(",") if p.strip()]
@@ -600,11 +679,16 @@ def _cmd_tune(args: argparse.Namespace) -> int:
 
     if args.backend != "ray" and (args.ray_address is not None or args.workers is not None):
         raise ValueError("--ray-address and --workers need --backend ray")
+    also = [e for e in args.also_complete.split(",") if e]
+    if args.track is not None:  # every individual must also complete the track (ids of this process: local only)
+        if args.backend == "ray":
+            raise ValueError("--track needs --backend local (the track's env id is registered in this process)")
+        also.append(_env_or_track(args)[0])
     command = "vtrack " + " ".join(shlex.quote(a) for a in (sys.argv[1:] if args.argv is None else args.argv))
     outcome = tune_to_preset(
         args.controller, args.space, args.budget, seed=args.seed, generations=args.generations,
         pop_size=args.pop_size, comfort_weight=args.comfort_weight, max_steps=args.max_steps,
-        also_complete=tuple(e for e in args.also_complete.split(",") if e), backend=args.backend,
+        also_complete=tuple(also), backend=args.backend,
         ray_address=args.ray_address, num_workers=args.workers, out=args.out, store=args.store, command=command,
         progress=not args.no_progress)
     result = outcome.result

@@ -343,41 +343,68 @@ class NumpyPolicy:
             self.obs_mean = arrays["obs_mean"].astype(np.float64)
             self._obs_scale = 1.0 / np.sqrt(arrays["obs_var"].astype(np.float64) + float(spec["obs_norm"]["eps"]))
             self.clip_obs = float(arrays["clip_obs"][0])
+        self._inputs: np.ndarray | None = None  # env observation -> agent inputs, by name (set by check_env)
+        self._env_obs_dim = self.obs_dim
 
     @property
     def policy_id(self) -> str:
         return self.name
 
     def check_env(self, env: Any) -> None:
-        """Refuse ``env`` if its observation layout is not the one the agent was trained on (``ValueError``).
+        """Refuse ``env`` if its observation layout lacks a field the agent was trained on (``ValueError``), and
+        select the agent's inputs from the env's observation BY NAME (layouts grow by appending named fields, e.g.
+        the speed preview: the agent keeps reading the fields it knows).
 
-        Files with the ``env`` record compare the layout names in order, and log a warning when the control
-        period or the road-wheel angle of action 1 differ (the agent still runs, on a different plant timing or
-        scale, e.g. highway-env); files without it compare the observation size only.
+        Files with the ``env`` record need every recorded name in the env's layout, in the recorded order, and log
+        a warning when the control period or the road-wheel angle of action 1 differ (the agent still runs, on a
+        different plant timing or scale, e.g. highway-env); files without it are taken to have the layout without
+        the speed preview and compare the observation size only.
         """
         from vtrack_gym.baselines.base import env_contract
 
         design, layout, period = env_contract(env)
+        self._check_layout(layout)
         record = self.spec.get("env")
-        names = list(layout.names)
         if record is None:
-            if layout.size != self.obs_dim:
-                raise ValueError(f"agent {self.name!r} takes {self.obs_dim} observations; this env's layout has "
-                                 f"{layout.size}")
             return
-        if record["observation_names"] != names:
-            diff = next((i for i, (a, b) in enumerate(zip(record["observation_names"], names, strict=False))
-                         if a != b), min(len(names), self.obs_dim))
-            theirs = record["observation_names"][diff] if diff < self.obs_dim else "(end)"
-            ours = names[diff] if diff < len(names) else "(end)"
-            raise ValueError(f"agent {self.name!r} was trained on another observation layout: entry {diff} is "
-                             f"{theirs!r} for the agent and {ours!r} in this env ({self.obs_dim} vs {len(names)} "
-                             "entries); retrain or export it for this env's layout")
         for key, value in (("control_period_s", period), ("max_road_wheel_angle_rad",
                                                            design.max_road_wheel_angle_rad)):
             if not math.isclose(record[key], float(value), rel_tol=1e-9):
                 logging.getLogger(__name__).warning("agent %r was trained with %s = %g, this env has %g",
                                                     self.name, key, record[key], float(value))
+
+    def _check_layout(self, layout: Any) -> None:
+        """``ValueError`` unless ``layout`` has the agent's fields (see ``check_env``); selects them by name."""
+        from dataclasses import replace
+
+        record = self.spec.get("env")
+        names = list(layout.names)
+        if record is None:
+            base = replace(layout, n_speed_preview=0)
+            if base.size != self.obs_dim:
+                raise ValueError(f"agent {self.name!r} takes {self.obs_dim} observations; this env's layout has "
+                                 f"{base.size}")
+            self._select(names, list(base.names))
+            return
+        wanted = list(record["observation_names"])
+        known = set(wanted)
+        ours_in_order = [n for n in names if n in known]  # the agent's fields as this env orders them
+        if ours_in_order != wanted:  # a field missing, or in another order
+            diff = next((i for i, (a, b) in enumerate(zip(wanted, ours_in_order, strict=False)) if a != b),
+                        min(len(ours_in_order), self.obs_dim))
+            theirs = wanted[diff] if diff < self.obs_dim else "(end)"
+            ours = ours_in_order[diff] if diff < len(ours_in_order) else "(end)"
+            raise ValueError(f"agent {self.name!r} was trained on another observation layout: entry {diff} is "
+                             f"{theirs!r} for the agent and {ours!r} in this env ({self.obs_dim} vs {len(names)} "
+                             "entries); retrain or export it for this env's layout")
+        self._select(names, wanted)
+
+    def _select(self, env_names: list[str], agent_names: list[str]) -> None:
+        """Feed the agent the entries ``agent_names`` of observations laid out as ``env_names``."""
+        index = np.array([env_names.index(n) for n in agent_names], dtype=np.intp)
+        identity = len(env_names) == len(agent_names) and bool((index == np.arange(index.size)).all())
+        self._inputs = None if identity else index
+        self._env_obs_dim = len(env_names)
 
     @property
     def weights_hash(self) -> str:
@@ -401,6 +428,13 @@ class NumpyPolicy:
         single = obs.ndim == 1
         if single:
             obs = obs.reshape(1, -1)
+        if obs.ndim == 2 and obs.shape[1] != self.obs_dim and obs.shape[1] != self._env_obs_dim:
+            from vtrack_gym.envs.observation import OBS
+
+            if obs.shape[1] == OBS.size:  # not checked against an env: assume the package's default layout
+                self._check_layout(OBS)
+        if self._inputs is not None and obs.ndim == 2 and obs.shape[1] == self._env_obs_dim:
+            obs = obs[:, self._inputs]  # the env's layout has more fields: the agent's, by name
         if obs.ndim != 2 or obs.shape[1] != self.obs_dim:
             raise ValueError(f"observation must have shape ({self.obs_dim},) or (N, {self.obs_dim}) (got {obs.shape})")
         if not np.isfinite(obs).all():

@@ -1,4 +1,5 @@
-"""Frozen configuration of the envs: scenario, reward, reset options (all SI units)."""
+"""Frozen configuration of the envs: reward, env settings, reset options (all SI units); the scenarios live in
+``envs.scenarios`` and are re-exported here."""
 
 from __future__ import annotations
 
@@ -9,9 +10,11 @@ from typing import Any, ClassVar
 from vtrack_gym._ranges import closed_ranges, documented, ranged, validate
 from vtrack_gym.envs.observation import NOISY_FIELDS, OBS, ObservationLayout
 from vtrack_gym.envs.pdflc import PDFLCConfig
+from vtrack_gym.envs.scenarios import DLC120, KMH, LATERAL_TRACKING, RANDOM_TRACKS, TRACK, ScenarioConfig
 from vtrack_gym.vehicle.params import VehicleParams
 
-KMH = 1.0 / 3.6
+__all__ = ["DLC120", "KMH", "LATERAL_TRACKING", "RANDOM_TRACKS", "TRACK", "EnvConfig", "ResetOptions", "RewardConfig",
+           "ScenarioConfig", "validate_numeric_options"]
 
 
 @documented
@@ -38,46 +41,6 @@ class RewardConfig:
 
     def __post_init__(self) -> None:
         validate(self)
-
-
-@documented
-@dataclass(frozen=True)
-class ScenarioConfig:
-    """Which track, how the car starts and what speed the inner loop holds."""
-
-    name: str
-    track: str                                   # "handling_course" | "double_lane_change" | "procedural"
-    target_speed_mps: float = ranged(gt=0.0, le=45.0, unit="m/s")
-    initial_speed_mps: float = ranged(ge=0.0, le=45.0, unit="m/s")
-    max_episode_s: float = ranged(gt=0.0, unit="s")
-    target_speed_range_mps: tuple[float, float] | None = None  # randomised per episode (training variant)
-    # procedural tracks built once per env, drawn per episode
-    procedural_bank_size: int = ranged(16, ge=1, integer=True)
-    procedural_seed: int = 12345
-    procedural_length_m: float = 800.0
-    end_margin_m: float = 5.0                    # open paths: completed this far before the end
-    # share of episodes starting at rest (the others at target speed)
-    standstill_start_fraction: float = ranged(0.0, ge=0.0, le=1.0)
-
-    def __post_init__(self) -> None:
-        if self.track not in ("handling_course", "double_lane_change", "procedural"):
-            raise ValueError("ScenarioConfig.track must be 'handling_course', 'double_lane_change' or 'procedural' "
-                             f"(got {self.track!r})")
-        validate(self)
-
-
-LATERAL_TRACKING = ScenarioConfig("LateralTracking-v0", "handling_course", 40.0 * KMH, 0.0, 300.0)
-"""Case 1: handling course from standstill, hold 40 km/h, one lap (~2.3 km, ~215 s)."""
-
-DLC120 = ScenarioConfig("DLC120-v0", "double_lane_change", 120.0 * KMH, 120.0 * KMH, 30.0)
-"""Case 2: ISO 3888-1 double lane change at 120 km/h from the start of the approach."""
-
-RANDOM_TRACKS = ScenarioConfig("LateralTrackingRandom-v0", "procedural", 15.0, 15.0, 90.0,
-                               target_speed_range_mps=(6.0, 35.0), procedural_bank_size=32,
-                               standstill_start_fraction=0.2)
-"""Training variant: a bank of 32 procedural tracks (half twisty, radii down to 18 m; half highway-like, down to
-120 m), target speed drawn per episode in 6-35 m/s but capped so the track's tightest curve needs at most 0.85 g;
-the car starts at the target speed, or at rest in 20 % of the episodes (Case 1 starts at rest)."""
 
 
 @documented

@@ -5,11 +5,13 @@ env run the same per-car code and give bit-identical results. Imported lazily by
 
 Every array the step reads or writes travels in one ``SimArrays`` bundle (a NamedTuple: fields are read by
 name, so two arrays cannot be swapped silently). Track data of all paths in use are concatenated: ``tables``
-(M, 8) with the column order of ``vtrack_gym.tracks.path``; ``tmeta`` (K, 6) holds per track k its first row,
-row count, spacing [m], length [m], closed flag (0/1) and half width [m]; ``veh_track[i]`` is car i's track.
+(M, 11): the 8 columns of ``vtrack_gym.tracks.path``, then the squared reference speed v_ref^2 [m^2/s^2] and the
+drivable half widths left / right [m] of each row (``C_V2``, ``C_WL``, ``C_WR``; interpolated linearly, so v^2 is
+linear in s between rows); ``tmeta`` (K, 7) holds per track k its first row, row count, spacing [m], length [m],
+closed flag (0/1), half width [m] and whether it has a speed profile (0/1); ``veh_track[i]`` is car i's track.
 Constant settings travel in one vector ``cfg``: the fields of ``StepConstants``, then of the observation layout,
 then of the ``RewardConfig``, each offset (``CFG_*``, ``RW_*``) derived from the dataclass fields by name.
-Per-car scalars sit in ``car`` (n, 6) (``CAR_*`` columns); ``sig`` (n, len(SIGNAL_ROW)) is the row of ``info``
+Per-car scalars sit in ``car`` (n, 7) (``CAR_*`` columns); ``sig`` (n, len(SIGNAL_ROW)) is the row of ``info``
 signals and reward terms (``envs.schema``); ``obs`` is written by ``write_observation`` at layout-derived indices.
 """
 
@@ -26,18 +28,21 @@ from vtrack_gym.envs.config import EnvConfig, RewardConfig, ScenarioConfig
 from vtrack_gym.envs.observation import N_SCALARS, ObservationLayout
 from vtrack_gym.envs.pdflc_kernel import pdflc_step
 from vtrack_gym.envs.schema import REWARD_TERMS, SIGNAL_ROW
-from vtrack_gym.tracks.kernels import interp_row, project_point
+from vtrack_gym.tracks.kernels import _locate, interp_row, project_point
 from vtrack_gym.vehicle import layout as L
 from vtrack_gym.vehicle.kernels import step_vehicle
 
 # Column order of the track tables (see vtrack_gym.tracks.path).
 C_X, C_Y, C_PSI, C_KAPPA, C_DKAPPA, C_Z, C_GRADE, C_ZPP = range(8)
 N_COLS = 8
+C_V2, C_WL, C_WR = range(N_COLS, N_COLS + 3)   # the env's own columns after the path's
+N_ENV_COLS = N_COLS + 3
 
 # Track metadata columns and per-car scalar columns.
-TM_START, TM_N, TM_DS, TM_LEN, TM_CLOSED, TM_HALF_WIDTH = range(6)
-CAR_S_PREV, CAR_PROGRESS, CAR_V_REF, CAR_PREV_ACTION, CAR_REWARD, CAR_MIN_FZ = range(6)
-N_CAR = 6
+TM_START, TM_N, TM_DS, TM_LEN, TM_CLOSED, TM_HALF_WIDTH, TM_PROFILE = range(7)
+N_TM = 7
+CAR_S_PREV, CAR_PROGRESS, CAR_V_REF, CAR_PREV_ACTION, CAR_REWARD, CAR_MIN_FZ, CAR_FOLLOW = range(7)
+N_CAR = 7   # CAR_FOLLOW: 1 = the car follows its track's speed profile (CAR_V_REF updated from it every step)
 
 
 @dataclass(frozen=True)
@@ -79,6 +84,8 @@ CFG_STEER_RATIO = _STEP["steering_ratio"]
 CFG_NPREV = _LAYOUT["n_preview"]
 CFG_PREV_DT = _LAYOUT["preview_dt_s"]
 CFG_PREV_VMIN = _LAYOUT["preview_min_speed_mps"]
+CFG_NSPEED = _LAYOUT["n_speed_preview"]
+CFG_SPEED_DT = _LAYOUT["speed_preview_dt_s"]
 RW_ALIVE = _REWARD["alive"]
 RW_WEY = _REWARD["w_ey"]
 RW_EYSCALE = _REWARD["ey_scale_m"]
@@ -107,13 +114,13 @@ class SimArrays(NamedTuple):
     models: np.ndarray       # (n,) int64 model id
     outputs: np.ndarray      # (n, n_sub, N_OUTPUT) accelerations and wheel loads per physics step
     work: np.ndarray         # (n, WORKSPACE_SIZE) plant scratch
-    tables: np.ndarray       # (M, 8) concatenated track tables
-    tmeta: np.ndarray        # (K, 6) track metadata (TM_*)
+    tables: np.ndarray       # (M, N_ENV_COLS) concatenated track tables (path columns, C_V2, C_WL, C_WR)
+    tmeta: np.ndarray        # (K, N_TM) track metadata (TM_*)
     veh_track: np.ndarray    # (n,) int64 track of each car
     car: np.ndarray          # (n, N_CAR) per-car scalars (CAR_*)
     cfg: np.ndarray          # (N_CFG,) constant settings (CFG_*, RW_*)
     obs: np.ndarray          # (n, layout.size) float32 observations
-    err: np.ndarray          # (n, ERR_COLS) projection: s*, e_y, e_phi, kappa, s_dot, z (E_*)
+    err: np.ndarray          # (n, ERR_COLS) projection: s*, e_y, e_phi, kappa, s_dot, z, width l/r (E_*)
     term: np.ndarray         # (n,) int64 termination code (T_*)
     rows: np.ndarray         # (n, 8) scratch track row per car
     actions: np.ndarray      # (n,) normalised steering actions of this step
@@ -128,8 +135,8 @@ T_NONE, T_COMPLETED, T_OFF_ROAD, T_SPIN_OUT, T_WHEEL_LIFT, T_INVALID = range(6)
 
 SPIN_HEADING_RAD = 0.5 * math.pi   # |e_phi| beyond this: spun out / driving the wrong way
 SPIN_SIDESLIP_RAD = 0.3            # |atan(v_y / v_x)| beyond this above 3 m/s: spun out
-ERR_COLS = 6                       # s*, e_y, e_phi, kappa, s_dot, z of the projection
-E_S, E_EY, E_EPHI, E_KAPPA, E_SDOT, E_Z = range(ERR_COLS)
+ERR_COLS = 8                       # s*, e_y, e_phi, kappa, s_dot, z, half width left, right at the projection
+E_S, E_EY, E_EPHI, E_KAPPA, E_SDOT, E_Z, E_WL, E_WR = range(ERR_COLS)
 
 # Signal-row columns (envs.schema.SIGNAL_ROW), derived by name.
 N_SIG = len(SIGNAL_ROW)
@@ -154,6 +161,14 @@ def _wrap(a: float) -> float:
     two_pi = 2.0 * math.pi
     w = a - two_pi * math.floor((a + math.pi) / two_pi)  # in [-pi, pi)
     return math.pi if w == -math.pi else w
+
+
+@njit(cache=True)
+def _linear(table: np.ndarray, ds: float, length: float, closed: bool, s: float, col: int) -> float:
+    """Column ``col`` of ``table`` at arc length s [m], linear between rows (wrapped / clamped like the path)."""
+    j, t = _locate(table.shape[0], ds, length, closed, s)
+    lo = table[j, col]
+    return lo + t * (table[j + 1, col] - lo)
 
 
 @njit(cache=True)
@@ -192,6 +207,7 @@ def observe_one(i: int, a: SimArrays, a_x: float, window_m: float, first: bool) 
     vy = state[L.S_VY]
     r = state[L.S_R]
 
+    follow = a.tmeta[k, TM_PROFILE] != 0.0 and car[i, CAR_FOLLOW] != 0.0
     s_guess = -1.0 if first else car[i, CAR_S_PREV]
     s = project_point(table, ds, length, closed, x, y, s_guess, window_m)
     if first:
@@ -207,6 +223,10 @@ def observe_one(i: int, a: SimArrays, a_x: float, window_m: float, first: bool) 
     car[i, CAR_S_PREV] = s
 
     interp_row(table, ds, length, closed, s, row)
+    w_left = _linear(table, ds, length, closed, s, C_WL)
+    w_right = _linear(table, ds, length, closed, s, C_WR)
+    if follow:
+        car[i, CAR_V_REF] = math.sqrt(_linear(table, ds, length, closed, s, C_V2))
     psi_r = row[C_PSI]
     kappa = row[C_KAPPA]
     dkappa = row[C_DKAPPA]
@@ -228,6 +248,13 @@ def observe_one(i: int, a: SimArrays, a_x: float, window_m: float, first: bool) 
     for j in range(n_preview):
         interp_row(table, ds, length, closed, s + v_prev * (j + 1) * preview_dt, row)
         obs[i, O_PREVIEW + j] = row[C_KAPPA]
+    o_speed = O_PREVIEW + n_preview
+    speed_dt = cfg[CFG_SPEED_DT]
+    for j in range(int(cfg[CFG_NSPEED])):
+        if follow:
+            obs[i, o_speed + j] = math.sqrt(_linear(table, ds, length, closed, s + v_prev * (j + 1) * speed_dt, C_V2))
+        else:
+            obs[i, o_speed + j] = car[i, CAR_V_REF]
 
     # Road inputs for the next control period: grade and vertical acceleration v^2 z''(s) at the projection.
     interp_row(table, ds, length, closed, s, row)
@@ -241,6 +268,8 @@ def observe_one(i: int, a: SimArrays, a_x: float, window_m: float, first: bool) 
     err[i, E_KAPPA] = kappa
     err[i, E_SDOT] = s_dot
     err[i, E_Z] = row[C_Z]
+    err[i, E_WL] = w_left
+    err[i, E_WR] = w_right
 
 
 @njit(cache=True)
@@ -264,7 +293,7 @@ def termination_one(i: int, a: SimArrays) -> int:
         return T_SPIN_OUT
     if vx > 3.0 and abs(math.atan2(state[L.S_VY], vx)) > SPIN_SIDESLIP_RAD:
         return T_SPIN_OUT
-    if abs(err[i, E_EY]) > tmeta[k, TM_HALF_WIDTH]:
+    if err[i, E_EY] > err[i, E_WL] or -err[i, E_EY] > err[i, E_WR]:  # per-station widths, each side
         return T_OFF_ROAD
     if tmeta[k, TM_CLOSED] != 0.0:
         if car[i, CAR_PROGRESS] >= tmeta[k, TM_LEN]:
@@ -370,3 +399,24 @@ def observe_indices(idx: np.ndarray, a: SimArrays) -> None:
         observe_one(i, a, 0.0, 0.0, True)
         a.sig[i, SIG_REWARD:SIG_REWARD + N_TERMS] = 0.0
         write_signals(i, a)
+
+
+@njit(cache=True)
+def body_outside_gates(table: np.ndarray, ds: float, length: float, closed: bool, gates: np.ndarray, x: np.ndarray,
+                       y: np.ndarray, psi: np.ndarray, s_guess: np.ndarray, lon: np.ndarray, lat: np.ndarray,
+                       out: np.ndarray, row: np.ndarray) -> None:
+    """``out[i] = True`` where a body corner of car i (CG x, y [m], heading psi [rad]; corner offsets ``lon``,
+    ``lat`` (4,) [m] in the body frame) projects into a gate's s range outside its lane. ``gates`` (G, 4): s_start,
+    s_end, y_left, y_right [m] (``tracks.Gate``); the projection starts near ``s_guess`` [m] (the car's station)."""
+    for i in range(x.shape[0]):
+        c = math.cos(psi[i])
+        sn = math.sin(psi[i])
+        for j in range(lon.shape[0]):
+            cx = x[i] + c * lon[j] - sn * lat[j]
+            cy = y[i] + sn * lon[j] + c * lat[j]
+            s = project_point(table, ds, length, closed, cx, cy, s_guess[i], 10.0)
+            interp_row(table, ds, length, closed, s, row)
+            e_y = -(cx - row[C_X]) * math.sin(row[C_PSI]) + (cy - row[C_Y]) * math.cos(row[C_PSI])
+            for g in range(gates.shape[0]):
+                if gates[g, 0] <= s <= gates[g, 1] and (e_y > gates[g, 2] or e_y < gates[g, 3]):
+                    out[i] = True

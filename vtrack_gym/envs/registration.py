@@ -1,22 +1,84 @@
-"""Registration of the env ids with Gymnasium (called by ``import vtrack_gym``; imports nothing heavy)."""
+"""Registration of the env ids with Gymnasium (called by ``import vtrack_gym``; imports nothing heavy).
+
+The ids are generated from the scenario registry (``envs.scenarios.SCENARIOS``): ``vtrack/<name>`` per scenario,
+plus the historical un-namespaced ids (``LEGACY_IDS``) as aliases with the same entry points and arguments, so
+``gym.make("DLC120-v0")`` and ``gym.make("vtrack/DLC120-v0")`` give identical episodes.
+
+``spec.max_episode_steps`` is the scenario's time limit at the default 10 ms control period (``None`` for
+Track-v0, whose limit depends on the track). The env truncates itself at the same step, so Gymnasium's
+``TimeLimit`` wrapper never changes an episode; an env made with a shorter ``control_period_s`` should be made
+with ``max_episode_steps=`` scaled accordingly (or ``None`` to leave the truncation to the env).
+"""
 
 from __future__ import annotations
 
-ENV_IDS: tuple[str, ...] = ("LateralTracking-v0", "DLC120-v0", "LateralTrackingRandom-v0")
+import os
+from typing import Any
+
+from vtrack_gym.envs.scenarios import LEGACY_IDS, SCENARIOS
+
+ENV_IDS: tuple[str, ...] = LEGACY_IDS
+"""The paper scenarios' historical ids (aliases of ``vtrack/<id>``)."""
+NAMESPACED_IDS: tuple[str, ...] = tuple(s.env_id for s in SCENARIOS.values())
+"""Every registered ``vtrack/`` id, one per scenario (``vtrack/Track-v0`` takes ``track=``, ``speed_profile=``)."""
+ALL_ENV_IDS: tuple[str, ...] = NAMESPACED_IDS + ENV_IDS
+"""Every id this package registers for its own envs."""
 
 
 def register_envs() -> None:
-    """Register every id (idempotent). The time limit lives inside the env (``truncated``), not in a wrapper."""
+    """Register every id (idempotent)."""
     from gymnasium.envs.registration import register, registry
 
-    for env_id in ENV_IDS:
+    by_id = {s.env_id: s for s in SCENARIOS.values()}
+    by_id.update({name: SCENARIOS[name] for name in LEGACY_IDS})
+    for env_id, scenario in by_id.items():
         if env_id in registry:
             continue
         register(
             id=env_id,
             entry_point="vtrack_gym.envs.tracking_env:TrackingEnv",
             vector_entry_point="vtrack_gym.envs.vector_env:TrackingVectorEnv",
-            kwargs={"scenario": env_id},
-            max_episode_steps=None,
+            kwargs={"scenario": scenario.name},
+            max_episode_steps=scenario.max_episode_steps,
             disable_env_checker=False,
         )
+
+
+def register_track(track_file: str | os.PathLike[str], speed_profile: Any) -> tuple[str, dict[str, Any]]:
+    """Register ``vtrack/Track-<stem>-<key>-v0`` driving a CSV track file with a speed profile (idempotent).
+
+    ``key`` hashes the file's content and the profile's parameters, so two tracks with the same file name (or one
+    track with two profiles) get two ids and never mix on a leaderboard. Returns the id and the provenance to
+    record with results: ``{"track_file", "track_sha256", "speed_profile": {"kind", parameters...}}``. The id is
+    registered in this process only (``make_vec`` in other processes needs ``Track-v0`` with ``track=``).
+    """
+    import hashlib
+    import json
+    import re
+    from dataclasses import asdict
+    from pathlib import Path as FsPath
+
+    from gymnasium.envs.registration import register, registry
+
+    from vtrack_gym.tracks.sources import file_digest
+    from vtrack_gym.tracks.speed_profiles import as_speed_profile
+
+    file = FsPath(track_file)
+    if not file.is_file():
+        raise ValueError(f"--track {track_file}: track file not found")
+    profile = as_speed_profile(speed_profile)
+    params = {"kind": type(profile).__name__, **asdict(profile)}
+    file_sha = file_digest(file)
+    key = hashlib.sha256(json.dumps([file_sha, params], sort_keys=True).encode()).hexdigest()[:10]
+    stem = re.sub(r"[^A-Za-z0-9_.]", "_", file.stem)[:40] or "track"
+    env_id = f"{TRACK_ID_PREFIX}{stem}-{key}-v0"
+    if env_id not in registry:
+        register(id=env_id, entry_point="vtrack_gym.envs.tracking_env:TrackingEnv",
+                 vector_entry_point="vtrack_gym.envs.vector_env:TrackingVectorEnv",
+                 kwargs={"scenario": "Track-v0", "track": str(file.resolve()), "speed_profile": profile},
+                 max_episode_steps=None, disable_env_checker=False)
+    return env_id, {"track_file": file.name, "track_sha256": file_sha, "speed_profile": params}
+
+
+TRACK_ID_PREFIX = "vtrack/Track-"
+"""Prefix of the ids ``register_track`` generates (and of ``vtrack/Track-v0``)."""

@@ -2,8 +2,9 @@
 
 Every env of the package returns the same keys at ``reset()`` and at every ``step()`` (``INFO_KEYS``, in this
 order), with stable types: the single env and the adapter give ``numpy.float64`` scalars, ``float64`` arrays
-for ``fz_n`` (4,) and ``acc_substeps_mps2`` (n_sub, 3) and a ``str`` termination; the vector env gives the same
-keys as (num_envs, ...) arrays (termination: an object array of ``str``) plus Gymnasium's ``_key`` masks.
+for ``fz_n`` (4,) and ``acc_substeps_mps2`` (n_sub, 3), a ``str`` termination and a ``bool`` success; the
+vector env gives the same keys as (num_envs, ...) arrays (termination: an object array of ``str``, success a
+``bool`` array) plus Gymnasium's ``_key`` masks.
 The reward terms are 0 at reset (no step yet).
 
 ``ROW_SIGNALS`` + ``REWARD_TERMS`` are one float64 row per car that the compiled step writes (``envs.kernels``,
@@ -37,18 +38,21 @@ SCALAR_SIGNALS: tuple[str, ...] = ("time_s", *ROW_SIGNALS)
 ARRAY_SIGNALS: tuple[str, ...] = ("fz_n", "acc_substeps_mps2")
 """Per-step arrays: wheel loads FL, FR, RL, RR [N] (4,); a_x, a_y, a_z at the physics rate (n_sub, 3)."""
 
-INFO_KEYS: tuple[str, ...] = (*SCALAR_SIGNALS, *REWARD_TERMS, *ARRAY_SIGNALS, "termination")
-"""Every key of ``info``, in order, at reset and at every step."""
+INFO_KEYS: tuple[str, ...] = (*SCALAR_SIGNALS, *REWARD_TERMS, *ARRAY_SIGNALS, "termination", "success")
+"""Every key of ``info``, in order, at reset and at every step. ``success`` (``bool``; vector env: a bool array)
+is the scenario's verdict on the episode (``envs.scenarios.SUCCESS_CRITERIA``): False until the step that ends
+it, then True if the criterion holds (``termination`` stays the end reason)."""
 
 
 def info_dict(time_s: float, row: np.ndarray, fz_n: np.ndarray, acc_substeps_mps2: np.ndarray,
-              termination: str) -> dict[str, Any]:
+              termination: str, success: bool = False) -> dict[str, Any]:
     """One car's ``info`` from its signal row (``SIGNAL_ROW`` order, float64) and arrays (copied by the caller)."""
     info: dict[str, Any] = {"time_s": np.float64(time_s)}
     info.update(zip(SIGNAL_ROW, row, strict=True))
     info["fz_n"] = fz_n
     info["acc_substeps_mps2"] = acc_substeps_mps2
     info["termination"] = termination
+    info["success"] = bool(success)
     return info
 
 

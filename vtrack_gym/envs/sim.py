@@ -7,6 +7,7 @@ share every number. Each car has its own random generator (seeded like Gymnasium
 
 from __future__ import annotations
 
+from dataclasses import replace
 from functools import lru_cache
 
 import numpy as np
@@ -39,23 +40,71 @@ def _kernels():
     return kernels
 
 
-@lru_cache(maxsize=8)
 def scenario_tracks(scenario: ScenarioConfig, vehicle_width_m: float) -> tuple:
-    """The paths a scenario drives on (built once per process and scenario)."""
+    """The paths a scenario drives on, with the scenario's constant half width if it sets one (built-in tracks are
+    built once per process; a CSV file is read at every call, a ``tracks.Path`` is used as is)."""
+    from dataclasses import replace
+
+    if scenario.is_builtin:
+        paths = _builtin_tracks(scenario.track, vehicle_width_m, scenario.procedural_seed, scenario.procedural_length_m,
+                                scenario.procedural_bank_size)
+    else:
+        from vtrack_gym.tracks import load_track
+
+        paths = (load_track(scenario.track),)
+    if scenario.half_width_m is not None:
+        paths = tuple(replace(p, half_width_m=scenario.half_width_m, widths_m=None) for p in paths)
+    return paths
+
+
+@lru_cache(maxsize=8)
+def _builtin_tracks(track: str, vehicle_width_m: float, procedural_seed: int, procedural_length_m: float,
+                    bank_size: int) -> tuple:
+    """The built-in paths of a scenario (cached)."""
     import vtrack_gym.tracks as tracks
 
-    if scenario.track == "handling_course":
+    if track == "handling_course":
         return (tracks.handling_course(),)
-    if scenario.track == "double_lane_change":
+    if track == "double_lane_change":
         return (tracks.double_lane_change(vehicle_width_m=vehicle_width_m),)
     # Half the bank twisty (radii down to 18 m), half highway-like (down to 120 m), so that every target speed
     # of the range has drivable tracks (see BatchSim.reset_car's speed cap).
     return tuple(tracks.procedural_track_from_config(
-        scenario.procedural_seed + k,
-        tracks.ProceduralTrackConfig(length_m=scenario.procedural_length_m,
+        procedural_seed + k,
+        tracks.ProceduralTrackConfig(length_m=procedural_length_m,
                                      max_curvature_per_m=PROCEDURAL_MAX_CURVATURE[k % 2],
                                      max_dkappa_per_m2=PROCEDURAL_MAX_DKAPPA[k % 2]))
-        for k in range(scenario.procedural_bank_size))
+        for k in range(bank_size))
+
+
+def _speed_tables(paths: tuple, scenario: ScenarioConfig) -> tuple:
+    """One ``tracks.SpeedTable`` per path: the scenario's profile, or its constant target speed."""
+    from vtrack_gym.tracks.speed_profiles import ConstantSpeed, speed_table
+
+    profile = scenario.speed_profile if scenario.speed_profile is not None else ConstantSpeed(
+        scenario.target_speed_mps)
+    return tuple(speed_table(p, profile) for p in paths)
+
+
+def _criterion(success: str, path) -> str:
+    """The success criterion of a scenario on one of its paths (``auto`` resolved; ``gates`` needs gates)."""
+    if success == "auto" or (success == "gates" and not path.gates):
+        return "gates" if path.gates else ("lap" if path.closed else "end")
+    return success
+
+
+TIME_LIMIT_FACTOR = 1.5
+TIME_LIMIT_MARGIN_S = 30.0
+
+
+def _time_limit_s(tables: tuple) -> float:
+    """A scenario's derived time limit [s]: ``TIME_LIMIT_FACTOR`` x the longest profile lap time (v linear between
+    rows) + ``TIME_LIMIT_MARGIN_S`` (the standstill start and the PD-FLC lag)."""
+    def lap_s(t) -> float:
+        v = t.v_mps
+        return float(np.sum(2.0 * t.ds_m / (v[1:] + v[:-1])))
+
+    return TIME_LIMIT_FACTOR * max(lap_s(t) for t in tables) + TIME_LIMIT_MARGIN_S
 
 
 class BatchSim:
@@ -65,17 +114,24 @@ class BatchSim:
         from vtrack_gym.envs.pdflc import control_surface
         from vtrack_gym.envs.pdflc_kernel import pdflc_gains
 
-        self.scenario = scenario
         self.config = config
         self.n = n
         self.paths = scenario_tracks(scenario, config.vehicle.chassis.body_width_m)
-        self.tables = np.ascontiguousarray(np.concatenate([p.table for p in self.paths]))
+        self.speed_tables = _speed_tables(self.paths, scenario)
+        if scenario.max_episode_s is None:
+            scenario = replace(scenario, max_episode_s=_time_limit_s(self.speed_tables))
+        self.scenario = scenario
+        profiled = scenario.speed_profile is not None
+        self.tables = np.ascontiguousarray(np.concatenate([
+            np.column_stack([p.table, t.v_mps ** 2, p.half_widths_rows()]) for p, t in zip(
+                self.paths, self.speed_tables, strict=True)]))
         counts = np.array([p.table.shape[0] for p in self.paths], dtype=np.int64)
         starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
         k = _kernels()
-        self.tmeta = np.column_stack([  # columns TM_START, TM_N, TM_DS, TM_LEN, TM_CLOSED, TM_HALF_WIDTH
+        self.tmeta = np.column_stack([  # columns TM_START, TM_N, TM_DS, TM_LEN, TM_CLOSED, TM_HALF_WIDTH, TM_PROFILE
             starts, counts, [p.ds_m for p in self.paths], [p.length_m for p in self.paths],
-            [1.0 if p.closed else 0.0 for p in self.paths], [p.half_width_m for p in self.paths]]).astype(np.float64)
+            [1.0 if p.closed else 0.0 for p in self.paths], [p.half_width_m for p in self.paths],
+            [1.0 if profiled else 0.0] * len(self.paths)]).astype(np.float64)
 
         self.plant = Plant(config.vehicle, n=n, model=config.model, physics_dt_s=config.physics_dt_s)
         pd = config.speed_controller
@@ -93,11 +149,12 @@ class BatchSim:
         self.prev_action = self.car[:, k.CAR_PREV_ACTION]
         self.reward = self.car[:, k.CAR_REWARD]
         self.min_fz = self.car[:, k.CAR_MIN_FZ]
+        self.follow = self.car[:, k.CAR_FOLLOW]
         self.v_ref[:] = scenario.target_speed_mps
         self.obs = np.zeros((n, self.layout.size), dtype=np.float32)
         self.err = np.zeros((n, k.ERR_COLS))
         self.term = np.zeros(n, dtype=np.int64)
-        self.rows = np.zeros((n, k.N_COLS))
+        self.rows = np.zeros((n, k.N_ENV_COLS))
         self.actions = np.zeros(n)
         self.sig = np.zeros((n, k.N_SIG))  # info signals and reward terms (envs.schema.SIGNAL_ROW)
         self.terms = self.sig[:, k.SIG_REWARD:k.SIG_REWARD + k.N_TERMS]
@@ -127,6 +184,21 @@ class BatchSim:
         self._step_kernel = k.step_parallel if n >= PARALLEL_THRESHOLD else k.step_serial
         self._step_compiled = None  # the kernel's compiled entry point for ``self.arrays`` (see _run_kernel)
         self._observe = k.observe_indices
+        # Success verdicts: cone gates left by the body so far (only paths with gates are checked).
+        self.gate_hit = np.zeros(n, dtype=bool)
+        self._gated = tuple(k for k, p in enumerate(self.paths) if p.gates)
+        c = config.vehicle.chassis
+        front = c.cg_to_front_end_m
+        self._corner_lon = np.array([front, front, front - c.body_length_m, front - c.body_length_m])
+        self._corner_lat = 0.5 * c.body_width_m * np.array([1.0, -1.0, -1.0, 1.0])
+        self._gate_row = np.zeros(k.N_COLS)
+        self._gate_data = {t: (self.paths[t], np.array([(g.s_start_m, g.s_end_m, g.y_left_m, g.y_right_m)
+                                                        for g in self.paths[t].gates], dtype=np.float64),
+                               min(g.s_start_m for g in self.paths[t].gates) - c.body_length_m,
+                               max(g.s_end_m for g in self.paths[t].gates) + c.body_length_m)
+                           for t in self._gated}
+        self.criteria = tuple(_criterion(scenario.success, p) for p in self.paths)
+        self._by_gates = np.array([c == "gates" for c in self.criteria], dtype=bool)  # per track
 
     # ------------------------------------------------------------------ reset
     def set_speed_controller(self, index: int | np.ndarray | slice, config: PDFLCConfig) -> None:
@@ -147,6 +219,7 @@ class BatchSim:
         """Put car ``i`` at the start of a (possibly new) track with the given scenario knobs."""
         sc, rng = self.scenario, self.rngs[i]
         self.veh_track[i] = int(rng.integers(len(self.paths))) if len(self.paths) > 1 else 0
+        follow = False
         if options.target_speed_mps is not None:
             v_ref = options.target_speed_mps
         elif sc.target_speed_range_mps is not None:
@@ -159,8 +232,12 @@ class BatchSim:
             if kappa_peak > 0.0:
                 hi = max(lo, min(hi, float(np.sqrt(FEASIBLE_LATERAL_ACC_MPS2 / kappa_peak))))
             v_ref = float(rng.uniform(lo, hi))
+        elif sc.speed_profile is not None:  # the profile's speed at the start (updated from it every step)
+            v_ref = float(self.speed_tables[self.veh_track[i]].v_mps[0])
+            follow = True
         else:
             v_ref = sc.target_speed_mps
+        self.follow[i] = 1.0 if follow else 0.0
         v0 = v_ref if sc.initial_speed_mps > 0.0 else 0.0
         if sc.standstill_start_fraction > 0.0 and rng.random() < sc.standstill_start_fraction:
             v0 = 0.0
@@ -202,6 +279,7 @@ class BatchSim:
         self.any_delay = bool(self.delay_steps.any())
         self.pd_mem[i] = (0.0, 0.0, 1.0)  # fresh: the first derivative of the speed error is 0
         self.term[i] = 0
+        self.gate_hit[i] = False
 
     def observe_after_reset(self, idx: np.ndarray) -> None:
         """Project freshly reset cars (global search) and fill their observation rows."""
@@ -218,6 +296,8 @@ class BatchSim:
         self.inputs[:, L.U_DELTA] = cmd * self.max_steer_rad
         self._run_kernel()
         self.steps += 1
+        if self._gated:
+            self._check_gates()
         terminated = self.term != 0
         truncated = (self.steps >= self.max_steps) & ~terminated
         if self.any_noise:
@@ -232,6 +312,8 @@ class BatchSim:
         self._run_kernel()
         steps = int(self.steps[0]) + 1
         self.steps[0] = steps
+        if self._gated:
+            self._check_gates()
         code = int(self.term[0])
         if self.any_noise:
             self._add_noise()
@@ -254,6 +336,30 @@ class BatchSim:
             self._step_compiled = self._step_kernel.get_overload((typeof(self.arrays),))
         except KeyError:  # no exact overload (should not happen): keep the dispatcher
             self._step_compiled = self._step_kernel
+
+    def _check_gates(self) -> None:
+        """Mark the cars whose body left a cone gate this step (body corners projected on the path, like
+        ``tracks.gate_violations`` on a whole trajectory); only cars near the gates are checked (compiled)."""
+        k = _kernels()
+        st = self.plant.state
+        s_car = self.err[:, k.E_S]
+        for track in self._gated:
+            path, gates, lo, hi = self._gate_data[track]
+            sel = np.flatnonzero((self.veh_track == track) & (s_car >= lo) & (s_car <= hi) & ~self.gate_hit)
+            if sel.size == 0:
+                continue
+            hit = np.zeros(sel.size, dtype=np.bool_)
+            k.body_outside_gates(path.table, path.ds_m, path.length_m, path.closed, gates, st[sel, L.S_X],
+                                 st[sel, L.S_Y], st[sel, L.S_PSI], s_car[sel], self._corner_lon, self._corner_lat,
+                                 hit, self._gate_row)
+            self.gate_hit[sel] |= hit
+
+    def success(self) -> np.ndarray:
+        """Each car's verdict if its episode ended now (bool (n,)): the course completed (a lap of a closed course /
+        the end of an open one, within the road) and, under the ``gates`` criterion, no cone gate left."""
+        k = _kernels()
+        done = self.term == k.T_COMPLETED
+        return done & ~(self._by_gates[self.veh_track] & self.gate_hit)
 
     def _delayed(self, actions: np.ndarray) -> np.ndarray:
         """Commands delayed by ``delay_steps`` control periods (FIFO per car; zero before the first)."""

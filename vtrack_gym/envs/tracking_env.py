@@ -1,5 +1,12 @@
 """``TrackingEnv``: the single Gymnasium env behind every registered id.
 
+Scenario: a registered id or name (``envs.scenarios.SCENARIOS``) or a ``ScenarioConfig``; ``track=`` (a CSV file,
+a ``tracks.Path`` or a built-in name), ``speed_profile=`` (a tracks speed profile, a speed in m/s or ``"file"``)
+and ``half_width_m=`` (a constant road half width [m]) replace the scenario's, e.g.
+``gym.make("vtrack/Track-v0", track="my_track.csv")`` (default profile: curvature-limited, 40 km/h, 0.7 g). With a
+speed profile the PD-FLC holds v_ref(s) at the car's station (``target_speed`` in the observation and in
+``info["target_speed_mps"]``, a preview of it at the end of the observation).
+
 Observation: ``Box(float32)`` laid out by ``env.unwrapped.observation_layout`` (see ``envs.observation``).
 Action: ``Box(-1, 1, (1,))``, the steering command as a fraction of the road-wheel limit (0.6 rad by
 default); out-of-range values are clipped, NaN/inf or a wrong shape raise ``ValueError``. The PD-FLC speed
@@ -10,12 +17,14 @@ Reward (per control step; weights in ``RewardConfig``):
 plus ``failure_penalty`` (-100) once on a failure termination. Terms in ``info["reward_*"]`` (0 at reset).
 
 Info: the keys of ``envs.schema.INFO_KEYS`` at reset and at every step (numpy float64 scalars, ``fz_n`` (4,),
-``acc_substeps_mps2`` (n_sub, 3), ``termination`` str).
+``acc_substeps_mps2`` (n_sub, 3), ``termination`` str, ``success`` bool: the scenario's verdict, False until the
+step that ends the episode).
 
 Termination (``info["termination"]``): ``completed`` (one lap of a closed course, or the end of an open
-track), ``off_road`` (|e_y| beyond the track's half width), ``spin_out`` (|e_phi| > 90 deg, or sideslip >
-0.3 rad above 3 m/s), ``wheel_lift`` (a wheel's F_z <= 0), ``invalid_state`` (non-finite physics; never
-expected). ``truncated`` only from the scenario's time limit.
+track), ``off_road`` (e_y beyond the road's left half width, or -e_y beyond its right one, at the car's
+station), ``spin_out`` (|e_phi| > 90 deg, or sideslip > 0.3 rad above 3 m/s), ``wheel_lift`` (a wheel's
+F_z <= 0), ``invalid_state`` (non-finite physics; never expected). ``truncated`` only from the scenario's
+time limit (``spec.max_episode_steps`` is the same limit).
 """
 
 from __future__ import annotations
@@ -26,13 +35,12 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from vtrack_gym.envs.config import DLC120, LATERAL_TRACKING, RANDOM_TRACKS, EnvConfig, ResetOptions, ScenarioConfig
+from vtrack_gym.envs.config import EnvConfig, ResetOptions, ScenarioConfig
+from vtrack_gym.envs.scenarios import resolve_scenario
 from vtrack_gym.envs.schema import info_dict
 from vtrack_gym.envs.sim import TERMINATION_NAMES, BatchSim
 from vtrack_gym.vehicle import layout as L
 from vtrack_gym.vehicle.params import DesignModel
-
-SCENARIOS: dict[str, ScenarioConfig] = {s.name: s for s in (LATERAL_TRACKING, DLC120, RANDOM_TRACKS)}
 
 
 def _as_float_array(action: Any) -> np.ndarray:
@@ -84,11 +92,9 @@ class TrackingEnv(gym.Env):
 
     def __init__(self, scenario: str | ScenarioConfig = "LateralTracking-v0", config: EnvConfig | None = None,
                  render_mode: str | None = None, render_fps: int = 25, render_view: str = "follow",
+                 track: Any = None, speed_profile: Any = None, half_width_m: float | None = None,
                  **config_overrides: Any) -> None:
-        if isinstance(scenario, str):
-            if scenario not in SCENARIOS:
-                raise ValueError(f"unknown scenario {scenario!r}; valid: {', '.join(SCENARIOS)}")
-            scenario = SCENARIOS[scenario]
+        scenario = resolve_scenario(scenario, track, speed_profile, half_width_m)
         if config is None:
             config = EnvConfig(**config_overrides)
         elif config_overrides:
@@ -105,6 +111,7 @@ class TrackingEnv(gym.Env):
         self.action_space = ACTION_SPACE
         self.metadata = {**self.metadata, "render_fps": render_fps}
         self._sim = BatchSim(scenario, config, 1)
+        self.scenario = scenario = self._sim.scenario  # with its time limit resolved
         self._steering_ratio = config.vehicle.steering.steering_ratio
         self._renderer = None
         from vtrack_gym.envs.render import EnvRenderer, RenderConfig  # light: Pillow is imported on first draw
@@ -154,7 +161,8 @@ class TrackingEnv(gym.Env):
         out = sim.outputs[0]
         return info_dict(int(sim.steps[0]) * self.control_period_s, sim.sig[0], out[-1, L.O_FZFL:L.O_FZRR + 1].copy(),
                          out[:, L.O_AX:L.O_AZ + 1].copy(),
-                         TERMINATION_NAMES[int(sim.term[0])] if terminated else "")
+                         TERMINATION_NAMES[int(sim.term[0])] if terminated else "",
+                         terminated and bool(sim.success()[0]))
 
     def render(self):
         """rgb_array: the current frame; rgb_array_list: the frames taken at ``render_fps`` since the last call;

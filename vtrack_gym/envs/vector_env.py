@@ -22,8 +22,9 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from vtrack_gym.envs.config import EnvConfig, ResetOptions, ScenarioConfig
+from vtrack_gym.envs.scenarios import resolve_scenario
 from vtrack_gym.envs.sim import TERMINATION_NAMES, BatchSim
-from vtrack_gym.envs.tracking_env import ACTION_SPACE, SCENARIOS, check_actions, observation_space
+from vtrack_gym.envs.tracking_env import ACTION_SPACE, check_actions, observation_space
 from vtrack_gym.vehicle.params import DesignModel
 
 
@@ -45,11 +46,10 @@ class TrackingVectorEnv(VectorEnv):
     metadata = {"render_modes": ["rgb_array"], "autoreset_mode": AutoresetMode.NEXT_STEP}  # noqa: RUF012
 
     def __init__(self, scenario: str | ScenarioConfig = "LateralTracking-v0", num_envs: int = 1,
-                 config: EnvConfig | None = None, render_mode: str | None = None, **config_overrides: Any) -> None:
-        if isinstance(scenario, str):
-            if scenario not in SCENARIOS:
-                raise ValueError(f"unknown scenario {scenario!r}; valid: {', '.join(SCENARIOS)}")
-            scenario = SCENARIOS[scenario]
+                 config: EnvConfig | None = None, render_mode: str | None = None, track: Any = None,
+                 speed_profile: Any = None, half_width_m: float | None = None, max_episode_steps: int | None = None,
+                 **config_overrides: Any) -> None:
+        scenario = resolve_scenario(scenario, track, speed_profile, half_width_m)
         if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer (got {num_envs!r})")
         config = config if config is not None else EnvConfig(**config_overrides)
@@ -65,6 +65,11 @@ class TrackingVectorEnv(VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.sim = BatchSim(scenario, config, self.num_envs)
+        self.scenario = self.sim.scenario  # with its time limit resolved
+        if max_episode_steps is not None:  # Gymnasium passes the spec's (the scenario's own limit by default)
+            if not isinstance(max_episode_steps, (int, np.integer)) or max_episode_steps < 1:
+                raise ValueError(f"max_episode_steps must be a positive integer (got {max_episode_steps!r})")
+            self.sim.max_steps = int(max_episode_steps)
         self._autoreset = np.zeros(self.num_envs, dtype=bool)
         self._seeded = np.zeros(self.num_envs, dtype=bool)
         self._all = np.ones(self.num_envs, dtype=bool)
@@ -108,6 +113,7 @@ class TrackingVectorEnv(VectorEnv):
         infos: dict[str, Any] = self.sim.signals()  # envs.schema.INFO_KEYS order
         names = np.array(TERMINATION_NAMES, dtype=object)[self.sim.term]
         infos["termination"] = np.where(terminated, names, "")
+        infos["success"] = terminated & self.sim.success()
         for key in list(infos):
             infos["_" + key] = self._all
         return infos

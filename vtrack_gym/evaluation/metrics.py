@@ -82,10 +82,18 @@ def comfort_metrics(trace: Trace, k: tuple[float, float, float] = (1.0, 1.0, 1.0
     return {"comfort_a_v_mps2": float(a_v), "comfort_band": iso2631.comfort_band(a_v)}
 
 
+def speed_metrics(trace: Trace) -> dict[str, float]:
+    """Speed tracking error v - v_ref [m/s] against the env's reference speed (``target_speed_mps``: constant on
+    the paper scenarios, the speed profile v_ref(s) on a track with one): RMS (time-weighted) and max |.|."""
+    err = trace["v_mps"] - trace["target_speed_mps"]
+    return {"rms_speed_error_mps": rms(err, trace["time_s"]), "max_speed_error_mps": max_abs(err)}
+
+
 def evaluate_trace(trace: Trace, cones_hit: int | None = None) -> dict[str, Any]:
     """Every metric of one trace, flat (what the leaderboard stores)."""
     out: dict[str, Any] = {
         "completed": float(trace.completed),
+        "success": float(trace.success),
         "termination": trace.termination,
         "duration_s": float(trace["time_s"][-1]) if trace.n_steps else 0.0,
         "progress_m": float(trace["progress_m"][-1]) if trace.n_steps else 0.0,
@@ -93,6 +101,7 @@ def evaluate_trace(trace: Trace, cones_hit: int | None = None) -> dict[str, Any]
         "wall_time_per_step_s": trace.wall_time_per_step_s,
     }
     out.update(paper_metrics(trace))
+    out.update(speed_metrics(trace))
     out.update(constraint_metrics(trace))
     out.update(comfort_metrics(trace))
     if cones_hit is not None:

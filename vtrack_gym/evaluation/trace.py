@@ -19,6 +19,7 @@ class Trace:
 
     Attributes are arrays of shape (T,) named as in ``STEP_SIGNALS`` (``signals[name]``), ``fz_n`` (T, 4)
     wheel loads FL, FR, RL, RR [N], ``acc_physics_mps2`` (T * n_sub, 3) a_x, a_y, a_z at ``physics_rate_hz``.
+    ``success``: the scenario's verdict on the episode (``info["success"]`` of its last step).
     """
 
     env_id: str

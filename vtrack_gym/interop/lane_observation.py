@@ -46,4 +46,5 @@ def observe_on_lane(geom: LaneGeometry, layout: ObservationLayout, x_m: float, y
                       v_y_mps, yaw_rate_radps, road_wheel_angle_rad, target_speed_mps, rate_ref,
                       dkappa * s_dot * s_dot + kappa * v_x_dot_mps2, kappa, dkappa)
     obs[layout.preview] = geom.curvature_at_stations(station + layout.preview_distances(v_x_mps))
+    obs[layout.speed_preview] = target_speed_mps  # the adapter holds one speed
     return LaneObservation(obs, station, e_y, e_phi)

@@ -1,0 +1,195 @@
+"""The scenario registry: every registered env id is one ``ScenarioConfig`` entry of ``SCENARIOS`` (data only).
+
+A scenario names its track source (a built-in track, a CSV file, a ``tracks.Path`` or the procedural bank), its
+speed profile (``None``: hold ``target_speed_mps``), the start (initial speed, share of standstill starts), the
+time limit, the road half widths (the path's own per-station widths, or a constant), the success criterion and
+the vehicle. ``registration.register_envs`` registers ``vtrack/<name>`` for every entry and the historical
+un-namespaced ids (``LEGACY_IDS``) as aliases with the same entry points and arguments.
+
+Imports nothing heavy (``vtrack_gym.tracks`` is imported when a scenario is validated with a profile or a Path).
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from typing import Any
+
+from vtrack_gym._ranges import documented, ranged, validate
+
+KMH = 1.0 / 3.6
+"""One km/h in m/s."""
+GRAVITY_MPS2 = 9.81
+"""Standard gravity used to state lateral-acceleration limits in g [m/s^2]."""
+
+NAMESPACE = "vtrack"
+"""Gymnasium namespace of the registered ids (``vtrack/DLC120-v0``)."""
+BUILTIN_TRACK_NAMES: tuple[str, ...] = ("handling_course", "double_lane_change", "procedural")
+"""Track names a scenario may give as a string (besides a CSV file path)."""
+SUCCESS_CRITERIA: tuple[str, ...] = ("auto", "lap", "gates", "end")
+"""``lap``: one lap of a closed course within the road; ``gates``: the course completed and every cone gate passed
+with the body inside it; ``end``: the end of an open track reached within the road; ``auto``: ``gates`` if the path
+has gates, else ``lap`` (closed) or ``end`` (open)."""
+
+
+@documented
+@dataclass(frozen=True)
+class ScenarioConfig:
+    """One scenario: track, speed profile, start, time limit, road widths, success criterion and vehicle.
+
+    ``track``: a name of ``BUILTIN_TRACK_NAMES``, a CSV file path or a ``tracks.Path``. ``speed_profile``: a
+    ``tracks`` speed profile (``ConstantSpeed``, ``CurvatureLimited``, ``FileSpeed``) followed along the path,
+    or ``None`` to hold ``target_speed_mps`` (the paper scenarios). ``half_width_m``: constant drivable half
+    width either side [m], or ``None`` for the path's own (per-station) widths. ``max_episode_s`` ``None``: the
+    time limit is derived from the track and profile (1.5 x the profile's lap time + 30 s).
+    """
+
+    name: str
+    track: Any = "handling_course"                # str | os.PathLike | tracks.Path
+    target_speed_mps: float = ranged(11.0, gt=0.0, le=45.0, unit="m/s")
+    initial_speed_mps: float = ranged(0.0, ge=0.0, le=45.0, unit="m/s")
+    max_episode_s: float | None = ranged(None, gt=0.0, unit="s")
+    target_speed_range_mps: tuple[float, float] | None = None  # randomised per episode (training variant)
+    # procedural tracks built once per env, drawn per episode
+    procedural_bank_size: int = ranged(16, ge=1, integer=True)
+    procedural_seed: int = 12345
+    procedural_length_m: float = 800.0
+    end_margin_m: float = 5.0                    # open paths: completed this far before the end
+    # share of episodes starting at rest (the others at target speed)
+    standstill_start_fraction: float = ranged(0.0, ge=0.0, le=1.0)
+    speed_profile: Any = None                    # tracks.SpeedProfile | None
+    half_width_m: float | None = ranged(None, gt=0.0, le=50.0, unit="m")
+    success: str = "auto"
+    vehicle: str = "default"                     # vehicle preset name (carried; vehicles as data live in vehicle/)
+
+    def __post_init__(self) -> None:
+        track = self.track
+        if isinstance(track, str) and not track:
+            raise ValueError("ScenarioConfig.track must not be empty")
+        if not isinstance(track, (str, os.PathLike)):
+            from vtrack_gym.tracks.path import Path
+
+            if not isinstance(track, Path):
+                raise ValueError(f"ScenarioConfig.track must be one of {', '.join(BUILTIN_TRACK_NAMES)}, a CSV file "
+                                 f"path or a tracks.Path (got {type(track).__name__})")
+        if self.speed_profile is not None:
+            from vtrack_gym.tracks.speed_profiles import SpeedProfile
+
+            if not isinstance(self.speed_profile, SpeedProfile):
+                raise ValueError("ScenarioConfig.speed_profile must be a tracks speed profile (ConstantSpeed, "
+                                 f"CurvatureLimited, FileSpeed) or None (got {type(self.speed_profile).__name__})")
+        if self.success not in SUCCESS_CRITERIA:
+            raise ValueError(f"ScenarioConfig.success must be one of {', '.join(SUCCESS_CRITERIA)} "
+                             f"(got {self.success!r})")
+        if not isinstance(self.vehicle, str) or not self.vehicle:
+            raise ValueError(f"ScenarioConfig.vehicle must be a vehicle name (got {self.vehicle!r})")
+        validate(self)
+
+    @property
+    def is_builtin(self) -> bool:
+        """True when the track is one of ``BUILTIN_TRACK_NAMES`` (not a file or a Path)."""
+        return isinstance(self.track, str) and self.track in BUILTIN_TRACK_NAMES
+
+    @property
+    def env_id(self) -> str:
+        """The namespaced Gymnasium id of this scenario (``vtrack/<name>``)."""
+        return f"{NAMESPACE}/{self.name}"
+
+    @property
+    def max_episode_steps(self) -> int | None:
+        """Control steps of the time limit at the default 10 ms period (``None`` when derived from the track)."""
+        return None if self.max_episode_s is None else round(self.max_episode_s / 0.01)
+
+
+LATERAL_TRACKING = ScenarioConfig("LateralTracking-v0", "handling_course", 40.0 * KMH, 0.0, 300.0)
+"""Case 1: handling course from standstill, hold 40 km/h, one lap (~2.3 km, ~215 s)."""
+
+DLC120 = ScenarioConfig("DLC120-v0", "double_lane_change", 120.0 * KMH, 120.0 * KMH, 30.0)
+"""Case 2: ISO 3888-1 double lane change at 120 km/h from the start of the approach."""
+
+RANDOM_TRACKS = ScenarioConfig("LateralTrackingRandom-v0", "procedural", 15.0, 15.0, 90.0,
+                               target_speed_range_mps=(6.0, 35.0), procedural_bank_size=32,
+                               standstill_start_fraction=0.2)
+"""Training variant: a bank of 32 procedural tracks (half twisty, radii down to 18 m; half highway-like, down to
+120 m), target speed drawn per episode in 6-35 m/s but capped so the track's tightest curve needs at most 0.85 g;
+the car starts at the target speed, or at rest in 20 % of the episodes (Case 1 starts at rest)."""
+
+TRACK_DEFAULT_MAX_SPEED_MPS = 40.0 * KMH
+"""Track-v0's default speed profile: curvature-limited at 40 km/h ..."""
+TRACK_DEFAULT_MAX_LATERAL_G = 0.7
+"""... and 0.7 g lateral acceleration (2 m/s^2 acceleration, 3 m/s^2 braking)."""
+
+TRACK = ScenarioConfig("Track-v0", "handling_course", TRACK_DEFAULT_MAX_SPEED_MPS, 0.0, None)
+"""Any track (``gym.make("vtrack/Track-v0", track=..., speed_profile=...)``), from standstill; default track the
+handling course, default profile ``curvature_limited(40 km/h, 0.7 g)`` (``default_track_profile``)."""
+
+SCENARIOS: dict[str, ScenarioConfig] = {s.name: s for s in (LATERAL_TRACKING, DLC120, RANDOM_TRACKS, TRACK)}
+"""Scenario name -> scenario; one registered id ``vtrack/<name>`` per entry."""
+LEGACY_IDS: tuple[str, ...] = ("LateralTracking-v0", "DLC120-v0", "LateralTrackingRandom-v0")
+"""The historical un-namespaced ids, registered as aliases of ``vtrack/<id>``."""
+
+
+def default_track_profile() -> Any:
+    """Track-v0's default speed profile: ``CurvatureLimited(40 km/h, 0.7 g)``."""
+    from vtrack_gym.tracks.speed_profiles import CurvatureLimited
+
+    return CurvatureLimited(TRACK_DEFAULT_MAX_SPEED_MPS, TRACK_DEFAULT_MAX_LATERAL_G * GRAVITY_MPS2)
+
+
+def scenario_named(name: str) -> ScenarioConfig:
+    """The scenario of an id (``vtrack/DLC120-v0`` or ``DLC120-v0``); ``ValueError`` listing the valid ids."""
+    key = name[len(NAMESPACE) + 1:] if name.startswith(NAMESPACE + "/") else name
+    if key not in SCENARIOS:
+        raise ValueError(f"unknown scenario {name!r}; valid: "
+                         f"{', '.join(s.env_id for s in SCENARIOS.values())}, {', '.join(LEGACY_IDS)}")
+    return SCENARIOS[key]
+
+
+def with_track(scenario: ScenarioConfig, track: Any = None, speed_profile: Any = None,
+               half_width_m: float | None = None) -> ScenarioConfig:
+    """``scenario`` on another track / speed profile / constant half width (``None`` keeps the scenario's).
+
+    ``speed_profile``: a tracks speed profile, a number (constant speed [m/s]) or ``"file"`` (the track's speed
+    column). A scenario that drives on a user's track with no profile given gets ``default_track_profile()``.
+    """
+    from dataclasses import replace
+
+    changes: dict[str, Any] = {}
+    if track is not None:
+        changes["track"] = track
+    if speed_profile is not None:
+        from vtrack_gym.tracks.speed_profiles import as_speed_profile
+
+        changes["speed_profile"] = as_speed_profile(speed_profile)
+    if half_width_m is not None:
+        changes["half_width_m"] = float(half_width_m)
+    out = replace(scenario, **changes) if changes else scenario
+    if out.speed_profile is None and out.name == TRACK.name:
+        out = replace(out, speed_profile=default_track_profile())
+    return out
+
+
+def resolve_scenario(scenario: str | ScenarioConfig, track: Any = None, speed_profile: Any = None,
+                     half_width_m: float | None = None) -> ScenarioConfig:
+    """The scenario an env is made with: a registered name or id, or a ``ScenarioConfig``, then ``with_track``."""
+    if isinstance(scenario, str) and _registered_track(scenario) is not None:  # an id of registration.register_track
+        kwargs = _registered_track(scenario)
+        scenario = kwargs["scenario"]
+        track = kwargs.get("track") if track is None else track
+        speed_profile = kwargs.get("speed_profile") if speed_profile is None else speed_profile
+    sc = scenario_named(scenario) if isinstance(scenario, str) else scenario
+    if not isinstance(sc, ScenarioConfig):
+        raise ValueError(f"scenario must be a scenario id or a ScenarioConfig (got {type(scenario).__name__})")
+    return with_track(sc, track, speed_profile, half_width_m)
+
+
+def _registered_track(env_id: str) -> dict[str, Any] | None:
+    """The make kwargs of a Gymnasium id registered for a user's track (``registration.register_track``), else None."""
+    if env_id in SCENARIOS or not env_id.startswith(f"{NAMESPACE}/Track-"):
+        return None
+    from gymnasium.envs.registration import registry
+
+    spec = registry.get(env_id)
+    if spec is None or spec.kwargs.get("scenario") not in SCENARIOS or "track" not in spec.kwargs:
+        return None
+    return dict(spec.kwargs)

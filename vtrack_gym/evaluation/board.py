@@ -142,10 +142,10 @@ def _mean_or_nan(values: list[Any]) -> float:
 
 
 def board_env(record: Mapping[str, Any]) -> str:
-    """The env a record is ranked in: its ``env_id``, with ``[<vehicle>]`` appended when its ``options`` name a car
+    """The env a record is ranked in: its ``env_id``, with `` (<vehicle>)`` appended when its ``options`` name a car
     (``options["vehicle"]``, see ``benchmark.vehicle_label``), so different cars never share a ranking."""
     vehicle = (record.get("options") or {}).get("vehicle")
-    return str(record["env_id"]) if not vehicle else f"{record['env_id']} [{vehicle}]"
+    return str(record["env_id"]) if not vehicle else f"{record['env_id']} ({vehicle})"
 
 
 def build_board(records: Iterable[Mapping[str, Any]], columns: Sequence[str],

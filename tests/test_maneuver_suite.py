@@ -9,6 +9,7 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import pytest
+from test_board_validity import ConstantSteering
 
 import vtrack_gym
 from vtrack_gym.envs.scenarios import (
@@ -24,17 +25,6 @@ from vtrack_gym.tracks import gate_violations
 from vtrack_gym.tracks.maneuvers import MANEUVERS, build_maneuver
 from vtrack_gym.vehicle.catalog import load_vehicle
 from vtrack_gym.vehicle.params import GRAVITY_MPS2
-
-
-class ConstantSteering:
-    """A policy that always commands the same normalised steering action."""
-
-    def __init__(self, action: float, name: str) -> None:
-        self.action = action
-        self.policy_id = name
-
-    def predict(self, observation, state=None, episode_start=None, deterministic=True):
-        return np.array([self.action], dtype=np.float32), state
 
 
 def _score(policy: str, env_id: str, vehicle: str | None = None):

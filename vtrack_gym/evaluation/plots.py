@@ -108,6 +108,19 @@ def _draw_traces(ax: Any, traces: Sequence[Trace], lw: float = 1.2) -> None:
         ax.plot(tr["x_m"], tr["y_m"], lw=lw, color=colour, ls=ls, label=f"{tr.policy_id} ({tr.termination})")
 
 
+def _xy_panel(ax: Any, path: Any, traces: Sequence[Trace], equal_above: float, adjustable: str = "box") -> None:
+    """Track, cones and driven paths in X-Y [m]; equal axes when the track's Y extent exceeds ``equal_above`` x
+    its X extent (a long straight-ish test keeps a stretched Y axis, so centimetres show)."""
+    _draw_track(ax, path)
+    _draw_traces(ax, traces)
+    ax.set_xlabel("X [m]")
+    ax.set_ylabel("Y [m]")
+    tab = path.table
+    if np.ptp(tab[:, 1]) > equal_above * np.ptp(tab[:, 0]):
+        ax.set_aspect("equal", adjustable=adjustable)
+    ax.grid(alpha=0.3)
+
+
 def plot_trajectories(traces: Sequence[Trace], path: Any, out_file: str | Path, title: str = "",
                       preset: str | None = None) -> Path:
     """Driven X-Y paths of ``traces`` over the track (road edges, cone gates if any).
@@ -126,14 +139,7 @@ def plot_trajectories(traces: Sequence[Trace], path: Any, out_file: str | Path, 
     else:
         fig, ax = plt.subplots(figsize=(10, 5), dpi=110)
         zooms = []
-    _draw_track(ax, path)
-    _draw_traces(ax, traces)
-    ax.set_xlabel("X [m]")
-    ax.set_ylabel("Y [m]")
-    tab = path.table
-    if np.ptp(tab[:, 1]) > 0.1 * np.ptp(tab[:, 0]):
-        ax.set_aspect("equal")
-    ax.grid(alpha=0.3)
+    _xy_panel(ax, path, traces, equal_above=0.1)
     styles = _styles([t.policy_id for t in traces])
     for k, (zax, s) in enumerate(zip(zooms, stations, strict=True)):
         label = chr(ord("A") + k)
@@ -232,14 +238,7 @@ def plot_maneuver(traces: Sequence[Trace], path: Any, out_file: str | Path, titl
     fig = plt.figure(figsize=(11, 8), dpi=110)
     grid = fig.add_gridspec(3, 1, height_ratios=(1.6, 1.0, 1.0))
     ax = fig.add_subplot(grid[0])
-    _draw_track(ax, path)
-    _draw_traces(ax, traces)
-    ax.set_xlabel("X [m]")
-    ax.set_ylabel("Y [m]")
-    tab = path.table
-    if np.ptp(tab[:, 1]) > 0.3 * np.ptp(tab[:, 0]):
-        ax.set_aspect("equal", adjustable="datalim")
-    ax.grid(alpha=0.3)
+    _xy_panel(ax, path, traces, equal_above=0.3, adjustable="datalim")
     styles = _styles([t.policy_id for t in traces])
     first = None
     for k, (name, label, scale) in enumerate(MANEUVER_PANELS):

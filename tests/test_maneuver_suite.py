@@ -103,13 +103,16 @@ def test_env_verdict_agrees_with_cones_hit_on_iso3888_1() -> None:
 
 
 # ------------------------------------------------------------------------------------------ ISO 4138 circle
-def test_circle_reaches_the_grip_limit_and_reports_it() -> None:
-    row, _ = _score("lqr", "vtrack/ISO4138-Circle-v0")
+@pytest.mark.parametrize("vehicle", [None, "suv", "sports"])
+def test_circle_reaches_the_grip_limit_and_reports_it(vehicle: str | None) -> None:
+    row, _ = _score("lqr", "vtrack/ISO4138-Circle-v0", vehicle=vehicle)
     mu_g = 0.9 * GRAVITY_MPS2
     assert row.success
     assert row.metrics["mu_g_mps2"] == pytest.approx(mu_g)
-    # the plant's limit: within 15 % of mu g (Pacejka peak D < 1, drive force at the limit), never above it
-    assert 0.85 * mu_g <= row.metrics["max_steady_a_y_mps2"] <= mu_g
+    # held the circle up to the car's own limit (the peak |a_y| of the whole run, sliding), never above mu g
+    assert 0.95 * row.metrics["max_a_y_mps2"] <= row.metrics["max_steady_a_y_mps2"] <= mu_g
+    if vehicle is None:  # the paper's car: within 15 % of mu g (Pacejka peak D < 1, drive force at the limit)
+        assert row.metrics["max_steady_a_y_mps2"] >= 0.85 * mu_g
     # the speed reached on the circle matches a_y = v^2 / R within the tolerance band
     assert row.metrics["max_steady_v_mps"] ** 2 / 40.0 == pytest.approx(row.metrics["max_steady_a_y_mps2"], rel=0.05)
 
@@ -206,3 +209,22 @@ def test_cli_maneuvers_suite_with_vehicle(tmp_path: Path, capsys: pytest.Capture
     assert main(["eval", "--policy", "lqr", "--env", "vtrack/Slalom-v0", "--vehicle", "bus",
                  "--store", str(store)]) == 2
     assert "unknown vehicle 'bus'" in capsys.readouterr().err
+
+
+def test_circle_verdict_rule() -> None:
+    """Left the band: success only if the in-band peak |a_y| is >= circle_limit_share of the episode's peak, and
+    that peak >= 0.5 mu g; never left: success once the ramp reached the grip-limit speed."""
+    env = gym.make("vtrack/ISO4138-Circle-v0")
+    env.reset(seed=0)
+    sim = env.unwrapped._sim
+    share = env.unwrapped.scenario.circle_limit_share
+    mu_g = 0.9 * GRAVITY_MPS2
+    sim.circle_left[0], sim.circle_peak_a_y[0] = True, 0.9 * mu_g
+    for steady, ok in ((0.99 * share * 0.9 * mu_g, False), (1.01 * share * 0.9 * mu_g, True)):
+        sim.circle_steady_a_y[0] = steady
+        assert bool(sim.success()[0]) is ok
+    sim.circle_peak_a_y[0] = sim.circle_steady_a_y[0] = 0.45 * mu_g  # the car never got near its limit
+    assert not sim.success()[0]
+    sim.circle_left[0], sim.circle_reached[0] = False, True
+    assert sim.success()[0]
+    env.close()

@@ -36,11 +36,12 @@ BUILTIN_TRACK_NAMES: tuple[str, ...] = ("handling_course", "double_lane_change",
 SUCCESS_CRITERIA: tuple[str, ...] = ("auto", "lap", "gates", "end", "circle")
 """``lap``: one lap of a closed course within the road; ``gates``: the course completed and every cone gate passed
 with the body inside it; ``end``: the end of an open track reached within the road; ``circle`` (ISO 4138): |e_y| <=
-``lateral_tolerance_m`` at every step until the grip limit is reached -- the reference speed at
-``grip_limit_speed_mps`` = sqrt(mu g R), or the measured |a_y| at ``circle_grip_fraction`` (0.85, CHOICE) x mu g,
-because the plant's own limit lies below mu g (Pacejka peak factors D < 1, load transfer, drive force) -- and the
-limit reached (or the course completed); ``auto``: ``gates`` if the path has gates, else ``lap`` (closed) or
-``end`` (open)."""
+``lateral_tolerance_m`` at every step until the ramp reaches ``grip_limit_speed_mps`` = sqrt(mu g R) (or the
+course is completed), or the car leaves the band only at its own grip limit: its peak |a_y| in the band is at least
+``circle_limit_share`` (0.95, CHOICE) of its peak |a_y| on the whole circle (where it slides at the limit), and
+that peak is at least 0.5 mu g. The plant's limit lies below mu g (Pacejka peak factors D < 1, load transfer,
+drive force; the SUV's more so), so a criterion fixed at a share of mu g would judge the car, not the driver;
+``auto``: ``gates`` if the path has gates, else ``lap`` (closed) or ``end`` (open)."""
 
 
 @documented
@@ -75,8 +76,8 @@ class ScenarioConfig:
     # ``circle`` criterion only: the lateral band [m] and the analytic grip-limit speed sqrt(mu g R) [m/s]
     lateral_tolerance_m: float | None = ranged(None, gt=0.0, le=5.0, unit="m")
     grip_limit_speed_mps: float | None = ranged(None, gt=0.0, le=100.0, unit="m/s")
-    # ... and the share of mu g [-] at which the grip limit counts as reached (CHOICE, see SUCCESS_CRITERIA)
-    circle_grip_fraction: float = ranged(0.85, gt=0.0, le=1.0)
+    # ... and the share of the episode's peak |a_y| to hold in the band (CHOICE, see SUCCESS_CRITERIA)
+    circle_limit_share: float = ranged(0.95, gt=0.0, le=1.0)
 
     def __post_init__(self) -> None:
         track = self.track

@@ -96,6 +96,8 @@ def _criterion(success: str, path) -> str:
     return success
 
 
+CIRCLE_MIN_PEAK_G = 0.5
+"""``circle`` criterion: a car whose peak |a_y| stays below this share of mu g never reached its grip limit."""
 TIME_LIMIT_FACTOR = 1.5
 TIME_LIMIT_MARGIN_S = 30.0
 
@@ -200,10 +202,13 @@ class BatchSim:
                                min(g.s_start_m for g in self.paths[t].gates) - c.body_length_m,
                                max(g.s_end_m for g in self.paths[t].gates) + c.body_length_m)
                            for t in self._gated}
-        # ``circle`` criterion: left the lateral band before the grip-limit speed / reached that speed
-        self.circle_fail = np.zeros(n, dtype=bool)
+        # ``circle`` criterion: left the lateral band; reference speed at the grip-limit speed; peak |a_y| [m/s^2]
+        # while still in the band and over the whole circle; the least peak that shows the car reached its limit
+        self.circle_left = np.zeros(n, dtype=bool)
         self.circle_reached = np.zeros(n, dtype=bool)
-        self.circle_a_y_mps2 = np.zeros(n)  # |a_y| [m/s^2] that counts as "grip limit reached" (per car's mu)
+        self.circle_steady_a_y = np.zeros(n)
+        self.circle_peak_a_y = np.zeros(n)
+        self.circle_min_peak_a_y = np.zeros(n)
         self.criteria = tuple(_criterion(scenario.success, p) for p in self.paths)
         self._by_gates = np.array([c == "gates" for c in self.criteria], dtype=bool)  # per track
         self._by_circle = np.array([c == "circle" for c in self.criteria], dtype=bool)
@@ -258,7 +263,7 @@ class BatchSim:
         if options.friction_mu is not None:
             params = params.with_friction(options.friction_mu)
         self.plant.set_vehicle_params(i, params)
-        self.circle_a_y_mps2[i] = sc.circle_grip_fraction * params.tyres.friction_mu * GRAVITY_MPS2
+        self.circle_min_peak_a_y[i] = CIRCLE_MIN_PEAK_G * params.tyres.friction_mu * GRAVITY_MPS2
 
         start = self.tables[int(self.tmeta[self.veh_track[i], 0])]
         x0, y0, psi0 = start[0], start[1], start[2]
@@ -290,8 +295,10 @@ class BatchSim:
         self.pd_mem[i] = (0.0, 0.0, 1.0)  # fresh: the first derivative of the speed error is 0
         self.term[i] = 0
         self.gate_hit[i] = False
-        self.circle_fail[i] = False
+        self.circle_left[i] = False
         self.circle_reached[i] = False
+        self.circle_steady_a_y[i] = 0.0
+        self.circle_peak_a_y[i] = 0.0
 
     def observe_after_reset(self, idx: np.ndarray) -> None:
         """Project freshly reset cars (global search) and fill their observation rows."""
@@ -356,11 +363,12 @@ class BatchSim:
         if self._by_circle.any():
             k = _kernels()
             on = self._by_circle[self.veh_track] & (self.steps > 0)
-            limit = (self.v_ref >= self.scenario.grip_limit_speed_mps) | (
-                np.abs(self.sig[:, k.SIG_AY]) >= self.circle_a_y_mps2)
-            self.circle_reached |= on & limit
-            band = np.abs(self.err[:, k.E_EY]) > self.scenario.lateral_tolerance_m
-            self.circle_fail |= on & ~self.circle_reached & band
+            a_y = np.abs(self.sig[:, k.SIG_AY])
+            self.circle_reached |= on & (self.v_ref >= self.scenario.grip_limit_speed_mps)
+            self.circle_left |= on & (np.abs(self.err[:, k.E_EY]) > self.scenario.lateral_tolerance_m)
+            self.circle_peak_a_y = np.where(on, np.maximum(self.circle_peak_a_y, a_y), self.circle_peak_a_y)
+            steady = on & ~self.circle_left
+            self.circle_steady_a_y = np.where(steady, np.maximum(self.circle_steady_a_y, a_y), self.circle_steady_a_y)
 
     def _check_gates(self) -> None:
         """Mark the cars whose body left a cone gate this step (body corners projected on the path, like
@@ -382,13 +390,15 @@ class BatchSim:
     def success(self) -> np.ndarray:
         """Each car's verdict if its episode ended now (bool (n,)): the course completed (a lap of a closed course /
         the end of an open one, within the road) and, under the ``gates`` criterion, no cone gate left; under
-        ``circle``: never outside the lateral band before the grip limit is reached (the reference speed at the
-        analytic grip-limit speed, or |a_y| at ``circle_grip_fraction`` x mu g), and that limit reached (or the
-        course completed)."""
+        ``circle``: never outside the lateral band and the ramp run to the grip-limit speed (or the course
+        completed), or left the band only at the car's own limit: the peak |a_y| in the band at least
+        ``circle_limit_share`` of the episode's peak |a_y|, which is at least ``CIRCLE_MIN_PEAK_G`` mu g."""
         k = _kernels()
         done = self.term == k.T_COMPLETED
         circle = self._by_circle[self.veh_track]
-        ok_circle = ~self.circle_fail & (self.circle_reached | done)
+        at_limit = ((self.circle_steady_a_y >= self.scenario.circle_limit_share * self.circle_peak_a_y)
+                    & (self.circle_peak_a_y >= self.circle_min_peak_a_y))
+        ok_circle = np.where(self.circle_left, at_limit, self.circle_reached | done)
         return np.where(circle, ok_circle, done & ~(self._by_gates[self.veh_track] & self.gate_hit))
 
     def _delayed(self, actions: np.ndarray) -> np.ndarray:

@@ -97,10 +97,11 @@ def build_parser() -> argparse.ArgumentParser:
     b = sub.add_parser("benchmark", help="score every baseline and shipped agent on a suite; print the leaderboard",
                        description="Run every baseline policy (default presets) and every shipped RL agent on the "
                        "suite's episodes, store the results, print the leaderboard and write the figures.")
-    b.add_argument("--suite", choices=("paper", "robust", "highway"), default="paper",
+    b.add_argument("--suite", choices=("paper", "robust", "highway", "maneuvers"), default="paper",
                    help="paper: the two nominal scenarios; robust: randomised friction, mass, speed, noise and "
-                   "delay over fixed seeds; highway: highway-env's lane-keeping-v0 (needs the 'highway' extra) "
-                   "(default: paper)")
+                   "delay over fixed seeds; highway: highway-env's lane-keeping-v0 (needs the 'highway' extra); "
+                   "maneuvers: the standard manoeuvres (ISO 3888-1/-2, ISO 4138 circle, slalom, step curvature), "
+                   "one figure each (default: paper)")
     b.add_argument("--policies", default="",
                    help="comma-separated policy names to score (default: all; see `vtrack eval --help`)")
     b.add_argument("--figures", type=Path, default=DEFAULT_FIGURES_DIR,
@@ -111,6 +112,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="seeds to score, e.g. 0-9 or 0,3,5 (default: the suite's: paper 0, deterministic without "
                    "noise; robust five fixed seeds; highway 0-2); the table shows 95 %% bootstrap intervals")
     _add_track(b, "score the policies on this CSV track file (suite 'custom') instead of --suite")
+    _add_vehicle(b)
     _add_store(b)
     _add_format(b)
 
@@ -131,6 +133,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="baseline preset: default (for smc and mpc the shipped GA-tuned preset), tuned, hand "
                         "(hand-tuned smc/mpc) or paper (Table 3) (default: default)")
     e.add_argument("--seeds", default="0", help="seeds, e.g. 0-9 or 0,3,5 (default: 0)")
+    _add_vehicle(e)
     _add_store(e)
 
     lb = sub.add_parser("leaderboard", help="print the stored leaderboard",
@@ -270,6 +273,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_track(vd, where=where)
     vd.add_argument("--out", type=Path, required=True, help="output file ending in .mp4 or .gif")
     vd.add_argument("--preset", default="default", help="baseline preset for every policy (default: default)")
+    _add_vehicle(vd)
     vd.add_argument("--seed", type=int, default=0, help="episode seed (default: 0)")
     vd.add_argument("--speedup", type=float, default=1.0,
                     help="seconds of driving per second of video, in [0.05, 100] (default: 1 = real time)")
@@ -355,12 +359,13 @@ def _print_board(board: list[dict], fmt: str) -> None:
 
 
 def _cmd_benchmark(args: argparse.Namespace) -> int:
-    from vtrack_gym.evaluation.benchmark import LEADERBOARD_COLUMNS, policy_factories, run_benchmark, summarise
+    from vtrack_gym.evaluation.benchmark import policy_factories, run_benchmark, suite_columns, summarise
     from vtrack_gym.evaluation.store import ResultStore
 
     policies = [p for p in args.policies.split(",") if p] or None
     if policies:
         policy_factories(policies)  # every name checked before any work
+    _check_vehicle(args)
     store = ResultStore(args.store)  # verified before any rollout; written after the table is printed
     _announce_kernels()
     if args.track is not None:
@@ -368,8 +373,10 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
     else:
         seeds = _parse_seeds(args.seeds) if args.seeds is not None else None
         result = run_benchmark(args.suite, store=None, policies=policies,
-                               figures_dir=None if args.no_figures else args.figures, quick=args.quick, seeds=seeds)
-    _print_board(summarise(result["rows"], LEADERBOARD_COLUMNS), args.format)
+                               figures_dir=None if args.no_figures else args.figures, quick=args.quick, seeds=seeds,
+                               vehicle=args.vehicle)
+    suite = "custom" if args.track is not None else args.suite
+    _print_board(summarise(result["rows"], suite_columns(suite)), args.format)
     print(_ranking_note(args.suite), file=sys.stderr)
     for f in result["figures"]:
         print(f"figure: {f}", file=sys.stderr)
@@ -444,6 +451,23 @@ def _speed_profile(args: argparse.Namespace):
     return CurvatureLimited(args.max_speed_kmh * KMH, args.max_lateral_g * GRAVITY_MPS2)
 
 
+def _add_vehicle(p: argparse.ArgumentParser) -> None:
+    """``--vehicle NAME|FILE``: the car (a shipped vehicle or a vehicle JSON file; default the paper's car)."""
+    from vtrack_gym.vehicle.catalog import list_vehicles
+
+    p.add_argument("--vehicle", default=None, metavar="NAME|FILE",
+                   help=f"the car: {', '.join(list_vehicles())} or a vehicle .json file (default: the paper's "
+                   "hatchback); recorded in the rows' options, so cars are ranked apart")
+
+
+def _check_vehicle(args: argparse.Namespace) -> None:
+    """Load ``--vehicle`` once before any work (a clear error for an unknown name or a bad file)."""
+    if getattr(args, "vehicle", None) is not None:
+        from vtrack_gym.vehicle.catalog import load_vehicle
+
+        load_vehicle(args.vehicle)
+
+
 def _env_or_track(args: argparse.Namespace, default: str | None = None) -> tuple[str, dict[str, Any]]:
     """The env id of ``--env`` or ``--track`` (registered for this track file and profile) and the provenance to
     record in the rows' options (empty for ``--env``)."""
@@ -478,10 +502,10 @@ def _benchmark_track(args: argparse.Namespace, policies: list[str] | None) -> di
     env_id, provenance = _env_or_track(args)
     rows, traces = [], []
     for name, make in policy_factories(policies).items():
-        r, t = score_policy(name, make, [Episode(env_id, 0)], "custom")
+        r, t = score_policy(name, make, [Episode(env_id, 0, vehicle=args.vehicle)], "custom")
         rows += _with_provenance(r, provenance)
         traces += t
-    figures = [] if args.no_figures else write_figures({env_id: traces}, rows, args.figures)
+    figures = [] if args.no_figures else write_figures({env_id: traces}, rows, args.figures, vehicle=args.vehicle)
     return {"rows": rows, "traces": {env_id: traces}, "figures": figures}
 
 
@@ -505,9 +529,10 @@ def _cmd_eval(args: argparse.Namespace) -> int:
     seeds = _parse_seeds(args.seeds)
     make = _policy_factory(args.policy, args.preset, trust_code=args.trust_code)
     env_id, provenance = _env_or_track(args)
+    _check_vehicle(args)
     store = ResultStore(args.store)  # verified before the rollouts; written after the table is printed
     _announce_kernels()
-    rows = _with_provenance(evaluate(make, env_id, seeds, policy_id=args.policy), provenance)
+    rows = _with_provenance(evaluate(make, env_id, seeds, policy_id=args.policy, vehicle=args.vehicle), provenance)
     table = [{"seed": r.seed, "termination": r.termination, "success": int(r.verdict()),
               **{k: v for k, v in r.metrics.items() if isinstance(v, float)}} for r in rows]
     print(to_markdown(table), flush=True)
@@ -586,7 +611,7 @@ def _announce_kernels() -> None:
 
 
 def _cmd_leaderboard(args: argparse.Namespace) -> int:
-    from vtrack_gym.evaluation.benchmark import LEADERBOARD_COLUMNS
+    from vtrack_gym.evaluation.benchmark import suite_columns
     from vtrack_gym.evaluation.store import ResultStore
 
     if not args.store.exists():
@@ -602,7 +627,7 @@ def _cmd_leaderboard(args: argparse.Namespace) -> int:
                          "--suite NAME")
     print(f"suite {args.suite!r} of {args.store}; suites present: {listing} (select one with --suite NAME)",
           file=sys.stderr)
-    board = store.leaderboard(args.suite, LEADERBOARD_COLUMNS, latest_only=not args.all_versions)
+    board = store.leaderboard(args.suite, suite_columns(args.suite), latest_only=not args.all_versions)
     figures = sorted(f for f in args.figures.glob("*.png") if f.is_file() and f.stat().st_size <= MAX_FIGURE_BYTES) \
         if args.format == "html" and args.figures.is_dir() else []  # regular files only: a FIFO would block
     note = _ranking_note(args.suite)
@@ -664,8 +689,9 @@ def _cmd_video(args: argparse.Namespace) -> int:
     if not names:
         raise ValueError("--policies needs at least one policy name, e.g. --policies mpc,smc")
     policies = [(Path(n).stem if Path(n).suffix else n, _policy_factory(n, args.preset)) for n in names]
+    _check_vehicle(args)
     result = record_video(env_id, policies, out, config, seed=args.seed,
-                          progress=lambda msg: print(f"recording: {msg}", file=sys.stderr))
+                          progress=lambda msg: print(f"recording: {msg}", file=sys.stderr), vehicle=args.vehicle)
     print(f"video: {result['path']} ({result['frames']} frames, {result['video_s']:.1f} s of video for "
           f"{result['driven_s']:.1f} s of driving, written in {result['wall_s']:.1f} s)")
     return 0

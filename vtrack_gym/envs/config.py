@@ -51,7 +51,7 @@ class EnvConfig:
     control_period_s: float = ranged(0.01, ge=0.001, le=0.1, unit="s")
     physics_dt_s: float = ranged(0.002, gt=0.0, le=0.002, unit="s")  # >= 500 Hz
     model: str = "nonlinear"
-    vehicle: VehicleParams = field(default_factory=VehicleParams)
+    vehicle: VehicleParams = field(default_factory=VehicleParams)  # or a name of vehicle.list_vehicles() / a file
     reward: RewardConfig = field(default_factory=RewardConfig)
     layout: ObservationLayout = OBS
     speed_controller: PDFLCConfig = field(default_factory=PDFLCConfig)  # the inner PD-FLC loop (paper Table 3)
@@ -61,6 +61,10 @@ class EnvConfig:
     noise_std: tuple[float, ...] = (0.02, 0.005, 0.02, 0.005, 0.05, 0.02, 0.005, 0.002)
 
     def __post_init__(self) -> None:
+        if not isinstance(self.vehicle, VehicleParams):  # a shipped vehicle's name or a vehicle file path
+            from vtrack_gym.vehicle.catalog import resolve_vehicle
+
+            object.__setattr__(self, "vehicle", resolve_vehicle(self.vehicle))
         validate(self)
         ratio = self.control_period_s / self.physics_dt_s
         if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:

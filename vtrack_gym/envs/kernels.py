@@ -401,22 +401,55 @@ def observe_indices(idx: np.ndarray, a: SimArrays) -> None:
         write_signals(i, a)
 
 
+GATE_COLS = 9
+"""Columns of a gate row for ``body_outside_gates``: s_start, s_end, y_left, y_right [m], anchored (1.0 / 0.0),
+anchor x, y [m], psi [rad], lane length [m] (``tracks.Gate``; the anchor columns are 0 without an anchor)."""
+
+
 @njit(cache=True)
 def body_outside_gates(table: np.ndarray, ds: float, length: float, closed: bool, gates: np.ndarray, x: np.ndarray,
                        y: np.ndarray, psi: np.ndarray, s_guess: np.ndarray, lon: np.ndarray, lat: np.ndarray,
                        out: np.ndarray, row: np.ndarray) -> None:
-    """``out[i] = True`` where a body corner of car i (CG x, y [m], heading psi [rad]; corner offsets ``lon``,
-    ``lat`` (4,) [m] in the body frame) projects into a gate's s range outside its lane. ``gates`` (G, 4): s_start,
-    s_end, y_left, y_right [m] (``tracks.Gate``); the projection starts near ``s_guess`` [m] (the car's station)."""
+    """``out[i] = True`` where a body-outline point of car i (CG x, y [m], heading psi [rad]; point offsets ``lon``,
+    ``lat`` (P,) [m] in the body frame) lies in a gate's lane section outside its lane. ``gates`` (G, GATE_COLS):
+    a gate without an anchor is checked in the path's Frenet frame (s range, e_y bounds; the projection starts near
+    ``s_guess`` [m], the car's station), an anchored gate against its fixed rectangle (like
+    ``tracks.gate_violations``)."""
+    frenet = False
+    for g in range(gates.shape[0]):
+        if gates[g, 4] < 0.5:
+            frenet = True
     for i in range(x.shape[0]):
         c = math.cos(psi[i])
         sn = math.sin(psi[i])
         for j in range(lon.shape[0]):
             cx = x[i] + c * lon[j] - sn * lat[j]
             cy = y[i] + sn * lon[j] + c * lat[j]
-            s = project_point(table, ds, length, closed, cx, cy, s_guess[i], 10.0)
-            interp_row(table, ds, length, closed, s, row)
-            e_y = -(cx - row[C_X]) * math.sin(row[C_PSI]) + (cy - row[C_Y]) * math.cos(row[C_PSI])
+            s = 0.0
+            e_y = 0.0
+            if frenet:
+                s = project_point(table, ds, length, closed, cx, cy, s_guess[i], 10.0)
+                interp_row(table, ds, length, closed, s, row)
+                e_y = -(cx - row[C_X]) * math.sin(row[C_PSI]) + (cy - row[C_Y]) * math.cos(row[C_PSI])
             for g in range(gates.shape[0]):
-                if gates[g, 0] <= s <= gates[g, 1] and (e_y > gates[g, 2] or e_y < gates[g, 3]):
+                if gates[g, 4] > 0.5:
+                    ca = math.cos(gates[g, 7])
+                    sa = math.sin(gates[g, 7])
+                    along = (cx - gates[g, 5]) * ca + (cy - gates[g, 6]) * sa
+                    off = -(cx - gates[g, 5]) * sa + (cy - gates[g, 6]) * ca
+                    if 0.0 <= along <= gates[g, 8] and (off > gates[g, 2] or off < gates[g, 3]):
+                        out[i] = True
+                elif gates[g, 0] <= s <= gates[g, 1] and (e_y > gates[g, 2] or e_y < gates[g, 3]):
                     out[i] = True
+
+
+def gate_rows(gates: tuple) -> np.ndarray:
+    """The (G, GATE_COLS) array of ``tracks.Gate`` objects for ``body_outside_gates``."""
+    out = np.zeros((len(gates), GATE_COLS))
+    for g, gate in enumerate(gates):
+        out[g, :4] = (gate.s_start_m, gate.s_end_m, gate.y_left_m, gate.y_right_m)
+        if gate.anchor is not None:
+            out[g, 4] = 1.0
+            out[g, 5:8] = gate.anchor
+            out[g, 8] = gate.lane_length_m
+    return out

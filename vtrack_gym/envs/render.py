@@ -191,11 +191,12 @@ class TopDownRenderer:
                "right": np.column_stack(self.to_px(x - hw * nx, y - hw * ny)),
                "dash": (np.floor(s / 3.0) % 2 == 0), "cones": np.zeros((0, 2))}
         cones = []
+        from vtrack_gym.tracks import gate_boundaries  # cones at their true positions (anchored gates too)
+
         for gate in getattr(path, "gates", ()) or ():
-            n = max(2, round((gate.s_end_m - gate.s_start_m) / 5.0) + 1)
-            row = path.sample(np.linspace(gate.s_start_m, gate.s_end_m, n))
-            for lat in (gate.y_left_m, gate.y_right_m):
-                cones.append(np.column_stack(self.to_px(row.x - lat * np.sin(row.psi), row.y + lat * np.cos(row.psi))))
+            n = max(2, round(gate.lane_length_m / 5.0) + 1)
+            for line in gate_boundaries(path, gate, n):
+                cones.append(np.column_stack(self.to_px(line[:, 0], line[:, 1])))
         if cones:
             geo["cones"] = np.vstack(cones)
         return geo

@@ -6,7 +6,11 @@ time limit, the road half widths (the path's own per-station widths, or a consta
 the vehicle. ``registration.register_envs`` registers ``vtrack/<name>`` for every entry and the historical
 un-namespaced ids (``LEGACY_IDS``) as aliases with the same entry points and arguments.
 
-Imports nothing heavy (``vtrack_gym.tracks`` is imported when a scenario is validated with a profile or a Path).
+Imports nothing heavy (``vtrack_gym.tracks``, numpy only, is imported for the manoeuvre scenarios' specs).
+
+The standard manoeuvres (``tracks.maneuvers``) are scenarios too (``MANEUVER_IDS``): ``vtrack/ISO3888-1-v0``,
+``vtrack/ISO3888-2-v0``, ``vtrack/ISO4138-Circle-v0``, ``vtrack/Slalom-v0``, ``vtrack/StepCurvature-v0``, each with
+its ``ManeuverSpec``'s speed profile, time limit and success criterion (``MANEUVER_CRITERIA``).
 """
 
 from __future__ import annotations
@@ -24,12 +28,20 @@ GRAVITY_MPS2 = 9.81
 
 NAMESPACE = "vtrack"
 """Gymnasium namespace of the registered ids (``vtrack/DLC120-v0``)."""
-BUILTIN_TRACK_NAMES: tuple[str, ...] = ("handling_course", "double_lane_change", "procedural")
+MANEUVER_TRACK_NAMES: tuple[str, ...] = ("iso3888_1", "iso3888_2", "iso4138_circle", "slalom", "step_curvature")
+"""The standard manoeuvres (``tracks.maneuvers.MANEUVERS``) a scenario may name as its track; a gated one is built
+for the driven car's body width (ISO 3888 sizes its lanes from the vehicle width)."""
+BUILTIN_TRACK_NAMES: tuple[str, ...] = ("handling_course", "double_lane_change", "procedural", *MANEUVER_TRACK_NAMES)
 """Track names a scenario may give as a string (besides a CSV file path)."""
-SUCCESS_CRITERIA: tuple[str, ...] = ("auto", "lap", "gates", "end")
+SUCCESS_CRITERIA: tuple[str, ...] = ("auto", "lap", "gates", "end", "circle")
 """``lap``: one lap of a closed course within the road; ``gates``: the course completed and every cone gate passed
-with the body inside it; ``end``: the end of an open track reached within the road; ``auto``: ``gates`` if the path
-has gates, else ``lap`` (closed) or ``end`` (open)."""
+with the body inside it; ``end``: the end of an open track reached within the road; ``circle`` (ISO 4138): |e_y| <=
+``lateral_tolerance_m`` at every step until the ramp reaches ``grip_limit_speed_mps`` = sqrt(mu g R) (or the
+course is completed), or the car leaves the band only at its own grip limit: its peak |a_y| in the band is at least
+``circle_limit_share`` (0.95, CHOICE) of its peak |a_y| on the whole circle (where it slides at the limit), and
+that peak is at least 0.5 mu g. The plant's limit lies below mu g (Pacejka peak factors D < 1, load transfer,
+drive force; the SUV's more so), so a criterion fixed at a share of mu g would judge the car, not the driver;
+``auto``: ``gates`` if the path has gates, else ``lap`` (closed) or ``end`` (open)."""
 
 
 @documented
@@ -61,6 +73,11 @@ class ScenarioConfig:
     half_width_m: float | None = ranged(None, gt=0.0, le=50.0, unit="m")
     success: str = "auto"
     vehicle: str = "default"                     # vehicle preset name (carried; vehicles as data live in vehicle/)
+    # ``circle`` criterion only: the lateral band [m] and the analytic grip-limit speed sqrt(mu g R) [m/s]
+    lateral_tolerance_m: float | None = ranged(None, gt=0.0, le=5.0, unit="m")
+    grip_limit_speed_mps: float | None = ranged(None, gt=0.0, le=100.0, unit="m/s")
+    # ... and the share of the episode's peak |a_y| to hold in the band (CHOICE, see SUCCESS_CRITERIA)
+    circle_limit_share: float = ranged(0.95, gt=0.0, le=1.0)
 
     def __post_init__(self) -> None:
         track = self.track
@@ -81,6 +98,9 @@ class ScenarioConfig:
         if self.success not in SUCCESS_CRITERIA:
             raise ValueError(f"ScenarioConfig.success must be one of {', '.join(SUCCESS_CRITERIA)} "
                              f"(got {self.success!r})")
+        if self.success == "circle" and (self.lateral_tolerance_m is None or self.grip_limit_speed_mps is None):
+            raise ValueError("ScenarioConfig.lateral_tolerance_m and grip_limit_speed_mps must be set (> 0) for the "
+                             "'circle' success criterion")
         if not isinstance(self.vehicle, str) or not self.vehicle:
             raise ValueError(f"ScenarioConfig.vehicle must be a vehicle name (got {self.vehicle!r})")
         validate(self)
@@ -123,7 +143,49 @@ TRACK = ScenarioConfig("Track-v0", "handling_course", TRACK_DEFAULT_MAX_SPEED_MP
 """Any track (``gym.make("vtrack/Track-v0", track=..., speed_profile=...)``), from standstill; default track the
 handling course, default profile ``curvature_limited(40 km/h, 0.7 g)`` (``default_track_profile``)."""
 
-SCENARIOS: dict[str, ScenarioConfig] = {s.name: s for s in (LATERAL_TRACKING, DLC120, RANDOM_TRACKS, TRACK)}
+MANEUVER_IDS: dict[str, str] = {"iso3888_1": "ISO3888-1-v0", "iso3888_2": "ISO3888-2-v0",
+                                 "iso4138_circle": "ISO4138-Circle-v0", "slalom": "Slalom-v0",
+                                 "step_curvature": "StepCurvature-v0"}
+"""Manoeuvre name (``tracks.maneuvers.MANEUVERS``) -> scenario name (registered as ``vtrack/<name>``)."""
+MANEUVER_CRITERIA: dict[str, str] = {"no_cones_hit": "gates", "stays_on_circle": "circle", "completes": "end"}
+"""``ManeuverSpec.success_criterion`` -> the scenario's ``success``."""
+
+
+def maneuver_path(name: str, vehicle_width_m: float) -> Any:
+    """The reference path of manoeuvre ``name``; gated manoeuvres are sized for ``vehicle_width_m`` [m]."""
+    from vtrack_gym.tracks.maneuvers import build_maneuver
+
+    return build_maneuver(name, **_width_param(name, vehicle_width_m)).path
+
+
+def _width_param(name: str, vehicle_width_m: float) -> dict[str, float]:
+    from dataclasses import fields
+
+    from vtrack_gym.tracks.maneuvers import MANEUVERS
+
+    has_width = any(f.name == "vehicle_width_m" for f in fields(MANEUVERS[name][1]))
+    return {"vehicle_width_m": float(vehicle_width_m)} if has_width else {}
+
+
+def maneuver_scenario(name: str) -> ScenarioConfig:
+    """The scenario of manoeuvre ``name``: its path (built per car width), speed profile, time limit and success
+    criterion from its ``ManeuverSpec``; the car starts at the profile's first speed, on the approach straight."""
+    from vtrack_gym.tracks.maneuvers import build_maneuver
+
+    m = build_maneuver(name)
+    spec = m.spec
+    return ScenarioConfig(MANEUVER_IDS[name], name, spec.nominal_speed_mps,
+                          float(spec.speed_profile.row_speeds(m.path)[0]),
+                          spec.time_limit_s, speed_profile=spec.speed_profile,
+                          success=MANEUVER_CRITERIA[spec.success_criterion],
+                          lateral_tolerance_m=spec.lateral_tolerance_m, grip_limit_speed_mps=spec.grip_limit_speed_mps)
+
+
+MANEUVER_SCENARIOS: tuple[ScenarioConfig, ...] = tuple(maneuver_scenario(n) for n in MANEUVER_TRACK_NAMES)
+"""The standard manoeuvres as scenarios (``vtrack/ISO3888-1-v0``, ...), in ``MANEUVER_TRACK_NAMES`` order."""
+
+SCENARIOS: dict[str, ScenarioConfig] = {s.name: s for s in (LATERAL_TRACKING, DLC120, RANDOM_TRACKS, TRACK,
+                                                            *MANEUVER_SCENARIOS)}
 """Scenario name -> scenario; one registered id ``vtrack/<name>`` per entry."""
 LEGACY_IDS: tuple[str, ...] = ("LateralTracking-v0", "DLC120-v0", "LateralTrackingRandom-v0")
 """The historical un-namespaced ids, registered as aliases of ``vtrack/<id>``."""

@@ -15,6 +15,7 @@ import numpy as np
 from vtrack_gym.envs.config import EnvConfig, ResetOptions, ScenarioConfig
 from vtrack_gym.envs.observation import NOISY_INDICES
 from vtrack_gym.envs.pdflc import PDFLCConfig
+from vtrack_gym.envs.scenarios import MANEUVER_TRACK_NAMES, maneuver_path
 from vtrack_gym.envs.schema import REWARD_TERMS, SIGNAL_ROW
 from vtrack_gym.vehicle import layout as L
 from vtrack_gym.vehicle.params import GRAVITY_MPS2, VehicleParams
@@ -67,6 +68,8 @@ def _builtin_tracks(track: str, vehicle_width_m: float, procedural_seed: int, pr
         return (tracks.handling_course(),)
     if track == "double_lane_change":
         return (tracks.double_lane_change(vehicle_width_m=vehicle_width_m),)
+    if track in MANEUVER_TRACK_NAMES:
+        return (maneuver_path(track, vehicle_width_m),)
     # Half the bank twisty (radii down to 18 m), half highway-like (down to 120 m), so that every target speed
     # of the range has drivable tracks (see BatchSim.reset_car's speed cap).
     return tuple(tracks.procedural_track_from_config(
@@ -93,6 +96,8 @@ def _criterion(success: str, path) -> str:
     return success
 
 
+CIRCLE_MIN_PEAK_G = 0.5
+"""``circle`` criterion: a car whose peak |a_y| stays below this share of mu g never reached its grip limit."""
 TIME_LIMIT_FACTOR = 1.5
 TIME_LIMIT_MARGIN_S = 30.0
 
@@ -188,17 +193,26 @@ class BatchSim:
         self.gate_hit = np.zeros(n, dtype=bool)
         self._gated = tuple(k for k, p in enumerate(self.paths) if p.gates)
         c = config.vehicle.chassis
-        front = c.cg_to_front_end_m
-        self._corner_lon = np.array([front, front, front - c.body_length_m, front - c.body_length_m])
-        self._corner_lat = 0.5 * c.body_width_m * np.array([1.0, -1.0, -1.0, 1.0])
+        from vtrack_gym.tracks.dlc import car_outline
+
+        lon, lat = car_outline(0.0, 0.0, 0.0, c.body_length_m, c.body_width_m, c.cg_to_front_end_m)
+        self._corner_lon, self._corner_lat = lon.ravel(), lat.ravel()  # body-outline points (corners and sides)
         self._gate_row = np.zeros(k.N_COLS)
-        self._gate_data = {t: (self.paths[t], np.array([(g.s_start_m, g.s_end_m, g.y_left_m, g.y_right_m)
-                                                        for g in self.paths[t].gates], dtype=np.float64),
+        self._gate_data = {t: (self.paths[t], k.gate_rows(self.paths[t].gates),
                                min(g.s_start_m for g in self.paths[t].gates) - c.body_length_m,
                                max(g.s_end_m for g in self.paths[t].gates) + c.body_length_m)
                            for t in self._gated}
+        # ``circle`` criterion: left the lateral band; reference speed at the grip-limit speed; peak |a_y| [m/s^2]
+        # while still in the band and over the whole circle; the least peak that shows the car reached its limit
+        self.circle_left = np.zeros(n, dtype=bool)
+        self.circle_reached = np.zeros(n, dtype=bool)
+        self.circle_steady_a_y = np.zeros(n)
+        self.circle_peak_a_y = np.zeros(n)
+        self.circle_min_peak_a_y = np.zeros(n)
         self.criteria = tuple(_criterion(scenario.success, p) for p in self.paths)
         self._by_gates = np.array([c == "gates" for c in self.criteria], dtype=bool)  # per track
+        self._by_circle = np.array([c == "circle" for c in self.criteria], dtype=bool)
+        self._checked = bool(self._gated) or bool(self._by_circle.any())
 
     # ------------------------------------------------------------------ reset
     def set_speed_controller(self, index: int | np.ndarray | slice, config: PDFLCConfig) -> None:
@@ -249,6 +263,7 @@ class BatchSim:
         if options.friction_mu is not None:
             params = params.with_friction(options.friction_mu)
         self.plant.set_vehicle_params(i, params)
+        self.circle_min_peak_a_y[i] = CIRCLE_MIN_PEAK_G * params.tyres.friction_mu * GRAVITY_MPS2
 
         start = self.tables[int(self.tmeta[self.veh_track[i], 0])]
         x0, y0, psi0 = start[0], start[1], start[2]
@@ -280,6 +295,10 @@ class BatchSim:
         self.pd_mem[i] = (0.0, 0.0, 1.0)  # fresh: the first derivative of the speed error is 0
         self.term[i] = 0
         self.gate_hit[i] = False
+        self.circle_left[i] = False
+        self.circle_reached[i] = False
+        self.circle_steady_a_y[i] = 0.0
+        self.circle_peak_a_y[i] = 0.0
 
     def observe_after_reset(self, idx: np.ndarray) -> None:
         """Project freshly reset cars (global search) and fill their observation rows."""
@@ -296,8 +315,8 @@ class BatchSim:
         self.inputs[:, L.U_DELTA] = cmd * self.max_steer_rad
         self._run_kernel()
         self.steps += 1
-        if self._gated:
-            self._check_gates()
+        if self._checked:
+            self._check_verdicts()
         terminated = self.term != 0
         truncated = (self.steps >= self.max_steps) & ~terminated
         if self.any_noise:
@@ -312,8 +331,8 @@ class BatchSim:
         self._run_kernel()
         steps = int(self.steps[0]) + 1
         self.steps[0] = steps
-        if self._gated:
-            self._check_gates()
+        if self._checked:
+            self._check_verdicts()
         code = int(self.term[0])
         if self.any_noise:
             self._add_noise()
@@ -337,6 +356,20 @@ class BatchSim:
         except KeyError:  # no exact overload (should not happen): keep the dispatcher
             self._step_compiled = self._step_kernel
 
+    def _check_verdicts(self) -> None:
+        """Per-step parts of the success verdicts: cone gates, and the ``circle`` band until the grip limit."""
+        if self._gated:
+            self._check_gates()
+        if self._by_circle.any():
+            k = _kernels()
+            on = self._by_circle[self.veh_track] & (self.steps > 0)
+            a_y = np.abs(self.sig[:, k.SIG_AY])
+            self.circle_reached |= on & (self.v_ref >= self.scenario.grip_limit_speed_mps)
+            self.circle_left |= on & (np.abs(self.err[:, k.E_EY]) > self.scenario.lateral_tolerance_m)
+            self.circle_peak_a_y = np.where(on, np.maximum(self.circle_peak_a_y, a_y), self.circle_peak_a_y)
+            steady = on & ~self.circle_left
+            self.circle_steady_a_y = np.where(steady, np.maximum(self.circle_steady_a_y, a_y), self.circle_steady_a_y)
+
     def _check_gates(self) -> None:
         """Mark the cars whose body left a cone gate this step (body corners projected on the path, like
         ``tracks.gate_violations`` on a whole trajectory); only cars near the gates are checked (compiled)."""
@@ -356,10 +389,17 @@ class BatchSim:
 
     def success(self) -> np.ndarray:
         """Each car's verdict if its episode ended now (bool (n,)): the course completed (a lap of a closed course /
-        the end of an open one, within the road) and, under the ``gates`` criterion, no cone gate left."""
+        the end of an open one, within the road) and, under the ``gates`` criterion, no cone gate left; under
+        ``circle``: never outside the lateral band and the ramp run to the grip-limit speed (or the course
+        completed), or left the band only at the car's own limit: the peak |a_y| in the band at least
+        ``circle_limit_share`` of the episode's peak |a_y|, which is at least ``CIRCLE_MIN_PEAK_G`` mu g."""
         k = _kernels()
         done = self.term == k.T_COMPLETED
-        return done & ~(self._by_gates[self.veh_track] & self.gate_hit)
+        circle = self._by_circle[self.veh_track]
+        at_limit = ((self.circle_steady_a_y >= self.scenario.circle_limit_share * self.circle_peak_a_y)
+                    & (self.circle_peak_a_y >= self.circle_min_peak_a_y))
+        ok_circle = np.where(self.circle_left, at_limit, self.circle_reached | done)
+        return np.where(circle, ok_circle, done & ~(self._by_gates[self.veh_track] & self.gate_hit))
 
     def _delayed(self, actions: np.ndarray) -> np.ndarray:
         """Commands delayed by ``delay_steps`` control periods (FIFO per car; zero before the first)."""

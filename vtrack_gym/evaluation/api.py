@@ -16,7 +16,7 @@ import numpy as np
 from vtrack_gym.evaluation.benchmark import score_episode
 from vtrack_gym.evaluation.rollout import policy_id_of
 from vtrack_gym.evaluation.store import ResultRow, ResultStore
-from vtrack_gym.evaluation.suites import SUITES, Episode, suite_episodes
+from vtrack_gym.evaluation.suites import SUITES, Episode, suite_episodes, with_vehicle
 
 log = logging.getLogger(__name__)
 
@@ -68,7 +68,7 @@ def _check_seeds(seeds: Sequence[int] | None) -> None:
 
 def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seeds: Sequence[int] | None = None,
              *, store: str | Path | ResultStore | None = None, vecnormalize: Any = None,
-             policy_id: str | None = None) -> list[ResultRow]:
+             policy_id: str | None = None, vehicle: str | None = None) -> list[ResultRow]:
     """Score a policy; one ``ResultRow`` per episode (``row.metrics``: the leaderboard's metrics).
 
     ``policy_or_factory``: an object with ``predict(obs, state=None, episode_start=None, deterministic=True)``
@@ -77,7 +77,9 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
     envs at ``seeds``), an env id (``seeds``, default ``[0]``) or a Gymnasium env instance (driven as given).
     ``vecnormalize``: SB3 ``VecNormalize`` statistics the policy was trained with (observations are normalised
     with them before ``predict``). ``store``: a leaderboard file (or ``ResultStore``) the rows are added to.
-    ``policy_id``: the name in the rows (default: ``policy.policy_id`` or the class name).
+    ``policy_id``: the name in the rows (default: ``policy.policy_id`` or the class name). ``vehicle``: the car of
+    a suite's or an env id's episodes (a name of ``vehicle.list_vehicles()`` or a vehicle file; default the paper's
+    car), recorded in the rows' ``options`` (an env instance is driven with its own car).
     """
     _check_seeds(seeds)
     if hasattr(policy_or_factory, "predict") and not isinstance(policy_or_factory, type):
@@ -93,13 +95,15 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
     rows: list[ResultRow] = []
     if isinstance(suite_or_env, str):
         episodes, suite = _episodes(suite_or_env, seeds)
-        for ep in episodes:
-            env = gym.make(ep.env_id)
+        for ep in with_vehicle(episodes, vehicle):
+            env = gym.make(ep.env_id, **ep.make_kwargs)
             try:
                 rows.append(_row(make, env, ep, suite, policy_id))
             finally:
                 env.close()
     elif isinstance(suite_or_env, gym.Env):
+        if vehicle is not None:
+            raise ValueError("vehicle applies to a suite name or an env id; an env instance drives its own car")
         spec = getattr(suite_or_env, "spec", None)
         env_id = spec.id if spec is not None else type(suite_or_env.unwrapped).__name__
         for s in seeds if seeds is not None else (0,):

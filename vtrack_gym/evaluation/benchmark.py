@@ -17,7 +17,7 @@ from vtrack_gym.evaluation.metrics import evaluate_trace
 from vtrack_gym.evaluation.rollout import rollout
 from vtrack_gym.evaluation.store import ResultRow, ResultStore
 from vtrack_gym.evaluation.success import episode_success
-from vtrack_gym.evaluation.suites import Episode, primary_metric, suite_episodes
+from vtrack_gym.evaluation.suites import Episode, primary_metric, suite_episodes, with_vehicle
 from vtrack_gym.evaluation.trace import Trace
 
 log = logging.getLogger(__name__)
@@ -26,6 +26,13 @@ LEADERBOARD_COLUMNS: tuple[str, ...] = (
     "rms_e_y_m", "max_e_y_m", "rms_e_phi_deg", "rms_hand_wheel_deg", "max_hand_wheel_deg", "max_a_y_mps2",
     "max_roll_deg", "itae", "cones_hit", "comfort_a_v_mps2",
 )
+SUITE_COLUMNS: dict[str, tuple[str, ...]] = {"maneuvers": ("max_steady_a_y_mps2", "mu_g_mps2")}
+"""Extra leaderboard columns of a suite: ISO 4138's lateral acceleration reached on the circle and mu g."""
+
+
+def suite_columns(suite: str) -> tuple[str, ...]:
+    """The leaderboard columns of ``suite``: ``LEADERBOARD_COLUMNS`` plus its ``SUITE_COLUMNS``."""
+    return LEADERBOARD_COLUMNS + SUITE_COLUMNS.get(suite, ())
 
 
 def policy_hash(policy: Any) -> str:
@@ -70,17 +77,58 @@ def cones_hit(env: gym.Env, trace: Trace) -> int | None:
                                c.body_width_m, c.cg_to_front_end_m))
 
 
+def circle_metrics(env: gym.Env, trace: Trace) -> dict[str, float]:
+    """ISO 4138 figures of a ``circle``-criterion episode: ``max_steady_a_y_mps2``, the peak |a_y| [m/s^2] while
+    the car is still on the circle (before |e_y| first exceeds the scenario's lateral tolerance), the speed
+    ``max_steady_v_mps`` [m/s] at that peak, and the analytic limit ``mu_g_mps2`` = mu g [m/s^2] of the car's
+    tyre friction (empty for other scenarios)."""
+    sc = env.unwrapped.scenario
+    if sc.success != "circle" or trace.n_steps == 0:
+        return {}
+    import numpy as np
+
+    from vtrack_gym.vehicle.params import GRAVITY_MPS2
+
+    off = np.flatnonzero(np.abs(trace["e_y_m"]) > sc.lateral_tolerance_m)
+    end = int(off[0]) if off.size else trace.n_steps
+    a_y = np.abs(trace["a_y_mps2"][:end])
+    k = int(np.argmax(a_y)) if a_y.size else 0
+    return {"max_steady_a_y_mps2": float(a_y[k]) if a_y.size else 0.0,
+            "max_steady_v_mps": float(trace["v_mps"][k]) if a_y.size else 0.0,
+            "mu_g_mps2": float(env.unwrapped.config.vehicle.tyres.friction_mu * GRAVITY_MPS2)}
+
+
+def vehicle_label(vehicle: str | None) -> str | None:
+    """What a row records of the car in ``options["vehicle"]``: ``None`` for the default car (or a vehicle equal to
+    it), a shipped vehicle's name, or ``<file stem>-<sha256[:10]>`` of a vehicle file (two files never mix)."""
+    if vehicle is None:
+        return None
+    from vtrack_gym.vehicle.catalog import list_vehicles, load_vehicle
+    from vtrack_gym.vehicle.params import VehicleParams
+
+    if load_vehicle(vehicle) == VehicleParams():
+        return None
+    if str(vehicle) in list_vehicles():
+        return str(vehicle)
+    file = Path(vehicle)
+    return f"{file.stem}-{hashlib.sha256(file.read_bytes()).hexdigest()[:10]}"
+
+
 def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str) -> tuple[ResultRow, Trace]:
     """Run ``policy`` for one episode on ``env`` (reset with ``ep``'s seed and options); its row and trace.
 
     The row's ``success`` is the env's verdict (the last info's ``"success"``) when it gives one, else the interim
-    rule ``vtrack_gym.evaluation.success.episode_success``."""
+    rule ``vtrack_gym.evaluation.success.episode_success``. The row's ``options`` carry ``ep``'s reset options and
+    the car (``vehicle_label(ep.vehicle)``, when not the default car), so cars never mix on the leaderboard."""
     trace = rollout(policy, env, seed=ep.seed, options=ep.options)
     trace.policy_id = name
     metrics = evaluate_trace(trace, cones_hit(env, trace))
+    metrics.update(circle_metrics(env, trace))
+    label = vehicle_label(ep.vehicle)
+    options = dict(ep.options) if label is None else {**ep.options, "vehicle": label}
     row = ResultRow(suite=suite, env_id=ep.env_id, policy_id=name, policy_hash=policy_hash(policy), seed=ep.seed,
                     metrics=metrics, termination=trace.termination,
-                    wall_time_per_step_s=trace.wall_time_per_step_s, options=dict(ep.options),
+                    wall_time_per_step_s=trace.wall_time_per_step_s, options=options,
                     policy_preset=policy_preset(policy),
                     success=trace.success if trace.success is not None else episode_success(
                         ep.env_id, trace.termination, metrics))
@@ -92,7 +140,7 @@ def score_policy(name: str, make: Any, episodes: Sequence[Episode], suite: str,
     """Run ``make(env) -> policy`` on every episode; returns the leaderboard rows and the traces."""
     rows, traces = [], []
     for ep in episodes:
-        env = gym.make(ep.env_id)
+        env = gym.make(ep.env_id, **ep.make_kwargs)
         try:
             row, trace = score_episode(name, make(env), env, ep, suite)
         finally:
@@ -115,8 +163,11 @@ def policy_factories(names: Sequence[str] | None = None) -> dict[str, Any]:
 
 def run_benchmark(suite: str = "paper", store: ResultStore | None = None, policies: Sequence[str] | None = None,
                   figures_dir: str | Path | None = None, quick: bool = False,
-                  show_progress: bool = True, seeds: Sequence[int] | None = None) -> dict[str, Any]:
+                  show_progress: bool = True, seeds: Sequence[int] | None = None,
+                  vehicle: str | None = None) -> dict[str, Any]:
     """Score every policy on ``suite``; write rows to ``store`` and figures to ``figures_dir``.
+
+    ``vehicle``: the car (a name of ``vehicle.list_vehicles()`` or a vehicle file; default the paper's car).
 
     ``seeds`` replaces the suite's seeds (``suite_episodes``; default: seed 0 for ``paper``, which is deterministic
     without sensor noise, five fixed seeds for ``robust``).
@@ -125,7 +176,7 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
     """
     from tqdm.auto import tqdm
 
-    episodes = suite_episodes(suite, quick=quick, seeds=seeds)
+    episodes = with_vehicle(suite_episodes(suite, quick=quick, seeds=seeds), vehicle)
     factories = policy_factories(policies)
     all_rows: list[ResultRow] = []
     traces_by_env: dict[str, list[Trace]] = {}
@@ -140,21 +191,28 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
             for tr in traces:
                 if tr.seed == episodes[0].seed or suite == "paper":
                     traces_by_env.setdefault(tr.env_id, []).append(tr)
-    figures = write_figures(traces_by_env, all_rows, figures_dir) if figures_dir else []
+    figures = (write_figures(traces_by_env, all_rows, figures_dir, vehicle=vehicle,
+                             maneuvers=suite == "maneuvers") if figures_dir else [])
     return {"rows": all_rows, "traces": traces_by_env, "figures": figures}
 
 
-def write_figures(traces_by_env: dict[str, list[Trace]], rows: Sequence[ResultRow],
-                  figures_dir: str | Path) -> list[Path]:
-    """Trajectory and signal figures per env, and SMC-vs-MPC deviation-rate bars when both were scored."""
+def write_figures(traces_by_env: dict[str, list[Trace]], rows: Sequence[ResultRow], figures_dir: str | Path,
+                  vehicle: str | None = None, maneuvers: bool = False) -> list[Path]:
+    """Trajectory and signal figures per env, and SMC-vs-MPC deviation-rate bars when both were scored;
+    ``maneuvers``: one ``plots.plot_maneuver`` figure per manoeuvre instead (``<env>_maneuver.png``)."""
     from vtrack_gym.evaluation import plots
 
     out = Path(figures_dir)
     files = []
     for env_id, traces in traces_by_env.items():
-        env = gym.make(env_id)
+        env = gym.make(env_id, **({} if vehicle is None else {"vehicle": vehicle}))
         env.reset(seed=traces[0].seed or 0)
         stem = env_id.replace("/", "_").replace("-", "_").lower()
+        if maneuvers:
+            files.append(plots.plot_maneuver(traces, env.unwrapped.current_path, out / f"{stem}_maneuver.png",
+                                             title=f"{env_id}: trajectories, steering and lateral acceleration"))
+            env.close()
+            continue
         files.append(plots.plot_trajectories(traces, env.unwrapped.current_path, out / f"{stem}_trajectories.png"))
         files.append(plots.plot_signals(traces, out / f"{stem}_signals.png"))
         env.close()
@@ -174,7 +232,8 @@ def summarise(rows: Sequence[ResultRow], columns: Sequence[str] = LEADERBOARD_CO
     the rows' suite)."""
     suites = {r.suite for r in rows}
     primary = primary_metric(suites.pop() if len(suites) == 1 else "")
-    return build_board(({"env_id": r.env_id, "policy_id": r.policy_id, "policy_preset": r.policy_preset,
+    return build_board(({"env_id": r.env_id, "options": r.options, "policy_id": r.policy_id,
+                         "policy_preset": r.policy_preset,
                          "policy_hash": r.policy_hash, "completed": int(r.termination == "completed"),
                          "success": int(r.verdict()), "termination": r.termination,
                          "wall_time_per_step_s": r.wall_time_per_step_s, "metrics": r.metrics} for r in rows),

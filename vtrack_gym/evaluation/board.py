@@ -141,11 +141,19 @@ def _mean_or_nan(values: list[Any]) -> float:
     return aggregate(values) if values else math.nan
 
 
+def board_env(record: Mapping[str, Any]) -> str:
+    """The env a record is ranked in: its ``env_id``, with `` (<vehicle>)`` appended when its ``options`` name a car
+    (``options["vehicle"]``, see ``benchmark.vehicle_label``), so different cars never share a ranking."""
+    vehicle = (record.get("options") or {}).get("vehicle")
+    return str(record["env_id"]) if not vehicle else f"{record['env_id']} ({vehicle})"
+
+
 def build_board(records: Iterable[Mapping[str, Any]], columns: Sequence[str],
                 primary: str = "max_e_y_m") -> list[dict[str, Any]]:
     """One entry per policy key from episode ``records``, ranked within each env (see the module docstring).
 
-    Each record has ``env_id``, ``policy_id``, ``policy_preset`` (may be empty), ``policy_hash``, ``completed``
+    Each record has ``env_id`` (and optionally ``options``: see ``board_env``), ``policy_id``, ``policy_preset``
+    (may be empty), ``policy_hash``, ``completed``
     (0/1), ``success`` (0/1; absent: ``completed``), ``termination`` (optional), ``wall_time_per_step_s`` [s] and
     ``metrics`` (name -> value). ``primary``: the metric ranked on (lower is better). Entries are sorted by env
     and rank and hold ``rank``, ``episodes``, ``success_rate``, ``completed``, the aggregate of every column over
@@ -155,7 +163,7 @@ def build_board(records: Iterable[Mapping[str, Any]], columns: Sequence[str],
 
     groups: dict[tuple[str, str, str, str], list[Mapping[str, Any]]] = {}
     for r in records:
-        key = (str(r["env_id"]), str(r["policy_id"]), str(r.get("policy_preset") or ""), str(r["policy_hash"]))
+        key = (board_env(r), str(r["policy_id"]), str(r.get("policy_preset") or ""), str(r["policy_hash"]))
         groups.setdefault(key, []).append(r)
     entries: list[tuple[tuple[Any, ...], dict[str, Any]]] = []
     for key, members in groups.items():

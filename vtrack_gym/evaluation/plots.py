@@ -4,6 +4,8 @@
   zooms on the corners where the policies deviate most, legend outside the axes;
 - ``plot_signals``: hand-wheel angle, lateral error, lateral acceleration, roll, throttle + brake over time
   (Figs. 9-12, 16-18), a panel only for signals that vary;
+- ``plot_maneuver``: one figure per standard manoeuvre: trajectories with the cones at their true positions,
+  hand-wheel angle and lateral acceleration over distance;
 - ``plot_deviation_rates``: relative difference of each metric between two policies (Figs. 13 / 19), with value
   labels and a symmetric-log scale when bars differ by more than 20x.
 
@@ -85,16 +87,38 @@ def _draw_track(ax: Any, path: Any, with_cones: bool = True) -> None:
                 label="road edge" if side > 0 else None)
     ax.plot(tab[:, 0], tab[:, 1], color="0.6", lw=2.5, label="reference path", zorder=1)
     if with_cones:
-        for k, gate in enumerate(getattr(path, "gates", ()) or ()):
-            row = path.sample(np.linspace(gate.s_start_m, gate.s_end_m, 6))
-            for lat in (gate.y_left_m, gate.y_right_m):
-                ax.plot(row.x - lat * np.sin(row.psi), row.y + lat * np.cos(row.psi), "^", color="goldenrod", ms=4,
-                        label="cones" if k == 0 and lat == gate.y_left_m else None)
+        _draw_cones(ax, path)
+
+
+def _draw_cones(ax: Any, path: Any) -> None:
+    """Cones at their true positions (``tracks.gate_boundaries``: an anchored gate's fixed cone lines)."""
+    gates = getattr(path, "gates", ()) or ()
+    if not gates:
+        return
+    from vtrack_gym.tracks import gate_boundaries
+
+    for k, gate in enumerate(gates):
+        for j, line in enumerate(gate_boundaries(path, gate)):
+            ax.plot(line[:, 0], line[:, 1], "^", color="goldenrod", ms=4,
+                    label="cones" if k == 0 and j == 0 else None)
 
 
 def _draw_traces(ax: Any, traces: Sequence[Trace], lw: float = 1.2) -> None:
     for tr, (colour, ls) in zip(traces, _styles([t.policy_id for t in traces]), strict=True):
         ax.plot(tr["x_m"], tr["y_m"], lw=lw, color=colour, ls=ls, label=f"{tr.policy_id} ({tr.termination})")
+
+
+def _xy_panel(ax: Any, path: Any, traces: Sequence[Trace], equal_above: float, adjustable: str = "box") -> None:
+    """Track, cones and driven paths in X-Y [m]; equal axes when the track's Y extent exceeds ``equal_above`` x
+    its X extent (a long straight-ish test keeps a stretched Y axis, so centimetres show)."""
+    _draw_track(ax, path)
+    _draw_traces(ax, traces)
+    ax.set_xlabel("X [m]")
+    ax.set_ylabel("Y [m]")
+    tab = path.table
+    if np.ptp(tab[:, 1]) > equal_above * np.ptp(tab[:, 0]):
+        ax.set_aspect("equal", adjustable=adjustable)
+    ax.grid(alpha=0.3)
 
 
 def plot_trajectories(traces: Sequence[Trace], path: Any, out_file: str | Path, title: str = "",
@@ -115,14 +139,7 @@ def plot_trajectories(traces: Sequence[Trace], path: Any, out_file: str | Path, 
     else:
         fig, ax = plt.subplots(figsize=(10, 5), dpi=110)
         zooms = []
-    _draw_track(ax, path)
-    _draw_traces(ax, traces)
-    ax.set_xlabel("X [m]")
-    ax.set_ylabel("Y [m]")
-    tab = path.table
-    if np.ptp(tab[:, 1]) > 0.1 * np.ptp(tab[:, 0]):
-        ax.set_aspect("equal")
-    ax.grid(alpha=0.3)
+    _xy_panel(ax, path, traces, equal_above=0.1)
     styles = _styles([t.policy_id for t in traces])
     for k, (zax, s) in enumerate(zip(zooms, stations, strict=True)):
         label = chr(ord("A") + k)
@@ -204,6 +221,39 @@ def plot_signals(traces: Sequence[Trace], out_file: str | Path, title: str = "",
         head += f" (constant, not drawn: {', '.join(constant)})"
     _title(fig, head, traces, preset)
     fig.tight_layout(rect=(0, 0.04, 1, 1))
+    return _save(fig, out_file, layout=False)
+
+
+MANEUVER_PANELS: tuple[tuple[str, str, float], ...] = (
+    ("hand_wheel_angle_rad", "hand-wheel angle [deg]", float(np.degrees(1.0))),
+    ("a_y_mps2", "lateral acceleration [m/s^2]", 1.0),
+)
+
+
+def plot_maneuver(traces: Sequence[Trace], path: Any, out_file: str | Path, title: str = "",
+                  preset: str | None = None) -> Path:
+    """One figure per manoeuvre: the driven X-Y paths with the road and the cones at their true positions, then
+    hand-wheel angle [deg] and lateral acceleration [m/s^2] against distance along the path (station) [m]."""
+    plt = _pyplot()
+    fig = plt.figure(figsize=(11, 8), dpi=110)
+    grid = fig.add_gridspec(3, 1, height_ratios=(1.6, 1.0, 1.0))
+    ax = fig.add_subplot(grid[0])
+    _xy_panel(ax, path, traces, equal_above=0.3, adjustable="datalim")
+    styles = _styles([t.policy_id for t in traces])
+    first = None
+    for k, (name, label, scale) in enumerate(MANEUVER_PANELS):
+        pax = fig.add_subplot(grid[k + 1], sharex=first)
+        first = first or pax
+        for tr, (colour, ls) in zip(traces, styles, strict=True):
+            pax.plot(tr["station_m"], tr[name] * scale, lw=0.9, color=colour, ls=ls)
+        pax.set_ylabel(label, fontsize=8)
+        pax.grid(alpha=0.3)
+    pax.set_xlabel("distance along the path s [m]")
+    handles, labels = ax.get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 4), fontsize=8, frameon=False)
+    _title(fig, title or "Manoeuvre", traces, preset)
+    rows = (len(labels) + 3) // 4
+    fig.tight_layout(rect=(0, 0.03 * rows, 1, 1))
     return _save(fig, out_file, layout=False)
 
 

@@ -6,6 +6,9 @@ drawn deterministically from a fixed list of seeds (the same perturbations for e
 The friction range of each scenario keeps the course physically drivable: the handling course's 20 m
 hairpin needs ~0.63 g at 40 km/h (mu drawn in 0.75-1.0) and the lane change ~0.81 g at 120 km/h (mu drawn
 in 0.9-1.1); below that every policy must fail, which would measure the road, not the controller.
+``maneuvers``: the standard manoeuvres (``vtrack/ISO3888-1-v0``, ``ISO3888-2-v0``, ``ISO4138-Circle-v0``,
+``Slalom-v0``, ``StepCurvature-v0``; ``envs.scenarios.MANEUVER_IDS``), each at its nominal speed profile, seed 0
+(deterministic without noise), judged by its own success criterion.
 ``highway``: highway-env's ``lane-keeping-v0`` through ``vtrack_gym.interop`` (three starts; needs the
 ``highway`` extra).
 """
@@ -19,17 +22,36 @@ from typing import Any
 import numpy as np
 
 from vtrack_gym.envs.config import DLC120, LATERAL_TRACKING
+from vtrack_gym.envs.scenarios import MANEUVER_SCENARIOS
 
 ROBUST_SEEDS: tuple[int, ...] = (101, 202, 303, 404, 505)
 
 
 @dataclass(frozen=True)
 class Episode:
-    """One scored episode of a suite."""
+    """One scored episode of a suite: reset with ``seed`` and ``options``, on the env made with ``vehicle`` (a name
+    of ``vehicle.list_vehicles()`` or a vehicle file path; ``None``: the default car)."""
 
     env_id: str
     seed: int
     options: dict[str, Any] = field(default_factory=dict)
+    vehicle: str | None = None
+
+    @property
+    def make_kwargs(self) -> dict[str, Any]:
+        """Keyword arguments of ``gym.make`` for this episode (the vehicle, if one is chosen)."""
+        return {} if self.vehicle is None else {"vehicle": self.vehicle}
+
+
+def with_vehicle(episodes: Sequence[Episode], vehicle: str | None) -> list[Episode]:
+    """``episodes`` driven with ``vehicle`` (``None``: unchanged)."""
+    from dataclasses import replace
+
+    return list(episodes) if vehicle is None else [replace(ep, vehicle=str(vehicle)) for ep in episodes]
+
+
+MANEUVER_ENV_IDS: tuple[str, ...] = tuple(sc.env_id for sc in MANEUVER_SCENARIOS)
+"""Env ids of the ``maneuvers`` suite, in library order."""
 
 
 ROBUST_FRICTION: dict[str, tuple[float, float]] = {"LateralTracking-v0": (0.75, 1.0), "DLC120-v0": (0.9, 1.1)}
@@ -52,8 +74,8 @@ def robust_options(seed: int, nominal_speed_mps: float, friction_range: tuple[fl
 def suite_episodes(name: str, quick: bool = False, seeds: Sequence[int] | None = None) -> list[Episode]:
     """The episodes of suite ``name`` (``quick`` keeps one robust seed, for smoke tests).
 
-    ``seeds`` replaces the suite's seeds (paper: both scenarios at each seed; robust: the perturbations drawn
-    from each seed; highway: seeds 0-2 only, one initial condition each).
+    ``seeds`` replaces the suite's seeds (paper, maneuvers: every scenario at each seed; robust: the perturbations
+    drawn from each seed; highway: seeds 0-2 only, one initial condition each).
     """
     if name == "paper":
         return [Episode(env_id, s) for s in (seeds or (0,)) for env_id in ("LateralTracking-v0", "DLC120-v0")]
@@ -61,6 +83,8 @@ def suite_episodes(name: str, quick: bool = False, seeds: Sequence[int] | None =
         chosen = tuple(seeds) if seeds else (ROBUST_SEEDS[:1] if quick else ROBUST_SEEDS)
         return [Episode(sc.name, s, robust_options(s, sc.target_speed_mps, ROBUST_FRICTION[sc.name]))
                 for sc in (LATERAL_TRACKING, DLC120) for s in chosen]
+    if name == "maneuvers":
+        return [Episode(env_id, s) for s in (seeds or (0,)) for env_id in MANEUVER_ENV_IDS]
     if name == "highway":
         return highway_episodes(quick=quick, seeds=seeds)
     raise ValueError(f"unknown suite {name!r}; valid: {', '.join(SUITES)}")
@@ -93,13 +117,14 @@ def highway_episodes(quick: bool = False, seeds: Sequence[int] | None = None) ->
     return [Episode(HIGHWAY_ENV_ID, s, dict(HIGHWAY_STARTS[s])) for s in chosen]
 
 
-SUITES: tuple[str, ...] = ("paper", "robust", "highway")
+SUITES: tuple[str, ...] = ("paper", "robust", "highway", "maneuvers")
 
-PRIMARY_METRICS: dict[str, str] = {"paper": "max_e_y_m", "robust": "max_e_y_m", "highway": "itae"}
+PRIMARY_METRICS: dict[str, str] = {"paper": "max_e_y_m", "robust": "max_e_y_m", "highway": "itae",
+                                   "maneuvers": "max_e_y_m"}
 """The metric each suite ranks on after the success rate (lower is better; over successful episodes only).
 
-paper/robust: the largest lateral error |e_y| [m], the worst case that decides whether the car stays in its lane
-or clears the cones, independent of the course length and of when the error occurs. highway: ITAE [m s^2],
+paper/robust/maneuvers: the largest lateral error |e_y| [m], the worst case that decides whether the car stays in
+its lane or clears the cones, independent of the course length and of when the error occurs. highway: ITAE [m s^2],
 because every policy starts 4 m off the lane centre there, so the maximum is the initial offset for all of them;
 ITAE weights the error by time and measures how fast and how well the offset is removed. Other suites (custom,
 tuning) rank on ``max_e_y_m``."""

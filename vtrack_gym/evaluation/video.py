@@ -81,9 +81,10 @@ def car_view_from_info(info: dict[str, Any], path: Any, layout: Any, label: str,
 class _Driver:
     """One policy driving its own env; holds its last info once the episode ended."""
 
-    def __init__(self, name: str, make_policy: Callable[[gym.Env], Any], env_id: str, seed: int) -> None:
+    def __init__(self, name: str, make_policy: Callable[[gym.Env], Any], env_id: str, seed: int,
+                 make_kwargs: dict[str, Any] | None = None) -> None:
         self.name = name
-        self.env = gym.make(env_id)
+        self.env = gym.make(env_id, **(make_kwargs or {}))
         self.policy = make_policy(self.env)
         self.obs, self.info = self.env.reset(seed=seed)
         self.done = False
@@ -170,8 +171,10 @@ class _Writer:
 
 def record_video(env_id: str, policies: Sequence[tuple[str, Callable[[gym.Env], Any]]], out: str | Path,
                  config: VideoConfig | None = None, seed: int = 0,
-                 progress: Callable[[str], None] | None = None) -> dict[str, Any]:
+                 progress: Callable[[str], None] | None = None, vehicle: str | None = None) -> dict[str, Any]:
     """Drive ``policies`` (``(name, make(env) -> policy)``) on ``env_id`` and write the video to ``out``.
+
+    ``vehicle``: the car (a name of ``vehicle.list_vehicles()`` or a vehicle file; default the paper's car).
 
     Returns ``{"path", "frames", "video_s", "driven_s", "wall_s"}``.
     """
@@ -180,7 +183,8 @@ def record_video(env_id: str, policies: Sequence[tuple[str, Callable[[gym.Env], 
     if not policies:
         raise ValueError("record_video needs at least one policy")
     start = time.perf_counter()
-    drivers = [_Driver(name, make, env_id, seed) for name, make in policies]
+    kwargs = {} if vehicle is None else {"vehicle": vehicle}
+    drivers = [_Driver(name, make, env_id, seed, kwargs) for name, make in policies]
     u = drivers[0].env.unwrapped
     path = u.current_path
     dt = float(u.control_period_s)

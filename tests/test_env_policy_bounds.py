@@ -20,12 +20,12 @@ from hypothesis import strategies as st
 import vtrack_gym  # noqa: F401  (registers the envs)
 from vtrack_gym._ranges import RANGE_KEY
 from vtrack_gym.baselines.configs import SMCConfig
-from vtrack_gym.envs.config import MAX_NOISE_STD, EnvConfig, RewardConfig
+from vtrack_gym.envs.config import MAX_NOISE_STD, EnvConfig, ResetOptions, RewardConfig
 from vtrack_gym.envs.observation import OBS
 from vtrack_gym.envs.tracking_env import TrackingEnv
 from vtrack_gym.envs.vector_env import TrackingVectorEnv
 
-EDGES = settings(max_examples=12, deadline=None, database=None)
+EDGES = settings(max_examples=20, deadline=None, database=None)
 
 
 def edge_values(cls: type, fixed: tuple[str, ...] = ()) -> dict[str, list[float]]:
@@ -70,16 +70,22 @@ def _check_vec(envs, obs, reward) -> None:
 
 
 # ----------------------------------------------------------------------------------------------- class 4: env
+RESET_EDGES = st.fixed_dictionaries({k: st.sampled_from([lo, hi]) for k, (lo, hi) in ResetOptions.RANGES.items()})
+
+
 @EDGES
-@given(reward=edge_configs(RewardConfig), noise=st.sampled_from([0.0, MAX_NOISE_STD]),
-       sensor=st.sampled_from([0.0, 5.0]), seed=st.integers(0, 2**32 - 1),
+@given(reward=edge_configs(RewardConfig), noise=st.sampled_from([0.0, MAX_NOISE_STD]), options=RESET_EDGES,
+       period=st.sampled_from([0.002, 0.01, 0.1]), seed=st.integers(0, 2**32 - 1),
        amplitude=st.sampled_from([0.0, 1.0, 1e300]))
-def test_env_configs_at_range_edges_give_finite_observations_and_rewards(reward, noise, sensor, seed, amplitude):
-    """Reward weights, scales and penalties at their edges, the largest noise at 5x: 150 steps of random actions on
-    4 cars (through failures and autoresets) keep observations finite and inside the box and rewards finite."""
-    config = EnvConfig(reward=reward, noise_std=(noise,) * 8)
+def test_env_configs_at_range_edges_give_finite_observations_and_rewards(reward, noise, options, period, seed,
+                                                                         amplitude):
+    """Reward weights, scales and penalties at their edges, the largest noise, every reset option at an edge of its
+    range (sensor noise 0 or 5, delay 0 or 0.5 s, friction 0.1 or 1.5, ...) and control periods of 2 ms to 100 ms:
+    150 steps of random actions on 4 cars (through failures and autoresets) keep observations finite and inside
+    the box and rewards finite."""
+    config = EnvConfig(reward=reward, noise_std=(noise,) * 8, control_period_s=period)
     envs = TrackingVectorEnv("LateralTrackingRandom-v0", num_envs=4, config=config)
-    obs, _ = envs.reset(seed=seed, options={"sensor_noise": sensor})
+    obs, _ = envs.reset(seed=seed, options=options)
     _check_vec(envs, obs, np.zeros(4))
     rng = np.random.default_rng(seed)
     for _ in range(150):

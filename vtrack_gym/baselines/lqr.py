@@ -55,7 +55,7 @@ class LQRConfig:
     min_speed_mps / max_speed_mps / n_speeds: gain-schedule grid.
     """
 
-    q_e_y: float = ranged(1.0, ge=1e-6, le=1e6, unit="1/m^2")  # > 0: (A, Q) detectable, the DARE solvable
+    q_e_y: float = ranged(1.0, ge=0.0, le=1e6, unit="1/m^2")
     q_e_y_dot: float = ranged(1.0, ge=0.0, le=1e6, unit="s^2/m^2")
     q_e_phi: float = ranged(10.0, ge=0.0, le=1e6, unit="1/rad^2")
     q_e_phi_dot: float = ranged(1.0, ge=0.0, le=1e6, unit="s^2/rad^2")

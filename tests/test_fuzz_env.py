@@ -8,6 +8,7 @@ the problem. Never a NaN observation, never another exception type, never a hang
 from __future__ import annotations
 
 import math
+import numbers
 
 import gymnasium as gym
 import numpy as np
@@ -199,10 +200,11 @@ def _option_ok(key, value) -> bool:
     if key not in ResetOptions.RANGES:
         return False
     lo, hi = ResetOptions.RANGES[key]
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        return False
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        return False  # only real numbers (issue 20: True, numeric strings and arrays are refused)
+    v = float(value)
+    if key == "actuator_delay_s" and abs(v / 0.01 - round(v / 0.01)) > 1e-9:
+        return False  # a whole number of 10 ms control periods (issue 20: never rounded)
     return math.isfinite(v) and lo <= v <= hi
 
 

@@ -20,7 +20,8 @@ stable-baselines3's signature, so ``stable_baselines3.common.evaluation.evaluate
     memory of its last ``state=None`` call (same N), or initialises from the observation if it has none, and
     re-initialises the rows whose ``episode_start`` is True. Call ``policy.reset()`` (or pass
     ``episode_start=True``) when a new episode starts; a fresh policy starts fresh.
-* Non-finite observations raise ``ValueError``. ``deterministic`` is accepted and ignored (all controllers are
+* Non-finite observations raise ``ValueError``; a non-finite command is never returned (``FloatingPointError``,
+  not expected for configs inside their ranges). ``deterministic`` is accepted and ignored (all controllers are
   deterministic).
 
 Each controller implements its law once, on a batch (``_act_batch``: float64 observations (N, obs_dim) ->
@@ -262,9 +263,15 @@ class Policy(abc.ABC):
             self._memory = st.copy()
         if n == 1:  # a Python-float clip: much cheaper than np.clip on one value
             a = float(delta[0]) * self._inv_max_steer
+            if not math.isfinite(a):
+                self._non_finite(obs)
             action = np.array((1.0 if a > 1.0 else (-1.0 if a < -1.0 else a),), dtype=np.float32)
         else:
-            action = np.clip(delta * self._inv_max_steer, -1.0, 1.0).astype(np.float32)
+            with np.errstate(over="ignore", invalid="ignore"):
+                scaled = delta * self._inv_max_steer
+            if not np.isfinite(scaled).all():
+                self._non_finite(obs)
+            action = np.clip(scaled, -1.0, 1.0).astype(np.float32)
         return (action if single else action.reshape(n, 1)), st
 
     def reset(self) -> None:
@@ -276,6 +283,14 @@ class Policy(abc.ABC):
         float64 observations (N, obs_dim) and memory ``state`` (N, state_size) (updated in place; None for
         stateless controllers)."""
         return self._act_batch(observation, state)
+
+    def _non_finite(self, obs: np.ndarray) -> None:
+        """Raise ``FloatingPointError`` for a non-finite steering command (never returned as an action).
+
+        Every config inside its declared ranges gives finite commands for finite observations inside the env's
+        observation box (``test_bounded_inputs.py::test_policies_at_range_edges_predict_finite_actions``)."""
+        raise FloatingPointError(f"{self.name}: non-finite steering command for a finite observation (config "
+                                 f"{self.config!r}); no action is returned")
 
     @staticmethod
     def _check_finite(obs: np.ndarray) -> None:

@@ -36,11 +36,11 @@ class SMCConfig:
 
     pole_radps: float = ranged(8.0, gt=0.0, le=100.0, unit="rad/s")
     reaching_gain: float = ranged(5.0, gt=0.0, le=1e5, unit="rad/s^2")
-    boundary_layer: float = ranged(0.1, gt=0.0, le=1e3, unit="rad/s")
+    boundary_layer: float = ranged(0.1, ge=1e-3, le=1e3, unit="rad/s")
     sideslip_shift: bool = True
     limit_layer_rate: bool = True
     min_speed_mps: float = ranged(3.0, ge=0.5, le=20.0, unit="m/s")
-    guard_band_mps: float = ranged(0.3, ge=0.0, le=3.0, unit="m/s")
+    guard_band_mps: float = ranged(0.3, ge=0.05, le=3.0, unit="m/s")  # > 0: no division by zero at v*
 
     def __post_init__(self) -> None:
         validate(self)
@@ -77,7 +77,7 @@ class MPCConfig:
     """
 
     weights: tuple[float, ...] = PAPER_WEIGHTS
-    input_weight: float = ranged(0.1, gt=0.0, le=1e6)
+    input_weight: float = ranged(0.1, ge=1e-6, le=1e6)
     prediction_horizon: int = ranged(50, ge=1, le=60, integer=True)
     control_horizon: int = ranged(5, ge=1, le="prediction_horizon", integer=True)
     sample_time_s: float = ranged(0.02, ge=0.001, le=0.2, unit="s")
@@ -92,8 +92,8 @@ class MPCConfig:
         validate(self)
         if len(self.weights) != 12:
             raise ValueError(f"MPCConfig.weights must have 12 entries (got {len(self.weights)})")
-        if any(not (isinstance(w, (int, float)) and math.isfinite(w) and w >= 0.0) for w in self.weights):
-            raise ValueError(f"MPCConfig.weights must be finite numbers >= 0 (got {self.weights})")
+        if any(not (isinstance(w, (int, float)) and math.isfinite(w) and 0.0 <= w <= 1e6) for w in self.weights):
+            raise ValueError(f"MPCConfig.weights must be numbers in [0, 1e6] (got {self.weights})")
         object.__setattr__(self, "weights", tuple(float(w) for w in self.weights))
         require_choice(self, "interpretation", INTERPRETATIONS)
         if self.interpretation == "siso_per_step" and self.prediction_horizon != len(self.weights):

@@ -59,12 +59,12 @@ class LQRConfig:
     q_e_y_dot: float = ranged(1.0, ge=0.0, le=1e6, unit="s^2/m^2")
     q_e_phi: float = ranged(10.0, ge=0.0, le=1e6, unit="1/rad^2")
     q_e_phi_dot: float = ranged(1.0, ge=0.0, le=1e6, unit="s^2/rad^2")
-    r_delta: float = ranged(30.0, gt=0.0, le=1e6, unit="1/rad^2")
+    r_delta: float = ranged(30.0, ge=1e-6, le=1e6, unit="1/rad^2")
     feedforward: bool = True
     feedforward_lead_s: float = ranged(0.08, ge=0.0, le=1.0, unit="s")
     min_speed_mps: float = ranged(1.0, ge=0.5, le=80.0, unit="m/s")
     max_speed_mps: float = ranged(45.0, gt="min_speed_mps", le=80.0, unit="m/s")
-    n_speeds: int = ranged(60, ge=2, le=400, integer=True)
+    n_speeds: int = ranged(60, ge=2, le=100, integer=True)
 
     def __post_init__(self) -> None:
         validate(self)

@@ -85,19 +85,19 @@ class OSQPMPCConfig:
     """
 
     sample_time_s: float = ranged(0.02, ge=0.001, le=0.2, unit="s")
-    prediction_horizon: int = ranged(50, ge=1, le=400, integer=True)
+    prediction_horizon: int = ranged(50, ge=1, le=60, integer=True)
     control_horizon: int = ranged(10, ge=1, le=50, integer=True)
     q_e_y: float = ranged(10.0, ge=0.0, le=1e6, unit="1/m^2")
     q_e_y_dot: float = ranged(0.0, ge=0.0, le=1e6, unit="s^2/m^2")
     q_e_phi: float = ranged(10.0, ge=0.0, le=1e6, unit="1/rad^2")
     q_e_phi_dot: float = ranged(0.0, ge=0.0, le=1e6, unit="s^2/rad^2")
-    r_delta: float = ranged(1.0, gt=0.0, le=1e6, unit="1/rad^2")
+    r_delta: float = ranged(1.0, ge=1e-6, le=1e6, unit="1/rad^2")
     r_rate: float = ranged(10.0, ge=0.0, le=1e6, unit="1/rad^2")
     use_preview: bool = True
     rate_limit: bool = True
     min_speed_mps: float = ranged(1.0, ge=0.5, le=80.0, unit="m/s")
     max_speed_mps: float = ranged(45.0, gt="min_speed_mps", le=80.0, unit="m/s")
-    n_speeds: int = ranged(60, ge=2, le=400, integer=True)
+    n_speeds: int = ranged(60, ge=2, le=100, integer=True)
     speed_update_tol_mps: float = ranged(0.05, ge=0.0, le=5.0, unit="m/s")
     eps_abs: float = ranged(1e-7, ge=1e-9, le=0.1)
     eps_rel: float = ranged(1e-7, ge=1e-9, le=0.1)

@@ -4,8 +4,11 @@
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
+
+import numpy as np
 
 from vtrack_gym._ranges import closed_ranges, documented, ranged, validate
 from vtrack_gym.envs.observation import NOISY_FIELDS, OBS, ObservationLayout
@@ -29,18 +32,25 @@ class RewardConfig:
     ``reward_effort``, ``reward_rate``, ``reward_terminal``).
     """
 
-    alive: float = ranged(1.0, ge=0.0)
-    w_ey: float = ranged(1.0, ge=0.0)
-    ey_scale_m: float = ranged(0.5, gt=0.0, unit="m")
-    w_ephi: float = ranged(0.5, ge=0.0)
-    ephi_scale_rad: float = ranged(0.1, gt=0.0, unit="rad")
-    w_effort: float = ranged(0.05, ge=0.0)
-    w_rate: float = ranged(0.2, ge=0.0)
-    failure_penalty: float = ranged(-100.0, le=0.0)
-    completion_bonus: float = ranged(0.0, ge=0.0)
+    # Bounded so that every reward is finite: |r| <= alive + 4 w_ey + 4 w_ephi + w_effort + 400 w_rate + penalty +
+    # bonus <= 4.1e8 at the range edges.
+    alive: float = ranged(1.0, ge=0.0, le=1e6)
+    w_ey: float = ranged(1.0, ge=0.0, le=1e6)
+    ey_scale_m: float = ranged(0.5, ge=1e-6, le=1e3, unit="m")
+    w_ephi: float = ranged(0.5, ge=0.0, le=1e6)
+    ephi_scale_rad: float = ranged(0.1, ge=1e-6, le=1e3, unit="rad")
+    w_effort: float = ranged(0.05, ge=0.0, le=1e6)
+    w_rate: float = ranged(0.2, ge=0.0, le=1e6)
+    failure_penalty: float = ranged(-100.0, ge=-1e6, le=0.0)
+    completion_bonus: float = ranged(0.0, ge=0.0, le=1e6)
 
     def __post_init__(self) -> None:
         validate(self)
+
+
+MAX_NOISE_STD = 1.0
+"""Upper bound of each ``EnvConfig.noise_std`` entry (SI units; x ``sensor_noise`` <= 5 at reset). Noisy observations
+are also clipped to the observation box, so they stay finite and inside it for any accepted value."""
 
 
 @documented
@@ -72,9 +82,11 @@ class EnvConfig:
                              f"(got {self.control_period_s} / {self.physics_dt_s} = {ratio})")
         if self.model not in ("nonlinear", "linear"):
             raise ValueError(f"EnvConfig.model must be 'nonlinear' or 'linear' (got {self.model!r})")
-        if len(self.noise_std) != len(NOISY_FIELDS) or any(not (s >= 0.0) for s in self.noise_std):
-            raise ValueError(f"EnvConfig.noise_std must be {len(NOISY_FIELDS)} numbers >= 0, one per "
-                             f"{', '.join(NOISY_FIELDS)}")
+        if len(self.noise_std) != len(NOISY_FIELDS) or any(
+                isinstance(s, (bool, np.bool_)) or not isinstance(s, numbers.Real) or not (0.0 <= s <= MAX_NOISE_STD)
+                for s in self.noise_std):
+            raise ValueError(f"EnvConfig.noise_std must be {len(NOISY_FIELDS)} numbers in [0, {MAX_NOISE_STD}], one "
+                             f"per {', '.join(NOISY_FIELDS)} (got {self.noise_std!r})")
 
     @property
     def n_substeps(self) -> int:
@@ -126,9 +138,12 @@ def validate_numeric_options(options: dict[str, Any], ranges: dict[str, tuple[fl
             valid = ", ".join([*extra_valid, *sorted(ranges)])
             raise ValueError(f"unknown reset option {key!r}; valid options: {valid}")
         lo, hi = ranges[key]
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+            raise ValueError(f"reset option {key!r} must be a real number in [{lo}, {hi}] (got "
+                             f"{type(value).__name__} {value!r}; bools, strings and arrays are refused)")
         try:
             v = float(value)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise ValueError(f"reset option {key!r} must be a number in [{lo}, {hi}] (got {value!r})") from None
         if not (math.isfinite(v) and lo <= v <= hi):
             raise ValueError(f"reset option {key!r} must be in [{lo}, {hi}] (got {value!r})")

@@ -176,6 +176,9 @@ class BatchSim:
         self.last_options: list[ResetOptions] = [ResetOptions() for _ in range(n)]
         self._noise_std = np.asarray(config.noise_std)
         self._noisy = np.asarray(NOISY_INDICES, dtype=np.intp)
+        low, high = self.layout.bounds()
+        self._noisy_low = np.asarray(low, dtype=np.float32)[self._noisy]
+        self._noisy_high = np.asarray(high, dtype=np.float32)[self._noisy]
         self.any_noise = False
         self.any_delay = False
         self.max_steer_rad = config.vehicle.steering.max_road_wheel_angle_rad  # road-wheel angle of action 1 [rad]
@@ -229,8 +232,21 @@ class BatchSim:
         """Give car ``index`` a fresh generator (``None``: from OS entropy)."""
         self.rngs[index] = np.random.default_rng(seed)
 
+    def delay_steps_of(self, options: ResetOptions) -> int:
+        """``options.actuator_delay_s`` in control periods; ``ValueError`` naming the option unless it is a whole
+        number of control periods (within 1e-9 of one; the delay is applied exactly, never rounded)."""
+        period = self.config.control_period_s
+        ratio = options.actuator_delay_s / period
+        steps = round(ratio)
+        if abs(ratio - steps) > 1e-9:
+            raise ValueError(f"reset option 'actuator_delay_s' must be a whole number of control periods "
+                             f"({period * 1e3:g} ms; e.g. 0, {period:g}, {2 * period:g} s) "
+                             f"(got {options.actuator_delay_s!r})")
+        return steps
+
     def reset_car(self, i: int, options: ResetOptions) -> None:
         """Put car ``i`` at the start of a (possibly new) track with the given scenario knobs."""
+        self.delay_steps_of(options)  # refuse a bad delay before changing anything
         sc, rng = self.scenario, self.rngs[i]
         self.veh_track[i] = int(rng.integers(len(self.paths))) if len(self.paths) > 1 else 0
         follow = False
@@ -284,7 +300,7 @@ class BatchSim:
         self.prev_action[i] = 0.0
         self.noise_scale[i] = options.sensor_noise
         self.any_noise = bool(self.noise_scale.any())
-        delay = round(options.actuator_delay_s / self.config.control_period_s)
+        delay = self.delay_steps_of(options)
         self.delay_steps[i] = delay
         if delay + 1 > self.delay_buffer.shape[1]:
             grown = np.zeros((self.n, delay + 1))
@@ -305,8 +321,9 @@ class BatchSim:
         self._observe(idx.astype(np.int64), self.arrays)
 
     # ------------------------------------------------------------------ step
-    def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Advance every car one control period. ``actions`` (n,) are finite, clipped to [-1, 1].
+    def step(self, actions: np.ndarray, quiet: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Advance every car one control period. ``actions`` (n,) are finite, clipped to [-1, 1]; ``quiet`` (bool
+        (n,)) marks cars whose step will be discarded (no sensor noise is drawn for them).
 
         Returns (reward (n,), terminated (n,), truncated (n,)); observations are in ``self.obs``.
         """
@@ -320,7 +337,7 @@ class BatchSim:
         terminated = self.term != 0
         truncated = (self.steps >= self.max_steps) & ~terminated
         if self.any_noise:
-            self._add_noise()
+            self._add_noise(quiet)
         return self.reward.copy(), terminated, truncated
 
     def step_one(self, action: float) -> tuple[float, int, bool]:
@@ -408,11 +425,20 @@ class BatchSim:
         buf[:, 0] = actions
         return buf[np.arange(self.n), self.delay_steps]
 
-    def _add_noise(self) -> None:
+    def _add_noise(self, quiet: np.ndarray | None = None) -> None:
+        """Add each noisy car's sensor noise (drawn from its generator) to its observation, clipped to the box.
+
+        ``quiet`` (bool (n,)) marks cars whose step is discarded (the vector env's autoreset step): they draw
+        nothing, so their generator stays where a single env's would be."""
         idx = self._noisy
-        for i in np.flatnonzero(self.noise_scale):
-            self.obs[i, idx] += (self.noise_scale[i] * self._noise_std * self.rngs[i].standard_normal(idx.size)
-                                 ).astype(np.float32)
+        lo, hi = self._noisy_low, self._noisy_high
+        cars = self.noise_scale != 0.0
+        if quiet is not None:
+            cars &= ~quiet
+        for i in np.flatnonzero(cars):
+            noisy = self.obs[i, idx] + (self.noise_scale[i] * self._noise_std
+                                        * self.rngs[i].standard_normal(idx.size)).astype(np.float32)
+            self.obs[i, idx] = np.minimum(np.maximum(noisy, lo), hi)
 
     def reward_terms(self) -> dict[str, np.ndarray]:
         """The reward's terms of the last step for every car (see ``RewardConfig``; 0 right after a reset)."""

@@ -30,6 +30,7 @@ time limit (``spec.max_episode_steps`` is the same limit).
 from __future__ import annotations
 
 import math
+import numbers
 from typing import Any
 
 import gymnasium as gym
@@ -44,13 +45,37 @@ from vtrack_gym.vehicle.params import DesignModel
 
 
 def _as_float_array(action: Any) -> np.ndarray:
-    """``action`` as a float64 array; ``ValueError`` naming the action for anything non-real-numeric."""
-    if np.iscomplexobj(action):
-        raise ValueError(f"action must be real numbers (got complex {action!r})")
+    """``action`` as a float64 array; ``ValueError`` naming the action for anything but real numbers.
+
+    Accepted: Python and numpy real numbers (bool, int, float), and arrays / nested sequences of them. Refused:
+    strings and bytes (even numeric ones such as ``"1_0"``), complex, datetime / timedelta values, masked arrays
+    and other objects.
+    """
+    if isinstance(action, (str, bytes, bytearray, memoryview, np.ma.MaskedArray)):
+        raise ValueError(f"action must be a number or an array of numbers in [-1, 1] (got {type(action).__name__} "
+                         f"{action!r})")
     try:
-        return np.asarray(action, dtype=np.float64)
-    except (TypeError, ValueError):
+        arr = np.asarray(action)
+        if arr.dtype.kind == "O":  # e.g. Python ints beyond int64: every element must be a real number
+            if not all(isinstance(v, numbers.Real) and not isinstance(v, np.ma.core.MaskedConstant)
+                       for v in arr.reshape(-1)):
+                raise TypeError
+            return arr.astype(np.float64)
+        if arr.dtype.kind not in "biuf":
+            raise TypeError
+        return arr.astype(np.float64, copy=False)
+    except (TypeError, ValueError, OverflowError):
+        if _is_complex(action):
+            raise ValueError(f"action must be real numbers (got complex {action!r})") from None
         raise ValueError(f"action must be a number or an array of numbers in [-1, 1] (got {action!r})") from None
+
+
+def _is_complex(action: Any) -> bool:
+    """Whether ``action`` is complex (False for anything numpy cannot type, e.g. ragged lists)."""
+    try:
+        return bool(np.iscomplexobj(action))
+    except (TypeError, ValueError):
+        return False
 
 
 def check_actions(action: Any, n: int) -> np.ndarray:

@@ -72,15 +72,17 @@ class TrackingVectorEnv(VectorEnv):
             self.sim.max_steps = int(max_episode_steps)
         self._autoreset = np.zeros(self.num_envs, dtype=bool)
         self._seeded = np.zeros(self.num_envs, dtype=bool)
+        self._was_reset = np.zeros(self.num_envs, dtype=bool)
         self._all = np.ones(self.num_envs, dtype=bool)
 
     def reset(self, *, seed: int | list[int | None] | None = None,
               options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        if options is not None and not isinstance(options, dict):
+            raise ValueError(f"reset options must be a dict (got {type(options).__name__})")
         opts = dict(options or {})
-        mask = np.asarray(opts.pop("reset_mask", self._all), dtype=bool)
-        if mask.shape != (self.num_envs,):
-            raise ValueError(f"reset_mask must be a bool array of shape ({self.num_envs},) (got {mask.shape})")
+        mask = self._check_mask(opts.pop("reset_mask")) if "reset_mask" in opts else self._all
         reset_opts = ResetOptions.from_dict(opts)
+        self.sim.delay_steps_of(reset_opts)
         seeds = seeds_for(seed, self.num_envs)
         idx = np.flatnonzero(mask)
         for i in idx:
@@ -90,13 +92,31 @@ class TrackingVectorEnv(VectorEnv):
             self.sim.reset_car(int(i), reset_opts)
         self.sim.observe_after_reset(idx)
         self._autoreset[idx] = False
+        self._was_reset[idx] = True
         return self.sim.obs.copy(), self._infos(np.zeros(self.num_envs, dtype=bool))
 
+    def _check_mask(self, mask: Any) -> np.ndarray:
+        """``reset_mask`` as a bool (num_envs,) array; ``ValueError`` unless it is bools of that shape (a bool
+        array, or a list / tuple of bools)."""
+        arr = None
+        if isinstance(mask, np.ndarray) and not isinstance(mask, np.ma.MaskedArray):
+            arr = mask
+        elif isinstance(mask, (list, tuple)) and all(isinstance(v, (bool, np.bool_)) for v in mask):
+            arr = np.array(mask, dtype=bool)
+        if arr is None or arr.dtype != np.bool_ or arr.shape != (self.num_envs,):
+            got = f"{type(mask).__name__} of shape {arr.shape} and dtype {arr.dtype}" if arr is not None else repr(mask)
+            raise ValueError(f"reset_mask must be a bool array of shape ({self.num_envs},) (got {got})")
+        return arr.copy()
+
     def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        if not self._was_reset.all():
+            never = np.flatnonzero(~self._was_reset)
+            raise RuntimeError(f"call reset() before step(): sub-env(s) {never[:10].tolist()} have never been reset "
+                               "(a reset_mask leaving some out on the first reset does not reset them)")
         a = check_actions(actions, self.num_envs)
         sim = self.sim
-        reward, terminated, truncated = sim.step(a)
         done_before = self._autoreset
+        reward, terminated, truncated = sim.step(a, done_before if done_before.any() else None)
         if done_before.any():
             idx = np.flatnonzero(done_before)
             for i in idx:  # same scenario knobs as the car's last explicit reset

@@ -20,11 +20,10 @@ from dataclasses import dataclass
 from typing import Any
 
 from vtrack_gym._ranges import documented, ranged, validate
+from vtrack_gym.vehicle.params import GRAVITY_MPS2
 
 KMH = 1.0 / 3.6
 """One km/h in m/s."""
-GRAVITY_MPS2 = 9.81
-"""Standard gravity used to state lateral-acceleration limits in g [m/s^2]."""
 
 NAMESPACE = "vtrack"
 """Gymnasium namespace of the registered ids (``vtrack/DLC120-v0``)."""

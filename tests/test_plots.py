@@ -96,3 +96,61 @@ def test_figures_are_written(case1, tmp_path) -> None:
     traces, path = case1
     files = [plots.plot_trajectories(traces, path, tmp_path / "t.png"), plots.plot_signals(traces, tmp_path / "s.png")]
     assert all(f.exists() and f.stat().st_size > 10_000 for f in files)
+
+
+def _rows(max_e_y: dict[str, list[float | None]]) -> list:
+    """Robust-suite rows of DLC120-v0, one per seed; a None metric is a failed (off-road) episode."""
+    from vtrack_gym.evaluation.store import ResultRow
+
+    return [ResultRow(suite="robust", env_id="DLC120-v0", policy_id=name, policy_hash=name[:4], seed=seed,
+                      metrics={"max_e_y_m": v if v is not None else 3.0}, success=v is not None,
+                      termination="completed" if v is not None else "off_road", wall_time_per_step_s=1e-4)
+            for name, values in max_e_y.items() for seed, v in enumerate(values)]
+
+
+def test_policy_summary_draws_the_board_interval_as_error_bars(monkeypatch, tmp_path) -> None:
+    from matplotlib.container import ErrorbarContainer
+
+    from vtrack_gym.evaluation.benchmark import write_figures
+    from vtrack_gym.evaluation.board import estimate
+
+    values = {"smc": [0.10, 0.14, 0.12, 0.20], "mpc": [0.30, None, 0.26, 0.28]}
+    figs = _capture(monkeypatch)
+    files = write_figures({}, _rows(values), tmp_path)  # several seeds per policy: the summary figure is written
+    assert [f.name for f in files] == ["policy_summary.png"]
+    ax = figs[0].axes[0]
+    bars = {p.get_x() + p.get_width() / 2: p for p in ax.patches}
+    names = [t.get_text() for t in ax.get_xticklabels()]
+    errorbars = [c for c in ax.containers if isinstance(c, ErrorbarContainer)]
+    assert len(errorbars) == 2
+    for name in ("smc", "mpc"):
+        i = names.index(name)
+        ok = [v for v in values[name] if v is not None]
+        est = estimate(ok)
+        assert est.lo < float(est) < est.hi
+        bar = bars[i]
+        assert bar.get_height() == pytest.approx(float(est))
+        assert bar.get_facecolor()[:3] == pytest.approx(tuple(c / 255 for c in
+                                                              bytes.fromhex(policy_colour(name)[1:])))
+        (segments,) = [c.lines[2][0].get_segments() for c in errorbars if c.lines[0] is None
+                       and c.lines[2][0].get_segments()[0][0][0] == pytest.approx(i)]
+        (x0, y0), (x1, y1) = segments[0]
+        assert (x0, x1) == (pytest.approx(i), pytest.approx(i))
+        assert (y0, y1) == (pytest.approx(est.lo), pytest.approx(est.hi))  # board.py's interval, not another one
+    texts = [t.get_text() for t in ax.texts]
+    assert texts[names.index("smc")] == "success 100%\nn=4" and texts[names.index("mpc")] == "success 75%\nn=3"
+    assert "mean and 95 % bootstrap CI over 3-4 episodes" in figs[0]._suptitle.get_text()
+
+
+def test_policy_summary_with_one_episode_has_no_error_bar(monkeypatch, tmp_path) -> None:
+    from matplotlib.container import ErrorbarContainer
+
+    from vtrack_gym.evaluation.benchmark import summarise
+
+    figs = _capture(monkeypatch)
+    plots.plot_policy_summary(summarise(_rows({"smc": [0.1], "mpc": [0.2]}), ("max_e_y_m",)), "max_e_y_m",
+                              tmp_path / "p.png")
+    ax = figs[0].axes[0]
+    assert not [c for c in ax.containers if isinstance(c, ErrorbarContainer)]
+    assert [p.get_height() for p in ax.patches] == pytest.approx([0.1, 0.2])
+    assert "1 episode (no interval)" in figs[0]._suptitle.get_text()

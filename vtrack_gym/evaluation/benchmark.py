@@ -198,8 +198,11 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
 
 def write_figures(traces_by_env: dict[str, list[Trace]], rows: Sequence[ResultRow], figures_dir: str | Path,
                   vehicle: str | None = None, maneuvers: bool = False) -> list[Path]:
-    """Trajectory and signal figures per env, and SMC-vs-MPC deviation-rate bars when both were scored;
-    ``maneuvers``: one ``plots.plot_maneuver`` figure per manoeuvre instead (``<env>_maneuver.png``)."""
+    """Trajectory and signal figures per env, and SMC-vs-MPC deviation-rate bars (the episode of the traces' seed)
+    when both were scored; ``maneuvers``: one ``plots.plot_maneuver`` figure per manoeuvre instead
+    (``<env>_maneuver.png``). When a policy has more than one episode in an env (a multi-seed suite such as
+    ``robust``), also ``policy_summary.png`` (``plots.plot_policy_summary``): per env the primary metric over the
+    successful episodes with its 95 % bootstrap interval and the success rate, per policy."""
     from vtrack_gym.evaluation import plots
 
     out = Path(figures_dir)
@@ -216,13 +219,21 @@ def write_figures(traces_by_env: dict[str, list[Trace]], rows: Sequence[ResultRo
         files.append(plots.plot_trajectories(traces, env.unwrapped.current_path, out / f"{stem}_trajectories.png"))
         files.append(plots.plot_signals(traces, out / f"{stem}_signals.png"))
         env.close()
-        by_policy = {r.policy_id: r.metrics for r in rows if r.env_id == env_id}
+        by_policy = {r.policy_id: r.metrics for r in rows if r.env_id == env_id and r.seed == traces[0].seed}
         if "smc" in by_policy and "mpc" in by_policy:
             prefix = "max_" if env_id.startswith("DLC") else "rms_"
             keys = [f"{prefix}{k}" for k in ("hand_wheel_deg", "e_y_m", "e_phi_deg", "a_y_mps2", "roll_deg")]
             files.append(plots.plot_deviation_rates("smc", by_policy["smc"], "mpc", by_policy["mpc"], keys,
                                                     out / f"{stem}_mpc_vs_smc.png", env_id=env_id,
                                                     seed=traces[0].seed))
+    episodes: dict[tuple[str, str, str, str], int] = {}
+    for r in rows:
+        key = (r.env_id, r.policy_id, r.policy_preset, r.policy_hash)
+        episodes[key] = episodes.get(key, 0) + 1
+    if rows and max(episodes.values()) > 1:
+        suites = {r.suite for r in rows}
+        primary = primary_metric(suites.pop() if len(suites) == 1 else "")
+        files.append(plots.plot_policy_summary(summarise(rows, (primary,)), primary, out / "policy_summary.png"))
     return files
 
 

@@ -7,7 +7,9 @@
 - ``plot_maneuver``: one figure per standard manoeuvre: trajectories with the cones at their true positions,
   hand-wheel angle and lateral acceleration over distance;
 - ``plot_deviation_rates``: relative difference of each metric between two policies (Figs. 13 / 19), with value
-  labels and a symmetric-log scale when bars differ by more than 20x.
+  labels and a symmetric-log scale when bars differ by more than 20x (one episode per policy);
+- ``plot_policy_summary``: per env, one bar per policy of an aggregate over successful episodes (board entries,
+  ``evaluation.board``) with its 95 % bootstrap interval as error bars and the success rate on the bar.
 
 Every figure is titled with the scenario, preset and seed; each policy keeps its colour (``envs.palette``).
 """
@@ -321,8 +323,59 @@ def plot_deviation_rates(reference_name: str, reference: dict[str, float], other
     ax.set_ylabel(f"({other_name} - {reference_name}) / |{reference_name}| [%]")
     subtitle = figure_subtitle(env_id, seed, preset) if env_id else f"preset {preset or 'default'}"
     ax.set_title(f"Deviation rate of {other_name} relative to {reference_name} (below 0: {other_name} lower)\n"
-                 f"{subtitle}", fontsize=10)
+                 f"{subtitle} | 1 episode per policy, no interval", fontsize=10)
     ax.grid(axis="y", alpha=0.3)
+    return _save(fig, out_file)
+
+
+def ci_label(counts: Sequence[int]) -> str:
+    """What an aggregate bar shows: 'mean and 95 % bootstrap CI over N episodes', '1 episode' (no interval), or
+    the range of N when the bars aggregate different numbers of episodes."""
+    from vtrack_gym.evaluation.board import CONFIDENCE_LEVEL
+
+    n = sorted(set(counts))
+    if n == [1]:
+        return "1 episode (no interval)"
+    over = f"{n[0]} episodes" if len(n) == 1 else f"{n[0]}-{n[-1]} episodes (n per bar)"
+    tail = "; n=1: no interval" if 1 in n else ""
+    return f"mean and {100 * CONFIDENCE_LEVEL:.0f} % bootstrap CI over {over}{tail}"
+
+
+def plot_policy_summary(entries: Sequence[dict[str, Any]], primary: str, out_file: str | Path,
+                        title: str = "") -> Path:
+    """Per env (one panel each), a bar per policy of ``primary``'s aggregate over its successful episodes.
+
+    ``entries``: leaderboard entries (``board.build_board`` / ``benchmark.summarise``), whose ``primary`` value is
+    a ``board.Estimate``: a bar aggregating more than one episode carries its 95 % bootstrap interval (lo, hi) as
+    an error bar; a bar of one episode has none. The success rate is written on each bar; a policy without a
+    successful episode gets no bar, only its success rate. Colours: ``envs.palette``.
+    """
+    plt = _pyplot()
+    envs = list(dict.fromkeys(e["env_id"] for e in entries))
+    fig, axes = plt.subplots(1, len(envs), figsize=(max(4.5, 0.9 * max(
+        sum(e["env_id"] == env for e in entries) for env in envs)) * len(envs), 4.2), dpi=110, squeeze=False)
+    counts = []
+    for ax, env in zip(axes[0], envs, strict=True):
+        same = [e for e in entries if e["env_id"] == env]
+        n_ok = [int(e["episodes"]) - int(e["failed"]) for e in same]
+        counts.extend(n for n in n_ok if n > 0)
+        names = [e["policy_id"] + (f":{e['preset']}" if e["preset"] not in ("", "default") else "") for e in same]
+        means = np.array([float(e[primary]) for e in same], dtype=np.float64)
+        shown = np.nan_to_num(means)
+        ax.bar(range(len(same)), shown, color=[policy_colour(e["policy_id"]) for e in same])
+        for i, (e, n) in enumerate(zip(same, n_ok, strict=True)):
+            est = e[primary]
+            lo, hi = getattr(est, "lo", np.nan), getattr(est, "hi", np.nan)
+            if n > 1 and np.isfinite(lo) and np.isfinite(hi):
+                ax.errorbar([i], [means[i]], yerr=[[means[i] - lo], [hi - means[i]]], fmt="none", ecolor="k",
+                            capsize=4, lw=1.0)
+            ax.annotate(f"success {float(e['success_rate']):.0%}\nn={n}", (i, shown[i] / 2 if shown[i] else 0.0),
+                        ha="center", va="center" if shown[i] else "bottom", fontsize=7)
+        ax.set_xticks(range(len(same)), names, rotation=25, ha="right", fontsize=8)
+        ax.set_title(env, fontsize=9)
+        ax.set_ylabel(f"{metric_label(primary)}, successful episodes", fontsize=8)
+        ax.grid(axis="y", alpha=0.3)
+    fig.suptitle(f"{title or metric_label(primary) + ' per policy'}\n{ci_label(counts or [1])}", fontsize=10)
     return _save(fig, out_file)
 
 

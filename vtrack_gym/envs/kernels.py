@@ -354,7 +354,7 @@ def write_signals(i: int, a: SimArrays) -> None:
 
 
 @njit(cache=True)
-def _step_one(i: int, a: SimArrays) -> None:
+def step_car(i: int, a: SimArrays) -> None:
     """One control period of car ``i``: speed loop, physics, projection, observation, termination, reward."""
     cfg, car, states, inputs, outputs = a.cfg, a.car, a.states, a.inputs, a.outputs
     dt = cfg[CFG_DT]
@@ -381,14 +381,14 @@ def _step_one(i: int, a: SimArrays) -> None:
 def step_serial(a: SimArrays) -> None:
     """One control period for every car, single-threaded."""
     for i in range(a.states.shape[0]):
-        _step_one(i, a)
+        step_car(i, a)
 
 
 @njit(cache=True, parallel=True)
 def step_parallel(a: SimArrays) -> None:
     """One control period for every car, cars spread over threads (same per-car code)."""
     for i in prange(a.states.shape[0]):
-        _step_one(i, a)
+        step_car(i, a)
 
 
 @njit(cache=True)

@@ -2,7 +2,7 @@
 
 ``rollout_smc`` / ``rollout_mpc`` run whole Case-1 (or constraint-scenario) episodes for every car of a
 ``BatchSim``: per control step the controller law of car i (``vtrack_gym.baselines.laws.smc_row`` / ``mpc_row``: the
-same compiled law the policies run), then the env's own per-car step ``envs.kernels._step_one`` (speed loop,
+same compiled law the policies run), then the env's own per-car step ``envs.kernels.step_car`` (speed loop,
 physics, projection, observation, termination), then the fitness accumulators (ITAE by the trapezoid rule,
 max|a_y| over the physics substeps, min F_z). Cars are independent, so each car runs its whole episode in one
 parallel iteration: a car that terminates stops costing anything, and the result of car i does not depend on
@@ -15,7 +15,7 @@ from __future__ import annotations
 from numba import njit, prange
 
 from vtrack_gym.baselines.laws import MPCLaw, SMCLaw, mpc_row, smc_row
-from vtrack_gym.envs.kernels import CAR_MIN_FZ, _step_one
+from vtrack_gym.envs.kernels import CAR_MIN_FZ, step_car
 from vtrack_gym.vehicle import layout as L
 
 
@@ -36,7 +36,7 @@ def _advance(i, k, action, arrays, max_steer, max_steps, dt, acc_buf, out) -> bo
     err, outputs, car, term = arrays.err, arrays.outputs, arrays.car, arrays.term
     arrays.actions[i] = action
     arrays.inputs[i, L.U_DELTA] = action * max_steer
-    _step_one(i, arrays)
+    step_car(i, arrays)
     abs_ey = abs(err[i, 1])
     if abs_ey > out[i, 5]:
         out[i, 5] = abs_ey

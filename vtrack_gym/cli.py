@@ -438,8 +438,9 @@ def _add_track(p: argparse.ArgumentParser, text: str | None = None, where: Any =
 
 def _speed_profile(args: argparse.Namespace):
     """The tracks speed profile of --speed-profile / --max-speed-kmh / --max-lateral-g."""
-    from vtrack_gym.envs.scenarios import GRAVITY_MPS2, KMH
+    from vtrack_gym.envs.scenarios import KMH
     from vtrack_gym.tracks import ConstantSpeed, CurvatureLimited, FileSpeed
+    from vtrack_gym.vehicle.params import GRAVITY_MPS2
 
     for name, value in (("--max-speed-kmh", args.max_speed_kmh), ("--max-lateral-g", args.max_lateral_g)):
         if not (value > 0.0 and value < float("inf")):

@@ -20,7 +20,6 @@ from dataclasses import dataclass
 from typing import Any
 
 from vtrack_gym._ranges import documented, ranged, validate
-from vtrack_gym.vehicle.params import GRAVITY_MPS2
 
 KMH = 1.0 / 3.6
 """One km/h in m/s."""
@@ -193,6 +192,7 @@ LEGACY_IDS: tuple[str, ...] = ("LateralTracking-v0", "DLC120-v0", "LateralTracki
 def default_track_profile() -> Any:
     """Track-v0's default speed profile: ``CurvatureLimited(40 km/h, 0.7 g)``."""
     from vtrack_gym.tracks.speed_profiles import CurvatureLimited
+    from vtrack_gym.vehicle.params import GRAVITY_MPS2  # lazily: `import vtrack_gym` stays registry-only
 
     return CurvatureLimited(TRACK_DEFAULT_MAX_SPEED_MPS, TRACK_DEFAULT_MAX_LATERAL_G * GRAVITY_MPS2)
 

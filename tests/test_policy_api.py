@@ -4,6 +4,7 @@ the CLI's checks before any work, and the SB3 adapter's per-index contract (issu
 from __future__ import annotations
 
 import json
+import logging
 import shutil
 import subprocess
 import sys
@@ -188,12 +189,20 @@ def test_agent_files_know_their_env(tmp_path, caplog):
         shutil.copy(SHIPPED / "ppo.npz", tmp_path / "bad.npz")
         with pytest.raises(ValueError, match=match):
             vtrack_gym.make_policy(str(tmp_path / "bad.json"), gym.make("DLC120-v0"))
-    slow = dict(ppo, env=dict(ppo["env"], control_period_s=0.02))
+    fast = dict(ppo, env=dict(ppo["env"], control_period_s=0.005))  # trained deciding faster than the env asks
+    (tmp_path / "fast.json").write_text(json.dumps(fast))
+    shutil.copy(SHIPPED / "ppo.npz", tmp_path / "fast.npz")
+    with caplog.at_level("WARNING"):
+        vtrack_gym.make_policy(str(tmp_path / "fast.json"), gym.make("DLC120-v0"))
+    assert "control_period_s = 0.005, this env has 0.01" in caplog.text
+    caplog.clear()
+    slow = dict(ppo, env=dict(ppo["env"], control_period_s=0.05))  # the from-scratch recipes' 20 Hz decisions
     (tmp_path / "slow.json").write_text(json.dumps(slow))
     shutil.copy(SHIPPED / "ppo.npz", tmp_path / "slow.npz")
-    with caplog.at_level("WARNING"):
+    with caplog.at_level("INFO"):
         vtrack_gym.make_policy(str(tmp_path / "slow.json"), gym.make("DLC120-v0"))
-    assert "control_period_s = 0.02, this env has 0.01" in caplog.text
+    assert not [r for r in caplog.records if r.levelno >= logging.WARNING]
+    assert "trained deciding every 0.05 s; this env asks every 0.01 s" in caplog.text
 
 
 def test_cli_checks_names_and_extras_before_any_work(tmp_path, capsys, monkeypatch):

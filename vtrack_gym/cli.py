@@ -157,12 +157,14 @@ def build_parser() -> argparse.ArgumentParser:
                     "suite, the newest row per policy key, env, seed and options)")
 
     tr = sub.add_parser("train", help="train an RL steering agent with stable-baselines3 (extra 'rl')",
-                        description="Train PPO/SAC/TD3 on the native vector env (procedural tracks by default) with "
+                        description="Train PPO/SAC/TD3 on the native vector env (the training mix by default) with "
                         "the versioned hyperparameters of vtrack_gym/agents/hyperparams, evaluate on both paper "
                         "scenarios periodically, and export a weights-only agent (agent.json + agent.npz) that "
                         "`vtrack eval` and the benchmark load without torch.")
     tr.add_argument("--algo", choices=("ppo", "sac", "td3"), required=True, help="SB3 algorithm")
-    tr.add_argument("--env", default="LateralTrackingRandom-v0", help="training env id (default: %(default)s)")
+    tr.add_argument("--env", default=None,
+                    help="training env id (default: vtrack/TrainingMix-v0, the from-scratch recipes' training mix; "
+                    "with --bc-expert: LateralTrackingRandom-v0, the imitation recipes')")
     tr.add_argument("--timesteps", type=_int_in(1, 10**10), default=1_000_000,
                     help="environment steps (default: %(default)s)")
     tr.add_argument("--seed", type=_int_in(0, MAX_RNG_SEED), default=0, help="training seed (default: 0)")
@@ -173,8 +175,8 @@ def build_parser() -> argparse.ArgumentParser:
                     help="evaluate every N steps, 0 = never (default: %(default)s)")
     tr.add_argument("--case1-max-steps", type=_int_in(1, 10**6), default=3000,
                     help="cap of the periodic LateralTracking-v0 evaluation (full lap every --case1-full-every)")
-    tr.add_argument("--case1-full-every", type=_int_in(1, 10**6), default=5,
-                    help="full-lap evaluation period (default: 5)")
+    tr.add_argument("--case1-full-every", type=_int_in(0, 10**6), default=5,
+                    help="full-lap evaluation period, 0 = only at the end (default: 5)")
     tr.add_argument("--no-progress", action="store_true", help="no progress bar")
     tr.add_argument("--no-final-eval", action="store_true", help="skip the full evaluation at the end")
     tr.add_argument("--bc-expert", default=None, metavar="POLICY[:PRESET]",

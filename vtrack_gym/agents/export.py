@@ -141,12 +141,26 @@ def export(model: Any, vecnormalize: Any, path: str | Path, *, env_id: str = "",
 SB3_CLASSES = ("ppo", "sac", "td3")
 
 
+TRAINING_ENV_KWARGS = ("control_period_s",)
+"""Env settings a hyperparameter file may change for training (its ``env_kwargs``)."""
+
+
+def training_env_kwargs(raw: dict[str, Any] | None) -> dict[str, Any]:
+    """The ``env_kwargs`` of a hyperparameter set, checked against ``TRAINING_ENV_KWARGS`` (``ValueError``)."""
+    kwargs = dict(raw or {})
+    unknown = sorted(set(kwargs) - set(TRAINING_ENV_KWARGS))
+    if unknown:
+        raise ValueError(f"env_kwargs may set {', '.join(TRAINING_ENV_KWARGS)} (got {', '.join(unknown)})")
+    return kwargs
+
+
 def export_model(model_zip: str | Path, out: str | Path, algo: str, vecnormalize_pkl: str | Path | None = None, *,
                  env_id: str = "LateralTrackingRandom-v0", command: str = "",
-                 seed: int | None = None) -> tuple[Path, Path]:
+                 seed: int | None = None, env_kwargs: dict[str, Any] | None = None) -> tuple[Path, Path]:
     """Export an SB3 ``model.zip`` (``algo`` ppo/sac/td3) and optionally its ``VecNormalize`` pickle to
-    ``<out>.json`` + ``<out>.npz``, recording ``env_id``'s contract (observation layout, control period, action
-    scaling). SB3's files are pickle-based: only export models you produced or trust.
+    ``<out>.json`` + ``<out>.npz``, recording the contract (observation layout, control period, action scaling) of
+    ``env_id`` made with ``env_kwargs`` (e.g. the training ``control_period_s``). SB3's files are pickle-based:
+    only export models you produced or trust.
     """
     from stable_baselines3 import PPO, SAC, TD3
     from stable_baselines3.common.vec_env import VecNormalize
@@ -166,7 +180,12 @@ def export_model(model_zip: str | Path, out: str | Path, algo: str, vecnormalize
             raise ValueError(f"{vecnormalize_pkl}: VecNormalize file not found")
         vecnorm = VecNormalize.load(str(vecnormalize_pkl), TrackingSB3VecEnv(env_id or "DLC120-v0", 1))
         vecnorm.training = False
-    return export(model, vecnorm, out, env_id=env_id, command=command, seed=seed)
+    contract = None
+    if env_id and env_kwargs:
+        import gymnasium as gym
+
+        contract = gym.make(env_id, **env_kwargs)
+    return export(model, vecnorm, out, env_id=env_id, command=command, seed=seed, env=contract)
 
 
 TRUST_MARKER = "vtrack-train.sig"
@@ -268,5 +287,8 @@ def export_run(run_dir: str | Path, out: str | Path, *, trust: bool = False) -> 
     env_id = str(config.get("env_id", config.get("env", "")))
     seed = config.get("seed")
     vecnorm = run / "vecnormalize.pkl"
+    hyper = config.get("hyperparams")
+    env_kwargs = hyper.get("env_kwargs") if isinstance(hyper, dict) else None
     return export_model(run / "model.zip", out, algo, vecnorm if vecnorm.is_file() else None, env_id=env_id,
-                        command=str(config.get("command", "")), seed=seed if isinstance(seed, int) else None)
+                        command=str(config.get("command", "")), seed=seed if isinstance(seed, int) else None,
+                        env_kwargs=training_env_kwargs(env_kwargs if isinstance(env_kwargs, dict) else None))

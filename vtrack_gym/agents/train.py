@@ -44,16 +44,21 @@ from vtrack_gym._io import write_atomic
 log = logging.getLogger(__name__)
 
 ALGOS = ("ppo", "sac", "td3")
-DEFAULT_ENV_ID = "LateralTrackingRandom-v0"
+DEFAULT_ENV_ID = "vtrack/TrainingMix-v0"
+"""Training env of the from-scratch recipes (``envs.scenarios.TRAINING_MIX``)."""
+IMITATION_ENV_ID = "LateralTrackingRandom-v0"
+"""Training env of the behaviour-cloning recipes (``bc``), whose ``bc_finetune`` settings live under it."""
 HYPERPARAMS_DIR = Path(__file__).with_name("hyperparams")
 EVAL_ENV_IDS = ("DLC120-v0", "LateralTracking-v0")
 _ACTIVATIONS = ("tanh", "relu")
 
 
 def load_hyperparams(algo: str, env_id: str = DEFAULT_ENV_ID) -> tuple[dict[str, Any], int]:
-    """``(hyperparameters for env_id, file version)`` from ``hyperparams/<algo>.yaml`` (``yaml.safe_load``)."""
+    """``(hyperparameters for env_id, file version)`` from ``hyperparams/<algo>.yaml`` (``yaml.safe_load``; the
+    file's keys are scenario names, ``vtrack/`` ids are looked up without the namespace)."""
     import yaml
 
+    env_id = env_id.removeprefix("vtrack/")
     if algo not in ALGOS:
         raise ValueError(f"algo must be one of {ALGOS} (got {algo!r})")
     path = HYPERPARAMS_DIR / f"{algo}.yaml"
@@ -114,7 +119,8 @@ def evaluate_paper(policy: Any, case1_max_steps: int | None = 3000, seed: int = 
         m = paper_metrics(trace)
         row: dict[str, Any] = {k: float(m[k]) for k in ("rms_e_y_m", "max_e_y_m", "rms_e_phi_deg",
                                                         "max_hand_wheel_deg", "max_a_y_mps2")}
-        row.update(termination=trace.termination, completed=bool(trace.completed), steps=int(trace.n_steps),
+        row.update(termination=trace.termination, completed=bool(trace.completed), success=bool(trace.success),
+                   steps=int(trace.n_steps),
                    step_cap=cap, progress_m=float(trace["progress_m"][-1]) if "progress_m" in trace.signals else None)
         out[env_id] = row
     return out
@@ -125,10 +131,11 @@ FAILURES = ("off_road", "spin_out", "wheel_lift", "invalid_state")
 
 def selection_score(results: Mapping[str, Mapping[str, Any]]) -> float:
     """Checkpoint-selection score of one periodic evaluation (lower is better): the ``DLC120-v0`` max|e_y| [m]
-    if the lane change was completed and the ``LateralTracking-v0`` run (full lap or capped) did not fail, else
-    +inf. The run keeps the best-scoring checkpoint as ``best_agent.json/.npz`` (see ``train``)."""
+    if the lane change succeeded (completed, every cone gate passed) and the ``LateralTracking-v0`` run (full lap
+    or capped) did not fail, else +inf. The run keeps the best-scoring checkpoint as ``best_agent.json/.npz`` (see
+    ``train``)."""
     dlc, lap = results.get("DLC120-v0"), results.get("LateralTracking-v0")
-    if not dlc or not lap or not dlc.get("completed") or lap.get("termination") in FAILURES:
+    if not dlc or not lap or not dlc.get("success", dlc.get("completed")) or lap.get("termination") in FAILURES:
         return float("inf")
     if lap.get("step_cap") is None and not lap.get("completed"):
         return float("inf")
@@ -137,7 +144,7 @@ def selection_score(results: Mapping[str, Mapping[str, Any]]) -> float:
 
 def _make_callbacks(run_dir: Path, vecnorm: Any, timesteps: int, eval_freq: int, case1_max_steps: int | None,
                     case1_full_every: int, progress_bar: bool, env_id: str, command: str,
-                    seed: int, warm_start: str) -> list[Any]:
+                    seed: int, warm_start: str, contract_env: Any) -> list[Any]:
     from stable_baselines3.common.callbacks import BaseCallback
 
     class ProgressBar(BaseCallback):
@@ -179,7 +186,7 @@ def _make_callbacks(run_dir: Path, vecnorm: Any, timesteps: int, eval_freq: int,
 
                 self.best_score = score
                 export(self.model, vecnorm, run_dir / "best_agent", env_id=env_id, command=command, seed=seed,
-                       warm_start=warm_start)
+                       warm_start=warm_start, env=contract_env)
                 self.model.save(run_dir / "best_model.zip")  # SB3's own format, to check the export against
             self.logger.record("eval/selection_score", score)
             with (run_dir / "evaluations.jsonl").open("a", encoding="utf-8") as fh:
@@ -199,7 +206,7 @@ def _make_callbacks(run_dir: Path, vecnorm: Any, timesteps: int, eval_freq: int,
     return callbacks
 
 
-def train(algo: str, env_id: str = DEFAULT_ENV_ID, timesteps: int = 1_000_000, seed: int = 0,
+def train(algo: str, env_id: str | None = None, timesteps: int = 1_000_000, seed: int = 0,
           run_dir: str | Path = "vtrack_runs/run", *, num_envs: int | None = None,
           overrides: Mapping[str, Any] | None = None, eval_freq: int = 100_000, case1_max_steps: int | None = 3000,
           case1_full_every: int = 5, final_eval: bool = True, progress_bar: bool = True, verbose: int = 0,
@@ -207,7 +214,8 @@ def train(algo: str, env_id: str = DEFAULT_ENV_ID, timesteps: int = 1_000_000, s
     """Train ``algo`` on ``env_id`` and write ``run_dir`` (see the module docstring). Returns a summary dict.
 
     ``overrides`` replace YAML entries (e.g. ``{"n_steps": 64}``; a value of ``None`` drops the entry);
-    ``num_envs`` overrides ``n_envs``.
+    ``num_envs`` overrides ``n_envs``. ``env_id`` ``None``: ``DEFAULT_ENV_ID`` from scratch, ``IMITATION_ENV_ID``
+    with ``bc``.
     ``eval_freq <= 0`` disables periodic evaluation. ``bc`` (a ``vtrack_gym.agents.imitation.BCConfig``, PPO or
     SAC) starts from a behaviour-cloned actor: the YAML entry's ``bc_finetune`` values are applied on top, the
     expert data and the fit go to ``bc.json``, and the warm-started agent is evaluated at timestep 0. A
@@ -222,11 +230,13 @@ def train(algo: str, env_id: str = DEFAULT_ENV_ID, timesteps: int = 1_000_000, s
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
     from vtrack_gym._version import __version__
-    from vtrack_gym.agents.export import export, sign_run
+    from vtrack_gym.agents.export import export, sign_run, training_env_kwargs
     from vtrack_gym.agents.sb3_vec_env import TrackingSB3VecEnv
 
     if not isinstance(timesteps, int) or timesteps < 1:
         raise ValueError(f"timesteps must be a positive int (got {timesteps!r})")
+    if env_id is None:
+        env_id = DEFAULT_ENV_ID if bc is None else IMITATION_ENV_ID
     if torch_threads:
         torch.set_num_threads(torch_threads)
     params, hp_version = load_hyperparams(algo, env_id)
@@ -259,10 +269,19 @@ def train(algo: str, env_id: str = DEFAULT_ENV_ID, timesteps: int = 1_000_000, s
     params.pop("policy", "MlpPolicy")
     norm_kwargs = dict(params.pop("normalize", {}) or {})
     noise_std = params.pop("action_noise_std", None)
+    obs_scaling = params.pop("obs_scaling", "running")
+    env_kwargs = training_env_kwargs(params.pop("env_kwargs", None))
     params["policy_kwargs"] = _policy_kwargs(params.get("policy_kwargs"))
-    venv = TrackingSB3VecEnv(env_id, num_envs=n_envs)
+    venv = TrackingSB3VecEnv(env_id, num_envs=n_envs, **env_kwargs)
     venv.seed(seed)
     vecnorm = VecNormalize(VecMonitor(venv), **norm_kwargs)  # VecMonitor: rollout/ep_rew_mean, ep_len_mean
+    if obs_scaling == "fixed":
+        from vtrack_gym.agents.obs_scaling import freeze_observation_scaling
+
+        freeze_observation_scaling(vecnorm, venv.venv.observation_layout.names)
+    elif obs_scaling != "running":
+        venv.close()
+        raise ValueError(f"obs_scaling must be 'fixed' or 'running' (got {obs_scaling!r})")
     if noise_std is not None:
         dim = venv.action_space.shape[0]
         params["action_noise"] = NormalActionNoise(np.zeros(dim), float(noise_std) * np.ones(dim))
@@ -287,7 +306,7 @@ def train(algo: str, env_id: str = DEFAULT_ENV_ID, timesteps: int = 1_000_000, s
     warm_start = "" if bc is None else (f"behaviour cloning of {bc.expert}[{bc.expert_preset}] on {env_id} "
                                         f"({bc.steps} x {n_envs} expert transitions, {bc.dagger_rounds} DAgger rounds)")
     callbacks = _make_callbacks(run_dir, vecnorm, timesteps, eval_freq, case1_max_steps, case1_full_every,
-                                progress_bar, env_id, command, seed, warm_start)
+                                progress_bar, env_id, command, seed, warm_start, venv.venv)
     t0 = time.perf_counter()
     if bc is not None:
         _behaviour_clone(model, venv, vecnorm, bc, seed, run_dir)
@@ -302,7 +321,7 @@ def train(algo: str, env_id: str = DEFAULT_ENV_ID, timesteps: int = 1_000_000, s
     vecnorm.save(str(run_dir / "vecnormalize.pkl"))
     sign_run(run_dir)  # lets `vtrack export --run-dir` unpickle this run's files without --trust
     agent_json, _ = export(model, vecnorm, run_dir / "agent", env_id=env_id, command=command, seed=seed,
-                           warm_start=warm_start)
+                           warm_start=warm_start, env=venv.venv)
     final = None
     if final_eval:
         callbacks[0].run(final=True)

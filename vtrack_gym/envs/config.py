@@ -23,25 +23,30 @@ __all__ = ["DLC120", "KMH", "LATERAL_TRACKING", "RANDOM_TRACKS", "TRACK", "EnvCo
 @documented
 @dataclass(frozen=True)
 class RewardConfig:
-    """Per-step reward ``r = alive - w_ey q_ey - w_ephi q_ephi - w_effort a^2 - w_rate (da/0.1)^2``.
+    """Per-step reward ``r = alive - w_ey q(e_y, ey_scale) - w_ephi q(e_phi, ephi_scale) - w_effort a^2
+    - w_rate min((da / rate_scale)^2, 1)``.
 
-    with ``q_ey = min((e_y / ey_scale_m)^2, 4)`` and ``q_ephi = min((e_phi / ephi_scale_rad)^2, 4)``, ``a`` the
-    normalised steering action and ``da`` its change since the previous step; on a failure termination
-    (off road, spin-out, wheel lift) ``failure_penalty`` is added once (negative). Completing the course
-    gives ``completion_bonus``. Every term is reported in ``info`` (``reward_tracking``, ``reward_heading``,
-    ``reward_effort``, ``reward_rate``, ``reward_terminal``).
+    with the bounded cusped penalty ``q(x, s) = |x| / (|x| + s)`` in [0, 1), ``a`` the normalised steering action
+    and ``da`` its change since the previous step. Each penalty is bounded, so with the defaults every step of
+    driving earns at least ``alive - w_ey - w_ephi - w_effort - w_rate = 0.15`` > 0: ending an episode early never
+    pays (the old quadratic terms reached -5 per step at 1 m of error, less than a crash). The cusp gives a slope
+    at every error: 1 cm of e_y costs 0.045, 10 cm 0.25, 1 m 0.45 (w_ey = 0.5, ey_scale = 0.1 m). On a failure
+    termination (off road, spin-out, wheel lift) ``failure_penalty`` is added once (negative). Completing the
+    course gives ``completion_bonus``. Every term is reported in ``info`` (``reward_tracking``,
+    ``reward_heading``, ``reward_effort``, ``reward_rate``, ``reward_terminal``).
     """
 
-    # Bounded so that every reward is finite: |r| <= alive + 4 w_ey + 4 w_ephi + w_effort + 400 w_rate + penalty +
-    # bonus <= 4.1e8 at the range edges.
+    # Bounded so that every reward is finite: |r| <= alive + w_ey + w_ephi + w_effort + w_rate + |penalty| + bonus
+    # <= 8e6 at the range edges.
     alive: float = ranged(1.0, ge=0.0, le=1e6)
-    w_ey: float = ranged(1.0, ge=0.0, le=1e6)
-    ey_scale_m: float = ranged(0.5, ge=1e-6, le=1e3, unit="m")
-    w_ephi: float = ranged(0.5, ge=0.0, le=1e6)
-    ephi_scale_rad: float = ranged(0.1, ge=1e-6, le=1e3, unit="rad")
+    w_ey: float = ranged(0.5, ge=0.0, le=1e6)
+    ey_scale_m: float = ranged(0.1, ge=1e-6, le=1e3, unit="m")
+    w_ephi: float = ranged(0.2, ge=0.0, le=1e6)
+    ephi_scale_rad: float = ranged(0.05, ge=1e-6, le=1e3, unit="rad")
     w_effort: float = ranged(0.05, ge=0.0, le=1e6)
-    w_rate: float = ranged(0.2, ge=0.0, le=1e6)
-    failure_penalty: float = ranged(-100.0, ge=-1e6, le=0.0)
+    w_rate: float = ranged(0.1, ge=0.0, le=1e6)
+    rate_scale: float = ranged(0.1, ge=1e-6, le=2.0)
+    failure_penalty: float = ranged(-10.0, ge=-1e6, le=0.0)
     completion_bonus: float = ranged(0.0, ge=0.0, le=1e6)
 
     def __post_init__(self) -> None:

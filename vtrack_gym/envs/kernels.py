@@ -93,6 +93,7 @@ RW_WEPHI = _REWARD["w_ephi"]
 RW_EPHISCALE = _REWARD["ephi_scale_rad"]
 RW_WEFFORT = _REWARD["w_effort"]
 RW_WRATE = _REWARD["w_rate"]
+RW_RATESCALE = _REWARD["rate_scale"]
 RW_FAIL = _REWARD["failure_penalty"]
 RW_COMPLETE = _REWARD["completion_bonus"]
 
@@ -307,14 +308,16 @@ def termination_one(i: int, a: SimArrays) -> int:
 def reward_one(code: int, e_y: float, e_phi: float, action: float, prev_action: float, rw: np.ndarray,
                terms: np.ndarray) -> float:
     """Reward of one car for one step; its six terms (``REWARD_TERMS`` order) go to ``terms``."""
-    q_ey = (e_y / rw[RW_EYSCALE]) ** 2
-    q_ephi = (e_phi / rw[RW_EPHISCALE]) ** 2
+    # Bounded, cusped penalties q = |x| / (|x| + scale) in [0, 1): a slope at every error (centimetres count, and
+    # so do metres), and every step's reward stays >= alive - w_ey - w_ephi - w_effort - w_rate.
+    ey, ephi = abs(e_y), abs(e_phi)
     terms[0] = rw[RW_ALIVE]
-    terms[1] = -rw[RW_WEY] * (q_ey if q_ey < 4.0 else 4.0)
-    terms[2] = -rw[RW_WEPHI] * (q_ephi if q_ephi < 4.0 else 4.0)
+    terms[1] = -rw[RW_WEY] * ey / (ey + rw[RW_EYSCALE])
+    terms[2] = -rw[RW_WEPHI] * ephi / (ephi + rw[RW_EPHISCALE])
     terms[3] = -rw[RW_WEFFORT] * action * action
-    da = (action - prev_action) / 0.1
-    terms[4] = -rw[RW_WRATE] * da * da
+    da = (action - prev_action) / rw[RW_RATESCALE]
+    da2 = da * da
+    terms[4] = -rw[RW_WRATE] * (da2 if da2 < 1.0 else 1.0)
     if code == T_COMPLETED:
         terms[5] = rw[RW_COMPLETE]
     elif code != T_NONE:

@@ -29,7 +29,8 @@ NAMESPACE = "vtrack"
 MANEUVER_TRACK_NAMES: tuple[str, ...] = ("iso3888_1", "iso3888_2", "iso4138_circle", "slalom", "step_curvature")
 """The standard manoeuvres (``tracks.maneuvers.MANEUVERS``) a scenario may name as its track; a gated one is built
 for the driven car's body width (ISO 3888 sizes its lanes from the vehicle width)."""
-BUILTIN_TRACK_NAMES: tuple[str, ...] = ("handling_course", "double_lane_change", "procedural", *MANEUVER_TRACK_NAMES)
+BUILTIN_TRACK_NAMES: tuple[str, ...] = ("handling_course", "double_lane_change", "procedural", "training_mix",
+                                        *MANEUVER_TRACK_NAMES)
 """Track names a scenario may give as a string (besides a CSV file path)."""
 SUCCESS_CRITERIA: tuple[str, ...] = ("auto", "lap", "gates", "end", "circle")
 """``lap``: one lap of a closed course within the road; ``gates``: the course completed and every cone gate passed
@@ -40,6 +41,11 @@ course is completed), or the car leaves the band only at its own grip limit: its
 that peak is at least 0.5 mu g. The plant's limit lies below mu g (Pacejka peak factors D < 1, load transfer,
 drive force; the SUV's more so), so a criterion fixed at a share of mu g would judge the car, not the driver;
 ``auto``: ``gates`` if the path has gates, else ``lap`` (closed) or ``end`` (open)."""
+
+
+RANDOMISED_RANGES: dict[str, tuple[float, float]] = {"friction_range": (0.1, 1.5), "mass_scale_range": (0.5, 2.0),
+                                                   "sensor_noise_range": (0.0, 5.0)}
+"""The allowed span of each domain-randomisation range of a scenario (the matching reset option's range)."""
 
 
 @documented
@@ -76,6 +82,13 @@ class ScenarioConfig:
     grip_limit_speed_mps: float | None = ranged(None, gt=0.0, le=100.0, unit="m/s")
     # ... and the share of the episode's peak |a_y| to hold in the band (CHOICE, see SUCCESS_CRITERIA)
     circle_limit_share: float = ranged(0.95, gt=0.0, le=1.0)
+    # Domain randomisation, drawn per episode where the reset options leave the knob at its default:
+    # friction mu, mass scale and sensor-noise scale uniform in these ranges (None: off), actuator delay a whole
+    # number of control periods uniform in [0, max_actuator_delay_s].
+    friction_range: tuple[float, float] | None = None
+    mass_scale_range: tuple[float, float] | None = None
+    sensor_noise_range: tuple[float, float] | None = None
+    max_actuator_delay_s: float = ranged(0.0, ge=0.0, le=0.5, unit="s")
 
     def __post_init__(self) -> None:
         track = self.track
@@ -101,6 +114,13 @@ class ScenarioConfig:
                              "'circle' success criterion")
         if not isinstance(self.vehicle, str) or not self.vehicle:
             raise ValueError(f"ScenarioConfig.vehicle must be a vehicle name (got {self.vehicle!r})")
+        for name, (lo, hi) in RANDOMISED_RANGES.items():
+            value = getattr(self, name)
+            if value is not None and not (isinstance(value, tuple) and len(value) == 2
+                                          and all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                                  for v in value) and lo <= value[0] <= value[1] <= hi):
+                raise ValueError(f"ScenarioConfig.{name} must be None or a (low, high) tuple with "
+                                 f"{lo} <= low <= high <= {hi} (got {value!r})")
         validate(self)
 
     @property
@@ -131,6 +151,22 @@ RANDOM_TRACKS = ScenarioConfig("LateralTrackingRandom-v0", "procedural", 15.0, 1
 """Training variant: a bank of 32 procedural tracks (half twisty, radii down to 18 m; half highway-like, down to
 120 m), target speed drawn per episode in 6-35 m/s but capped so the track's tightest curve needs at most 0.85 g;
 the car starts at the target speed, or at rest in 20 % of the episodes (Case 1 starts at rest)."""
+
+
+def _training_mix() -> ScenarioConfig:
+    from vtrack_gym.tracks.training_mix import TrainingMixProfile
+
+    return ScenarioConfig("TrainingMix-v0", "training_mix", 15.0, 15.0, 60.0, procedural_bank_size=64,
+                          standstill_start_fraction=0.2, speed_profile=TrainingMixProfile(),
+                          friction_range=(0.7, 1.1), mass_scale_range=(0.8, 1.25), sensor_noise_range=(0.0, 1.0),
+                          max_actuator_delay_s=0.05)
+
+
+TRAINING_MIX = _training_mix()
+"""The RL training distribution (``tracks.training_mix``): 64 roads, a quarter each twisty (R >= 18 m), highway
+(R >= 120 m), hairpin (R >= 5.5 m) and ISO 3888-1 lane changes (x1-2.5 lengths, up to 36 m/s), each with its
+own speed profile; 20 % standstill starts; friction 0.7-1.1, mass x0.8-1.25, sensor noise 0-1 x nominal and
+actuator delay 0-50 ms drawn per episode; 60 s episodes. Covers every evaluation regime of the package."""
 
 TRACK_DEFAULT_MAX_SPEED_MPS = 40.0 * KMH
 """Track-v0's default speed profile: curvature-limited at 40 km/h ..."""
@@ -182,7 +218,7 @@ def maneuver_scenario(name: str) -> ScenarioConfig:
 MANEUVER_SCENARIOS: tuple[ScenarioConfig, ...] = tuple(maneuver_scenario(n) for n in MANEUVER_TRACK_NAMES)
 """The standard manoeuvres as scenarios (``vtrack/ISO3888-1-v0``, ...), in ``MANEUVER_TRACK_NAMES`` order."""
 
-SCENARIOS: dict[str, ScenarioConfig] = {s.name: s for s in (LATERAL_TRACKING, DLC120, RANDOM_TRACKS, TRACK,
+SCENARIOS: dict[str, ScenarioConfig] = {s.name: s for s in (LATERAL_TRACKING, DLC120, RANDOM_TRACKS, TRAINING_MIX, TRACK,
                                                             *MANEUVER_SCENARIOS)}
 """Scenario name -> scenario; one registered id ``vtrack/<name>`` per entry."""
 LEGACY_IDS: tuple[str, ...] = ("LateralTracking-v0", "DLC120-v0", "LateralTrackingRandom-v0")

@@ -70,6 +70,10 @@ def _builtin_tracks(track: str, vehicle_width_m: float, procedural_seed: int, pr
         return (tracks.double_lane_change(vehicle_width_m=vehicle_width_m),)
     if track in MANEUVER_TRACK_NAMES:
         return (maneuver_path(track, vehicle_width_m),)
+    if track == "training_mix":
+        from vtrack_gym.tracks.training_mix import training_bank
+
+        return training_bank(procedural_seed, bank_size, vehicle_width_m)
     # Half the bank twisty (radii down to 18 m), half highway-like (down to 120 m), so that every target speed
     # of the range has drivable tracks (see BatchSim.reset_car's speed cap).
     return tuple(tracks.procedural_track_from_config(
@@ -248,6 +252,8 @@ class BatchSim:
         """Put car ``i`` at the start of a (possibly new) track with the given scenario knobs."""
         self.delay_steps_of(options)  # refuse a bad delay before changing anything
         sc, rng = self.scenario, self.rngs[i]
+        given = options
+        options = self._randomised(options, rng)
         self.veh_track[i] = int(rng.integers(len(self.paths))) if len(self.paths) > 1 else 0
         follow = False
         if options.target_speed_mps is not None:
@@ -294,7 +300,7 @@ class BatchSim:
         self.outputs[i, :, L.O_FZRL:L.O_FZRR + 1] = fz_rear
         self.min_fz[i] = min(fz_front, fz_rear)
         self.road[i] = 0.0
-        self.last_options[i] = options
+        self.last_options[i] = given  # an autoreset draws the randomised knobs afresh
         self.inputs[i] = 0.0
         self.steps[i] = 0
         self.prev_action[i] = 0.0
@@ -315,6 +321,23 @@ class BatchSim:
         self.circle_reached[i] = False
         self.circle_steady_a_y[i] = 0.0
         self.circle_peak_a_y[i] = 0.0
+
+    def _randomised(self, options: ResetOptions, rng: np.random.Generator) -> ResetOptions:
+        """``options`` with the scenario's domain randomisation drawn for every knob they leave at its default
+        (``ScenarioConfig.friction_range`` ...); unchanged (and no draw) for a scenario without ranges."""
+        sc = self.scenario
+        changes: dict[str, float] = {}
+        if sc.friction_range is not None and options.friction_mu is None:
+            changes["friction_mu"] = float(rng.uniform(*sc.friction_range))
+        if sc.mass_scale_range is not None and options.mass_scale == 1.0:
+            changes["mass_scale"] = float(rng.uniform(*sc.mass_scale_range))
+        if sc.sensor_noise_range is not None and options.sensor_noise == 0.0:
+            changes["sensor_noise"] = float(rng.uniform(*sc.sensor_noise_range))
+        if sc.max_actuator_delay_s > 0.0 and options.actuator_delay_s == 0.0:
+            period = self.config.control_period_s
+            steps = int(rng.integers(0, int(sc.max_actuator_delay_s / period + 1e-9) + 1))
+            changes["actuator_delay_s"] = steps * period
+        return replace(options, **changes) if changes else options
 
     def observe_after_reset(self, idx: np.ndarray) -> None:
         """Project freshly reset cars (global search) and fill their observation rows."""

@@ -13,8 +13,9 @@ default); out-of-range values are clipped, NaN/inf or a wrong shape raise ``Valu
 loop drives throttle and brake inside the env.
 
 Reward (per control step; weights in ``RewardConfig``):
-``1 - w_ey min((e_y/0.5 m)^2, 4) - w_ephi min((e_phi/0.1 rad)^2, 4) - w_effort a^2 - w_rate ((a - a_prev)/0.1)^2``
-plus ``failure_penalty`` (-100) once on a failure termination. Terms in ``info["reward_*"]`` (0 at reset).
+``1 - w_ey |e_y|/(|e_y| + 0.1 m) - w_ephi |e_phi|/(|e_phi| + 0.05 rad) - w_effort a^2
+- w_rate min(((a - a_prev)/0.1)^2, 1)`` (bounded: every step of driving earns >= 0.15 with the defaults) plus
+``failure_penalty`` (-10) once on a failure termination. Terms in ``info["reward_*"]`` (0 at reset).
 
 Info: the keys of ``envs.schema.INFO_KEYS`` at reset and at every step (numpy float64 scalars, ``fz_n`` (4,),
 ``acc_substeps_mps2`` (n_sub, 3), ``termination`` str, ``success`` bool: the scenario's verdict, False until the

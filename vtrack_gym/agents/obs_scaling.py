@@ -1,0 +1,86 @@
+"""Fixed physical observation scaling for RL: ``(obs - centre) / scale`` per named field, clipped at +-``CLIP``.
+
+Why not running statistics: ``VecNormalize`` learns each field's spread from the data, and once an agent tracks
+well the spread of ``e_y`` is a few centimetres, so with its clip of 10 standard deviations every lateral error
+beyond about +-0.4 m reads the same (the imitation agents saw exactly that). Fixed scales keep the
+resolution and the visible range stable through training and in the exported agent: ``e_y`` at 0.25 m per unit
+is visible up to +-2.5 m (a 1 cm error is 0.04), curvature at 0.02 1/m per unit up to 0.2 1/m (a 5 m hairpin).
+
+The scaling is written into a ``VecNormalize`` whose observation statistics never update
+(``freeze_observation_scaling``), so SB3's training loop, saving and the weights-only export
+(``obs_mean``/``obs_var``/``clip_obs``) carry it unchanged.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from stable_baselines3.common.running_mean_std import RunningMeanStd
+
+CLIP = 10.0
+"""Scaled observations are clipped at +-CLIP (the visible range of a field is centre +- CLIP x scale)."""
+
+FIELD_SCALES: dict[str, tuple[float, float]] = {
+    "e_y": (0.0, 0.25),              # m
+    "e_phi": (0.0, 0.1),             # rad
+    "e_y_dot": (0.0, 1.0),           # m/s
+    "e_phi_dot": (0.0, 0.2),         # rad/s
+    "v_x": (15.0, 10.0),             # m/s
+    "v_y": (0.0, 0.5),               # m/s
+    "yaw_rate": (0.0, 0.3),          # rad/s
+    "road_wheel_angle": (0.0, 0.2),  # rad
+    "target_speed": (15.0, 10.0),    # m/s
+    "yaw_rate_ref": (0.0, 0.3),      # rad/s
+    "yaw_acc_ref": (0.0, 1.0),       # rad/s^2
+    "curvature": (0.0, 0.02),        # 1/m
+    "curvature_rate": (0.0, 0.005),  # 1/m^2
+}
+"""Field name -> (centre, scale) in the field's SI unit."""
+PREFIX_SCALES: dict[str, tuple[float, float]] = {
+    "kappa_preview_": (0.0, 0.02),   # 1/m
+    "v_ref_preview_": (15.0, 10.0),  # m/s
+}
+"""Name prefix -> (centre, scale) for the preview samples."""
+
+
+class FrozenStatistics(RunningMeanStd):
+    """Running statistics that ignore updates: the fixed scaling (module level, so ``VecNormalize.save`` pickles
+    it)."""
+
+    def update(self, arr: np.ndarray) -> None:  # noqa: ARG002 - frozen on purpose
+        return None
+
+
+def field_scale(name: str) -> tuple[float, float]:
+    """``(centre, scale)`` of one observation field; ``ValueError`` for a name without a scale."""
+    if name in FIELD_SCALES:
+        return FIELD_SCALES[name]
+    for prefix, value in PREFIX_SCALES.items():
+        if name.startswith(prefix):
+            return value
+    raise ValueError(f"no fixed observation scale for field {name!r}; known: {', '.join(FIELD_SCALES)}, "
+                     f"{', '.join(p + 'k' for p in PREFIX_SCALES)}")
+
+
+def fixed_statistics(names: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
+    """``(mean, var)`` arrays such that ``(obs - mean) / sqrt(var)`` is the fixed scaling of ``names``."""
+    pairs = [field_scale(n) for n in names]
+    mean = np.array([c for c, _ in pairs], dtype=np.float64)
+    var = np.array([s * s for _, s in pairs], dtype=np.float64)
+    return mean, var
+
+
+def freeze_observation_scaling(vecnormalize: Any, names: Sequence[str]) -> None:
+    """Make ``vecnormalize`` (an SB3 ``VecNormalize`` with ``norm_obs``) scale observations by the fixed table
+    and never update its observation statistics (reward normalisation, if on, keeps learning)."""
+    if not getattr(vecnormalize, "norm_obs", False):
+        raise ValueError("fixed observation scaling needs a VecNormalize with norm_obs=True")
+    mean, var = fixed_statistics(names)
+    if mean.shape != vecnormalize.observation_space.shape:
+        raise ValueError(f"{len(names)} names for an observation of shape {vecnormalize.observation_space.shape}")
+    frozen = FrozenStatistics(shape=mean.shape)
+    frozen.mean, frozen.var, frozen.count = mean, var, 1.0
+    vecnormalize.obs_rms = frozen
+    vecnormalize.clip_obs = CLIP

@@ -25,6 +25,7 @@ from vtrack_gym.tracks import gate_violations
 from vtrack_gym.tracks.maneuvers import MANEUVERS, build_maneuver
 from vtrack_gym.vehicle.catalog import load_vehicle
 from vtrack_gym.vehicle.params import GRAVITY_MPS2
+from vtrack_gym.vehicle.steady_state import grip_limit
 
 
 def _score(policy: str, env_id: str, vehicle: str | None = None):
@@ -109,6 +110,13 @@ def test_circle_reaches_the_grip_limit_and_reports_it(vehicle: str | None) -> No
     mu_g = 0.9 * GRAVITY_MPS2
     assert row.success
     assert row.metrics["mu_g_mps2"] == pytest.approx(mu_g)
+    # the plant's analytic steady-state limit on R = 40 m (highest a_y of a cornering equilibrium, solved from the
+    # plant's equations, not from the run): the closed loop holds it within 3 %, and the run's peak (sliding at
+    # the limit) is it within 3 % too
+    limit = grip_limit(load_vehicle(vehicle or "hatchback"), 40.0).a_y_mps2
+    assert row.metrics["grip_limit_a_y_mps2"] == pytest.approx(limit, rel=1e-9)
+    assert row.metrics["max_steady_a_y_mps2"] == pytest.approx(limit, rel=0.03)
+    assert row.metrics["max_a_y_mps2"] == pytest.approx(limit, rel=0.03)
     # held the circle up to the car's own limit (the peak |a_y| of the whole run, sliding), never above mu g
     assert 0.95 * row.metrics["max_a_y_mps2"] <= row.metrics["max_steady_a_y_mps2"] <= mu_g
     if vehicle is None:  # the paper's car: within 15 % of mu g (Pacejka peak D < 1, drive force at the limit)

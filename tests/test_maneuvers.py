@@ -25,6 +25,7 @@ from vtrack_gym.tracks import (
     speed_table,
 )
 from vtrack_gym.tracks.maneuvers import (
+    DoubleLaneChangeParams,
     ObstacleAvoidanceParams,
     SlalomParams,
     SteadyStateCircleParams,
@@ -58,8 +59,9 @@ def _on_line(path: Path, step_m: float = 0.1) -> tuple[np.ndarray, np.ndarray, n
 # ------------------------------------------------------------------------------------- geometry vs the standards
 def test_iso3888_1_gates_match_the_standard() -> None:
     # ISO 3888-1 (reference-data.md section 3; Project Chrono ISO3888_Helper): lane 1 15 m x (1.1 w + 0.25) on
-    # y = 0; section 2 30 m; lane 3 25 m x (1.2 w + 0.25), centre 3.5 m left; section 4 25 m; lane 5 15 m x
-    # (1.3 w + 0.25), right boundary on lane 1's right boundary. Approach 100 m.
+    # y = 0; section 2 30 m; lane 3 25 m x (1.2 w + 0.25), offset 3.5 m left; section 4 25 m; lane 5 15 m x
+    # (1.3 w + 0.25), right boundary on lane 1's right boundary. Approach 100 m. The default measures the 3.5 m
+    # between the lane centres (the paper's reading, a CHOICE); Chrono's reading is checked below.
     m = build_maneuver("iso3888_1")
     w = W_CAR
     expected = [(100.0, 115.0, 0.0, 1.1 * w + 0.25), (145.0, 170.0, 3.5, 1.2 * w + 0.25),
@@ -69,6 +71,12 @@ def test_iso3888_1_gates_match_the_standard() -> None:
     assert g5[2] - 0.5 * g5[3] == pytest.approx(g1[2] - 0.5 * g1[3], abs=1e-12)     # right boundaries aligned
     assert m.spec.nominal_speed_mps == pytest.approx(V80)
     assert m.spec.standard.startswith("ISO 3888-1") and m.spec.success_criterion == "no_cones_hit"
+    # Chrono (ISO3888_Helper, ISO3888_1): lane 3's right boundary 3.5 m left of lane 1's centre line (y = 0)
+    chrono = build_maneuver("iso3888_1", lane_offset_m=DoubleLaneChangeParams.chrono_lane_offset_m(w))
+    x0, x1, y3, w3 = _lane(chrono.path.gates[1])
+    assert (x0, x1, w3) == pytest.approx((145.0, 170.0, 1.2 * w + 0.25)) and y3 - 0.5 * w3 == pytest.approx(3.5)
+    assert [_lane(g) for g in chrono.path.gates[::2]] == [pytest.approx(e, abs=1e-9) for e in expected[::2]]
+    assert chrono.path.name != m.path.name
 
 
 @pytest.mark.parametrize("w", [1.6, W_CAR, 2.3])

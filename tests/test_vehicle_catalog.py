@@ -11,6 +11,7 @@ import pytest
 from vtrack_gym.vehicle.catalog import (
     DEFAULT_VEHICLE,
     MAX_VEHICLE_FILE_BYTES,
+    SOURCE_TAGS,
     VehicleFileError,
     list_vehicles,
     load_vehicle,
@@ -46,6 +47,17 @@ def test_each_file_loads_validates_and_round_trips(name: str) -> None:
     assert any(text.startswith("CHOICE") for group in record.sources.values() for text in group.values())
     # every shipped car understeers in the linear design model (the baselines assume a stable car)
     assert understeer_gradient(DesignModel.from_vehicle(record.params)) > 0.0
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_every_source_says_what_kind_of_source_it_is(name: str) -> None:
+    """Published figures recalled from memory are marked as such, apart from estimates and modelling choices; the
+    paper's car has no value of either unverified kind."""
+    sources = [text for group in load_vehicle_record(name).sources.values() for text in group.values()]
+    untagged = [text for text in sources if not text.startswith(SOURCE_TAGS)]
+    assert not untagged
+    unverified = [text for text in sources if text.startswith(("SPEC", "ESTIMATE"))]
+    assert (name == DEFAULT_VEHICLE) == (not unverified)
 
 
 def test_cars_differ_in_character() -> None:

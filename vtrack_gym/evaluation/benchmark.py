@@ -26,7 +26,8 @@ LEADERBOARD_COLUMNS: tuple[str, ...] = (
     "rms_e_y_m", "max_e_y_m", "rms_e_phi_deg", "rms_hand_wheel_deg", "max_hand_wheel_deg", "max_a_y_mps2",
     "max_roll_deg", "itae", "cones_hit", "comfort_a_v_mps2",
 )
-SUITE_COLUMNS: dict[str, tuple[str, ...]] = {"maneuvers": ("max_steady_a_y_mps2", "mu_g_mps2")}
+SUITE_COLUMNS: dict[str, tuple[str, ...]] = {"maneuvers": ("max_steady_a_y_mps2", "grip_limit_a_y_mps2",
+                                                            "mu_g_mps2")}
 """Extra leaderboard columns of a suite: ISO 4138's lateral acceleration reached on the circle and mu g."""
 
 
@@ -80,22 +81,29 @@ def cones_hit(env: gym.Env, trace: Trace) -> int | None:
 def circle_metrics(env: gym.Env, trace: Trace) -> dict[str, float]:
     """ISO 4138 figures of a ``circle``-criterion episode: ``max_steady_a_y_mps2``, the peak |a_y| [m/s^2] while
     the car is still on the circle (before |e_y| first exceeds the scenario's lateral tolerance), the speed
-    ``max_steady_v_mps`` [m/s] at that peak, and the analytic limit ``mu_g_mps2`` = mu g [m/s^2] of the car's
-    tyre friction (empty for other scenarios)."""
+    ``max_steady_v_mps`` [m/s] at that peak, the plant's own steady-state limit ``grip_limit_a_y_mps2`` [m/s^2]
+    on the circle's radius (``vehicle.steady_state.grip_limit``: the highest a_y of a cornering equilibrium, from
+    the plant's equations, not from this run) and the point-mass value ``mu_g_mps2`` = mu g [m/s^2] (empty for
+    other scenarios)."""
     sc = env.unwrapped.scenario
     if sc.success != "circle" or trace.n_steps == 0:
         return {}
     import numpy as np
 
+    from vtrack_gym.tracks.table import COL_KAPPA
     from vtrack_gym.vehicle.params import GRAVITY_MPS2
+    from vtrack_gym.vehicle.steady_state import grip_limit
 
+    vehicle = env.unwrapped.config.vehicle
+    radius_m = 1.0 / float(np.max(np.abs(env.unwrapped.current_path.table[:, COL_KAPPA])))
     off = np.flatnonzero(np.abs(trace["e_y_m"]) > sc.lateral_tolerance_m)
     end = int(off[0]) if off.size else trace.n_steps
     a_y = np.abs(trace["a_y_mps2"][:end])
     k = int(np.argmax(a_y)) if a_y.size else 0
     return {"max_steady_a_y_mps2": float(a_y[k]) if a_y.size else 0.0,
             "max_steady_v_mps": float(trace["v_mps"][k]) if a_y.size else 0.0,
-            "mu_g_mps2": float(env.unwrapped.config.vehicle.tyres.friction_mu * GRAVITY_MPS2)}
+            "grip_limit_a_y_mps2": grip_limit(vehicle, radius_m).a_y_mps2,
+            "mu_g_mps2": float(vehicle.tyres.friction_mu * GRAVITY_MPS2)}
 
 
 def vehicle_label(vehicle: str | None) -> str | None:

@@ -95,6 +95,8 @@ def build_double_lane_change(spec: DoubleLaneChangeSpec) -> Path:
     name = f"dlc_iso3888-1_w{spec.vehicle_width_m:g}_x{spec.length_scale:g}"
     if spec.overlap_m > 0.0:
         name += f"_o{spec.overlap_m:g}"
+    if spec.lane_offset_m != DoubleLaneChangeSpec.lane_offset_m:
+        name += f"_y{spec.lane_offset_m:g}"
     return lane_sequence_path(lanes, (l2, l4), approach_m=spec.approach_m, run_out_m=l_out,
                               ramp_fraction=spec.ramp_fraction, half_width_m=spec.half_width_m, ds_m=spec.ds_m,
                               name=name, version=VERSION, overlap_m=spec.overlap_m)

@@ -14,8 +14,11 @@ A vehicle file (``vtrack_gym/vehicle/data/<name>.json`` for the shipped cars) is
     }
 
 Every group of :class:`VehicleParams` and every field of every group must be present, each as
-``{"value": <finite number>, "source": "<non-empty text>"}``; a source that is our own modelling choice starts
-with ``CHOICE``. Unknown keys, missing keys, duplicate keys, non-finite numbers (``NaN``/``Infinity``), booleans
+``{"value": <finite number>, "source": "<non-empty text>"}``. The shipped files start every source with its kind
+(``SOURCE_TAGS``): ``paper`` (the paper's Nomenclature), ``IDSC`` (the public reproduction of the paper's CarSim
+car), ``ISA`` (standard atmosphere), ``SPEC (from memory, unverified)`` (a manufacturer's published figure as
+recalled, not checked against a document), ``ESTIMATE`` (inferred from typical values) or ``CHOICE`` (our own
+modelling choice). Unknown keys, missing keys, duplicate keys, non-finite numbers (``NaN``/``Infinity``), booleans
 or strings where a number belongs are errors naming the key (``VehicleFileError``, a ``ValueError``), and so is
 any value outside the field's declared range. Files are read only if they are regular files of at most
 ``MAX_VEHICLE_FILE_BYTES``.
@@ -43,6 +46,9 @@ MAX_VEHICLE_FILE_BYTES = 64 * 1024
 
 DEFAULT_VEHICLE = "hatchback"
 """Name of the shipped file holding the paper's car (equal to ``VehicleParams()``)."""
+
+SOURCE_TAGS: tuple[str, ...] = ("paper", "IDSC", "ISA", "SPEC (from memory, unverified)", "ESTIMATE", "CHOICE")
+"""How every source text of a shipped vehicle file begins (its kind of provenance, see the module docstring)."""
 
 _TOP_KEYS = ("format", "name", "description")
 _ENTRY_KEYS = ("value", "source")
@@ -228,6 +234,7 @@ __all__ = [
     "DEFAULT_VEHICLE",
     "FORMAT",
     "MAX_VEHICLE_FILE_BYTES",
+    "SOURCE_TAGS",
     "VehicleFileError",
     "VehicleRecord",
     "list_vehicles",

@@ -233,6 +233,20 @@ def _derivatives(x: np.ndarray, cmd: float, throttle: float, pedal: float, cos_g
     out[L.O_FZRR] = fz_rr
 
 
+def state_derivative(x: np.ndarray, delta_cmd: float, throttle: float, pedal: float, p: np.ndarray,
+                     model: int = L.MODEL_NONLINEAR, grade_rad: float = 0.0,
+                     a_z_road_mps2: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """The plant's time derivative of one state row ``x`` (``N_STATE``) and its outputs (``N_OUTPUT``: a_x, a_y
+    [m/s^2], a_z, the four F_z [N]) for inputs clipped as ``step_vehicle`` clips them (steady-state analysis)."""
+    delta_max = p[L.P_DELTA_MAX]
+    dx = np.zeros(L.N_STATE)
+    out = np.zeros(L.N_OUTPUT)
+    _derivatives(np.asarray(x, dtype=np.float64), _clip(float(delta_cmd), -delta_max, delta_max),
+                 _clip(float(throttle), 0.0, 1.0), _clip(float(pedal), 0.0, p[L.P_PEDAL_MAX]),
+                 math.cos(grade_rad), math.sin(grade_rad), float(a_z_road_mps2), p, model, dx, out)
+    return dx, out
+
+
 WORKSPACE_SIZE = 5 * L.N_STATE + L.N_OUTPUT
 """Scratch floats one vehicle needs per step (RK4 stages, stage state, throw-away outputs)."""
 

@@ -4,7 +4,10 @@ Mass model: the sprung mass ``m_s = mass_kg - unsprung_mass_kg`` has its CG at `
 sprung mass's CG; so does the paper's data set), the unsprung mass sits at the wheel centres
 (``unsprung_cg_height_m``, split front/rear by ``front_unsprung_share``). The whole car's CG height
 (:attr:`VehicleParams.total_cg_height_m`) is their mass-weighted mean; lateral and longitudinal load transfer both
-use it (see ``kernels.py``), so the total load transfer equals the rigid-body value ``m a h``.
+use it (see ``kernels.py``): the longitudinal transfer is the rigid-body ``m a_x h / l``; the steady lateral
+transfer is the rigid-body ``m a_y h / t`` plus the sideways shift of the rolled sprung mass's CG,
+``m_s h_s (a_y (cos phi - 1) + g sin phi) / t`` (real physics, ~6 % on the paper's car with its roll stiffness;
+zero for a rigid suspension; ``steady_state.lateral_transfer_n``).
 
 The default car is the paper's CarSim "C-Class, Hatchback". Values from the paper's Nomenclature are marked
 ``paper``; values from the public reproduction of the same CarSim data set (ETH IDSC ``car_model``,

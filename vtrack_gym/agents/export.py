@@ -141,16 +141,28 @@ def export(model: Any, vecnormalize: Any, path: str | Path, *, env_id: str = "",
 SB3_CLASSES = ("ppo", "sac", "td3")
 
 
-TRAINING_ENV_KWARGS = ("control_period_s",)
-"""Env settings a hyperparameter file may change for training (its ``env_kwargs``)."""
+TRAINING_ENV_KWARGS = ("control_period_s", "reward")
+"""Env settings a hyperparameter file may change for training (its ``env_kwargs``): the decision period [s] and
+``RewardConfig`` fields (a mapping, e.g. ``{w_ey: 1.0}``)."""
 
 
 def training_env_kwargs(raw: dict[str, Any] | None) -> dict[str, Any]:
-    """The ``env_kwargs`` of a hyperparameter set, checked against ``TRAINING_ENV_KWARGS`` (``ValueError``)."""
+    """The ``env_kwargs`` of a hyperparameter set as ``TrackingEnv`` keyword arguments, checked against
+    ``TRAINING_ENV_KWARGS`` (``ValueError``); a ``reward`` mapping becomes a validated ``RewardConfig``."""
     kwargs = dict(raw or {})
     unknown = sorted(set(kwargs) - set(TRAINING_ENV_KWARGS))
     if unknown:
         raise ValueError(f"env_kwargs may set {', '.join(TRAINING_ENV_KWARGS)} (got {', '.join(unknown)})")
+    if "reward" in kwargs:
+        from vtrack_gym.envs.config import RewardConfig
+
+        reward = kwargs["reward"]
+        if not isinstance(reward, dict):
+            raise ValueError(f"env_kwargs.reward must be a mapping of RewardConfig fields (got {reward!r})")
+        try:
+            kwargs["reward"] = RewardConfig(**reward)
+        except TypeError as exc:
+            raise ValueError(f"env_kwargs.reward: {exc}") from None
     return kwargs
 
 

@@ -1,0 +1,95 @@
+"""The RL training distribution (``vtrack/TrainingMix-v0``): every evaluation regime inside it, per-road speed
+profiles within their limits, domain randomisation drawn per episode only where the reset options leave a knob at
+its default, and scenarios without ranges untouched."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import vtrack_gym  # noqa: F401
+from vtrack_gym.envs.scenarios import SCENARIOS, TRAINING_MIX, ScenarioConfig
+from vtrack_gym.envs.sim import CIRCLE_MIN_PEAK_G
+from vtrack_gym.vehicle.params import GRAVITY_MPS2
+from vtrack_gym.tracks.training_mix import KINDS, TrainingMixProfile, training_bank
+
+G = 9.81
+
+
+@pytest.fixture(scope="module")
+def bank():
+    return training_bank(TRAINING_MIX.procedural_seed, TRAINING_MIX.procedural_bank_size, 1.916)
+
+
+def test_bank_covers_the_evaluation_regimes(bank) -> None:
+    kinds = [p.name.split("-")[0].removeprefix("mix_") for p in bank]
+    assert [kinds.count(k) for k in KINDS] == [16, 16, 16, 16]
+    profile = TrainingMixProfile()
+    tightest = {k: 0.0 for k in KINDS}
+    fastest_lane_change = 0.0
+    for path, kind in zip(bank, kinds, strict=True):
+        kappa = np.abs(path.table[:, 3])
+        tightest[kind] = max(tightest[kind], float(kappa.max()))
+        v = profile.row_speeds(path)
+        assert np.all(v > 0.0) and np.all(v <= 36.0 + 1e-9)
+        if kind == "lanechange":
+            assert path.gates and np.ptp(v) == 0.0  # ISO lane sequence at a constant speed
+            fastest_lane_change = max(fastest_lane_change, float(v[0]))
+        else:
+            # curvature-limited: the centre-line never asks for more than 0.85 g
+            assert float(np.max(v ** 2 * kappa)) <= 0.85 * G * 1.02
+    assert 1.0 / tightest["hairpin"] < 6.0          # hairpins tighter than the 6 m the circuits ask for
+    assert 1.0 / tightest["twisty"] < 20.0          # Case 1's tightest corner is ~20 m
+    assert fastest_lane_change > 120.0 / 3.6        # DLC120-v0's speed is inside the lane-change range
+
+
+def test_randomisation_is_drawn_per_episode_within_ranges() -> None:
+    env = gym.make("vtrack/TrainingMix-v0")
+    sim = env.unwrapped._sim
+    seen: dict[str, list] = {"mu": [], "noise": [], "delay": []}
+    for seed in range(12):
+        env.reset(seed=seed)
+        # the friction the plant was given (reset_car records CIRCLE_MIN_PEAK_G x mu x g per car)
+        seen["mu"].append(float(sim.circle_min_peak_a_y[0]) / (CIRCLE_MIN_PEAK_G * GRAVITY_MPS2))
+        seen["noise"].append(float(sim.noise_scale[0]))
+        seen["delay"].append(int(sim.delay_steps[0]))
+    lo, hi = TRAINING_MIX.friction_range
+    assert all(lo - 1e-9 <= m <= hi + 1e-9 for m in seen["mu"]) and len(set(seen["mu"])) > 6
+    lo, hi = TRAINING_MIX.sensor_noise_range
+    assert all(lo <= n <= hi for n in seen["noise"]) and len(set(seen["noise"])) > 6
+    assert set(seen["delay"]) <= {0, 1, 2, 3, 4, 5} and len(set(seen["delay"])) > 2  # 0-50 ms at 10 ms
+    # an explicit reset option wins over the scenario's draw
+    env.reset(seed=0, options={"sensor_noise": 2.5, "actuator_delay_s": 0.02})
+    assert sim.noise_scale[0] == 2.5 and sim.delay_steps[0] == 2
+
+
+def test_same_seed_same_randomised_episode() -> None:
+    def run(seed: int) -> np.ndarray:
+        env = gym.make("vtrack/TrainingMix-v0")
+        obs, _ = env.reset(seed=seed)
+        rows = [obs]
+        for _ in range(100):
+            obs, *_ = env.step(np.array([0.05], dtype=np.float32))
+            rows.append(obs)
+        return np.array(rows)
+
+    np.testing.assert_array_equal(run(7), run(7))
+
+
+def test_scenarios_without_ranges_draw_nothing() -> None:
+    for name, sc in SCENARIOS.items():
+        if name != "TrainingMix-v0":
+            assert sc.friction_range is None and sc.mass_scale_range is None and sc.sensor_noise_range is None
+            assert sc.max_actuator_delay_s == 0.0
+    env = gym.make("DLC120-v0")
+    env.reset(seed=0)
+    assert env.unwrapped._sim.noise_scale[0] == 0.0 and env.unwrapped._sim.delay_steps[0] == 0
+
+
+@pytest.mark.parametrize("field, value", [("friction_range", (0.05, 1.0)), ("mass_scale_range", (1.5, 1.2)),
+                                          ("sensor_noise_range", (0.0, 9.0)), ("friction_range", [0.7, 1.0]),
+                                          ("mass_scale_range", (True, 1.0))])
+def test_bad_randomisation_ranges_are_refused(field: str, value: object) -> None:
+    with pytest.raises(ValueError, match=f"ScenarioConfig.{field}"):
+        ScenarioConfig("x", "handling_course", **{field: value})

@@ -90,6 +90,21 @@ def _policy_kwargs(raw: Mapping[str, Any] | None) -> dict[str, Any]:
     return kwargs
 
 
+def _schedule(name: str, value: Any) -> Any:
+    """A number as is, or ``"lin_X"`` (rl-zoo's notation) as a schedule falling linearly from X to 0 over the run
+    (SB3 calls it with the remaining progress, 1 -> 0)."""
+    if not isinstance(value, str):
+        return value
+    head, _, number = value.partition("_")
+    try:
+        start = float(number)
+    except ValueError:
+        start = float("nan")
+    if head != "lin" or not (start > 0.0 and start < 1e3):
+        raise ValueError(f"{name} must be a number or 'lin_X' with X > 0, e.g. lin_3e-4 (got {value!r})")
+    return lambda progress_remaining: progress_remaining * start
+
+
 class _Wrapped:
     """SB3 model + frozen VecNormalize statistics as a ``predict`` policy on raw observations."""
 
@@ -272,6 +287,9 @@ def train(algo: str, env_id: str | None = None, timesteps: int = 1_000_000, seed
     obs_scaling = params.pop("obs_scaling", "running")
     env_kwargs = training_env_kwargs(params.pop("env_kwargs", None))
     params["policy_kwargs"] = _policy_kwargs(params.get("policy_kwargs"))
+    for key in ("learning_rate", "clip_range"):
+        if key in params:
+            params[key] = _schedule(key, params[key])
     venv = TrackingSB3VecEnv(env_id, num_envs=n_envs, **env_kwargs)
     venv.seed(seed)
     vecnorm = VecNormalize(VecMonitor(venv), **norm_kwargs)  # VecMonitor: rollout/ep_rew_mean, ep_len_mean

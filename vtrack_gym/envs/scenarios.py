@@ -156,16 +156,16 @@ the car starts at the target speed, or at rest in 20 % of the episodes (Case 1 s
 def _training_mix() -> ScenarioConfig:
     from vtrack_gym.tracks.training_mix import TrainingMixProfile
 
-    return ScenarioConfig("TrainingMix-v0", "training_mix", 15.0, 15.0, 60.0, procedural_bank_size=64,
+    return ScenarioConfig("TrainingMix-v0", "training_mix", 15.0, 15.0, 60.0, procedural_bank_size=60,
                           standstill_start_fraction=0.2, speed_profile=TrainingMixProfile(),
                           friction_range=(0.7, 1.1), mass_scale_range=(0.8, 1.25), sensor_noise_range=(0.0, 1.0),
                           max_actuator_delay_s=0.05)
 
 
 TRAINING_MIX = _training_mix()
-"""The RL training distribution (``tracks.training_mix``): 64 roads, a quarter each twisty (R >= 18 m), highway
-(R >= 120 m), hairpin (R >= 5.5 m) and ISO 3888-1 lane changes (x1-2.5 lengths, up to 36 m/s), each with its
-own speed profile; 20 % standstill starts; friction 0.7-1.1, mass x0.8-1.25, sensor noise 0-1 x nominal and
+"""The RL training distribution (``tracks.training_mix``): 60 roads, half of them lane-change courses (8 cone-lined
+lanes 2.5-4 m left or right and back at 15-37 m/s, 0.4-0.85 g), a sixth each twisty (R >= 18 m), highway
+(R >= 120 m) and hairpin (R >= 5.5 m) roads, each with its own speed profile; 20 % standstill starts; friction 0.7-1.1, mass x0.8-1.25, sensor noise 0-1 x nominal and
 actuator delay 0-50 ms drawn per episode; 60 s episodes. Covers every evaluation regime of the package."""
 
 TRACK_DEFAULT_MAX_SPEED_MPS = 40.0 * KMH

@@ -1,4 +1,5 @@
-"""The RL training bank: four kinds of road, each with its own speed profile (``TrainingMixProfile``).
+"""The RL training bank: four kinds of road (half the bank lane changes), each with its own speed profile
+(``TrainingMixProfile``).
 
 =============  ============================================================  ==========================================
 kind           geometry                                                      speed profile (drawn per track)
@@ -6,8 +7,9 @@ kind           geometry                                                      spe
 ``twisty``     procedural, radii down to 18 m, 800 m                         curvature-limited: max 6-30 m/s, 0.45-0.85 g
 ``highway``    procedural, radii down to 120 m, 800 m                        curvature-limited: max 15-36 m/s, 0.45-0.85 g
 ``hairpin``    procedural, radii down to 5.5 m, turns up to 170 deg, 500 m   curvature-limited: max 6-20 m/s, 0.45-0.8 g
-``lanechange`` ISO 3888-1 lane sequence (gates), lengths x1-2.5, 2.5-4 m      constant: 50-100 % of the speed whose
-               offset, 30-100 m approach                                     centre-line peak is 0.8 g, <= 36 m/s
+``lanechange`` 8 cone-lined lanes (ISO 3888 widths 1.1-1.3 w + 0.25 m), each  constant, 15-37 m/s (drawn first; the
+               2.5-4 m left or right of the road and back, transitions       transitions are sized for it)
+               sized for a centre-line peak of 0.4-0.85 g at the speed
 =============  ============================================================  ==========================================
 
 Every evaluation regime of the package lies inside: Case 1 (R >= 20 m at 11 m/s from rest), DLC120-v0 (3.5 m at
@@ -24,19 +26,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vtrack_gym.tracks.dlc import DoubleLaneChangeSpec, build_double_lane_change
-from vtrack_gym.tracks.path import Path
+from vtrack_gym.tracks.path import DEFAULT_DS_M, Path
 from vtrack_gym.tracks.procedural import ProceduralTrackConfig, procedural_track_from_config
 from vtrack_gym.tracks.speed_profiles import ConstantSpeed, CurvatureLimited
 
 GRAVITY_MPS2 = 9.81
 KINDS: tuple[str, ...] = ("twisty", "highway", "hairpin", "lanechange")
-"""The kinds of road in the bank, in the order they repeat (track k is of kind ``KINDS[k % 4]``)."""
+"""The kinds of road in the bank."""
+BANK_PATTERN: tuple[str, ...] = ("twisty", "lanechange", "highway", "lanechange", "hairpin", "lanechange")
+"""Track k is of kind ``BANK_PATTERN[k % 6]``: half the episodes are lane-change courses (they are the shortest,
+~20-30 s against 60 s, and the most demanding at speed), a sixth each twisty, highway and hairpin roads."""
 DLC120_SPEED_MPS = 120.0 / 3.6
 DLC120_PEAK_G = 0.81
 """DLC120-v0 (length x2, 3.5 m offset) at 33.3 m/s peaks at 0.81 g on its centre-line; the peak scales with
 v^2 offset / length^2, which sizes the lane-change speeds."""
-LANE_CHANGE_PEAK_G = 0.8
 
 _PROCEDURAL: dict[str, ProceduralTrackConfig] = {
     "twisty": ProceduralTrackConfig(length_m=800.0, max_curvature_per_m=1.0 / 18.0, max_dkappa_per_m2=0.008),
@@ -64,16 +67,40 @@ def _kind(path: Path) -> str:
     return kind
 
 
-def lane_change_spec(rng: np.random.Generator, vehicle_width_m: float) -> DoubleLaneChangeSpec:
-    """A random ISO 3888-1 style lane change: lengths x1-2.5, offset 2.5-4 m, approach 30-100 m."""
-    return DoubleLaneChangeSpec(vehicle_width_m=vehicle_width_m, length_scale=float(rng.uniform(1.0, 2.5)),
-                                lane_offset_m=float(rng.uniform(2.5, 4.0)), approach_m=float(rng.uniform(30.0, 100.0)))
+LANE_CHANGE_SPEED_MPS = (15.0, 37.0)
+"""Speed range of the lane-change courses [m/s] (DLC120-v0 drives at 33.3 m/s, the robust suite up to 36.7)."""
+LANE_CHANGE_PEAK_G = (0.4, 0.85)
+"""Centre-line peak lateral acceleration of each transition [g] (DLC120-v0: 0.81 g)."""
+N_LANES = 8
 
 
-def lane_change_max_speed_mps(spec: DoubleLaneChangeSpec) -> float:
-    """Speed [m/s] at which ``spec``'s centre-line peaks at ``LANE_CHANGE_PEAK_G`` (scaled from DLC120-v0)."""
-    scale = (spec.length_scale / 2.0) * math.sqrt(3.5 / spec.lane_offset_m)
-    return DLC120_SPEED_MPS * scale * math.sqrt(LANE_CHANGE_PEAK_G / DLC120_PEAK_G)
+def _lane_change_speed(rng: np.random.Generator) -> float:
+    """The course's speed [m/s]: the first draw of the course's generator (the profile re-draws it by name)."""
+    return float(rng.uniform(*LANE_CHANGE_SPEED_MPS))
+
+
+def lane_change_course(name: str, vehicle_width_m: float) -> Path:
+    """``N_LANES`` cone-lined lanes alternating between the road's line and 2.5-4 m left or right of it, each
+    transition sized so that the centre-line peaks at 0.4-0.9 g at the course's speed (scaled from DLC120-v0:
+    a 3.5 m offset over 50 m at 33.3 m/s peaks at 0.81 g; the peak goes as v^2 offset / length^2)."""
+    from vtrack_gym.tracks.lanes import LaneSection, lane_sequence_path
+
+    rng = _rng(name)
+    v = _lane_change_speed(rng)
+    lanes, gaps = [], []
+    y = 0.0
+    for k in range(N_LANES):
+        width = float(rng.uniform(1.1, 1.3)) * vehicle_width_m + 0.25
+        lanes.append(LaneSection(float(rng.uniform(10.0, 30.0)) * max(v / 20.0, 1.0), width, y, f"lane {k + 1}"))
+        if k < N_LANES - 1:
+            offset = float(rng.uniform(2.5, 4.0))
+            new_y = 0.0 if y != 0.0 else (offset if rng.random() < 0.5 else -offset)
+            peak_g = float(rng.uniform(*LANE_CHANGE_PEAK_G))
+            gaps.append(50.0 * (v / DLC120_SPEED_MPS) * math.sqrt(DLC120_PEAK_G / peak_g * abs(new_y - y) / 3.5))
+            y = new_y
+    return lane_sequence_path(lanes, gaps, approach_m=float(rng.uniform(30.0, 60.0)), run_out_m=30.0,
+                              ramp_fraction=0.135, half_width_m=4.0, ds_m=DEFAULT_DS_M, name=name,
+                              version="mix-1")
 
 
 @dataclass(frozen=True)
@@ -85,24 +112,22 @@ class TrainingMixProfile:
         kind = _kind(path)
         rng = _rng(path.name + "/speed")
         if kind == "lanechange":
-            spec = lane_change_spec(_rng(path.name), float(path.name.rsplit("-w", 1)[1]))
-            v = min(36.0, max(8.0, lane_change_max_speed_mps(spec) * float(rng.uniform(0.5, 1.0))))
-            return ConstantSpeed(v).row_speeds(path)
+            return ConstantSpeed(_lane_change_speed(_rng(path.name))).row_speeds(path)
         v_lo, v_hi, g_lo, g_hi = _SPEED_RANGES[kind]
         profile = CurvatureLimited(float(rng.uniform(v_lo, v_hi)), float(rng.uniform(g_lo, g_hi)) * GRAVITY_MPS2)
         return profile.row_speeds(path)
 
 
 def training_bank(seed: int, size: int, vehicle_width_m: float) -> tuple[Path, ...]:
-    """``size`` training tracks, kinds cycling through ``KINDS``; deterministic for ``seed``."""
+    """``size`` training tracks, kinds cycling through ``BANK_PATTERN``; deterministic for ``seed``."""
     from dataclasses import replace
 
     paths = []
     for k in range(size):
-        kind = KINDS[k % len(KINDS)]
+        kind = BANK_PATTERN[k % len(BANK_PATTERN)]
         if kind == "lanechange":
             name = f"mix_lanechange-{seed}-{k}-w{vehicle_width_m:g}"
-            path = build_double_lane_change(lane_change_spec(_rng(name), vehicle_width_m))
+            path = lane_change_course(name, vehicle_width_m)
         else:
             name = f"mix_{kind}-{seed}-{k}"
             path = procedural_track_from_config(seed + k, _PROCEDURAL[kind])

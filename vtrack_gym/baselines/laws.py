@@ -79,12 +79,17 @@ def smc_singular_speed(design: DesignModel) -> float:
     return math.sqrt(arg) / (m * a1) if arg > 0.0 else math.nan
 
 
-def smc_dynamics_floor(design: DesignModel, control_period_s: float, actuator_lag_s: float) -> float:
+def smc_dynamics_floor(design: DesignModel, control_period_s: float, actuator_lag_s: float,
+                       guard_band_mps: float) -> float:
     """Low-speed floor [m/s] of the speed the SMC's yaw dynamics are evaluated at: the speed at which the yaw
     mode the law cancels, |K_r| = (a1^2 C_af + a2^2 C_ar)/(I_z v), is as fast as the loop's delay allows,
-    1/(T_c/2 + tau) (half a control period of hold plus the actuator lag; 8.74 m/s for the paper's car)."""
+    1/(T_c/2 + tau) (half a control period of hold plus the actuator lag; 8.74 m/s for the paper's car). It never
+    reaches the singular speed's guard band (``v* - guard_band_mps``): the coefficients change sign across v*,
+    so the floor must stay on the slow side (the SUV's v* = 4.6 m/s caps its floor at 4.3 m/s)."""
     k = smc_design_constants(design)
-    return k[5] / k[4] * (0.5 * control_period_s + actuator_lag_s)
+    floor = k[5] / k[4] * (0.5 * control_period_s + actuator_lag_s)
+    v_star = smc_singular_speed(design)
+    return min(floor, v_star - guard_band_mps) if math.isfinite(v_star) else floor
 
 
 def guarded_speed(v: float, v_star: float, band: float = 0.3) -> float:

@@ -35,7 +35,8 @@ Implementation rules (documented deviations from a literal reading):
 * Low-speed floor of the yaw dynamics (``low_speed_floor``, default on): the law cancels the yaw mode
   |K_r| = (a1^2 C_af + a2^2 C_ar)/(I_z v) [1/s], which at low speed is faster than the loop's delay allows
   (half a control period plus the actuator lag, ``actuator_lag_s`` = 0.03 s): below ``smc_dynamics_floor``
-  (8.74 m/s for the paper's car at T_c = 10 ms) c1, c2, c3, f5, f6 are evaluated at the floor, the sideslip
+  (8.74 m/s for the paper's car at T_c = 10 ms; never above v* - guard_band_mps, so that the floor stays on the
+  slow side of the singular speed) c1, c2, c3, f5, f6 are evaluated at the floor, the sideslip
   shift at the true speed, and the feedforward ``k7 [(f5(floor) - f5(v)) phi_dot_r + (f6(floor) - f6(v))
   v_y,ss]`` (v_y,ss = phi_dot_r (a2 - m a1 v^2/(C_ar l)), the steady-state lateral speed) keeps the linear
   steady state on a curve exact (e_y,ss = 0). Without it the law limit-cycles through 6-8 m hairpins at 5-7 m/s
@@ -153,7 +154,8 @@ class SMC(TunedPresets, Policy):
         layer = smc_layer(eta, delta, self.control_period_s, cfg.limit_layer_rate)
         self.law = smc_law(design, layout, pole, eta, layer, cfg.min_speed_mps, cfg.guard_band_mps,
                            cfg.sideslip_shift, cfg.actuator_lag_s if cfg.rate_anticipation else None,
-                           smc_dynamics_floor(design, self.control_period_s, cfg.actuator_lag_s)
+                           smc_dynamics_floor(design, self.control_period_s, cfg.actuator_lag_s,
+                                              cfg.guard_band_mps)
                            if cfg.low_speed_floor else 0.0)
         self.boundary_layer: float | np.ndarray = layer
         if rows is None:

@@ -85,8 +85,9 @@ def closed_circuit(features_east: list[Segment], features_north: list[Segment], 
 
 
 def circuits() -> dict[str, list[Segment]]:
-    """Three real-circuit-like loops (radii in m): a hairpin pair, a twisty club circuit, a fast one with a 6 m
-    hairpin at the end of the long straight."""
+    """Four real-circuit-like loops (radii in m): a hairpin pair, a twisty club circuit, a fast one with a 6 m
+    hairpin at the end of the long straight, and a kart-like one (6 m chicane, a 6 m hairpin between 8 m corners,
+    a 10-6-10 m S-bend)."""
     return {
         "hairpins": closed_circuit(
             [straight(120.0), *chicane(15.0, 35.0), straight(60.0)],
@@ -100,6 +101,11 @@ def circuits() -> dict[str, list[Segment]]:
             [straight(300.0), arc(60.0, 20.0), arc(60.0, -20.0), straight(100.0)],
             [straight(150.0), arc(6.0, 180.0), straight(20.0), arc(6.0, -180.0), straight(100.0)],
             (40.0, 25.0, 50.0, 10.0)),
+        "kart": closed_circuit(
+            [straight(50.0), *chicane(6.0, 50.0), straight(25.0), arc(8.0, 90.0), arc(6.0, -180.0), arc(8.0, 90.0),
+             straight(30.0)],
+            [straight(40.0), arc(10.0, -45.0), arc(6.0, 90.0), arc(10.0, -45.0), straight(30.0)],
+            (12.0, 6.0, 15.0, 8.0)),
     }
 
 

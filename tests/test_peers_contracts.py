@@ -200,10 +200,10 @@ def test_actions_clipped(name: str, policies: dict[str, Policy]) -> None:
 
 def test_overflowing_checksum_of_finite_values_is_accepted() -> None:
     """The single path's NaN check sums the row; a finite overflow falls back to an exact check."""
-    pol = make_policy("smc", FAKE_ENV)        # reads neither target_speed nor the preview
+    pol = make_policy("smc", FAKE_ENV)        # reads neither target_speed nor the speed preview
     huge = random_observations(1)[0]
     huge[pol.layout.TARGET_SPEED] = 1e308
-    huge[pol.layout.preview.start] = 1e308
+    huge[pol.layout.speed_preview.start] = 1e308
     a, _ = pol.predict(huge)
     assert np.isfinite(a).all()
 

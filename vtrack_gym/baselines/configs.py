@@ -32,6 +32,10 @@ class SMCConfig:
     limit_layer_rate: widen Delta so that eta/Delta <= 1/T_c (OPTION 4 rule).
     min_speed_mps: speed clamp of the model [m/s].
     guard_band_mps: half-width of the singular-speed guard [m/s].
+    rate_anticipation: track the rate-limit anticipated yaw rate (``laws.rate_anticipation``; exactly inactive
+    while the previewed steady-state steer is reachable at the actuator's rate).
+    actuator_lag_s: the steering actuator's lag [s] (anticipation and low-speed floor).
+    low_speed_floor: evaluate the yaw dynamics no slower than ``smc_dynamics_floor`` (steady state kept).
     """
 
     pole_radps: float = ranged(8.0, gt=0.0, le=100.0, unit="rad/s")
@@ -41,6 +45,9 @@ class SMCConfig:
     limit_layer_rate: bool = True
     min_speed_mps: float = ranged(3.0, ge=0.5, le=20.0, unit="m/s")
     guard_band_mps: float = ranged(0.3, ge=0.05, le=3.0, unit="m/s")  # > 0: no division by zero at v*
+    rate_anticipation: bool = True
+    actuator_lag_s: float = ranged(0.03, ge=0.0, le=1.0, unit="s")
+    low_speed_floor: bool = True
 
     def __post_init__(self) -> None:
         validate(self)

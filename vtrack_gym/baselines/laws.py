@@ -30,6 +30,39 @@ MPC_STATE_SIZE = 9
 TWO_PI = 2.0 * math.pi
 
 
+# ------------------------------------------------------------------------------- rate-limit anticipation
+ANTICIPATION_RATE_FACTOR = 2.0
+"""The anticipation plans the steady-state steer just in time at this multiple of the actuator's rate limit: the
+actuator, following that plan at its own rate, then ramps through every curvature change centred on it."""
+
+
+@njit(cache=True)
+def rate_anticipation(obs: np.ndarray, i: int, kappa_idx: int, pv0: int, n_preview: int, pv_vmin: float,
+                      pv_dt: float, v: float, steer_gain: float, rate: float, lag_s: float) -> float:
+    """Anticipation [rad] to add to a steering law's command on observation row ``i`` (0.0 exactly when the
+    previewed steady-state steer is reachable in time).
+
+    The steady-state steer along the preview is ``delta_k = steer_gain kappa_k`` (``steer_gain`` = l + K_us v^2
+    [m]; kappa_0 the curvature at the car, kappa_k the preview samples, reached after ``t_k = d_k / v`` [s]). A
+    command delta now can still reach every delta_k if ``|delta - delta_k| <= rate max(t_k - lag_s, 0)`` (``rate``
+    [rad/s], ``lag_s`` the actuator's lag [s]). If delta_0 satisfies every such bound the result is 0.0; otherwise
+    it is the shift onto the nearest bound (the middle of the two bounds when they cross). Nothing below 0.5 m/s.
+    """
+    if v < 0.5 or rate <= 0.0:
+        return 0.0
+    d0 = steer_gain * float(obs[i, kappa_idx])
+    lo, hi = -math.inf, math.inf
+    step = pv_dt * max(v, pv_vmin) / v
+    for k in range(n_preview):
+        reach = rate * max((k + 1) * step - lag_s, 0.0)
+        dk = steer_gain * float(obs[i, pv0 + k])
+        lo = max(lo, dk - reach)
+        hi = min(hi, dk + reach)
+    if lo > hi:
+        return 0.5 * (lo + hi) - d0
+    return lo - d0 if d0 < lo else (hi - d0 if d0 > hi else 0.0)
+
+
 # ------------------------------------------------------------------------------------------------------ SMC
 def smc_design_constants(design: DesignModel) -> tuple[float, ...]:
     """(m a1, a2 C_ar l, C_ar l, lambda, I_z, a1^2 C_af + a2^2 C_ar, h, I_z/(a1 C_af)) of paper-math 5."""
@@ -44,6 +77,19 @@ def smc_singular_speed(design: DesignModel) -> float:
     m, iz, a1, a2 = design.mass_kg, design.yaw_inertia_kgm2, design.cg_to_front_axle_m, design.cg_to_rear_axle_m
     arg = design.rear_cornering_stiffness_npr * design.wheelbase_m * (m * a1 * a2 - iz)
     return math.sqrt(arg) / (m * a1) if arg > 0.0 else math.nan
+
+
+def smc_dynamics_floor(design: DesignModel, control_period_s: float, actuator_lag_s: float,
+                       guard_band_mps: float) -> float:
+    """Low-speed floor [m/s] of the speed the SMC's yaw dynamics are evaluated at: the speed at which the yaw
+    mode the law cancels, |K_r| = (a1^2 C_af + a2^2 C_ar)/(I_z v), is as fast as the loop's delay allows,
+    1/(T_c/2 + tau) (half a control period of hold plus the actuator lag; 8.74 m/s for the paper's car). It never
+    reaches the singular speed's guard band (``v* - guard_band_mps``): the coefficients change sign across v*,
+    so the floor must stay on the slow side (the SUV's v* = 4.6 m/s caps its floor at 4.3 m/s)."""
+    k = smc_design_constants(design)
+    floor = k[5] / k[4] * (0.5 * control_period_s + actuator_lag_s)
+    v_star = smc_singular_speed(design)
+    return min(floor, v_star - guard_band_mps) if math.isfinite(v_star) else floor
 
 
 def guarded_speed(v: float, v_star: float, band: float = 0.3) -> float:
@@ -80,6 +126,16 @@ class SMCLaw(NamedTuple):
     v_star: float          # singular speed [m/s] (NaN: none)
     guard: float           # guard half-band [m/s]
     shift: bool            # OPTION 2 sideslip shift
+    kappa_idx: int         # observation index of the curvature
+    pv0: int               # first preview entry of the observation
+    n_preview: int
+    pv_vmin: float         # preview spacing speed floor [m/s]
+    pv_dt: float           # preview spacing [s]
+    ant_rate: float        # rate-limit anticipation rate [rad/s] (0: off)
+    ant_lag: float         # actuator lag allowed for by the anticipation [s]
+    wheelbase_m: float
+    kus: float             # understeer gradient K_us [rad s^2/m]
+    dyn_floor: float       # low-speed floor of the yaw-dynamics model speed [m/s] (0: none)
 
 
 def smc_layer(eta: np.ndarray, delta: np.ndarray, control_period_s: float, limit_layer_rate: bool) -> np.ndarray:
@@ -88,26 +144,36 @@ def smc_layer(eta: np.ndarray, delta: np.ndarray, control_period_s: float, limit
 
 
 def smc_law(design: DesignModel, layout: ObservationLayout, pole: Any, eta: Any, layer: Any, min_speed_mps: float,
-            guard_band_mps: float, sideslip_shift: bool) -> SMCLaw:
+            guard_band_mps: float, sideslip_shift: bool, anticipation_lag_s: float | None = None,
+            dynamics_floor_mps: float = 0.0) -> SMCLaw:
     """``SMCLaw`` for poles p [rad/s], gains eta [rad/s^2] and effective layers [rad/s] (scalars or (R,) arrays,
-    positive, checked by the caller)."""
+    positive, checked by the caller); ``anticipation_lag_s`` [s] turns the rate-limit anticipation on (None: off)."""
+    from vtrack_gym.vehicle.linear import understeer_gradient
+
     pole, eta, layer = (np.ascontiguousarray(np.asarray(a, dtype=np.float64).reshape(-1)) for a in (pole, eta, layer))
     k = np.array(smc_design_constants(design))
     return SMCLaw(np.array([layout.index(n) for n in SMC_SIGNALS], dtype=np.int64), k, pole, eta * k[7],
                   1.0 / layer, float(min_speed_mps), float(smc_singular_speed(design)), float(guard_band_mps),
-                  bool(sideslip_shift))
+                  bool(sideslip_shift), layout.index("curvature"), layout.preview.start, layout.n_preview,
+                  float(layout.preview_min_speed_mps), float(layout.preview_dt_s),
+                  0.0 if anticipation_lag_s is None else ANTICIPATION_RATE_FACTOR * design.max_road_wheel_rate_radps,
+                  0.0 if anticipation_lag_s is None else float(anticipation_lag_s), float(design.wheelbase_m),
+                  float(understeer_gradient(design)), float(dynamics_floor_mps))
 
 
 def smc_surface_and_law(k: Any, cf: Any, v: float, p_shift: bool, e_y: float, e_phi: float, e_y_dot: float,
-                        e_phi_dot: float, v_y: float, r: float, rate_ref: float, acc_ref: float) -> tuple[float, float]:
-    """``(sigma [rad/s], delta_eq [rad])``: the surface (27) and the law (31) without the switching term."""
-    lam, f3, f4, c1, c2, c3, f5, f6 = cf[0], cf[1], cf[2], cf[4], cf[5], cf[6], cf[7], cf[8]
+                        e_phi_dot: float, v_y: float, r: float, rate_ref: float, acc_ref: float, f3s: float, f4s: float,
+                        vs: float) -> tuple[float, float]:
+    """``(sigma [rad/s], delta_eq [rad])``: the surface (27) and the law (31) without the switching term, with the
+    coefficients ``cf`` at speed ``v`` [m/s] and the sideslip shift's f3, f4 at speed ``vs`` (the same ones unless
+    the low-speed floor applies)."""
+    lam, c1, c2, c3, f5, f6 = cf[0], cf[4], cf[5], cf[6], cf[7], cf[8]
     x1 = e_y - lam * e_phi
     x2 = e_y_dot - lam * e_phi_dot
     bracket = acc_ref * (1.0 + c2 * lam) - f5 * r - f6 * v_y + c1 * x2 + (c2 * v + c3) * e_phi_dot
     if p_shift:
-        x3s = f3 * rate_ref / (v * f4)
-        x3s_dot = f3 * acc_ref / (v * f4)
+        x3s = f3s * rate_ref / (vs * f4s)
+        x3s_dot = f3s * acc_ref / (vs * f4s)
         sigma = e_phi_dot - c1 * (x1 + lam * x3s) - c2 * x2 - c3 * (e_phi - x3s)
         bracket = bracket - (c3 - c1 * lam) * x3s_dot
     else:
@@ -128,12 +194,29 @@ def smc_row(law: SMCLaw, obs: np.ndarray, i: int) -> tuple[float, float, bool]:
     v_clamped = max(float(obs[i, idx[0]]), law.min_speed)
     v = _guarded_speed(v_clamped, law.v_star, law.guard)
     cf = _smc_coefficients(law.k, v, law.pole[r])
+    e_phi_dot, rate_ref = float(obs[i, idx[4]]), float(obs[i, idx[7]])
+    if law.ant_rate > 0.0:  # track the anticipated yaw rate v kappa_a (kappa_a: the anticipated steer's curvature)
+        vx = max(float(obs[i, idx[0]]), 0.0)
+        gain = law.wheelbase_m + law.kus * vx * vx
+        dr = vx * rate_anticipation(obs, i, law.kappa_idx, law.pv0, law.n_preview, law.pv_vmin, law.pv_dt, vx, gain,
+                                    law.ant_rate, law.ant_lag) / gain
+        rate_ref += dr
+        e_phi_dot -= dr
+    f3s, f4s, vs = cf[1], cf[2], v
+    ff = 0.0
+    if law.dyn_floor > v:  # the yaw dynamics at the floor speed; steady state and sideslip shift at v
+        vd = _guarded_speed(law.dyn_floor, law.v_star, law.guard)
+        cfd = _smc_coefficients(law.k, vd, law.pole[r])
+        vy_ss = rate_ref * (law.k[1] - law.k[0] * v * v) / law.k[2]
+        ff = law.k[7] * ((cfd[7] - cf[7]) * rate_ref + (cfd[8] - cf[8]) * vy_ss)
+        cf, v = cfd, vd
     sigma, delta_eq = _smc_surface_and_law(law.k, cf, v, law.shift, float(obs[i, idx[1]]), float(obs[i, idx[2]]),
-                                           float(obs[i, idx[3]]), float(obs[i, idx[4]]), float(obs[i, idx[5]]),
-                                           float(obs[i, idx[6]]), float(obs[i, idx[7]]), float(obs[i, idx[8]]))
+                                           float(obs[i, idx[3]]), e_phi_dot, float(obs[i, idx[5]]),
+                                           float(obs[i, idx[6]]), rate_ref, float(obs[i, idx[8]]), f3s, f4s, vs)
+    delta_eq += ff
     z = sigma * law.inv_layer[r]
     sat = 1.0 if z > 1.0 else (-1.0 if z < -1.0 else z)
-    return delta_eq - law.eta_k[r] * sat, sigma, v != v_clamped
+    return delta_eq - law.eta_k[r] * sat, sigma, vs != v_clamped
 
 
 @njit(cache=True)

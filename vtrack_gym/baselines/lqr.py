@@ -16,6 +16,12 @@ steady-state heading error (k3 = K[2]), so that e_y,ss = 0 on a constant curve. 
 curvature, or (``feedforward_lead_s`` > 0) the preview curvature that far ahead in time (to compensate the
 steering actuator lag). Measurements: e_y, e_y_dot, e_phi, e_phi_dot straight from the observation.
 
+Rate-limit anticipation (``rate_anticipation``, default on): ``laws.rate_anticipation`` is added to delta. It
+is exactly 0 while the steady-state steer along the curvature preview stays reachable at the actuator's rate
+limit (every paper scenario); before a curvature change the actuator cannot follow in time (a 6 m hairpin or an
+S-bend at 25 km/h: 0.5-1 rad of steer at 0.87 rad/s) it starts the steer early, so that the rate-limited ramp is
+centred on the change instead of starting at it.
+
 The road-wheel angle is clipped to +-max_road_wheel_angle_rad; the controller is stateless (rate limits are
 left to the actuator).
 
@@ -38,7 +44,7 @@ from numba import njit
 
 from vtrack_gym._ranges import documented, ranged, validate
 from vtrack_gym.baselines.base import Policy, SpeedSchedule
-from vtrack_gym.baselines.laws import schedule_dot
+from vtrack_gym.baselines.laws import ANTICIPATION_RATE_FACTOR, rate_anticipation, schedule_dot
 from vtrack_gym.baselines.linear_models import error_model, sideslip_gain, understeer_gradient, zoh
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.vehicle.params import DesignModel
@@ -52,6 +58,8 @@ class LQRConfig:
     q_e_y [1/m^2], q_e_y_dot [s^2/m^2], q_e_phi [1/rad^2], q_e_phi_dot [s^2/rad^2]: state weights.
     r_delta [1/rad^2]: steering weight.
     feedforward: add delta_ff. feedforward_lead_s: preview time of the feedforward curvature [s].
+    rate_anticipation: add the rate-limit anticipation (``laws.rate_anticipation``).
+    actuator_lag_s: the steering actuator's lag the anticipation allows for [s].
     min_speed_mps / max_speed_mps / n_speeds: gain-schedule grid.
     """
 
@@ -62,6 +70,8 @@ class LQRConfig:
     r_delta: float = ranged(30.0, ge=1e-6, le=1e6, unit="1/rad^2")
     feedforward: bool = True
     feedforward_lead_s: float = ranged(0.08, ge=0.0, le=1.0, unit="s")
+    rate_anticipation: bool = True
+    actuator_lag_s: float = ranged(0.03, ge=0.0, le=1.0, unit="s")
     min_speed_mps: float = ranged(1.0, ge=0.5, le=80.0, unit="m/s")
     max_speed_mps: float = ranged(45.0, gt="min_speed_mps", le=80.0, unit="m/s")
     n_speeds: int = ranged(60, ge=2, le=100, integer=True)
@@ -118,7 +128,10 @@ class LQR(Policy):
         idx = np.array([layout.index(n) for n in ("v_x", "e_y", "e_y_dot", "e_phi", "e_phi_dot", "curvature")])
         self.law = LQRLaw(idx, layout.preview.start, layout.n_preview, float(layout.preview_min_speed_mps),
                           float(layout.preview_dt_s), float(cfg.feedforward_lead_s), self.schedule.speeds,
-                          self.schedule.table, np.ascontiguousarray(np.diff(self.schedule.table, axis=0)))
+                          self.schedule.table, np.ascontiguousarray(np.diff(self.schedule.table, axis=0)),
+                          ANTICIPATION_RATE_FACTOR * design.max_road_wheel_rate_radps if cfg.rate_anticipation
+                          else 0.0, float(cfg.actuator_lag_s), float(design.wheelbase_m),
+                          float(understeer_gradient(design)))
 
     def _act_batch(self, obs: np.ndarray, state: None) -> tuple[np.ndarray, None]:
         delta = np.empty(obs.shape[0])
@@ -138,6 +151,10 @@ class LQRLaw(NamedTuple):
     speeds: np.ndarray  # (S,) [m/s]
     table: np.ndarray   # (S, 5) gains on (e_y, e_y_dot, e_phi, e_phi_dot, kappa)
     slopes: np.ndarray  # (S - 1, 5)
+    ant_rate: float     # anticipation rate [rad/s] (0: off)
+    ant_lag: float      # actuator lag allowed for by the anticipation [s]
+    wheelbase_m: float
+    kus: float          # understeer gradient [rad s^2/m]
 
 
 @njit(cache=True)
@@ -155,7 +172,11 @@ def lqr_row(law: LQRLaw, obs: np.ndarray, i: int, z: np.ndarray) -> float:
     for c in range(4):
         z[c] = obs[i, idx[1 + c]]
     z[4] = kappa
-    return schedule_dot(law.speeds, law.table, law.slopes, v, z)
+    delta = schedule_dot(law.speeds, law.table, law.slopes, v, z)
+    if law.ant_rate > 0.0:
+        delta += rate_anticipation(obs, i, idx[5], law.pv0, law.n_preview, law.pv_vmin, law.pv_dt, v,
+                                   law.wheelbase_m + law.kus * v * v, law.ant_rate, law.ant_lag)
+    return delta
 
 
 @njit(cache=True)

@@ -32,6 +32,21 @@ Implementation rules (documented deviations from a literal reading):
   ``eta/Delta <= 1/T_c``. With ``limit_layer_rate`` (default True) the effective layer is
   ``Delta_eff = max(Delta, eta T_c)`` (eta kept, Delta widened); a WARNING is logged when this changes the
   configured value (the ``paper`` preset at T_c = 10 ms: Delta 0.6124 -> 9.734).
+* Low-speed floor of the yaw dynamics (``low_speed_floor``, default on): the law cancels the yaw mode
+  |K_r| = (a1^2 C_af + a2^2 C_ar)/(I_z v) [1/s], which at low speed is faster than the loop's delay allows
+  (half a control period plus the actuator lag, ``actuator_lag_s`` = 0.03 s): below ``smc_dynamics_floor``
+  (8.74 m/s for the paper's car at T_c = 10 ms; never above v* - guard_band_mps, so that the floor stays on the
+  slow side of the singular speed) c1, c2, c3, f5, f6 are evaluated at the floor, the sideslip
+  shift at the true speed, and the feedforward ``k7 [(f5(floor) - f5(v)) phi_dot_r + (f6(floor) - f6(v))
+  v_y,ss]`` (v_y,ss = phi_dot_r (a2 - m a1 v^2/(C_ar l)), the steady-state lateral speed) keeps the linear
+  steady state on a curve exact (e_y,ss = 0). Without it the law limit-cycles through 6-8 m hairpins at 5-7 m/s
+  (full lock to half lock every ~1.3 s against the 0.87 rad/s rate limit). Paper scenarios: DLC120-v0 is never
+  below the floor; LateralTracking-v0 passes it only while accelerating from rest on the start straight (ITAE
+  26.168126467958572 -> 26.1681264679586, max|e_y| and RMS identical to the last bit).
+* Rate-limit anticipation (``rate_anticipation``, default on): the reference yaw rate phi_dot_r (and so
+  e_phi_dot) is shifted by v dkappa, dkappa = ``laws.rate_anticipation`` / (l + K_us v^2), the curvature of the
+  steer planned ahead of a curvature change the rate-limited actuator cannot follow in time; exactly 0 on both
+  paper scenarios.
 * Steering saturation: the road-wheel angle is clipped to +-max_road_wheel_angle_rad (the action's [-1, 1]).
   The switching term alone is I_z eta/(a1 C_af) = 11.45 rad for the paper's eta.
 * OPTION 2 (``sideslip_shift``): surface shifted by the steady-state sideslip,
@@ -78,6 +93,7 @@ from vtrack_gym.baselines.laws import (
     guarded_speed,
     smc_coefficient_values,
     smc_design_constants,
+    smc_dynamics_floor,
     smc_law,
     smc_layer,
     smc_rows,
@@ -137,7 +153,10 @@ class SMC(TunedPresets, Policy):
             raise ValueError("SMC rows: pole, eta, delta must be positive arrays of one shape")
         layer = smc_layer(eta, delta, self.control_period_s, cfg.limit_layer_rate)
         self.law = smc_law(design, layout, pole, eta, layer, cfg.min_speed_mps, cfg.guard_band_mps,
-                           cfg.sideslip_shift)
+                           cfg.sideslip_shift, cfg.actuator_lag_s if cfg.rate_anticipation else None,
+                           smc_dynamics_floor(design, self.control_period_s, cfg.actuator_lag_s,
+                                              cfg.guard_band_mps)
+                           if cfg.low_speed_floor else 0.0)
         self.boundary_layer: float | np.ndarray = layer
         if rows is None:
             self.boundary_layer = float(layer[0])

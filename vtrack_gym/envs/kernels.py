@@ -135,7 +135,9 @@ class SimArrays(NamedTuple):
 T_NONE, T_COMPLETED, T_OFF_ROAD, T_SPIN_OUT, T_WHEEL_LIFT, T_INVALID = range(6)
 
 SPIN_HEADING_RAD = 0.5 * math.pi   # |e_phi| beyond this: spun out / driving the wrong way
-SPIN_SIDESLIP_RAD = 0.3            # |atan(v_y / v_x)| beyond this above 3 m/s: spun out
+SPIN_SIDESLIP_RAD = 0.3            # |atan(v_y / v_x)| beyond this above 3 m/s, with the rear axle's sideslip
+                                   # |atan((v_y - a2 r) / v_x)| beyond it too: spun out (a car rolling round a
+                                   # 6 m radius has a CG sideslip of atan(a2 / R) = 0.31 rad without any sliding)
 ERR_COLS = 8                       # s*, e_y, e_phi, kappa, s_dot, z, half width left, right at the projection
 E_S, E_EY, E_EPHI, E_KAPPA, E_SDOT, E_Z, E_WL, E_WR = range(ERR_COLS)
 
@@ -292,7 +294,8 @@ def termination_one(i: int, a: SimArrays) -> int:
     vx = state[L.S_VX]
     if abs(err[i, E_EPHI]) > SPIN_HEADING_RAD:
         return T_SPIN_OUT
-    if vx > 3.0 and abs(math.atan2(state[L.S_VY], vx)) > SPIN_SIDESLIP_RAD:
+    if vx > 3.0 and abs(math.atan2(state[L.S_VY], vx)) > SPIN_SIDESLIP_RAD and \
+            abs(math.atan2(state[L.S_VY] - a.params[i, L.P_A2] * state[L.S_R], vx)) > SPIN_SIDESLIP_RAD:
         return T_SPIN_OUT
     if err[i, E_EY] > err[i, E_WL] or -err[i, E_EY] > err[i, E_WR]:  # per-station widths, each side
         return T_OFF_ROAD

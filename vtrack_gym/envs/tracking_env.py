@@ -23,8 +23,9 @@ step that ends the episode).
 
 Termination (``info["termination"]``): ``completed`` (one lap of a closed course, or the end of an open
 track), ``off_road`` (e_y beyond the road's left half width, or -e_y beyond its right one, at the car's
-station), ``spin_out`` (|e_phi| > 90 deg, or sideslip > 0.3 rad above 3 m/s), ``wheel_lift`` (a wheel's
-F_z <= 0), ``invalid_state`` (non-finite physics; never expected). ``truncated`` only from the scenario's
+station), ``spin_out`` (|e_phi| > 90 deg, or above 3 m/s both the CG's and the rear axle's sideslip beyond
+0.3 rad: rolling round a 6 m radius the CG alone has atan(a2/R) = 0.31 rad without any sliding), ``wheel_lift``
+(a wheel's F_z <= 0), ``invalid_state`` (non-finite physics; never expected). ``truncated`` only from the scenario's
 time limit (``spec.max_episode_steps`` is the same limit).
 """
 

@@ -1,0 +1,84 @@
+"""Every default baseline laps a compact circuit with 6 m hairpins from a user's CSV file (issue 16), through the
+public entry points: ``gym.make("vtrack/Track-v0", track=<csv>, speed_profile=curvature_limited(40 km/h, 0.7 g))``,
+``vtrack_gym.make_policy`` and the plain Gymnasium loop."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import vtrack_gym
+from vtrack_gym.baselines.registry import available_policies
+from vtrack_gym.tracks import CurvatureLimited
+
+MAX_E_Y_M = 0.5
+"""Bound on max |e_y| [m] of every default baseline (measured: smc 0.07, mpc 0.26, lqr 0.16, stanley 0.10,
+pure_pursuit 0.37, mpc_osqp 0.25; before the rate-limit anticipation and the low-speed fixes smc 0.77 and
+pure_pursuit 0.97)."""
+
+
+def _pose(segments: list[tuple[float, float]], s: float) -> tuple[float, float, float]:
+    """(x, y, heading) [m, m, rad] at arc length ``s`` [m] along (length [m], curvature [1/m]) pieces from the
+    origin heading east."""
+    x = y = psi = 0.0
+    for length, kappa in segments:
+        h = min(s, length)
+        if kappa == 0.0:
+            x, y = x + h * math.cos(psi), y + h * math.sin(psi)
+        else:
+            p = psi + kappa * h
+            x, y = x + (math.sin(p) - math.sin(psi)) / kappa, y - (math.cos(p) - math.cos(psi)) / kappa
+            psi = p
+        s -= h
+        if s <= 0.0:
+            break
+    return x, y, psi
+
+
+def _hairpin_circuit(file: Path, spacing_m: float = 2.0) -> Path:
+    """A 270 m counter-clockwise loop: 10 m corner, a left and a right 6 m hairpin back to back, 8 m and 10 m
+    corners; the last two straights are solved so that it closes exactly. Written as x, y, right/left widths."""
+    quarter, half = 0.5 * math.pi, math.pi
+    head = [(60.0, 0.0), (quarter * 10.0, 0.1), (20.0, 0.0), (half * 6.0, 1 / 6), (12.0, 0.0), (half * 6.0, -1 / 6),
+            (20.0, 0.0), (quarter * 8.0, 0.125)]
+    x, y, _ = _pose(head, math.inf)
+    # then west, left 10 m corner (10 m west, 10 m south), south, left 8 m corner (8 m south, 8 m east)
+    west = x - 10.0 + 8.0
+    south = y - 8.0 - 10.0
+    assert west > 10.0 and south > 10.0
+    segments = [*head, (west, 0.0), (quarter * 10.0, 0.1), (south, 0.0), (quarter * 8.0, 0.125)]
+    total = sum(length for length, _ in segments)
+    end = _pose(segments, math.inf)
+    assert math.hypot(end[0], end[1]) < 1e-9
+    s = np.arange(0.0, total - 0.5 * spacing_m, spacing_m)
+    xy = np.array([_pose(segments, float(v))[:2] for v in s])
+    rows = np.column_stack([xy, np.full(len(s), 4.0), np.full(len(s), 4.5)])
+    np.savetxt(file, rows, fmt="%.3f", delimiter=",", header="x_m, y_m, w_tr_right_m, w_tr_left_m")
+    return file
+
+
+@pytest.fixture(scope="module")
+def circuit(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return _hairpin_circuit(tmp_path_factory.mktemp("hairpin") / "hairpin_circuit.csv")
+
+
+@pytest.mark.parametrize("name", available_policies())
+def test_default_baseline_laps_a_6m_hairpin_circuit(name: str, circuit: Path) -> None:
+    env = gym.make("vtrack/Track-v0", track=str(circuit), speed_profile=CurvatureLimited(40.0 / 3.6, 0.7 * 9.81))
+    policy = vtrack_gym.make_policy(name, env)
+    obs, info = env.reset(seed=0)
+    max_e_y = 0.0
+    terminated = truncated = False
+    while not (terminated or truncated):
+        action, _ = policy.predict(obs, deterministic=True)
+        obs, _, terminated, truncated, info = env.step(action)
+        max_e_y = max(max_e_y, abs(info["e_y_m"]))
+    env.close()
+    assert info["termination"] == "completed", f"{name}: {info['termination']} at {info['time_s']:.1f} s"
+    assert info["success"] is True
+    assert info["progress_m"] > 250.0
+    assert max_e_y < MAX_E_Y_M, f"{name}: max |e_y| {max_e_y:.3f} m"

@@ -46,7 +46,7 @@ def test_train_set_overrides_hyperparameters(tmp_path: Path, capsys: pytest.Capt
     assert spec["hidden_sizes"] == [8] and spec["activation"] == "relu"
     capsys.readouterr()
     bad = {"learning_rate": "KEY=VALUE", "not-a-name=1": "KEY=VALUE", "n_steps=[1,": "not valid YAML",
-           "no_such_option=1": "ppo hyperparameters", "clip_range=abc": "ppo hyperparameters"}
+           "no_such_option=1": "ppo hyperparameters", "clip_range=abc": "clip_range must be a number or 'lin_X'"}
     for item, message in bad.items():
         assert main(["train", "--algo", "ppo", "--timesteps", "64", "--num-envs", "2", "--eval-freq", "0",
                      "--run-dir", str(tmp_path / "bad"), "--no-progress", "--no-final-eval", "--set", item]) == 2

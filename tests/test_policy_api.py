@@ -61,7 +61,7 @@ def test_make_policy_resolves_every_kind_of_spec(tmp_path, monkeypatch):
     assert type(vtrack_gym.make_policy("lqr", env)).__name__ == "LQR"
     assert vtrack_gym.make_policy("smc:paper", env).config == make_baseline("smc", env, preset="paper").config
     assert vtrack_gym.make_policy("smc", env, preset="hand").config == make_baseline("smc", env, preset="hand").config
-    for name in ("ppo", "sac"):
+    for name in ("ppo", "ppo_bc", "sac_bc"):
         agent = vtrack_gym.make_policy(name, env)
         assert isinstance(agent, NumpyPolicy) and agent.policy_id == name
     by_file = vtrack_gym.make_policy(str(SHIPPED / "ppo.json"), env)
@@ -163,22 +163,23 @@ def test_sb3_model_with_vecnormalize_scores_like_its_export(tmp_path, capsys):
 def test_agent_files_know_their_env(tmp_path, caplog):
     from vtrack_gym.envs.observation import ObservationLayout
 
-    ppo = json.loads((SHIPPED / "ppo.json").read_text())
+    ppo = json.loads(  # the imitation agent: 33-entry layout, trained at 100 Hz
+        (SHIPPED / "ppo_bc.json").read_text())
     shipped = ObservationLayout()  # the shipped agents' layout: OBS without the speed preview appended to it
     assert ppo["env"] == {"observation_names": list(shipped.names), "control_period_s": 0.01,
                           "max_road_wheel_angle_rad": 0.6}
     other = gym.make("DLC120-v0", layout=ObservationLayout(n_preview=10))
     with pytest.raises(ValueError, match="another observation layout: entry 23 is 'kappa_preview_11'"):
-        vtrack_gym.make_policy("ppo", other)
+        vtrack_gym.make_policy("ppo_bc", other)
     swapped = dict(ppo, env=dict(ppo["env"], observation_names=[shipped.names[1], shipped.names[0],
                                                                 *shipped.names[2:]]))
     (tmp_path / "swapped.json").write_text(json.dumps(swapped))
-    shutil.copy(SHIPPED / "ppo.npz", tmp_path / "swapped.npz")
+    shutil.copy(SHIPPED / "ppo_bc.npz", tmp_path / "swapped.npz")
     with pytest.raises(ValueError, match="entry 0 is 'e_phi' for the agent and 'e_y' in this env"):
         vtrack_gym.make_policy(str(tmp_path / "swapped.json"), gym.make("DLC120-v0"))
     legacy = {k: v for k, v in ppo.items() if k != "env"}  # a file written before the env record
     (tmp_path / "legacy.json").write_text(json.dumps(legacy))
-    shutil.copy(SHIPPED / "ppo.npz", tmp_path / "legacy.npz")
+    shutil.copy(SHIPPED / "ppo_bc.npz", tmp_path / "legacy.npz")
     assert vtrack_gym.make_policy(str(tmp_path / "legacy.json"), gym.make("DLC120-v0")).obs_dim == 33
     with pytest.raises(ValueError, match="takes 33 observations; this env's layout has 23"):
         vtrack_gym.make_policy(str(tmp_path / "legacy.json"), other)
@@ -186,19 +187,19 @@ def test_agent_files_know_their_env(tmp_path, caplog):
                        (dict(ppo["env"], control_period_s=-1.0), r"control_period_s must be a number in \(0, 1.0\]"),
                        (dict(ppo["env"], code="x"), "env must be an object with keys")):
         (tmp_path / "bad.json").write_text(json.dumps(dict(ppo, env=bad)))
-        shutil.copy(SHIPPED / "ppo.npz", tmp_path / "bad.npz")
+        shutil.copy(SHIPPED / "ppo_bc.npz", tmp_path / "bad.npz")
         with pytest.raises(ValueError, match=match):
             vtrack_gym.make_policy(str(tmp_path / "bad.json"), gym.make("DLC120-v0"))
     fast = dict(ppo, env=dict(ppo["env"], control_period_s=0.005))  # trained deciding faster than the env asks
     (tmp_path / "fast.json").write_text(json.dumps(fast))
-    shutil.copy(SHIPPED / "ppo.npz", tmp_path / "fast.npz")
+    shutil.copy(SHIPPED / "ppo_bc.npz", tmp_path / "fast.npz")
     with caplog.at_level("WARNING"):
         vtrack_gym.make_policy(str(tmp_path / "fast.json"), gym.make("DLC120-v0"))
     assert "control_period_s = 0.005, this env has 0.01" in caplog.text
     caplog.clear()
     slow = dict(ppo, env=dict(ppo["env"], control_period_s=0.05))  # the from-scratch recipes' 20 Hz decisions
     (tmp_path / "slow.json").write_text(json.dumps(slow))
-    shutil.copy(SHIPPED / "ppo.npz", tmp_path / "slow.npz")
+    shutil.copy(SHIPPED / "ppo_bc.npz", tmp_path / "slow.npz")
     with caplog.at_level("INFO"):
         vtrack_gym.make_policy(str(tmp_path / "slow.json"), gym.make("DLC120-v0"))
     assert not [r for r in caplog.records if r.levelno >= logging.WARNING]
@@ -211,7 +212,7 @@ def test_cli_checks_names_and_extras_before_any_work(tmp_path, capsys, monkeypat
     store = tmp_path / "s.sqlite"
     assert main(["benchmark", "--policies", "smc,nope", "--no-figures", "--store", str(store)]) == 2
     err = capsys.readouterr().err
-    assert "unknown policy 'nope'" in err and "mpc_osqp, ppo, sac" in err and not store.exists()
+    assert "unknown policy 'nope'" in err and "mpc_osqp, ppo, ppo_bc, sac_bc" in err and not store.exists()
     assert main(["plot", "--policies", "smc,nope", "--env", "DLC120-v0", "--out", str(tmp_path / "f")]) == 2
     assert "unknown policy 'nope'" in capsys.readouterr().err and not (tmp_path / "f").exists()
     real = importlib.util.find_spec

@@ -21,12 +21,31 @@ AGENTS = sorted(shipped_agents())
 DLC_BAR = 1.5  # the issue's bar: max|e_y| on DLC120-v0 within 1.5x of the best scripted baseline
 
 
-@pytest.mark.parametrize("algo", ["ppo", "sac"])
-def test_a_ppo_and_a_sac_agent_ship(algo: str) -> None:
-    assert algo in AGENTS
-    spec = load_agent(shipped_agents()[algo]).spec
+SHIPPED_KINDS = {  # name -> (algo, training env, warm start?)
+    "ppo": ("ppo", "TrainingMix-v0", False),
+    "ppo_bc": ("ppo", "LateralTrackingRandom-v0", True),
+    "sac_bc": ("sac", "LateralTrackingRandom-v0", True),
+}
+FROM_SCRATCH = [name for name, (_, _, warm) in SHIPPED_KINDS.items() if not warm]
+
+
+@pytest.mark.parametrize("name", sorted(SHIPPED_KINDS))
+def test_the_documented_agents_ship(name: str) -> None:
+    algo, env_id, warm = SHIPPED_KINDS[name]
+    assert name in AGENTS
+    spec = load_agent(shipped_agents()[name]).spec
     assert spec["algo"] == algo and spec["provenance"]["timesteps"] > 0  # RL-trained, not only warm-started
-    assert spec["provenance"]["env_id"] == "LateralTrackingRandom-v0"  # trained on the procedural tracks
+    assert spec["provenance"]["env_id"] == env_id
+    assert bool(spec["provenance"].get("warm_start")) == warm
+
+
+@pytest.mark.parametrize("name", FROM_SCRATCH)
+def test_from_scratch_agents_succeed_on_both_paper_scenarios(name: str) -> None:
+    """Success, not only completion: every cone gate of the lane change passed, the Case-1 lap within the road."""
+    policy = shipped_agent_factories()[name](None)
+    for env_id in ("LateralTracking-v0", "DLC120-v0"):
+        trace = rollout(policy, env_id, seed=0)
+        assert trace.completed and trace.success, f"{name} on {env_id}: {trace.termination}, success {trace.success}"
 
 
 def test_shipped_agents_load_without_torch() -> None:
@@ -34,7 +53,7 @@ def test_shipped_agents_load_without_torch() -> None:
             "print(json.dumps([sorted(f), 'torch' in sys.modules, 'stable_baselines3' in sys.modules]))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
     names, torch_loaded, sb3_loaded = json.loads(out.stdout.strip().splitlines()[-1])
-    assert {"ppo", "sac"} <= set(names) and not torch_loaded and not sb3_loaded
+    assert set(SHIPPED_KINDS) <= set(names) and not torch_loaded and not sb3_loaded
 
 
 @pytest.fixture(scope="module")

@@ -14,6 +14,8 @@ KNOWN_POLICY_COLOURS: dict[str, str] = {
     "ppo": "#e377c2",           # pink
     "sac": "#17becf",           # cyan
     "td3": "#bcbd22",           # olive
+    "ppo_bc": "#f7b6d2",        # light pink (the imitation PPO)
+    "sac_bc": "#9edae5",        # light cyan (the imitation SAC)
 }
 """Colours of the shipped policies (matplotlib's tab10 without its grey, kept for the reference path)."""
 

@@ -4,8 +4,9 @@ user would: a CSV file with per-station widths, ``vtrack/Track-v0`` with ``curva
     PYTHONPATH=. python benchmarks/own_tracks.py [--out DIR] [--policies smc,mpc,...]
 
 Reports per track and policy: termination, success (one lap within the road), lap time [s], max |e_y| [m],
-RMS |v - v_ref| [m/s]. The circuits are centre-lines made of straights and arcs (exact tangents), sampled every
-``SPACING_M`` and written without repeating the start point (real loops end one sample short of the start).
+RMS |v - v_ref| [m/s], and the peak road-wheel angle as a share of full lock. The circuits are centre-lines made
+of straights and arcs (exact tangents), sampled every ``SPACING_M`` and written without repeating the start point
+(real loops end one sample short of the start).
 """
 
 from __future__ import annotations
@@ -133,9 +134,11 @@ def drive(file: Path, policy_name: str) -> dict[str, float | str | bool]:
     env = gym.make("vtrack/Track-v0", track=str(file), speed_profile=profile)
     trace = rollout(vtrack_gym.make_policy(policy_name, env), env, seed=0)
     m = evaluate_trace(trace)
+    lock = env.unwrapped.design_model.max_road_wheel_angle_rad
+    steer_share = float(np.max(np.abs(trace["road_wheel_angle_rad"]))) / lock
     env.close()
     return {"termination": trace.termination, "success": trace.success, "lap_s": m["duration_s"],
-            "max_e_y_m": m["max_e_y_m"], "rms_speed_error_mps": m["rms_speed_error_mps"]}
+            "max_e_y_m": m["max_e_y_m"], "rms_speed_error_mps": m["rms_speed_error_mps"], "steer_share": steer_share}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -145,15 +148,17 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    print("| track | policy | termination | success | lap [s] | max abs e_y [m] | rms v-v_ref [m/s] |")
-    print("|---|---|---|---|---|---|---|")
+    print("| track | policy | termination | success | lap [s] | max abs e_y [m] | rms v-v_ref [m/s] | "
+          "peak steer / lock |")
+    print("|---|---|---|---|---|---|---|---|")
     for name, segments in circuits().items():
         file = write_circuit_csv(out / f"{name}.csv", segments)
         for policy in [p for p in args.policies.split(",") if p]:
             start = time.perf_counter()
             r = drive(file, policy)
             print(f"| {name} | {policy} | {r['termination']} | {r['success']} | {r['lap_s']:.1f} | "
-                  f"{r['max_e_y_m']:.3f} | {r['rms_speed_error_mps']:.3f} |  ({time.perf_counter() - start:.0f} s)")
+                  f"{r['max_e_y_m']:.3f} | {r['rms_speed_error_mps']:.3f} | {r['steer_share']:.2f} |  "
+                  f"({time.perf_counter() - start:.0f} s)")
             sys.stdout.flush()
     return 0
 

@@ -4,9 +4,9 @@
 =============  ============================================================  ==========================================
 kind           geometry                                                      speed profile (drawn per track)
 =============  ============================================================  ==========================================
-``twisty``     procedural, radii down to 18 m, 800 m                         curvature-limited: max 6-30 m/s, 0.45-0.85 g
-``highway``    procedural, radii down to 120 m, 800 m                        curvature-limited: max 15-36 m/s, 0.45-0.85 g
-``hairpin``    procedural, radii down to 5.5 m, turns up to 170 deg, 500 m   curvature-limited: max 6-20 m/s, 0.45-0.8 g
+``twisty``     procedural, radii down to 18 m, 800 m                         curvature-limited: 6-30 m/s, 0.45-0.85 g
+``highway``    procedural, radii down to 120 m, 800 m                        curvature-limited: 15-36 m/s, 0.45-0.85 g
+``hairpin``    procedural, radii down to 5.5 m, turns up to 170 deg, 500 m   curvature-limited: 6-20 m/s, 0.45-0.8 g
 ``lanechange`` 8 cone-lined lanes (ISO 3888 widths 1.1-1.3 w + 0.25 m), each  constant, 15-37 m/s (drawn first; the
                2.5-4 m left or right of the road and back, transitions       transitions are sized for it)
                sized for a centre-line peak of 0.4-0.85 g at the speed

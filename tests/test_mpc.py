@@ -21,6 +21,7 @@ from vtrack_gym.baselines.mpc import (
     PAPER_WEIGHTS,
     MPCConfig,
     closed_loop_spectral_radius,
+    front_slip_bound,
     gain_table,
     mpc_gains,
     mpc_model,
@@ -219,7 +220,7 @@ def test_offset_settles(paper_mpc: MPC) -> None:
 @pytest.mark.parametrize(("v", "peak"), [(11.11, 0.27), (33.33, 0.15)])
 def test_offset_peak_steering_without_rate_limit(v: float, peak: float) -> None:
     """paper-math 6: e_y(0) = 0.5 m settles < 2 s with peak delta 0.27 rad (40 km/h), 0.15 rad (120 km/h)."""
-    res = simulate(MPC(DESIGN, MPCConfig(rate_limit=False)), v, straight(), 3.0, e_y0=0.5)
+    res = simulate(MPC(DESIGN, MPCConfig(rate_limit=False, front_slip_limit=0.0)), v, straight(), 3.0, e_y0=0.5)
     assert np.max(np.abs(res.delta)) == pytest.approx(peak, abs=0.01)      # measured 0.273 / 0.154
     assert res.t[np.argmax(np.abs(res.e_y) < 0.025)] < 2.0
 
@@ -246,7 +247,7 @@ def test_hold_rule_recomputes_every_second_step(paper_mpc: MPC) -> None:
 
 
 def test_anti_windup_uses_saturated_value() -> None:
-    pol = MPC(DESIGN, MPCConfig(rate_limit=False))
+    pol = MPC(DESIGN, MPCConfig(rate_limit=False, front_slip_limit=0.0))   # saturates at the lock
     plant = LinearPlant(11.11, straight(), e_y0=-30.0)          # huge error: saturates
     state = None
     for _ in range(6):
@@ -254,6 +255,22 @@ def test_anti_windup_uses_saturated_value() -> None:
         assert abs(state[0, 6]) <= pol.max_steer_rad          # stored u(k-1) is the applied, saturated value
     assert a[0] == pytest.approx(1.0)
 
+
+
+def test_command_stays_within_the_front_slip_bound() -> None:
+    """Default config: |delta - (v_y + a r) / v_x| <= 2 mu F_zf / C_f, below the lock on a huge error."""
+    pol = MPC(DESIGN, MPCConfig(rate_limit=False))
+    bound = front_slip_bound(DESIGN, 2.0)
+    assert 0.0 < bound < pol.max_steer_rad
+    plant = LinearPlant(11.11, straight(), e_y0=-30.0)
+    state = None
+    lay = pol.layout
+    for _ in range(6):
+        obs = plant.observation()
+        a, state = pol.predict(obs, state, episode_start=state is None)
+        kin = (obs[lay.index("v_y")] + DESIGN.cg_to_front_axle_m * obs[lay.index("yaw_rate")]) / obs[lay.index("v_x")]
+        assert abs(float(a[0]) * pol.max_steer_rad - kin) <= bound + 1e-6
+    assert float(a[0]) * pol.max_steer_rad == pytest.approx(kin + bound, abs=1e-6)
 
 def test_rate_limit_per_sample(paper_mpc: MPC) -> None:
     plant = LinearPlant(11.11, straight(), e_y0=1.0)

@@ -81,6 +81,11 @@ class MPCConfig:
     interpretation: "augmented_outputs" (B1) or "siso_per_step" (A, needs N_p = len(weights)).
     use_preview: preview psi_ref_ddot from the curvature preview. rate_limit: clip Delta_u to the steering rate.
     min_speed_mps / max_speed_mps / n_speeds: the gain-schedule grid [m/s].
+    rate_anticipation: track the rate-limit anticipated reference (``laws.mpc_curvature_shift``; exactly
+    inactive while the previewed steady-state steer is reachable at the actuator's rate).
+    actuator_lag_s: the steering actuator's lag the anticipation allows for [s].
+    front_slip_limit: keep the command within this multiple of mu F_zf / C_f of the front axle's kinematic
+    direction (``mpc.front_slip_bound``; 0: no bound): no steer beyond the front tyres' peak slip angle.
     """
 
     weights: tuple[float, ...] = PAPER_WEIGHTS
@@ -94,6 +99,9 @@ class MPCConfig:
     min_speed_mps: float = ranged(1.0, ge=0.5, le=80.0, unit="m/s")
     max_speed_mps: float = ranged(45.0, gt="min_speed_mps", le=80.0, unit="m/s")
     n_speeds: int = ranged(60, ge=2, le=100, integer=True)
+    rate_anticipation: bool = True
+    actuator_lag_s: float = ranged(0.03, ge=0.0, le=1.0, unit="s")
+    front_slip_limit: float = ranged(2.0, ge=0.0, le=10.0)
 
     def __post_init__(self) -> None:
         validate(self)
@@ -108,8 +116,9 @@ class MPCConfig:
                              f"'siso_per_step' (got {self.prediction_horizon})")
 
 
-MPC_PRESETS: dict[str, MPCConfig] = {
-    "paper": MPCConfig(),
+MPC_PRESETS: dict[str, MPCConfig] = {   # the paper's presets keep the paper's law (no anticipation, no slip bound)
+    "paper": MPCConfig(rate_anticipation=False, front_slip_limit=0.0),
     "hand": MPCConfig(input_weight=100.0),
-    "paper_siso": MPCConfig(interpretation="siso_per_step", prediction_horizon=12, control_horizon=5),
+    "paper_siso": MPCConfig(interpretation="siso_per_step", prediction_horizon=12, control_horizon=5,
+                            rate_anticipation=False, front_slip_limit=0.0),
 }

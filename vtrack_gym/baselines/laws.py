@@ -36,6 +36,11 @@ ANTICIPATION_RATE_FACTOR = 2.0
 actuator, following that plan at its own rate, then ramps through every curvature change centred on it."""
 
 
+MPC_ANTICIPATION_RATE_FACTOR = 3.0
+"""The MPC's anticipation rate as a multiple of the actuator's rate limit (measured on benchmarks/own_tracks.py's
+circuits at 0.5, 1 and 2 m point spacing: 2 leaves 1.4 m max|e_y| on the kart track, 4 fails it at 0.5 m)."""
+
+
 @njit(cache=True)
 def rate_anticipation(obs: np.ndarray, i: int, kappa_idx: int, pv0: int, n_preview: int, pv_vmin: float,
                       pv_dt: float, v: float, steer_gain: float, rate: float, lag_s: float) -> float:
@@ -264,17 +269,34 @@ class MPCLaw(NamedTuple):
     speeds: np.ndarray  # (S,) gain-schedule grid [m/s]
     tables: np.ndarray  # (R, S, W) run-time gain rows
     slopes: np.ndarray  # (R, S - 1, W) differences of consecutive rows
+    ant_rate: float     # rate-limit anticipation rate [rad/s] (0: off)
+    ant_lag: float      # actuator lag allowed for by the anticipation [s]
+    wheelbase_m: float  # l [m]
+    kus: float          # understeer gradient K_us [rad s^2/m]
+    lf_m: float         # CG to front axle a [m]
+    slip_max: float     # front slip-angle bound [rad] (inf: none)
 
 
 def mpc_law(layout: ObservationLayout, speeds: np.ndarray, tables: np.ndarray, *, preview: bool, n_out: int,
-            sample_time_s: float, n_hold: int, max_du: float, max_steer: float) -> MPCLaw:
-    """``MPCLaw`` for run-time gain tables (S, W) or (R, S, W) on ``speeds`` (S,) [m/s]."""
+            sample_time_s: float, n_hold: int, max_du: float, max_steer: float,
+            design: DesignModel | None = None, anticipation_lag_s: float | None = None,
+            front_slip_max_rad: float = math.inf) -> MPCLaw:
+    """``MPCLaw`` for run-time gain tables (S, W) or (R, S, W) on ``speeds`` (S,) [m/s]; ``design`` and
+    ``anticipation_lag_s`` [s] turn the rate-limit anticipation on (None: off)."""
+    from vtrack_gym.vehicle.linear import understeer_gradient
+
+    on = design is not None and anticipation_lag_s is not None
     speeds = np.ascontiguousarray(speeds, dtype=np.float64)
     tables = np.ascontiguousarray(np.asarray(tables, dtype=np.float64).reshape(-1, *np.shape(tables)[-2:]))
     return MPCLaw(np.array([layout.index(n) for n in MPC_SIGNALS], dtype=np.int64), layout.preview.start,
                   layout.preview.stop, float(layout.preview_min_speed_mps), float(layout.preview_dt_s), bool(preview),
                   int(n_out), float(sample_time_s), float(n_hold), float(max_du), float(max_steer), speeds, tables,
-                  np.ascontiguousarray(np.diff(tables, axis=1)))
+                  np.ascontiguousarray(np.diff(tables, axis=1)),
+                  MPC_ANTICIPATION_RATE_FACTOR * design.max_road_wheel_rate_radps if on else 0.0,
+                  float(anticipation_lag_s) if on else 0.0, float(design.wheelbase_m) if on else 0.0,
+                  float(understeer_gradient(design)) if on else 0.0,
+                  float(design.cg_to_front_axle_m) if design is not None else 0.0,
+                  float(front_slip_max_rad) if design is not None else math.inf)
 
 
 @njit(cache=True)
@@ -290,15 +312,48 @@ def mpc_disturbance(law: MPCLaw, obs: np.ndarray, i: int) -> float:
 
 
 @njit(cache=True)
+def mpc_curvature_shift(law: MPCLaw, obs: np.ndarray, i: int) -> float:
+    """Rate-limit anticipation of row ``i`` as a curvature shift dkappa [1/m] (``rate_anticipation`` / (l + K_us
+    v^2)); exactly 0.0 when off or while the previewed steady-state steer is reachable at the actuator's rate."""
+    if law.ant_rate <= 0.0:
+        return 0.0
+    idx = law.idx
+    v = max(float(obs[i, idx[0]]), 0.0)
+    gain = law.wheelbase_m + law.kus * v * v
+    if gain <= 0.0:
+        return 0.0
+    return rate_anticipation(obs, i, idx[9], law.pv0, law.pv1 - law.pv0, law.pv_vmin, law.pv_dt, v, gain,
+                             law.ant_rate, law.ant_lag) / gain
+
+
+@njit(cache=True)
+def mpc_reference(law: MPCLaw, obs: np.ndarray, i: int) -> tuple[float, float, float]:
+    """(e_phi_dot [rad/s], d [rad/s^2], kappa [1/m]) of row ``i`` relative to the anticipated reference: the
+    path's curvature at the car shifted by ``mpc_curvature_shift`` (the observed values when the shift is 0)."""
+    idx = law.idx
+    epd, d0, kap = float(obs[i, idx[6]]), mpc_disturbance(law, obs, i), float(obs[i, idx[9]])
+    dk = mpc_curvature_shift(law, obs, i)
+    if dk != 0.0:
+        v = max(float(obs[i, idx[0]]), 0.0)
+        epd -= v * dk
+        kap += dk
+        if law.preview:  # the step average from the shifted curvature to the first preview sample
+            d0 -= v * v * dk / (max(v, law.pv_vmin) * law.pv_dt)
+    return epd, d0, kap
+
+
+@njit(cache=True)
 def mpc_initial_rows(law: MPCLaw, obs: np.ndarray, state: np.ndarray) -> None:
     """Initial memory of every row into ``state`` (N, 9): x_m(k-1) = x_m(k), u(k-1) = the observed road-wheel
     angle (clipped), d(k-1) = d(k), next call samples."""
     idx = law.idx
     for i in range(obs.shape[0]):
-        for j in range(6):
+        epd, d0, _ = mpc_reference(law, obs, i)
+        for j in range(5):
             state[i, j] = obs[i, idx[1 + j]]
+        state[i, 5] = epd
         state[i, 6] = min(max(float(obs[i, idx[8]]), -law.max_steer), law.max_steer)
-        state[i, 7] = mpc_disturbance(law, obs, i)
+        state[i, 7] = d0
         state[i, 8] = 0.0
 
 
@@ -313,10 +368,10 @@ def mpc_row(law: MPCLaw, obs: np.ndarray, i: int, st: np.ndarray, z: np.ndarray)
     r = i if law.tables.shape[0] > 1 else 0
     half = 0.5 * law.ts
     width = law.tables.shape[2]
-    vy, yr, ey, eyd, ep, epd = float(obs[i, idx[1]]), float(obs[i, idx[2]]), float(obs[i, idx[3]]), \
-        float(obs[i, idx[4]]), float(obs[i, idx[5]]), float(obs[i, idx[6]])
+    vy, yr, ey, eyd, ep = float(obs[i, idx[1]]), float(obs[i, idx[2]]), float(obs[i, idx[3]]), \
+        float(obs[i, idx[4]]), float(obs[i, idx[5]])
     v_x = float(obs[i, idx[0]])
-    d0 = mpc_disturbance(law, obs, i)
+    epd, d0, kap = mpc_reference(law, obs, i)
     z[0] = half * (vy + st[0])
     z[1] = vy - st[0]
     z[2] = half * (yr + st[1])
@@ -331,7 +386,7 @@ def mpc_row(law: MPCLaw, obs: np.ndarray, i: int, st: np.ndarray, z: np.ndarray)
         z[9] = ep
         j = 10
     z[j] = d0 - st[7]
-    z[j + 1] = float(obs[i, idx[9]])
+    z[j + 1] = kap
     for q in range(law.pv1 - law.pv0):
         z[j + 2 + q] = float(obs[i, law.pv0 + q])
     z[width - 1] = float(obs[i, idx[10]])
@@ -339,6 +394,9 @@ def mpc_row(law: MPCLaw, obs: np.ndarray, i: int, st: np.ndarray, z: np.ndarray)
     du = -acc
     du = law.max_du if du > law.max_du else (-law.max_du if du < -law.max_du else du)
     u = st[6] + du
+    if law.slip_max < math.inf and v_x > 1.0:  # no steer beyond the front tyres' peak slip angle
+        kin = (vy + law.lf_m * yr) / v_x   # direction of the front axle's velocity [rad]
+        u = kin + law.slip_max if u > kin + law.slip_max else (kin - law.slip_max if u < kin - law.slip_max else u)
     u = law.max_steer if u > law.max_steer else (-law.max_steer if u < -law.max_steer else u)
     st[0], st[1], st[2], st[3], st[4], st[5] = vy, yr, ey, eyd, ep, epd
     st[6] = u

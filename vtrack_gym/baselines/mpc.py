@@ -49,6 +49,21 @@ SATURATED value actually applied at the previous sample, rate = ``design.max_roa
 up. On the first call (or ``episode_start``) u(k-1) is the observation's road_wheel_angle, x_m(k-1) = x_m(k)
 and d(k-1) = d(k).
 
+Dense tracks (outside the paper; ``rate_anticipation``, ``front_slip_limit``, on by default, off in the ``paper``
+and ``paper_siso`` presets): a centre-line sampled every 1 m or less keeps the curvature steps of arc/straight
+junctions sharp, and the unconstrained gains then steer through a 15 m chicane or a 6 m kart chicane late and
+overshoot into front-tyre saturation (off the road on benchmarks/own_tracks.py's hairpins, club and kart
+circuits at 1 m, while 2 m files, whose spline rounds each step over about 3 m, lap). Two additions:
+
+* rate-limit anticipation: the curvature at the car (and with it e_phi_dot = r - v kappa and d(k)) is shifted by
+  ``laws.rate_anticipation`` / (l + K_us v^2), planned at ``MPC_ANTICIPATION_RATE_FACTOR`` x the actuator rate;
+  exactly 0 while the previewed steady-state steer is reachable in time;
+* front slip bound: ``|u - (v_y + a r) / v_x| <= front_slip_limit x mu F_zf / C_f`` (2 x 0.063 rad for the
+  paper car, ``front_slip_bound``), no steer beyond the front tyres' peak (above 1 m/s).
+
+Measured (default preset, env): LateralTracking-v0 bit-identical; DLC120-v0 max|e_y| unchanged (0.156 m), ITAE
+1.716 -> 1.603 (the slip bound acts at the exit); own circuits at 0.5 / 1 / 2 m all lap (max|e_y| <= 0.87 m).
+
 State per row (``state_size = 9``): v_y, r, e_y, e_y_dot, e_phi, e_phi_dot at the previous MPC sample, the
 applied u(k-1) [rad], d(k-1) [rad/s^2] and the number of env steps left before the next MPC sample.
 
@@ -94,7 +109,7 @@ from vtrack_gym.baselines.laws import MPC_STATE_SIZE, mpc_initial_rows, mpc_law,
 from vtrack_gym.baselines.linear_models import curvature_preview_operator, lateral_matrices, paper_model, zoh
 from vtrack_gym.baselines.preset_files import TunedPresets
 from vtrack_gym.envs.observation import OBS, ObservationLayout
-from vtrack_gym.vehicle.params import DesignModel
+from vtrack_gym.vehicle.params import GRAVITY_MPS2, DesignModel
 
 
 @dataclass(frozen=True)
@@ -225,6 +240,16 @@ def closed_loop_spectral_radius(design: DesignModel, v_x: float, config: MPCConf
     return float(np.max(np.abs(np.linalg.eigvals(m))))
 
 
+def front_slip_bound(design: DesignModel, factor: float) -> float:
+    """Front slip-angle bound [rad]: ``factor`` x mu F_zf / C_f (static front axle load F_zf = m g b / l [N], axle
+    cornering stiffness C_f [N/rad]; the slip at which the linear tyre reaches the friction limit; a brush tyre
+    peaks at 3x it). inf when ``factor`` is 0 (no bound)."""
+    if factor <= 0.0:
+        return math.inf
+    fz_front = design.mass_kg * GRAVITY_MPS2 * design.cg_to_rear_axle_m / design.wheelbase_m
+    return factor * design.friction_mu * fz_front / design.front_cornering_stiffness_npr
+
+
 @dataclass(frozen=True)
 class GainTable:
     """Exact gains on the speed grid: speeds (S,) [m/s], K_x (S, n), K_d (S, N_p), K_r (S, q) and the folded
@@ -309,7 +334,9 @@ class MPC(TunedPresets, Policy):
         n_out = len(measured_outputs(cfg))
         self.law = mpc_law(layout, self.table.speeds, self.table.runtime if tables is None else tables,
                            preview=cfg.use_preview, n_out=n_out, sample_time_s=cfg.sample_time_s, n_hold=self.n_hold,
-                           max_du=max_du, max_steer=self.max_steer_rad)
+                           max_du=max_du, max_steer=self.max_steer_rad, design=design,
+                           anticipation_lag_s=cfg.actuator_lag_s if cfg.rate_anticipation else None,
+                           front_slip_max_rad=front_slip_bound(design, cfg.front_slip_limit))
 
     def _initial_state_batch(self, obs: np.ndarray) -> np.ndarray:
         state = np.empty((obs.shape[0], self.state_size))

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import vtrack_gym
-from vtrack_gym.envs.observation import OBS
 from vtrack_gym.envs.config import RewardConfig
+from vtrack_gym.envs.observation import OBS
 
 ENV_IDS = vtrack_gym.ENV_IDS
 

@@ -11,8 +11,8 @@ import pytest
 import vtrack_gym  # noqa: F401
 from vtrack_gym.envs.scenarios import SCENARIOS, TRAINING_MIX, ScenarioConfig
 from vtrack_gym.envs.sim import CIRCLE_MIN_PEAK_G
-from vtrack_gym.vehicle.params import GRAVITY_MPS2
 from vtrack_gym.tracks.training_mix import KINDS, TrainingMixProfile, training_bank
+from vtrack_gym.vehicle.params import GRAVITY_MPS2
 
 G = 9.81
 

@@ -49,7 +49,7 @@ class FrozenStatistics(RunningMeanStd):
     """Running statistics that ignore updates: the fixed scaling (module level, so ``VecNormalize.save`` pickles
     it)."""
 
-    def update(self, arr: np.ndarray) -> None:  # noqa: ARG002 - frozen on purpose
+    def update(self, arr: np.ndarray) -> None:
         return None
 
 

@@ -358,8 +358,8 @@ class NumpyPolicy:
         Files with the ``env`` record need every recorded name in the env's layout, in the recorded order, and log
         a warning when the road-wheel angle of action 1 differs or the env's control period is longer than the
         trained one (the agent still runs, on a different plant timing or scale, e.g. highway-env; a shorter period
-        is only logged at INFO: the state-feedback law is sampled faster); files without it are taken to have the layout without
-        the speed preview and compare the observation size only.
+        is only logged at INFO: the state-feedback law is sampled faster); files without it are taken to have the
+        layout without the speed preview and compare the observation size only.
         """
         from vtrack_gym.baselines.base import env_contract
 

@@ -23,9 +23,9 @@ Law (road-wheel angle [rad], left-positive; e_y left-positive so a car left of t
 
 Stateless; output clipped to +-max_road_wheel_angle_rad.
 
-Default: k = 2 1/s, k_soft = 1 m/s, k_h = 1, k_r = 0.03 s (above 20 m/s). Linear closed loop: max|e_y| 2.6 mm (11.11 m/s,
-R 100), 18 mm (33.33 m/s, R 500), 63 mm (DLC proxy). Yaw damping costs tracking in the linear model (it fights
-the yaw-rate lag at curve entry: k_r = 0 gives 1.0 / 11 / 40 mm) but without it the nonlinear env's 0.8 g
+Default: k = 2 1/s, k_soft = 1 m/s, k_h = 1, k_r = 0.03 s (above 20 m/s). Linear closed loop: max|e_y| 2.6 mm
+(11.11 m/s, R 100), 18 mm (33.33 m/s, R 500), 63 mm (DLC proxy). Yaw damping costs tracking in the linear model (it
+fights the yaw-rate lag at curve entry: k_r = 0 gives 1.0 / 11 / 40 mm) but without it the nonlinear env's 0.8 g
 double lane change (DLC120-v0, seed 0) spins out for k = 1..3; with k_r = 0.03 it completes (max|e_y| 0.40 m;
 LateralTracking-v0 0.08 m). On the curvature-limited circuits of ``benchmarks/own_tracks.py`` (6 m hairpins,
 S-bends) the anticipation and the low-speed damping bring max|e_y| from up to 2.3 m to 0.5 m.

@@ -165,8 +165,9 @@ def _training_mix() -> ScenarioConfig:
 TRAINING_MIX = _training_mix()
 """The RL training distribution (``tracks.training_mix``): 60 roads, half of them lane-change courses (8 cone-lined
 lanes 2.5-4 m left or right and back at 15-37 m/s, 0.4-0.85 g), a sixth each twisty (R >= 18 m), highway
-(R >= 120 m) and hairpin (R >= 5.5 m) roads, each with its own speed profile; 20 % standstill starts; friction 0.7-1.1, mass x0.8-1.25, sensor noise 0-1 x nominal and
-actuator delay 0-50 ms drawn per episode; 60 s episodes. Covers every evaluation regime of the package."""
+(R >= 120 m) and hairpin (R >= 5.5 m) roads, each with its own speed profile; 20 % standstill starts; friction
+0.7-1.1, mass x0.8-1.25, sensor noise 0-1 x nominal and actuator delay 0-50 ms drawn per episode; 60 s episodes.
+Covers every evaluation regime of the package."""
 
 TRACK_DEFAULT_MAX_SPEED_MPS = 40.0 * KMH
 """Track-v0's default speed profile: curvature-limited at 40 km/h ..."""
@@ -218,8 +219,8 @@ def maneuver_scenario(name: str) -> ScenarioConfig:
 MANEUVER_SCENARIOS: tuple[ScenarioConfig, ...] = tuple(maneuver_scenario(n) for n in MANEUVER_TRACK_NAMES)
 """The standard manoeuvres as scenarios (``vtrack/ISO3888-1-v0``, ...), in ``MANEUVER_TRACK_NAMES`` order."""
 
-SCENARIOS: dict[str, ScenarioConfig] = {s.name: s for s in (LATERAL_TRACKING, DLC120, RANDOM_TRACKS, TRAINING_MIX, TRACK,
-                                                            *MANEUVER_SCENARIOS)}
+SCENARIOS: dict[str, ScenarioConfig] = {s.name: s for s in (LATERAL_TRACKING, DLC120, RANDOM_TRACKS, TRAINING_MIX,
+                                                            TRACK, *MANEUVER_SCENARIOS)}
 """Scenario name -> scenario; one registered id ``vtrack/<name>`` per entry."""
 LEGACY_IDS: tuple[str, ...] = ("LateralTracking-v0", "DLC120-v0", "LateralTrackingRandom-v0")
 """The historical un-namespaced ids, registered as aliases of ``vtrack/<id>``."""

@@ -26,11 +26,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vtrack_gym.tracks.maneuvers import GRAVITY_MPS2
 from vtrack_gym.tracks.path import DEFAULT_DS_M, Path
 from vtrack_gym.tracks.procedural import ProceduralTrackConfig, procedural_track_from_config
 from vtrack_gym.tracks.speed_profiles import ConstantSpeed, CurvatureLimited
 
-GRAVITY_MPS2 = 9.81
 KINDS: tuple[str, ...] = ("twisty", "highway", "hairpin", "lanechange")
 """The kinds of road in the bank."""
 BANK_PATTERN: tuple[str, ...] = ("twisty", "lanechange", "highway", "lanechange", "hairpin", "lanechange")
@@ -110,9 +110,9 @@ class TrainingMixProfile:
     def row_speeds(self, path: Path) -> np.ndarray:
         """Reference speed at every row of ``path`` [m/s]."""
         kind = _kind(path)
-        rng = _rng(path.name + "/speed")
         if kind == "lanechange":
             return ConstantSpeed(_lane_change_speed(_rng(path.name))).row_speeds(path)
+        rng = _rng(path.name + "/speed")
         v_lo, v_hi, g_lo, g_hi = _SPEED_RANGES[kind]
         profile = CurvatureLimited(float(rng.uniform(v_lo, v_hi)), float(rng.uniform(g_lo, g_hi)) * GRAVITY_MPS2)
         return profile.row_speeds(path)

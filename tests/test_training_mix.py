@@ -11,6 +11,7 @@ import pytest
 import vtrack_gym  # noqa: F401
 from vtrack_gym.envs.scenarios import SCENARIOS, TRAINING_MIX, ScenarioConfig
 from vtrack_gym.envs.sim import CIRCLE_MIN_PEAK_G
+from vtrack_gym.vehicle import layout as VL
 from vtrack_gym.tracks.training_mix import KINDS, TrainingMixProfile, training_bank
 from vtrack_gym.vehicle.params import GRAVITY_MPS2
 
@@ -48,18 +49,22 @@ def test_bank_covers_the_evaluation_regimes(bank) -> None:
 def test_randomisation_is_drawn_per_episode_within_ranges() -> None:
     env = gym.make("vtrack/TrainingMix-v0")
     sim = env.unwrapped._sim
-    seen: dict[str, list] = {"mu": [], "noise": [], "delay": []}
+    seen: dict[str, list] = {"mu": [], "noise": [], "delay": [], "rate": []}
+    nominal_rate = env.unwrapped.config.vehicle.steering.max_road_wheel_rate_radps
     for seed in range(12):
         env.reset(seed=seed)
         # the friction the plant was given (reset_car records CIRCLE_MIN_PEAK_G x mu x g per car)
         seen["mu"].append(float(sim.circle_min_peak_a_y[0]) / (CIRCLE_MIN_PEAK_G * GRAVITY_MPS2))
         seen["noise"].append(float(sim.noise_scale[0]))
         seen["delay"].append(int(sim.delay_steps[0]))
+        seen["rate"].append(float(sim.plant.param_rows[0, VL.P_DELTA_RATE]) / nominal_rate)
     lo, hi = TRAINING_MIX.friction_range
     assert all(lo - 1e-9 <= m <= hi + 1e-9 for m in seen["mu"]) and len(set(seen["mu"])) > 6
     lo, hi = TRAINING_MIX.sensor_noise_range
     assert all(lo <= n <= hi for n in seen["noise"]) and len(set(seen["noise"])) > 6
     assert set(seen["delay"]) <= {0, 1, 2, 3, 4, 5} and len(set(seen["delay"])) > 2  # 0-50 ms at 10 ms
+    lo, hi = TRAINING_MIX.steering_rate_scale_range
+    assert all(lo - 1e-9 <= k <= hi + 1e-9 for k in seen["rate"]) and len(set(seen["rate"])) > 6
     # an explicit reset option wins over the scenario's draw
     env.reset(seed=0, options={"sensor_noise": 2.5, "actuator_delay_s": 0.02})
     assert sim.noise_scale[0] == 2.5 and sim.delay_steps[0] == 2
@@ -82,7 +87,7 @@ def test_scenarios_without_ranges_draw_nothing() -> None:
     for name, sc in SCENARIOS.items():
         if name != "TrainingMix-v0":
             assert sc.friction_range is None and sc.mass_scale_range is None and sc.sensor_noise_range is None
-            assert sc.max_actuator_delay_s == 0.0
+            assert sc.max_actuator_delay_s == 0.0 and sc.steering_rate_scale_range is None
     env = gym.make("DLC120-v0")
     env.reset(seed=0)
     assert env.unwrapped._sim.noise_scale[0] == 0.0 and env.unwrapped._sim.delay_steps[0] == 0
@@ -90,7 +95,27 @@ def test_scenarios_without_ranges_draw_nothing() -> None:
 
 @pytest.mark.parametrize("field, value", [("friction_range", (0.05, 1.0)), ("mass_scale_range", (1.5, 1.2)),
                                           ("sensor_noise_range", (0.0, 9.0)), ("friction_range", [0.7, 1.0]),
-                                          ("mass_scale_range", (True, 1.0))])
+                                          ("mass_scale_range", (True, 1.0)),
+                                          ("steering_rate_scale_range", (0.1, 2.0))])
 def test_bad_randomisation_ranges_are_refused(field: str, value: object) -> None:
     with pytest.raises(ValueError, match=f"ScenarioConfig.{field}"):
         ScenarioConfig("x", "handling_course", **{field: value})
+
+
+def test_steering_rate_scale_speeds_up_the_road_wheel() -> None:
+    """The reset option multiplies the actuator's rate limit: from straight running, a full-lock command turns the
+    road wheel at most rate x t; four times the rate gets it there correspondingly sooner."""
+    def wheel_after(options: dict, steps: int) -> float:
+        env = gym.make("vtrack/DLC120-v0")
+        obs, _ = env.reset(seed=0, options=options)
+        for _ in range(steps):
+            obs, *_ = env.step(np.array([1.0], dtype=np.float32))
+        return float(env.unwrapped._sim.plant.state[0, VL.S_DELTA])
+
+    rate = gym.make("vtrack/DLC120-v0").unwrapped.config.vehicle.steering.max_road_wheel_rate_radps
+    t = 0.1  # s, 10 control periods
+    nominal, fast = wheel_after({}, 10), wheel_after({"steering_rate_scale": 4.0}, 10)
+    assert 0.5 * rate * t < nominal <= rate * t + 1e-9
+    assert 2.5 * nominal < fast <= 4.0 * rate * t + 1e-9
+    with pytest.raises(ValueError, match="steering_rate_scale"):
+        gym.make("vtrack/DLC120-v0").reset(seed=0, options={"steering_rate_scale": 20.0})

@@ -110,6 +110,8 @@ class ResetOptions:
     target_speed_mps: float | None = ranged(None, ge=1.0, le=45.0, unit="m/s")
     sensor_noise: float = ranged(0.0, ge=0.0, le=5.0)
     actuator_delay_s: float = ranged(0.0, ge=0.0, le=0.5, unit="s")
+    # multiplies the steering actuator's rate limit (1 = the vehicle's own, 0.87 rad/s road-wheel for the default)
+    steering_rate_scale: float = ranged(1.0, ge=0.25, le=10.0)
 
     RANGES: ClassVar[dict[str, tuple[float, float]]]
     """Option name -> closed range [lo, hi] (from the fields' declared ranges; set below the class)."""

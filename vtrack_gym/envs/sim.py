@@ -284,6 +284,8 @@ class BatchSim:
             params = params.with_mass_scale(options.mass_scale)
         if options.friction_mu is not None:
             params = params.with_friction(options.friction_mu)
+        if options.steering_rate_scale != 1.0:
+            params = params.with_steering_rate_scale(options.steering_rate_scale)
         self.plant.set_vehicle_params(i, params)
         self.circle_min_peak_a_y[i] = CIRCLE_MIN_PEAK_G * params.tyres.friction_mu * GRAVITY_MPS2
 
@@ -337,6 +339,8 @@ class BatchSim:
             period = self.config.control_period_s
             steps = int(rng.integers(0, int(sc.max_actuator_delay_s / period + 1e-9) + 1))
             changes["actuator_delay_s"] = steps * period
+        if sc.steering_rate_scale_range is not None and options.steering_rate_scale == 1.0:
+            changes["steering_rate_scale"] = float(rng.uniform(*sc.steering_rate_scale_range))
         return replace(options, **changes) if changes else options
 
     def observe_after_reset(self, idx: np.ndarray) -> None:

@@ -242,6 +242,14 @@ class VehicleParams:
             raise ValueError(f"friction_mu must be in [0.1, 1.5] (got {mu})")
         return replace(self, tyres=replace(self.tyres, friction_mu=mu))
 
+    def with_steering_rate_scale(self, scale: float) -> VehicleParams:
+        """Return a copy whose steering actuator's rate limit is multiplied by ``scale`` (0.25..10); lock and ratio
+        unchanged (a faster or slower EPS motor)."""
+        if not (0.25 <= scale <= 10.0):
+            raise ValueError(f"steering_rate_scale must be in [0.25, 10.0] (got {scale})")
+        rate = self.steering.max_hand_wheel_rate_dps * scale
+        return replace(self, steering=replace(self.steering, max_hand_wheel_rate_dps=rate))
+
     def as_dict(self) -> dict[str, object]:
         """Nested plain-dict view (for provenance records and JSON)."""
         out: dict[str, object] = {"name": self.name}

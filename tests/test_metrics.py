@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from vtrack_gym.evaluation.metrics import constraint_metrics, itae, max_abs, paper_metrics, rms
+from vtrack_gym.evaluation.metrics import (constraint_metrics, itae, max_abs, paper_metrics, reversal_count, rms,
+                                           smoothness_metrics)
 from vtrack_gym.evaluation.trace import STEP_SIGNALS, Trace
 
 
@@ -54,3 +55,24 @@ def test_constraints() -> None:
     assert bad["constraints_ok"] == 0.0 and bad["a_y_violation_mps2"] == pytest.approx(0.17)
     lift = constraint_metrics(synthetic_trace(min_fz_n=lambda t: 100.0 - 20.0 * t))
     assert lift["constraints_ok"] == 0.0 and lift["min_fz_n"] < 0.0
+
+
+@pytest.mark.parametrize("freq_hz, amplitude_deg, expected_per_s", [
+    (0.5, 30.0, 0.9),    # 2 f T - 1 reversals in T = 10 s (the first turn sets the direction)
+    (3.0, 5.0, 5.9),
+    (25.0, 1.5, 49.9),   # a 25 Hz wiggle of +-1.5 deg: peak to peak 3 deg > the 2 deg gap
+    (25.0, 0.9, 0.0),    # peak to peak 1.8 deg < 2 deg: not counted
+])
+def test_steering_reversals_of_sines(freq_hz: float, amplitude_deg: float, expected_per_s: float) -> None:
+    # sampled at 1 kHz so that every peak is resolved; a phase offset keeps samples off the exact peaks
+    trace = synthetic_trace(dt=0.001, hand_wheel_angle_rad=lambda t: np.radians(amplitude_deg)
+                            * np.sin(2 * np.pi * freq_hz * t + 0.3))
+    assert smoothness_metrics(trace)["steering_reversals_per_s"] == pytest.approx(expected_per_s, abs=0.11)
+
+
+def test_reversal_count_gap_and_ramps() -> None:
+    assert reversal_count(np.array([0.0, 3.0, 1.0, 1.5, -2.0]), 2.0) == 1   # the 0.5 back-step is within the gap
+    assert reversal_count(np.array([0.0, 3.0, 0.5, 4.0, 1.0]), 2.0) == 3
+    assert reversal_count(np.linspace(0.0, 90.0, 1000), 2.0) == 0           # a steady turn-in never reverses
+    assert reversal_count(np.array([5.0]), 2.0) == 0
+    assert math.isnan(smoothness_metrics(synthetic_trace(duration_s=0.0))["steering_reversals_per_s"])

@@ -24,7 +24,7 @@ log = logging.getLogger(__name__)
 
 LEADERBOARD_COLUMNS: tuple[str, ...] = (
     "rms_e_y_m", "max_e_y_m", "rms_e_phi_deg", "rms_hand_wheel_deg", "max_hand_wheel_deg", "max_a_y_mps2",
-    "max_roll_deg", "itae", "cones_hit", "comfort_a_v_mps2",
+    "max_roll_deg", "itae", "cones_hit", "comfort_a_v_mps2", "steering_reversals_per_s",
 )
 SUITE_COLUMNS: dict[str, tuple[str, ...]] = {"maneuvers": ("max_steady_a_y_mps2", "grip_limit_a_y_mps2",
                                                             "mu_g_mps2")}

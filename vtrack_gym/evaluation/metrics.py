@@ -16,6 +16,11 @@ from vtrack_gym.evaluation.trace import Trace
 A_Y_LIMIT_MPS2 = 8.83
 """The paper's GA constraint on the lateral acceleration (mu g with mu = 0.9) [m/s^2]."""
 
+REVERSAL_GAP_DEG = 2.0
+"""CHOICE: a steering reversal counts once the hand-wheel has turned back by this much [deg] from its last extremum
+(the gap of the driving-research steering reversal rate). No low-pass filter first: the metric exists to show a
+steering wiggle, which a filter would hide."""
+
 
 def rms(values: np.ndarray, time_s: np.ndarray | None = None) -> float:
     """Root mean square sqrt((1/T) int x^2 dt) (trapezoid on ``time_s``; plain mean for uniform samples)."""
@@ -82,6 +87,45 @@ def comfort_metrics(trace: Trace, k: tuple[float, float, float] = (1.0, 1.0, 1.0
     return {"comfort_a_v_mps2": float(a_v), "comfort_band": iso2631.comfort_band(a_v)}
 
 
+def reversal_count(angle: np.ndarray, gap: float) -> int:
+    """Direction reversals of a signal larger than ``gap`` (same unit): a reversal counts when the signal has moved
+    back by at least ``gap`` from the extremum reached since the previous one (the first turn sets the direction and
+    is not a reversal)."""
+    values = np.asarray(angle, dtype=np.float64)
+    if values.size < 2:
+        return 0
+    count, direction, extremum = 0, 0, float(values[0])
+    low = high = extremum
+    for v in values[1:].tolist():
+        if direction == 0:  # no direction yet: wait for the first move of a gap either way
+            low, high = min(low, v), max(high, v)
+            if high - v >= gap:
+                direction, extremum = -1, v
+            elif v - low >= gap:
+                direction, extremum = 1, v
+        elif direction > 0:
+            if v > extremum:
+                extremum = v
+            elif extremum - v >= gap:
+                count, direction, extremum = count + 1, -1, v
+        elif v < extremum:
+            extremum = v
+        elif v - extremum >= gap:
+            count, direction, extremum = count + 1, 1, v
+    return count
+
+
+def smoothness_metrics(trace: Trace, gap_deg: float = REVERSAL_GAP_DEG) -> dict[str, float]:
+    """Hand-wheel reversals larger than ``gap_deg`` per second of driving [1/s]: a driver's few per second at most
+    in a lane change; a policy chattering between left and right shows tens (an ISO 2631-1 comfort value, weighted
+    towards 0.5-2 Hz, barely sees a 25 Hz wiggle)."""
+    duration = float(trace["time_s"][-1]) if trace.n_steps else 0.0
+    if duration <= 0.0:
+        return {"steering_reversals_per_s": math.nan}
+    count = reversal_count(np.degrees(trace["hand_wheel_angle_rad"]), gap_deg)
+    return {"steering_reversals_per_s": count / duration}
+
+
 def speed_metrics(trace: Trace) -> dict[str, float]:
     """Speed tracking error v - v_ref [m/s] against the env's reference speed (``target_speed_mps``: constant on
     the paper scenarios, the speed profile v_ref(s) on a track with one): RMS (time-weighted) and max |.|."""
@@ -102,6 +146,7 @@ def evaluate_trace(trace: Trace, cones_hit: int | None = None) -> dict[str, Any]
     }
     out.update(paper_metrics(trace))
     out.update(speed_metrics(trace))
+    out.update(smoothness_metrics(trace))
     out.update(constraint_metrics(trace))
     out.update(comfort_metrics(trace))
     if cones_hit is not None:

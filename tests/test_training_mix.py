@@ -88,6 +88,7 @@ def test_scenarios_without_ranges_draw_nothing() -> None:
         if name != "TrainingMix-v0":
             assert sc.friction_range is None and sc.mass_scale_range is None and sc.sensor_noise_range is None
             assert sc.max_actuator_delay_s == 0.0 and sc.steering_rate_scale_range is None
+            assert sc.initial_lateral_offset_range_m is None and sc.initial_heading_error_range_rad is None
     env = gym.make("DLC120-v0")
     env.reset(seed=0)
     assert env.unwrapped._sim.noise_scale[0] == 0.0 and env.unwrapped._sim.delay_steps[0] == 0
@@ -119,3 +120,25 @@ def test_steering_rate_scale_speeds_up_the_road_wheel() -> None:
     assert 2.5 * nominal < fast <= 4.0 * rate * t + 1e-9
     with pytest.raises(ValueError, match="steering_rate_scale"):
         gym.make("vtrack/DLC120-v0").reset(seed=0, options={"steering_rate_scale": 20.0})
+
+
+def test_start_offsets_are_drawn_and_observed() -> None:
+    """TrainingMix-v0 starts each episode off the path (offset and heading error drawn within the scenario's ranges)
+    and the first observation reports them; on another scenario the reset options set them exactly."""
+    from vtrack_gym.envs.observation import OBS
+
+    env = gym.make("vtrack/TrainingMix-v0")
+    lo_y, hi_y = TRAINING_MIX.initial_lateral_offset_range_m
+    lo_p, hi_p = TRAINING_MIX.initial_heading_error_range_rad
+    seen_y, seen_p = [], []
+    for seed in range(10):
+        obs, _ = env.reset(seed=seed)
+        seen_y.append(float(obs[OBS.E_Y]))
+        seen_p.append(float(obs[OBS.E_PHI]))
+    assert all(lo_y - 0.05 <= e <= hi_y + 0.05 for e in seen_y) and np.ptp(seen_y) > 0.5
+    assert all(lo_p - 0.01 <= e <= hi_p + 0.01 for e in seen_p) and np.ptp(seen_p) > 0.05
+    straight = gym.make("vtrack/DLC120-v0")  # the lane change starts on a straight approach
+    obs, _ = straight.reset(seed=0, options={"initial_lateral_offset_m": 0.8, "initial_heading_error_rad": -0.2})
+    assert obs[OBS.E_Y] == pytest.approx(0.8, abs=1e-3) and obs[OBS.E_PHI] == pytest.approx(-0.2, abs=1e-3)
+    obs, _ = straight.reset(seed=0)
+    assert obs[OBS.E_Y] == 0.0 and obs[OBS.E_PHI] == 0.0

@@ -105,6 +105,8 @@ class ResetOptions:
     """Scenario knobs that ``reset(options=...)`` may override (``None`` = scenario default)."""
 
     initial_lateral_offset_m: float = ranged(0.0, ge=-2.0, le=2.0, unit="m")
+    # the car's heading minus the path's at the start (positive: pointing left of the path)
+    initial_heading_error_rad: float = ranged(0.0, ge=-0.5, le=0.5, unit="rad")
     friction_mu: float | None = ranged(None, ge=0.1, le=1.5)
     mass_scale: float = ranged(1.0, ge=0.5, le=2.0)
     target_speed_mps: float | None = ranged(None, ge=1.0, le=45.0, unit="m/s")

@@ -45,7 +45,9 @@ drive force; the SUV's more so), so a criterion fixed at a share of mu g would j
 
 RANDOMISED_RANGES: dict[str, tuple[float, float]] = {"friction_range": (0.1, 1.5), "mass_scale_range": (0.5, 2.0),
                                                    "sensor_noise_range": (0.0, 5.0),
-                                                   "steering_rate_scale_range": (0.25, 10.0)}
+                                                   "steering_rate_scale_range": (0.25, 10.0),
+                                                   "initial_lateral_offset_range_m": (-2.0, 2.0),
+                                                   "initial_heading_error_range_rad": (-0.5, 0.5)}
 """The allowed span of each domain-randomisation range of a scenario (the matching reset option's range)."""
 
 
@@ -86,12 +88,14 @@ class ScenarioConfig:
     # Domain randomisation, drawn per episode where the reset options leave the knob at its default:
     # friction mu, mass scale and sensor-noise scale uniform in these ranges (None: off), actuator delay a whole
     # number of control periods uniform in [0, max_actuator_delay_s], steering rate-limit scale uniform in
-    # steering_rate_scale_range.
+    # steering_rate_scale_range, start offset from the path [m] and heading error [rad] uniform in theirs.
     friction_range: tuple[float, float] | None = None
     mass_scale_range: tuple[float, float] | None = None
     sensor_noise_range: tuple[float, float] | None = None
     max_actuator_delay_s: float = ranged(0.0, ge=0.0, le=0.5, unit="s")
     steering_rate_scale_range: tuple[float, float] | None = None
+    initial_lateral_offset_range_m: tuple[float, float] | None = None
+    initial_heading_error_range_rad: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         track = self.track
@@ -162,7 +166,8 @@ def _training_mix() -> ScenarioConfig:
     return ScenarioConfig("TrainingMix-v0", "training_mix", 15.0, 15.0, 60.0, procedural_bank_size=60,
                           standstill_start_fraction=0.2, speed_profile=TrainingMixProfile(),
                           friction_range=(0.7, 1.1), mass_scale_range=(0.8, 1.25), sensor_noise_range=(0.0, 1.0),
-                          max_actuator_delay_s=0.05, steering_rate_scale_range=(1.0, 4.0))
+                          max_actuator_delay_s=0.05, steering_rate_scale_range=(1.0, 4.0),
+                          initial_lateral_offset_range_m=(-1.5, 1.5), initial_heading_error_range_rad=(-0.15, 0.15))
 
 
 TRAINING_MIX = _training_mix()
@@ -170,7 +175,8 @@ TRAINING_MIX = _training_mix()
 lanes 2.5-4 m left or right and back at 15-37 m/s, 0.4-0.85 g), a sixth each twisty (R >= 18 m), highway
 (R >= 120 m) and hairpin (R >= 5.5 m) roads, each with its own speed profile; 20 % standstill starts; friction
 0.7-1.1, mass x0.8-1.25, sensor noise 0-1 x nominal, actuator delay 0-50 ms and a steering rate limit 1-4 x the
-car's own drawn per episode; 60 s episodes. Covers every evaluation regime of the package. The rate-limit draw keeps
+car's own drawn per episode; every episode starts up to 1.5 m off the path and 0.15 rad off its heading (so that
+large errors, and recovering from them, are part of what is learnt); 60 s episodes. Covers every evaluation regime of the package. The rate-limit draw keeps
 a policy from learning to chatter between left and right lock, which a slow actuator would smooth out and a fast
 one (or another simulator's instant steering) would not."""
 

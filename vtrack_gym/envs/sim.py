@@ -292,7 +292,8 @@ class BatchSim:
         start = self.tables[int(self.tmeta[self.veh_track[i], 0])]
         x0, y0, psi0 = start[0], start[1], start[2]
         off = options.initial_lateral_offset_m
-        self.plant.reset(i, x=x0 - off * np.sin(psi0), y=y0 + off * np.cos(psi0), psi=psi0, v_x=v0)
+        self.plant.reset(i, x=x0 - off * np.sin(psi0), y=y0 + off * np.cos(psi0),
+                         psi=psi0 + options.initial_heading_error_rad, v_x=v0)
         # Reset-time outputs: at rest on flat ground (no accelerations, static wheel loads of these params).
         from vtrack_gym.vehicle.packing import static_wheel_loads_n
 
@@ -341,6 +342,10 @@ class BatchSim:
             changes["actuator_delay_s"] = steps * period
         if sc.steering_rate_scale_range is not None and options.steering_rate_scale == 1.0:
             changes["steering_rate_scale"] = float(rng.uniform(*sc.steering_rate_scale_range))
+        if sc.initial_lateral_offset_range_m is not None and options.initial_lateral_offset_m == 0.0:
+            changes["initial_lateral_offset_m"] = float(rng.uniform(*sc.initial_lateral_offset_range_m))
+        if sc.initial_heading_error_range_rad is not None and options.initial_heading_error_rad == 0.0:
+            changes["initial_heading_error_rad"] = float(rng.uniform(*sc.initial_heading_error_range_rad))
         return replace(options, **changes) if changes else options
 
     def observe_after_reset(self, idx: np.ndarray) -> None:

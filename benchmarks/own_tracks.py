@@ -1,12 +1,13 @@
 """Every default baseline on real-circuit-like closed tracks built here (hairpins down to 6 m radius), driven as a
 user would: a CSV file with per-station widths, ``vtrack/Track-v0`` with ``curvature_limited(40 km/h, 0.7 g)``.
 
-    PYTHONPATH=. python benchmarks/own_tracks.py [--out DIR] [--policies smc,mpc,...]
+    PYTHONPATH=. python benchmarks/own_tracks.py [--out DIR] [--policies smc,mpc,...] [--spacing M] [--vehicle NAME]
 
 Reports per track and policy: termination, success (one lap within the road), lap time [s], max |e_y| [m],
 RMS |v - v_ref| [m/s], and the peak road-wheel angle as a share of full lock. The circuits are centre-lines made
-of straights and arcs (exact tangents), sampled every ``SPACING_M`` and written without repeating the start point
-(real loops end one sample short of the start).
+of straights and arcs (exact tangents), sampled every ``SPACING_M`` (or ``--spacing``) and written without repeating
+the start point (real loops end one sample short of the start). ``--vehicle`` drives a car of the catalogue
+(``vtrack_gym.vehicle.catalog.list_vehicles()``) or a vehicle file instead of the paper's car.
 """
 
 from __future__ import annotations
@@ -121,8 +122,9 @@ def write_circuit_csv(file: Path, segments: list[Segment], spacing_m: float = SP
     return file
 
 
-def drive(file: Path, policy_name: str) -> dict[str, float | str | bool]:
-    """One episode of a default baseline on the track file with curvature_limited(40 km/h, 0.7 g)."""
+def drive(file: Path, policy_name: str, vehicle: str | None = None) -> dict[str, float | str | bool]:
+    """One episode of a default baseline on the track file with curvature_limited(40 km/h, 0.7 g); ``vehicle``: a
+    catalogue name or vehicle file (None: the env's default car)."""
     import gymnasium as gym
 
     import vtrack_gym
@@ -131,7 +133,8 @@ def drive(file: Path, policy_name: str) -> dict[str, float | str | bool]:
     from vtrack_gym.tracks import CurvatureLimited
 
     profile = CurvatureLimited(40.0 / 3.6, 0.7 * 9.81)
-    env = gym.make("vtrack/Track-v0", track=str(file), speed_profile=profile)
+    extra = {} if vehicle is None else {"vehicle": vehicle}
+    env = gym.make("vtrack/Track-v0", track=str(file), speed_profile=profile, **extra)
     trace = rollout(vtrack_gym.make_policy(policy_name, env), env, seed=0)
     m = evaluate_trace(trace)
     lock = env.unwrapped.design_model.max_road_wheel_angle_rad
@@ -145,17 +148,22 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="own_tracks", help="directory for the CSV files (default: %(default)s)")
     ap.add_argument("--policies", default=",".join(POLICIES))
+    ap.add_argument("--spacing", type=float, default=SPACING_M, help="point spacing of the CSV files [m]")
+    ap.add_argument("--vehicle", default=None, help="catalogue vehicle name or vehicle file (default: paper car)")
     args = ap.parse_args(argv)
+    if not (0.1 <= args.spacing <= 20.0):
+        ap.error(f"--spacing must be in [0.1, 20] m (got {args.spacing})")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     print("| track | policy | termination | success | lap [s] | max abs e_y [m] | rms v-v_ref [m/s] | "
           "peak steer / lock |")
     print("|---|---|---|---|---|---|---|---|")
     for name, segments in circuits().items():
-        file = write_circuit_csv(out / f"{name}.csv", segments)
+        stem = name if args.spacing == SPACING_M else f"{name}_{args.spacing:g}m"
+        file = write_circuit_csv(out / f"{stem}.csv", segments, args.spacing)
         for policy in [p for p in args.policies.split(",") if p]:
             start = time.perf_counter()
-            r = drive(file, policy)
+            r = drive(file, policy, args.vehicle)
             print(f"| {name} | {policy} | {r['termination']} | {r['success']} | {r['lap_s']:.1f} | "
                   f"{r['max_e_y_m']:.3f} | {r['rms_speed_error_mps']:.3f} | {r['steer_share']:.2f} |  "
                   f"({time.perf_counter() - start:.0f} s)")

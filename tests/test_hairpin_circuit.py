@@ -105,3 +105,19 @@ def test_mpc_laps_a_densely_sampled_circuit_with_a_chicane(spacing_m: float, tmp
     assert info["success"] is True
     assert info["progress_m"] > 300.0
     assert max_e_y < MAX_E_Y_M, f"mpc at {spacing_m} m: max |e_y| {max_e_y:.3f} m"
+
+
+SMC_CHICANE_MAX_E_Y_M = 1.0
+"""Bound on the default SMC's max |e_y| [m] round the densely sampled chicane circuit (measured: 0.81 m at 1 m, 0.52 m
+at 0.5 m spacing; lqr 0.23 / 0.22). Issue 16's 0.5 m is NOT met here: the SMC has no steer feedforward and its
+stiff state feedback (2.06 rad of steer per metre of e_y) overshoots whenever the 0.87 rad/s actuator falls behind
+it through a curvature reversal (README, "own circuits"). A regression guard at today's level, not a target."""
+
+
+@pytest.mark.parametrize("spacing_m", [1.0, 0.5])
+def test_smc_laps_a_densely_sampled_circuit_with_a_chicane(spacing_m: float, tmp_path: Path) -> None:
+    info, max_e_y = _lap(_hairpin_circuit(tmp_path / "chicane_circuit.csv", spacing_m, chicane=True), "smc")
+    assert info["termination"] == "completed", f"smc at {spacing_m} m: {info['termination']} at {info['time_s']:.1f} s"
+    assert info["success"] is True
+    assert info["progress_m"] > 300.0
+    assert max_e_y < SMC_CHICANE_MAX_E_Y_M, f"smc at {spacing_m} m: max |e_y| {max_e_y:.3f} m"

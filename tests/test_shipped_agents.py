@@ -14,11 +14,12 @@ import vtrack_gym  # noqa: F401
 from vtrack_gym.baselines.numpy_policy import load_agent
 from vtrack_gym.baselines.registry import available_policies, make_policy
 from vtrack_gym.baselines.shipped import shipped_agent_factories, shipped_agents
-from vtrack_gym.evaluation.metrics import paper_metrics
+from vtrack_gym.evaluation.metrics import paper_metrics, smoothness_metrics
 from vtrack_gym.evaluation.rollout import rollout
 
 AGENTS = sorted(shipped_agents())
 DLC_BAR = 1.5  # the issue's bar: max|e_y| on DLC120-v0 within 1.5x of the best scripted baseline
+WIGGLE_BAR = 2.0  # steering reversals per second within 2x the scripted baselines' most (or 1/s, if more)
 
 
 SHIPPED_KINDS = {  # name -> (algo, training env, warm start?)
@@ -54,6 +55,38 @@ def test_shipped_agents_load_without_torch() -> None:
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
     names, torch_loaded, sb3_loaded = json.loads(out.stdout.strip().splitlines()[-1])
     assert set(SHIPPED_KINDS) <= set(names) and not torch_loaded and not sb3_loaded
+
+
+def reversal_rates(policy_for, max_steps: int = 3000) -> dict[str, float]:
+    """Hand-wheel reversals per second on the lane change and the first 30 s of Case 1, at the envs' 100 Hz;
+    ``policy_for(env)`` makes the policy for each env."""
+    rates = {}
+    for env_id in ("LateralTracking-v0", "DLC120-v0"):
+        env = gym.make(env_id)
+        trace = rollout(policy_for(env), env, seed=0, max_steps=max_steps)
+        rates[env_id] = smoothness_metrics(trace)["steering_reversals_per_s"]
+    return rates
+
+
+@pytest.fixture(scope="module")
+def baseline_reversal_bar() -> dict[str, float]:
+    most: dict[str, float] = {}
+    for name in available_policies():
+        if name == "mpc_osqp":
+            continue  # optional dependency; the others cover the scripted range
+        for env_id, rate in reversal_rates(lambda env, _n=name: make_policy(_n, env)).items():
+            most[env_id] = max(most.get(env_id, 0.0), rate)
+    return {env_id: max(WIGGLE_BAR * rate, 1.0) for env_id, rate in most.items()}
+
+
+@pytest.mark.parametrize("name", AGENTS)
+def test_shipped_agents_do_not_wiggle(name: str, baseline_reversal_bar: dict[str, float]) -> None:
+    """A policy that flicks the wheel left and right every step (the first from-scratch ppo: 50 reversals/s on
+    Case 1, behind the slow actuator it was trained with) is not shipped."""
+    rates = reversal_rates(shipped_agent_factories()[name])
+    for env_id, rate in rates.items():
+        assert rate <= baseline_reversal_bar[env_id], json.dumps({"env": env_id, "agent": rate,
+                                                                   "bar": baseline_reversal_bar[env_id]})
 
 
 @pytest.fixture(scope="module")

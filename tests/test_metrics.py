@@ -7,8 +7,15 @@ import math
 import numpy as np
 import pytest
 
-from vtrack_gym.evaluation.metrics import (constraint_metrics, itae, max_abs, paper_metrics, reversal_count, rms,
-                                           smoothness_metrics)
+from vtrack_gym.evaluation.metrics import (
+    constraint_metrics,
+    itae,
+    max_abs,
+    paper_metrics,
+    reversal_count,
+    rms,
+    smoothness_metrics,
+)
 from vtrack_gym.evaluation.trace import STEP_SIGNALS, Trace
 
 

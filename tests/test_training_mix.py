@@ -11,8 +11,8 @@ import pytest
 import vtrack_gym  # noqa: F401
 from vtrack_gym.envs.scenarios import SCENARIOS, TRAINING_MIX, ScenarioConfig
 from vtrack_gym.envs.sim import CIRCLE_MIN_PEAK_G
-from vtrack_gym.vehicle import layout as VL
 from vtrack_gym.tracks.training_mix import KINDS, TrainingMixProfile, training_bank
+from vtrack_gym.vehicle import layout as VL
 from vtrack_gym.vehicle.params import GRAVITY_MPS2
 
 G = 9.81
@@ -108,9 +108,9 @@ def test_steering_rate_scale_speeds_up_the_road_wheel() -> None:
     road wheel at most rate x t; four times the rate gets it there correspondingly sooner."""
     def wheel_after(options: dict, steps: int) -> float:
         env = gym.make("vtrack/DLC120-v0")
-        obs, _ = env.reset(seed=0, options=options)
+        env.reset(seed=0, options=options)
         for _ in range(steps):
-            obs, *_ = env.step(np.array([1.0], dtype=np.float32))
+            env.step(np.array([1.0], dtype=np.float32))
         return float(env.unwrapped._sim.plant.state[0, VL.S_DELTA])
 
     rate = gym.make("vtrack/DLC120-v0").unwrapped.config.vehicle.steering.max_road_wheel_rate_radps

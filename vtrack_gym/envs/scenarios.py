@@ -176,9 +176,9 @@ lanes 2.5-4 m left or right and back at 15-37 m/s, 0.4-0.85 g), a sixth each twi
 (R >= 120 m) and hairpin (R >= 5.5 m) roads, each with its own speed profile; 20 % standstill starts; friction
 0.7-1.1, mass x0.8-1.25, sensor noise 0-1 x nominal, actuator delay 0-50 ms and a steering rate limit 1-4 x the
 car's own drawn per episode; every episode starts up to 1.5 m off the path and 0.15 rad off its heading (so that
-large errors, and recovering from them, are part of what is learnt); 60 s episodes. Covers every evaluation regime of the package. The rate-limit draw keeps
-a policy from learning to chatter between left and right lock, which a slow actuator would smooth out and a fast
-one (or another simulator's instant steering) would not."""
+large errors, and recovering from them, are part of what is learnt); 60 s episodes. Covers every evaluation regime
+of the package. The rate-limit draw keeps a policy from learning to chatter between left and right lock, which a
+slow actuator would smooth out and a fast one (or another simulator's instant steering) would not."""
 
 TRACK_DEFAULT_MAX_SPEED_MPS = 40.0 * KMH
 """Track-v0's default speed profile: curvature-limited at 40 km/h ..."""

@@ -81,7 +81,7 @@ def baseline_reversal_bar() -> dict[str, float]:
 
 @pytest.mark.parametrize("name", AGENTS)
 def test_shipped_agents_do_not_wiggle(name: str, baseline_reversal_bar: dict[str, float]) -> None:
-    """A policy that flicks the wheel left and right every step (the first from-scratch ppo: 50 reversals/s on
+    """A policy that flicks the wheel left and right every step (the first from-scratch ppo: 49 reversals/s on
     Case 1, behind the slow actuator it was trained with) is not shipped."""
     rates = reversal_rates(shipped_agent_factories()[name])
     for env_id, rate in rates.items():

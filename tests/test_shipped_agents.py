@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import math
 import subprocess
@@ -16,6 +17,7 @@ from vtrack_gym.baselines.registry import available_policies, make_policy
 from vtrack_gym.baselines.shipped import shipped_agent_factories, shipped_agents
 from vtrack_gym.evaluation.metrics import paper_metrics, smoothness_metrics
 from vtrack_gym.evaluation.rollout import rollout
+from vtrack_gym.evaluation.trace import Trace
 
 AGENTS = sorted(shipped_agents())
 DLC_BAR = 1.5  # the issue's bar: max|e_y| on DLC120-v0 within 1.5x of the best scripted baseline
@@ -57,24 +59,38 @@ def test_shipped_agents_load_without_torch() -> None:
     assert set(SHIPPED_KINDS) <= set(names) and not torch_loaded and not sb3_loaded
 
 
-def reversal_rates(policy_for, max_steps: int = 3000) -> dict[str, float]:
-    """Hand-wheel reversals per second on the lane change and the first 30 s of Case 1, at the envs' 100 Hz;
-    ``policy_for(env)`` makes the policy for each env."""
-    rates = {}
-    for env_id in ("LateralTracking-v0", "DLC120-v0"):
+PAPER_ENVS = ("LateralTracking-v0", "DLC120-v0")
+FIRST_30_S = 3000  # control steps at 100 Hz: the first 30 s of Case 1, the whole lane change
+
+
+def short_traces(policy_for) -> dict[str, Trace]:
+    """The lane change and the first 30 s of Case 1 at the envs' 100 Hz; ``policy_for(env)`` makes the policy."""
+    traces = {}
+    for env_id in PAPER_ENVS:
         env = gym.make(env_id)
-        trace = rollout(policy_for(env), env, seed=0, max_steps=max_steps)
-        rates[env_id] = smoothness_metrics(trace)["steering_reversals_per_s"]
-    return rates
+        traces[env_id] = rollout(policy_for(env), env, seed=0, max_steps=FIRST_30_S)
+    return traces
+
+
+def reversal_rates(traces: dict[str, Trace]) -> dict[str, float]:
+    """Hand-wheel reversals per second of each trace."""
+    return {env_id: smoothness_metrics(trace)["steering_reversals_per_s"] for env_id, trace in traces.items()}
 
 
 @pytest.fixture(scope="module")
-def baseline_reversal_bar() -> dict[str, float]:
+def baseline_traces() -> dict[str, dict[str, Trace]]:
+    """Every scripted baseline's short traces, rolled out once for the module (mpc_osqp only with osqp)."""
+    names = [n for n in available_policies() if n != "mpc_osqp" or importlib.util.find_spec("osqp")]
+    return {name: short_traces(lambda env, _n=name: make_policy(_n, env)) for name in names}
+
+
+@pytest.fixture(scope="module")
+def baseline_reversal_bar(baseline_traces: dict[str, dict[str, Trace]]) -> dict[str, float]:
     most: dict[str, float] = {}
-    for name in available_policies():
+    for name, traces in baseline_traces.items():
         if name == "mpc_osqp":
             continue  # optional dependency; the others cover the scripted range
-        for env_id, rate in reversal_rates(lambda env, _n=name: make_policy(_n, env)).items():
+        for env_id, rate in reversal_rates(traces).items():
             most[env_id] = max(most.get(env_id, 0.0), rate)
     return {env_id: max(WIGGLE_BAR * rate, 1.0) for env_id, rate in most.items()}
 
@@ -83,20 +99,19 @@ def baseline_reversal_bar() -> dict[str, float]:
 def test_shipped_agents_do_not_wiggle(name: str, baseline_reversal_bar: dict[str, float]) -> None:
     """A policy that flicks the wheel left and right every step (the first from-scratch ppo: 49 reversals/s on
     Case 1, behind the slow actuator it was trained with) is not shipped."""
-    rates = reversal_rates(shipped_agent_factories()[name])
+    rates = reversal_rates(short_traces(shipped_agent_factories()[name]))
     for env_id, rate in rates.items():
         assert rate <= baseline_reversal_bar[env_id], json.dumps({"env": env_id, "agent": rate,
                                                                    "bar": baseline_reversal_bar[env_id]})
 
 
 @pytest.fixture(scope="module")
-def best_baseline_dlc_error() -> float:
+def best_baseline_dlc_error(baseline_traces: dict[str, dict[str, Trace]]) -> float:
+    if "mpc_osqp" not in baseline_traces:
+        pytest.importorskip("osqp")
     best = math.inf
-    for name in available_policies():
-        if name == "mpc_osqp":
-            pytest.importorskip("osqp")
-        env = gym.make("DLC120-v0")
-        trace = rollout(make_policy(name, env), env, seed=0)
+    for traces in baseline_traces.values():
+        trace = traces["DLC120-v0"]  # the whole lane change: it ends long before FIRST_30_S
         if trace.completed:
             best = min(best, paper_metrics(trace)["max_e_y_m"])
     return best

@@ -142,3 +142,18 @@ def test_start_offsets_are_drawn_and_observed() -> None:
     assert obs[OBS.E_Y] == pytest.approx(0.8, abs=1e-3) and obs[OBS.E_PHI] == pytest.approx(-0.2, abs=1e-3)
     obs, _ = straight.reset(seed=0)
     assert obs[OBS.E_Y] == 0.0 and obs[OBS.E_PHI] == 0.0
+
+
+def test_randomisation_spans_are_the_reset_options_ranges() -> None:
+    """``RANDOMISED_RANGES`` (kept in scenarios.py, which config.py imports) repeats the matching reset options'
+    declared ranges: they must agree, so that every drawn value is a valid reset option."""
+    from vtrack_gym.envs.config import ResetOptions
+    from vtrack_gym.envs.scenarios import RANDOMISED_RANGES
+
+    option_of = {"friction_range": "friction_mu", "mass_scale_range": "mass_scale",
+                 "sensor_noise_range": "sensor_noise", "steering_rate_scale_range": "steering_rate_scale",
+                 "initial_lateral_offset_range_m": "initial_lateral_offset_m",
+                 "initial_heading_error_range_rad": "initial_heading_error_rad"}
+    assert set(RANDOMISED_RANGES) == set(option_of)
+    for range_name, option in option_of.items():
+        assert RANDOMISED_RANGES[range_name] == ResetOptions.RANGES[option], range_name

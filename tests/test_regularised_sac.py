@@ -1,4 +1,5 @@
-"""BCRegularisedSAC: its BC term pulls the actor to the demonstrations, it saves/loads as plain SAC, bad input."""
+"""RegularisedSAC: its BC term pulls the actor to the demonstrations, its smoothness terms flatten the actor, it
+saves/loads as plain SAC, bad input."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ torch.set_num_threads(1)
 def _model(bc_weight: float, seed: int = 0, **kwargs):
     from stable_baselines3.common.vec_env import VecNormalize
 
-    from vtrack_gym.agents.regularised_sac import BCRegularisedSAC
+    from vtrack_gym.agents.regularised_sac import RegularisedSAC
     from vtrack_gym.agents.sb3_vec_env import TrackingSB3VecEnv
 
     venv = TrackingSB3VecEnv("LateralTrackingRandom-v0", num_envs=4)
@@ -21,7 +22,7 @@ def _model(bc_weight: float, seed: int = 0, **kwargs):
     vecnorm = VecNormalize(venv, norm_obs=True, norm_reward=False)
     params = {"learning_starts": 0, "buffer_size": 5000, "batch_size": 64, "learning_rate": 3e-3,
               "policy_kwargs": {"net_arch": [32, 32]}, **kwargs}
-    return BCRegularisedSAC("MlpPolicy", vecnorm, bc_weight=bc_weight, seed=seed, device="cpu", **params), venv
+    return RegularisedSAC("MlpPolicy", vecnorm, bc_weight=bc_weight, seed=seed, device="cpu", **params), venv
 
 
 def _demo(venv, n: int = 400, target: float = 0.3) -> tuple[np.ndarray, np.ndarray]:
@@ -102,14 +103,14 @@ def test_one_update_matches_stock_sac():
 
 
 def test_saves_and_loads(tmp_path):
-    """SAC.load reads the zip; BCRegularisedSAC.load restores bc_weight; the demonstrations are not saved and
+    """SAC.load reads the zip; RegularisedSAC.load restores bc_weight; the demonstrations are not saved and
     training a loaded model without them warns."""
     import json
     import zipfile
 
     from stable_baselines3 import SAC
 
-    from vtrack_gym.agents.regularised_sac import BCRegularisedSAC
+    from vtrack_gym.agents.regularised_sac import RegularisedSAC
 
     model, venv = _model(7.0)
     states, labels = _demo(venv, n=80)
@@ -122,20 +123,78 @@ def test_saves_and_loads(tmp_path):
     x = model.get_vec_normalize_env().normalize_obs(states)
     loaded = SAC.load(tmp_path / "m.zip", device="cpu")
     np.testing.assert_array_equal(model.predict(x, deterministic=True)[0], loaded.predict(x, deterministic=True)[0])
-    resumed = BCRegularisedSAC.load(tmp_path / "m.zip", env=model.get_env(), device="cpu")
+    resumed = RegularisedSAC.load(tmp_path / "m.zip", env=model.get_env(), device="cpu")
     assert resumed.bc_weight == 7.0 and resumed._demo_obs is None
     with pytest.warns(UserWarning, match="no demonstrations"):
         resumed.learn(total_timesteps=100)
     venv.close()
 
 
+def _transitions(venv, steps: int = 60) -> tuple[np.ndarray, np.ndarray]:
+    """(states, successor states) of a random-steering drive (episode ends excluded)."""
+    rng = np.random.default_rng(3)
+    obs = venv.reset()
+    now, nxt = [], []
+    for _ in range(steps):
+        new, _, done, _ = venv.step(rng.uniform(-1, 1, size=(venv.num_envs, 1)).astype(np.float32))
+        now.append(obs[~done])
+        nxt.append(new[~done])
+        obs = new
+    return np.concatenate(now), np.concatenate(nxt)
+
+
+def _action_variation(model, states: np.ndarray, successors: np.ndarray) -> tuple[float, float]:
+    """(spread of the deterministic action over the states, its mean change from a state to its successor)."""
+    norm = model.get_vec_normalize_env().normalize_obs
+    a = model.predict(norm(states), deterministic=True)[0]
+    b = model.predict(norm(successors), deterministic=True)[0]
+    return float(np.std(a)), float(np.mean(np.abs(a - b)))
+
+
+def test_smoothness_terms_flatten_the_actor():
+    """Same seed, same data stream: with strong temporal and spatial weights the deterministic action varies far
+    less over the visited states, and changes less from a state to its successor, than with the terms off; the
+    terms' MSEs are logged only when on."""
+    variation = {}
+    for weight in (0.0, 50.0):
+        model, venv = _model(0.0, temporal_smoothness=weight, spatial_smoothness=weight, spatial_noise=0.5)
+        model.learn(total_timesteps=800)  # 200 vector steps, 200 gradient steps
+        logged = model.logger.name_to_value
+        assert ("train/temporal_mse" in logged) == ("train/spatial_mse" in logged) == (weight > 0.0)
+        variation[weight] = _action_variation(model, *_transitions(venv))
+        venv.close()
+    (spread_off, change_off), (spread_on, change_on) = variation[0.0], variation[50.0]
+    assert spread_off > 0.005  # the unregularised actor does steer differently in different states
+    assert spread_on < 0.25 * spread_off
+    assert change_on < 0.5 * change_off
+
+
+def test_smoothness_loss_is_zero_for_a_state_and_itself():
+    """The temporal term compares mu(s) with mu(s'): a batch whose successors equal its states costs nothing; the
+    spatial term is positive for a non-constant actor."""
+    import types
+
+    model, venv = _model(0.0, temporal_smoothness=1.0, spatial_smoothness=1.0, spatial_noise=1.0)
+    obs = torch.as_tensor(model.get_vec_normalize_env().normalize_obs(_transitions(venv, 10)[0]))
+    log = {"temporal_mse": [], "spatial_mse": []}
+    model._smoothness_loss(types.SimpleNamespace(observations=obs, next_observations=obs.clone()), log)
+    assert log["temporal_mse"] == [0.0] and log["spatial_mse"][0] > 0.0
+    venv.close()
+
+
 def test_bad_settings_are_refused():
-    from vtrack_gym.agents.regularised_sac import BCRegularisedSAC
+    from vtrack_gym.agents.regularised_sac import RegularisedSAC
+
+    for name in ("temporal_smoothness", "spatial_smoothness", "spatial_noise"):
+        with pytest.raises(ValueError, match=f"{name} must be a finite number"):
+            RegularisedSAC("MlpPolicy", "Pendulum-v1", **{name: -0.1})
+    with pytest.raises(ValueError, match="spatial_noise must be a finite number > 0"):
+        RegularisedSAC("MlpPolicy", "Pendulum-v1", spatial_noise=0.0)
 
     with pytest.raises(ValueError, match="bc_weight must be a finite number >= 0"):
-        BCRegularisedSAC("MlpPolicy", "Pendulum-v1", bc_weight=-1.0)
+        RegularisedSAC("MlpPolicy", "Pendulum-v1", bc_weight=-1.0)
     with pytest.raises(ValueError, match="bc_batch_size must be a positive int"):
-        BCRegularisedSAC("MlpPolicy", "Pendulum-v1", bc_batch_size=0)
+        RegularisedSAC("MlpPolicy", "Pendulum-v1", bc_batch_size=0)
     model, venv = _model(1.0)
     dim = venv.observation_space.shape[0]
     bad = {"must be finite": (np.full((3, dim), np.nan), np.zeros(3)),
@@ -157,3 +216,7 @@ def test_bc_weight_needs_sac_and_a_warm_start(tmp_path):
         train("sac", timesteps=100, run_dir=tmp_path / "run", num_envs=2, overrides={"bc_weight": 1.0}, eval_freq=0,
               final_eval=False, progress_bar=False)
     assert not (tmp_path / "run").exists()  # refused before anything is written
+    with pytest.raises(ValueError, match=r"\['temporal_smoothness'\] apply to --algo sac only"):
+        train("ppo", timesteps=100, run_dir=tmp_path / "run", num_envs=2, overrides={"temporal_smoothness": 1.0},
+              eval_freq=0, final_eval=False, progress_bar=False)
+    assert not (tmp_path / "run").exists()

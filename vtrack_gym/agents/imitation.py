@@ -18,7 +18,7 @@ then RL improves it on the env's reward:
    set to ``exp(init_log_std)``. For SAC the data go into its replay buffer (``prefill_replay_buffer``) and the
    critics are trained alone on them first (``pretrain_critic``), so that the first actor updates follow a
    critic that knows the cloned policy instead of a random one. With ``bc_weight`` in the YAML's ``bc_finetune``
-   (the default for SAC) the fine-tuning is ``regularised_sac.BCRegularisedSAC``, whose actor loss keeps a
+   (the default for SAC) the fine-tuning is ``regularised_sac.RegularisedSAC``, whose actor loss keeps a
    regression on the expert labels of all rounds (TD3+BC style); plain SAC forgets the clone within a few
    hundred gradient steps.
 

@@ -1,4 +1,4 @@
-"""SAC with a behaviour-cloning term in the actor loss, for fine-tuning a warm-started actor.
+"""SAC with extra actor-loss terms: behaviour cloning (fine-tuning a warm-started actor) and action smoothness.
 
 Plain SAC forgets a cloned actor within a few hundred gradient steps here: nothing keeps the actor near the
 demonstrations while the critic is still wrong about them, and on this task a steering change of 1 % of the
@@ -13,8 +13,20 @@ a batch of the expert's labelled states (the warm start's data, observations nor
 buffer's). ``bc_weight = 0`` is SAC's actor loss up to the positive per-batch factor. The critic and the
 entropy coefficient are updated as in SAC (soft Bellman targets, twin critics, Polyak-averaged targets).
 
-The model saves and loads as an ordinary SB3 ``SAC`` (``SAC.load`` reads its zip; ``BCRegularisedSAC.load``
-also restores ``bc_weight``); the demonstrations are not saved with it, so a resumed run must call
+Action smoothness (CAPS, Mysore et al., 2021, with squared distances): a SAC actor trained on this task from
+scratch flicks its deterministic steering between left and right at every decision (64 reversals/s on DLC120-v0),
+which the rate-limited actuator and the reward's bounded rate term do not stop, because the exploration noise
+costs the same rate penalty whatever the mean does. Two terms act on the mean action itself:
+
+    + temporal_smoothness E[(mu(s) - mu(s'))^2]  +  spatial_smoothness E[(mu(s) - mu(s + spatial_noise eps))^2]
+
+with ``s'`` the replay batch's successor states (SB3 stores the true final observation at an episode's end) and
+``eps ~ N(0, I)`` in the normalised observation's units (with the fixed scaling 0.05 is 1.25 cm of e_y, 5 mrad of
+e_phi). Squared, not CAPS's plain distances: a change of 0.07 of the range per 50 ms decision (the nominal
+actuator's full rate) costs 0.005 x weight, a flick of 0.6 costs 0.36 x weight.
+
+The model saves and loads as an ordinary SB3 ``SAC`` (``SAC.load`` reads its zip; ``RegularisedSAC.load``
+also restores the terms' weights); the demonstrations are not saved with it, so a resumed run must call
 ``set_demonstrations`` again (it warns if it was not).
 """
 
@@ -52,15 +64,32 @@ def critic_step(model: SAC, batch: Any, alpha: Any) -> float:
     return float(loss.detach())
 
 
-class BCRegularisedSAC(SAC):
-    """``SAC`` whose actor loss is TD3+BC's (see the module docstring). Call ``set_demonstrations`` before
-    ``learn``; without demonstrations (or with ``bc_weight = 0``) the actor follows the normalised SAC loss."""
+def _non_negative(name: str, value: Any) -> float:
+    if isinstance(value, bool) or not (isinstance(value, (int, float)) and np.isfinite(value) and value >= 0.0):
+        raise ValueError(f"{name} must be a finite number >= 0 (got {value!r})")
+    return float(value)
 
-    def __init__(self, *args: Any, bc_weight: float = 1.0, bc_batch_size: int = 256, **kwargs: Any) -> None:
-        if not (isinstance(bc_weight, (int, float)) and np.isfinite(bc_weight) and bc_weight >= 0.0):
-            raise ValueError(f"bc_weight must be a finite number >= 0 (got {bc_weight!r})")
+
+class RegularisedSAC(SAC):
+    """``SAC`` whose actor loss adds TD3+BC's behaviour-cloning term and CAPS-style smoothness terms (see the
+    module docstring). For the BC term call ``set_demonstrations`` before ``learn``; without demonstrations (or
+    with ``bc_weight = 0``) and with zero smoothness weights the actor follows the normalised SAC loss.
+
+    ``temporal_smoothness``, ``spatial_smoothness``: weights (>= 0, dimensionless: the SAC part is divided by the
+    batch's mean |Q|); ``spatial_noise``: standard deviation of the state perturbation in normalised observation
+    units (> 0)."""
+
+    def __init__(self, *args: Any, bc_weight: float = 0.0, bc_batch_size: int = 256,
+                 temporal_smoothness: float = 0.0, spatial_smoothness: float = 0.0, spatial_noise: float = 0.05,
+                 **kwargs: Any) -> None:
+        bc_weight = _non_negative("bc_weight", bc_weight)
         if isinstance(bc_batch_size, bool) or not isinstance(bc_batch_size, int) or bc_batch_size < 1:
             raise ValueError(f"bc_batch_size must be a positive int (got {bc_batch_size!r})")
+        self.temporal_smoothness = _non_negative("temporal_smoothness", temporal_smoothness)
+        self.spatial_smoothness = _non_negative("spatial_smoothness", spatial_smoothness)
+        self.spatial_noise = _non_negative("spatial_noise", spatial_noise)
+        if self.spatial_noise == 0.0:
+            raise ValueError("spatial_noise must be a finite number > 0 (got 0)")
         self.bc_weight = float(bc_weight)
         self.bc_batch_size = int(bc_batch_size)
         self._demo_obs: np.ndarray | None = None
@@ -69,10 +98,10 @@ class BCRegularisedSAC(SAC):
         self._warned_no_demo = False
         super().__init__(*args, **kwargs)
         if self.use_sde:
-            raise ValueError("BCRegularisedSAC does not support gSDE (use_sde=True)")
+            raise ValueError("RegularisedSAC does not support gSDE (use_sde=True)")
 
     def _excluded_save_params(self) -> list[str]:
-        # bc_weight and bc_batch_size are saved (BCRegularisedSAC.load restores them); the data are not
+        # the weights and bc_batch_size are saved (RegularisedSAC.load restores them); the data are not
         return [*super()._excluded_save_params(), "_demo_obs", "_demo_actions", "_demo_rng",
                 "_warned_no_demo"]
 
@@ -100,7 +129,7 @@ class BCRegularisedSAC(SAC):
             return None
         if self._demo_obs is None:
             if not self._warned_no_demo:
-                warnings.warn("BCRegularisedSAC has bc_weight > 0 but no demonstrations (set_demonstrations was "
+                warnings.warn("RegularisedSAC has bc_weight > 0 but no demonstrations (set_demonstrations was "
                               "not called, e.g. after load): training with the normalised SAC loss alone",
                               stacklevel=3)
                 self._warned_no_demo = True
@@ -131,6 +160,25 @@ class BCRegularisedSAC(SAC):
         self.ent_coef_optimizer.step()
         return alpha, float(loss.detach())
 
+    def _smoothness_loss(self, batch: Any, log: dict[str, list[float]]) -> Any:
+        """The weighted temporal and spatial smoothness terms of the batch (0 when both weights are 0)."""
+        import torch
+
+        loss = torch.zeros((), device=self.device)
+        if self.temporal_smoothness == 0.0 and self.spatial_smoothness == 0.0:
+            return loss
+        mu = self._deterministic_action(batch.observations)
+        if self.temporal_smoothness > 0.0:
+            temporal = torch.mean((mu - self._deterministic_action(batch.next_observations)) ** 2)
+            loss = loss + self.temporal_smoothness * temporal
+            log["temporal_mse"].append(float(temporal.detach()))
+        if self.spatial_smoothness > 0.0:
+            noisy = batch.observations + self.spatial_noise * torch.randn_like(batch.observations)
+            spatial = torch.mean((mu - self._deterministic_action(noisy)) ** 2)
+            loss = loss + self.spatial_smoothness * spatial
+            log["spatial_mse"].append(float(spatial.detach()))
+        return loss
+
     def train(self, gradient_steps: int, batch_size: int = 64) -> None:
         import torch
         from stable_baselines3.common.utils import polyak_update
@@ -141,7 +189,7 @@ class BCRegularisedSAC(SAC):
             optimizers.append(self.ent_coef_optimizer)
         self._update_learning_rate(optimizers)
         log: dict[str, list[float]] = {"ent_coef": [], "actor_loss": [], "critic_loss": [], "bc_mse": [],
-                                       "ent_coef_loss": []}
+                                       "ent_coef_loss": [], "temporal_mse": [], "spatial_mse": []}
         for step in range(gradient_steps):
             batch = self.replay_buffer.sample(batch_size, env=self._vec_normalize_env)  # type: ignore[union-attr]
             actions_pi, log_prob = self.actor.action_log_prob(batch.observations)
@@ -159,6 +207,7 @@ class BCRegularisedSAC(SAC):
                 bc_mse = torch.mean((self._deterministic_action(demo[0]) - demo[1]) ** 2)
                 loss = loss + self.bc_weight * bc_mse
                 log["bc_mse"].append(float(bc_mse.detach()))
+            loss = loss + self._smoothness_loss(batch, log)
             self.actor.optimizer.zero_grad()
             loss.backward()
             self.actor.optimizer.step()

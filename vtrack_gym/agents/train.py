@@ -45,6 +45,8 @@ log = logging.getLogger(__name__)
 
 ALGOS = ("ppo", "sac", "td3")
 DEFAULT_ENV_ID = "vtrack/TrainingMix-v0"
+REGULARISED_SAC_KEYS = frozenset({"bc_weight", "temporal_smoothness", "spatial_smoothness", "spatial_noise"})
+"""SAC hyperparameters that select ``regularised_sac.RegularisedSAC`` (extra actor-loss terms)."""
 """Training env of the from-scratch recipes (``envs.scenarios.TRAINING_MIX``)."""
 IMITATION_ENV_ID = "LateralTrackingRandom-v0"
 """Training env of the behaviour-cloning recipes (``bc``), whose ``bc_finetune`` settings live under it."""
@@ -124,16 +126,17 @@ class _Wrapped:
 
 def evaluate_paper(policy: Any, case1_max_steps: int | None = 3000, seed: int = 0) -> dict[str, dict[str, Any]]:
     """Deterministic rollouts on both paper scenarios: ``{env_id: metrics + termination + steps}``."""
-    from vtrack_gym.evaluation.metrics import paper_metrics
+    from vtrack_gym.evaluation.metrics import paper_metrics, smoothness_metrics
     from vtrack_gym.evaluation.rollout import rollout
 
     out: dict[str, dict[str, Any]] = {}
     for env_id in EVAL_ENV_IDS:
         cap = case1_max_steps if env_id == "LateralTracking-v0" else None
         trace = rollout(policy, env_id, seed=seed, max_steps=cap)
-        m = paper_metrics(trace)
+        m = {**paper_metrics(trace), **smoothness_metrics(trace)}
         row: dict[str, Any] = {k: float(m[k]) for k in ("rms_e_y_m", "max_e_y_m", "rms_e_phi_deg",
-                                                        "max_hand_wheel_deg", "max_a_y_mps2")}
+                                                        "max_hand_wheel_deg", "max_a_y_mps2",
+                                                        "steering_reversals_per_s")}
         row.update(termination=trace.termination, completed=bool(trace.completed), success=bool(trace.success),
                    steps=int(trace.n_steps),
                    step_cap=cap, progress_m=float(trace["progress_m"][-1]) if "progress_m" in trace.signals else None)
@@ -191,7 +194,7 @@ def _make_callbacks(run_dir: Path, vecnorm: Any, timesteps: int, eval_freq: int,
             t0 = time.perf_counter()
             res = evaluate_paper(_Wrapped(self.model, vecnorm), None if full else case1_max_steps)
             for eval_id, row in res.items():  # not env_id: that is the training env id exported below
-                for key in ("rms_e_y_m", "max_e_y_m", "completed", "steps"):
+                for key in ("rms_e_y_m", "max_e_y_m", "completed", "steps", "steering_reversals_per_s"):
                     self.logger.record(f"eval/{eval_id}/{key}", float(row[key]))
             score = selection_score(res)
             # the warm start itself (timestep 0) is reported but not eligible: best_agent is an RL checkpoint
@@ -234,8 +237,9 @@ def train(algo: str, env_id: str | None = None, timesteps: int = 1_000_000, seed
     ``eval_freq <= 0`` disables periodic evaluation. ``bc`` (a ``vtrack_gym.agents.imitation.BCConfig``, PPO or
     SAC) starts from a behaviour-cloned actor: the YAML entry's ``bc_finetune`` values are applied on top, the
     expert data and the fit go to ``bc.json``, and the warm-started agent is evaluated at timestep 0. A
-    ``bc_weight`` hyperparameter (SAC with ``bc`` only) selects ``BCRegularisedSAC``, whose actor loss keeps a
-    behaviour-cloning term on the warm start's expert labels.
+    ``bc_weight`` hyperparameter (SAC with ``bc`` only) selects ``RegularisedSAC``, whose actor loss keeps a
+    behaviour-cloning term on the warm start's expert labels; so do ``temporal_smoothness`` /
+    ``spatial_smoothness`` (SAC; CAPS-style terms on the deterministic action, see ``regularised_sac``).
     """
     import stable_baselines3
     import torch
@@ -265,6 +269,8 @@ def train(algo: str, env_id: str | None = None, timesteps: int = 1_000_000, seed
         del params[key]
     if "bc_weight" in params and (algo != "sac" or bc is None):
         raise ValueError("bc_weight applies to --algo sac with a --bc-expert warm start only")
+    if algo != "sac" and REGULARISED_SAC_KEYS & params.keys():
+        raise ValueError(f"{sorted(REGULARISED_SAC_KEYS & params.keys())} apply to --algo sac only")
     if num_envs is not None:
         params["n_envs"] = int(num_envs)
     run_dir = Path(run_dir)
@@ -304,10 +310,10 @@ def train(algo: str, env_id: str | None = None, timesteps: int = 1_000_000, seed
         dim = venv.action_space.shape[0]
         params["action_noise"] = NormalActionNoise(np.zeros(dim), float(noise_std) * np.ones(dim))
     cls = {"ppo": PPO, "sac": SAC, "td3": TD3}[algo]
-    if "bc_weight" in params:  # behaviour-regularised SAC: its BC term needs the warm start's demonstrations
-        from vtrack_gym.agents.regularised_sac import BCRegularisedSAC
+    if REGULARISED_SAC_KEYS & params.keys():  # extra actor-loss terms (BC needs the warm start's demonstrations)
+        from vtrack_gym.agents.regularised_sac import RegularisedSAC
 
-        cls = BCRegularisedSAC
+        cls = RegularisedSAC
     try:
         model = cls("MlpPolicy", vecnorm, seed=seed, verbose=verbose, device="cpu", **params)
     except (TypeError, AssertionError) as exc:  # an unknown key or a wrongly typed value (YAML file or --set)
@@ -363,7 +369,7 @@ def _behaviour_clone(model: Any, venv: Any, vecnorm: Any, bc: Any, seed: int, ru
     if hasattr(model, "replay_buffer"):
         prefilled = imitation.prefill_replay_buffer(model, rounds)
         fit["critic_loss"] = imitation.pretrain_critic(model, bc.critic_steps, int(model.batch_size))
-    if hasattr(model, "set_demonstrations"):  # BCRegularisedSAC: the expert's labels on every round's states
+    if hasattr(model, "set_demonstrations"):  # RegularisedSAC: the expert's labels on every round's states
         model.set_demonstrations(*imitation.labelled_states(rounds))
     record = {"config": bc.as_dict(), "transitions": sum(d.transitions for d in rounds), "fit": fit,
               "replay_buffer_prefilled": prefilled, "wall_s": round(time.perf_counter() - t0, 1)}

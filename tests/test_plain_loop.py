@@ -67,7 +67,7 @@ def test_plain_loop_equals_sb3_loop(name: str, env_id: str) -> None:
 
 def test_shipped_agents_are_listed() -> None:
     """The comparison above covers the shipped agents (from scratch and imitation)."""
-    assert {"ppo", "ppo_bc", "sac_bc"} <= set(AGENTS)
+    assert {"ppo", "ppo_bc", "sac", "sac_bc"} <= set(AGENTS)
 
 
 @pytest.mark.parametrize("name", ["mpc", "mpc_osqp"])

@@ -61,7 +61,7 @@ def test_make_policy_resolves_every_kind_of_spec(tmp_path, monkeypatch):
     assert type(vtrack_gym.make_policy("lqr", env)).__name__ == "LQR"
     assert vtrack_gym.make_policy("smc:paper", env).config == make_baseline("smc", env, preset="paper").config
     assert vtrack_gym.make_policy("smc", env, preset="hand").config == make_baseline("smc", env, preset="hand").config
-    for name in ("ppo", "ppo_bc", "sac_bc"):
+    for name in ("ppo", "ppo_bc", "sac", "sac_bc"):
         agent = vtrack_gym.make_policy(name, env)
         assert isinstance(agent, NumpyPolicy) and agent.policy_id == name
     by_file = vtrack_gym.make_policy(str(SHIPPED / "ppo.json"), env)
@@ -212,7 +212,7 @@ def test_cli_checks_names_and_extras_before_any_work(tmp_path, capsys, monkeypat
     store = tmp_path / "s.sqlite"
     assert main(["benchmark", "--policies", "smc,nope", "--no-figures", "--store", str(store)]) == 2
     err = capsys.readouterr().err
-    assert "unknown policy 'nope'" in err and "mpc_osqp, ppo, ppo_bc, sac_bc" in err and not store.exists()
+    assert "unknown policy 'nope'" in err and "mpc_osqp, ppo, ppo_bc, sac, sac_bc" in err and not store.exists()
     assert main(["plot", "--policies", "smc,nope", "--env", "DLC120-v0", "--out", str(tmp_path / "f")]) == 2
     assert "unknown policy 'nope'" in capsys.readouterr().err and not (tmp_path / "f").exists()
     real = importlib.util.find_spec

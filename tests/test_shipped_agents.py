@@ -26,6 +26,7 @@ WIGGLE_BAR = 2.0  # steering reversals per second within 2x the scripted baselin
 
 SHIPPED_KINDS = {  # name -> (algo, training env, warm start?)
     "ppo": ("ppo", "TrainingMix-v0", False),
+    "sac": ("sac", "TrainingMix-v0", False),
     "ppo_bc": ("ppo", "LateralTrackingRandom-v0", True),
     "sac_bc": ("sac", "LateralTrackingRandom-v0", True),
 }

@@ -97,8 +97,6 @@ class RegularisedSAC(SAC):
         self._demo_rng = np.random.default_rng()
         self._warned_no_demo = False
         super().__init__(*args, **kwargs)
-        if self.use_sde:
-            raise ValueError("RegularisedSAC does not support gSDE (use_sde=True)")
 
     def _excluded_save_params(self) -> list[str]:
         # the weights and bc_batch_size are saved (RegularisedSAC.load restores them); the data are not
@@ -192,6 +190,8 @@ class RegularisedSAC(SAC):
                                        "ent_coef_loss": [], "temporal_mse": [], "spatial_mse": []}
         for step in range(gradient_steps):
             batch = self.replay_buffer.sample(batch_size, env=self._vec_normalize_env)  # type: ignore[union-attr]
+            if self.use_sde:  # as SB3's SAC: a new exploration matrix for every gradient step
+                self.actor.reset_noise()
             actions_pi, log_prob = self.actor.action_log_prob(batch.observations)
             log_prob = log_prob.reshape(-1, 1)
             alpha, alpha_loss = self._alpha(log_prob)

@@ -28,6 +28,7 @@ from vtrack_gym.evaluation.trace import Trace
 LINESTYLES: tuple[str, ...] = ("-", "--", ":", "-.")
 N_ZOOMS = 3
 ZOOM_HALF_SPAN_M = 40.0  # station window of a corner zoom, either side [m]
+LEGEND_ROW_IN = 0.19  # height of one row of an 8 pt figure legend [in]
 VARIES_ABS: dict[str, float] = {"brake_n": 1.0, "throttle": 1e-3}  # below these ranges a signal "does not vary"
 
 
@@ -156,7 +157,8 @@ def plot_trajectories(traces: Sequence[Trace], path: Any, out_file: str | Path, 
     handles, labels = ax.get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 4), fontsize=8, frameon=False)
     _title(fig, title or "Driven trajectories", traces, preset)
-    fig.tight_layout(rect=(0, 0.06 + 0.02 * (len(labels) > 4), 1, 1))
+    rows = (len(labels) + 3) // 4  # the legend's rows, each ~0.19 in at 8 pt: the axes (and their label) stay above
+    fig.tight_layout(rect=(0, min(0.02 + rows * LEGEND_ROW_IN / fig.get_figheight(), 0.4), 1, 1))
     return _save(fig, out_file, layout=False)
 
 

@@ -219,3 +219,22 @@ def test_bc_weight_needs_sac_and_a_warm_start(tmp_path):
         train("ppo", timesteps=100, run_dir=tmp_path / "run", num_envs=2, overrides={"temporal_smoothness": 1.0},
               eval_freq=0, final_eval=False, progress_bar=False)
     assert not (tmp_path / "run").exists()
+
+
+def test_a_refused_smoothness_value_writes_nothing(tmp_path):
+    """An out-of-range value through train (the CLI's --set) is refused naming the field, before the run folder
+    is made or an earlier run's config.json replaced."""
+    from vtrack_gym.agents.train import train
+
+    with pytest.raises(ValueError, match=r"temporal_smoothness must be a finite number >= 0 \(got -1\)"):
+        train("sac", timesteps=100, run_dir=tmp_path / "new", num_envs=2, overrides={"temporal_smoothness": -1},
+              eval_freq=0, final_eval=False, progress_bar=False)
+    assert not (tmp_path / "new").exists()
+    earlier = tmp_path / "earlier"
+    earlier.mkdir()
+    (earlier / "config.json").write_text("{\"earlier\": true}\n")
+    with pytest.raises(ValueError, match="spatial_noise must be a finite number > 0"):
+        train("sac", timesteps=100, run_dir=earlier, num_envs=2, overrides={"spatial_noise": 0.0}, eval_freq=0,
+              final_eval=False, progress_bar=False)
+    assert (earlier / "config.json").read_text() == "{\"earlier\": true}\n"
+

@@ -274,9 +274,9 @@ def train(algo: str, env_id: str | None = None, timesteps: int = 1_000_000, seed
     if num_envs is not None:
         params["n_envs"] = int(num_envs)
     run_dir = Path(run_dir)
-    run_dir.mkdir(parents=True, exist_ok=True)
     command = command if command is not None else shlex.join([Path(sys.argv[0]).name, *sys.argv[1:]])
-    config = {"algo": algo, "env_id": env_id, "timesteps": timesteps, "seed": seed, "hyperparams": params,
+    config = {"algo": algo, "env_id": env_id, "timesteps": timesteps, "seed": seed,
+              "hyperparams": json.loads(json.dumps(params)),
               "hyperparams_file": f"vtrack_gym/agents/hyperparams/{algo}.yaml", "hyperparams_version": hp_version,
               "overrides": dict(overrides or {}), "command": command, "package_version": __version__,
               "sb3_version": stable_baselines3.__version__, "torch_version": torch.__version__,
@@ -284,7 +284,6 @@ def train(algo: str, env_id: str | None = None, timesteps: int = 1_000_000, seed
                                                            "case1_full_every": case1_full_every},
               "bc": None if bc is None else bc.as_dict(),
               "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
-    write_atomic(run_dir / "config.json", json.dumps(config, indent=2, sort_keys=True) + "\n")
 
     n_envs = int(params.pop("n_envs", 8))
     params.pop("policy", "MlpPolicy")
@@ -320,6 +319,11 @@ def train(algo: str, env_id: str | None = None, timesteps: int = 1_000_000, seed
         venv.close()
         raise ValueError(f"{algo} hyperparameters: {type(exc).__name__}: {exc} (see "
                          f"vtrack_gym/agents/hyperparams/{algo}.yaml)") from exc
+    except ValueError:  # a value out of its range: nothing of the run folder is written or replaced
+        venv.close()
+        raise
+    run_dir.mkdir(parents=True, exist_ok=True)
+    write_atomic(run_dir / "config.json", json.dumps(config, indent=2, sort_keys=True) + "\n")
     try:
         import tensorboard  # noqa: F401
 

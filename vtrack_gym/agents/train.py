@@ -45,11 +45,11 @@ log = logging.getLogger(__name__)
 
 ALGOS = ("ppo", "sac", "td3")
 DEFAULT_ENV_ID = "vtrack/TrainingMix-v0"
-REGULARISED_SAC_KEYS = frozenset({"bc_weight", "temporal_smoothness", "spatial_smoothness", "spatial_noise"})
-"""SAC hyperparameters that select ``regularised_sac.RegularisedSAC`` (extra actor-loss terms)."""
 """Training env of the from-scratch recipes (``envs.scenarios.TRAINING_MIX``)."""
 IMITATION_ENV_ID = "LateralTrackingRandom-v0"
 """Training env of the behaviour-cloning recipes (``bc``), whose ``bc_finetune`` settings live under it."""
+REGULARISED_SAC_KEYS = frozenset({"bc_weight", "temporal_smoothness", "spatial_smoothness", "spatial_noise"})
+"""SAC hyperparameters that select ``regularised_sac.RegularisedSAC`` (extra actor-loss terms)."""
 HYPERPARAMS_DIR = Path(__file__).with_name("hyperparams")
 EVAL_ENV_IDS = ("DLC120-v0", "LateralTracking-v0")
 _ACTIVATIONS = ("tanh", "relu")

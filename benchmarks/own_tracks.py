@@ -122,9 +122,10 @@ def write_circuit_csv(file: Path, segments: list[Segment], spacing_m: float = SP
     return file
 
 
-def drive(file: Path, policy_name: str, vehicle: str | None = None) -> dict[str, float | str | bool]:
-    """One episode of a default baseline on the track file with curvature_limited(40 km/h, 0.7 g); ``vehicle``: a
-    catalogue name or vehicle file (None: the env's default car)."""
+def drive(file: Path, policy_name: str, vehicle: str | None = None, max_speed_kmh: float = 40.0,
+          max_lateral_g: float = 0.7) -> dict[str, float | str | bool]:
+    """One episode of a default baseline on the track file with curvature_limited(``max_speed_kmh`` [km/h],
+    ``max_lateral_g`` [g]); ``vehicle``: a catalogue name or vehicle file (None: the env's default car)."""
     import gymnasium as gym
 
     import vtrack_gym
@@ -132,7 +133,7 @@ def drive(file: Path, policy_name: str, vehicle: str | None = None) -> dict[str,
     from vtrack_gym.evaluation.rollout import rollout
     from vtrack_gym.tracks import CurvatureLimited
 
-    profile = CurvatureLimited(40.0 / 3.6, 0.7 * 9.81)
+    profile = CurvatureLimited(max_speed_kmh / 3.6, max_lateral_g * 9.81)
     extra = {} if vehicle is None else {"vehicle": vehicle}
     env = gym.make("vtrack/Track-v0", track=str(file), speed_profile=profile, **extra)
     trace = rollout(vtrack_gym.make_policy(policy_name, env), env, seed=0)

@@ -1,0 +1,136 @@
+"""Every default baseline on seeded random kart-like circuits (hairpins, S-bends, chicanes down to 6 m radius): a
+wider check than the four hand-built loops of ``own_tracks.py``, driven the same way (a CSV file with per-station
+widths, ``vtrack/Track-v0`` with ``curvature_limited(40 km/h, 0.7 g)``).
+
+    PYTHONPATH=. python benchmarks/random_circuits.py [--circuits N] [--seed S] [--spacing M[,M...]]
+                                                      [--policies smc,mpc,...] [--vehicle NAME] [--out DIR]
+                                                      [--max-speed-kmh V] [--max-lateral-g G]
+
+Each circuit is a counter-clockwise loop (``own_tracks.closed_circuit``) whose east and north sides carry 2-3
+random features separated by 15-60 m straights: a chicane (6-20 m, 20-60 deg), an S-bend (arcs of 6-15 m through
+30-90 deg and back) or a hairpin pair (6-9 m, 180 deg each way with a 25-40 m straight between); corners of 6-30 m.
+Loops that do not close, or whose roads cross or touch (``roads_apart``), are drawn again. Prints one line per
+circuit and spacing, then per policy: laps completed within the road, and the median and largest max|e_y| [m] over
+the laps.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import own_tracks
+from own_tracks import Segment, arc, chicane, closed_circuit, straight
+
+
+def random_feature(rng: np.random.Generator) -> list[Segment]:
+    """One feature with no net heading change: a chicane, an S-bend or a hairpin pair."""
+    kind = rng.integers(3)
+    side = 1.0 if rng.random() < 0.5 else -1.0
+    if kind == 0:
+        return chicane(float(rng.uniform(6.0, 20.0)), side * float(rng.uniform(20.0, 60.0)))
+    if kind == 1:
+        angle = side * float(rng.uniform(30.0, 90.0))
+        r1, r2, r3 = (float(r) for r in rng.uniform(6.0, 15.0, 3))
+        return [arc(r1, angle), arc(r2, -2.0 * angle), arc(r3, angle)]
+    return [arc(float(rng.uniform(6.0, 9.0)), side * 180.0), straight(float(rng.uniform(25.0, 40.0))),
+            arc(float(rng.uniform(6.0, 9.0)), -side * 180.0)]
+
+
+def random_side(rng: np.random.Generator) -> list[Segment]:
+    """2-3 features, each after a 15-60 m straight, and a closing 15-60 m straight."""
+    segments: list[Segment] = []
+    for _ in range(int(rng.integers(2, 4))):
+        segments += [straight(float(rng.uniform(15.0, 60.0))), *random_feature(rng)]
+    return [*segments, straight(float(rng.uniform(15.0, 60.0)))]
+
+
+MIN_GAP_M = 12.0
+"""Smallest distance [m] between two parts of a centre-line more than ``GAP_ARC_M`` apart along it (the roads are
+8.5 m wide, a 6 m hairpin's two legs 12 m apart)."""
+GAP_ARC_M = 30.0
+
+
+def roads_apart(x: np.ndarray, y: np.ndarray, spacing_m: float) -> bool:
+    """True if no two samples more than ``GAP_ARC_M`` apart along the loop are closer than ``MIN_GAP_M``."""
+    n = x.size
+    d = np.hypot(x[:, None] - x[None, :], y[:, None] - y[None, :])
+    k = np.arange(n)
+    along = np.abs(k[:, None] - k[None, :])
+    along = np.minimum(along, n - along) * spacing_m
+    return not bool(np.any((along > GAP_ARC_M) & (d < MIN_GAP_M - 1e-6)))
+
+
+def random_circuit(rng: np.random.Generator, spacing_m: float = 2.0, attempts: int = 500) -> list[Segment]:
+    """A random closed loop whose roads neither cross nor touch (``roads_apart``; ``ValueError`` after
+    ``attempts``), checked on the centre-line sampled every ``spacing_m`` [m]."""
+    for _ in range(attempts):
+        corners = tuple(float(r) for r in rng.uniform(6.0, 30.0, 4))
+        try:
+            segments = closed_circuit(random_side(rng), random_side(rng), corners)
+        except ValueError:
+            continue
+        x, y, *_ = own_tracks.trace_segments(segments, spacing_m)
+        if roads_apart(x, y, spacing_m):
+            return segments
+    raise ValueError(f"no non-crossing random circuit in {attempts} attempts")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--circuits", type=int, default=12, help="number of random circuits (default: %(default)s)")
+    ap.add_argument("--seed", type=int, default=0, help="seed of the circuit generator (default: %(default)s)")
+    ap.add_argument("--spacing", default="1,2", help="point spacings of the CSV files [m] (default: %(default)s)")
+    ap.add_argument("--policies", default=",".join(own_tracks.POLICIES))
+    ap.add_argument("--max-speed-kmh", type=float, default=40.0, help="profile's top speed (default: %(default)s)")
+    ap.add_argument("--max-lateral-g", type=float, default=0.7, help="profile's lateral limit (default: %(default)s)")
+    ap.add_argument("--vehicle", default=None, help="catalogue vehicle name or vehicle file (default: paper car)")
+    ap.add_argument("--out", default="random_circuits", help="directory for the CSV files (default: %(default)s)")
+    args = ap.parse_args(argv)
+    if not 1 <= args.circuits <= 1000:
+        ap.error(f"--circuits must be in [1, 1000] (got {args.circuits})")
+    if not 5.0 <= args.max_speed_kmh <= 160.0:
+        ap.error(f"--max-speed-kmh must be in [5, 160] (got {args.max_speed_kmh})")
+    if not 0.1 <= args.max_lateral_g <= 1.5:
+        ap.error(f"--max-lateral-g must be in [0.1, 1.5] (got {args.max_lateral_g})")
+    spacings = [float(s) for s in args.spacing.split(",") if s]
+    if not spacings or any(not 0.1 <= s <= 20.0 for s in spacings):
+        ap.error(f"--spacing values must be in [0.1, 20] m (got {args.spacing})")
+    policies = [p for p in args.policies.split(",") if p]
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(args.seed)
+    worst: dict[str, list[float]] = {p: [] for p in policies}
+    laps: dict[str, int] = {p: 0 for p in policies}
+    start = time.perf_counter()
+    for c in range(args.circuits):
+        segments = random_circuit(rng)
+        for spacing in spacings:
+            file = own_tracks.write_circuit_csv(out / f"circuit{c:03d}_{spacing:g}m.csv", segments, spacing)
+            cells = []
+            for policy in policies:
+                r = own_tracks.drive(file, policy, args.vehicle, args.max_speed_kmh, args.max_lateral_g)
+                laps[policy] += bool(r["success"])
+                worst[policy].append(float(r["max_e_y_m"]))
+                cells.append(f"{policy} {r['max_e_y_m']:.2f}{'' if r['success'] else ' FAIL'}")
+            print(f"circuit {c:3d} at {spacing:g} m: " + ", ".join(cells), flush=True)
+    print(f"\n{args.circuits} circuits x {len(spacings)} spacings, seed {args.seed}, "
+          f"vehicle {args.vehicle or 'paper car'}, curvature_limited({args.max_speed_kmh:g} km/h, "
+          f"{args.max_lateral_g:g} g) "
+          f"({time.perf_counter() - start:.0f} s)\n")
+    print("| policy | laps within the road | median max abs e_y [m] | largest max abs e_y [m] |")
+    print("|---|---|---|---|")
+    n = args.circuits * len(spacings)
+    for policy in policies:
+        e = np.array(worst[policy])
+        print(f"| {policy} | {laps[policy]} of {n} | {np.median(e):.2f} | {np.max(e):.2f} |")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

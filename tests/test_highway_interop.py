@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -301,3 +302,18 @@ def test_registration_does_not_import_highway_env() -> None:
             "HIGHWAY_ENV_ID; import vtrack_gym.interop.highway; register_highway_envs(); "
             "assert HIGHWAY_ENV_ID in gym.registry; assert 'highway_env' not in sys.modules, 'eager import'")
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_highway_suite_scores_and_draws_through_the_benchmark_command(tmp_path: Path) -> None:
+    """``vtrack benchmark --suite highway`` (it crashed: the circle metrics and the trajectory figure assumed a
+    ``tracks.Path``): rows stored, the board printed, the figures written."""
+    from vtrack_gym.cli import main
+    from vtrack_gym.evaluation.store import ResultStore
+
+    store = tmp_path / "board.sqlite"
+    assert main(["benchmark", "--suite", "highway", "--quick", "--policies", "lqr", "--store", str(store),
+                 "--figures", str(tmp_path / "figures")]) == 0
+    rows = ResultStore(store).rows(suite="highway")
+    assert len(rows) == 1 and rows[0]["metrics"]["success"] == 1.0
+    assert sorted(p.name.split("_")[-1] for p in (tmp_path / "figures").glob("*.png")) == \
+        ["signals.png", "trajectories.png"]

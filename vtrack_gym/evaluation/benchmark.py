@@ -85,8 +85,8 @@ def circle_metrics(env: gym.Env, trace: Trace) -> dict[str, float]:
     on the circle's radius (``vehicle.steady_state.grip_limit``: the highest a_y of a cornering equilibrium, from
     the plant's equations, not from this run) and the point-mass value ``mu_g_mps2`` = mu g [m/s^2] (empty for
     other scenarios)."""
-    sc = env.unwrapped.scenario
-    if sc.success != "circle" or trace.n_steps == 0:
+    sc = getattr(env.unwrapped, "scenario", None)   # envs other than this package's (highway-env) have none
+    if sc is None or sc.success != "circle" or trace.n_steps == 0:
         return {}
     import numpy as np
 

@@ -82,12 +82,15 @@ def hardest_stations(traces: Sequence[Trace], path: Any, n: int = N_ZOOMS, min_g
 
 
 def _draw_track(ax: Any, path: Any, with_cones: bool = True) -> None:
+    """Centre line, and road edges where the path has headings and a half width (a ``tracks.Path``; a foreign
+    env's reference, such as highway-env's lanes, gives only x, y)."""
     tab = path.table
-    hw = float(path.half_width_m)
-    nx, ny = -np.sin(tab[:, 2]), np.cos(tab[:, 2])
-    for side in (1.0, -1.0):
-        ax.plot(tab[:, 0] + side * hw * nx, tab[:, 1] + side * hw * ny, color="0.35", lw=0.8,
-                label="road edge" if side > 0 else None)
+    hw = getattr(path, "half_width_m", None)
+    if hw is not None and tab.shape[1] > 2:
+        nx, ny = -np.sin(tab[:, 2]), np.cos(tab[:, 2])
+        for side in (1.0, -1.0):
+            ax.plot(tab[:, 0] + side * float(hw) * nx, tab[:, 1] + side * float(hw) * ny, color="0.35", lw=0.8,
+                    label="road edge" if side > 0 else None)
     ax.plot(tab[:, 0], tab[:, 1], color="0.6", lw=2.5, label="reference path", zorder=1)
     if with_cones:
         _draw_cones(ax, path)

@@ -164,6 +164,7 @@ class ReferencePath:
 
     table: np.ndarray
     gates: tuple = ()
+    closed: bool = False   # highway-env's lanes are open roads
 
 
 class HighwayLaneKeeping(gym.Env):

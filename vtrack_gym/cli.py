@@ -424,34 +424,93 @@ def _parse_seeds(text: str) -> list[int]:
     return seeds
 
 
+MIN_SPEED_KMH = 3.6
+"""--max-speed-kmh range [km/h]: 1 m/s (the speed profiles' floor) ..."""
+MAX_SPEED_KMH = 540.0
+"""... to 150 m/s."""
+MAX_LATERAL_G = 30.0 / 9.81
+"""--max-lateral-g upper bound [g] (the profiles' 30 m/s^2)."""
+
+
 def _add_track(p: argparse.ArgumentParser, text: str | None = None, where: Any = None) -> None:
-    """``--track FILE`` (in the group ``where`` if given, e.g. exclusive with --env) and its speed-profile options."""
+    """``--track FILE`` (in the group ``where`` if given, e.g. exclusive with --env), how it is read and its
+    speed-profile options."""
+    from vtrack_gym.envs.scenarios import MAX_TRACK_SMOOTHING_M
+
     (where if where is not None else p).add_argument("--track", type=Path, default=None, metavar="FILE",
                    help=text or "drive on this CSV track file instead of --env (columns by header: x_m, y_m, optional "
                    "z_m, w_tr_right_m, w_tr_left_m, v_mps; vtrack/Track-v0)")
+    p.add_argument("--track-closed", choices=("auto", "yes", "no"), default="auto",
+                   help="--track: read the file as a closed loop (yes), an open road (no) or decide from the end gap "
+                   "against the point spacing (auto; the decision is printed) (default: auto)")
+    p.add_argument("--track-smoothing-m", type=float, default=None, metavar="M",
+                   help="--track: RMS deviation [m] the spline fit may make from the file's points, for noisy "
+                   f"coordinates (e.g. GPS; 0 interpolates; at most {MAX_TRACK_SMOOTHING_M:g} m) (default: chosen "
+                   "from the coordinates' rounding)")
     p.add_argument("--speed-profile", choices=("constant", "curvature", "file"), default="curvature",
                    help="--track: target speed: constant (--max-speed-kmh), curvature (the fastest profile within "
-                   "--max-speed-kmh and --max-lateral-g, 2 m/s^2 up, 3 m/s^2 down) or file (the v_mps column) "
-                   "(default: curvature)")
-    p.add_argument("--max-speed-kmh", type=float, default=40.0, help="--track: maximum speed [km/h] (default: 40)")
-    p.add_argument("--max-lateral-g", type=float, default=0.7,
-                   help="--track with --speed-profile curvature: lateral acceleration limit [g] (default: 0.7)")
+                   "--max-speed-kmh and --max-lateral-g, 2 m/s^2 up, 3 m/s^2 down) or file (the v_mps column; "
+                   "takes neither option) (default: curvature)")
+    p.add_argument("--max-speed-kmh", type=float, default=None,
+                   help=f"--track with --speed-profile constant or curvature: maximum speed [km/h], "
+                   f"{MIN_SPEED_KMH:g} to {MAX_SPEED_KMH:g} (default: 40)")
+    p.add_argument("--max-lateral-g", type=float, default=None,
+                   help=f"--track with --speed-profile curvature: lateral acceleration limit [g], > 0 and <= "
+                   f"{MAX_LATERAL_G:.2f} (default: 0.7)")
 
 
 def _speed_profile(args: argparse.Namespace):
-    """The tracks speed profile of --speed-profile / --max-speed-kmh / --max-lateral-g."""
+    """The tracks speed profile of --speed-profile / --max-speed-kmh / --max-lateral-g; ValueError naming the
+    option, its range in its own units, or an option the profile does not use."""
     from vtrack_gym.envs.scenarios import KMH
     from vtrack_gym.tracks import ConstantSpeed, CurvatureLimited, FileSpeed
     from vtrack_gym.vehicle.params import GRAVITY_MPS2
 
-    for name, value in (("--max-speed-kmh", args.max_speed_kmh), ("--max-lateral-g", args.max_lateral_g)):
-        if not (value > 0.0 and value < float("inf")):
-            raise ValueError(f"{name} must be a number > 0 (got {value})")
+    unused = {"file": ("--max-speed-kmh", "--max-lateral-g"), "constant": ("--max-lateral-g",)}.get(
+        args.speed_profile, ())
+    for name in unused:
+        if getattr(args, name[2:].replace("-", "_")) is not None:
+            what = "the file's v_mps column sets the speeds" if args.speed_profile == "file" else "no curves limit it"
+            raise ValueError(f"{name} does not apply to --speed-profile {args.speed_profile} ({what}); fix: drop "
+                             f"{name}, or use --speed-profile curvature")
+    speed_kmh = 40.0 if args.max_speed_kmh is None else args.max_speed_kmh
+    lateral_g = 0.7 if args.max_lateral_g is None else args.max_lateral_g
+    if not MIN_SPEED_KMH <= speed_kmh <= MAX_SPEED_KMH:
+        raise ValueError(f"--max-speed-kmh must be in [{MIN_SPEED_KMH:g}, {MAX_SPEED_KMH:g}] km/h (got {speed_kmh})")
+    if not 0.0 < lateral_g <= MAX_LATERAL_G:
+        raise ValueError(f"--max-lateral-g must be in (0, {MAX_LATERAL_G:.2f}] g (got {lateral_g})")
     if args.speed_profile == "constant":
-        return ConstantSpeed(args.max_speed_kmh * KMH)
+        return ConstantSpeed(speed_kmh * KMH)
     if args.speed_profile == "file":
         return FileSpeed()
-    return CurvatureLimited(args.max_speed_kmh * KMH, args.max_lateral_g * GRAVITY_MPS2)
+    return CurvatureLimited(speed_kmh * KMH, lateral_g * GRAVITY_MPS2)
+
+
+def _track_read(args: argparse.Namespace) -> dict[str, Any]:
+    """``load_track`` options of --track-closed / --track-smoothing-m (only those given)."""
+    from vtrack_gym.envs.scenarios import MAX_TRACK_SMOOTHING_M
+
+    read: dict[str, Any] = {}
+    if args.track_closed != "auto":
+        read["closed"] = args.track_closed == "yes"
+    m = args.track_smoothing_m
+    if m is not None:
+        if not 0.0 <= m <= MAX_TRACK_SMOOTHING_M:
+            raise ValueError(f"--track-smoothing-m must be in [0, {MAX_TRACK_SMOOTHING_M:g}] m (got {m})")
+        read["smoothing_m"] = float(m)
+    return read
+
+
+def _describe_track(file: Path, read: dict[str, Any]) -> str:
+    """One line saying how --track was read: closed loop or open road, its length and point count."""
+    from vtrack_gym.tracks import load_track
+    from vtrack_gym.tracks.csv_loader import read_track_columns
+
+    path = load_track(file, **read)
+    n_points = len(read_track_columns(Path(file))[1])
+    how = "forced by --track-closed" if "closed" in read else "detected; --track-closed yes/no forces it"
+    kind = "a closed loop" if path.closed else "an open road"
+    return f"--track {file}: read as {kind} ({how}), {path.length_m:.1f} m, {n_points} points"
 
 
 def _add_vehicle(p: argparse.ArgumentParser) -> None:
@@ -481,7 +540,9 @@ def _env_or_track(args: argparse.Namespace, default: str | None = None) -> tuple
             raise ValueError("give --env or --track, not both")
         from vtrack_gym.envs.registration import register_track
 
-        return register_track(args.track, _speed_profile(args))
+        profile, read = _speed_profile(args), _track_read(args)
+        print(_describe_track(args.track, read), file=sys.stderr)
+        return register_track(args.track, profile, **read)
     env = args.env if args.env is not None else default
     if env is None:
         raise ValueError("give --env ID (e.g. DLC120-v0) or --track FILE")

@@ -24,6 +24,13 @@ from vtrack_gym._ranges import documented, ranged, validate
 KMH = 1.0 / 3.6
 """One km/h in m/s."""
 
+MAX_EPISODE_S = 7200.0
+"""Longest time limit of an episode [s] of simulated time (2 h, 720k control steps at 10 ms), given or derived: a
+slower lap (a crawl round a long track) is refused rather than run for days with its trace growing in memory."""
+
+MAX_TRACK_SMOOTHING_M = 50.0
+"""Largest ``smoothing_m`` [m] (RMS deviation of the fit from a CSV file's points) a scenario accepts."""
+
 NAMESPACE = "vtrack"
 """Gymnasium namespace of the registered ids (``vtrack/DLC120-v0``)."""
 MANEUVER_TRACK_NAMES: tuple[str, ...] = ("iso3888_1", "iso3888_2", "iso4138_circle", "slalom", "step_curvature")
@@ -60,14 +67,15 @@ class ScenarioConfig:
     ``tracks`` speed profile (``ConstantSpeed``, ``CurvatureLimited``, ``FileSpeed``) followed along the path,
     or ``None`` to hold ``target_speed_mps`` (the paper scenarios). ``half_width_m``: constant drivable half
     width either side [m], or ``None`` for the path's own (per-station) widths. ``max_episode_s`` ``None``: the
-    time limit is derived from the track and profile (1.5 x the profile's lap time + 30 s).
+    time limit is derived from the track and profile (1.5 x the profile's lap time + 30 s); either way at most
+    ``MAX_EPISODE_S`` (2 h; a track and profile deriving more are refused, naming the lap time).
     """
 
     name: str
     track: Any = "handling_course"                # str | os.PathLike | tracks.Path
     target_speed_mps: float = ranged(11.0, gt=0.0, le=45.0, unit="m/s")
     initial_speed_mps: float = ranged(0.0, ge=0.0, le=45.0, unit="m/s")
-    max_episode_s: float | None = ranged(None, gt=0.0, unit="s")
+    max_episode_s: float | None = ranged(None, gt=0.0, le=MAX_EPISODE_S, unit="s")
     target_speed_range_mps: tuple[float, float] | None = None  # randomised per episode (training variant)
     # procedural tracks built once per env, drawn per episode
     procedural_bank_size: int = ranged(16, ge=1, integer=True)
@@ -78,6 +86,10 @@ class ScenarioConfig:
     standstill_start_fraction: float = ranged(0.0, ge=0.0, le=1.0)
     speed_profile: Any = None                    # tracks.SpeedProfile | None
     half_width_m: float | None = ranged(None, gt=0.0, le=50.0, unit="m")
+    # CSV track files only: force a closed loop (True) or an open road (False), None detects it; the spline fit's
+    # allowed RMS deviation from the points [m], None chooses it from the coordinates' rounding
+    track_closed: bool | None = None
+    track_smoothing_m: float | None = ranged(None, ge=0.0, le=MAX_TRACK_SMOOTHING_M, unit="m")
     success: str = "auto"
     vehicle: str = "default"                     # vehicle preset name (carried; vehicles as data live in vehicle/)
     # ``circle`` criterion only: the lateral band [m] and the analytic grip-limit speed sqrt(mu g R) [m/s]
@@ -113,6 +125,13 @@ class ScenarioConfig:
             if not isinstance(self.speed_profile, SpeedProfile):
                 raise ValueError("ScenarioConfig.speed_profile must be a tracks speed profile (ConstantSpeed, "
                                  f"CurvatureLimited, FileSpeed) or None (got {type(self.speed_profile).__name__})")
+        if self.track_closed is not None and not isinstance(self.track_closed, bool):
+            raise ValueError(f"ScenarioConfig.track_closed must be True, False or None (got {self.track_closed!r})")
+        if (self.track_closed is not None or self.track_smoothing_m is not None) and (
+                not isinstance(track, (str, os.PathLike)) or self.is_builtin):
+            raise ValueError("closed= and smoothing_m= apply to a CSV track file only (got track "
+                             f"{track if isinstance(track, str) else type(track).__name__!r}); a tracks.Path or a "
+                             "built-in track is used as it is")
         if self.success not in SUCCESS_CRITERIA:
             raise ValueError(f"ScenarioConfig.success must be one of {', '.join(SUCCESS_CRITERIA)} "
                              f"(got {self.success!r})")
@@ -255,11 +274,14 @@ def scenario_named(name: str) -> ScenarioConfig:
 
 
 def with_track(scenario: ScenarioConfig, track: Any = None, speed_profile: Any = None,
-               half_width_m: float | None = None) -> ScenarioConfig:
+               half_width_m: float | None = None, closed: bool | None = None,
+               smoothing_m: float | None = None) -> ScenarioConfig:
     """``scenario`` on another track / speed profile / constant half width (``None`` keeps the scenario's).
 
     ``speed_profile``: a tracks speed profile, a number (constant speed [m/s]) or ``"file"`` (the track's speed
-    column). A scenario that drives on a user's track with no profile given gets ``default_track_profile()``.
+    column). ``closed`` (bool) and ``smoothing_m`` [m] say how a CSV track file is read (see ``load_track``;
+    ValueError for any other track). A scenario that drives on a user's track with no profile given gets
+    ``default_track_profile()``.
     """
     from dataclasses import replace
 
@@ -272,6 +294,12 @@ def with_track(scenario: ScenarioConfig, track: Any = None, speed_profile: Any =
         changes["speed_profile"] = as_speed_profile(speed_profile)
     if half_width_m is not None:
         changes["half_width_m"] = float(half_width_m)
+    if closed is not None:
+        changes["track_closed"] = closed
+    if smoothing_m is not None:
+        if isinstance(smoothing_m, bool) or not isinstance(smoothing_m, (int, float)):
+            raise ValueError(f"smoothing_m must be a number of metres (got {smoothing_m!r})")
+        changes["track_smoothing_m"] = float(smoothing_m)
     out = replace(scenario, **changes) if changes else scenario
     if out.speed_profile is None and out.name == TRACK.name:
         out = replace(out, speed_profile=default_track_profile())
@@ -279,17 +307,20 @@ def with_track(scenario: ScenarioConfig, track: Any = None, speed_profile: Any =
 
 
 def resolve_scenario(scenario: str | ScenarioConfig, track: Any = None, speed_profile: Any = None,
-                     half_width_m: float | None = None) -> ScenarioConfig:
+                     half_width_m: float | None = None, closed: bool | None = None,
+                     smoothing_m: float | None = None) -> ScenarioConfig:
     """The scenario an env is made with: a registered name or id, or a ``ScenarioConfig``, then ``with_track``."""
     if isinstance(scenario, str) and _registered_track(scenario) is not None:  # an id of registration.register_track
         kwargs = _registered_track(scenario)
         scenario = kwargs["scenario"]
         track = kwargs.get("track") if track is None else track
         speed_profile = kwargs.get("speed_profile") if speed_profile is None else speed_profile
+        closed = kwargs.get("closed") if closed is None else closed
+        smoothing_m = kwargs.get("smoothing_m") if smoothing_m is None else smoothing_m
     sc = scenario_named(scenario) if isinstance(scenario, str) else scenario
     if not isinstance(sc, ScenarioConfig):
         raise ValueError(f"scenario must be a scenario id or a ScenarioConfig (got {type(scenario).__name__})")
-    return with_track(sc, track, speed_profile, half_width_m)
+    return with_track(sc, track, speed_profile, half_width_m, closed, smoothing_m)
 
 
 def _registered_track(env_id: str) -> dict[str, Any] | None:

@@ -15,7 +15,7 @@ import numpy as np
 from vtrack_gym.envs.config import EnvConfig, ResetOptions, ScenarioConfig
 from vtrack_gym.envs.observation import NOISY_INDICES
 from vtrack_gym.envs.pdflc import PDFLCConfig
-from vtrack_gym.envs.scenarios import MANEUVER_TRACK_NAMES, maneuver_path
+from vtrack_gym.envs.scenarios import MANEUVER_TRACK_NAMES, MAX_EPISODE_S, maneuver_path
 from vtrack_gym.envs.schema import REWARD_TERMS, SIGNAL_ROW
 from vtrack_gym.vehicle import layout as L
 from vtrack_gym.vehicle.params import GRAVITY_MPS2, VehicleParams
@@ -52,7 +52,7 @@ def scenario_tracks(scenario: ScenarioConfig, vehicle_width_m: float) -> tuple:
     else:
         from vtrack_gym.tracks import load_track
 
-        paths = (load_track(scenario.track),)
+        paths = (load_track(scenario.track, closed=scenario.track_closed, smoothing_m=scenario.track_smoothing_m),)
     if scenario.half_width_m is not None:
         paths = tuple(replace(p, half_width_m=scenario.half_width_m, widths_m=None) for p in paths)
     return paths
@@ -106,14 +106,25 @@ TIME_LIMIT_FACTOR = 1.5
 TIME_LIMIT_MARGIN_S = 30.0
 
 
-def _time_limit_s(tables: tuple) -> float:
+def _time_limit_s(tables: tuple, paths: tuple) -> float:
     """A scenario's derived time limit [s]: ``TIME_LIMIT_FACTOR`` x the longest profile lap time (v linear between
-    rows) + ``TIME_LIMIT_MARGIN_S`` (the standstill start and the PD-FLC lag)."""
+    rows) + ``TIME_LIMIT_MARGIN_S`` (the standstill start and the PD-FLC lag). ValueError naming the lap time and
+    the fix if it exceeds ``MAX_EPISODE_S``."""
     def lap_s(t) -> float:
         v = t.v_mps
         return float(np.sum(2.0 * t.ds_m / (v[1:] + v[:-1])))
 
-    return TIME_LIMIT_FACTOR * max(lap_s(t) for t in tables) + TIME_LIMIT_MARGIN_S
+    laps = [lap_s(t) for t in tables]
+    k = int(np.argmax(laps))
+    limit = TIME_LIMIT_FACTOR * laps[k] + TIME_LIMIT_MARGIN_S
+    if limit > MAX_EPISODE_S:
+        length = float(tables[k].length_m)
+        raise ValueError(f"track {paths[k].name!r}: the speed profile takes {laps[k]:.4g} s for its {length:.4g} m "
+                         f"(mean {length / laps[k]:.3g} m/s), so the derived time limit {TIME_LIMIT_FACTOR} x lap + "
+                         f"{TIME_LIMIT_MARGIN_S:.0f} s = {limit:.4g} s exceeds the maximum "
+                         f"{MAX_EPISODE_S:.0f} s of simulated time; fix: raise the profile's speeds "
+                         "(--max-speed-kmh, the file's speed column) or drive a shorter track")
+    return limit
 
 
 class BatchSim:
@@ -128,7 +139,7 @@ class BatchSim:
         self.paths = scenario_tracks(scenario, config.vehicle.chassis.body_width_m)
         self.speed_tables = _speed_tables(self.paths, scenario)
         if scenario.max_episode_s is None:
-            scenario = replace(scenario, max_episode_s=_time_limit_s(self.speed_tables))
+            scenario = replace(scenario, max_episode_s=_time_limit_s(self.speed_tables, self.paths))
         self.scenario = scenario
         profiled = scenario.speed_profile is not None
         self.tables = np.ascontiguousarray(np.concatenate([

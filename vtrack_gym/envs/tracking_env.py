@@ -2,7 +2,8 @@
 
 Scenario: a registered id or name (``envs.scenarios.SCENARIOS``) or a ``ScenarioConfig``; ``track=`` (a CSV file,
 a ``tracks.Path`` or a built-in name), ``speed_profile=`` (a tracks speed profile, a speed in m/s or ``"file"``)
-and ``half_width_m=`` (a constant road half width [m]) replace the scenario's, e.g.
+and ``half_width_m=`` (a constant road half width [m]) replace the scenario's; ``closed=`` (True/False, default
+detected) and ``smoothing_m=`` (the fit's RMS deviation from a CSV file's points [m]) say how a CSV file is read, e.g.
 ``gym.make("vtrack/Track-v0", track="my_track.csv")`` (default profile: curvature-limited, 40 km/h, 0.7 g). With a
 speed profile the PD-FLC holds v_ref(s) at the car's station (``target_speed`` in the observation and in
 ``info["target_speed_mps"]``, a preview of it at the end of the observation).
@@ -120,8 +121,8 @@ class TrackingEnv(gym.Env):
     def __init__(self, scenario: str | ScenarioConfig = "LateralTracking-v0", config: EnvConfig | None = None,
                  render_mode: str | None = None, render_fps: int = 25, render_view: str = "follow",
                  track: Any = None, speed_profile: Any = None, half_width_m: float | None = None,
-                 **config_overrides: Any) -> None:
-        scenario = resolve_scenario(scenario, track, speed_profile, half_width_m)
+                 closed: bool | None = None, smoothing_m: float | None = None, **config_overrides: Any) -> None:
+        scenario = resolve_scenario(scenario, track, speed_profile, half_width_m, closed, smoothing_m)
         if config is None:
             config = EnvConfig(**config_overrides)
         elif config_overrides:

@@ -47,9 +47,10 @@ class TrackingVectorEnv(VectorEnv):
 
     def __init__(self, scenario: str | ScenarioConfig = "LateralTracking-v0", num_envs: int = 1,
                  config: EnvConfig | None = None, render_mode: str | None = None, track: Any = None,
-                 speed_profile: Any = None, half_width_m: float | None = None, max_episode_steps: int | None = None,
+                 speed_profile: Any = None, half_width_m: float | None = None, closed: bool | None = None,
+                 smoothing_m: float | None = None, max_episode_steps: int | None = None,
                  **config_overrides: Any) -> None:
-        scenario = resolve_scenario(scenario, track, speed_profile, half_width_m)
+        scenario = resolve_scenario(scenario, track, speed_profile, half_width_m, closed, smoothing_m)
         if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer (got {num_envs!r})")
         config = config if config is not None else EnvConfig(**config_overrides)

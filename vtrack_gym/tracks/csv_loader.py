@@ -27,7 +27,7 @@ import numpy as np
 from vtrack_gym._io import read_regular_file
 from vtrack_gym.tracks.fitting import check_points
 from vtrack_gym.tracks.geometry import TooDenseError, segment_intersections
-from vtrack_gym.tracks.path import DEFAULT_DS_M, MAX_HALF_WIDTH_M, MAX_V_REF_MPS, Path
+from vtrack_gym.tracks.path import DEFAULT_DS_M, MAX_HALF_WIDTH_M, MAX_V_REF_MPS, MIN_V_REF_MPS, Path
 
 CLOSED_GAP_M = 1.0          # first and last points closer than this [m] always close the loop (auto-detection)
 CLOSED_GAP_SPACINGS = 3.0   # ... or an end gap up to this x the median point spacing,
@@ -177,17 +177,21 @@ def read_track_columns(fs_path: FsPath) -> tuple[dict[str, np.ndarray], list[int
 
 
 def _check_ranges(fs_path: FsPath, columns: dict[str, np.ndarray], lines: list[int]) -> None:
-    """Widths in (0, MAX_HALF_WIDTH_M] m and speeds in (0, MAX_V_REF_MPS] m/s, naming the first bad line."""
-    limits = {"w_right": (MAX_HALF_WIDTH_M, "m", "half width"), "w_left": (MAX_HALF_WIDTH_M, "m", "half width"),
-              "v": (MAX_V_REF_MPS, "m/s", "speed")}
-    for role, (high, unit, what) in limits.items():
+    """Widths in (0, MAX_HALF_WIDTH_M] m and speeds in [MIN_V_REF_MPS, MAX_V_REF_MPS] m/s, naming the first bad
+    line."""
+    limits = {"w_right": (0.0, MAX_HALF_WIDTH_M, "m", "half width"),
+              "w_left": (0.0, MAX_HALF_WIDTH_M, "m", "half width"),
+              "v": (MIN_V_REF_MPS, MAX_V_REF_MPS, "m/s", "speed")}
+    for role, (low, high, unit, what) in limits.items():
         if role not in columns:
             continue
-        bad = np.flatnonzero(~((columns[role] > 0.0) & (columns[role] <= high)))
+        ok = (columns[role] >= low) & (columns[role] > 0.0) & (columns[role] <= high)
+        bad = np.flatnonzero(~ok)
         if bad.size:
             k = int(bad[0])
+            span = f"({low}, {high}]" if low == 0.0 else f"[{low}, {high}]"
             raise ValueError(f"{fs_path}, line {lines[k]}: {what} {COLUMN_NAMES[role][0]} = {columns[role][k]} "
-                             f"{unit} is outside (0, {high}] {unit}")
+                             f"{unit} is outside {span} {unit}")
 
 
 def read_track_csv(fs_path: FsPath) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, list[int]]:

@@ -35,6 +35,7 @@ PROJECTION_TOL_M = 1e-10        # projection refinement stops when s moves less 
 PROJECTION_MAX_ITER = 12
 MAX_HALF_WIDTH_M = 100.0        # per-station half widths beyond this are not a road [m]
 MAX_V_REF_MPS = 150.0           # reference speeds beyond this are not a car's [m/s]
+MIN_V_REF_MPS = 1.0             # set speeds of a profile / a file's speed column below this are a standstill [m/s]
 
 
 @dataclass(frozen=True)

@@ -20,7 +20,7 @@ import numpy as np
 
 from vtrack_gym._ranges import documented, ranged, validate
 from vtrack_gym.tracks.interpolation import wrap_s
-from vtrack_gym.tracks.path import MAX_V_REF_MPS, Path
+from vtrack_gym.tracks.path import MAX_V_REF_MPS, MIN_V_REF_MPS, Path
 
 MAX_ACCEL_MPS2 = 30.0      # upper bound of every acceleration parameter (3 g) [m/s^2]
 KAPPA_FLOOR_PER_M = 1e-9   # |kappa| below this is a straight for the lateral limit [1/m]
@@ -37,9 +37,9 @@ class SpeedProfile(Protocol):
 @documented
 @dataclass(frozen=True)
 class ConstantSpeed:
-    """v_ref(s) = v_mps [m/s] everywhere."""
+    """v_ref(s) = v_mps [m/s] everywhere (``MIN_V_REF_MPS`` = 1 m/s to 150 m/s)."""
 
-    v_mps: float = ranged(gt=0.0, le=MAX_V_REF_MPS, unit="m/s")
+    v_mps: float = ranged(ge=MIN_V_REF_MPS, le=MAX_V_REF_MPS, unit="m/s")
 
     def __post_init__(self) -> None:
         validate(self)
@@ -54,9 +54,10 @@ class ConstantSpeed:
 class CurvatureLimited:
     """Fastest profile within the limits: speed <= ``max_speed_mps`` [m/s], lateral acceleration v^2 |kappa| <=
     ``max_lateral_accel_mps2`` [m/s^2], longitudinal acceleration <= ``max_accel_mps2`` and deceleration <=
-    ``max_decel_mps2`` [m/s^2] (see the module docstring for the passes)."""
+    ``max_decel_mps2`` [m/s^2] (see the module docstring for the passes). ``max_speed_mps`` is at least
+    ``MIN_V_REF_MPS`` (1 m/s); tight curves may still ask for less locally."""
 
-    max_speed_mps: float = ranged(gt=0.0, le=MAX_V_REF_MPS, unit="m/s")
+    max_speed_mps: float = ranged(ge=MIN_V_REF_MPS, le=MAX_V_REF_MPS, unit="m/s")
     max_lateral_accel_mps2: float = ranged(gt=0.0, le=MAX_ACCEL_MPS2, unit="m/s^2")
     max_accel_mps2: float = ranged(2.0, gt=0.0, le=MAX_ACCEL_MPS2, unit="m/s^2")
     max_decel_mps2: float = ranged(3.0, gt=0.0, le=MAX_ACCEL_MPS2, unit="m/s^2")
@@ -137,7 +138,8 @@ class SpeedRamp:
 @documented
 @dataclass(frozen=True)
 class FileSpeed:
-    """The path's own speed column (``Path.v_ref_mps``, e.g. a CSV ``v_mps`` column), times ``scale`` [-]."""
+    """The path's own speed column (``Path.v_ref_mps``, e.g. a CSV ``v_mps`` column), times ``scale`` [-]; every
+    resulting speed must be at least ``MIN_V_REF_MPS`` (1 m/s), else ``row_speeds`` raises ValueError."""
 
     scale: float = ranged(1.0, gt=0.0, le=10.0)
 
@@ -149,7 +151,14 @@ class FileSpeed:
         if path.v_ref_mps is None:
             raise ValueError(f"track {path.name!r} has no speed column: add a 'v_mps' column to the file, or use "
                              "ConstantSpeed / CurvatureLimited")
-        return np.asarray(path.v_ref_mps, dtype=float) * float(self.scale)
+        v = np.asarray(path.v_ref_mps, dtype=float) * float(self.scale)
+        k = int(np.argmin(v))
+        if v[k] < MIN_V_REF_MPS:
+            raise ValueError(f"track {path.name!r}: the speed column x scale {self.scale} gives {v[k]:.3g} m/s at "
+                             f"s = {k * path.ds_m:.1f} m; FileSpeed needs speeds in [{MIN_V_REF_MPS}, "
+                             f"{MAX_V_REF_MPS}] m/s (fix: raise the slow speeds in the file, or use ConstantSpeed / "
+                             "CurvatureLimited)")
+        return v
 
 
 def _passes(v2: np.ndarray, ds_m: float, accel_mps2: float, decel_mps2: float) -> None:
@@ -224,5 +233,5 @@ def lateral_accel_mps2(table: SpeedTable, path: Path, s: np.ndarray) -> np.ndarr
     return table.v_ref(s) ** 2 * np.abs(path.sample(s).kappa)
 
 
-__all__ = ["ConstantSpeed", "CurvatureLimited", "FileSpeed", "SpeedProfile", "SpeedRamp", "SpeedTable",
+__all__ = ["MIN_V_REF_MPS", "ConstantSpeed", "CurvatureLimited", "FileSpeed", "SpeedProfile", "SpeedRamp", "SpeedTable",
            "as_speed_profile", "lateral_accel_mps2", "speed_table"]

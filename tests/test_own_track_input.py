@@ -1,0 +1,83 @@
+"""Driving a user's track: speed floors and the time-limit cap, loop detection on sparse points, UTM coordinates,
+noisy coordinates, near-duplicate points and the CLI's speed options, each through a public entry point
+(``load_track``, ``gym.make("vtrack/Track-v0", ...)``, ``vtrack_gym.cli.main``)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import vtrack_gym  # noqa: F401  (registers the ids)
+from vtrack_gym.cli import main
+from vtrack_gym.tracks import COL_KAPPA, ConstantSpeed, load_track
+
+
+def write_xy(file: Path, x: np.ndarray, y: np.ndarray, fmt: str = "%.6f", extra: str = "",
+             extra_values: list[str] | None = None) -> Path:
+    """A CSV with header x_m, y_m (and one more column named ``extra`` with ``extra_values``)."""
+    header = "x_m,y_m" + (f",{extra}" if extra else "")
+    rows = [f"{fmt % a},{fmt % b}" + (f",{extra_values[k]}" if extra else "")
+            for k, (a, b) in enumerate(zip(x, y, strict=True))]
+    file.write_text(header + "\n" + "\n".join(rows) + "\n")
+    return file
+
+
+def circle_xy(radius_m: float, n: int, cx: float = 0.0, cy: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    t = np.linspace(0.0, 2.0 * math.pi, n, endpoint=False)
+    return cx + radius_m * np.cos(t), cy + radius_m * np.sin(t)
+
+
+# ------------------------------------------------------------------------------------ 1: speed floor, time cap
+def test_tiny_speeds_are_refused_and_the_derived_time_limit_is_capped(tmp_path: Path) -> None:
+    x, y = circle_xy(100.0, 300)
+    loop = write_xy(tmp_path / "loop.csv", x, y)
+    with pytest.raises(ValueError, match=r"ConstantSpeed\.v_mps must be in \[1\.0, 150\.0\] m/s"):
+        gym.make("vtrack/Track-v0", track=str(loop), speed_profile=1e-6)
+    # a long straight at the 1 m/s floor: 1.5 x 20 km / 1 m/s + 30 s > 2 h -> refused, naming the lap time
+    s = np.arange(0.0, 20_000.0, 20.0)
+    long_road = write_xy(tmp_path / "long.csv", s, np.zeros_like(s), "%.1f")
+    with pytest.raises(ValueError, match=r"the speed profile takes 1\.998e\+04 s for its 1\.998e\+04 m .* exceeds "
+                                         r"the maximum 7200 s of simulated time; fix: raise the profile's speeds"):
+        gym.make("vtrack/Track-v0", track=str(long_road), speed_profile=ConstantSpeed(1.0))
+    env = gym.make("vtrack/Track-v0", track=str(loop), speed_profile=ConstantSpeed(1.0))  # 628 m at 1 m/s: fine
+    assert env.unwrapped.scenario.max_episode_s == pytest.approx(1.5 * 2.0 * math.pi * 100.0 + 30.0, rel=2e-3)
+
+
+def test_a_speed_column_below_one_mps_is_refused_naming_the_line(tmp_path: Path) -> None:
+    x, y = circle_xy(100.0, 300)
+    v = ["10.0"] * x.size
+    v[7] = "0.001"
+    f = write_xy(tmp_path / "v.csv", x, y, extra="v_mps", extra_values=v)
+    with pytest.raises(ValueError, match=r"v\.csv, line 9: speed v_mps = 0\.001 m/s is outside \[1\.0, 150\.0\] m/s"):
+        gym.make("vtrack/Track-v0", track=str(f), speed_profile="file")
+    v[7] = "10.0"
+    f = write_xy(tmp_path / "v.csv", x, y, extra="v_mps", extra_values=v)
+    with pytest.raises(ValueError, match=r"gives 0\.5 m/s .* FileSpeed needs speeds in \[1\.0, 150\.0\] m/s"):
+        from vtrack_gym.tracks import FileSpeed
+
+        gym.make("vtrack/Track-v0", track=str(f), speed_profile=FileSpeed(scale=0.05))
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["--speed-profile", "constant", "--max-speed-kmh", "0.01"], r"--max-speed-kmh must be in \[3\.6, 540\] km/h"),
+    (["--max-speed-kmh", "1000"], r"--max-speed-kmh must be in \[3\.6, 540\] km/h \(got 1000\.0\)"),
+    (["--max-lateral-g", "5"], r"--max-lateral-g must be in \(0, 3\.06\] g \(got 5\.0\)"),
+    (["--max-lateral-g", "0"], r"--max-lateral-g must be in \(0, 3\.06\] g"),
+    (["--speed-profile", "file", "--max-speed-kmh", "10"],
+     r"--max-speed-kmh does not apply to --speed-profile file .* fix: drop --max-speed-kmh"),
+    (["--speed-profile", "constant", "--max-lateral-g", "0.5"], r"--max-lateral-g does not apply to --speed-profile "
+                                                                 r"constant"),
+    (["--track-smoothing-m", "-1"], r"--track-smoothing-m must be in \[0, 50\] m"),
+])
+def test_cli_speed_options_name_the_option_and_its_range(argv: list[str], message: str, tmp_path: Path,
+                                                        capsys: pytest.CaptureFixture[str]) -> None:
+    x, y = circle_xy(100.0, 300)
+    loop = write_xy(tmp_path / "loop.csv", x, y)
+    assert main(["eval", "--policy", "stanley", "--track", str(loop), "--store", str(tmp_path / "s.db"),
+                 *argv]) == 2
+    assert __import__("re").search(message, capsys.readouterr().err)
+

@@ -81,3 +81,43 @@ def test_cli_speed_options_name_the_option_and_its_range(argv: list[str], messag
                  *argv]) == 2
     assert __import__("re").search(message, capsys.readouterr().err)
 
+
+# ----------------------------------------------------------------------------------- 2: sparse loops, forcing
+def test_sparse_loops_close_and_open_u_roads_stay_open(tmp_path: Path) -> None:
+    t = np.linspace(0.0, 2.0 * math.pi, 20, endpoint=False)             # 424 m ellipse, end gap 13 m, 20 points
+    ellipse = load_track(write_xy(tmp_path / "ellipse.csv", 90.0 * np.cos(t), 40.0 * np.sin(t), "%.1f"))
+    assert ellipse.closed and ellipse.length_m == pytest.approx(423.7, abs=1.0)
+    square = load_track(write_xy(tmp_path / "square.csv", np.array([0.0, 100.0, 100.0, 0.0]),
+                                 np.array([0.0, 0.0, 100.0, 100.0]), "%.0f"))
+    assert square.closed
+    # an open U: two straight legs joined by a semicircle of radius 10 m, points every 10 m; the ends are 20 m
+    # (2 spacings) apart but the road ends straight: the closing chord would turn 90 deg at both ends
+    legs = np.arange(100.0, -1.0, -10.0)
+    a = np.linspace(-math.pi / 2, math.pi / 2, 5)[1:-1]
+    ux = np.concatenate((legs[::-1], 100.0 + 10.0 * np.cos(a), legs))
+    uy = np.concatenate((np.full(legs.size, -10.0), 10.0 * np.sin(a), np.full(legs.size, 10.0)))
+    u_file = write_xy(tmp_path / "u.csv", ux, uy)
+    assert not load_track(u_file).closed
+    assert load_track(u_file, closed=True).closed
+    env = gym.make("vtrack/Track-v0", track=str(tmp_path / "ellipse.csv"), closed=False)
+    assert not env.unwrapped.current_path.closed
+    with pytest.raises(ValueError, match="closed= and smoothing_m= apply to a CSV track file only"):
+        gym.make("vtrack/Track-v0", track="handling_course", closed=True)
+
+
+def test_cli_track_closed_option_and_the_printed_decision(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    t = np.linspace(0.0, 2.0 * math.pi, 20, endpoint=False)
+    f = write_xy(tmp_path / "ellipse.csv", 90.0 * np.cos(t), 40.0 * np.sin(t), "%.1f")
+    store = tmp_path / "s.db"
+    assert main(["eval", "--policy", "stanley", "--track", str(f), "--store", str(store)]) == 0
+    err = capsys.readouterr().err
+    assert f"--track {f}: read as a closed loop (detected; --track-closed yes/no forces it), 423.7 m, 20 points" in err
+    assert main(["eval", "--policy", "stanley", "--track", str(f), "--track-closed", "no", "--store",
+                 str(store)]) == 0
+    assert "read as an open road (forced by --track-closed), 410.3 m, 20 points" in capsys.readouterr().err
+    from vtrack_gym.evaluation.store import ResultStore
+
+    auto, forced = ResultStore(store, read_only=True).rows()
+    assert auto["env_id"] != forced["env_id"] and forced["options"]["track_read"] == {"closed": False}
+    assert "track_read" not in auto["options"]
+    assert auto["termination"] == "completed" and auto["metrics"]["progress_m"] > 420.0   # the whole loop

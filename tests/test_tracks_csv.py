@@ -40,10 +40,11 @@ def test_circle_with_header_and_z_auto_closed(tmp_path: pathlib.Path) -> None:
 
 
 def test_circle_whitespace_no_header_explicit_closed(tmp_path: pathlib.Path) -> None:
-    x, y, _ = circle(24, repeat_first=False)                              # 10 m spacing: not auto-closed
+    x, y, _ = circle(24, repeat_first=False)                              # 10 m spacing: a sparse loop
     text = "# a comment\n\n" + "\n".join(f"{a} \t {b}" for a, b in zip(x, y, strict=True))
     f = write(tmp_path, text, "ring.txt")
-    assert not load_track_csv(f).closed
+    assert load_track_csv(f).closed                                       # end gap = one spacing, heading on
+    assert not load_track_csv(f, closed=False).closed
     p = load_track_csv(f, closed=True, half_width_m=5.0)
     assert p.closed and p.half_width_m == 5.0
     assert np.max(np.abs(1.0 / p.table[:, COL_KAPPA] / RADIUS - 1.0)) < 0.005

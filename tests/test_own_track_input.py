@@ -11,7 +11,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-import vtrack_gym  # noqa: F401  (registers the ids)
+import vtrack_gym
 from vtrack_gym.cli import main
 from vtrack_gym.tracks import COL_KAPPA, ConstantSpeed, load_track
 
@@ -121,3 +121,43 @@ def test_cli_track_closed_option_and_the_printed_decision(tmp_path: Path, capsys
     assert auto["env_id"] != forced["env_id"] and forced["options"]["track_read"] == {"closed": False}
     assert "track_read" not in auto["options"]
     assert auto["termination"] == "completed" and auto["metrics"]["progress_m"] > 420.0   # the whole loop
+
+
+# ------------------------------------------------------------------------------------------- 3: UTM coordinates
+UTM_OFFSET_M = (650_000.0, 5_300_000.0)   # a northern-hemisphere UTM position (northing 5300 km)
+
+
+@pytest.mark.parametrize("policy", ["stanley", "mpc"])
+def test_utm_coordinates_drive_like_the_same_track_at_the_origin(policy: str, tmp_path: Path) -> None:
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import own_tracks
+
+    origin = own_tracks.write_circuit_csv(tmp_path / "hairpins.csv", own_tracks.circuits()["hairpins"])
+    lines = origin.read_text().splitlines()
+    shifted = [lines[0]]
+    for line in lines[1:]:
+        f = line.split(",")
+        f[0], f[1] = f"{float(f[0]) + UTM_OFFSET_M[0]:.3f}", f"{float(f[1]) + UTM_OFFSET_M[1]:.3f}"
+        shifted.append(",".join(f))
+    utm = tmp_path / "hairpins_utm.csv"
+    utm.write_text("\n".join(shifted) + "\n")
+    p0, p1 = load_track(origin), load_track(utm)
+    assert p1.closed and p1.length_m == pytest.approx(p0.length_m, abs=1e-6)
+    np.testing.assert_allclose(p1.table[:, COL_KAPPA], p0.table[:, COL_KAPPA], rtol=0.0, atol=1e-6)
+    rows = []
+    for f in (origin, utm):
+        env = gym.make("vtrack/Track-v0", track=str(f))
+        row, = vtrack_gym.evaluate(vtrack_gym.make_policy(policy, env), env)
+        rows.append(row)
+    assert rows[0].termination == rows[1].termination == "completed"
+    for key in ("max_e_y_m", "rms_e_y_m", "duration_s", "progress_m"):
+        assert rows[1].metrics[key] == pytest.approx(rows[0].metrics[key], rel=1e-5, abs=1e-5), key
+
+
+def test_coordinates_beyond_1e7_m_name_the_line_and_the_fix(tmp_path: Path) -> None:
+    x, y = circle_xy(50.0, 64, cx=6.5e5, cy=2.0e7)
+    with pytest.raises(ValueError, match=r"big\.csv, line 2: \|y\| = 2e\+07 m exceeds 1e\+07 m .* fix: subtract an "
+                                         r"offset"):
+        load_track(write_xy(tmp_path / "big.csv", x, y, "%.3f"))

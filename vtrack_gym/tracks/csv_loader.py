@@ -25,7 +25,7 @@ from pathlib import Path as FsPath
 import numpy as np
 
 from vtrack_gym._io import read_regular_file
-from vtrack_gym.tracks.fitting import check_points
+from vtrack_gym.tracks.fitting import MAX_COORDINATE_M, check_points
 from vtrack_gym.tracks.geometry import TooDenseError, segment_intersections
 from vtrack_gym.tracks.path import DEFAULT_DS_M, MAX_HALF_WIDTH_M, MAX_V_REF_MPS, MIN_V_REF_MPS, Path
 
@@ -177,8 +177,16 @@ def read_track_columns(fs_path: FsPath) -> tuple[dict[str, np.ndarray], list[int
 
 
 def _check_ranges(fs_path: FsPath, columns: dict[str, np.ndarray], lines: list[int]) -> None:
-    """Widths in (0, MAX_HALF_WIDTH_M] m and speeds in [MIN_V_REF_MPS, MAX_V_REF_MPS] m/s, naming the first bad
-    line."""
+    """Coordinates within +-MAX_COORDINATE_M m, widths in (0, MAX_HALF_WIDTH_M] m and speeds in [MIN_V_REF_MPS,
+    MAX_V_REF_MPS] m/s, naming the first bad line."""
+    for role in ("x", "y", "z"):
+        if role in columns:
+            bad = np.flatnonzero(np.abs(columns[role]) > MAX_COORDINATE_M)
+            if bad.size:
+                k = int(bad[0])
+                raise ValueError(f"{fs_path}, line {lines[k]}: |{role}| = {abs(columns[role][k]):.4g} m exceeds "
+                                 f"{MAX_COORDINATE_M:.0e} m (UTM eastings and northings stay below it); fix: subtract "
+                                 "an offset (e.g. the first point's coordinates) from every point")
     limits = {"w_right": (0.0, MAX_HALF_WIDTH_M, "m", "half width"),
               "w_left": (0.0, MAX_HALF_WIDTH_M, "m", "half width"),
               "v": (MIN_V_REF_MPS, MAX_V_REF_MPS, "m/s", "speed")}

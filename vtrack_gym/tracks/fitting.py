@@ -12,7 +12,7 @@ from vtrack_gym.tracks.integration import gauss_legendre
 from vtrack_gym.tracks.table import close_exactly, uniform_grid
 
 MIN_POINTS = 4
-MAX_COORDINATE_M = 1.0e6     # |x|, |y|, |z| beyond 1000 km is not a road
+MAX_COORDINATE_M = 1.0e7     # |x|, |y|, |z| up to 10 000 km: UTM northings (< 1e7 m) load as they are
 MAX_LENGTH_M = 200_000.0     # longest centre-line accepted (polyline and fitted) [m]
 MAX_LENGTH_GROWTH = 1.5      # a fit may not be longer than this x the polyline (smoothing gone wrong)
 _NEWTON_ITER = 4
@@ -33,7 +33,8 @@ def check_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None) -> None:
     for name, v in (("x", x), ("y", y), ("z", z)):
         if v is not None and float(np.max(np.abs(v))) > MAX_COORDINATE_M:
             k = int(np.argmax(np.abs(v)))
-            raise ValueError(f"point {k}: |{name}| = {abs(v[k]):.3g} m exceeds {MAX_COORDINATE_M:.0e} m")
+            raise ValueError(f"point {k}: |{name}| = {abs(v[k]):.3g} m exceeds {MAX_COORDINATE_M:.0e} m; fix: "
+                             "subtract an offset (e.g. the first point's coordinates) from every point")
     step = np.hypot(np.diff(x), np.diff(y))
     if float(step.sum()) > MAX_LENGTH_M:
         raise ValueError(f"the centre-line is {step.sum():.3g} m long; at most {MAX_LENGTH_M:.0f} m is accepted")

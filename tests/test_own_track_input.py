@@ -161,3 +161,43 @@ def test_coordinates_beyond_1e7_m_name_the_line_and_the_fix(tmp_path: Path) -> N
     with pytest.raises(ValueError, match=r"big\.csv, line 2: \|y\| = 2e\+07 m exceeds 1e\+07 m .* fix: subtract an "
                                          r"offset"):
         load_track(write_xy(tmp_path / "big.csv", x, y, "%.3f"))
+
+
+# ------------------------------------------------------------------------------------------ 4: noisy coordinates
+def noisy_circle(file: Path, noise_m: float) -> Path:
+    """R = 100 m circle, points every 1 m, ``noise_m`` of Gaussian noise on x and y, full precision."""
+    x, y = circle_xy(100.0, 628)
+    rng = np.random.default_rng(0)
+    return write_xy(file, x + rng.normal(0.0, noise_m, x.size), y + rng.normal(0.0, noise_m, x.size))
+
+
+def test_noisy_coordinates_warn_with_a_smoothing_that_recovers_the_curvature(tmp_path: Path) -> None:
+    import re
+    import warnings
+
+    f = noisy_circle(tmp_path / "gps.csv", 0.02)
+    with pytest.warns(UserWarning, match=r"gps\.csv: the fitted curvature changes sign in \d+ of \d+ point intervals"
+                                         r".* Pass smoothing_m=[0-9.]+ \(CLI: --track-smoothing-m [0-9.]+\)") as rec:
+        raw = load_track(f)
+    assert np.ptp(raw.table[:, COL_KAPPA]) > 0.2                                  # the symptom: +-0.25 1/m
+    hint = float(re.search(r"--track-smoothing-m ([0-9.]+)", str(rec[0].message)).group(1))
+    assert 0.03 <= hint <= 0.1                                                    # ~2 x the 2-D noise (0.028 m)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                                            # no warning once smoothed
+        env = gym.make("vtrack/Track-v0", track=str(f), smoothing_m=hint)
+        clean = load_track(write_xy(tmp_path / "clean.csv", *circle_xy(100.0, 628)))
+    kappa = env.unwrapped.current_path.table[:, COL_KAPPA]
+    np.testing.assert_allclose(kappa, 0.01, rtol=0.1)
+    np.testing.assert_allclose(clean.table[:, COL_KAPPA], 0.01, rtol=1e-3)
+
+
+def test_cli_track_smoothing_option(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    f = noisy_circle(tmp_path / "gps.csv", 0.02)
+    store = tmp_path / "s.db"
+    assert main(["eval", "--policy", "stanley", "--track", str(f), "--track-smoothing-m", "0.057", "--store",
+                 str(store)]) == 0
+    from vtrack_gym.evaluation.store import ResultStore
+
+    row, = ResultStore(store, read_only=True).rows()
+    assert row["options"]["track_read"] == {"smoothing_m": 0.057}
+    assert row["termination"] == "completed" and row["metrics"]["max_e_y_m"] < 0.2

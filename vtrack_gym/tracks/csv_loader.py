@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
 from pathlib import Path as FsPath
 
 import numpy as np
@@ -37,6 +38,11 @@ MIN_POINTS = 4
 MAX_POINTS = 200_000
 MAX_FILE_BYTES = 64 * 2**20
 DEFAULT_HALF_WIDTH_M = 3.5
+NOISE_SIGN_CHANGE_SHARE = 0.25  # noisy: the curvature changes sign in more than this share of the point intervals,
+NOISE_REVERSAL_M = 8.0          # ... more often than once per this distance [m] (a slalom: 18 m) ...
+NOISE_MIN_SIGN_CHANGES = 10     # ... and at least this many times
+NOISE_KAPPA_ZERO = 1e-4         # |kappa| below this [1/m] (R > 10 km) counts as straight, without a sign
+NOISE_HINT_FACTOR = 2.0         # suggested smoothing_m: this x the points' estimated RMS noise (2-D)
 DENSE_SPACING_M = 0.5       # points closer than this (median) [m] are averaged in blocks to about this spacing
 _MAX_DECIMALS = 6
 
@@ -278,6 +284,39 @@ def detect_closed(x: np.ndarray, y: np.ndarray) -> bool:
     return bool(end_ok and start_ok)
 
 
+def point_noise_m(x: np.ndarray, y: np.ndarray) -> float:
+    """Robust estimate [m] of the points' RMS 2-D deviation from a smooth line: third differences of independent
+    noise of standard deviation sigma per coordinate have variance 20 sigma^2, while a smooth road's are ~kappa'
+    h^3 (negligible), so sigma = 1.4826 median|diff^3| / sqrt(20) (MAD), times sqrt(2) for x and y together."""
+    d3 = np.concatenate((np.diff(x, 3), np.diff(y, 3)))
+    return float(1.4826 * np.median(np.abs(d3)) / math.sqrt(20.0) * math.sqrt(2.0)) if d3.size else 0.0
+
+
+def noisy_curvature_hint(path: Path, x: np.ndarray, y: np.ndarray) -> tuple[int, int, float] | None:
+    """(curvature sign changes, point intervals, suggested smoothing_m [m]) if the fit of points x, y [m] has the
+    curvature of noise, else None.
+
+    The curvature is sampled once per median point spacing h; a real road changes the sign of its curvature only
+    at its S-bends, a few points apart at least, while a spline interpolating noisy points bends back and forth
+    at every other point. Noisy: the sign (|kappa| >= NOISE_KAPPA_ZERO) changes in more than
+    NOISE_SIGN_CHANGE_SHARE of the intervals, more often than once per NOISE_REVERSAL_M and at least
+    NOISE_MIN_SIGN_CHANGES times. The suggestion is NOISE_HINT_FACTOR x :func:`point_noise_m` (on a 1 m-spaced
+    circle with 2 cm of noise it gives curvature within 2 %).
+    """
+    h = float(np.median(np.hypot(np.diff(x), np.diff(y))))
+    n = int(path.length_m // h) if h > 0.0 else 0
+    if n < 2 * NOISE_MIN_SIGN_CHANGES:
+        return None
+    kappa = path.sample(np.arange(n + 1) * (path.length_m / n)).kappa
+    signs = np.sign(kappa[np.abs(kappa) >= NOISE_KAPPA_ZERO])
+    changes = int(np.count_nonzero(signs[1:] != signs[:-1]))
+    if (changes < NOISE_MIN_SIGN_CHANGES or changes <= NOISE_SIGN_CHANGE_SHARE * n
+            or changes * NOISE_REVERSAL_M <= path.length_m):
+        return None
+    hint = NOISE_HINT_FACTOR * point_noise_m(x, y)
+    return changes, n, float(f"{max(hint, 1e-3):.2g}")
+
+
 def _check_crossing(fs_path: FsPath, px: np.ndarray, py: np.ndarray, closed: bool, lines: list[int]) -> None:
     """ValueError naming the lines of the first pair of crossing segments (or of a cluster too dense to check)."""
     def line(k: int) -> int:
@@ -332,6 +371,7 @@ def load_track_csv(path: str | os.PathLike[str], closed: bool | None = None, hal
             v_ref = None if v_ref is None else v_ref[:-1]
     if not allow_self_crossing:
         _check_crossing(fs_path, px, py, bool(closed), lines)
+    raw_x, raw_y = x, y
     if smoothing_m is None:
         smoothing_m = auto_smoothing_m(x, y)
         cols = {"x": x, "y": y}
@@ -358,8 +398,16 @@ def load_track_csv(path: str | os.PathLike[str], closed: bool | None = None, hal
     if not allow_self_crossing and result.self_intersects():
         raise ValueError(f"{fs_path}: the fitted centre-line crosses itself (points too sparse or too noisy; "
                          "add points or raise smoothing_m)")
+    noisy = noisy_curvature_hint(result, raw_x, raw_y)
+    if noisy is not None:
+        changes, n, hint = noisy
+        warnings.warn(f"{fs_path}: the fitted curvature changes sign in {changes} of {n} point intervals (a road "
+                      f"does only at its S-bends): the coordinates look noisy (smoothing_m = {smoothing_m:.3g} m). "
+                      f"Pass smoothing_m={hint:g} (CLI: --track-smoothing-m {hint:g}), the RMS deviation [m] the fit "
+                      f"may make, about {NOISE_HINT_FACTOR:g} x the points' estimated noise", UserWarning,
+                      stacklevel=2)
     return result
 
 
 __all__ = ["COLUMN_NAMES", "auto_smoothing_m", "average_dense_points", "detect_closed", "load_track_csv",
-           "read_track_columns", "read_track_csv", "rounding_quantum_m"]
+           "noisy_curvature_hint", "point_noise_m", "read_track_columns", "read_track_csv", "rounding_quantum_m"]

@@ -201,3 +201,23 @@ def test_cli_track_smoothing_option(tmp_path: Path, capsys: pytest.CaptureFixtur
     row, = ResultStore(store, read_only=True).rows()
     assert row["options"]["track_read"] == {"smoothing_m": 0.057}
     assert row["termination"] == "completed" and row["metrics"]["max_e_y_m"] < 0.2
+
+
+# ------------------------------------------------------------------------------------------- 5: near-duplicates
+def test_a_near_duplicate_point_is_refused_naming_both_lines(tmp_path: Path) -> None:
+    x, y = circle_xy(100.0, 628)                                                  # 1 m spacing
+    t = 2.0 * math.pi * 40 / 628 + 0.001 / 100.0                                  # 1 mm after point 40
+    xd, yd = np.insert(x, 41, 100.0 * math.cos(t)), np.insert(y, 41, 100.0 * math.sin(t))
+    f = write_xy(tmp_path / "neardup.csv", xd, yd)
+    with pytest.raises(ValueError, match=r"neardup\.csv, lines 42 and 43: consecutive points only 0\.001 m apart, "
+                                         r"less than 1% of the median spacing 1 m .* fix: delete one of the two lines"):
+        gym.make("vtrack/Track-v0", track=str(f))
+    fixed = load_track(write_xy(tmp_path / "fixed.csv", np.delete(xd, 41), np.delete(yd, 41)))
+    np.testing.assert_allclose(fixed.table[:, COL_KAPPA], 0.01, rtol=1e-3)
+
+
+def test_dense_cm_rounded_points_still_load_accurately(tmp_path: Path) -> None:
+    x, y = circle_xy(50.0, 3142)                                                  # 0.1 m spacing, cm-rounded
+    p = load_track(write_xy(tmp_path / "dense.csv", x, y, "%.2f"))
+    assert p.closed
+    np.testing.assert_allclose(p.table[:, COL_KAPPA], 0.02, rtol=0.03)

@@ -65,7 +65,7 @@ def test_open_course_ending_beside_its_start_is_not_closed() -> None:
     x = np.concatenate((out, 100.0 + 2.0 * np.cos(turn), out[::-1]))
     y = np.concatenate((np.zeros(out.size), 2.0 + 2.0 * np.sin(turn), np.full(out.size, 4.0)))
     gap = math.hypot(x[-1] - x[0], y[-1] - y[0])
-    assert gap < csv_loader.CLOSED_GAP_SPACINGS * 5.0 and gap < csv_loader.CLOSED_GAP_FRACTION * 210.0
+    assert gap < csv_loader.CLOSED_GAP_SPACINGS * 5.0
     assert not csv_loader.detect_closed(x, y)                        # the chord is square to the end direction
     assert csv_loader.detect_closed(x[:-1], y[:-1]) is False
 

@@ -43,6 +43,7 @@ NOISE_REVERSAL_M = 8.0          # ... more often than once per this distance [m]
 NOISE_MIN_SIGN_CHANGES = 10     # ... and at least this many times
 NOISE_KAPPA_ZERO = 1e-4         # |kappa| below this [1/m] (R > 10 km) counts as straight, without a sign
 NOISE_HINT_FACTOR = 2.0         # suggested smoothing_m: this x the points' estimated RMS noise (2-D)
+NEAR_DUPLICATE_SHARE = 0.01    # consecutive points closer than this x the median spacing are refused (a kink)
 DENSE_SPACING_M = 0.5       # points closer than this (median) [m] are averaged in blocks to about this spacing
 _MAX_DECIMALS = 6
 
@@ -203,7 +204,7 @@ def _check_ranges(fs_path: FsPath, columns: dict[str, np.ndarray], lines: list[i
         bad = np.flatnonzero(~ok)
         if bad.size:
             k = int(bad[0])
-            span = f"({low}, {high}]" if low == 0.0 else f"[{low}, {high}]"
+            span = f"(0, {high}]" if low == 0.0 else f"[{low}, {high}]"
             raise ValueError(f"{fs_path}, line {lines[k]}: {what} {COLUMN_NAMES[role][0]} = {columns[role][k]} "
                              f"{unit} is outside {span} {unit}")
 
@@ -317,6 +318,22 @@ def noisy_curvature_hint(path: Path, x: np.ndarray, y: np.ndarray) -> tuple[int,
     return changes, n, float(f"{max(hint, 1e-3):.2g}")
 
 
+def _check_near_duplicates(fs_path: FsPath, x: np.ndarray, y: np.ndarray, closed: bool, lines: list[int]) -> None:
+    """ValueError naming both file lines if two consecutive points x, y [m] (the last and the first of a loop too)
+    are closer than NEAR_DUPLICATE_SHARE x the median spacing: an interpolating spline turns sharply there (1 mm
+    on a 1 m-spaced loop: a 7.7 cm radius)."""
+    px, py = (np.append(x, x[0]), np.append(y, y[0])) if closed else (x, y)
+    step = np.hypot(np.diff(px), np.diff(py))
+    h = float(np.median(step))
+    close = np.flatnonzero(step < NEAR_DUPLICATE_SHARE * h)
+    if close.size:
+        i = int(close[0])
+        j = (i + 1) % len(lines)
+        raise ValueError(f"{fs_path}, lines {lines[i]} and {lines[j]}: consecutive points only {step[i]:.3g} m apart, "
+                         f"less than {NEAR_DUPLICATE_SHARE:.0%} of the median spacing {h:.3g} m (the fitted line would "
+                         "kink there); fix: delete one of the two lines")
+
+
 def _check_crossing(fs_path: FsPath, px: np.ndarray, py: np.ndarray, closed: bool, lines: list[int]) -> None:
     """ValueError naming the lines of the first pair of crossing segments (or of a cluster too dense to check)."""
     def line(k: int) -> int:
@@ -372,6 +389,7 @@ def load_track_csv(path: str | os.PathLike[str], closed: bool | None = None, hal
     if not allow_self_crossing:
         _check_crossing(fs_path, px, py, bool(closed), lines)
     raw_x, raw_y = x, y
+    k = 1
     if smoothing_m is None:
         smoothing_m = auto_smoothing_m(x, y)
         cols = {"x": x, "y": y}
@@ -385,6 +403,8 @@ def load_track_csv(path: str | os.PathLike[str], closed: bool | None = None, hal
             x, y, z, v_ref = cols["x"], cols["y"], cols.get("z"), cols.get("v")
             widths = None if widths is None else np.column_stack((cols["wl"], cols["wr"]))
             smoothing_m /= math.sqrt(k)
+    if k == 1:  # averaged blocks merge near-duplicates; the spline through raw points would kink at them
+        _check_near_duplicates(fs_path, x, y, bool(closed), lines)
     if half_width_m is None:
         half_width_m = DEFAULT_HALF_WIDTH_M if widths is None else float(widths.min())
     else:

@@ -221,3 +221,16 @@ def test_dense_cm_rounded_points_still_load_accurately(tmp_path: Path) -> None:
     p = load_track(write_xy(tmp_path / "dense.csv", x, y, "%.2f"))
     assert p.closed
     np.testing.assert_allclose(p.table[:, COL_KAPPA], 0.02, rtol=0.03)
+
+
+def test_a_loop_ending_within_a_hair_of_its_start_repeats_the_start_and_is_not_refused(tmp_path: Path) -> None:
+    """A loop file whose last point lands 8 mm from the first (its length not a multiple of the spacing, or the
+    start repeated with rounding): the last point is the start again, dropped, not a near-duplicate kink."""
+    x, y = circle_xy(100.0, 629)                                  # ~1 m spacing
+    x, y = np.append(x, x[0] + 0.008), np.append(y, y[0])         # the start again, 8 mm off
+    with_repeat = load_track(write_xy(tmp_path / "repeat.csv", x, y))
+    without = load_track(write_xy(tmp_path / "plain.csv", x[:-1], y[:-1]))
+    assert with_repeat.closed and without.closed
+    assert with_repeat.length_m == pytest.approx(without.length_m, abs=1e-9)
+    kappa = with_repeat.table[:, COL_KAPPA]
+    assert np.max(np.abs(kappa - 0.01)) < 1e-3                   # no kink: the radius stays 100 m

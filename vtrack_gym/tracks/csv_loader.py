@@ -41,7 +41,9 @@ DEFAULT_HALF_WIDTH_M = 3.5
 NOISE_SIGN_CHANGE_SHARE = 0.25  # noisy: the curvature changes sign in more than this share of the point intervals,
 NOISE_REVERSAL_M = 8.0          # ... more often than once per this distance [m] (a slalom: 18 m) ...
 NOISE_MIN_SIGN_CHANGES = 10     # ... and at least this many times
-NOISE_KAPPA_ZERO = 1e-4         # |kappa| below this [1/m] (R > 10 km) counts as straight, without a sign
+NOISE_KAPPA_ZERO = 1e-4         # |kappa| below this [1/m] (R > 10 km) counts as straight, without a sign,
+NOISE_KAPPA_ZERO_SHARE = 0.05   # ... as does |kappa| below this x the largest |kappa| (a spline's ripple on the
+                                # straights next to a 6 m hairpin is no noise)
 NOISE_HINT_FACTOR = 2.0         # suggested smoothing_m: this x the points' estimated RMS noise (2-D)
 NEAR_DUPLICATE_SHARE = 0.01    # consecutive points closer than this x the median spacing are refused (a kink)
 DENSE_SPACING_M = 0.5       # points closer than this (median) [m] are averaged in blocks to about this spacing
@@ -299,7 +301,8 @@ def noisy_curvature_hint(path: Path, x: np.ndarray, y: np.ndarray) -> tuple[int,
 
     The curvature is sampled once per median point spacing h; a real road changes the sign of its curvature only
     at its S-bends, a few points apart at least, while a spline interpolating noisy points bends back and forth
-    at every other point. Noisy: the sign (|kappa| >= NOISE_KAPPA_ZERO) changes in more than
+    at every other point. Noisy: the sign (where |kappa| >= NOISE_KAPPA_ZERO and NOISE_KAPPA_ZERO_SHARE x the
+    largest |kappa|) changes in more than
     NOISE_SIGN_CHANGE_SHARE of the intervals, more often than once per NOISE_REVERSAL_M and at least
     NOISE_MIN_SIGN_CHANGES times. The suggestion is NOISE_HINT_FACTOR x :func:`point_noise_m` (on a 1 m-spaced
     circle with 2 cm of noise it gives curvature within 2 %).
@@ -309,7 +312,8 @@ def noisy_curvature_hint(path: Path, x: np.ndarray, y: np.ndarray) -> tuple[int,
     if n < 2 * NOISE_MIN_SIGN_CHANGES:
         return None
     kappa = path.sample(np.arange(n + 1) * (path.length_m / n)).kappa
-    signs = np.sign(kappa[np.abs(kappa) >= NOISE_KAPPA_ZERO])
+    zero = max(NOISE_KAPPA_ZERO, NOISE_KAPPA_ZERO_SHARE * float(np.max(np.abs(kappa))))
+    signs = np.sign(kappa[np.abs(kappa) >= zero])
     changes = int(np.count_nonzero(signs[1:] != signs[:-1]))
     if (changes < NOISE_MIN_SIGN_CHANGES or changes <= NOISE_SIGN_CHANGE_SHARE * n
             or changes * NOISE_REVERSAL_M <= path.length_m):
@@ -377,9 +381,10 @@ def load_track_csv(path: str | os.PathLike[str], closed: bool | None = None, hal
     widths = np.column_stack((columns["w_left"], columns["w_right"])) if "w_left" in columns else None
     v_ref = columns.get("v")
     px, py = x, y
-    if closed:
-        if math.hypot(x[-1] - x[0], y[-1] - y[0]) > 1e-9 * max(1.0, float(np.max(np.abs(x))),
-                                                              float(np.max(np.abs(y)))):
+    if closed:  # a last point within NEAR_DUPLICATE_SHARE of a spacing of the first repeats the start: dropped
+        repeat_m = max(1e-9 * max(1.0, float(np.max(np.abs(x))), float(np.max(np.abs(y)))),
+                       NEAR_DUPLICATE_SHARE * float(np.median(np.hypot(np.diff(x), np.diff(y)))))
+        if math.hypot(x[-1] - x[0], y[-1] - y[0]) > repeat_m:
             px, py = np.append(x, x[0]), np.append(y, y[0])
         else:
             x, y = x[:-1], y[:-1]

@@ -148,7 +148,9 @@ def build_parser() -> argparse.ArgumentParser:
     lb.add_argument("--store", type=Path, default=DEFAULT_STORE_PATH,
                     help=f"SQLite leaderboard file, opened read-only (default: {DEFAULT_STORE_PATH})")
     _add_format(lb, ("md", "csv", "json", "latex", "html"))
-    lb.add_argument("--out", type=Path, default=None, help="write the leaderboard to this file (default: stdout)")
+    lb.add_argument("--out", type=Path, default=None,
+                    help="write the leaderboard to this file (default: stdout); never the store, its -wal/-shm/"
+                    "-journal files or another SQLite file")
     lb.add_argument("--figures", type=Path, default=DEFAULT_FIGURES_DIR,
                     help=f"--format html: embed the PNG figures of this folder if it exists (default: "
                     f"{DEFAULT_FIGURES_DIR})")
@@ -857,7 +859,7 @@ def _check_outputs(args: argparse.Namespace) -> None:
     if cmd == "benchmark" and not args.no_figures:
         check_output_dir(args.figures, "--figures")
     if cmd == "leaderboard" and args.out is not None:
-        check_output_file(args.out, "--out")
+        _check_board_out(args.out, args.store)
     if cmd == "plot":
         check_output_dir(args.out, "--out")
     if cmd == "train":
@@ -874,6 +876,46 @@ def _check_outputs(args: argparse.Namespace) -> None:
         check_output_file(args.out or DEFAULT_RESULTS_DIR / f"{args.controller}_tuned.json", "--out")
         if args.store is not None:
             check_output_file(args.store, "--store")
+
+
+SQLITE_HEADER = b"SQLite format 3\x00"
+"""The first 16 bytes of every SQLite database file."""
+STORE_COMPANIONS = ("", "-wal", "-shm", "-journal")
+"""Suffixes of a store's file and of the files SQLite keeps next to it."""
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    """``a`` and ``b`` are one file: the same path after resolving symlinks, or hard links of one inode."""
+    import os
+
+    if os.path.realpath(a) == os.path.realpath(b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one of them does not exist
+        return False
+
+
+def _check_board_out(out: Path, store: Path) -> None:
+    """``leaderboard --out``: a writable regular file that is neither the store nor one of its ``-wal``/``-shm``/
+    ``-journal`` files, and not an existing SQLite database (``ValueError`` naming --out otherwise)."""
+    for suffix in STORE_COMPANIONS:
+        companion = store.with_name(store.name + suffix)
+        if _same_file(out, companion):
+            what = "the store" if not suffix else f"the store's {suffix[1:]} file"
+            raise ValueError(f"--out {out} is {what} (--store {store}); `vtrack leaderboard` never changes a store: "
+                             "pass another --out file (e.g. board.md), or omit --out to print to stdout")
+    check_output_file(out, "--out")
+    try:
+        with open(out, "rb") as fh:
+            header = fh.read(len(SQLITE_HEADER))
+    except FileNotFoundError:
+        return
+    except OSError as exc:
+        raise ValueError(f"--out {out}: cannot read the existing file ({exc.strerror or exc})") from None
+    if header == SQLITE_HEADER:
+        raise ValueError(f"--out {out} is an existing SQLite database (a store?); it is never overwritten: pass "
+                         "another --out file (e.g. board.md)")
 
 
 def main(argv: Sequence[str] | None = None) -> int:

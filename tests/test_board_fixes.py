@@ -7,6 +7,7 @@ from __future__ import annotations
 import hashlib
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from vtrack_gym.cli import main
@@ -43,3 +44,58 @@ def test_leaderboard_out_never_overwrites_the_store_or_a_database(tmp_path: Path
     assert sorted(p.name for p in tmp_path.iterdir()) == ["link.md", "other.sqlite", "s.sqlite"]
     assert main(["leaderboard", "--store", str(store), "--out", str(tmp_path / "board.md")]) == 0
     assert "| DLC120-v0 | mpc |" in (tmp_path / "board.md").read_text()
+
+
+# --------------------------------------------------------------------------------------------- 2: env instances
+class Straight:
+    """Wheel straight ahead (SB3 predict signature): cheap, and its result does not matter here."""
+
+    policy_id = "straight"
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        return np.zeros(1, dtype=np.float32), state
+
+
+def write_track(path: Path, bend_m: float) -> Path:
+    path.write_text(f"x_m,y_m\n0,0\n40,0\n80,{bend_m:g}\n120,{bend_m:g}\n")
+    return path
+
+
+def test_env_instances_record_their_car_and_track(tmp_path: Path) -> None:
+    import gymnasium as gym
+
+    import vtrack_gym
+
+    store = tmp_path / "s.sqlite"
+    a, b = write_track(tmp_path / "a.csv", 3.0), write_track(tmp_path / "b.csv", -3.0)
+    envs = {"default": gym.make("DLC120-v0"), "suv": gym.make("DLC120-v0", vehicle="suv"),
+            "a": gym.make("vtrack/Track-v0", track=str(a)), "b": gym.make("vtrack/Track-v0", track=str(b)),
+            "a8": gym.make("vtrack/Track-v0", track=str(a), speed_profile=8.0)}
+    rows = {k: vtrack_gym.evaluate(Straight(), env, store=store)[0] for k, env in envs.items()}
+    assert rows["default"].env_id == rows["suv"].env_id == "DLC120-v0"
+    assert rows["default"].options == {} and rows["suv"].options == {"vehicle": "suv"}
+    assert len({rows[k].env_id for k in ("a", "b", "a8")}) == 3
+    assert rows["a"].options["track_file"] == "a.csv"
+    assert rows["a"].options["track_sha256"] == hashlib.sha256(a.read_bytes()).hexdigest()
+    assert rows["a8"].options["speed_profile"] == {"kind": "ConstantSpeed", "v_mps": 8.0}
+    board = ResultStore(store, read_only=True).leaderboard("custom", ["max_e_y_m"])
+    assert len(board) == 5 and all(e["episodes"] == 1 for e in board)
+    # the same track file through `vtrack eval --track` lands in the same entry as the env instance
+    assert main(["eval", "--policy", "lqr", "--track", str(a), "--store", str(store)]) == 0
+    cli_row = next(r for r in ResultStore(store).rows("custom") if r["policy_id"] == "lqr")
+    assert cli_row["env_id"] == rows["a"].env_id and cli_row["options"] == rows["a"].options
+
+
+def test_env_instance_configuration_never_merges_silently(tmp_path: Path) -> None:
+    import gymnasium as gym
+    from gymnasium.wrappers import ClipAction
+
+    import vtrack_gym
+    from vtrack_gym.envs.tracking_env import TrackingEnv
+
+    slow = vtrack_gym.evaluate(Straight(), gym.make("DLC120-v0", control_period_s=0.02))[0]
+    assert slow.env_id == "DLC120-v0" and slow.options == {"env_config": {"control_period_s": 0.02}}
+    wrapped = vtrack_gym.evaluate(Straight(), ClipAction(gym.make("DLC120-v0")))[0]
+    assert wrapped.options["wrappers"][0]["name"] == "ClipAction"
+    bare = vtrack_gym.evaluate(Straight(), TrackingEnv("DLC120-v0"))[0]
+    assert bare.env_id.endswith("[unidentified configuration]")

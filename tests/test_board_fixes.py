@@ -99,3 +99,31 @@ def test_env_instance_configuration_never_merges_silently(tmp_path: Path) -> Non
     assert wrapped.options["wrappers"][0]["name"] == "ClipAction"
     bare = vtrack_gym.evaluate(Straight(), TrackingEnv("DLC120-v0"))[0]
     assert bare.env_id.endswith("[unidentified configuration]")
+
+
+# --------------------------------------------------------------------------------------------- 3: seed sets
+def test_suite_labels_of_seed_sets() -> None:
+    from vtrack_gym.evaluation.suites import primary_metric, suite_label
+
+    assert suite_label("robust") == "robust" and suite_label("robust", seeds=[505, 101, 202, 303, 404]) == "robust"
+    assert suite_label("robust", seeds=[7]) == "robust[seeds=7]"
+    assert suite_label("robust", quick=True) == "robust[quick]"
+    assert suite_label("paper", quick=True) == "paper" and suite_label("paper", seeds=[0]) == "paper"
+    assert suite_label("paper", seeds=[3, 0, 1, 2, 9]) == "paper[seeds=0-3,9]"
+    assert primary_metric("highway[seeds=1]") == "itae"
+
+
+def test_benchmark_with_other_seeds_is_ranked_apart(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    store = tmp_path / "s.sqlite"
+    common = ["benchmark", "--suite", "robust", "--policies", "stanley", "--no-figures", "--store", str(store)]
+    assert main([*common, "--seeds", "7"]) == 0
+    assert "robust[seeds=7]" in capsys.readouterr().err
+    assert main([*common, "--quick"]) == 0
+    assert "robust[quick]" in capsys.readouterr().err
+    assert ResultStore(store).suites() == {"robust[quick]": 2, "robust[seeds=7]": 2}
+    assert main(["leaderboard", "--store", str(store), "--suite", "robust"]) == 2  # no standard rows yet
+    assert "robust[seeds=7]" in capsys.readouterr().err
+    assert main(["leaderboard", "--store", str(store), "--suite", "robust[seeds=7]", "--format", "csv"]) == 0
+    assert len(capsys.readouterr().out.strip().splitlines()) == 3
+    rows = __import__("vtrack_gym").evaluate(Straight(), "paper", seeds=[5])
+    assert {r.suite for r in rows} == {"paper[seeds=5]"}

@@ -107,10 +107,12 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--figures", type=Path, default=DEFAULT_FIGURES_DIR,
                    help=f"folder for the PNG figures (default: {DEFAULT_FIGURES_DIR})")
     b.add_argument("--no-figures", action="store_true", help="skip the figures")
-    b.add_argument("--quick", action="store_true", help="robust/highway suites: one seed only")
+    b.add_argument("--quick", action="store_true", help="robust/highway suites: one seed only (stored as suite "
+                   "'robust[quick]' / 'highway[quick]', apart from the standard board)")
     b.add_argument("--seeds", default=None,
                    help="seeds to score, e.g. 0-9 or 0,3,5 (default: the suite's: paper 0, deterministic without "
-                   "noise; robust five fixed seeds; highway 0-2); the table shows 95 %% bootstrap intervals")
+                   "noise; robust five fixed seeds; highway 0-2); the table shows 95 %% bootstrap intervals; other "
+                   "seeds are stored as suite NAME[seeds=...], apart from the standard board")
     _add_track(b, "score the policies on this CSV track file (suite 'custom') instead of --suite")
     _add_vehicle(b)
     _add_store(b)
@@ -379,14 +381,17 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
         result = run_benchmark(args.suite, store=None, policies=policies,
                                figures_dir=None if args.no_figures else args.figures, quick=args.quick, seeds=seeds,
                                vehicle=args.vehicle)
-    suite = "custom" if args.track is not None else args.suite
+    suite = "custom" if args.track is not None else result["suite"]
+    if suite != args.suite and args.track is None:
+        print(f"suite {suite!r}: not the standard {args.suite} episodes, so stored and ranked apart from the "
+              f"{args.suite!r} board (vtrack leaderboard --suite '{suite}')", file=sys.stderr)
     _print_board(summarise(result["rows"], suite_columns(suite)), args.format)
-    print(_ranking_note(args.suite), file=sys.stderr)
+    print(_ranking_note(suite), file=sys.stderr)
     for f in result["figures"]:
         print(f"figure: {f}", file=sys.stderr)
     sys.stdout.flush()
     store.add(result["rows"])
-    print(f"\nresults stored in {args.store}", file=sys.stderr)
+    print(f"\nresults stored in {args.store} (suite {suite!r})", file=sys.stderr)
     return 0
 
 

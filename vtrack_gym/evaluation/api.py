@@ -17,7 +17,7 @@ import numpy as np
 from vtrack_gym.evaluation.benchmark import score_episode
 from vtrack_gym.evaluation.rollout import policy_id_of
 from vtrack_gym.evaluation.store import ResultRow, ResultStore
-from vtrack_gym.evaluation.suites import SUITES, Episode, suite_episodes, with_vehicle
+from vtrack_gym.evaluation.suites import SUITES, Episode, suite_episodes, suite_label, with_vehicle
 
 log = logging.getLogger(__name__)
 
@@ -44,7 +44,7 @@ class NormalisedPolicy:
 
 def _episodes(suite_or_env: str, seeds: Sequence[int] | None) -> tuple[list[Episode], str]:
     if suite_or_env in SUITES:
-        return suite_episodes(suite_or_env, seeds=seeds), suite_or_env
+        return suite_episodes(suite_or_env, seeds=seeds), suite_label(suite_or_env, seeds=seeds)
     from gymnasium.envs.registration import registry
 
     from vtrack_gym.interop import resolve_env_id

@@ -127,3 +127,33 @@ def test_benchmark_with_other_seeds_is_ranked_apart(tmp_path: Path, capsys: pyte
     assert len(capsys.readouterr().out.strip().splitlines()) == 3
     rows = __import__("vtrack_gym").evaluate(Straight(), "paper", seeds=[5])
     assert {r.suite for r in rows} == {"paper[seeds=5]"}
+
+
+# --------------------------------------------------------------------------------------------- 4: policy ids
+def test_eval_policy_spellings_share_one_id(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    store = tmp_path / "s.sqlite"
+    spellings = [["--policy", "lqr"], ["--policy", "lqr:"], ["--policy", "lqr:default"],
+                 ["--policy", "lqr", "--preset", "default"]]
+    for spelling in spellings:
+        assert main(["eval", *spelling, "--env", "DLC120-v0", "--store", str(store)]) == 0
+    assert {r["policy_id"] for r in ResultStore(store).rows()} == {"lqr"}
+    board = ResultStore(store).leaderboard("custom", ["max_e_y_m"], latest_only=False)
+    assert len(board) == 1 and board[0]["episodes"] == len(spellings)
+
+
+def test_canonical_preset_ids() -> None:
+    from vtrack_gym.baselines.resolve import canonical_spec
+
+    assert canonical_spec("smc:paper") == canonical_spec("smc", "paper") == "smc:paper"
+    assert canonical_spec("smc:") == canonical_spec("smc:default") == canonical_spec("smc", "default") == "smc"
+    assert canonical_spec("agent.json") == "agent.json"
+
+
+def test_benchmark_refuses_duplicates_and_accepts_spaces(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    store = tmp_path / "s.sqlite"
+    assert main(["benchmark", "--policies", "lqr,lqr:default", "--no-figures", "--store", str(store)]) == 2
+    err = capsys.readouterr().err
+    assert "--policies" in err and "'lqr'" in err and "twice" in err and not store.exists()
+    assert main(["benchmark", "--policies", "stanley, lqr", "--no-figures", "--format", "csv",
+                 "--store", str(store)]) == 0
+    assert {r["policy_id"] for r in ResultStore(store).rows()} == {"stanley", "lqr"}

@@ -318,11 +318,11 @@ def _needed_modules(args: argparse.Namespace) -> list[str]:
     needed: list[str] = []
     policies: list[str] = []
     if cmd == "benchmark":
-        policies = [p for p in args.policies.split(",") if p] or ["mpc_osqp"]
+        policies = _policy_list(args.policies) or ["mpc_osqp"]
         needed += [] if args.no_figures else ["matplotlib"]
         needed += ["highway_env"] if args.suite == "highway" else []
     elif cmd in ("eval", "plot"):
-        policies = [args.policy] if cmd == "eval" else [p for p in args.policies.split(",") if p]
+        policies = [args.policy] if cmd == "eval" else _policy_list(args.policies)
         needed += ["matplotlib"] if cmd == "plot" else []
         needed += ["highway_env"] if "highway" in (args.env or "") else []
     elif cmd == "reproduce":
@@ -333,6 +333,11 @@ def _needed_modules(args: argparse.Namespace) -> list[str]:
         needed += ["pymoo"]
     needed += ["osqp"] if any(p.partition(":")[0] == "mpc_osqp" for p in policies) else []
     return needed
+
+
+def _policy_list(text: str) -> list[str]:
+    """The names of a comma-separated ``--policies`` value (spaces around the names ignored, empty items dropped)."""
+    return [p.strip() for p in text.split(",") if p.strip()]
 
 
 def _missing_packages(args: argparse.Namespace) -> str:
@@ -368,7 +373,7 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
     from vtrack_gym.evaluation.benchmark import policy_factories, run_benchmark, suite_columns, summarise
     from vtrack_gym.evaluation.store import ResultStore
 
-    policies = [p for p in args.policies.split(",") if p] or None
+    policies = _policy_list(args.policies) or None
     if policies:
         policy_factories(policies)  # every name checked before any work
     _check_vehicle(args)
@@ -532,6 +537,7 @@ def _known_env(env_id: str) -> str:
 
 
 def _cmd_eval(args: argparse.Namespace) -> int:
+    from vtrack_gym.baselines.resolve import canonical_spec
     from vtrack_gym.evaluation.api import evaluate
     from vtrack_gym.evaluation.report_formats import to_markdown
     from vtrack_gym.evaluation.store import ResultStore
@@ -542,7 +548,8 @@ def _cmd_eval(args: argparse.Namespace) -> int:
     _check_vehicle(args)
     store = ResultStore(args.store)  # verified before the rollouts; written after the table is printed
     _announce_kernels()
-    rows = _with_provenance(evaluate(make, env_id, seeds, policy_id=args.policy, vehicle=args.vehicle), provenance)
+    policy_id = args.policy if args.trust_code else canonical_spec(args.policy, args.preset)
+    rows = _with_provenance(evaluate(make, env_id, seeds, policy_id=policy_id, vehicle=args.vehicle), provenance)
     table = [{"seed": r.seed, "termination": r.termination, "success": int(r.verdict()),
               **{k: v for k, v in r.metrics.items() if isinstance(v, float)}} for r in rows]
     print(to_markdown(table), flush=True)
@@ -660,7 +667,7 @@ def _cmd_plot(args: argparse.Namespace) -> int:
     from vtrack_gym.evaluation.suites import Episode
 
     env_id, _ = _env_or_track(args, default="LateralTracking-v0")
-    names = [p for p in args.policies.split(",") if p.strip()]
+    names = _policy_list(args.policies)
     if not names:
         raise ValueError("--policies needs at least one policy name, e.g. --policies smc,mpc")
     makes = {name: _policy_factory(name, "default") for name in names}  # every name checked before any rollout

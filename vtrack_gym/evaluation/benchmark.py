@@ -162,11 +162,22 @@ def score_policy(name: str, make: Any, episodes: Sequence[Episode], suite: str,
 
 
 def policy_factories(names: Sequence[str] | None = None) -> dict[str, Any]:
-    """``{display name: make(env) -> policy}`` for every baseline (default presets) and shipped agent, or for
-    ``names`` (policy specs, see ``vtrack_gym.baselines.resolve``; all checked before any is returned)."""
-    from vtrack_gym.baselines.resolve import policy_factory, policy_names
+    """``{policy id: make(env) -> policy}`` for every baseline (default presets) and shipped agent, or for
+    ``names`` (policy specs, see ``vtrack_gym.baselines.resolve``; all checked before any is returned).
 
-    return {name: policy_factory(name) for name in (list(names) if names else policy_names())}
+    Ids are canonical (``resolve.canonical_spec``: ``lqr:default`` is ``lqr``); ``ValueError`` when two names are
+    the same policy (a policy is never ranked against itself)."""
+    from vtrack_gym.baselines.resolve import canonical_spec, policy_factory, policy_names
+
+    specs = [str(n).strip() for n in names] if names else list(policy_names())
+    ids: dict[str, str] = {}
+    for spec in specs:
+        key = canonical_spec(spec)
+        if key in ids:
+            raise ValueError(f"--policies names {key!r} twice ({ids[key]!r} and {spec!r} are the same policy); "
+                             "list each policy once")
+        ids[key] = spec
+    return {key: policy_factory(spec) for key, spec in ids.items()}
 
 
 def run_benchmark(suite: str = "paper", store: ResultStore | None = None, policies: Sequence[str] | None = None,

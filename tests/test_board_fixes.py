@@ -157,3 +157,36 @@ def test_benchmark_refuses_duplicates_and_accepts_spaces(tmp_path: Path, capsys:
     assert main(["benchmark", "--policies", "stanley, lqr", "--no-figures", "--format", "csv",
                  "--store", str(store)]) == 0
     assert {r["policy_id"] for r in ResultStore(store).rows()} == {"stanley", "lqr"}
+
+
+# --------------------------------------------------------------------------------------------- 5: PEP 440 order
+PEP440_ORDER = ["0.0.9", "0.1.0.dev1", "0.1.0a1", "0.1.0a2.dev1", "0.1.0a2", "0.1.0b1", "0.1.0rc1", "0.1.0",
+                "0.1.0+local", "0.1.0+local.1", "0.1.0+local.2", "0.1.0.post1.dev2", "0.1.0.post1", "0.1.0.post2",
+                "0.1.1.dev0", "0.1.1", "0.10.0", "1!0.0.1"]
+
+
+def test_version_sort_key_is_pep440() -> None:
+    from vtrack_gym.evaluation.store import version_sort_key
+
+    keys = [version_sort_key(v) for v in PEP440_ORDER]
+    assert keys == sorted(keys) and len(set(keys)) == len(keys)
+    assert version_sort_key("1.0") == version_sort_key("1.0.0") == version_sort_key("v1.0")
+    assert version_sort_key("1.0-1") == version_sort_key("1.0.post1")
+    assert version_sort_key("not a version") < version_sort_key("0.0.0.dev0")
+
+
+@pytest.mark.parametrize(("older", "newer"), [("0.1.0", "0.1.0.post1"), ("0.1.0", "0.1.0+local"),
+                                              ("0.1.0rc1", "0.1.0.post1"), ("0.1.0.dev3", "0.1.0a1")])
+def test_board_shows_the_newest_version_and_says_what_it_hides(tmp_path: Path, older: str, newer: str,
+                                                               capsys: pytest.CaptureFixture[str]) -> None:
+    store = tmp_path / "s.sqlite"
+    ResultStore(store).add([make_row("mpc", 0, 0.5, package_version=newer),
+                            make_row("mpc", 0, 0.1, package_version=older),
+                            make_row("smc", 0, 0.2, package_version=older)])
+    board = ResultStore(store, read_only=True).leaderboard("paper", ["max_e_y_m"])
+    assert [(e["policy_id"], e["max_e_y_m"]) for e in board] == [("mpc", 0.5)]
+    assert main(["leaderboard", "--store", str(store)]) == 0
+    err = capsys.readouterr().err
+    assert f"({newer})" in err and "2 row(s) of older versions are hidden" in err and "--all-versions" in err
+    assert main(["leaderboard", "--store", str(store), "--all-versions"]) == 0
+    assert "hidden" not in capsys.readouterr().err

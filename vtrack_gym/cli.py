@@ -648,6 +648,10 @@ def _cmd_leaderboard(args: argparse.Namespace) -> int:
     figures = sorted(f for f in args.figures.glob("*.png") if f.is_file() and f.stat().st_size <= MAX_FIGURE_BYTES) \
         if args.format == "html" and args.figures.is_dir() else []  # regular files only: a FIFO would block
     note = _ranking_note(args.suite)
+    newest, hidden = store.older_versions(args.suite)
+    if hidden and not args.all_versions:
+        note += (f" Only rows of the newest package version ({newest}) are shown: {hidden} row(s) of older versions "
+                 "are hidden; --all-versions shows them.")
     print(note, file=sys.stderr)
     text = _render_board(board, args.format, title=f"vtrack leaderboard: suite {args.suite}", figures=figures,
                          notes=[note])

@@ -395,6 +395,15 @@ class ResultStore:
             raise StoreError(f"{self.path} could not be read ({exc})") from exc
         return meta, raw
 
+    def older_versions(self, suite: str) -> tuple[str, int]:
+        """(newest package version among the suite's rows, number of the suite's rows of older versions): what
+        ``leaderboard(latest_only=True)`` leaves out; ``("", 0)`` for a suite without rows."""
+        rows = self.rows(suite)
+        if not rows:
+            return "", 0
+        newest = max((r["package_version"] for r in rows), key=version_sort_key)
+        return newest, sum(version_sort_key(r["package_version"]) != version_sort_key(newest) for r in rows)
+
     def leaderboard(self, suite: str, columns: Sequence[str], latest_only: bool = True) -> list[dict[str, Any]]:
         """Aggregates of ``columns`` per policy key (``vtrack_gym.evaluation.board``) over the suite's rows, ranked
         validity first on the suite's primary metric (``vtrack_gym.evaluation.suites.primary_metric``).
@@ -404,10 +413,10 @@ class ResultStore:
         """
         rows = self.rows(suite)
         if latest_only and rows:
-            newest = max((r["package_version"] for r in rows), key=version_sort_key)
+            newest = max(version_sort_key(r["package_version"]) for r in rows)
             latest: dict[tuple[Any, ...], dict[str, Any]] = {}
             for r in rows:  # ordered by id: a later row replaces an earlier one
-                if r["package_version"] == newest:
+                if version_sort_key(r["package_version"]) == newest:
                     latest[(r["env_id"], r["policy_id"], r["policy_preset"], r["policy_hash"], r["seed"],
                             json.dumps(r["options"], sort_keys=True))] = r
             rows = list(latest.values())
@@ -416,16 +425,38 @@ class ResultStore:
         return build_board(rows, columns, primary_metric(suite))
 
 
-_RELEASE = re.compile(r"v?(\d+(?:\.\d+)*)(.*)")
+_PEP440 = re.compile(
+    r"v?(?:(?P<epoch>\d+)!)?(?P<release>\d+(?:\.\d+)*)"
+    r"(?:[-_.]?(?P<pre_l>alpha|beta|preview|pre|rc|a|b|c)[-_.]?(?P<pre_n>\d+)?)?"
+    r"(?:-(?P<post_n1>\d+)|[-_.]?(?P<post_l>post|rev|r)[-_.]?(?P<post_n2>\d+)?)?"
+    r"(?:[-_.]?(?P<dev_l>dev)[-_.]?(?P<dev_n>\d+)?)?"
+    r"(?:\+(?P<local>[a-z0-9]+(?:[-_.][a-z0-9]+)*))?",
+    re.IGNORECASE)
+_PRE_RANK = {"a": 0, "alpha": 0, "b": 1, "beta": 1, "c": 2, "rc": 2, "pre": 2, "preview": 2}
 
 
 def version_sort_key(version: str) -> tuple[Any, ...]:
-    """Sort key of a package version string: release numbers, then a final release after its pre/dev/local
-    variants (ordered by text); a string without a release number sorts first."""
-    m = _RELEASE.fullmatch(version.strip())
+    """Sort key of a package version string in PEP 440 order: epoch, release (``1.0 == 1.0.0``), then
+    ``1.0.dev1 < 1.0a1 < 1.0b2.dev1 < 1.0b2 < 1.0rc1 < 1.0 < 1.0+local < 1.0.post1.dev1 < 1.0.post1``
+    (a local label sorts after its public version; numeric local segments after alphanumeric ones). A string
+    that is not a PEP 440 version sorts before every version (by its text)."""
+    m = _PEP440.fullmatch(version.strip())
     if not m:
-        return ((), 0, version)
-    release = tuple(int(x) for x in m.group(1).split("."))
+        return (0, version)
+    release = tuple(int(x) for x in m["release"].split("."))
     while release and release[-1] == 0:
         release = release[:-1]  # 1.0 == 1.0.0
-    return (release, 1 if not m.group(2) else 0, m.group(2))
+    has_post = m["post_n1"] is not None or m["post_l"] is not None
+    if m["pre_l"] is not None:
+        pre: tuple[int, ...] = (1, _PRE_RANK[m["pre_l"].lower()], int(m["pre_n"] or 0))
+    elif m["dev_l"] is not None and not has_post:
+        pre = (0,)  # 1.0.dev1 before 1.0a1
+    else:
+        pre = (2,)  # a final release after its pre-releases
+    post = (1, int(m["post_n1"] or m["post_n2"] or 0)) if has_post else (0,)
+    dev = (0, int(m["dev_n"] or 0)) if m["dev_l"] is not None else (1,)
+    local: tuple[tuple[int, int, str], ...] = ()
+    if m["local"]:
+        local = tuple((1, int(part), "") if part.isdigit() else (0, 0, part.lower())
+                      for part in re.split(r"[-_.]", m["local"]))
+    return (1, int(m["epoch"] or 0), release, pre, post, dev, (1, local) if m["local"] else (0,))

@@ -190,3 +190,30 @@ def test_board_shows_the_newest_version_and_says_what_it_hides(tmp_path: Path, o
     assert f"({newer})" in err and "2 row(s) of older versions are hidden" in err and "--all-versions" in err
     assert main(["leaderboard", "--store", str(store), "--all-versions"]) == 0
     assert "hidden" not in capsys.readouterr().err
+
+
+# --------------------------------------------------------------------------------------------- 6: row validation
+@pytest.mark.parametrize(("change", "field"), [
+    ({"success": "False"}, "success"), ({"success": 2}, "success"), ({"seed": -1}, "seed"),
+    ({"seed": 2**63}, "seed"), ({"seed": 1.5}, "seed"), ({"seed": True}, "seed"),
+    ({"metrics": {"max_e_y_m": -5.0}}, "max_e_y_m"), ({"metrics": {"max_e_y_m": "0.1"}}, "max_e_y_m"),
+    ({"metrics": {"itae": -1}}, "itae"), ({"metrics": {"cones_hit": -1.0}}, "cones_hit"),
+    ({"metrics": {"duration_s": -0.5}}, "duration_s"), ({"metrics": {"comfort_band": [3.0]}}, "comfort_band"),
+    ({"metrics": {"rms_e_y_m": [0.1]}}, "rms_e_y_m"), ({"wall_time_per_step_s": "1e-5"}, "wall_time_per_step_s"),
+])
+def test_store_refuses_invalid_rows_and_keeps_the_others(tmp_path: Path, change: dict, field: str) -> None:
+    store = ResultStore(tmp_path / "s.sqlite")
+    store.add([make_row("mpc")])
+    with pytest.raises(ValueError, match=field):
+        store.add([make_row("smc"), make_row("lqr", **change)])
+    assert [r["policy_id"] for r in store.rows()] == ["mpc"]
+
+
+def test_store_accepts_valid_edge_values(tmp_path: Path) -> None:
+    store = ResultStore(tmp_path / "s.sqlite")
+    store.add([make_row("a", 2**63 - 1, success=np.bool_(True)), make_row("b", np.int64(3), success=0),
+               make_row("c", None, metrics={"max_e_y_m": float("nan"), "progress_m": -1.0, "comfort_band": "n/a",
+                                            "min_fz_n": -10.0, "itae": np.float64(0.0)}, success=1)])
+    rows = {r["policy_id"]: r for r in store.rows()}
+    assert rows["a"]["seed"] == 2**63 - 1 and rows["a"]["success"] == 1 and rows["b"]["success"] == 0
+    assert rows["c"]["metrics"]["max_e_y_m"] is None and rows["c"]["metrics"]["comfort_band"] == "n/a"

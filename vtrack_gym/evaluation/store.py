@@ -118,6 +118,76 @@ def _clean(value: Any) -> Any:
     return value
 
 
+MAX_SEED = 2**63 - 1
+"""Largest storable seed (SQLite INTEGER is a signed 64-bit number)."""
+UNIT_SUFFIXES = ("_m", "_s", "_deg", "_rad", "_mps", "_mps2", "_n", "_per_s", "_us", "_g", "_kmh")
+"""A metric whose name ends in a unit is a number."""
+NON_NEGATIVE_METRICS = frozenset({"itae", "duration_s", "cones_hit", "comfort_a_v_mps2", "steering_reversals_per_s",
+                                  "a_y_violation_mps2", "wall_time_per_step_s", "wall_time_s", "episodes",
+                                  "remaining_m", "completed", "success"})
+"""Error, count and duration metrics that cannot be negative (also every ``max_*`` and ``rms_*`` metric)."""
+
+
+def _non_negative(name: str) -> bool:
+    return name in NON_NEGATIVE_METRICS or name.startswith(("max_", "rms_"))
+
+
+def _numeric(name: str) -> bool:
+    """A metric that must be a number (or missing): every ranked metric, error, count and duration, and every name
+    with a unit suffix; others (``termination``, ``comfort_band``, notes) may also be text."""
+    from vtrack_gym.evaluation.suites import PRIMARY_METRICS
+
+    return _non_negative(name) or name.endswith(UNIT_SUFFIXES) or name in PRIMARY_METRICS.values()
+
+
+def _checked_success(value: Any) -> bool | None:
+    """``ResultRow.success`` as a bool (None: derived); ``ValueError`` unless a bool, 0 or 1."""
+    if value is None or isinstance(value, bool):
+        return value
+    if hasattr(value, "dtype") and getattr(value, "shape", None) == () and value.dtype.kind in "bui":
+        value = value.item()
+    if isinstance(value, (bool, int)) and value in (0, 1):
+        return bool(value)
+    raise ValueError(f"success must be a bool (True/False), 0 or 1, or None to derive it (got {value!r})")
+
+
+def _checked_seed(value: Any) -> int | None:
+    """``ResultRow.seed`` as an int in [0, 2^63 - 1] (or None); ``ValueError`` otherwise."""
+    if value is None:
+        return None
+    if hasattr(value, "dtype") and getattr(value, "shape", None) == () and value.dtype.kind in "ui":
+        value = value.item()
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= MAX_SEED:
+        raise ValueError(f"seed must be an integer in [0, 2^63 - 1 = {MAX_SEED}] or None (got {value!r})")
+    return value
+
+
+def _checked_metrics(metrics: Any) -> dict[str, Any]:
+    """``ResultRow.metrics`` as JSON-safe values; ``ValueError`` naming the metric when a value is of the wrong kind
+    or out of range: numeric metrics (``_numeric``) real numbers (NaN/inf stored as None: missing), ``>= 0`` for
+    error, count and duration metrics; other metrics a number or text."""
+    if not isinstance(metrics, dict):
+        raise ValueError(f"metrics must be a dict of name -> value (got {type(metrics).__name__})")
+    out: dict[str, Any] = {}
+    for name, raw in metrics.items():
+        if not isinstance(name, str):
+            raise ValueError(f"metric names must be strings (got {name!r})")
+        value = _clean(raw)
+        if value is None:
+            out[name] = None
+        elif isinstance(value, str) and not _numeric(name):
+            out[name] = value
+        elif isinstance(value, (bool, int, float)):
+            if _non_negative(name) and value < 0:
+                raise ValueError(f"metric {name!r} must be a number >= 0 (an error, count or duration; got {raw!r})")
+            out[name] = value
+        else:
+            kind = "a number" if _numeric(name) else "a number or text"
+            raise ValueError(f"metric {name!r} must be {kind} (NaN/inf or None: missing), got "
+                             f"{type(raw).__name__} {str(raw)[:60]!r}")
+    return out
+
+
 def row_sha256(values: Sequence[Any]) -> str:
     """SHA-256 of one row's stored values in ``_COLUMNS`` order (the id included)."""
     return hashlib.sha256(json.dumps(list(values), ensure_ascii=True).encode("ascii")).hexdigest()
@@ -311,14 +381,21 @@ class ResultStore:
             raise StoreError(f"{self.path} was opened read-only")
         pending = []
         for r in rows:
-            wall = float(r.wall_time_per_step_s)
-            if not (math.isfinite(wall) and wall >= 0.0):
-                raise ValueError(f"wall_time_per_step_s must be finite and >= 0 s (got {r.wall_time_per_step_s!r})")
-            metrics = {k: _clean(v) for k, v in r.metrics.items()}
+            wall = r.wall_time_per_step_s
+            if isinstance(wall, (bool, str)) or not (isinstance(_clean(wall), (int, float))
+                                                     and math.isfinite(wall) and wall >= 0.0):
+                raise ValueError(f"wall_time_per_step_s must be a finite number >= 0 s (got {wall!r})")
+            for name in ("suite", "env_id", "policy_id", "policy_hash", "termination", "policy_preset"):
+                if not isinstance(getattr(r, name), str):
+                    raise ValueError(f"{name} must be a string (got {getattr(r, name)!r})")
+            metrics = _checked_metrics(r.metrics)
+            seed = _checked_seed(r.seed)
+            success = _checked_success(r.success)
+            verdict = success if success is not None else r.verdict()
             pending.append([r.created_utc or _now(), r.package_version or __version__, r.suite, r.env_id,
-                            r.env_version, r.policy_id, r.policy_preset, r.policy_hash, r.seed,
+                            r.env_version, r.policy_id, r.policy_preset, r.policy_hash, seed,
                             json.dumps(r.options, sort_keys=True), r.termination, int(r.termination == "completed"),
-                            int(r.verdict()), wall, json.dumps(metrics, sort_keys=True)])
+                            int(verdict), float(wall), json.dumps(metrics, sort_keys=True)])
         try:
             with closing(self._connect_rw()) as con, _write_transaction(con):
                 self._insert(con, pending)

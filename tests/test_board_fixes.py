@@ -217,3 +217,117 @@ def test_store_accepts_valid_edge_values(tmp_path: Path) -> None:
     rows = {r["policy_id"]: r for r in store.rows()}
     assert rows["a"]["seed"] == 2**63 - 1 and rows["a"]["success"] == 1 and rows["b"]["success"] == 0
     assert rows["c"]["metrics"]["max_e_y_m"] is None and rows["c"]["metrics"]["comfort_band"] == "n/a"
+
+
+# --------------------------------------------------------------------------------------------- 7: store first
+class Counting(Straight):
+    """``Straight`` that counts its predictions (none may happen when the store is unusable)."""
+
+    def __init__(self) -> None:
+        self.calls = 0
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        self.calls += 1
+        return super().predict(observation, state, episode_start, deterministic)
+
+
+def bad_stores(tmp_path: Path) -> dict[str, Path]:
+    text = tmp_path / "notes.txt"
+    text.write_text("not a store\n")
+    truncated = tmp_path / "truncated.sqlite"
+    ResultStore(truncated).add([make_row(seed=s) for s in range(50)])
+    truncated.write_bytes(truncated.read_bytes()[:1500])
+    return {"directory": tmp_path, "text": text, "truncated": truncated}
+
+
+def test_evaluate_checks_the_store_before_the_first_rollout(tmp_path: Path) -> None:
+    import vtrack_gym
+    from vtrack_gym.evaluation.store import StoreError
+
+    for kind, path in bad_stores(tmp_path).items():
+        before = None if path.is_dir() else digest(path)
+        policy = Counting()
+        with pytest.raises(StoreError):
+            vtrack_gym.evaluate(policy, "DLC120-v0", store=path)
+        assert policy.calls == 0, kind
+        assert before is None or digest(path) == before
+    with pytest.raises(StoreError, match="read-only"):
+        vtrack_gym.evaluate(Counting(), "DLC120-v0", store=ResultStore(bad_stores_ok(tmp_path), read_only=True))
+
+
+def bad_stores_ok(tmp_path: Path) -> Path:
+    path = tmp_path / "ok.sqlite"
+    ResultStore(path).add([make_row()])
+    return path
+
+
+def test_cli_checks_the_store_before_the_first_rollout(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    for path in bad_stores(tmp_path).values():
+        for argv in (["eval", "--policy", "lqr", "--env", "DLC120-v0"], ["benchmark", "--policies", "lqr",
+                                                                          "--no-figures"]):
+            assert main([*argv, "--store", str(path)]) == 2
+            captured = capsys.readouterr()
+            assert captured.out == "" and "error" in captured.err
+
+
+READ_ONLY_SCRIPT = """
+import os, sys
+import vtrack_gym
+from vtrack_gym.evaluation.store import StoreError
+from vtrack_gym.cli import main
+
+class Never:
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        raise AssertionError("a rollout ran before the store was checked")
+
+for store in sys.argv[1:]:
+    try:
+        vtrack_gym.evaluate(Never(), "DLC120-v0", store=store)
+    except StoreError as exc:
+        assert "cannot be written" in str(exc), exc
+    else:
+        raise AssertionError("no StoreError")
+    assert main(["eval", "--policy", "lqr", "--env", "DLC120-v0", "--store", store]) == 2
+print("ok")
+"""
+
+
+def test_read_only_store_is_refused_first_and_left_alone() -> None:
+    """Run as an unprivileged user (root may write a read-only file): a read-only file, and a store in a read-only
+    folder, are refused before any rollout and no -wal/-shm file appears."""
+    import os
+    import shutil
+    import subprocess
+    import sys
+    import tempfile
+
+    prefix: list[str] = []
+    if os.geteuid() == 0:
+        if shutil.which("setpriv") is None:
+            pytest.skip("needs setpriv to drop root")
+        prefix = ["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups"]
+    root = Path(tempfile.mkdtemp(prefix="vtrack-ro-"))
+    try:
+        os.chmod(root, 0o777)
+        writable, locked = root / "w", root / "locked"
+        writable.mkdir()
+        locked.mkdir()
+        for folder in (writable, locked):
+            ResultStore(folder / "s.sqlite").add([make_row()])
+            os.chmod(folder / "s.sqlite", 0o444 if folder is writable else 0o666)
+            for suffix in ("-wal", "-shm"):
+                (folder / f"s.sqlite{suffix}").unlink(missing_ok=True)
+        os.chmod(writable, 0o777)
+        os.chmod(locked, 0o555)
+        before = sorted(p.name for p in root.rglob("*"))
+        env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1]), "HOME": str(root),
+               "NUMBA_CACHE_DIR": str(root / "numba")}
+        done = subprocess.run([*prefix, sys.executable, "-c", READ_ONLY_SCRIPT, str(writable / "s.sqlite"),
+                               str(locked / "s.sqlite")], capture_output=True, text=True, env=env, timeout=300)
+        assert done.returncode == 0 and "ok" in done.stdout, done.stderr[-2000:]
+        after = sorted(p.name for p in root.rglob("*") if "numba" not in p.parts)
+        assert [n for n in after if n.endswith(("-wal", "-shm"))] == []
+        assert [n for n in after if n != "numba"] == [n for n in before if n != "numba"]
+    finally:
+        os.chmod(root / "locked", 0o755) if (root / "locked").exists() else None
+        shutil.rmtree(root, ignore_errors=True)

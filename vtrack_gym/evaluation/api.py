@@ -16,7 +16,7 @@ import numpy as np
 
 from vtrack_gym.evaluation.benchmark import score_episode
 from vtrack_gym.evaluation.rollout import policy_id_of
-from vtrack_gym.evaluation.store import ResultRow, ResultStore
+from vtrack_gym.evaluation.store import ResultRow, ResultStore, StoreError
 from vtrack_gym.evaluation.suites import SUITES, Episode, suite_episodes, suite_label, with_vehicle
 
 log = logging.getLogger(__name__)
@@ -258,6 +258,7 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
     if vecnormalize is not None:
         inner = make
         make = lambda env: NormalisedPolicy(inner(env), vecnormalize)  # noqa: E731
+    result_store = _open_store(store)  # checked before the first rollout: a bad store loses no results
     rows: list[ResultRow] = []
     if isinstance(suite_or_env, str):
         episodes, suite = _episodes(suite_or_env, seeds)
@@ -280,9 +281,23 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
     else:
         raise ValueError(f"suite_or_env must be a suite name ({', '.join(SUITES)}), an env id or a gymnasium.Env "
                          f"(got {type(suite_or_env).__name__})")
-    if store is not None:
-        (store if isinstance(store, ResultStore) else ResultStore(store)).add(rows)
+    if result_store is not None:
+        result_store.add(rows)
     return rows
+
+
+def _open_store(store: str | Path | ResultStore | None) -> ResultStore | None:
+    """The store ``evaluate`` adds its rows to, opened and checked writable now (``StoreError`` if it cannot be:
+    a directory, a file that is not a store, a read-only file or folder)."""
+    if store is None:
+        return None
+    if isinstance(store, ResultStore):
+        if store.read_only:
+            raise StoreError(f"the store {store.path} was opened read-only; pass ResultStore(path) or a path")
+        return store
+    if not isinstance(store, (str, Path)):
+        raise ValueError(f"store must be a path or a ResultStore (got {type(store).__name__})")
+    return ResultStore(store)
 
 
 def _row(make: Callable[[Any], Any], env: gym.Env, ep: Episode, suite: str, policy_id: str | None) -> ResultRow:

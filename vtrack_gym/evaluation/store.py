@@ -250,14 +250,38 @@ class ResultStore:
             raise StoreError(f"no store at {self.path}")
         if exists and self.path.stat().st_size > 0:
             self._read(self._verify)
+            if not read_only:
+                self._check_writable()
             return
         if read_only:
             raise StoreError(f"{self.path} is an empty file, not a vtrack store; it was left untouched")
+        if exists:
+            self._check_writable()
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise StoreError(f"cannot create the store folder {self.path.parent}: {_storage_problem(exc)}") from exc
         self._initialise()
+
+    def _check_writable(self) -> None:
+        """``StoreError`` unless the existing store file can be opened for writing and its folder can hold the
+        ``-wal``/``-shm`` files; checked without SQLite, so a read-only store is left without new files."""
+        import os
+        import tempfile
+
+        try:
+            fd = os.open(self.path, os.O_RDWR | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+            os.close(fd)
+        except OSError as exc:
+            raise StoreError(f"the store {self.path} cannot be written: {_storage_problem(exc)}; it was left "
+                             "untouched (pass a writable --store / store path)") from exc
+        try:
+            fd, probe = tempfile.mkstemp(dir=self.path.parent, prefix=".vtrack-probe-")
+            os.close(fd)
+            os.unlink(probe)
+        except OSError as exc:
+            raise StoreError(f"the store {self.path} cannot be written: its folder {self.path.parent} does not "
+                             f"accept the store's journal files ({_storage_problem(exc)})") from exc
 
     # ------------------------------------------------------------------------------------------ connections
     def _uri(self, immutable: bool) -> str:

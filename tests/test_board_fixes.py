@@ -331,3 +331,19 @@ def test_read_only_store_is_refused_first_and_left_alone() -> None:
     finally:
         os.chmod(root / "locked", 0o755) if (root / "locked").exists() else None
         shutil.rmtree(root, ignore_errors=True)
+
+
+# --------------------------------------------------------------------------------------------- 8: benchmark --track
+def test_benchmark_track_honours_seeds_and_refuses_suite_and_quick(tmp_path: Path,
+                                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    track = write_track(tmp_path / "a.csv", 3.0)
+    store = tmp_path / "s.sqlite"
+    common = ["benchmark", "--policies", "stanley", "--track", str(track), "--no-figures", "--store", str(store)]
+    for extra, named in ((["--suite", "robust"], "--suite"), (["--quick"], "--quick"),
+                         (["--suite", "paper", "--quick"], "--suite and --quick")):
+        assert main([*common, *extra]) == 2
+        assert named in capsys.readouterr().err and not store.exists()
+    assert main([*common, "--seeds", "0-2", "--format", "json"]) == 0
+    assert sorted(r["seed"] for r in ResultStore(store).rows("custom")) == [0, 1, 2]
+    assert main([*common, "--format", "json"]) == 0
+    assert sorted(r["seed"] for r in ResultStore(store).rows("custom")) == [0, 0, 1, 2]

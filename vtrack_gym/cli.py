@@ -97,11 +97,11 @@ def build_parser() -> argparse.ArgumentParser:
     b = sub.add_parser("benchmark", help="score every baseline and shipped agent on a suite; print the leaderboard",
                        description="Run every baseline policy (default presets) and every shipped RL agent on the "
                        "suite's episodes, store the results, print the leaderboard and write the figures.")
-    b.add_argument("--suite", choices=("paper", "robust", "highway", "maneuvers"), default="paper",
+    b.add_argument("--suite", choices=("paper", "robust", "highway", "maneuvers"), default=None,
                    help="paper: the two nominal scenarios; robust: randomised friction, mass, speed, noise and "
                    "delay over fixed seeds; highway: highway-env's lane-keeping-v0 (needs the 'highway' extra); "
                    "maneuvers: the standard manoeuvres (ISO 3888-1/-2, ISO 4138 circle, slalom, step curvature), "
-                   "one figure each (default: paper)")
+                   "one figure each (default: paper; not with --track)")
     b.add_argument("--policies", default="",
                    help="comma-separated policy names to score (default: all; see `vtrack eval --help`)")
     b.add_argument("--figures", type=Path, default=DEFAULT_FIGURES_DIR,
@@ -113,7 +113,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="seeds to score, e.g. 0-9 or 0,3,5 (default: the suite's: paper 0, deterministic without "
                    "noise; robust five fixed seeds; highway 0-2); the table shows 95 %% bootstrap intervals; other "
                    "seeds are stored as suite NAME[seeds=...], apart from the standard board")
-    _add_track(b, "score the policies on this CSV track file (suite 'custom') instead of --suite")
+    _add_track(b, "score the policies on this CSV track file (suite 'custom', seed 0 or --seeds) instead of "
+               "--suite (not with --suite or --quick)")
     _add_vehicle(b)
     _add_store(b)
     _add_format(b)
@@ -320,7 +321,7 @@ def _needed_modules(args: argparse.Namespace) -> list[str]:
     if cmd == "benchmark":
         policies = _policy_list(args.policies) or ["mpc_osqp"]
         needed += [] if args.no_figures else ["matplotlib"]
-        needed += ["highway_env"] if args.suite == "highway" else []
+        needed += ["highway_env"] if args.suite == "highway" and args.track is None else []
     elif cmd in ("eval", "plot"):
         policies = [args.policy] if cmd == "eval" else _policy_list(args.policies)
         needed += ["matplotlib"] if cmd == "plot" else []
@@ -373,6 +374,12 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
     from vtrack_gym.evaluation.benchmark import policy_factories, run_benchmark, suite_columns, summarise
     from vtrack_gym.evaluation.store import ResultStore
 
+    if args.track is not None and (args.suite is not None or args.quick):
+        given = " and ".join(o for o, on in (("--suite", args.suite is not None), ("--quick", args.quick)) if on)
+        raise ValueError(f"--track scores the policies on the track file (suite 'custom'); it cannot be combined "
+                         f"with {given} (--seeds may be given: one episode per seed)")
+    args.suite = args.suite or "paper"
+    seeds = _parse_seeds(args.seeds) if args.seeds is not None else None
     policies = _policy_list(args.policies) or None
     if policies:
         policy_factories(policies)  # every name checked before any work
@@ -380,9 +387,8 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
     store = ResultStore(args.store)  # verified before any rollout; written after the table is printed
     _announce_kernels()
     if args.track is not None:
-        result = _benchmark_track(args, policies)
+        result = _benchmark_track(args, policies, seeds or [0])
     else:
-        seeds = _parse_seeds(args.seeds) if args.seeds is not None else None
         result = run_benchmark(args.suite, store=None, policies=policies,
                                figures_dir=None if args.no_figures else args.figures, quick=args.quick, seeds=seeds,
                                vehicle=args.vehicle)
@@ -509,19 +515,21 @@ def _with_provenance(rows: list, provenance: dict[str, Any]) -> list:
     return [dataclasses.replace(r, options={**r.options, **provenance}) for r in rows]
 
 
-def _benchmark_track(args: argparse.Namespace, policies: list[str] | None) -> dict[str, Any]:
-    """``vtrack benchmark --track``: every policy on the track (seed 0, suite 'custom'), rows with provenance."""
+def _benchmark_track(args: argparse.Namespace, policies: list[str] | None, seeds: Sequence[int]) -> dict[str, Any]:
+    """``vtrack benchmark --track``: every policy on the track, one episode per seed (suite 'custom'), rows with
+    provenance; the figures show the first seed's episodes."""
     from vtrack_gym.evaluation.benchmark import policy_factories, score_policy, write_figures
     from vtrack_gym.evaluation.suites import Episode
 
     env_id, provenance = _env_or_track(args)
+    episodes = [Episode(env_id, int(s), vehicle=args.vehicle) for s in seeds]
     rows, traces = [], []
     for name, make in policy_factories(policies).items():
-        r, t = score_policy(name, make, [Episode(env_id, 0, vehicle=args.vehicle)], "custom")
+        r, t = score_policy(name, make, episodes, "custom")
         rows += _with_provenance(r, provenance)
-        traces += t
+        traces += [tr for tr in t if tr.seed == episodes[0].seed]
     figures = [] if args.no_figures else write_figures({env_id: traces}, rows, args.figures, vehicle=args.vehicle)
-    return {"rows": rows, "traces": {env_id: traces}, "figures": figures}
+    return {"rows": rows, "traces": {env_id: traces}, "figures": figures, "suite": "custom"}
 
 
 def _known_env(env_id: str) -> str:

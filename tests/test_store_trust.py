@@ -267,7 +267,7 @@ def test_eval_presets_are_two_leaderboard_rows(tmp_path: Path, capsys: pytest.Ca
     capsys.readouterr()
     assert main(["leaderboard", "--suite", "custom", "--store", store, "--format", "json"]) == 0
     board = json.loads(capsys.readouterr().out)
-    assert sorted((e["policy_id"], e["preset"]) for e in board) == [("smc", "default"), ("smc", "paper")]
+    assert sorted((e["policy_id"], e["preset"]) for e in board) == [("smc", "default"), ("smc:paper", "paper")]
     assert board[0]["policy_hash"] != board[1]["policy_hash"] and all(e["episodes"] == 1 for e in board)
 
 

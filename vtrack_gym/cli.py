@@ -97,21 +97,24 @@ def build_parser() -> argparse.ArgumentParser:
     b = sub.add_parser("benchmark", help="score every baseline and shipped agent on a suite; print the leaderboard",
                        description="Run every baseline policy (default presets) and every shipped RL agent on the "
                        "suite's episodes, store the results, print the leaderboard and write the figures.")
-    b.add_argument("--suite", choices=("paper", "robust", "highway", "maneuvers"), default="paper",
+    b.add_argument("--suite", choices=("paper", "robust", "highway", "maneuvers"), default=None,
                    help="paper: the two nominal scenarios; robust: randomised friction, mass, speed, noise and "
                    "delay over fixed seeds; highway: highway-env's lane-keeping-v0 (needs the 'highway' extra); "
                    "maneuvers: the standard manoeuvres (ISO 3888-1/-2, ISO 4138 circle, slalom, step curvature), "
-                   "one figure each (default: paper)")
+                   "one figure each (default: paper; not with --track)")
     b.add_argument("--policies", default="",
                    help="comma-separated policy names to score (default: all; see `vtrack eval --help`)")
     b.add_argument("--figures", type=Path, default=DEFAULT_FIGURES_DIR,
                    help=f"folder for the PNG figures (default: {DEFAULT_FIGURES_DIR})")
     b.add_argument("--no-figures", action="store_true", help="skip the figures")
-    b.add_argument("--quick", action="store_true", help="robust/highway suites: one seed only")
+    b.add_argument("--quick", action="store_true", help="robust/highway suites: one seed only (stored as suite "
+                   "'robust[quick]' / 'highway[quick]', apart from the standard board)")
     b.add_argument("--seeds", default=None,
                    help="seeds to score, e.g. 0-9 or 0,3,5 (default: the suite's: paper 0, deterministic without "
-                   "noise; robust five fixed seeds; highway 0-2); the table shows 95 %% bootstrap intervals")
-    _add_track(b, "score the policies on this CSV track file (suite 'custom') instead of --suite")
+                   "noise; robust five fixed seeds; highway 0-2); the table shows 95 %% bootstrap intervals; other "
+                   "seeds are stored as suite NAME[seeds=...], apart from the standard board")
+    _add_track(b, "score the policies on this CSV track file (suite 'custom', seed 0 or --seeds) instead of "
+               "--suite (not with --suite or --quick)")
     _add_vehicle(b)
     _add_store(b)
     _add_format(b)
@@ -148,7 +151,9 @@ def build_parser() -> argparse.ArgumentParser:
     lb.add_argument("--store", type=Path, default=DEFAULT_STORE_PATH,
                     help=f"SQLite leaderboard file, opened read-only (default: {DEFAULT_STORE_PATH})")
     _add_format(lb, ("md", "csv", "json", "latex", "html"))
-    lb.add_argument("--out", type=Path, default=None, help="write the leaderboard to this file (default: stdout)")
+    lb.add_argument("--out", type=Path, default=None,
+                    help="write the leaderboard to this file (default: stdout); never the store, its -wal/-shm/"
+                    "-journal files or another SQLite file")
     lb.add_argument("--figures", type=Path, default=DEFAULT_FIGURES_DIR,
                     help=f"--format html: embed the PNG figures of this folder if it exists (default: "
                     f"{DEFAULT_FIGURES_DIR})")
@@ -314,11 +319,11 @@ def _needed_modules(args: argparse.Namespace) -> list[str]:
     needed: list[str] = []
     policies: list[str] = []
     if cmd == "benchmark":
-        policies = [p for p in args.policies.split(",") if p] or ["mpc_osqp"]
+        policies = _policy_list(args.policies) or ["mpc_osqp"]
         needed += [] if args.no_figures else ["matplotlib"]
-        needed += ["highway_env"] if args.suite == "highway" else []
+        needed += ["highway_env"] if args.suite == "highway" and args.track is None else []
     elif cmd in ("eval", "plot"):
-        policies = [args.policy] if cmd == "eval" else [p for p in args.policies.split(",") if p]
+        policies = [args.policy] if cmd == "eval" else _policy_list(args.policies)
         needed += ["matplotlib"] if cmd == "plot" else []
         needed += ["highway_env"] if "highway" in (args.env or "") else []
     elif cmd == "reproduce":
@@ -329,6 +334,11 @@ def _needed_modules(args: argparse.Namespace) -> list[str]:
         needed += ["pymoo"]
     needed += ["osqp"] if any(p.partition(":")[0] == "mpc_osqp" for p in policies) else []
     return needed
+
+
+def _policy_list(text: str) -> list[str]:
+    """The names of a comma-separated ``--policies`` value (spaces around the names ignored, empty items dropped)."""
+    return [p.strip() for p in text.split(",") if p.strip()]
 
 
 def _missing_packages(args: argparse.Namespace) -> str:
@@ -364,27 +374,35 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
     from vtrack_gym.evaluation.benchmark import policy_factories, run_benchmark, suite_columns, summarise
     from vtrack_gym.evaluation.store import ResultStore
 
-    policies = [p for p in args.policies.split(",") if p] or None
+    if args.track is not None and (args.suite is not None or args.quick):
+        given = " and ".join(o for o, on in (("--suite", args.suite is not None), ("--quick", args.quick)) if on)
+        raise ValueError(f"--track scores the policies on the track file (suite 'custom'); it cannot be combined "
+                         f"with {given} (--seeds may be given: one episode per seed)")
+    args.suite = args.suite or "paper"
+    seeds = _parse_seeds(args.seeds) if args.seeds is not None else None
+    policies = _policy_list(args.policies) or None
     if policies:
         policy_factories(policies)  # every name checked before any work
     _check_vehicle(args)
     store = ResultStore(args.store)  # verified before any rollout; written after the table is printed
     _announce_kernels()
     if args.track is not None:
-        result = _benchmark_track(args, policies)
+        result = _benchmark_track(args, policies, seeds or [0])
     else:
-        seeds = _parse_seeds(args.seeds) if args.seeds is not None else None
         result = run_benchmark(args.suite, store=None, policies=policies,
                                figures_dir=None if args.no_figures else args.figures, quick=args.quick, seeds=seeds,
                                vehicle=args.vehicle)
-    suite = "custom" if args.track is not None else args.suite
+    suite = "custom" if args.track is not None else result["suite"]
+    if suite != args.suite and args.track is None:
+        print(f"suite {suite!r}: not the standard {args.suite} episodes, so stored and ranked apart from the "
+              f"{args.suite!r} board (vtrack leaderboard --suite '{suite}')", file=sys.stderr)
     _print_board(summarise(result["rows"], suite_columns(suite)), args.format)
-    print(_ranking_note(args.suite), file=sys.stderr)
+    print(_ranking_note(suite), file=sys.stderr)
     for f in result["figures"]:
         print(f"figure: {f}", file=sys.stderr)
     sys.stdout.flush()
     store.add(result["rows"])
-    print(f"\nresults stored in {args.store}", file=sys.stderr)
+    print(f"\nresults stored in {args.store} (suite {suite!r})", file=sys.stderr)
     return 0
 
 
@@ -558,19 +576,21 @@ def _with_provenance(rows: list, provenance: dict[str, Any]) -> list:
     return [dataclasses.replace(r, options={**r.options, **provenance}) for r in rows]
 
 
-def _benchmark_track(args: argparse.Namespace, policies: list[str] | None) -> dict[str, Any]:
-    """``vtrack benchmark --track``: every policy on the track (seed 0, suite 'custom'), rows with provenance."""
+def _benchmark_track(args: argparse.Namespace, policies: list[str] | None, seeds: Sequence[int]) -> dict[str, Any]:
+    """``vtrack benchmark --track``: every policy on the track, one episode per seed (suite 'custom'), rows with
+    provenance; the figures show the first seed's episodes."""
     from vtrack_gym.evaluation.benchmark import policy_factories, score_policy, write_figures
     from vtrack_gym.evaluation.suites import Episode
 
     env_id, provenance = _env_or_track(args)
+    episodes = [Episode(env_id, int(s), vehicle=args.vehicle) for s in seeds]
     rows, traces = [], []
     for name, make in policy_factories(policies).items():
-        r, t = score_policy(name, make, [Episode(env_id, 0, vehicle=args.vehicle)], "custom")
+        r, t = score_policy(name, make, episodes, "custom")
         rows += _with_provenance(r, provenance)
-        traces += t
+        traces += [tr for tr in t if tr.seed == episodes[0].seed]
     figures = [] if args.no_figures else write_figures({env_id: traces}, rows, args.figures, vehicle=args.vehicle)
-    return {"rows": rows, "traces": {env_id: traces}, "figures": figures}
+    return {"rows": rows, "traces": {env_id: traces}, "figures": figures, "suite": "custom"}
 
 
 def _known_env(env_id: str) -> str:
@@ -586,6 +606,7 @@ def _known_env(env_id: str) -> str:
 
 
 def _cmd_eval(args: argparse.Namespace) -> int:
+    from vtrack_gym.baselines.resolve import canonical_spec
     from vtrack_gym.evaluation.api import evaluate
     from vtrack_gym.evaluation.report_formats import to_markdown
     from vtrack_gym.evaluation.store import ResultStore
@@ -596,7 +617,8 @@ def _cmd_eval(args: argparse.Namespace) -> int:
     _check_vehicle(args)
     store = ResultStore(args.store)  # verified before the rollouts; written after the table is printed
     _announce_kernels()
-    rows = _with_provenance(evaluate(make, env_id, seeds, policy_id=args.policy, vehicle=args.vehicle), provenance)
+    policy_id = args.policy if args.trust_code else canonical_spec(args.policy, args.preset)
+    rows = _with_provenance(evaluate(make, env_id, seeds, policy_id=policy_id, vehicle=args.vehicle), provenance)
     table = [{"seed": r.seed, "termination": r.termination, "success": int(r.verdict()),
               **{k: v for k, v in r.metrics.items() if isinstance(v, float)}} for r in rows]
     print(to_markdown(table), flush=True)
@@ -695,6 +717,10 @@ def _cmd_leaderboard(args: argparse.Namespace) -> int:
     figures = sorted(f for f in args.figures.glob("*.png") if f.is_file() and f.stat().st_size <= MAX_FIGURE_BYTES) \
         if args.format == "html" and args.figures.is_dir() else []  # regular files only: a FIFO would block
     note = _ranking_note(args.suite)
+    newest, hidden = store.older_versions(args.suite)
+    if hidden and not args.all_versions:
+        note += (f" Only rows of the newest package version ({newest}) are shown: {hidden} row(s) of older versions "
+                 "are hidden; --all-versions shows them.")
     print(note, file=sys.stderr)
     text = _render_board(board, args.format, title=f"vtrack leaderboard: suite {args.suite}", figures=figures,
                          notes=[note])
@@ -714,7 +740,7 @@ def _cmd_plot(args: argparse.Namespace) -> int:
     from vtrack_gym.evaluation.suites import Episode
 
     env_id, _ = _env_or_track(args, default="LateralTracking-v0")
-    names = [p for p in args.policies.split(",") if p.strip()]
+    names = _policy_list(args.policies)
     if not names:
         raise ValueError("--policies needs at least one policy name, e.g. --policies smc,mpc")
     makes = {name: _policy_factory(name, "default") for name in names}  # every name checked before any rollout
@@ -918,7 +944,7 @@ def _check_outputs(args: argparse.Namespace) -> None:
     if cmd == "benchmark" and not args.no_figures:
         check_output_dir(args.figures, "--figures")
     if cmd == "leaderboard" and args.out is not None:
-        check_output_file(args.out, "--out")
+        _check_board_out(args.out, args.store)
     if cmd == "plot":
         check_output_dir(args.out, "--out")
     if cmd == "train":
@@ -935,6 +961,46 @@ def _check_outputs(args: argparse.Namespace) -> None:
         check_output_file(args.out or DEFAULT_RESULTS_DIR / f"{args.controller}_tuned.json", "--out")
         if args.store is not None:
             check_output_file(args.store, "--store")
+
+
+SQLITE_HEADER = b"SQLite format 3\x00"
+"""The first 16 bytes of every SQLite database file."""
+STORE_COMPANIONS = ("", "-wal", "-shm", "-journal")
+"""Suffixes of a store's file and of the files SQLite keeps next to it."""
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    """``a`` and ``b`` are one file: the same path after resolving symlinks, or hard links of one inode."""
+    import os
+
+    if os.path.realpath(a) == os.path.realpath(b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one of them does not exist
+        return False
+
+
+def _check_board_out(out: Path, store: Path) -> None:
+    """``leaderboard --out``: a writable regular file that is neither the store nor one of its ``-wal``/``-shm``/
+    ``-journal`` files, and not an existing SQLite database (``ValueError`` naming --out otherwise)."""
+    for suffix in STORE_COMPANIONS:
+        companion = store.with_name(store.name + suffix)
+        if _same_file(out, companion):
+            what = "the store" if not suffix else f"the store's {suffix[1:]} file"
+            raise ValueError(f"--out {out} is {what} (--store {store}); `vtrack leaderboard` never changes a store: "
+                             "pass another --out file (e.g. board.md), or omit --out to print to stdout")
+    check_output_file(out, "--out")
+    try:
+        with open(out, "rb") as fh:
+            header = fh.read(len(SQLITE_HEADER))
+    except FileNotFoundError:
+        return
+    except OSError as exc:
+        raise ValueError(f"--out {out}: cannot read the existing file ({exc.strerror or exc})") from None
+    if header == SQLITE_HEADER:
+        raise ValueError(f"--out {out} is an existing SQLite database (a store?); it is never overwritten: pass "
+                         "another --out file (e.g. board.md)")
 
 
 def main(argv: Sequence[str] | None = None) -> int:

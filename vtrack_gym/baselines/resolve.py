@@ -77,6 +77,18 @@ def policy_factory(spec: str, preset: str | None = None) -> Callable[[Any], Any]
     return _file_factory(spec)
 
 
+def canonical_spec(spec: str, preset: str | None = None) -> str:
+    """The one policy id of a spec (what rows record): a baseline with its default preset is its bare name
+    (``smc``, ``smc:``, ``smc:default`` and ``smc`` with ``preset="default"`` are all ``smc``), another preset is
+    ``name:preset`` (``smc:paper`` and ``smc`` with ``preset="paper"``); any other spec is returned stripped."""
+    text = spec.strip()
+    name, sep, spec_preset = text.partition(":")
+    if name not in available_policies():
+        return text
+    chosen = (spec_preset.strip() if sep else "") or (preset or "default")
+    return name if chosen == "default" else f"{name}:{chosen}"
+
+
 def _presets(name: str) -> tuple[str, ...]:
     from vtrack_gym.baselines.registry import available_presets
 

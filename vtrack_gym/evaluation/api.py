@@ -5,6 +5,7 @@ This is ``vtrack_gym.evaluate`` and what ``vtrack eval`` runs, so both give the 
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -15,8 +16,8 @@ import numpy as np
 
 from vtrack_gym.evaluation.benchmark import score_episode
 from vtrack_gym.evaluation.rollout import policy_id_of
-from vtrack_gym.evaluation.store import ResultRow, ResultStore
-from vtrack_gym.evaluation.suites import SUITES, Episode, suite_episodes, with_vehicle
+from vtrack_gym.evaluation.store import ResultRow, ResultStore, StoreError
+from vtrack_gym.evaluation.suites import SUITES, Episode, suite_episodes, suite_label, with_vehicle
 
 log = logging.getLogger(__name__)
 
@@ -43,7 +44,7 @@ class NormalisedPolicy:
 
 def _episodes(suite_or_env: str, seeds: Sequence[int] | None) -> tuple[list[Episode], str]:
     if suite_or_env in SUITES:
-        return suite_episodes(suite_or_env, seeds=seeds), suite_or_env
+        return suite_episodes(suite_or_env, seeds=seeds), suite_label(suite_or_env, seeds=seeds)
     from gymnasium.envs.registration import registry
 
     from vtrack_gym.interop import resolve_env_id
@@ -66,6 +67,170 @@ def _check_seeds(seeds: Sequence[int] | None) -> None:
         raise ValueError(f"seeds must be a non-empty sequence of ints >= 0 (got {seeds!r})")
 
 
+UNIDENTIFIED = " [unidentified configuration]"
+"""Appended to the env id of an env instance whose configuration cannot be recorded: its rows never share a
+leaderboard entry with the standard env's."""
+_RENDER_KWARGS = frozenset({"render_mode", "render_fps", "render_view"})
+"""Make arguments that change how an env is shown, not how it drives."""
+
+
+def _equal(a: Any, b: Any) -> bool:
+    """``a == b`` as one bool (False when the comparison is ambiguous, e.g. two arrays)."""
+    try:
+        return bool(a == b)
+    except (TypeError, ValueError):
+        return False
+
+
+def _jsonable(value: Any) -> Any:
+    """``value`` as JSON data (dataclasses as dicts, tuples as lists); ``TypeError`` when it cannot be written."""
+    import dataclasses
+    import json
+
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        value = dataclasses.asdict(value)
+    return json.loads(json.dumps(value, allow_nan=False, default=_no_json))
+
+
+def _no_json(value: Any) -> Any:
+    raise TypeError(f"{type(value).__name__} is not JSON data")
+
+
+def _vehicle_of(config: Any, make_vehicle: Any) -> str | None:
+    """What a row records of an env's car (``benchmark.vehicle_label``): from the make argument when it is a name or
+    a file, else from the parameters (a shipped car's name, or ``params-<sha256[:10]>`` of them)."""
+    import hashlib
+    import json
+    import os
+
+    from vtrack_gym.evaluation.benchmark import vehicle_label
+    from vtrack_gym.vehicle.catalog import list_vehicles, load_vehicle
+    from vtrack_gym.vehicle.params import VehicleParams
+
+    if isinstance(make_vehicle, (str, os.PathLike)):
+        return vehicle_label(str(make_vehicle))
+    params = config.vehicle
+    if params == VehicleParams():
+        return None
+    for name in list_vehicles():
+        if load_vehicle(name) == params:
+            return name
+    text = json.dumps(_jsonable(params), sort_keys=True)
+    return f"params-{hashlib.sha256(text.encode()).hexdigest()[:10]}"
+
+
+def _track_provenance(scenario: Any) -> tuple[str | None, dict[str, Any]] | None:
+    """(env id or None, options) recording a scenario's own track, speed profile and half width, as
+    ``vtrack eval --track`` does for a track file; None when the track cannot be identified."""
+    import dataclasses
+    import os
+
+    from vtrack_gym.tracks import Path as TrackPath
+    from vtrack_gym.tracks.sources import path_digest
+
+    options: dict[str, Any] = {}
+    env_id = None
+    track = scenario.track
+    profile = scenario.speed_profile
+    params = None if profile is None else {"kind": type(profile).__name__, **dataclasses.asdict(profile)}
+    if isinstance(track, (str, os.PathLike)) and Path(track).is_file():
+        from vtrack_gym.envs.registration import register_track
+
+        env_id, options = register_track(track, profile)
+    elif isinstance(track, str):
+        options = {"track": track, "speed_profile": params}
+    elif isinstance(track, TrackPath):
+        options = {"track_path_sha256": path_digest(track), "speed_profile": params}
+    else:
+        return None
+    if scenario.half_width_m is not None:
+        options["half_width_m"] = float(scenario.half_width_m)
+    return env_id, options
+
+
+def env_identity(env: gym.Env) -> tuple[str, dict[str, Any]]:
+    """The env id and options a row of ``env`` (an instance) records, so different cars, tracks, speed profiles
+    and configurations never share a leaderboard entry.
+
+    Read from ``env.spec`` (id, make arguments, time limit, wrappers) and, for this package's envs, the resolved
+    scenario and config: the car as ``options["vehicle"]`` (``benchmark.vehicle_label``), a track file as
+    ``vtrack eval --track`` records it (its registered id, SHA-256 and speed profile), another track by name or
+    path digest, config fields that differ from the defaults as ``options["env_config"]``, a changed time limit,
+    added wrappers. An env whose configuration cannot be recorded gets ``<id> [unidentified configuration]``.
+    """
+    from gymnasium.envs.registration import registry
+
+    spec = getattr(env, "spec", None)
+    unwrapped = env.unwrapped
+    if spec is None or spec.id not in registry:
+        return (spec.id if spec is not None else type(unwrapped).__name__) + UNIDENTIFIED, {}
+    registered = registry[spec.id]
+    env_id = spec.id
+    options: dict[str, Any] = {}
+    if spec.max_episode_steps != registered.max_episode_steps:
+        options["max_episode_steps"] = spec.max_episode_steps
+    try:
+        if spec.additional_wrappers:
+            options["wrappers"] = [{"name": w.name, "kwargs": _jsonable(w.kwargs or {})}
+                                   for w in spec.additional_wrappers]
+    except TypeError:
+        return env_id + UNIDENTIFIED, {}
+    from vtrack_gym.envs.tracking_env import TrackingEnv
+
+    if not isinstance(unwrapped, TrackingEnv):
+        extra = {k: v for k, v in spec.kwargs.items()
+                 if k not in _RENDER_KWARGS and not (k in registered.kwargs and _equal(registered.kwargs[k], v))}
+        try:
+            if extra:
+                options["env_kwargs"] = _jsonable(extra)
+        except TypeError:
+            return env_id + UNIDENTIFIED, {}
+        return env_id, options
+    return _tracking_identity(unwrapped, spec, env_id, options)
+
+
+def _tracking_identity(unwrapped: Any, spec: Any, env_id: str,
+                       options: dict[str, Any]) -> tuple[str, dict[str, Any]]:
+    """``env_identity`` of this package's ``TrackingEnv``: scenario, track, car and config against the defaults."""
+    import dataclasses
+
+    from vtrack_gym.envs.config import EnvConfig
+    from vtrack_gym.envs.scenarios import resolve_scenario
+
+    scenario_arg = spec.kwargs.get("scenario")
+    if not isinstance(scenario_arg, str):  # a ScenarioConfig object: not recorded
+        return env_id + UNIDENTIFIED, {}
+    scenario = resolve_scenario(scenario_arg, spec.kwargs.get("track"), spec.kwargs.get("speed_profile"),
+                                spec.kwargs.get("half_width_m"))
+    base = resolve_scenario(scenario.name)
+    track_fields = ("track", "speed_profile", "half_width_m")
+    for f in dataclasses.fields(scenario):
+        if f.name not in track_fields and not _equal(getattr(scenario, f.name), getattr(base, f.name)):
+            return env_id + UNIDENTIFIED, {}
+    if not all(_equal(getattr(scenario, f), getattr(base, f)) for f in track_fields):
+        found = _track_provenance(scenario)
+        if found is None:
+            return env_id + UNIDENTIFIED, {}
+        env_id = found[0] or env_id
+        options.update(found[1])
+    config, default = unwrapped.config, EnvConfig()
+    label = _vehicle_of(config, spec.kwargs.get("vehicle", getattr(config, "vehicle", None)))
+    changed: dict[str, Any] = {}
+    for f in dataclasses.fields(config):
+        value = getattr(config, f.name)
+        if f.name == "vehicle" or _equal(value, getattr(default, f.name)):
+            continue
+        try:
+            changed[f.name] = _jsonable(value)
+        except TypeError:
+            return env_id + UNIDENTIFIED, {}
+    if changed:
+        options["env_config"] = changed
+    if label is not None:
+        options["vehicle"] = label
+    return env_id, options
+
+
 def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seeds: Sequence[int] | None = None,
              *, store: str | Path | ResultStore | None = None, vecnormalize: Any = None,
              policy_id: str | None = None, vehicle: str | None = None) -> list[ResultRow]:
@@ -79,7 +244,8 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
     with them before ``predict``). ``store``: a leaderboard file (or ``ResultStore``) the rows are added to.
     ``policy_id``: the name in the rows (default: ``policy.policy_id`` or the class name). ``vehicle``: the car of
     a suite's or an env id's episodes (a name of ``vehicle.list_vehicles()`` or a vehicle file; default the paper's
-    car), recorded in the rows' ``options`` (an env instance is driven with its own car).
+    car), recorded in the rows' ``options`` (an env instance is driven with its own car, track and config, recorded
+    by ``env_identity``).
     """
     _check_seeds(seeds)
     if hasattr(policy_or_factory, "predict") and not isinstance(policy_or_factory, type):
@@ -92,6 +258,7 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
     if vecnormalize is not None:
         inner = make
         make = lambda env: NormalisedPolicy(inner(env), vecnormalize)  # noqa: E731
+    result_store = _open_store(store)  # checked before the first rollout: a bad store loses no results
     rows: list[ResultRow] = []
     if isinstance(suite_or_env, str):
         episodes, suite = _episodes(suite_or_env, seeds)
@@ -104,16 +271,33 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
     elif isinstance(suite_or_env, gym.Env):
         if vehicle is not None:
             raise ValueError("vehicle applies to a suite name or an env id; an env instance drives its own car")
-        spec = getattr(suite_or_env, "spec", None)
-        env_id = spec.id if spec is not None else type(suite_or_env.unwrapped).__name__
+        env_id, identity = env_identity(suite_or_env)
+        if UNIDENTIFIED in env_id:
+            log.warning("the configuration of this env instance cannot be recorded; its rows are stored as %r, "
+                        "apart from the standard env's", env_id)
         for s in seeds if seeds is not None else (0,):
-            rows.append(_row(make, suite_or_env, Episode(env_id, int(s)), CUSTOM_SUITE, policy_id))
+            row = _row(make, suite_or_env, Episode(env_id, int(s)), CUSTOM_SUITE, policy_id)
+            rows.append(dataclasses.replace(row, options={**row.options, **identity}))
     else:
         raise ValueError(f"suite_or_env must be a suite name ({', '.join(SUITES)}), an env id or a gymnasium.Env "
                          f"(got {type(suite_or_env).__name__})")
-    if store is not None:
-        (store if isinstance(store, ResultStore) else ResultStore(store)).add(rows)
+    if result_store is not None:
+        result_store.add(rows)
     return rows
+
+
+def _open_store(store: str | Path | ResultStore | None) -> ResultStore | None:
+    """The store ``evaluate`` adds its rows to, opened and checked writable now (``StoreError`` if it cannot be:
+    a directory, a file that is not a store, a read-only file or folder)."""
+    if store is None:
+        return None
+    if isinstance(store, ResultStore):
+        if store.read_only:
+            raise StoreError(f"the store {store.path} was opened read-only; pass ResultStore(path) or a path")
+        return store
+    if not isinstance(store, (str, Path)):
+        raise ValueError(f"store must be a path or a ResultStore (got {type(store).__name__})")
+    return ResultStore(store)
 
 
 def _row(make: Callable[[Any], Any], env: gym.Env, ep: Episode, suite: str, policy_id: str | None) -> ResultRow:

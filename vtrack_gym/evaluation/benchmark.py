@@ -17,7 +17,7 @@ from vtrack_gym.evaluation.metrics import evaluate_trace
 from vtrack_gym.evaluation.rollout import rollout
 from vtrack_gym.evaluation.store import ResultRow, ResultStore
 from vtrack_gym.evaluation.success import episode_success
-from vtrack_gym.evaluation.suites import Episode, primary_metric, suite_episodes, with_vehicle
+from vtrack_gym.evaluation.suites import Episode, base_suite, primary_metric, suite_episodes, suite_label, with_vehicle
 from vtrack_gym.evaluation.trace import Trace
 
 log = logging.getLogger(__name__)
@@ -33,7 +33,7 @@ SUITE_COLUMNS: dict[str, tuple[str, ...]] = {"maneuvers": ("max_steady_a_y_mps2"
 
 def suite_columns(suite: str) -> tuple[str, ...]:
     """The leaderboard columns of ``suite``: ``LEADERBOARD_COLUMNS`` plus its ``SUITE_COLUMNS``."""
-    return LEADERBOARD_COLUMNS + SUITE_COLUMNS.get(suite, ())
+    return LEADERBOARD_COLUMNS + SUITE_COLUMNS.get(base_suite(suite), ())
 
 
 def policy_hash(policy: Any) -> str:
@@ -162,11 +162,22 @@ def score_policy(name: str, make: Any, episodes: Sequence[Episode], suite: str,
 
 
 def policy_factories(names: Sequence[str] | None = None) -> dict[str, Any]:
-    """``{display name: make(env) -> policy}`` for every baseline (default presets) and shipped agent, or for
-    ``names`` (policy specs, see ``vtrack_gym.baselines.resolve``; all checked before any is returned)."""
-    from vtrack_gym.baselines.resolve import policy_factory, policy_names
+    """``{policy id: make(env) -> policy}`` for every baseline (default presets) and shipped agent, or for
+    ``names`` (policy specs, see ``vtrack_gym.baselines.resolve``; all checked before any is returned).
 
-    return {name: policy_factory(name) for name in (list(names) if names else policy_names())}
+    Ids are canonical (``resolve.canonical_spec``: ``lqr:default`` is ``lqr``); ``ValueError`` when two names are
+    the same policy (a policy is never ranked against itself)."""
+    from vtrack_gym.baselines.resolve import canonical_spec, policy_factory, policy_names
+
+    specs = [str(n).strip() for n in names] if names else list(policy_names())
+    ids: dict[str, str] = {}
+    for spec in specs:
+        key = canonical_spec(spec)
+        if key in ids:
+            raise ValueError(f"--policies names {key!r} twice ({ids[key]!r} and {spec!r} are the same policy); "
+                             "list each policy once")
+        ids[key] = spec
+    return {key: policy_factory(spec) for key, spec in ids.items()}
 
 
 def run_benchmark(suite: str = "paper", store: ResultStore | None = None, policies: Sequence[str] | None = None,
@@ -180,11 +191,15 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
     ``seeds`` replaces the suite's seeds (``suite_episodes``; default: seed 0 for ``paper``, which is deterministic
     without sensor noise, five fixed seeds for ``robust``).
 
-    Returns ``{"rows": [...], "traces": {env_id: [Trace, ...]}, "figures": [paths]}``.
+    Rows are stored under ``suite_label(suite, quick, seeds)``: the suite's name for its standard episodes, else
+    e.g. ``robust[seeds=7]`` or ``robust[quick]`` (``result["suite"]``), never ranked with the standard board.
+
+    Returns ``{"rows": [...], "traces": {env_id: [Trace, ...]}, "figures": [paths], "suite": label}``.
     """
     from tqdm.auto import tqdm
 
     episodes = with_vehicle(suite_episodes(suite, quick=quick, seeds=seeds), vehicle)
+    label = suite_label(suite, quick, seeds)
     factories = policy_factories(policies)
     all_rows: list[ResultRow] = []
     traces_by_env: dict[str, list[Trace]] = {}
@@ -192,7 +207,7 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
               disable=not show_progress) as bar:
         for name, make in factories.items():
             bar.set_postfix_str(name)
-            rows, traces = score_policy(name, make, episodes, suite, progress=bar)
+            rows, traces = score_policy(name, make, episodes, label, progress=bar)
             all_rows.extend(rows)
             if store is not None:
                 store.add(rows)
@@ -201,7 +216,7 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
                     traces_by_env.setdefault(tr.env_id, []).append(tr)
     figures = (write_figures(traces_by_env, all_rows, figures_dir, vehicle=vehicle,
                              maneuvers=suite == "maneuvers") if figures_dir else [])
-    return {"rows": all_rows, "traces": traces_by_env, "figures": figures}
+    return {"rows": all_rows, "traces": traces_by_env, "figures": figures, "suite": label}
 
 
 def write_figures(traces_by_env: dict[str, list[Trace]], rows: Sequence[ResultRow], figures_dir: str | Path,

@@ -127,7 +127,8 @@ def _tied(a: Mapping[str, Any], b: Mapping[str, Any], primary: str) -> bool:
 
 def _labels(entries: Sequence[Mapping[str, Any]]) -> list[str]:
     """``policy_id[:preset]`` of each entry (no ``:default``), with ``@policy_hash`` where that is ambiguous."""
-    short = [e["policy_id"] + (f":{e['preset']}" if e["preset"] not in ("", "default") else "") for e in entries]
+    short = [e["policy_id"] + (f":{e['preset']}" if e["preset"] not in ("", "default")
+                               and not e["policy_id"].endswith(f":{e['preset']}") else "") for e in entries]
     return [s if short.count(s) == 1 else f"{s}@{e['policy_hash']}" for s, e in zip(short, entries, strict=True)]
 
 

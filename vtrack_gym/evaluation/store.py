@@ -118,6 +118,76 @@ def _clean(value: Any) -> Any:
     return value
 
 
+MAX_SEED = 2**63 - 1
+"""Largest storable seed (SQLite INTEGER is a signed 64-bit number)."""
+UNIT_SUFFIXES = ("_m", "_s", "_deg", "_rad", "_mps", "_mps2", "_n", "_per_s", "_us", "_g", "_kmh")
+"""A metric whose name ends in a unit is a number."""
+NON_NEGATIVE_METRICS = frozenset({"itae", "duration_s", "cones_hit", "comfort_a_v_mps2", "steering_reversals_per_s",
+                                  "a_y_violation_mps2", "wall_time_per_step_s", "wall_time_s", "episodes",
+                                  "remaining_m", "completed", "success"})
+"""Error, count and duration metrics that cannot be negative (also every ``max_*`` and ``rms_*`` metric)."""
+
+
+def _non_negative(name: str) -> bool:
+    return name in NON_NEGATIVE_METRICS or name.startswith(("max_", "rms_"))
+
+
+def _numeric(name: str) -> bool:
+    """A metric that must be a number (or missing): every ranked metric, error, count and duration, and every name
+    with a unit suffix; others (``termination``, ``comfort_band``, notes) may also be text."""
+    from vtrack_gym.evaluation.suites import PRIMARY_METRICS
+
+    return _non_negative(name) or name.endswith(UNIT_SUFFIXES) or name in PRIMARY_METRICS.values()
+
+
+def _checked_success(value: Any) -> bool | None:
+    """``ResultRow.success`` as a bool (None: derived); ``ValueError`` unless a bool, 0 or 1."""
+    if value is None or isinstance(value, bool):
+        return value
+    if hasattr(value, "dtype") and getattr(value, "shape", None) == () and value.dtype.kind in "bui":
+        value = value.item()
+    if isinstance(value, (bool, int)) and value in (0, 1):
+        return bool(value)
+    raise ValueError(f"success must be a bool (True/False), 0 or 1, or None to derive it (got {value!r})")
+
+
+def _checked_seed(value: Any) -> int | None:
+    """``ResultRow.seed`` as an int in [0, 2^63 - 1] (or None); ``ValueError`` otherwise."""
+    if value is None:
+        return None
+    if hasattr(value, "dtype") and getattr(value, "shape", None) == () and value.dtype.kind in "ui":
+        value = value.item()
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= MAX_SEED:
+        raise ValueError(f"seed must be an integer in [0, 2^63 - 1 = {MAX_SEED}] or None (got {value!r})")
+    return value
+
+
+def _checked_metrics(metrics: Any) -> dict[str, Any]:
+    """``ResultRow.metrics`` as JSON-safe values; ``ValueError`` naming the metric when a value is of the wrong kind
+    or out of range: numeric metrics (``_numeric``) real numbers (NaN/inf stored as None: missing), ``>= 0`` for
+    error, count and duration metrics; other metrics a number or text."""
+    if not isinstance(metrics, dict):
+        raise ValueError(f"metrics must be a dict of name -> value (got {type(metrics).__name__})")
+    out: dict[str, Any] = {}
+    for name, raw in metrics.items():
+        if not isinstance(name, str):
+            raise ValueError(f"metric names must be strings (got {name!r})")
+        value = _clean(raw)
+        if value is None:
+            out[name] = None
+        elif isinstance(value, str) and not _numeric(name):
+            out[name] = value
+        elif isinstance(value, (bool, int, float)):
+            if _non_negative(name) and value < 0:
+                raise ValueError(f"metric {name!r} must be a number >= 0 (an error, count or duration; got {raw!r})")
+            out[name] = value
+        else:
+            kind = "a number" if _numeric(name) else "a number or text"
+            raise ValueError(f"metric {name!r} must be {kind} (NaN/inf or None: missing), got "
+                             f"{type(raw).__name__} {str(raw)[:60]!r}")
+    return out
+
+
 def row_sha256(values: Sequence[Any]) -> str:
     """SHA-256 of one row's stored values in ``_COLUMNS`` order (the id included)."""
     return hashlib.sha256(json.dumps(list(values), ensure_ascii=True).encode("ascii")).hexdigest()
@@ -180,14 +250,38 @@ class ResultStore:
             raise StoreError(f"no store at {self.path}")
         if exists and self.path.stat().st_size > 0:
             self._read(self._verify)
+            if not read_only:
+                self._check_writable()
             return
         if read_only:
             raise StoreError(f"{self.path} is an empty file, not a vtrack store; it was left untouched")
+        if exists:
+            self._check_writable()
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise StoreError(f"cannot create the store folder {self.path.parent}: {_storage_problem(exc)}") from exc
         self._initialise()
+
+    def _check_writable(self) -> None:
+        """``StoreError`` unless the existing store file can be opened for writing and its folder can hold the
+        ``-wal``/``-shm`` files; checked without SQLite, so a read-only store is left without new files."""
+        import os
+        import tempfile
+
+        try:
+            fd = os.open(self.path, os.O_RDWR | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+            os.close(fd)
+        except OSError as exc:
+            raise StoreError(f"the store {self.path} cannot be written: {_storage_problem(exc)}; it was left "
+                             "untouched (pass a writable --store / store path)") from exc
+        try:
+            fd, probe = tempfile.mkstemp(dir=self.path.parent, prefix=".vtrack-probe-")
+            os.close(fd)
+            os.unlink(probe)
+        except OSError as exc:
+            raise StoreError(f"the store {self.path} cannot be written: its folder {self.path.parent} does not "
+                             f"accept the store's journal files ({_storage_problem(exc)})") from exc
 
     # ------------------------------------------------------------------------------------------ connections
     def _uri(self, immutable: bool) -> str:
@@ -311,14 +405,21 @@ class ResultStore:
             raise StoreError(f"{self.path} was opened read-only")
         pending = []
         for r in rows:
-            wall = float(r.wall_time_per_step_s)
-            if not (math.isfinite(wall) and wall >= 0.0):
-                raise ValueError(f"wall_time_per_step_s must be finite and >= 0 s (got {r.wall_time_per_step_s!r})")
-            metrics = {k: _clean(v) for k, v in r.metrics.items()}
+            wall = r.wall_time_per_step_s
+            if isinstance(wall, (bool, str)) or not (isinstance(_clean(wall), (int, float))
+                                                     and math.isfinite(wall) and wall >= 0.0):
+                raise ValueError(f"wall_time_per_step_s must be a finite number >= 0 s (got {wall!r})")
+            for name in ("suite", "env_id", "policy_id", "policy_hash", "termination", "policy_preset"):
+                if not isinstance(getattr(r, name), str):
+                    raise ValueError(f"{name} must be a string (got {getattr(r, name)!r})")
+            metrics = _checked_metrics(r.metrics)
+            seed = _checked_seed(r.seed)
+            success = _checked_success(r.success)
+            verdict = success if success is not None else r.verdict()
             pending.append([r.created_utc or _now(), r.package_version or __version__, r.suite, r.env_id,
-                            r.env_version, r.policy_id, r.policy_preset, r.policy_hash, r.seed,
+                            r.env_version, r.policy_id, r.policy_preset, r.policy_hash, seed,
                             json.dumps(r.options, sort_keys=True), r.termination, int(r.termination == "completed"),
-                            int(r.verdict()), wall, json.dumps(metrics, sort_keys=True)])
+                            int(verdict), float(wall), json.dumps(metrics, sort_keys=True)])
         try:
             with closing(self._connect_rw()) as con, _write_transaction(con):
                 self._insert(con, pending)
@@ -395,6 +496,15 @@ class ResultStore:
             raise StoreError(f"{self.path} could not be read ({exc})") from exc
         return meta, raw
 
+    def older_versions(self, suite: str) -> tuple[str, int]:
+        """(newest package version among the suite's rows, number of the suite's rows of older versions): what
+        ``leaderboard(latest_only=True)`` leaves out; ``("", 0)`` for a suite without rows."""
+        rows = self.rows(suite)
+        if not rows:
+            return "", 0
+        newest = max((r["package_version"] for r in rows), key=version_sort_key)
+        return newest, sum(version_sort_key(r["package_version"]) != version_sort_key(newest) for r in rows)
+
     def leaderboard(self, suite: str, columns: Sequence[str], latest_only: bool = True) -> list[dict[str, Any]]:
         """Aggregates of ``columns`` per policy key (``vtrack_gym.evaluation.board``) over the suite's rows, ranked
         validity first on the suite's primary metric (``vtrack_gym.evaluation.suites.primary_metric``).
@@ -404,10 +514,10 @@ class ResultStore:
         """
         rows = self.rows(suite)
         if latest_only and rows:
-            newest = max((r["package_version"] for r in rows), key=version_sort_key)
+            newest = max(version_sort_key(r["package_version"]) for r in rows)
             latest: dict[tuple[Any, ...], dict[str, Any]] = {}
             for r in rows:  # ordered by id: a later row replaces an earlier one
-                if r["package_version"] == newest:
+                if version_sort_key(r["package_version"]) == newest:
                     latest[(r["env_id"], r["policy_id"], r["policy_preset"], r["policy_hash"], r["seed"],
                             json.dumps(r["options"], sort_keys=True))] = r
             rows = list(latest.values())
@@ -416,16 +526,38 @@ class ResultStore:
         return build_board(rows, columns, primary_metric(suite))
 
 
-_RELEASE = re.compile(r"v?(\d+(?:\.\d+)*)(.*)")
+_PEP440 = re.compile(
+    r"v?(?:(?P<epoch>\d+)!)?(?P<release>\d+(?:\.\d+)*)"
+    r"(?:[-_.]?(?P<pre_l>alpha|beta|preview|pre|rc|a|b|c)[-_.]?(?P<pre_n>\d+)?)?"
+    r"(?:-(?P<post_n1>\d+)|[-_.]?(?P<post_l>post|rev|r)[-_.]?(?P<post_n2>\d+)?)?"
+    r"(?:[-_.]?(?P<dev_l>dev)[-_.]?(?P<dev_n>\d+)?)?"
+    r"(?:\+(?P<local>[a-z0-9]+(?:[-_.][a-z0-9]+)*))?",
+    re.IGNORECASE)
+_PRE_RANK = {"a": 0, "alpha": 0, "b": 1, "beta": 1, "c": 2, "rc": 2, "pre": 2, "preview": 2}
 
 
 def version_sort_key(version: str) -> tuple[Any, ...]:
-    """Sort key of a package version string: release numbers, then a final release after its pre/dev/local
-    variants (ordered by text); a string without a release number sorts first."""
-    m = _RELEASE.fullmatch(version.strip())
+    """Sort key of a package version string in PEP 440 order: epoch, release (``1.0 == 1.0.0``), then
+    ``1.0.dev1 < 1.0a1 < 1.0b2.dev1 < 1.0b2 < 1.0rc1 < 1.0 < 1.0+local < 1.0.post1.dev1 < 1.0.post1``
+    (a local label sorts after its public version; numeric local segments after alphanumeric ones). A string
+    that is not a PEP 440 version sorts before every version (by its text)."""
+    m = _PEP440.fullmatch(version.strip())
     if not m:
-        return ((), 0, version)
-    release = tuple(int(x) for x in m.group(1).split("."))
+        return (0, version)
+    release = tuple(int(x) for x in m["release"].split("."))
     while release and release[-1] == 0:
         release = release[:-1]  # 1.0 == 1.0.0
-    return (release, 1 if not m.group(2) else 0, m.group(2))
+    has_post = m["post_n1"] is not None or m["post_l"] is not None
+    if m["pre_l"] is not None:
+        pre: tuple[int, ...] = (1, _PRE_RANK[m["pre_l"].lower()], int(m["pre_n"] or 0))
+    elif m["dev_l"] is not None and not has_post:
+        pre = (0,)  # 1.0.dev1 before 1.0a1
+    else:
+        pre = (2,)  # a final release after its pre-releases
+    post = (1, int(m["post_n1"] or m["post_n2"] or 0)) if has_post else (0,)
+    dev = (0, int(m["dev_n"] or 0)) if m["dev_l"] is not None else (1,)
+    local: tuple[tuple[int, int, str], ...] = ()
+    if m["local"]:
+        local = tuple((1, int(part), "") if part.isdigit() else (0, 0, part.lower())
+                      for part in re.split(r"[-_.]", m["local"]))
+    return (1, int(m["epoch"] or 0), release, pre, post, dev, (1, local) if m["local"] else (0,))

@@ -131,5 +131,47 @@ tuning) rank on ``max_e_y_m``."""
 
 
 def primary_metric(suite: str) -> str:
-    """The metric ``suite``'s leaderboard ranks on after the success rate (see ``PRIMARY_METRICS``)."""
-    return PRIMARY_METRICS.get(suite, "max_e_y_m")
+    """The metric ``suite``'s leaderboard ranks on after the success rate (see ``PRIMARY_METRICS``; a label of a
+    non-standard seed set, ``robust[seeds=7]``, ranks like its suite)."""
+    return PRIMARY_METRICS.get(base_suite(suite), "max_e_y_m")
+
+
+STANDARD_SEEDS: dict[str, tuple[int, ...]] = {"paper": (0,), "robust": ROBUST_SEEDS, "highway": HIGHWAY_SEEDS,
+                                              "maneuvers": (0,)}
+"""The seeds of each suite's standard episodes (what its leaderboard ranks)."""
+QUICK_SUITES: frozenset[str] = frozenset({"robust", "highway"})
+"""Suites whose ``quick`` variant drops seeds."""
+
+
+def base_suite(label: str) -> str:
+    """The suite a stored suite label belongs to: ``robust`` for ``robust``, ``robust[seeds=7]``, ``robust[quick]``."""
+    return label.partition("[")[0]
+
+
+def _seed_text(seeds: Sequence[int]) -> str:
+    """``0-4,7``: sorted seeds with runs of consecutive ones as ranges."""
+    ordered = sorted(set(int(s) for s in seeds))
+    parts: list[str] = []
+    start = prev = ordered[0]
+    for s in [*ordered[1:], None]:
+        if s is not None and s == prev + 1:
+            prev = s
+            continue
+        parts.append(str(start) if start == prev else f"{start}-{prev}")
+        if s is not None:
+            start = prev = s
+    return ",".join(parts)
+
+
+def suite_label(name: str, quick: bool = False, seeds: Sequence[int] | None = None) -> str:
+    """The suite name rows of ``suite_episodes(name, quick, seeds)`` are stored under: ``name`` for the standard
+    episodes, else ``name[seeds=...]`` (another seed set; ``seeds`` wins over ``quick``) or ``name[quick]``, so a
+    subset or another set of seeds is never ranked with the suite's standard board."""
+    standard = STANDARD_SEEDS.get(name)
+    if seeds:
+        if standard is not None and sorted(set(int(s) for s in seeds)) == sorted(standard):
+            return name
+        return f"{name}[seeds={_seed_text(seeds)}]"
+    if quick and name in QUICK_SUITES:
+        return f"{name}[quick]"
+    return name

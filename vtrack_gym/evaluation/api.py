@@ -264,8 +264,8 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
         episodes, suite = _episodes(suite_or_env, seeds)
         for ep in with_vehicle(episodes, vehicle):
             env = gym.make(ep.env_id, **ep.make_kwargs)
-            try:
-                rows.append(_row(make, env, ep, suite, policy_id))
+            try:   # one policy per call: every row gets the first episode's fingerprint
+                rows.append(_row(make, env, ep, suite, policy_id, rows[0].policy_hash if rows else None))
             finally:
                 env.close()
     elif isinstance(suite_or_env, gym.Env):
@@ -276,7 +276,8 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
             log.warning("the configuration of this env instance cannot be recorded; its rows are stored as %r, "
                         "apart from the standard env's", env_id)
         for s in seeds if seeds is not None else (0,):
-            row = _row(make, suite_or_env, Episode(env_id, int(s)), CUSTOM_SUITE, policy_id)
+            row = _row(make, suite_or_env, Episode(env_id, int(s)), CUSTOM_SUITE, policy_id,
+                       rows[0].policy_hash if rows else None)
             rows.append(dataclasses.replace(row, options={**row.options, **identity}))
     else:
         raise ValueError(f"suite_or_env must be a suite name ({', '.join(SUITES)}), an env id or a gymnasium.Env "
@@ -300,12 +301,14 @@ def _open_store(store: str | Path | ResultStore | None) -> ResultStore | None:
     return ResultStore(store)
 
 
-def _row(make: Callable[[Any], Any], env: gym.Env, ep: Episode, suite: str, policy_id: str | None) -> ResultRow:
+def _row(make: Callable[[Any], Any], env: gym.Env, ep: Episode, suite: str, policy_id: str | None,
+         digest: str | None = None) -> ResultRow:
+    """One episode's row; ``digest``: the policy hash to record (None: the policy's own fingerprint)."""
     policy = make(env)
     if not hasattr(policy, "predict"):
         raise ValueError(f"the factory returned {type(policy).__name__}, which has no predict method")
     name = policy_id or policy_id_of(policy)
-    row, _ = score_episode(name, policy, env, ep, suite)
+    row, _ = score_episode(name, policy, env, ep, suite, digest)
     log.debug("%s on %s seed %s: %s, max |e_y| %.4g m", name, ep.env_id, ep.seed, row.termination,
              row.metrics.get("max_e_y_m", float("nan")))
     return row

@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import dataclasses
 import hashlib
-import json
 import logging
 from collections.abc import Sequence
 from pathlib import Path
@@ -13,6 +11,7 @@ from typing import Any
 import gymnasium as gym
 
 from vtrack_gym.evaluation.board import build_board
+from vtrack_gym.evaluation.fingerprint import policy_hash
 from vtrack_gym.evaluation.metrics import evaluate_trace
 from vtrack_gym.evaluation.rollout import rollout
 from vtrack_gym.evaluation.store import ResultRow, ResultStore
@@ -34,19 +33,6 @@ SUITE_COLUMNS: dict[str, tuple[str, ...]] = {"maneuvers": ("max_steady_a_y_mps2"
 def suite_columns(suite: str) -> tuple[str, ...]:
     """The leaderboard columns of ``suite``: ``LEADERBOARD_COLUMNS`` plus its ``SUITE_COLUMNS``."""
     return LEADERBOARD_COLUMNS + SUITE_COLUMNS.get(base_suite(suite), ())
-
-
-def policy_hash(policy: Any) -> str:
-    """Short hash of what determines a policy's actions: an agent's weights hash, else its class and frozen
-    config dataclass (so every preset or tuned config has its own), else its class name."""
-    weights = getattr(policy, "weights_hash", None)
-    if isinstance(weights, str) and weights:
-        return weights[:12]
-    cfg = getattr(policy, "config", None)
-    text = type(policy).__name__
-    if dataclasses.is_dataclass(cfg) and not isinstance(cfg, type):
-        text += ":" + json.dumps(dataclasses.asdict(cfg), sort_keys=True, default=repr)
-    return hashlib.sha256(text.encode()).hexdigest()[:12]
 
 
 def policy_preset(policy: Any) -> str:
@@ -122,19 +108,23 @@ def vehicle_label(vehicle: str | None) -> str | None:
     return f"{file.stem}-{hashlib.sha256(file.read_bytes()).hexdigest()[:10]}"
 
 
-def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str) -> tuple[ResultRow, Trace]:
+def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str,
+                  digest: str | None = None) -> tuple[ResultRow, Trace]:
     """Run ``policy`` for one episode on ``env`` (reset with ``ep``'s seed and options); its row and trace.
 
     The row's ``success`` is the env's verdict (the last info's ``"success"``) when it gives one, else the interim
     rule ``vtrack_gym.evaluation.success.episode_success``. The row's ``options`` carry ``ep``'s reset options and
-    the car (``vehicle_label(ep.vehicle)``, when not the default car), so cars never mix on the leaderboard."""
+    the car (``vehicle_label(ep.vehicle)``, when not the default car), so cars never mix on the leaderboard. Its
+    ``policy_hash`` is ``digest`` if given, else the policy's fingerprint taken before the rollout (a policy that
+    changes its attributes while driving keeps one hash)."""
+    digest = digest or policy_hash(policy)
     trace = rollout(policy, env, seed=ep.seed, options=ep.options)
     trace.policy_id = name
     metrics = evaluate_trace(trace, cones_hit(env, trace))
     metrics.update(circle_metrics(env, trace))
     label = vehicle_label(ep.vehicle)
     options = dict(ep.options) if label is None else {**ep.options, "vehicle": label}
-    row = ResultRow(suite=suite, env_id=ep.env_id, policy_id=name, policy_hash=policy_hash(policy), seed=ep.seed,
+    row = ResultRow(suite=suite, env_id=ep.env_id, policy_id=name, policy_hash=digest, seed=ep.seed,
                     metrics=metrics, termination=trace.termination,
                     wall_time_per_step_s=trace.wall_time_per_step_s, options=options,
                     policy_preset=policy_preset(policy),

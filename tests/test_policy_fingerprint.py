@@ -1,0 +1,93 @@
+"""The leaderboard's ``policy_hash`` tells policies apart by what determines their actions (a user's class by its
+attributes, an SB3 model by its weights and normalisation statistics), and keeps one hash per ``evaluate`` call."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import vtrack_gym
+from vtrack_gym.envs.observation import OBS
+from vtrack_gym.evaluation.fingerprint import policy_hash
+from vtrack_gym.evaluation.store import ResultStore
+
+
+class Gain:
+    """Proportional steering on e_y and e_phi; the gains are its parameters."""
+
+    def __init__(self, k_y: float, k_phi: float = 1.0) -> None:
+        self.k = np.array([k_y, k_phi])
+
+    def predict(self, obs, state=None, episode_start=None, deterministic=True):
+        o = np.asarray(obs, dtype=float)
+        u = -(self.k[0] * o[OBS.index("e_y")] + self.k[1] * o[OBS.index("e_phi")])
+        return np.clip(np.array([u], dtype=np.float32), -1.0, 1.0), state
+
+
+class Counting(Gain):
+    """A policy that changes an attribute while it drives (a step counter)."""
+
+    def __init__(self) -> None:
+        super().__init__(0.3)
+        self.steps = 0
+
+    def predict(self, obs, state=None, episode_start=None, deterministic=True):
+        self.steps += 1
+        return super().predict(obs, state, episode_start, deterministic)
+
+
+def test_user_policies_with_other_parameters_get_other_hashes_and_equal_ones_the_same() -> None:
+    assert policy_hash(Gain(0.3)) == policy_hash(Gain(0.3))
+    assert policy_hash(Gain(0.3)) != policy_hash(Gain(0.5))
+    assert policy_hash(Gain(0.3, 2.0)) != policy_hash(Gain(0.3, 1.0))
+    a = Gain(0.3)
+    a.self_ref = [a, {"me": a}]          # cycles are read once, not forever
+    assert policy_hash(a) == policy_hash(a)
+
+
+def test_two_user_policies_of_one_class_are_two_leaderboard_entries(tmp_path: Path) -> None:
+    store = tmp_path / "board.sqlite"
+    for k in (0.3, 0.6, 0.3):            # the third run is the first policy again: it joins its entry
+        vtrack_gym.evaluate(Gain(k), "DLC120-v0", store=store)
+    rows = ResultStore(store).rows()
+    assert len(rows) == 3 and {r["policy_id"] for r in rows} == {"Gain"}
+    hashes = [r["policy_hash"] for r in rows]
+    assert hashes[0] == hashes[2] != hashes[1]
+
+
+def test_a_policy_changing_its_attributes_while_driving_keeps_one_hash_per_call(tmp_path: Path) -> None:
+    policy = Counting()
+    rows = vtrack_gym.evaluate(policy, "DLC120-v0", seeds=[0, 1, 2])
+    assert policy.steps > 0
+    assert len({r.policy_hash for r in rows}) == 1
+
+
+def test_sb3_models_are_told_apart_by_their_weights_and_statistics(tmp_path: Path) -> None:
+    import gymnasium as gym
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    env = gym.make("DLC120-v0")
+    first, second = PPO("MlpPolicy", env, seed=1), PPO("MlpPolicy", env, seed=2)
+    assert policy_hash(first) != policy_hash(second)
+    first.save(tmp_path / "first.zip")
+    assert policy_hash(PPO.load(tmp_path / "first.zip")) == policy_hash(first)   # the weights, not the run state
+    stats = VecNormalize(DummyVecEnv([lambda: gym.make("DLC120-v0")]))
+    plain = vtrack_gym.evaluate(first, "DLC120-v0", vecnormalize=stats, policy_id="agent")[0].policy_hash
+    stats.obs_rms.mean = stats.obs_rms.mean + 0.5
+    shifted = vtrack_gym.evaluate(first, "DLC120-v0", vecnormalize=stats, policy_id="agent")[0].policy_hash
+    assert plain != shifted
+
+
+@pytest.mark.parametrize("name", ["lqr", "ppo"])
+def test_baselines_and_shipped_agents_keep_their_hash_rules(name: str) -> None:
+    import gymnasium as gym
+
+    env = gym.make("DLC120-v0")
+    policy = vtrack_gym.make_policy(name, env)
+    digest = policy_hash(policy)
+    assert digest == policy_hash(vtrack_gym.make_policy(name, env))
+    if name == "ppo":
+        assert digest == policy.weights_hash[:12]

@@ -42,20 +42,21 @@ def rollout(policy: PolicyLike, env_id_or_env: str | gym.Env, seed: int | None =
     episode_start = np.ones(1, dtype=bool)
     infos: list[dict[str, Any]] = []
     termination = "max_steps"
-    start = time.perf_counter()
+    step_s: list[float] = []   # wall time of each step (policy + env) [s]
     steps = 0
     while max_steps is None or steps < max_steps:
-        if steps == 1:  # the first step loads the compiled kernels: keep it out of the wall time
-            start = time.perf_counter()
+        start = time.perf_counter()
         action, state = policy.predict(obs, state=state, episode_start=episode_start, deterministic=deterministic)
         episode_start = np.zeros(1, dtype=bool)
         obs, _, terminated, truncated, info = env.step(np.asarray(action, dtype=np.float32).reshape(1))
+        step_s.append(time.perf_counter() - start)
         infos.append(info)
         steps += 1
         if terminated or truncated:
             termination = info["termination"] if terminated else "time_limit"
             break
-    wall = (time.perf_counter() - start) * len(infos) / max(len(infos) - 1, 1)
+    # the median step x steps: kernels compiled on first use (at any step) and a shared machine's hiccups stay out
+    wall = float(np.median(step_s)) * len(step_s) if step_s else 0.0
     return Trace.from_infos(infos, env_id=env_id, policy_id=policy_id_of(policy), seed=seed,
                             physics_rate_hz=1.0 / cfg.physics_dt_s, control_period_s=cfg.control_period_s,
                             termination=termination, wall_time_s=wall,

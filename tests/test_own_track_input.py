@@ -234,3 +234,17 @@ def test_a_loop_ending_within_a_hair_of_its_start_repeats_the_start_and_is_not_r
     assert with_repeat.length_m == pytest.approx(without.length_m, abs=1e-9)
     kappa = with_repeat.table[:, COL_KAPPA]
     assert np.max(np.abs(kappa - 0.01)) < 1e-3                   # no kink: the radius stays 100 m
+
+
+def test_a_track_shorter_than_20_m_is_refused_not_completed_at_once(tmp_path: Path) -> None:
+    """A 3 m road counted as completed (and a success) after one step: an open road is completed 5 m before its
+    end, so a track must be at least 4 x that long."""
+    s = np.linspace(0.0, 3.0, 7)
+    tiny = write_xy(tmp_path / "tiny.csv", s, np.zeros_like(s))
+    with pytest.raises(ValueError, match=r"track 'tiny' is 3 m long: a track needs at least 20 m"):
+        gym.make("vtrack/Track-v0", track=str(tiny), speed_profile=ConstantSpeed(5.0))
+    s = np.linspace(0.0, 30.0, 31)
+    env = gym.make("vtrack/Track-v0", track=str(write_xy(tmp_path / "short.csv", s, np.zeros_like(s))),
+                   speed_profile=ConstantSpeed(5.0))
+    row, = vtrack_gym.evaluate(vtrack_gym.make_policy("lqr", env), env)
+    assert row.termination == "completed" and row.metrics["duration_s"] > 3.0   # it drove the 25 m

@@ -41,6 +41,11 @@ def _kernels():
     return kernels
 
 
+MIN_TRACK_LENGTH_FACTOR = 4.0
+"""A user's track is at least this x the scenario's ``end_margin_m`` long (20 m by default): a 3 m road would
+count as completed at the first step."""
+
+
 def scenario_tracks(scenario: ScenarioConfig, vehicle_width_m: float) -> tuple:
     """The paths a scenario drives on, with the scenario's constant half width if it sets one (built-in tracks are
     built once per process; a CSV file is read at every call, a ``tracks.Path`` is used as is)."""
@@ -53,6 +58,11 @@ def scenario_tracks(scenario: ScenarioConfig, vehicle_width_m: float) -> tuple:
         from vtrack_gym.tracks import load_track
 
         paths = (load_track(scenario.track, closed=scenario.track_closed, smoothing_m=scenario.track_smoothing_m),)
+        min_length_m = MIN_TRACK_LENGTH_FACTOR * scenario.end_margin_m
+        if paths[0].length_m < min_length_m:
+            raise ValueError(f"track {paths[0].name!r} is {paths[0].length_m:.3g} m long: a track needs at least "
+                             f"{min_length_m:g} m ({MIN_TRACK_LENGTH_FACTOR:g} x end_margin_m, the distance before "
+                             "an open road's end at which it counts as completed)")
     if scenario.half_width_m is not None:
         paths = tuple(replace(p, half_width_m=scenario.half_width_m, widths_m=None) for p in paths)
     return paths

@@ -14,6 +14,7 @@ import pytest
 import vtrack_gym
 from vtrack_gym.cli import main
 from vtrack_gym.tracks import COL_KAPPA, ConstantSpeed, load_track
+from vtrack_gym.tracks.table import COL_GRADE
 
 
 def write_xy(file: Path, x: np.ndarray, y: np.ndarray, fmt: str = "%.6f", extra: str = "",
@@ -248,3 +249,25 @@ def test_a_track_shorter_than_20_m_is_refused_not_completed_at_once(tmp_path: Pa
                    speed_profile=ConstantSpeed(5.0))
     row, = vtrack_gym.evaluate(vtrack_gym.make_policy("lqr", env), env)
     assert row.termination == "completed" and row.metrics["duration_s"] > 3.0   # it drove the 25 m
+
+
+def test_a_noisy_elevation_column_warns_and_a_real_one_does_not(tmp_path: Path) -> None:
+    """GPS altitude (0.3 m of noise every 5 m) fitted exactly gives grades of tens of % and false wheel lifts: the
+    loader warns naming the grade; a smooth 3 m hill does not warn."""
+    import warnings
+
+    x, y = circle_xy(200.0, 251)                                   # 5 m spacing
+    hill = 3.0 * np.sin(np.arctan2(y, x))
+    noisy = hill + np.random.default_rng(0).normal(0.0, 0.3, hill.size)
+    with pytest.warns(UserWarning, match=r"the fitted road grade changes sign in \d+ of 251 point intervals"):
+        load_track(write_xy(tmp_path / "gps.csv", x, y, extra="z_m", extra_values=[f"{v:.3f}" for v in noisy]))
+    cliff = hill.copy()
+    cliff[100:] += 4.0                                               # a 4 m step between two points 5 m apart
+    cliff[-1] -= 2.0
+    with pytest.warns(UserWarning, match=r"the fitted road grade reaches [+-]\d+ % at s = \d+ m, steeper than "
+                                         r"public roads \(35 %\): is the third column an elevation z"):
+        load_track(write_xy(tmp_path / "cliff.csv", x, y, extra="z_m", extra_values=[f"{v:.3f}" for v in cliff]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        path = load_track(write_xy(tmp_path / "hill.csv", x, y, extra="z_m", extra_values=[f"{v:.3f}" for v in hill]))
+    assert np.max(np.abs(path.table[:, COL_GRADE])) < 0.05          # a 1.5 % hill

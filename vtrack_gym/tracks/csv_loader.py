@@ -29,6 +29,7 @@ from vtrack_gym._io import read_regular_file
 from vtrack_gym.tracks.fitting import MAX_COORDINATE_M, check_points
 from vtrack_gym.tracks.geometry import TooDenseError, segment_intersections
 from vtrack_gym.tracks.path import DEFAULT_DS_M, MAX_HALF_WIDTH_M, MAX_V_REF_MPS, MIN_V_REF_MPS, Path
+from vtrack_gym.tracks.table import COL_GRADE
 
 CLOSED_GAP_M = 1.0          # first and last points closer than this [m] always close the loop (auto-detection)
 CLOSED_GAP_SPACINGS = 3.0   # ... or an end gap up to this x the median point spacing,
@@ -45,6 +46,8 @@ NOISE_KAPPA_ZERO = 1e-4         # |kappa| below this [1/m] (R > 10 km) counts as
 NOISE_KAPPA_ZERO_SHARE = 0.05   # ... as does |kappa| below this x the largest |kappa| (a spline's ripple on the
                                 # straights next to a 6 m hairpin is no noise)
 NOISE_HINT_FACTOR = 2.0         # suggested smoothing_m: this x the points' estimated RMS noise (2-D)
+MAX_PLAUSIBLE_GRADE = 0.35     # |dz/ds| beyond this (the steepest public streets) warns of a noisy or misread z,
+NOISE_GRADE_ZERO = 0.01         # ... as does a grade whose sign (where |dz/ds| >= this) flips like noise
 NEAR_DUPLICATE_SHARE = 0.01    # consecutive points closer than this x the median spacing are refused (a kink)
 DENSE_SPACING_M = 0.5       # points closer than this (median) [m] are averaged in blocks to about this spacing
 _MAX_DECIMALS = 6
@@ -322,6 +325,29 @@ def noisy_curvature_hint(path: Path, x: np.ndarray, y: np.ndarray) -> tuple[int,
     return changes, n, float(f"{max(hint, 1e-3):.2g}")
 
 
+def implausible_grade(path: Path, x: np.ndarray, y: np.ndarray) -> str | None:
+    """What is implausible about the fitted road grade dz/ds of ``path`` (from points x, y [m]), else None: a grade
+    steeper than ``MAX_PLAUSIBLE_GRADE``, or one whose sign (where |grade| >= ``NOISE_GRADE_ZERO``) changes in more
+    than ``NOISE_SIGN_CHANGE_SHARE`` of the point intervals, at least ``NOISE_MIN_SIGN_CHANGES`` times (a road
+    climbs and falls over hills, not from one point to the next)."""
+    grade = path.table[:, COL_GRADE]
+    k = int(np.argmax(np.abs(grade)))
+    if abs(float(grade[k])) > MAX_PLAUSIBLE_GRADE:
+        return (f"the fitted road grade reaches {100.0 * float(grade[k]):+.0f} % at s = {k * path.ds_m:.0f} m, "
+                f"steeper than public roads ({100 * MAX_PLAUSIBLE_GRADE:.0f} %)")
+    h = float(np.median(np.hypot(np.diff(x), np.diff(y))))
+    n = int(path.length_m // h) if h > 0.0 else 0
+    if n < 2 * NOISE_MIN_SIGN_CHANGES:
+        return None
+    sampled = np.interp(np.arange(n + 1) * (path.length_m / n), np.arange(grade.size) * path.ds_m, grade)
+    signs = np.sign(sampled[np.abs(sampled) >= NOISE_GRADE_ZERO])
+    changes = int(np.count_nonzero(signs[1:] != signs[:-1]))
+    if changes >= NOISE_MIN_SIGN_CHANGES and changes > NOISE_SIGN_CHANGE_SHARE * n:
+        return (f"the fitted road grade changes sign in {changes} of {n} point intervals (up to "
+                f"{100.0 * float(np.max(np.abs(grade))):.0f} %)")
+    return None
+
+
 def _check_near_duplicates(fs_path: FsPath, x: np.ndarray, y: np.ndarray, closed: bool, lines: list[int]) -> None:
     """ValueError naming both file lines if two consecutive points x, y [m] (the last and the first of a loop too)
     are closer than NEAR_DUPLICATE_SHARE x the median spacing: an interpolating spline turns sharply there (1 mm
@@ -431,8 +457,25 @@ def load_track_csv(path: str | os.PathLike[str], closed: bool | None = None, hal
                       f"Pass smoothing_m={hint:g} (CLI: --track-smoothing-m {hint:g}), the RMS deviation [m] the fit "
                       f"may make, about {NOISE_HINT_FACTOR:g} x the points' estimated noise", UserWarning,
                       stacklevel=2)
+    if z is not None:
+        problem = implausible_grade(result, raw_x, raw_y)
+        if problem is not None:
+            warnings.warn(f"{fs_path}: {problem}: is the third column an elevation z [m]? A noisy elevation (GPS "
+                          "altitude) makes false wheel lifts and speed losses; smooth it, or drop the column for a "
+                          "flat road", UserWarning, stacklevel=2)
     return result
 
 
-__all__ = ["COLUMN_NAMES", "auto_smoothing_m", "average_dense_points", "detect_closed", "load_track_csv",
-           "noisy_curvature_hint", "point_noise_m", "read_track_columns", "read_track_csv", "rounding_quantum_m"]
+__all__ = [
+    "COLUMN_NAMES",
+    "auto_smoothing_m",
+    "average_dense_points",
+    "detect_closed",
+    "implausible_grade",
+    "load_track_csv",
+    "noisy_curvature_hint",
+    "point_noise_m",
+    "read_track_columns",
+    "read_track_csv",
+    "rounding_quantum_m",
+]

@@ -70,6 +70,27 @@ def test_randomisation_is_drawn_per_episode_within_ranges() -> None:
     assert sim.noise_scale[0] == 2.5 and sim.delay_steps[0] == 2
 
 
+def test_an_explicit_reset_option_wins_even_at_its_default_value() -> None:
+    """Asking the training mix for a 0 m start offset, no noise, no delay and the nominal car gives exactly that (a
+    given value equal to the default was taken as "not given" and drawn afresh: e_y 1.24 / -0.23 / 0.69 m)."""
+    from vtrack_gym.envs.observation import OBS
+
+    env = gym.make("vtrack/TrainingMix-v0")
+    sim = env.unwrapped._sim
+    nominal_rate = env.unwrapped.config.vehicle.steering.max_road_wheel_rate_radps
+    given = {"initial_lateral_offset_m": 0.0, "initial_heading_error_rad": 0.0, "sensor_noise": 0.0,
+             "actuator_delay_s": 0.0, "mass_scale": 1.0, "steering_rate_scale": 1.0}
+    drawn = []
+    for seed in range(4):
+        obs, _ = env.reset(seed=seed, options=given)
+        assert obs[OBS.index("e_y")] == 0.0 and obs[OBS.index("e_phi")] == 0.0
+        assert sim.noise_scale[0] == 0.0 and sim.delay_steps[0] == 0
+        assert float(sim.plant.param_rows[0, VL.P_DELTA_RATE]) == pytest.approx(nominal_rate)
+        obs, _ = env.reset(seed=seed)            # not given: drawn
+        drawn.append(float(obs[OBS.index("e_y")]))
+    assert max(abs(e) for e in drawn) > 0.1
+
+
 def test_same_seed_same_randomised_episode() -> None:
     def run(seed: int) -> np.ndarray:
         env = gym.make("vtrack/TrainingMix-v0")

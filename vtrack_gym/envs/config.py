@@ -114,6 +114,9 @@ class ResetOptions:
     actuator_delay_s: float = ranged(0.0, ge=0.0, le=0.5, unit="s")
     # multiplies the steering actuator's rate limit (1 = the vehicle's own, 0.87 rad/s road-wheel for the default)
     steering_rate_scale: float = ranged(1.0, ge=0.25, le=10.0)
+    # the option names the caller gave (``from_dict``): a scenario's randomisation never overrides them, even
+    # when a given value equals the default (an explicit offset of 0 m on the training mix is 0 m)
+    explicit: frozenset[str] = field(default=frozenset(), compare=False, repr=False)
 
     RANGES: ClassVar[dict[str, tuple[float, float]]]
     """Option name -> closed range [lo, hi] (from the fields' declared ranges; set below the class)."""
@@ -129,7 +132,7 @@ class ResetOptions:
         if not isinstance(options, dict):
             raise ValueError(f"reset options must be a dict (got {type(options).__name__})")
         values = validate_numeric_options(options, cls.RANGES)
-        return cls(**values)
+        return cls(**values, explicit=frozenset(values))
 
 
 ResetOptions.RANGES = closed_ranges(ResetOptions)

@@ -347,25 +347,30 @@ class BatchSim:
         self.circle_peak_a_y[i] = 0.0
 
     def _randomised(self, options: ResetOptions, rng: np.random.Generator) -> ResetOptions:
-        """``options`` with the scenario's domain randomisation drawn for every knob they leave at its default
-        (``ScenarioConfig.friction_range`` ...); unchanged (and no draw) for a scenario without ranges."""
+        """``options`` with the scenario's domain randomisation drawn for every knob they leave at its default and
+        the caller did not give (``ResetOptions.explicit``; ``ScenarioConfig.friction_range`` ...); unchanged (and
+        no draw) for a scenario without ranges."""
         sc = self.scenario
         changes: dict[str, float] = {}
-        if sc.friction_range is not None and options.friction_mu is None:
+
+        def free(name: str, default: float | None) -> bool:
+            return name not in options.explicit and getattr(options, name) == default
+
+        if sc.friction_range is not None and free("friction_mu", None):
             changes["friction_mu"] = float(rng.uniform(*sc.friction_range))
-        if sc.mass_scale_range is not None and options.mass_scale == 1.0:
+        if sc.mass_scale_range is not None and free("mass_scale", 1.0):
             changes["mass_scale"] = float(rng.uniform(*sc.mass_scale_range))
-        if sc.sensor_noise_range is not None and options.sensor_noise == 0.0:
+        if sc.sensor_noise_range is not None and free("sensor_noise", 0.0):
             changes["sensor_noise"] = float(rng.uniform(*sc.sensor_noise_range))
-        if sc.max_actuator_delay_s > 0.0 and options.actuator_delay_s == 0.0:
+        if sc.max_actuator_delay_s > 0.0 and free("actuator_delay_s", 0.0):
             period = self.config.control_period_s
             steps = int(rng.integers(0, int(sc.max_actuator_delay_s / period + 1e-9) + 1))
             changes["actuator_delay_s"] = steps * period
-        if sc.steering_rate_scale_range is not None and options.steering_rate_scale == 1.0:
+        if sc.steering_rate_scale_range is not None and free("steering_rate_scale", 1.0):
             changes["steering_rate_scale"] = float(rng.uniform(*sc.steering_rate_scale_range))
-        if sc.initial_lateral_offset_range_m is not None and options.initial_lateral_offset_m == 0.0:
+        if sc.initial_lateral_offset_range_m is not None and free("initial_lateral_offset_m", 0.0):
             changes["initial_lateral_offset_m"] = float(rng.uniform(*sc.initial_lateral_offset_range_m))
-        if sc.initial_heading_error_range_rad is not None and options.initial_heading_error_rad == 0.0:
+        if sc.initial_heading_error_range_rad is not None and free("initial_heading_error_rad", 0.0):
             changes["initial_heading_error_rad"] = float(rng.uniform(*sc.initial_heading_error_range_rad))
         return replace(options, **changes) if changes else options
 

@@ -166,7 +166,7 @@ def test_specific_malformed_files_name_file_line_and_problem(tmp_path, content, 
 def test_missing_file_and_directory_are_valueerror(tmp_path):
     with pytest.raises(ValueError, match="not found"):
         load_track_csv(tmp_path / "nope.csv")
-    with pytest.raises(ValueError, match="not found"):
+    with pytest.raises(ValueError, match="is a folder, not a track file"):
         load_track_csv(tmp_path)
 
 

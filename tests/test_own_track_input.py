@@ -271,3 +271,14 @@ def test_a_noisy_elevation_column_warns_and_a_real_one_does_not(tmp_path: Path) 
         warnings.simplefilter("error")
         path = load_track(write_xy(tmp_path / "hill.csv", x, y, extra="z_m", extra_values=[f"{v:.3f}" for v in hill]))
     assert np.max(np.abs(path.table[:, COL_GRADE])) < 0.05          # a 1.5 % hill
+
+
+def test_degrees_and_folders_get_messages_that_name_the_mistake(tmp_path: Path) -> None:
+    lat = np.array([48.1371, 48.1372, 48.1375, 48.1379, 48.1380])
+    lon = np.array([11.5754, 11.5760, 11.5765, 11.5762, 11.5755])
+    with pytest.raises(ValueError, match=r"the points span only 0\.00\d+ m: coordinates must be metres \(latitude"):
+        load_track(write_xy(tmp_path / "latlon.csv", lat, lon))
+    with pytest.raises(ValueError, match=r"is a folder, not a track file"):
+        load_track(str(tmp_path))
+    with pytest.raises(ValueError, match=r"is a folder, not a track file"):
+        gym.make("vtrack/Track-v0", track=str(tmp_path))

@@ -36,6 +36,7 @@ CLOSED_GAP_SPACINGS = 3.0   # ... or an end gap up to this x the median point sp
 CLOSED_GAP_TURN_DEG = 45.0  # ... with the closing chord turning at most this from the end and start directions,
 CLOSED_TURN_RATIO = 1.5     # ... or at most this x the turn at the neighbouring point (sparse polygons turn a lot)
 MIN_POINTS = 4
+MIN_SPAN_M = 1.0            # points spanning less than this [m] in x and y are not a road in metres (degrees?)
 MAX_POINTS = 200_000
 MAX_FILE_BYTES = 64 * 2**20
 DEFAULT_HALF_WIDTH_M = 3.5
@@ -114,6 +115,8 @@ def read_track_columns(fs_path: FsPath) -> tuple[dict[str, np.ndarray], list[int
 
     ValueError naming file, line and problem on any malformed content.
     """
+    if fs_path.is_dir():
+        raise ValueError(f"{fs_path}: is a folder, not a track file (give a CSV file in it)")
     if not fs_path.is_file():
         raise ValueError(f"{fs_path}: track file not found")
     size = fs_path.stat().st_size
@@ -402,6 +405,10 @@ def load_track_csv(path: str | os.PathLike[str], closed: bool | None = None, hal
         check_points(x, y, z)  # counts, finiteness, duplicates, extent: before any geometry on the points
     except ValueError as exc:
         raise ValueError(f"{fs_path}: {exc}") from exc
+    span = max(float(np.ptp(x)), float(np.ptp(y)))
+    if span < MIN_SPAN_M:
+        raise ValueError(f"{fs_path}: the points span only {span:.3g} m: coordinates must be metres (latitude and "
+                         "longitude in degrees? project them to a metric grid such as UTM first)")
     if closed is None:
         closed = detect_closed(x, y)
     widths = np.column_stack((columns["w_left"], columns["w_right"])) if "w_left" in columns else None

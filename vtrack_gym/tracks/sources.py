@@ -35,6 +35,8 @@ def load_track(track: TrackSource, *, closed: bool | None = None, half_width_m: 
     if not isinstance(track, (str, os.PathLike)):
         raise ValueError(f"track must be a CSV file path, a tracks.Path or one of {sorted(BUILTIN_TRACKS)} "
                          f"(got {type(track).__name__})")
+    if FsPath(track).is_dir():
+        raise ValueError(f"{track}: is a folder, not a track file (give a CSV file in it)")
     if not FsPath(track).is_file():
         raise ValueError(f"{track}: track file not found (built-in tracks: {', '.join(sorted(BUILTIN_TRACKS))})")
     return load_track_csv(track, closed=closed, half_width_m=half_width_m, smoothing_m=smoothing_m,

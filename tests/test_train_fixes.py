@@ -37,3 +37,35 @@ def test_warm_start_keeps_fixed_observation_scales(tmp_path: Path) -> None:
     np.testing.assert_allclose(arrays["obs_mean"], mean, rtol=1e-6)
     np.testing.assert_allclose(arrays["obs_var"], var, rtol=1e-6)
     assert float(np.sqrt(arrays["obs_var"][spec["env"]["observation_names"].index("e_y")])) == pytest.approx(0.25)
+
+
+def test_run_dir_holding_a_run_is_refused_or_overwritten(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A second `vtrack train` into a run folder is refused before anything is written; ``--overwrite`` removes
+    the earlier run's files (and only those) first, so nothing of the two runs is mixed."""
+    from vtrack_gym.agents.train import train
+
+    run = tmp_path / "run"
+    argv = ["train", "--algo", "ppo", "--timesteps", "64", "--run-dir", str(run), *FAST, *PPO_SMALL]
+    assert main(argv) == 0
+    (run / "notes.txt").write_text("mine\n")
+    (run / "logs" / "mine.txt").write_text("mine\n")
+    for stale in ("best_agent.json", "best_agent.npz", "best_model.zip", "bc.json", "evaluations.jsonl"):
+        (run / stale).write_text("from an earlier run\n")
+    before = {f: f.read_bytes() for f in run.rglob("*") if f.is_file()}
+    capsys.readouterr()
+    assert main([*argv, "--set", "n_epochs=2"]) == 2
+    err = capsys.readouterr().err
+    assert f"--run-dir {run} already holds a `vtrack train` run" in err and "--overwrite" in err
+    assert {f: f.read_bytes() for f in run.rglob("*") if f.is_file()} == before  # nothing written or removed
+    with pytest.raises(ValueError, match="already holds a `vtrack train` run"):
+        train("ppo", timesteps=64, run_dir=run, num_envs=2, overrides={"n_steps": 32, "batch_size": 64},
+              eval_freq=0, final_eval=False, progress_bar=False)
+
+    assert main([*argv, "--set", "n_epochs=2", "--overwrite"]) == 0
+    for stale in ("best_agent.json", "best_agent.npz", "best_model.zip", "bc.json", "evaluations.jsonl"):
+        assert not (run / stale).exists(), stale
+    assert (run / "notes.txt").read_text() == "mine\n" and (run / "logs" / "mine.txt").read_text() == "mine\n"
+    assert json.loads((run / "config.json").read_text())["hyperparams"]["n_epochs"] == 2
+    assert len(list((run / "logs").glob("events.out.tfevents.*"))) <= 1
+    assert len((run / "logs" / "progress.csv").read_text().splitlines()) == 2  # header + this run's one rollout
+    assert main(["export", "--run-dir", str(run), "--out", str(tmp_path / "again")]) == 0

@@ -30,9 +30,6 @@ DEFAULT_PLOTS_DIR = DEFAULT_RESULTS_DIR / "plots"
 
 MAX_SEED = 2**63 - 1
 """Largest seed of ``--seeds`` (the store keeps seeds as SQLite INTEGER, a signed 64-bit number)."""
-RUN_FILES = ("config.json", "model.zip", "vecnormalize.pkl", "best_model.zip", "agent.json", "agent.npz",
-             "best_agent.json", "best_agent.npz", "bc.json", "evaluations.jsonl", "vtrack-train.sig")
-"""Files ``vtrack train`` writes into ``--run-dir`` (each must be absent or a regular file)."""
 MAX_SEEDS = 10_000
 """Most seeds one ``vtrack eval`` runs."""
 MAX_FIGURE_BYTES = 32 * 2**20
@@ -173,7 +170,11 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--timesteps", type=_int_in(1, 10**10), default=1_000_000,
                     help="environment steps (default: %(default)s)")
     tr.add_argument("--seed", type=_int_in(0, MAX_RNG_SEED), default=0, help="training seed (default: 0)")
-    tr.add_argument("--run-dir", type=Path, required=True, help="folder for config, logs, checkpoints and the agent")
+    tr.add_argument("--run-dir", type=Path, required=True, help="folder for config, logs, checkpoints and the agent "
+                    "(a folder that already holds a run is refused, see --overwrite)")
+    tr.add_argument("--overwrite", action="store_true",
+                    help="--run-dir holds an earlier run: delete that run's files (only those `vtrack train` writes) "
+                    "once the settings are checked, then train")
     tr.add_argument("--num-envs", type=_int_in(1, 4096), default=None,
                     help="parallel cars (default: from the hyperparameters)")
     tr.add_argument("--eval-freq", type=_int_in(0, 10**10), default=100_000,
@@ -907,7 +908,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
                     overrides=_parse_hyperparams(args.hyperparams),
                     eval_freq=args.eval_freq, case1_max_steps=args.case1_max_steps,
                     case1_full_every=args.case1_full_every, progress_bar=not args.no_progress, command=command,
-                    final_eval=not args.no_final_eval, bc=bc)
+                    final_eval=not args.no_final_eval, bc=bc, overwrite=args.overwrite)
     print(json.dumps({k: v for k, v in summary.items() if k not in ("model", "vecnormalize")}, indent=2,
                      default=str))
     return 0
@@ -948,9 +949,12 @@ def _check_outputs(args: argparse.Namespace) -> None:
     if cmd == "plot":
         check_output_dir(args.out, "--out")
     if cmd == "train":
+        from vtrack_gym.agents.train import RUN_FILES, check_run_dir
+
         check_output_dir(args.run_dir, "--run-dir")
-        for name in RUN_FILES:
+        for name in RUN_FILES:  # each must be absent or a regular file
             check_output_file(args.run_dir / name, "--run-dir")
+        check_run_dir(args.run_dir, args.overwrite)  # refused before any work; removed by train() with --overwrite
     if cmd == "export":
         for suffix in (".json", ".npz"):
             check_output_file(args.out.parent / (args.out.name + suffix), "--out")

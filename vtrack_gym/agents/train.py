@@ -53,6 +53,50 @@ REGULARISED_SAC_KEYS = frozenset({"bc_weight", "temporal_smoothness", "spatial_s
 HYPERPARAMS_DIR = Path(__file__).with_name("hyperparams")
 EVAL_ENV_IDS = ("DLC120-v0", "LateralTracking-v0")
 _ACTIVATIONS = ("tanh", "relu")
+RUN_FILES = ("config.json", "model.zip", "vecnormalize.pkl", "best_model.zip", "agent.json", "agent.npz",
+             "best_agent.json", "best_agent.npz", "bc.json", "evaluations.jsonl", "vtrack-train.sig")
+"""Files ``train`` writes at the top of its run folder."""
+LOG_FILE_PATTERNS = ("progress.csv", "log.txt", "events.out.tfevents.*")
+"""Files SB3's logger writes into ``<run>/logs`` (CSV, text log, TensorBoard events)."""
+
+
+def previous_run_files(run_dir: str | Path) -> list[Path]:
+    """The files of an earlier ``train`` run in ``run_dir``: its ``RUN_FILES``, the logger's files in ``logs/``
+    (``LOG_FILE_PATTERNS``) and temporary files left by an interrupted atomic write. Nothing else."""
+    run = Path(run_dir)
+    if not run.is_dir():
+        return []
+    found = [run / name for name in RUN_FILES if (run / name).is_file() or (run / name).is_symlink()]
+    found += [f for name in RUN_FILES for f in run.glob(f".{name}.*.tmp") if f.is_file()]
+    logs = run / "logs"
+    if logs.is_dir() and not logs.is_symlink():
+        found += sorted(f for pattern in LOG_FILE_PATTERNS for f in logs.glob(pattern) if f.is_file())
+    return found
+
+
+def check_run_dir(run_dir: str | Path, overwrite: bool = False) -> list[Path]:
+    """``ValueError`` naming the folder if ``run_dir`` already holds a run and ``overwrite`` is false (mixing two
+    runs' evaluations, logs and checkpoints in one folder); returns the files ``--overwrite`` would remove."""
+    files = previous_run_files(run_dir)
+    if files and not overwrite:
+        names = ", ".join(str(f.relative_to(run_dir)) for f in files[:6]) + (", ..." if len(files) > 6 else "")
+        raise ValueError(f"--run-dir {run_dir} already holds a `vtrack train` run ({names}); train into a new "
+                         "folder, or pass --overwrite to delete that run's files first")
+    return files
+
+
+def _clear_previous_run(run_dir: Path, overwrite: bool) -> None:
+    """Remove the previous run's files (``previous_run_files``, only with ``overwrite``; else ``check_run_dir``
+    refuses), and ``logs/`` if that leaves it empty."""
+    files = check_run_dir(run_dir, overwrite)
+    for f in files:
+        f.unlink()
+    if files:
+        log.info("--overwrite: removed %d files of the previous run in %s", len(files), run_dir)
+        try:
+            (run_dir / "logs").rmdir()  # only if empty: anything else the user keeps there stays
+        except OSError:
+            pass
 
 
 def load_hyperparams(algo: str, env_id: str = DEFAULT_ENV_ID) -> tuple[dict[str, Any], int]:
@@ -228,7 +272,8 @@ def train(algo: str, env_id: str | None = None, timesteps: int = 1_000_000, seed
           run_dir: str | Path = "vtrack_runs/run", *, num_envs: int | None = None,
           overrides: Mapping[str, Any] | None = None, eval_freq: int = 100_000, case1_max_steps: int | None = 3000,
           case1_full_every: int = 5, final_eval: bool = True, progress_bar: bool = True, verbose: int = 0,
-          torch_threads: int | None = 1, command: str | None = None, bc: Any = None) -> dict[str, Any]:
+          torch_threads: int | None = 1, command: str | None = None, bc: Any = None,
+          overwrite: bool = False) -> dict[str, Any]:
     """Train ``algo`` on ``env_id`` and write ``run_dir`` (see the module docstring). Returns a summary dict.
 
     ``overrides`` replace YAML entries (e.g. ``{"n_steps": 64}``; a value of ``None`` drops the entry);
@@ -240,6 +285,8 @@ def train(algo: str, env_id: str | None = None, timesteps: int = 1_000_000, seed
     ``bc_weight`` hyperparameter (SAC with ``bc`` only) selects ``RegularisedSAC``, whose actor loss keeps a
     behaviour-cloning term on the warm start's expert labels; so do ``temporal_smoothness`` /
     ``spatial_smoothness`` (SAC; CAPS-style terms on the deterministic action, see ``regularised_sac``).
+    A ``run_dir`` that already holds a run is refused (``check_run_dir``) unless ``overwrite``, which deletes
+    that run's files (``previous_run_files``, nothing else) once every setting has been checked.
     """
     import stable_baselines3
     import torch
@@ -320,6 +367,11 @@ def train(algo: str, env_id: str | None = None, timesteps: int = 1_000_000, seed
         raise ValueError(f"{algo} hyperparameters: {type(exc).__name__}: {exc} (see "
                          f"vtrack_gym/agents/hyperparams/{algo}.yaml)") from exc
     except ValueError:  # a value out of its range: nothing of the run folder is written or replaced
+        venv.close()
+        raise
+    try:
+        _clear_previous_run(run_dir, overwrite)
+    except ValueError:
         venv.close()
         raise
     run_dir.mkdir(parents=True, exist_ok=True)

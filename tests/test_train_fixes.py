@@ -69,3 +69,39 @@ def test_run_dir_holding_a_run_is_refused_or_overwritten(tmp_path: Path, capsys:
     assert len(list((run / "logs").glob("events.out.tfevents.*"))) <= 1
     assert len((run / "logs" / "progress.csv").read_text().splitlines()) == 2  # header + this run's one rollout
     assert main(["export", "--run-dir", str(run), "--out", str(tmp_path / "again")]) == 0
+
+
+def test_ctrl_c_saves_and_exports_the_model_as_it_is(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                     capsys: pytest.CaptureFixture[str]) -> None:
+    """A KeyboardInterrupt during learning (raised from a callback, as Ctrl+C would) saves the model, exports the
+    agent, marks config.json interrupted with the timesteps reached and exits 130; the folder stays usable."""
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    from vtrack_gym.agents import train as train_module
+
+    class CtrlC(BaseCallback):
+        def _on_step(self) -> bool:
+            if self.num_timesteps >= 128:
+                raise KeyboardInterrupt
+            return True
+
+    make = train_module._make_callbacks
+    monkeypatch.setattr(train_module, "_make_callbacks", lambda *a, **k: [*make(*a, **k), CtrlC()])
+    run = tmp_path / "run"
+    assert main(["train", "--algo", "ppo", "--timesteps", "640", "--run-dir", str(run), "--num-envs", "2",
+                 "--eval-freq", "0", "--no-progress", *PPO_SMALL]) == 130
+    err = capsys.readouterr().err
+    assert "interrupted at 128 timesteps" in err and str(run / "agent.json") in err
+    config = json.loads((run / "config.json").read_text())
+    assert config["interrupted"] is True and config["timesteps_done"] == 128
+    assert config["interrupted_during"] == "learning"
+    assert json.loads((run / "agent.json").read_text())["provenance"]["timesteps"] == 128
+    assert not (run / "evaluations.jsonl").exists()  # no final evaluation after Ctrl+C
+    assert main(["export", "--run-dir", str(run), "--out", str(tmp_path / "again")]) == 0
+    assert main(["eval", "--policy", str(run / "agent.json"), "--env", "DLC120-v0", "--store",
+                 str(tmp_path / "s.sqlite")]) == 0
+    monkeypatch.setattr(train_module, "_make_callbacks", make)
+    assert main(["train", "--algo", "ppo", "--timesteps", "64", "--run-dir", str(tmp_path / "done"), *FAST,
+                 *PPO_SMALL]) == 0
+    done = json.loads((tmp_path / "done" / "config.json").read_text())
+    assert done["interrupted"] is False and done["timesteps_done"] == 64

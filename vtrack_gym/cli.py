@@ -911,6 +911,12 @@ def _cmd_train(args: argparse.Namespace) -> int:
                     final_eval=not args.no_final_eval, bc=bc, overwrite=args.overwrite)
     print(json.dumps({k: v for k, v in summary.items() if k not in ("model", "vecnormalize")}, indent=2,
                      default=str))
+    if summary.get("interrupted"):
+        print(f"vtrack train: interrupted at {summary['timesteps']} timesteps; the model as it was is saved in "
+              f"{args.run_dir}/model.zip and exported to {summary['agent']} (config.json: interrupted: true). "
+              f"`vtrack eval --policy {summary['agent']}` evaluates it, `vtrack export --run-dir {args.run_dir}` "
+              "re-exports it", file=sys.stderr)
+        return 130
     return 0
 
 

@@ -8,7 +8,8 @@ hyperparameters of ``vtrack_gym/agents/hyperparams/<algo>.yaml`` for ``env_id`` 
 The run folder holds:
 
 * ``config.json``: algo, env id, hyperparameters (+ their file version), overrides, seed, timesteps, command,
-  package / SB3 / torch versions, start time
+  package / SB3 / torch versions, start time; at the end ``timesteps_done`` (the steps actually trained) and
+  ``interrupted`` (true if Ctrl+C stopped the run early, with ``interrupted_during``: warm start or learning)
 * ``logs/``: TensorBoard events if ``tensorboard`` is installed, else SB3's ``progress.csv`` (+ stdout log)
 * ``evaluations.jsonl``: one line per periodic evaluation (deterministic policy, seed 0, nonlinear plant) on
   the two paper scenarios. ``DLC120-v0`` (<= 3000 steps) runs in full every ``eval_freq`` steps;
@@ -285,6 +286,9 @@ def train(algo: str, env_id: str | None = None, timesteps: int = 1_000_000, seed
     ``bc_weight`` hyperparameter (SAC with ``bc`` only) selects ``RegularisedSAC``, whose actor loss keeps a
     behaviour-cloning term on the warm start's expert labels; so do ``temporal_smoothness`` /
     ``spatial_smoothness`` (SAC; CAPS-style terms on the deterministic action, see ``regularised_sac``).
+    On ``KeyboardInterrupt`` (Ctrl+C) during the warm start or learning, the model is saved and exported as it
+    is, ``config.json`` records ``interrupted: true`` and ``timesteps_done``, the final evaluation is skipped
+    and the summary's ``interrupted`` is true (``vtrack train`` exits with 130).
     A ``run_dir`` that already holds a run is refused (``check_run_dir``) unless ``overwrite``, which deletes
     that run's files (``previous_run_files``, nothing else) once every setting has been checked.
     """
@@ -388,27 +392,43 @@ def train(algo: str, env_id: str | None = None, timesteps: int = 1_000_000, seed
     callbacks = _make_callbacks(run_dir, vecnorm, timesteps, eval_freq, case1_max_steps, case1_full_every,
                                 progress_bar, env_id, command, seed, warm_start, venv.venv)
     t0 = time.perf_counter()
-    if bc is not None:
-        _behaviour_clone(model, venv, vecnorm, bc, seed, run_dir)
-        if eval_freq > 0:
-            callbacks[0].init_callback(model)
-            callbacks[0].run()
-    log.info("training %s for %d steps", type(model).__name__, timesteps)
-    model.learn(total_timesteps=timesteps, callback=callbacks)
+    interrupted = ""
+    try:
+        if bc is not None:
+            interrupted = "warm start"
+            _behaviour_clone(model, venv, vecnorm, bc, seed, run_dir)
+            if eval_freq > 0:
+                callbacks[0].init_callback(model)
+                callbacks[0].run()
+        interrupted = "learning"
+        log.info("training %s for %d steps", type(model).__name__, timesteps)
+        model.learn(total_timesteps=timesteps, callback=callbacks)
+        interrupted = ""
+    except KeyboardInterrupt:  # Ctrl+C: keep the model as it is (saved and exported below), skip the final eval
+        for cb in callbacks:
+            if getattr(cb, "bar", None) is not None:
+                cb.bar.close()
+        log.warning("interrupted during the %s at %d timesteps: saving the model and exporting the agent as they "
+                    "are", interrupted, model.num_timesteps)
     train_s = time.perf_counter() - t0
     vecnorm.training = False
+    config.update(timesteps_done=int(model.num_timesteps), interrupted=bool(interrupted))
+    if interrupted:
+        config["interrupted_during"] = interrupted
+    write_atomic(run_dir / "config.json", json.dumps(config, indent=2, sort_keys=True) + "\n")
     model.save(run_dir / "model.zip")
     vecnorm.save(str(run_dir / "vecnormalize.pkl"))
     sign_run(run_dir)  # lets `vtrack export --run-dir` unpickle this run's files without --trust
     agent_json, _ = export(model, vecnorm, run_dir / "agent", env_id=env_id, command=command, seed=seed,
                            warm_start=warm_start, env=venv.venv)
     final = None
-    if final_eval:
+    if final_eval and not interrupted:
         callbacks[0].run(final=True)
         lines = (run_dir / "evaluations.jsonl").read_text(encoding="utf-8").strip().splitlines()
         final = json.loads(lines[-1])["results"]
     summary = {"run_dir": str(run_dir), "timesteps": int(model.num_timesteps), "train_s": round(train_s, 1),
-               "agent": str(agent_json), "final_eval": final, "model": model, "vecnormalize": vecnorm}
+               "agent": str(agent_json), "final_eval": final, "interrupted": bool(interrupted),
+               "model": model, "vecnormalize": vecnorm}
     venv.close()
     return summary
 

@@ -105,3 +105,25 @@ def test_ctrl_c_saves_and_exports_the_model_as_it_is(tmp_path: Path, monkeypatch
                  *PPO_SMALL]) == 0
     done = json.loads((tmp_path / "done" / "config.json").read_text())
     assert done["interrupted"] is False and done["timesteps_done"] == 64
+
+
+@pytest.mark.parametrize("algo,settings,reason", [
+    ("sac", ["use_sde=true"], "clip_mean=0"),
+    ("ppo", ["use_sde=true", "policy_kwargs={squash_output: true}"], "squash_output"),
+    ("ppo", ["policy_kwargs={net_arch: [0]}"], "hidden_sizes[0] must be an integer in [1, 4096]"),
+    ("sac", ["policy_kwargs={net_arch: [0]}"], "hidden_sizes[0] must be an integer in [1, 4096]"),
+    ("ppo", ["policy=CnnPolicy"], "policy must be MlpPolicy"),
+])
+def test_unexportable_settings_are_refused_before_training(algo: str, settings: list[str], reason: str,
+                                                           tmp_path: Path,
+                                                           capsys: pytest.CaptureFixture[str]) -> None:
+    """Settings whose agent `vtrack export` cannot write are refused with the reason before learning (exit 2),
+    and nothing is written."""
+    run = tmp_path / "run"
+    argv = ["train", "--algo", algo, "--timesteps", "64", "--run-dir", str(run), *FAST]
+    for item in settings:
+        argv += ["--set", item]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert reason in err and "INFO training" not in err
+    assert not run.exists()

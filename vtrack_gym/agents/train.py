@@ -337,7 +337,9 @@ def train(algo: str, env_id: str | None = None, timesteps: int = 1_000_000, seed
               "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
 
     n_envs = int(params.pop("n_envs", 8))
-    params.pop("policy", "MlpPolicy")
+    policy = params.pop("policy", "MlpPolicy")
+    if policy != "MlpPolicy":  # SB3 would accept CnnPolicy etc., which the agent format cannot hold
+        raise ValueError(f"policy must be MlpPolicy, the only policy an agent file can hold (got {policy!r})")
     norm_kwargs = dict(params.pop("normalize", {}) or {})
     noise_std = params.pop("action_noise_std", None)
     obs_scaling = params.pop("obs_scaling", "running")
@@ -374,6 +376,7 @@ def train(algo: str, env_id: str | None = None, timesteps: int = 1_000_000, seed
         venv.close()
         raise
     try:
+        _check_exportable(model, vecnorm, venv.venv, algo)  # before learning, not after hours of it
         _clear_previous_run(run_dir, overwrite)
     except ValueError:
         venv.close()
@@ -431,6 +434,24 @@ def train(algo: str, env_id: str | None = None, timesteps: int = 1_000_000, seed
                "model": model, "vecnormalize": vecnorm}
     venv.close()
     return summary
+
+
+def _check_exportable(model: Any, vecnorm: Any, contract_env: Any, algo: str) -> None:
+    """``ValueError`` with the reason if ``model`` (freshly built) would make an agent that ``export`` or
+    ``load_agent`` refuses (gSDE's clipped SAC mean, PPO's squash_output, an empty or too wide layer, ...):
+    a dry-run export into a temporary folder, loaded back. Nothing is written to the run folder."""
+    import tempfile
+
+    from vtrack_gym.agents.export import export
+    from vtrack_gym.baselines.numpy_policy import load_agent
+
+    with tempfile.TemporaryDirectory(prefix="vtrack-export-check-") as tmp:
+        try:
+            export(model, vecnorm, Path(tmp) / "agent", env=contract_env)
+            load_agent(Path(tmp) / "agent")
+        except ValueError as exc:
+            raise ValueError(f"{algo} hyperparameters (vtrack_gym/agents/hyperparams/{algo}.yaml and --set) make "
+                             f"an agent that cannot be exported: {exc}; nothing was trained or written") from None
 
 
 def _behaviour_clone(model: Any, venv: Any, vecnorm: Any, bc: Any, seed: int, run_dir: Path) -> None:

@@ -15,7 +15,7 @@ torch.set_num_threads(1)
 
 from vtrack_gym.cli import main  # noqa: E402
 
-FAST = ["--num-envs", "2", "--eval-freq", "0", "--no-progress", "--no-final-eval"]
+FAST = ["--num-envs", "2", "--eval-freq", "0", "--no-progress", "--no-final-eval", "--set", "batch_size=64"]
 """Options of a smoke-size CLI run (2 cars, no evaluation)."""
 PPO_SMALL = ["--set", "n_steps=32", "--set", "batch_size=64", "--set", "n_epochs=1"]
 """PPO hyperparameters of a smoke-size run (64 transitions per rollout with 2 cars)."""
@@ -127,3 +127,67 @@ def test_unexportable_settings_are_refused_before_training(algo: str, settings: 
     err = capsys.readouterr().err
     assert reason in err and "INFO training" not in err
     assert not run.exists()
+
+
+@pytest.mark.parametrize("algo,item,message", [
+    ("ppo", "gamma=0", "gamma must be a number in (0, 1]"),
+    ("sac", "gamma=1.5", "gamma must be a number in (0, 1]"),
+    ("ppo", "gamma=true", "gamma must be a number in (0, 1]"),
+    ("ppo", "gae_lambda=-0.1", "gae_lambda must be a number in [0, 1]"),
+    ("ppo", "clip_range=0", "clip_range must be a number > 0"),
+    ("ppo", "ent_coef=-0.01", "ent_coef must be a number >= 0"),
+    ("sac", "ent_coef=automatic", "ent_coef must be a number >= 0, 'auto' or 'auto_X'"),
+    ("sac", "tau=0", "tau must be a number in (0, 1]"),
+    ("td3", "tau=2", "tau must be a number in (0, 1]"),
+    ("sac", "train_freq=0", "train_freq must be an integer in [1,"),
+    ("sac", "batch_size=0", "batch_size must be an integer in [1, 131072] (buffer_size = 1000000"),
+    ("sac", "buffer_size=100", "batch_size must be an integer in [1, 100] (buffer_size = 100"),
+    ("ppo", "batch_size=1", "batch_size must be an integer in [2, 512] (n_steps x n_envs = 256 x 2 = 512"),
+    ("ppo", "batch_size=4096", "--set batch_size=N, or more --num-envs or n_steps"),
+    ("ppo", "batch_size=1.5", "batch_size must be an integer in [2, 512]"),
+    ("td3", "learning_starts=-1", "learning_starts must be an integer in [0,"),
+])
+def test_out_of_range_hyperparameters_are_refused(algo: str, item: str, message: str, tmp_path: Path,
+                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    """Values that crash SB3 or train nonsense are refused before anything is written, naming key and range."""
+    run = tmp_path / "run"
+    argv = ["train", "--algo", algo, "--timesteps", "64", "--run-dir", str(run), "--num-envs", "2", "--eval-freq",
+            "0", "--no-progress", "--no-final-eval", "--set", item]
+    if "batch_size" not in item and "buffer_size" not in item:
+        argv += ["--set", "batch_size=64"]
+    assert main(argv) == 2
+    assert message in capsys.readouterr().err
+    assert not run.exists()
+
+
+def test_timesteps_rounding_and_learning_starts_are_reported(tmp_path: Path,
+                                                             caplog: pytest.LogCaptureFixture) -> None:
+    """PPO's whole rollouts: the real number of steps is recorded and said; SAC/TD3 with learning_starts >=
+    --timesteps warn that the agent is never updated."""
+    run = tmp_path / "ppo"
+    with caplog.at_level("WARNING", logger="vtrack_gym"):
+        assert main(["train", "--algo", "ppo", "--timesteps", "100", "--run-dir", str(run), *FAST, *PPO_SMALL]) == 0
+    assert "--timesteps 100 becomes 128" in caplog.text
+    config = json.loads((run / "config.json").read_text())
+    assert config["timesteps"] == 100 and config["timesteps_effective"] == 128 and config["timesteps_done"] == 128
+    assert any("becomes 128" in w for w in config["warnings"])
+    caplog.clear()
+    with caplog.at_level("WARNING", logger="vtrack_gym"):
+        assert main(["train", "--algo", "td3", "--timesteps", "64", "--run-dir", str(tmp_path / "td3"), *FAST,
+                     "--set", "buffer_size=1000", "--set", "policy_kwargs={net_arch: [8]}"]) == 0
+    assert "learning_starts = 10000 >= --timesteps 64: the agent will never be updated" in caplog.text
+
+
+def test_shipped_hyperparameters_pass_the_checks() -> None:
+    """Every recipe of the hyperparameter files (and its warm-start variant) is within the checked ranges."""
+    import yaml
+
+    from vtrack_gym.agents.train import ALGOS, HYPERPARAMS_DIR, check_hyperparams, load_hyperparams
+
+    for algo in ALGOS:
+        for env_id in (k for k in yaml.safe_load((HYPERPARAMS_DIR / f"{algo}.yaml").read_text()) if k != "version"):
+            params, _ = load_hyperparams(algo, env_id)
+            finetune = params.pop("bc_finetune", None) or {}
+            for variant in (params, {**params, **finetune}):
+                notes = check_hyperparams(algo, variant, variant["n_envs"], 2**22)
+                assert notes["timesteps_effective"] == 2**22 and not notes["warnings"], (algo, env_id)

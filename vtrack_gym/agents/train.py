@@ -8,8 +8,10 @@ hyperparameters of ``vtrack_gym/agents/hyperparams/<algo>.yaml`` for ``env_id`` 
 The run folder holds:
 
 * ``config.json``: algo, env id, hyperparameters (+ their file version), overrides, seed, timesteps, command,
-  package / SB3 / torch versions, start time; at the end ``timesteps_done`` (the steps actually trained) and
-  ``interrupted`` (true if Ctrl+C stopped the run early, with ``interrupted_during``: warm start or learning)
+  package / SB3 / torch versions, start time, ``timesteps_effective`` (``timesteps`` rounded up to whole PPO
+  rollouts or vector steps) and the warnings of ``check_hyperparams``; at the end ``timesteps_done`` (the steps
+  actually trained) and ``interrupted`` (true if Ctrl+C stopped the run early, with ``interrupted_during``: warm
+  start or learning)
 * ``logs/``: TensorBoard events if ``tensorboard`` is installed, else SB3's ``progress.csv`` (+ stdout log)
 * ``evaluations.jsonl``: one line per periodic evaluation (deterministic policy, seed 0, nonlinear plant) on
   the two paper scenarios. ``DLC120-v0`` (<= 3000 steps) runs in full every ``eval_freq`` steps;
@@ -120,6 +122,108 @@ def load_hyperparams(algo: str, env_id: str = DEFAULT_ENV_ID) -> tuple[dict[str,
     if not isinstance(params, dict):
         raise ValueError(f"{path}: entry {env_id!r} must be a mapping")
     return dict(params), int(data["version"])
+
+
+MAX_BATCH_SIZE = 2**17
+"""Largest ``batch_size`` [transitions] (beyond what fits a 2-core machine's memory and time budget)."""
+MAX_BUFFER_SIZE = 10**8
+"""Largest off-policy ``buffer_size`` [transitions]."""
+SB3_DEFAULTS = {"ppo": {"n_steps": 2048, "batch_size": 64},
+                "sac": {"buffer_size": 1_000_000, "batch_size": 256, "learning_starts": 100},
+                "td3": {"buffer_size": 1_000_000, "batch_size": 256, "learning_starts": 100}}
+"""SB3's defaults of the hyperparameters ``check_hyperparams`` relates to each other, when a set omits them."""
+
+
+def _number(key: str, value: Any, low: float, high: float, low_open: bool = False) -> float:
+    """``value`` as a float if it is a finite real number in [low, high] (``(low, high]`` if ``low_open``), else
+    ``ValueError`` naming the hyperparameter and its range."""
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and np.isfinite(value)
+    ok = ok and (value > low if low_open else value >= low) and value <= high
+    if not ok:
+        interval = f"{'(' if low_open else '['}{low:g}, {high:g}]" if np.isfinite(high) else \
+            f"{'> ' if low_open else '>= '}{low:g}"
+        raise ValueError(f"hyperparameter {key} must be a number {'in ' if np.isfinite(high) else ''}{interval} "
+                         f"(got {value!r})")
+    return float(value)
+
+
+def _integer(key: str, value: Any, low: int, high: int) -> int:
+    """``value`` if it is an int in [low, high], else ``ValueError`` naming the hyperparameter and its range."""
+    if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+        raise ValueError(f"hyperparameter {key} must be an integer in [{low}, {high}] (got {value!r})")
+    return value
+
+
+def _batch_size(value: Any, low: int, limit: int, limit_text: str, fix: str) -> None:
+    """``ValueError`` unless ``value`` is an int in [low, min(limit, MAX_BATCH_SIZE)]; the message says where
+    the upper end comes from (``limit_text``) and how to fix it."""
+    high = min(limit, MAX_BATCH_SIZE)
+    if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+        raise ValueError(f"hyperparameter batch_size must be an integer in [{low}, {high}] ({limit_text}, at most "
+                         f"{MAX_BATCH_SIZE}) (got {value!r}): {fix}")
+
+
+def check_hyperparams(algo: str, params: Mapping[str, Any], n_envs: Any, timesteps: int) -> dict[str, Any]:
+    """Refuse (``ValueError`` naming the key and its range) values that crash SB3 or train nonsense: ``gamma``
+    in (0, 1], ``gae_lambda`` in [0, 1], ``clip_range`` > 0, ``ent_coef`` >= 0 (SAC: or ``auto`` / ``auto_X``),
+    ``tau`` in (0, 1], ``train_freq`` >= 1, ``learning_starts`` >= 0, ``batch_size`` in [2, n_steps x n_envs]
+    (PPO) or [1, buffer_size] (SAC/TD3), at most ``MAX_BATCH_SIZE``. Returns notes for the run's config:
+    ``timesteps_effective`` (PPO trains whole rollouts of n_steps x n_envs transitions; SAC/TD3 whole vector
+    steps of n_envs) and warnings (SAC/TD3 ``learning_starts`` >= ``timesteps``: never updated)."""
+    p = {**SB3_DEFAULTS[algo], **params}
+    n_envs = _integer("n_envs", n_envs, 1, 4096)
+    if "gamma" in p:
+        _number("gamma", p["gamma"], 0.0, 1.0, low_open=True)
+    if "learning_starts" in p:
+        _integer("learning_starts", p["learning_starts"], 0, 10**12)
+    if algo == "ppo":
+        if "gae_lambda" in p:
+            _number("gae_lambda", p["gae_lambda"], 0.0, 1.0)
+        if "clip_range" in p and not isinstance(p["clip_range"], str):  # "lin_X": checked by _schedule
+            _number("clip_range", p["clip_range"], 0.0, float("inf"), low_open=True)
+        if "ent_coef" in p:
+            _number("ent_coef", p["ent_coef"], 0.0, float("inf"))
+        n_steps = _integer("n_steps", p["n_steps"], 1, 10**7)
+        rollout = n_steps * n_envs
+        if rollout < 2:
+            raise ValueError(f"hyperparameter n_steps x n_envs must be >= 2 (got {n_steps} x {n_envs})")
+        _batch_size(p["batch_size"], 2, rollout, f"n_steps x n_envs = {n_steps} x {n_envs} = {rollout}",
+                    "--set batch_size=N, or more --num-envs or n_steps")
+        chunk = rollout
+    else:
+        buffer_size = _integer("buffer_size", p["buffer_size"], 1, MAX_BUFFER_SIZE)
+        _batch_size(p["batch_size"], 1, buffer_size, f"buffer_size = {buffer_size}", "--set batch_size=N")
+        if "tau" in p:
+            _number("tau", p["tau"], 0.0, 1.0, low_open=True)
+        freq = p.get("train_freq", 1)
+        if isinstance(freq, (list, tuple)):
+            if len(freq) != 2 or freq[1] not in ("step", "episode"):
+                raise ValueError(f"hyperparameter train_freq must be an integer >= 1 or [N, step|episode] "
+                                 f"(got {freq!r})")
+            freq = freq[0]
+        _integer("train_freq", freq, 1, 10**9)
+        ent = p.get("ent_coef")
+        if algo == "sac" and ent is not None:
+            if isinstance(ent, str):
+                head, _, start = ent.partition("_")
+                try:
+                    ok = head == "auto" and (not start or float(start) > 0.0)
+                except ValueError:
+                    ok = False
+                if not ok:
+                    raise ValueError(f"hyperparameter ent_coef must be a number >= 0, 'auto' or 'auto_X' with "
+                                     f"X > 0 (got {ent!r})")
+            else:
+                _number("ent_coef", ent, 0.0, float("inf"))
+        chunk = n_envs
+    notes: dict[str, Any] = {"timesteps_effective": -(-timesteps // chunk) * chunk, "warnings": []}
+    if algo == "ppo" and notes["timesteps_effective"] != timesteps:
+        notes["warnings"].append(f"PPO trains whole rollouts of n_steps x n_envs = {chunk} transitions: "
+                                 f"--timesteps {timesteps} becomes {notes['timesteps_effective']}")
+    if algo != "ppo" and p["learning_starts"] >= timesteps:
+        notes["warnings"].append(f"learning_starts = {p['learning_starts']} >= --timesteps {timesteps}: the agent "
+                                 "will never be updated (it stays the random initial policy)")
+    return notes
 
 
 def _policy_kwargs(raw: Mapping[str, Any] | None) -> dict[str, Any]:
@@ -324,9 +428,13 @@ def train(algo: str, env_id: str | None = None, timesteps: int = 1_000_000, seed
         raise ValueError(f"{sorted(REGULARISED_SAC_KEYS & params.keys())} apply to --algo sac only")
     if num_envs is not None:
         params["n_envs"] = int(num_envs)
+    checked = check_hyperparams(algo, params, params.get("n_envs", 8), timesteps)
+    for warning in checked["warnings"]:
+        log.warning("%s", warning)
     run_dir = Path(run_dir)
     command = command if command is not None else shlex.join([Path(sys.argv[0]).name, *sys.argv[1:]])
     config = {"algo": algo, "env_id": env_id, "timesteps": timesteps, "seed": seed,
+              "timesteps_effective": checked["timesteps_effective"], "warnings": checked["warnings"],
               "hyperparams": json.loads(json.dumps(params)),
               "hyperparams_file": f"vtrack_gym/agents/hyperparams/{algo}.yaml", "hyperparams_version": hp_version,
               "overrides": dict(overrides or {}), "command": command, "package_version": __version__,

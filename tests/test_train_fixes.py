@@ -191,3 +191,46 @@ def test_shipped_hyperparameters_pass_the_checks() -> None:
             for variant in (params, {**params, **finetune}):
                 notes = check_hyperparams(algo, variant, variant["n_envs"], 2**22)
                 assert notes["timesteps_effective"] == 2**22 and not notes["warnings"], (algo, env_id)
+
+
+def test_export_model_checks_normalisation_algo_and_period(tmp_path: Path,
+                                                           capsys: pytest.CaptureFixture[str]) -> None:
+    """`vtrack export --model`: refused without --vecnormalize when a vecnormalize.pkl lies next to the model, a
+    mismatched --algo or a --vecnormalize that is not a VecNormalize pickle are clear errors (exit 2), the decision
+    period is --control-period-s or the env's own (said), and raw observations are said."""
+    import shutil
+
+    run = tmp_path / "run"
+    assert main(["train", "--algo", "ppo", "--timesteps", "64", "--run-dir", str(run), *FAST, *PPO_SMALL]) == 0
+    model = str(run / "model.zip")
+    base = ["export", "--trust", "--env", "vtrack/TrainingMix-v0"]
+    capsys.readouterr()
+    assert main([*base, "--model", model, "--algo", "ppo", "--out", str(tmp_path / "a")]) == 2
+    assert "vecnormalize.pkl next to it" in capsys.readouterr().err and not (tmp_path / "a.json").exists()
+    assert main([*base, "--model", model, "--algo", "sac", "--vecnormalize", str(run / "vecnormalize.pkl"),
+                 "--out", str(tmp_path / "a")]) == 2
+    assert "holds a PPO model, not --algo sac" in capsys.readouterr().err
+    assert main([*base, "--model", model, "--algo", "ppo", "--vecnormalize", model, "--out", str(tmp_path / "a")]) == 2
+    assert f"--vecnormalize {model} is not a VecNormalize pickle" in capsys.readouterr().err
+    not_zip = tmp_path / "junk.zip"
+    not_zip.write_bytes(b"not even a zip")
+    assert main([*base, "--model", str(not_zip), "--algo", "td3", "--out", str(tmp_path / "a")]) == 2
+    assert "not a loadable SB3 TD3 model" in capsys.readouterr().err
+
+    assert main([*base, "--model", model, "--algo", "ppo", "--vecnormalize", str(run / "vecnormalize.pkl"),
+                 "--control-period-s", "0.05", "--out", str(tmp_path / "a")]) == 0
+    assert "decision period" not in capsys.readouterr().err
+    a, ref = np.load(tmp_path / "a.npz"), np.load(run / "agent.npz")
+    assert all(np.array_equal(a[k], ref[k]) for k in ref.files)
+    assert json.loads((tmp_path / "a.json").read_text())["env"] == json.loads((run / "agent.json").read_text())["env"]
+
+    alone = tmp_path / "alone"
+    alone.mkdir()
+    shutil.copy(model, alone / "model.zip")
+    assert main([*base, "--model", str(alone / "model.zip"), "--algo", "ppo", "--out", str(tmp_path / "b")]) == 0
+    err = capsys.readouterr().err
+    assert "decision period 0.01 s, vtrack/TrainingMix-v0's own" in err and "takes raw observations" in err
+    spec = json.loads((tmp_path / "b.json").read_text())
+    assert spec["obs_norm"]["enabled"] is False and spec["env"]["control_period_s"] == pytest.approx(0.01)
+    assert main(["export", "--run-dir", str(run), "--control-period-s", "0.05", "--out", str(tmp_path / "c")]) == 2
+    assert "go with --model" in capsys.readouterr().err

@@ -217,6 +217,12 @@ def build_parser() -> argparse.ArgumentParser:
                     help="with --model: the VecNormalize statistics (vecnormalize.pkl) the model was trained with")
     ex.add_argument("--env", default="LateralTrackingRandom-v0",
                     help="with --model: the env whose contract the file records (default: %(default)s)")
+    ex.add_argument("--control-period-s", type=_float_in(1e-3, 1.0), default=None,
+                    help="with --model: the decision period [s] the model was trained at (e.g. 0.05 for the "
+                    "TrainingMix-v0 recipes; default: the --env's own, said on stderr)")
+    ex.add_argument("--raw-observations", action="store_true",
+                    help="with --model and no --vecnormalize: the model was trained on raw observations (skips "
+                    "the refusal when a vecnormalize.pkl lies next to it or its observation space looks scaled)")
     ex.add_argument("--out", type=Path, required=True, help="output path without suffix, e.g. agents/ppo_dlc")
 
     pl = sub.add_parser("plot", help="write the paper's figures for some policies",
@@ -926,8 +932,9 @@ def _cmd_export(args: argparse.Namespace) -> int:
     from vtrack_gym.agents.export import export_model, export_run
 
     if args.run_dir is not None:
-        if args.algo or args.vecnormalize:
-            raise ValueError("--algo and --vecnormalize go with --model; --run-dir reads them from the run")
+        if args.algo or args.vecnormalize or args.control_period_s is not None or args.raw_observations:
+            raise ValueError("--algo, --vecnormalize, --control-period-s and --raw-observations go with --model; "
+                             "--run-dir reads them from the run")
         json_path, npz_path = export_run(args.run_dir, args.out, trust=args.trust)
     else:
         if args.algo is None:
@@ -937,8 +944,18 @@ def _cmd_export(args: argparse.Namespace) -> int:
                              "--trust if you produced it or trust its source (or export a `vtrack train` run "
                              "folder of this machine with --run-dir)")
         _known_env(args.env)
+        if args.vecnormalize is not None and args.raw_observations:
+            raise ValueError("--raw-observations contradicts --vecnormalize: pass one of them")
+        env_kwargs = None if args.control_period_s is None else {"control_period_s": args.control_period_s}
         json_path, npz_path = export_model(args.model, args.out, args.algo, args.vecnormalize, env_id=args.env,
-                                           command="vtrack export --model " + str(args.model))
+                                           command="vtrack export --model " + str(args.model), env_kwargs=env_kwargs,
+                                           raw_observations=args.raw_observations)
+        spec = json.loads(json_path.read_text(encoding="utf-8"))
+        if args.control_period_s is None and "env" in spec:
+            print(f"vtrack export: note: decision period {spec['env']['control_period_s']:g} s, {args.env}'s own "
+                  "(pass --control-period-s if the model was trained at another)", file=sys.stderr)
+        if args.vecnormalize is None:
+            print("vtrack export: note: the agent takes raw observations (no --vecnormalize)", file=sys.stderr)
     print(json.dumps({"json": str(json_path), "npz": str(npz_path)}))
     return 0
 

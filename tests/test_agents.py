@@ -286,7 +286,7 @@ def test_module_cli_records_command(tmp_path, capsys):
     from vtrack_gym.cli import main
 
     argv = ["train", "--algo", "ppo", "--timesteps", "512", "--num-envs", "2", "--eval-freq", "0", "--run-dir",
-            str(tmp_path), "--no-progress", "--no-final-eval"]
+            str(tmp_path), "--no-progress", "--no-final-eval", "--set", "batch_size=256"]
     assert main(argv) == 0
     config = json.loads((tmp_path / "config.json").read_text())
     assert config["command"].startswith("vtrack train --algo ppo")  # recorded as the CLI command

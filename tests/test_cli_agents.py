@@ -15,7 +15,7 @@ from vtrack_gym.cli import main
 def test_train_export_eval_agent_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     run = tmp_path / "run"
     assert main(["train", "--algo", "ppo", "--timesteps", "512", "--num-envs", "2", "--eval-freq", "0",
-                 "--run-dir", str(run), "--no-progress", "--no-final-eval"]) == 0
+                 "--run-dir", str(run), "--no-progress", "--no-final-eval", "--set", "batch_size=256"]) == 0
     assert main(["export", "--run-dir", str(run), "--out", str(tmp_path / "exported")]) == 0
     a = np.load(run / "agent.npz", allow_pickle=False)
     b = np.load(tmp_path / "exported.npz", allow_pickle=False)
@@ -37,6 +37,7 @@ def test_train_set_overrides_hyperparameters(tmp_path: Path, capsys: pytest.Capt
     run = tmp_path / "run"
     assert main(["train", "--algo", "ppo", "--timesteps", "256", "--num-envs", "2", "--eval-freq", "0",
                  "--run-dir", str(run), "--no-progress", "--no-final-eval", "--set", "n_steps=128",
+                 "--set", "batch_size=128",
                  "--set", "policy_kwargs={net_arch: {pi: [8], vf: [8]}, activation_fn: relu}",
                  "--set", "max_grad_norm=null", "--set", "learning_rate=3e-5"]) == 0
     config = json.loads((run / "config.json").read_text())
@@ -49,7 +50,8 @@ def test_train_set_overrides_hyperparameters(tmp_path: Path, capsys: pytest.Capt
            "no_such_option=1": "ppo hyperparameters", "clip_range=abc": "clip_range must be a number or 'lin_X'"}
     for item, message in bad.items():
         assert main(["train", "--algo", "ppo", "--timesteps", "64", "--num-envs", "2", "--eval-freq", "0",
-                     "--run-dir", str(tmp_path / "bad"), "--no-progress", "--no-final-eval", "--set", item]) == 2
+                     "--run-dir", str(tmp_path / "bad"), "--no-progress", "--no-final-eval", "--set", "batch_size=64",
+                     "--set", item]) == 2
         assert message in capsys.readouterr().err, item
     assert main(["train", "--algo", "sac", "--timesteps", "64", "--run-dir", str(tmp_path / "bad"),
                  "--bc-dagger-rounds", "3"]) == 2

@@ -30,9 +30,6 @@ DEFAULT_PLOTS_DIR = DEFAULT_RESULTS_DIR / "plots"
 
 MAX_SEED = 2**63 - 1
 """Largest seed of ``--seeds`` (the store keeps seeds as SQLite INTEGER, a signed 64-bit number)."""
-RUN_FILES = ("config.json", "model.zip", "vecnormalize.pkl", "best_model.zip", "agent.json", "agent.npz",
-             "best_agent.json", "best_agent.npz", "bc.json", "evaluations.jsonl", "vtrack-train.sig")
-"""Files ``vtrack train`` writes into ``--run-dir`` (each must be absent or a regular file)."""
 MAX_SEEDS = 10_000
 """Most seeds one ``vtrack eval`` runs."""
 MAX_FIGURE_BYTES = 32 * 2**20
@@ -173,7 +170,11 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--timesteps", type=_int_in(1, 10**10), default=1_000_000,
                     help="environment steps (default: %(default)s)")
     tr.add_argument("--seed", type=_int_in(0, MAX_RNG_SEED), default=0, help="training seed (default: 0)")
-    tr.add_argument("--run-dir", type=Path, required=True, help="folder for config, logs, checkpoints and the agent")
+    tr.add_argument("--run-dir", type=Path, required=True, help="folder for config, logs, checkpoints and the agent "
+                    "(a folder that already holds a run is refused, see --overwrite)")
+    tr.add_argument("--overwrite", action="store_true",
+                    help="--run-dir holds an earlier run: delete that run's files (only those `vtrack train` writes) "
+                    "once the settings are checked, then train")
     tr.add_argument("--num-envs", type=_int_in(1, 4096), default=None,
                     help="parallel cars (default: from the hyperparameters)")
     tr.add_argument("--eval-freq", type=_int_in(0, 10**10), default=100_000,
@@ -216,6 +217,12 @@ def build_parser() -> argparse.ArgumentParser:
                     help="with --model: the VecNormalize statistics (vecnormalize.pkl) the model was trained with")
     ex.add_argument("--env", default="LateralTrackingRandom-v0",
                     help="with --model: the env whose contract the file records (default: %(default)s)")
+    ex.add_argument("--control-period-s", type=_float_in(1e-3, 1.0), default=None,
+                    help="with --model: the decision period [s] the model was trained at (e.g. 0.05 for the "
+                    "TrainingMix-v0 recipes; default: the --env's own, said on stderr)")
+    ex.add_argument("--raw-observations", action="store_true",
+                    help="with --model and no --vecnormalize: the model was trained on raw observations (skips "
+                    "the refusal when a vecnormalize.pkl lies next to it or its observation space looks scaled)")
     ex.add_argument("--out", type=Path, required=True, help="output path without suffix, e.g. agents/ppo_dlc")
 
     pl = sub.add_parser("plot", help="write the paper's figures for some policies",
@@ -907,9 +914,15 @@ def _cmd_train(args: argparse.Namespace) -> int:
                     overrides=_parse_hyperparams(args.hyperparams),
                     eval_freq=args.eval_freq, case1_max_steps=args.case1_max_steps,
                     case1_full_every=args.case1_full_every, progress_bar=not args.no_progress, command=command,
-                    final_eval=not args.no_final_eval, bc=bc)
+                    final_eval=not args.no_final_eval, bc=bc, overwrite=args.overwrite)
     print(json.dumps({k: v for k, v in summary.items() if k not in ("model", "vecnormalize")}, indent=2,
                      default=str))
+    if summary.get("interrupted"):
+        print(f"vtrack train: interrupted at {summary['timesteps']} timesteps; the model as it was is saved in "
+              f"{args.run_dir}/model.zip and exported to {summary['agent']} (config.json: interrupted: true). "
+              f"`vtrack eval --policy {summary['agent']}` evaluates it, `vtrack export --run-dir {args.run_dir}` "
+              "re-exports it", file=sys.stderr)
+        return 130
     return 0
 
 
@@ -919,8 +932,9 @@ def _cmd_export(args: argparse.Namespace) -> int:
     from vtrack_gym.agents.export import export_model, export_run
 
     if args.run_dir is not None:
-        if args.algo or args.vecnormalize:
-            raise ValueError("--algo and --vecnormalize go with --model; --run-dir reads them from the run")
+        if args.algo or args.vecnormalize or args.control_period_s is not None or args.raw_observations:
+            raise ValueError("--algo, --vecnormalize, --control-period-s and --raw-observations go with --model; "
+                             "--run-dir reads them from the run")
         json_path, npz_path = export_run(args.run_dir, args.out, trust=args.trust)
     else:
         if args.algo is None:
@@ -930,8 +944,18 @@ def _cmd_export(args: argparse.Namespace) -> int:
                              "--trust if you produced it or trust its source (or export a `vtrack train` run "
                              "folder of this machine with --run-dir)")
         _known_env(args.env)
+        if args.vecnormalize is not None and args.raw_observations:
+            raise ValueError("--raw-observations contradicts --vecnormalize: pass one of them")
+        env_kwargs = None if args.control_period_s is None else {"control_period_s": args.control_period_s}
         json_path, npz_path = export_model(args.model, args.out, args.algo, args.vecnormalize, env_id=args.env,
-                                           command="vtrack export --model " + str(args.model))
+                                           command="vtrack export --model " + str(args.model), env_kwargs=env_kwargs,
+                                           raw_observations=args.raw_observations)
+        spec = json.loads(json_path.read_text(encoding="utf-8"))
+        if args.control_period_s is None and "env" in spec:
+            print(f"vtrack export: note: decision period {spec['env']['control_period_s']:g} s, {args.env}'s own "
+                  "(pass --control-period-s if the model was trained at another)", file=sys.stderr)
+        if args.vecnormalize is None:
+            print("vtrack export: note: the agent takes raw observations (no --vecnormalize)", file=sys.stderr)
     print(json.dumps({"json": str(json_path), "npz": str(npz_path)}))
     return 0
 
@@ -948,9 +972,12 @@ def _check_outputs(args: argparse.Namespace) -> None:
     if cmd == "plot":
         check_output_dir(args.out, "--out")
     if cmd == "train":
+        from vtrack_gym.agents.train import RUN_FILES, check_run_dir
+
         check_output_dir(args.run_dir, "--run-dir")
-        for name in RUN_FILES:
+        for name in RUN_FILES:  # each must be absent or a regular file
             check_output_file(args.run_dir / name, "--run-dir")
+        check_run_dir(args.run_dir, args.overwrite)  # refused before any work; removed by train() with --overwrite
     if cmd == "export":
         for suffix in (".json", ".npz"):
             check_output_file(args.out.parent / (args.out.name + suffix), "--out")

@@ -166,14 +166,55 @@ def training_env_kwargs(raw: dict[str, Any] | None) -> dict[str, Any]:
     return kwargs
 
 
+_POLICY_MODULES = {"stable_baselines3.common.policies": "ppo", "stable_baselines3.ppo.policies": "ppo",
+                   "stable_baselines3.sac.policies": "sac", "stable_baselines3.td3.policies": "td3"}
+"""Module of an SB3 zip's ``policy_class`` -> the algorithm that saved it."""
+
+
+def zip_algo(model_zip: str | Path) -> str | None:
+    """The algorithm (ppo/sac/td3) whose policy an SB3 ``model.zip`` holds, read from its JSON ``data`` member
+    (no unpickling); None if the file does not say."""
+    import json
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(model_zip) as zf:
+            info = zf.getinfo("data")
+            if info.file_size > 16 << 20:
+                return None
+            data = json.loads(zf.read(info))
+    except (OSError, KeyError, ValueError, zipfile.BadZipFile, RecursionError):
+        return None
+    policy = data.get("policy_class") if isinstance(data, dict) else None
+    return _POLICY_MODULES.get(policy.get("__module__", "")) if isinstance(policy, dict) else None
+
+
+def _looks_normalised(model_space: Any, env_space: Any) -> bool:
+    """True if ``model_space`` (a model's observation space) is a symmetric constant box unlike the env's raw
+    observation space: the model was trained on scaled observations (e.g. VecNormalize's clipped range)."""
+    low, high = getattr(model_space, "low", None), getattr(model_space, "high", None)
+    if low is None or high is None or not np.all(np.isfinite(high)) or np.shape(low) != np.shape(env_space.low):
+        return False
+    symmetric = np.allclose(low, -high) and np.allclose(high, np.ravel(high)[0])
+    return bool(symmetric and not (np.allclose(low, env_space.low) and np.allclose(high, env_space.high)))
+
+
 def export_model(model_zip: str | Path, out: str | Path, algo: str, vecnormalize_pkl: str | Path | None = None, *,
                  env_id: str = "LateralTrackingRandom-v0", command: str = "",
-                 seed: int | None = None, env_kwargs: dict[str, Any] | None = None) -> tuple[Path, Path]:
+                 seed: int | None = None, env_kwargs: dict[str, Any] | None = None,
+                 raw_observations: bool | None = None) -> tuple[Path, Path]:
     """Export an SB3 ``model.zip`` (``algo`` ppo/sac/td3) and optionally its ``VecNormalize`` pickle to
     ``<out>.json`` + ``<out>.npz``, recording the contract (observation layout, control period, action scaling) of
     ``env_id`` made with ``env_kwargs`` (e.g. the training ``control_period_s``). SB3's files are pickle-based:
     only export models you produced or trust.
+
+    Without ``vecnormalize_pkl`` the agent takes raw observations. ``raw_observations`` None: that is refused
+    (``ValueError``) when a ``vecnormalize.pkl`` lies next to the model or the model's observation space looks
+    normalised; True: the caller vouches the model was trained on raw observations. A model of another
+    algorithm than ``algo`` and a ``vecnormalize_pkl`` that is not a VecNormalize pickle are ``ValueError``.
     """
+    import pickle
+
     from stable_baselines3 import PPO, SAC, TD3
     from stable_baselines3.common.vec_env import VecNormalize
 
@@ -185,13 +226,44 @@ def export_model(model_zip: str | Path, out: str | Path, algo: str, vecnormalize
     model_zip = Path(model_zip)
     if not model_zip.is_file():
         raise ValueError(f"{model_zip}: SB3 model file not found")
-    model = classes[algo].load(model_zip, device="cpu")
+    saved_by = zip_algo(model_zip)
+    if saved_by is not None and saved_by != algo:
+        raise ValueError(f"--model {model_zip} holds a {saved_by.upper()} model, not --algo {algo}: pass --algo "
+                         f"{saved_by}")
+    if vecnormalize_pkl is None and not raw_observations and (model_zip.parent / "vecnormalize.pkl").is_file():
+        raise ValueError(f"--model {model_zip} has a vecnormalize.pkl next to it: the model was probably trained "
+                         f"on normalised observations. Pass --vecnormalize {model_zip.parent / 'vecnormalize.pkl'} "
+                         "(or --raw-observations if it really takes raw observations)")
+    try:
+        model = classes[algo].load(model_zip, device="cpu")
+    except (KeyboardInterrupt, MemoryError):
+        raise
+    except Exception as exc:  # SB3 fails with whatever the mismatch trips over (AttributeError, TypeError, ...)
+        raise ValueError(f"--model {model_zip}: not a loadable SB3 {algo.upper()} model (--algo {algo}): "
+                         f"{type(exc).__name__}: {exc}"[:600]) from None
     vecnorm = None
     if vecnormalize_pkl is not None:
         if not Path(vecnormalize_pkl).is_file():
             raise ValueError(f"{vecnormalize_pkl}: VecNormalize file not found")
-        vecnorm = VecNormalize.load(str(vecnormalize_pkl), TrackingSB3VecEnv(env_id or "DLC120-v0", 1))
+        try:
+            vecnorm = VecNormalize.load(str(vecnormalize_pkl), TrackingSB3VecEnv(env_id or "DLC120-v0", 1))
+        except (KeyboardInterrupt, MemoryError):
+            raise
+        except (pickle.UnpicklingError, EOFError, AttributeError, TypeError, ValueError, ImportError,
+                IndexError, KeyError, AssertionError) as exc:
+            raise ValueError(f"--vecnormalize {vecnormalize_pkl} is not a VecNormalize pickle (vecnormalize.pkl "
+                             f"of the training run) for {env_id or 'DLC120-v0'}: {type(exc).__name__}: "
+                             f"{exc}"[:600]) from None
+        if not isinstance(vecnorm, VecNormalize):
+            raise ValueError(f"--vecnormalize {vecnormalize_pkl} is not a VecNormalize pickle")
         vecnorm.training = False
+    elif not raw_observations and env_id:
+        import gymnasium as gym
+
+        if _looks_normalised(model.observation_space, gym.make(env_id).observation_space):
+            raise ValueError(f"--model {model_zip} takes observations in a symmetric box unlike {env_id}'s raw "
+                             "ones: it was probably trained on normalised observations. Pass --vecnormalize "
+                             "V.pkl (or --raw-observations if it really takes raw observations)")
     contract = None
     if env_id and env_kwargs:
         import gymnasium as gym

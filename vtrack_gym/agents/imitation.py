@@ -12,7 +12,8 @@ then RL improves it on the env's reward:
    expert recovers from them (noise injection, as in DART); the label is always the expert's own action.
    ``dagger_rounds`` further rounds are driven by the cloned agent itself and labelled by the expert (DAgger),
    so the data also hold the states the clone's own errors lead to; the fit runs on the aggregate.
-2. ``warm_start``: the observation normalisation is set from the data; the actor's mean is regressed on the
+2. ``warm_start``: running observation statistics are set from the data (fixed physical scales,
+   ``obs_scaling: fixed``, are kept as they are: ``obs_scaling.FrozenStatistics``); the actor's mean is regressed on the
    expert's actions (MSE, normalised observations); PPO's value function is regressed on the discounted returns
    of the last round's data (VecNormalize's return statistics set from the same data); the exploration std is
    set to ``exp(init_log_std)``. For SAC the data go into its replay buffer (``prefill_replay_buffer``) and the
@@ -137,6 +138,12 @@ def discounted_returns(reward: np.ndarray, done: np.ndarray, gamma: float) -> np
 
 
 def _set_obs_statistics(vecnorm: Any, obs: np.ndarray) -> None:
+    """Set ``vecnorm``'s running observation statistics to the mean and variance of ``obs`` (raw, SI units);
+    frozen fixed scales (``obs_scaling.FrozenStatistics``) are left unchanged, so the agent keeps them."""
+    from vtrack_gym.agents.obs_scaling import FrozenStatistics
+
+    if isinstance(vecnorm.obs_rms, FrozenStatistics):
+        return
     flat = obs.reshape(-1, obs.shape[-1]).astype(np.float64)
     vecnorm.obs_rms.mean = flat.mean(axis=0)
     vecnorm.obs_rms.var = flat.var(axis=0)
@@ -207,7 +214,8 @@ def labelled_states(rounds: list[ExpertData]) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _clone(model: Any, vecnorm: Any, rounds: list[ExpertData], config: BCConfig, seed: int) -> float:
-    """Fit the actor to the expert labels of all ``rounds`` (observation statistics from the same data)."""
+    """Fit the actor to the expert labels of all ``rounds`` (running observation statistics from the same data;
+    fixed scales are kept)."""
     import torch
 
     obs, label = labelled_states(rounds)

@@ -8,7 +8,10 @@ hyperparameters of ``vtrack_gym/agents/hyperparams/<algo>.yaml`` for ``env_id`` 
 The run folder holds:
 
 * ``config.json``: algo, env id, hyperparameters (+ their file version), overrides, seed, timesteps, command,
-  package / SB3 / torch versions, start time
+  package / SB3 / torch versions, start time, ``timesteps_effective`` (``timesteps`` rounded up to whole PPO
+  rollouts or vector steps) and the warnings of ``check_hyperparams``; at the end ``timesteps_done`` (the steps
+  actually trained) and ``interrupted`` (true if Ctrl+C stopped the run early, with ``interrupted_during``: warm
+  start or learning)
 * ``logs/``: TensorBoard events if ``tensorboard`` is installed, else SB3's ``progress.csv`` (+ stdout log)
 * ``evaluations.jsonl``: one line per periodic evaluation (deterministic policy, seed 0, nonlinear plant) on
   the two paper scenarios. ``DLC120-v0`` (<= 3000 steps) runs in full every ``eval_freq`` steps;
@@ -53,6 +56,50 @@ REGULARISED_SAC_KEYS = frozenset({"bc_weight", "temporal_smoothness", "spatial_s
 HYPERPARAMS_DIR = Path(__file__).with_name("hyperparams")
 EVAL_ENV_IDS = ("DLC120-v0", "LateralTracking-v0")
 _ACTIVATIONS = ("tanh", "relu")
+RUN_FILES = ("config.json", "model.zip", "vecnormalize.pkl", "best_model.zip", "agent.json", "agent.npz",
+             "best_agent.json", "best_agent.npz", "bc.json", "evaluations.jsonl", "vtrack-train.sig")
+"""Files ``train`` writes at the top of its run folder."""
+LOG_FILE_PATTERNS = ("progress.csv", "log.txt", "events.out.tfevents.*")
+"""Files SB3's logger writes into ``<run>/logs`` (CSV, text log, TensorBoard events)."""
+
+
+def previous_run_files(run_dir: str | Path) -> list[Path]:
+    """The files of an earlier ``train`` run in ``run_dir``: its ``RUN_FILES``, the logger's files in ``logs/``
+    (``LOG_FILE_PATTERNS``) and temporary files left by an interrupted atomic write. Nothing else."""
+    run = Path(run_dir)
+    if not run.is_dir():
+        return []
+    found = [run / name for name in RUN_FILES if (run / name).is_file() or (run / name).is_symlink()]
+    found += [f for name in RUN_FILES for f in run.glob(f".{name}.*.tmp") if f.is_file()]
+    logs = run / "logs"
+    if logs.is_dir() and not logs.is_symlink():
+        found += sorted(f for pattern in LOG_FILE_PATTERNS for f in logs.glob(pattern) if f.is_file())
+    return found
+
+
+def check_run_dir(run_dir: str | Path, overwrite: bool = False) -> list[Path]:
+    """``ValueError`` naming the folder if ``run_dir`` already holds a run and ``overwrite`` is false (mixing two
+    runs' evaluations, logs and checkpoints in one folder); returns the files ``--overwrite`` would remove."""
+    files = previous_run_files(run_dir)
+    if files and not overwrite:
+        names = ", ".join(str(f.relative_to(run_dir)) for f in files[:6]) + (", ..." if len(files) > 6 else "")
+        raise ValueError(f"--run-dir {run_dir} already holds a `vtrack train` run ({names}); train into a new "
+                         "folder, or pass --overwrite to delete that run's files first")
+    return files
+
+
+def _clear_previous_run(run_dir: Path, overwrite: bool) -> None:
+    """Remove the previous run's files (``previous_run_files``, only with ``overwrite``; else ``check_run_dir``
+    refuses), and ``logs/`` if that leaves it empty."""
+    files = check_run_dir(run_dir, overwrite)
+    for f in files:
+        f.unlink()
+    if files:
+        log.info("--overwrite: removed %d files of the previous run in %s", len(files), run_dir)
+        try:
+            (run_dir / "logs").rmdir()  # only if empty: anything else the user keeps there stays
+        except OSError:
+            pass
 
 
 def load_hyperparams(algo: str, env_id: str = DEFAULT_ENV_ID) -> tuple[dict[str, Any], int]:
@@ -75,6 +122,108 @@ def load_hyperparams(algo: str, env_id: str = DEFAULT_ENV_ID) -> tuple[dict[str,
     if not isinstance(params, dict):
         raise ValueError(f"{path}: entry {env_id!r} must be a mapping")
     return dict(params), int(data["version"])
+
+
+MAX_BATCH_SIZE = 2**17
+"""Largest ``batch_size`` [transitions] (beyond what fits a 2-core machine's memory and time budget)."""
+MAX_BUFFER_SIZE = 10**8
+"""Largest off-policy ``buffer_size`` [transitions]."""
+SB3_DEFAULTS = {"ppo": {"n_steps": 2048, "batch_size": 64},
+                "sac": {"buffer_size": 1_000_000, "batch_size": 256, "learning_starts": 100},
+                "td3": {"buffer_size": 1_000_000, "batch_size": 256, "learning_starts": 100}}
+"""SB3's defaults of the hyperparameters ``check_hyperparams`` relates to each other, when a set omits them."""
+
+
+def _number(key: str, value: Any, low: float, high: float, low_open: bool = False) -> float:
+    """``value`` as a float if it is a finite real number in [low, high] (``(low, high]`` if ``low_open``), else
+    ``ValueError`` naming the hyperparameter and its range."""
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and np.isfinite(value)
+    ok = ok and (value > low if low_open else value >= low) and value <= high
+    if not ok:
+        interval = f"{'(' if low_open else '['}{low:g}, {high:g}]" if np.isfinite(high) else \
+            f"{'> ' if low_open else '>= '}{low:g}"
+        raise ValueError(f"hyperparameter {key} must be a number {'in ' if np.isfinite(high) else ''}{interval} "
+                         f"(got {value!r})")
+    return float(value)
+
+
+def _integer(key: str, value: Any, low: int, high: int) -> int:
+    """``value`` if it is an int in [low, high], else ``ValueError`` naming the hyperparameter and its range."""
+    if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+        raise ValueError(f"hyperparameter {key} must be an integer in [{low}, {high}] (got {value!r})")
+    return value
+
+
+def _batch_size(value: Any, low: int, limit: int, limit_text: str, fix: str) -> None:
+    """``ValueError`` unless ``value`` is an int in [low, min(limit, MAX_BATCH_SIZE)]; the message says where
+    the upper end comes from (``limit_text``) and how to fix it."""
+    high = min(limit, MAX_BATCH_SIZE)
+    if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+        raise ValueError(f"hyperparameter batch_size must be an integer in [{low}, {high}] ({limit_text}, at most "
+                         f"{MAX_BATCH_SIZE}) (got {value!r}): {fix}")
+
+
+def check_hyperparams(algo: str, params: Mapping[str, Any], n_envs: Any, timesteps: int) -> dict[str, Any]:
+    """Refuse (``ValueError`` naming the key and its range) values that crash SB3 or train nonsense: ``gamma``
+    in (0, 1], ``gae_lambda`` in [0, 1], ``clip_range`` > 0, ``ent_coef`` >= 0 (SAC: or ``auto`` / ``auto_X``),
+    ``tau`` in (0, 1], ``train_freq`` >= 1, ``learning_starts`` >= 0, ``batch_size`` in [2, n_steps x n_envs]
+    (PPO) or [1, buffer_size] (SAC/TD3), at most ``MAX_BATCH_SIZE``. Returns notes for the run's config:
+    ``timesteps_effective`` (PPO trains whole rollouts of n_steps x n_envs transitions; SAC/TD3 whole vector
+    steps of n_envs) and warnings (SAC/TD3 ``learning_starts`` >= ``timesteps``: never updated)."""
+    p = {**SB3_DEFAULTS[algo], **params}
+    n_envs = _integer("n_envs", n_envs, 1, 4096)
+    if "gamma" in p:
+        _number("gamma", p["gamma"], 0.0, 1.0, low_open=True)
+    if "learning_starts" in p:
+        _integer("learning_starts", p["learning_starts"], 0, 10**12)
+    if algo == "ppo":
+        if "gae_lambda" in p:
+            _number("gae_lambda", p["gae_lambda"], 0.0, 1.0)
+        if "clip_range" in p and not isinstance(p["clip_range"], str):  # "lin_X": checked by _schedule
+            _number("clip_range", p["clip_range"], 0.0, float("inf"), low_open=True)
+        if "ent_coef" in p:
+            _number("ent_coef", p["ent_coef"], 0.0, float("inf"))
+        n_steps = _integer("n_steps", p["n_steps"], 1, 10**7)
+        rollout = n_steps * n_envs
+        if rollout < 2:
+            raise ValueError(f"hyperparameter n_steps x n_envs must be >= 2 (got {n_steps} x {n_envs})")
+        _batch_size(p["batch_size"], 2, rollout, f"n_steps x n_envs = {n_steps} x {n_envs} = {rollout}",
+                    "--set batch_size=N, or more --num-envs or n_steps")
+        chunk = rollout
+    else:
+        buffer_size = _integer("buffer_size", p["buffer_size"], 1, MAX_BUFFER_SIZE)
+        _batch_size(p["batch_size"], 1, buffer_size, f"buffer_size = {buffer_size}", "--set batch_size=N")
+        if "tau" in p:
+            _number("tau", p["tau"], 0.0, 1.0, low_open=True)
+        freq = p.get("train_freq", 1)
+        if isinstance(freq, (list, tuple)):
+            if len(freq) != 2 or freq[1] not in ("step", "episode"):
+                raise ValueError(f"hyperparameter train_freq must be an integer >= 1 or [N, step|episode] "
+                                 f"(got {freq!r})")
+            freq = freq[0]
+        _integer("train_freq", freq, 1, 10**9)
+        ent = p.get("ent_coef")
+        if algo == "sac" and ent is not None:
+            if isinstance(ent, str):
+                head, _, start = ent.partition("_")
+                try:
+                    ok = head == "auto" and (not start or float(start) > 0.0)
+                except ValueError:
+                    ok = False
+                if not ok:
+                    raise ValueError(f"hyperparameter ent_coef must be a number >= 0, 'auto' or 'auto_X' with "
+                                     f"X > 0 (got {ent!r})")
+            else:
+                _number("ent_coef", ent, 0.0, float("inf"))
+        chunk = n_envs
+    notes: dict[str, Any] = {"timesteps_effective": -(-timesteps // chunk) * chunk, "warnings": []}
+    if algo == "ppo" and notes["timesteps_effective"] != timesteps:
+        notes["warnings"].append(f"PPO trains whole rollouts of n_steps x n_envs = {chunk} transitions: "
+                                 f"--timesteps {timesteps} becomes {notes['timesteps_effective']}")
+    if algo != "ppo" and p["learning_starts"] >= timesteps:
+        notes["warnings"].append(f"learning_starts = {p['learning_starts']} >= --timesteps {timesteps}: the agent "
+                                 "will never be updated (it stays the random initial policy)")
+    return notes
 
 
 def _policy_kwargs(raw: Mapping[str, Any] | None) -> dict[str, Any]:
@@ -228,7 +377,8 @@ def train(algo: str, env_id: str | None = None, timesteps: int = 1_000_000, seed
           run_dir: str | Path = "vtrack_runs/run", *, num_envs: int | None = None,
           overrides: Mapping[str, Any] | None = None, eval_freq: int = 100_000, case1_max_steps: int | None = 3000,
           case1_full_every: int = 5, final_eval: bool = True, progress_bar: bool = True, verbose: int = 0,
-          torch_threads: int | None = 1, command: str | None = None, bc: Any = None) -> dict[str, Any]:
+          torch_threads: int | None = 1, command: str | None = None, bc: Any = None,
+          overwrite: bool = False) -> dict[str, Any]:
     """Train ``algo`` on ``env_id`` and write ``run_dir`` (see the module docstring). Returns a summary dict.
 
     ``overrides`` replace YAML entries (e.g. ``{"n_steps": 64}``; a value of ``None`` drops the entry);
@@ -240,6 +390,11 @@ def train(algo: str, env_id: str | None = None, timesteps: int = 1_000_000, seed
     ``bc_weight`` hyperparameter (SAC with ``bc`` only) selects ``RegularisedSAC``, whose actor loss keeps a
     behaviour-cloning term on the warm start's expert labels; so do ``temporal_smoothness`` /
     ``spatial_smoothness`` (SAC; CAPS-style terms on the deterministic action, see ``regularised_sac``).
+    On ``KeyboardInterrupt`` (Ctrl+C) during the warm start or learning, the model is saved and exported as it
+    is, ``config.json`` records ``interrupted: true`` and ``timesteps_done``, the final evaluation is skipped
+    and the summary's ``interrupted`` is true (``vtrack train`` exits with 130).
+    A ``run_dir`` that already holds a run is refused (``check_run_dir``) unless ``overwrite``, which deletes
+    that run's files (``previous_run_files``, nothing else) once every setting has been checked.
     """
     import stable_baselines3
     import torch
@@ -273,9 +428,13 @@ def train(algo: str, env_id: str | None = None, timesteps: int = 1_000_000, seed
         raise ValueError(f"{sorted(REGULARISED_SAC_KEYS & params.keys())} apply to --algo sac only")
     if num_envs is not None:
         params["n_envs"] = int(num_envs)
+    checked = check_hyperparams(algo, params, params.get("n_envs", 8), timesteps)
+    for warning in checked["warnings"]:
+        log.warning("%s", warning)
     run_dir = Path(run_dir)
     command = command if command is not None else shlex.join([Path(sys.argv[0]).name, *sys.argv[1:]])
     config = {"algo": algo, "env_id": env_id, "timesteps": timesteps, "seed": seed,
+              "timesteps_effective": checked["timesteps_effective"], "warnings": checked["warnings"],
               "hyperparams": json.loads(json.dumps(params)),
               "hyperparams_file": f"vtrack_gym/agents/hyperparams/{algo}.yaml", "hyperparams_version": hp_version,
               "overrides": dict(overrides or {}), "command": command, "package_version": __version__,
@@ -286,7 +445,9 @@ def train(algo: str, env_id: str | None = None, timesteps: int = 1_000_000, seed
               "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
 
     n_envs = int(params.pop("n_envs", 8))
-    params.pop("policy", "MlpPolicy")
+    policy = params.pop("policy", "MlpPolicy")
+    if policy != "MlpPolicy":  # SB3 would accept CnnPolicy etc., which the agent format cannot hold
+        raise ValueError(f"policy must be MlpPolicy, the only policy an agent file can hold (got {policy!r})")
     norm_kwargs = dict(params.pop("normalize", {}) or {})
     noise_std = params.pop("action_noise_std", None)
     obs_scaling = params.pop("obs_scaling", "running")
@@ -322,6 +483,12 @@ def train(algo: str, env_id: str | None = None, timesteps: int = 1_000_000, seed
     except ValueError:  # a value out of its range: nothing of the run folder is written or replaced
         venv.close()
         raise
+    try:
+        _check_exportable(model, vecnorm, venv.venv, algo)  # before learning, not after hours of it
+        _clear_previous_run(run_dir, overwrite)
+    except ValueError:
+        venv.close()
+        raise
     run_dir.mkdir(parents=True, exist_ok=True)
     write_atomic(run_dir / "config.json", json.dumps(config, indent=2, sort_keys=True) + "\n")
     try:
@@ -336,29 +503,63 @@ def train(algo: str, env_id: str | None = None, timesteps: int = 1_000_000, seed
     callbacks = _make_callbacks(run_dir, vecnorm, timesteps, eval_freq, case1_max_steps, case1_full_every,
                                 progress_bar, env_id, command, seed, warm_start, venv.venv)
     t0 = time.perf_counter()
-    if bc is not None:
-        _behaviour_clone(model, venv, vecnorm, bc, seed, run_dir)
-        if eval_freq > 0:
-            callbacks[0].init_callback(model)
-            callbacks[0].run()
-    log.info("training %s for %d steps", type(model).__name__, timesteps)
-    model.learn(total_timesteps=timesteps, callback=callbacks)
+    interrupted = ""
+    try:
+        if bc is not None:
+            interrupted = "warm start"
+            _behaviour_clone(model, venv, vecnorm, bc, seed, run_dir)
+            if eval_freq > 0:
+                callbacks[0].init_callback(model)
+                callbacks[0].run()
+        interrupted = "learning"
+        log.info("training %s for %d steps", type(model).__name__, timesteps)
+        model.learn(total_timesteps=timesteps, callback=callbacks)
+        interrupted = ""
+    except KeyboardInterrupt:  # Ctrl+C: keep the model as it is (saved and exported below), skip the final eval
+        for cb in callbacks:
+            if getattr(cb, "bar", None) is not None:
+                cb.bar.close()
+        log.warning("interrupted during the %s at %d timesteps: saving the model and exporting the agent as they "
+                    "are", interrupted, model.num_timesteps)
     train_s = time.perf_counter() - t0
     vecnorm.training = False
+    config.update(timesteps_done=int(model.num_timesteps), interrupted=bool(interrupted))
+    if interrupted:
+        config["interrupted_during"] = interrupted
+    write_atomic(run_dir / "config.json", json.dumps(config, indent=2, sort_keys=True) + "\n")
     model.save(run_dir / "model.zip")
     vecnorm.save(str(run_dir / "vecnormalize.pkl"))
     sign_run(run_dir)  # lets `vtrack export --run-dir` unpickle this run's files without --trust
     agent_json, _ = export(model, vecnorm, run_dir / "agent", env_id=env_id, command=command, seed=seed,
                            warm_start=warm_start, env=venv.venv)
     final = None
-    if final_eval:
+    if final_eval and not interrupted:
         callbacks[0].run(final=True)
         lines = (run_dir / "evaluations.jsonl").read_text(encoding="utf-8").strip().splitlines()
         final = json.loads(lines[-1])["results"]
     summary = {"run_dir": str(run_dir), "timesteps": int(model.num_timesteps), "train_s": round(train_s, 1),
-               "agent": str(agent_json), "final_eval": final, "model": model, "vecnormalize": vecnorm}
+               "agent": str(agent_json), "final_eval": final, "interrupted": bool(interrupted),
+               "model": model, "vecnormalize": vecnorm}
     venv.close()
     return summary
+
+
+def _check_exportable(model: Any, vecnorm: Any, contract_env: Any, algo: str) -> None:
+    """``ValueError`` with the reason if ``model`` (freshly built) would make an agent that ``export`` or
+    ``load_agent`` refuses (gSDE's clipped SAC mean, PPO's squash_output, an empty or too wide layer, ...):
+    a dry-run export into a temporary folder, loaded back. Nothing is written to the run folder."""
+    import tempfile
+
+    from vtrack_gym.agents.export import export
+    from vtrack_gym.baselines.numpy_policy import load_agent
+
+    with tempfile.TemporaryDirectory(prefix="vtrack-export-check-") as tmp:
+        try:
+            export(model, vecnorm, Path(tmp) / "agent", env=contract_env)
+            load_agent(Path(tmp) / "agent")
+        except ValueError as exc:
+            raise ValueError(f"{algo} hyperparameters (vtrack_gym/agents/hyperparams/{algo}.yaml and --set) make "
+                             f"an agent that cannot be exported: {exc}; nothing was trained or written") from None
 
 
 def _behaviour_clone(model: Any, venv: Any, vecnorm: Any, bc: Any, seed: int, run_dir: Path) -> None:

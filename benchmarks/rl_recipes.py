@@ -104,6 +104,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--timesteps", type=int, default=4_000_000)
     ap.add_argument("--eval-freq", type=int, default=250_000)
     ap.add_argument("--out", type=Path, default=Path("vtrack_runs/rl_recipes"))
+    ap.add_argument("--overwrite", action="store_true",
+                    help="replace earlier runs in --out (default: refuse a seed folder that holds a run)")
     ap.add_argument("--summarise", type=Path, nargs="*", default=None, metavar="RUN_DIR",
                     help="only tabulate these finished run folders (no training)")
     args = ap.parse_args(argv)
@@ -111,15 +113,22 @@ def main(argv: list[str] | None = None) -> int:
     if args.summarise:
         runs = list(args.summarise)
     else:
-        from vtrack_gym.agents.train import train
+        from vtrack_gym.agents.train import check_run_dir, train
 
+        seeds = [int(s) for s in args.seeds.split(",")]
+        for seed in seeds:  # every seed's folder checked before the first one trains (hours of work)
+            try:
+                check_run_dir(args.out / f"{args.algo}_s{seed}", args.overwrite)
+            except ValueError as exc:
+                ap.error(str(exc))
         runs = []
-        for seed in (int(s) for s in args.seeds.split(",")):
+        for seed in seeds:
             run = args.out / f"{args.algo}_s{seed}"
             summary = train(args.algo, "TrainingMix-v0", args.timesteps, seed, run, eval_freq=args.eval_freq,
-                            case1_full_every=0, command=f"vtrack train --algo {args.algo} --timesteps "
-                            f"{args.timesteps} --seed {seed} --run-dir {run} --eval-freq {args.eval_freq} "
-                            "--case1-full-every 0")
+                            case1_full_every=0, overwrite=args.overwrite,
+                            command=f"vtrack train --algo {args.algo} --timesteps {args.timesteps} --seed {seed} "
+                            f"--run-dir {run} --eval-freq {args.eval_freq} --case1-full-every 0"
+                            + (" --overwrite" if args.overwrite else ""))
             print(f"{run}: {summary['timesteps']} steps in {summary['train_s']} s", flush=True)
             runs.append(run)
     curves = {str(r): read_curve(r) for r in runs}

@@ -216,3 +216,22 @@ def test_sb3_vec_env_adapter() -> None:
     norm = VecNormalize(venv)
     norm.reset()
     norm.step(np.zeros((2, 1), dtype=np.float32))
+
+
+def test_sb3_vec_env_gives_each_car_its_own_set_options() -> None:
+    """``set_options`` per sub-env, as SB3 documents it (every car used sub-env 0's options), seeded like single
+    envs with s + i."""
+    import gymnasium as gym
+
+    from vtrack_gym.agents.sb3_vec_env import TrackingSB3VecEnv
+
+    venv = TrackingSB3VecEnv("DLC120-v0", num_envs=3)
+    venv.set_options([{"initial_lateral_offset_m": 1.0}, {"initial_lateral_offset_m": -1.0}, {}])
+    venv.seed(5)
+    obs = venv.reset()
+    np.testing.assert_allclose(obs[:, OBS.E_Y], [1.0, -1.0, 0.0], atol=1e-9)
+    for i, opts in enumerate([{"initial_lateral_offset_m": 1.0}, {"initial_lateral_offset_m": -1.0}, None]):
+        single, _ = gym.make("DLC120-v0").reset(seed=5 + i, options=opts)
+        np.testing.assert_array_equal(obs[i], single)
+    venv.set_options({"initial_lateral_offset_m": 0.5})        # one dict: every car
+    np.testing.assert_allclose(venv.reset()[:, OBS.E_Y], 0.5, atol=1e-9)

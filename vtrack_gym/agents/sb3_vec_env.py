@@ -31,8 +31,20 @@ class TrackingSB3VecEnv(VecEnv):
         self._pending_seed: int | None = None
 
     def reset(self) -> VecEnvObs:
+        """Reset every sub-env with its own ``set_options`` options (cars sharing options in one batched call)."""
         seed, self._pending_seed = self._pending_seed, None
-        obs, _ = self.venv.reset(seed=seed, options=self._options[0] if self._options and self._options[0] else None)
+        given = [dict(o) if o else {} for o in (self._options or [{}] * self.num_envs)]
+        groups: list[dict[str, Any]] = []
+        for o in given:
+            if o not in groups:
+                groups.append(o)
+        if len(groups) == 1:
+            obs, _ = self.venv.reset(seed=seed, options=groups[0] or None)
+        else:
+            for group in groups:
+                mask = np.array([o == group for o in given], dtype=bool)
+                seeds = None if seed is None else [seed + i if mask[i] else None for i in range(self.num_envs)]
+                obs, _ = self.venv.reset(seed=seeds, options={**group, "reset_mask": mask})
         self._reset_seeds()
         self._reset_options()
         return obs

@@ -85,6 +85,7 @@ class ExpertData:
     done: np.ndarray
     next_obs: np.ndarray
     terminations: dict[str, int]
+    truncated: np.ndarray | None = None   # (T, n) bool: the episode ended at its time limit (not a true terminal)
 
     @property
     def transitions(self) -> int:
@@ -108,7 +109,7 @@ def collect(venv: Any, config: BCConfig, seed: int = 0, driver: Any = None) -> E
     shape = (config.steps, n)
     data = ExpertData(np.empty((*shape, obs.shape[1]), np.float32), np.empty(shape, np.float32),
                       np.empty(shape, np.float32), np.empty(shape, np.float32), np.empty(shape, bool),
-                      np.empty((*shape, obs.shape[1]), np.float32), {})
+                      np.empty((*shape, obs.shape[1]), np.float32), {}, np.zeros(shape, bool))
     for t in range(config.steps):
         action, state = expert.predict(obs, state, episode_start=starts)
         label = np.asarray(action, dtype=np.float32).reshape(n)
@@ -121,6 +122,7 @@ def collect(venv: Any, config: BCConfig, seed: int = 0, driver: Any = None) -> E
         data.next_obs[t] = next_obs
         for i in np.flatnonzero(done):
             data.next_obs[t, i] = infos[i]["terminal_observation"]
+            data.truncated[t, i] = bool(infos[i].get("TimeLimit.truncated", False))
             name = str(infos[i].get("termination") or "time_limit")
             data.terminations[name] = data.terminations.get(name, 0) + 1
         obs, starts = next_obs, done
@@ -285,13 +287,16 @@ def warm_start(model: Any, venv: Any, vecnorm: Any, config: BCConfig, seed: int 
 
 def prefill_replay_buffer(model: Any, rounds: list[ExpertData]) -> int:
     """Put the collected transitions (executed actions, raw observations) into an off-policy model's replay
-    buffer; returns how many were added."""
+    buffer, time-limit ends marked as SB3 marks them (``TimeLimit.truncated``); returns how many were added."""
     buf = model.replay_buffer
     added = 0
     for data in rounds:
-        empty = [{} for _ in range(data.label.shape[1])]
+        n = data.label.shape[1]
         for t in range(data.label.shape[0]):
-            buf.add(data.obs[t], data.next_obs[t], data.executed[t][:, None], data.reward[t], data.done[t], empty)
+            # SB3 stores a time-limit end as a timeout, bootstrapped like a running episode, not a true terminal
+            infos = [{"TimeLimit.truncated": bool(data.truncated is not None and data.truncated[t, i])}
+                     for i in range(n)]
+            buf.add(data.obs[t], data.next_obs[t], data.executed[t][:, None], data.reward[t], data.done[t], infos)
         added += data.transitions
     return added
 

@@ -109,3 +109,12 @@ def test_the_wall_time_per_step_leaves_out_a_one_off_stall(monkeypatch: pytest.M
     trace = rollout_module.rollout(Gain(0.3), "DLC120-v0", seed=0)
     assert trace.n_steps > 500
     assert trace.wall_time_per_step_s == pytest.approx(1e-5, rel=1e-6)
+
+
+def test_a_bad_suite_or_env_is_refused_before_the_store_is_created(tmp_path: Path) -> None:
+    store = tmp_path / "new.sqlite"
+    with pytest.raises(ValueError):
+        vtrack_gym.evaluate(Gain(0.3), "no-such-suite", store=store)
+    with pytest.raises(ValueError):
+        vtrack_gym.evaluate(Gain(0.3), 42, store=store)
+    assert not store.exists()

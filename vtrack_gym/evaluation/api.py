@@ -258,16 +258,10 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
     if vecnormalize is not None:
         inner = make
         make = lambda env: NormalisedPolicy(inner(env), vecnormalize)  # noqa: E731
-    result_store = _open_store(store)  # checked before the first rollout: a bad store loses no results
-    rows: list[ResultRow] = []
+    episodes: list[Episode] = []      # what to run, all checked before the store is opened or created
     if isinstance(suite_or_env, str):
-        episodes, suite = _episodes(suite_or_env, seeds)
-        for ep in with_vehicle(episodes, vehicle):
-            env = gym.make(ep.env_id, **ep.make_kwargs)
-            try:   # one policy per call: every row gets the first episode's fingerprint
-                rows.append(_row(make, env, ep, suite, policy_id, rows[0].policy_hash if rows else None))
-            finally:
-                env.close()
+        found, suite = _episodes(suite_or_env, seeds)
+        episodes = list(with_vehicle(found, vehicle))
     elif isinstance(suite_or_env, gym.Env):
         if vehicle is not None:
             raise ValueError("vehicle applies to a suite name or an env id; an env instance drives its own car")
@@ -275,13 +269,23 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
         if UNIDENTIFIED in env_id:
             log.warning("the configuration of this env instance cannot be recorded; its rows are stored as %r, "
                         "apart from the standard env's", env_id)
+    else:
+        raise ValueError(f"suite_or_env must be a suite name ({', '.join(SUITES)}), an env id or a gymnasium.Env "
+                         f"(got {type(suite_or_env).__name__})")
+    result_store = _open_store(store)  # checked before the first rollout: a bad store loses no results
+    rows: list[ResultRow] = []
+    if isinstance(suite_or_env, str):
+        for ep in episodes:
+            env = gym.make(ep.env_id, **ep.make_kwargs)
+            try:   # one policy per call: every row gets the first episode's fingerprint
+                rows.append(_row(make, env, ep, suite, policy_id, rows[0].policy_hash if rows else None))
+            finally:
+                env.close()
+    else:
         for s in seeds if seeds is not None else (0,):
             row = _row(make, suite_or_env, Episode(env_id, int(s)), CUSTOM_SUITE, policy_id,
                        rows[0].policy_hash if rows else None)
             rows.append(dataclasses.replace(row, options={**row.options, **identity}))
-    else:
-        raise ValueError(f"suite_or_env must be a suite name ({', '.join(SUITES)}), an env id or a gymnasium.Env "
-                         f"(got {type(suite_or_env).__name__})")
     if result_store is not None:
         result_store.add(rows)
     return rows

@@ -24,7 +24,7 @@ def simple_steering(obs: np.ndarray) -> np.ndarray:
     return np.clip(delta / 0.6, -1.0, 1.0).reshape(-1, 1).astype(np.float32)
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("env_id", vtrack_gym.ALL_ENV_IDS)
 def test_gymnasium_env_checker(env_id: str) -> None:
     from gymnasium.utils.env_checker import check_env
 
@@ -34,7 +34,7 @@ def test_gymnasium_env_checker(env_id: str) -> None:
         check_env(env, skip_render_check=True)
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("env_id", vtrack_gym.ALL_ENV_IDS)
 def test_sb3_env_checker(env_id: str) -> None:
     from stable_baselines3.common.env_checker import check_env
 

@@ -118,3 +118,21 @@ def test_a_bad_suite_or_env_is_refused_before_the_store_is_created(tmp_path: Pat
     with pytest.raises(ValueError):
         vtrack_gym.evaluate(Gain(0.3), 42, store=store)
     assert not store.exists()
+
+
+def test_one_track_file_read_two_ways_is_two_leaderboard_entries(tmp_path: Path) -> None:
+    """``gym.make("vtrack/Track-v0", track=f, smoothing_m=...)`` or ``closed=...`` reads the file differently: its
+    rows must not merge with the default reading's."""
+    import math
+
+    import gymnasium as gym
+
+    t = np.linspace(0.0, 2.0 * math.pi, 300, endpoint=False)
+    file = tmp_path / "loop.csv"
+    file.write_text("x_m,y_m\n" + "\n".join(f"{100 * math.cos(a):.4f},{60 * math.sin(a):.4f}" for a in t) + "\n")
+    ids = set()
+    for extra in ({}, {"smoothing_m": 0.5}, {"closed": True}):
+        env = gym.make("vtrack/Track-v0", track=str(file), **extra)
+        row, = vtrack_gym.evaluate(Gain(0.3), env)
+        ids.add((row.env_id, repr(sorted(row.options.items()))))
+    assert len(ids) == 3

@@ -137,6 +137,8 @@ def test_unexportable_settings_are_refused_before_training(algo: str, settings: 
     ("ppo", "clip_range=0", "clip_range must be a number > 0"),
     ("ppo", "ent_coef=-0.01", "ent_coef must be a number >= 0"),
     ("sac", "ent_coef=automatic", "ent_coef must be a number >= 0, 'auto' or 'auto_X'"),
+    ("sac", "ent_coef=auto_", "ent_coef must be a number >= 0, 'auto' or 'auto_X'"),
+    ("sac", "ent_coef=auto_inf", "ent_coef must be a number >= 0, 'auto' or 'auto_X'"),
     ("sac", "tau=0", "tau must be a number in (0, 1]"),
     ("td3", "tau=2", "tau must be a number in (0, 1]"),
     ("sac", "train_freq=0", "train_freq must be an integer in [1,"),

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 import shlex
 import sys
 import time
@@ -205,9 +206,9 @@ def check_hyperparams(algo: str, params: Mapping[str, Any], n_envs: Any, timeste
         ent = p.get("ent_coef")
         if algo == "sac" and ent is not None:
             if isinstance(ent, str):
-                head, _, start = ent.partition("_")
-                try:
-                    ok = head == "auto" and (not start or float(start) > 0.0)
+                head, sep, start = ent.partition("_")
+                try:   # "auto", or "auto_X" with a finite X > 0 ("auto_" and "auto_inf" crash inside SB3)
+                    ok = head == "auto" and (not sep or (math.isfinite(float(start)) and float(start) > 0.0))
                 except ValueError:
                     ok = False
                 if not ok:

@@ -136,7 +136,7 @@ def _track_provenance(scenario: Any) -> tuple[str | None, dict[str, Any]] | None
     if isinstance(track, (str, os.PathLike)) and Path(track).is_file():
         from vtrack_gym.envs.registration import register_track
 
-        env_id, options = register_track(track, profile)
+        env_id, options = register_track(track, profile, scenario.track_closed, scenario.track_smoothing_m)
     elif isinstance(track, str):
         options = {"track": track, "speed_profile": params}
     elif isinstance(track, TrackPath):
@@ -201,9 +201,10 @@ def _tracking_identity(unwrapped: Any, spec: Any, env_id: str,
     if not isinstance(scenario_arg, str):  # a ScenarioConfig object: not recorded
         return env_id + UNIDENTIFIED, {}
     scenario = resolve_scenario(scenario_arg, spec.kwargs.get("track"), spec.kwargs.get("speed_profile"),
-                                spec.kwargs.get("half_width_m"))
+                                spec.kwargs.get("half_width_m"), spec.kwargs.get("closed"),
+                                spec.kwargs.get("smoothing_m"))
     base = resolve_scenario(scenario.name)
-    track_fields = ("track", "speed_profile", "half_width_m")
+    track_fields = ("track", "speed_profile", "half_width_m", "track_closed", "track_smoothing_m")
     for f in dataclasses.fields(scenario):
         if f.name not in track_fields and not _equal(getattr(scenario, f.name), getattr(base, f.name)):
             return env_id + UNIDENTIFIED, {}

@@ -28,7 +28,7 @@ import numpy as np
 from vtrack_gym._io import read_regular_file
 from vtrack_gym.tracks.fitting import MAX_COORDINATE_M, check_points
 from vtrack_gym.tracks.geometry import TooDenseError, segment_intersections
-from vtrack_gym.tracks.path import DEFAULT_DS_M, MAX_HALF_WIDTH_M, MAX_V_REF_MPS, MIN_V_REF_MPS, Path
+from vtrack_gym.tracks.path import DEFAULT_DS_M, MAX_HALF_WIDTH_M, MAX_V_REF_MPS, Path
 from vtrack_gym.tracks.table import COL_GRADE
 
 CLOSED_GAP_M = 1.0          # first and last points closer than this [m] always close the loop (auto-detection)
@@ -192,8 +192,9 @@ def read_track_columns(fs_path: FsPath) -> tuple[dict[str, np.ndarray], list[int
 
 
 def _check_ranges(fs_path: FsPath, columns: dict[str, np.ndarray], lines: list[int]) -> None:
-    """Coordinates within +-MAX_COORDINATE_M m, widths in (0, MAX_HALF_WIDTH_M] m and speeds in [MIN_V_REF_MPS,
-    MAX_V_REF_MPS] m/s, naming the first bad line."""
+    """Coordinates within +-MAX_COORDINATE_M m, widths in (0, MAX_HALF_WIDTH_M] m and speeds in (0,
+    MAX_V_REF_MPS] m/s, naming the first bad line (``FileSpeed`` refuses speeds under ``MIN_V_REF_MPS`` where a
+    profile uses the column)."""
     for role in ("x", "y", "z"):
         if role in columns:
             bad = np.flatnonzero(np.abs(columns[role]) > MAX_COORDINATE_M)
@@ -204,7 +205,7 @@ def _check_ranges(fs_path: FsPath, columns: dict[str, np.ndarray], lines: list[i
                                  "an offset (e.g. the first point's coordinates) from every point")
     limits = {"w_right": (0.0, MAX_HALF_WIDTH_M, "m", "half width"),
               "w_left": (0.0, MAX_HALF_WIDTH_M, "m", "half width"),
-              "v": (MIN_V_REF_MPS, MAX_V_REF_MPS, "m/s", "speed")}
+              "v": (0.0, MAX_V_REF_MPS, "m/s", "speed")}   # the 1 m/s floor: FileSpeed's, where the column is used
     for role, (low, high, unit, what) in limits.items():
         if role not in columns:
             continue
@@ -399,6 +400,7 @@ def load_track_csv(path: str | os.PathLike[str], closed: bool | None = None, hal
     a station guess keeps continuity across the crossing). Raises ValueError naming file, line and problem.
     """
     fs_path = FsPath(path)
+    smoothing_given = smoothing_m is not None and smoothing_m > 0.0
     columns, lines = read_track_columns(fs_path)
     x, y, z = columns["x"], columns["y"], columns.get("z")
     try:
@@ -441,8 +443,8 @@ def load_track_csv(path: str | os.PathLike[str], closed: bool | None = None, hal
             x, y, z, v_ref = cols["x"], cols["y"], cols.get("z"), cols.get("v")
             widths = None if widths is None else np.column_stack((cols["wl"], cols["wr"]))
             smoothing_m /= math.sqrt(k)
-    if k == 1:  # averaged blocks merge near-duplicates; the spline through raw points would kink at them
-        _check_near_duplicates(fs_path, x, y, bool(closed), lines)
+    if k == 1 and not smoothing_given:  # averaged blocks merge near-duplicates, a smoothing fit passes them
+        _check_near_duplicates(fs_path, x, y, bool(closed), lines)  # by; a spline through raw points kinks there
     if half_width_m is None:
         half_width_m = DEFAULT_HALF_WIDTH_M if widths is None else float(widths.min())
     else:

@@ -20,16 +20,17 @@ from pathlib import Path
 from typing import Any
 
 from vtrack_gym._io import check_output_dir, check_output_file, check_regular_input, write_atomic
-from vtrack_gym.evaluation.store import DEFAULT_STORE_PATH, StoreError
+from vtrack_gym.evaluation.store import DEFAULT_STORE_PATH, MAX_SEED, StoreError
+from vtrack_gym.tracks.path import MAX_V_REF_MPS, MIN_V_REF_MPS
+from vtrack_gym.tracks.speed_profiles import MAX_ACCEL_MPS2
 from vtrack_gym.tuning.backends import BackendError
+from vtrack_gym.vehicle.params import GRAVITY_MPS2
 
 DEFAULT_RESULTS_DIR = Path("vtrack_results")
 DEFAULT_FIGURES_DIR = DEFAULT_RESULTS_DIR / "figures"
 DEFAULT_PLOTS_DIR = DEFAULT_RESULTS_DIR / "plots"
 
 
-MAX_SEED = 2**63 - 1
-"""Largest seed of ``--seeds`` (the store keeps seeds as SQLite INTEGER, a signed 64-bit number)."""
 MAX_SEEDS = 10_000
 """Most seeds one ``vtrack eval`` runs."""
 MAX_FIGURE_BYTES = 32 * 2**20
@@ -82,9 +83,19 @@ def _add_format(p: argparse.ArgumentParser, choices: Sequence[str] = ("md", "csv
                    + " (default: md)")
 
 
+class _Parser(argparse.ArgumentParser):
+    """``argparse.ArgumentParser`` that refuses ``--opt=--``: argparse drops the ``--`` and hands the option an
+    empty list instead of a value (``vtrack tune --generations=--`` gave ``generations = []``)."""
+
+    def _get_values(self, action: argparse.Action, arg_strings: list[str]) -> Any:
+        if action.option_strings and action.nargs is None and arg_strings == ["--"]:
+            self.error(f"argument {'/'.join(action.option_strings)}: expected one value, got '--'")
+        return super()._get_values(action, arg_strings)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``vtrack`` (every option explained in --help)."""
-    parser = argparse.ArgumentParser(prog="vtrack", description="Benchmark steering controllers and RL agents on "
+    parser = _Parser(prog="vtrack", description="Benchmark steering controllers and RL agents on "
                                      "the paper's trajectory-tracking scenarios.")
     parser.add_argument("-v", "--verbose", action="store_true",
                         help="log details to stderr: every episode's result, the kernel cache (the long phases "
@@ -449,11 +460,11 @@ def _parse_seeds(text: str) -> list[int]:
     return seeds
 
 
-MIN_SPEED_KMH = 3.6
-"""--max-speed-kmh range [km/h]: 1 m/s (the speed profiles' floor) ..."""
-MAX_SPEED_KMH = 540.0
-"""... to 150 m/s."""
-MAX_LATERAL_G = 30.0 / 9.81
+MIN_SPEED_KMH = 3.6 * MIN_V_REF_MPS
+"""--max-speed-kmh range [km/h]: the speed profiles' floor (1 m/s) ..."""
+MAX_SPEED_KMH = 3.6 * MAX_V_REF_MPS
+"""... to their ceiling (150 m/s)."""
+MAX_LATERAL_G = MAX_ACCEL_MPS2 / GRAVITY_MPS2
 """--max-lateral-g upper bound [g] (the profiles' 30 m/s^2)."""
 
 

@@ -302,6 +302,18 @@ def point_noise_m(x: np.ndarray, y: np.ndarray) -> float:
     return float(1.4826 * np.median(np.abs(d3)) / math.sqrt(20.0) * math.sqrt(2.0)) if d3.size else 0.0
 
 
+def _point_intervals(path: Path, x: np.ndarray, y: np.ndarray) -> int:
+    """How many median point spacings of the points x, y [m] fit along ``path`` (0 for coincident points)."""
+    h = float(np.median(np.hypot(np.diff(x), np.diff(y))))
+    return int(path.length_m // h) if h > 0.0 else 0
+
+
+def _sign_changes(values: np.ndarray, zero: float) -> int:
+    """Sign changes along ``values``, skipping those with |value| < ``zero`` (no sign)."""
+    signs = np.sign(values[np.abs(values) >= zero])
+    return int(np.count_nonzero(signs[1:] != signs[:-1]))
+
+
 def noisy_curvature_hint(path: Path, x: np.ndarray, y: np.ndarray) -> tuple[int, int, float] | None:
     """(curvature sign changes, point intervals, suggested smoothing_m [m]) if the fit of points x, y [m] has the
     curvature of noise, else None.
@@ -314,14 +326,11 @@ def noisy_curvature_hint(path: Path, x: np.ndarray, y: np.ndarray) -> tuple[int,
     NOISE_MIN_SIGN_CHANGES times. The suggestion is NOISE_HINT_FACTOR x :func:`point_noise_m` (on a 1 m-spaced
     circle with 2 cm of noise it gives curvature within 2 %).
     """
-    h = float(np.median(np.hypot(np.diff(x), np.diff(y))))
-    n = int(path.length_m // h) if h > 0.0 else 0
+    n = _point_intervals(path, x, y)
     if n < 2 * NOISE_MIN_SIGN_CHANGES:
         return None
     kappa = path.sample(np.arange(n + 1) * (path.length_m / n)).kappa
-    zero = max(NOISE_KAPPA_ZERO, NOISE_KAPPA_ZERO_SHARE * float(np.max(np.abs(kappa))))
-    signs = np.sign(kappa[np.abs(kappa) >= zero])
-    changes = int(np.count_nonzero(signs[1:] != signs[:-1]))
+    changes = _sign_changes(kappa, max(NOISE_KAPPA_ZERO, NOISE_KAPPA_ZERO_SHARE * float(np.max(np.abs(kappa)))))
     if (changes < NOISE_MIN_SIGN_CHANGES or changes <= NOISE_SIGN_CHANGE_SHARE * n
             or changes * NOISE_REVERSAL_M <= path.length_m):
         return None
@@ -339,13 +348,11 @@ def implausible_grade(path: Path, x: np.ndarray, y: np.ndarray) -> str | None:
     if abs(float(grade[k])) > MAX_PLAUSIBLE_GRADE:
         return (f"the fitted road grade reaches {100.0 * float(grade[k]):+.0f} % at s = {k * path.ds_m:.0f} m, "
                 f"steeper than public roads ({100 * MAX_PLAUSIBLE_GRADE:.0f} %)")
-    h = float(np.median(np.hypot(np.diff(x), np.diff(y))))
-    n = int(path.length_m // h) if h > 0.0 else 0
+    n = _point_intervals(path, x, y)
     if n < 2 * NOISE_MIN_SIGN_CHANGES:
         return None
     sampled = np.interp(np.arange(n + 1) * (path.length_m / n), np.arange(grade.size) * path.ds_m, grade)
-    signs = np.sign(sampled[np.abs(sampled) >= NOISE_GRADE_ZERO])
-    changes = int(np.count_nonzero(signs[1:] != signs[:-1]))
+    changes = _sign_changes(sampled, NOISE_GRADE_ZERO)
     if changes >= NOISE_MIN_SIGN_CHANGES and changes > NOISE_SIGN_CHANGE_SHARE * n:
         return (f"the fitted road grade changes sign in {changes} of {n} point intervals (up to "
                 f"{100.0 * float(np.max(np.abs(grade))):.0f} %)")

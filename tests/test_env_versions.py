@@ -1,0 +1,23 @@
+"""A registered id's behaviour never changes: every id's fingerprint matches its pin (``tests/env_fingerprint.py``).
+
+A failure here means a change altered what an existing id does. Do not re-pin: register the changed behaviour as
+the next version (``-v1``) and keep the old id as it was (or make it raise Gymnasium's deprecation error).
+"""
+
+from __future__ import annotations
+
+import pytest
+from env_fingerprint import fingerprint, pinned
+
+import vtrack_gym
+
+
+def test_every_registered_id_is_pinned() -> None:
+    missing = sorted(set(vtrack_gym.ALL_ENV_IDS) - set(pinned()))
+    assert not missing, f"ids without a behaviour pin: {missing} (python tests/env_fingerprint.py --add ID)"
+
+
+@pytest.mark.parametrize("env_id", sorted(vtrack_gym.ALL_ENV_IDS))
+def test_behaviour_unchanged(env_id: str) -> None:
+    assert fingerprint(env_id) == pinned()[env_id], (
+        f"{env_id} behaves differently from its pinned version: register the change as a new version")

@@ -70,7 +70,7 @@ def test_maneuver_env_drives_its_spec_path_and_speed() -> None:
 def test_compiled_gate_check_matches_gate_violations(name: str) -> None:
     """The env's per-step check (compiled, anchored gates and the body outline) gives the same verdict per pose as
     ``tracks.gate_violations`` on random poses around the gates."""
-    from vtrack_gym.envs import kernels as k
+    from vtrack_gym.tracks import kernels as k
     from vtrack_gym.tracks.dlc import car_outline
 
     env = gym.make(SCENARIOS[MANEUVER_IDS[name]].env_id)
@@ -85,9 +85,10 @@ def test_compiled_gate_check_matches_gate_violations(name: str) -> None:
     e = rng.uniform(-1.2, 1.2, s.size)
     x, y = row.x - e * np.sin(row.psi), row.y + e * np.cos(row.psi)
     psi = row.psi + rng.uniform(-0.15, 0.15, s.size)
-    hit = np.zeros(s.size, dtype=np.bool_)
+    hit = np.zeros((s.size, len(path.gates)), dtype=np.bool_)
     k.body_outside_gates(path.table, path.ds_m, path.length_m, path.closed, gates, x, y, psi, s, lon.ravel(),
                          lat.ravel(), hit, np.zeros(k.N_COLS))
+    hit = hit.any(axis=1)
     ref = np.array([gate_violations(path, x[i:i + 1], y[i:i + 1], psi[i:i + 1], c.body_length_m, c.body_width_m,
                                     c.cg_to_front_end_m) > 0 for i in range(s.size)])
     assert 0 < ref.sum() < s.size  # both verdicts occur

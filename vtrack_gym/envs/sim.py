@@ -226,7 +226,9 @@ class BatchSim:
         lon, lat = car_outline(0.0, 0.0, 0.0, c.body_length_m, c.body_width_m, c.cg_to_front_end_m)
         self._corner_lon, self._corner_lat = lon.ravel(), lat.ravel()  # body-outline points (corners and sides)
         self._gate_row = np.zeros(k.N_COLS)
-        self._gate_data = {t: (self.paths[t], k.gate_rows(self.paths[t].gates),
+        from vtrack_gym.tracks.kernels import gate_rows
+
+        self._gate_data = {t: (self.paths[t], gate_rows(self.paths[t].gates),
                                min(g.s_start_m for g in self.paths[t].gates) - c.body_length_m,
                                max(g.s_end_m for g in self.paths[t].gates) + c.body_length_m)
                            for t in self._gated}
@@ -448,6 +450,8 @@ class BatchSim:
     def _check_gates(self) -> None:
         """Mark the cars whose body left a cone gate this step (body corners projected on the path, like
         ``tracks.gate_violations`` on a whole trajectory); only cars near the gates are checked (compiled)."""
+        from vtrack_gym.tracks.kernels import body_outside_gates
+
         k = _kernels()
         st = self.plant.state
         s_car = self.err[:, k.E_S]
@@ -456,11 +460,11 @@ class BatchSim:
             sel = np.flatnonzero((self.veh_track == track) & (s_car >= lo) & (s_car <= hi) & ~self.gate_hit)
             if sel.size == 0:
                 continue
-            hit = np.zeros(sel.size, dtype=np.bool_)
-            k.body_outside_gates(path.table, path.ds_m, path.length_m, path.closed, gates, st[sel, L.S_X],
-                                 st[sel, L.S_Y], st[sel, L.S_PSI], s_car[sel], self._corner_lon, self._corner_lat,
-                                 hit, self._gate_row)
-            self.gate_hit[sel] |= hit
+            hit = np.zeros((sel.size, gates.shape[0]), dtype=np.bool_)
+            body_outside_gates(path.table, path.ds_m, path.length_m, path.closed, gates, st[sel, L.S_X],
+                               st[sel, L.S_Y], st[sel, L.S_PSI], s_car[sel], self._corner_lon, self._corner_lat, hit,
+                               self._gate_row)
+            self.gate_hit[sel] |= hit.any(axis=1)
 
     def success(self) -> np.ndarray:
         """Each car's verdict if its episode ended now (bool (n,)): the course completed (a lap of a closed course /

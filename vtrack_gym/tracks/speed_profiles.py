@@ -19,7 +19,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from vtrack_gym._ranges import documented, ranged, validate
-from vtrack_gym.tracks.interpolation import wrap_s
+from vtrack_gym.tracks.interpolation import interp_linear
 from vtrack_gym.tracks.path import MAX_V_REF_MPS, MIN_V_REF_MPS, Path
 
 MAX_ACCEL_MPS2 = 30.0      # upper bound of every acceleration parameter (3 g) [m/s^2]
@@ -192,11 +192,7 @@ class SpeedTable:
 
     def v_ref(self, s: np.ndarray | float) -> np.ndarray:
         """Reference speed [m/s] at arc length(s) s [m] (v^2 linear between rows; wrapped or clamped like the path)."""
-        sw = wrap_s(np.asarray(s, dtype=float), self.length_m, self.closed)
-        i = np.minimum((sw / self.ds_m).astype(np.int64), self.v_mps.size - 2)
-        t = (sw - i * self.ds_m) / self.ds_m
-        a = self.v_mps[i] ** 2
-        return np.sqrt(a + t * (self.v_mps[i + 1] ** 2 - a))
+        return np.sqrt(interp_linear(self.v_mps ** 2, self.ds_m, self.length_m, self.closed, s))
 
     def preview(self, s: np.ndarray | float, distances: np.ndarray) -> np.ndarray:
         """Reference speed [m/s] at s + d for every s (N,) [m] and preview distance d (K,) [m] -> shape (N, K)."""

@@ -12,14 +12,13 @@ Nominal scenarios only: no sensor noise and no actuator delay (the caller checks
 
 from __future__ import annotations
 
-from numba import njit, prange
-
+from vtrack_gym._jit import kernel, prange
 from vtrack_gym.baselines.laws import MPCLaw, SMCLaw, mpc_row, smc_row
 from vtrack_gym.envs.kernels import CAR_MIN_FZ, step_car
 from vtrack_gym.vehicle import layout as L
 
 
-@njit(cache=True)
+@kernel
 def _normalised(delta: float, inv_steer: float, nan_to_zero: bool) -> float:
     """Road-wheel angle [rad] -> action in [-1, 1] (with ``nan_to_zero``, a diverged row steers neutral)."""
     a = delta * inv_steer
@@ -28,7 +27,7 @@ def _normalised(delta: float, inv_steer: float, nan_to_zero: bool) -> float:
     return 1.0 if a > 1.0 else (-1.0 if a < -1.0 else a)
 
 
-@njit(cache=True)
+@kernel
 def _advance(i, k, action, arrays, max_steer, max_steps, dt, acc_buf, out) -> bool:
     """Apply ``action`` to car ``i`` for control step ``k`` (1-based), accumulate its fitness terms into
     ``out[i]`` (ITAE, last t|e_y|, max|a_y|, min F_z, steps, max|e_y|) and return True when its episode is over.
@@ -58,7 +57,7 @@ def _advance(i, k, action, arrays, max_steer, max_steps, dt, acc_buf, out) -> bo
     return term[i] != 0 or k >= max_steps
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def rollout_smc(arrays, env_max_steer, lanes, max_steps, dt, law: SMCLaw, inv_steer, acc_buf, out):
     """Whole episodes of every car under its own SMC gains (row i of ``law``; see the module docstring);
     ``out`` (n, 6). ``lanes``: number of parallel lanes (the thread count); each lane runs a contiguous block of
@@ -75,7 +74,7 @@ def rollout_smc(arrays, env_max_steer, lanes, max_steps, dt, law: SMCLaw, inv_st
                     break
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def rollout_mpc(arrays, env_max_steer, lanes, max_steps, dt, law: MPCLaw, inv_steer, state, z, acc_buf, out):
     """Whole episodes of every car under its own MPC gain table (row i of ``law``); ``state`` (n, 9) the MPC
     memory (initialised), ``z`` (n, width) scratch."""

@@ -200,12 +200,16 @@ def _attach_cache(dispatcher: Any) -> Any:
     return dispatcher
 
 
-def kernel(func: Callable[..., Any] | None = None, *, parallel: bool = False) -> Any:
+def kernel(func: Callable[..., Any] | None = None, *, parallel: bool = False, inline: bool = False) -> Any:
     """Compile ``func`` with ``numba.njit`` (``parallel`` for ``prange`` loops) and the source-hash cache.
 
-    Use as ``@kernel``, ``@kernel(parallel=True)`` or ``name = kernel(function)``.
+    ``inline=True`` inlines the function into every compiled caller at numba's level (numba's
+    ``inline="always"``): for the small pieces a model is built from, so that splitting a formula into named
+    functions costs nothing at run time (the same operations in the same order, no call and no array reference
+    counting). Use as ``@kernel``, ``@kernel(parallel=True)``, ``@kernel(inline=True)`` or
+    ``name = kernel(function)``.
     """
     def build(f: Callable[..., Any]) -> Any:
-        return _attach_cache(numba.njit(parallel=parallel)(f))
+        return _attach_cache(numba.njit(parallel=parallel, inline="always" if inline else "never")(f))
 
     return build if func is None else build(func)

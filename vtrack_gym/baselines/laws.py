@@ -236,7 +236,7 @@ def smc_rows(law: SMCLaw, obs: np.ndarray, delta: np.ndarray, sigma: np.ndarray)
 
 
 # ---------------------------------------------------------------------------------------- gain schedules
-@kernel
+@kernel(inline=True)
 def schedule_locate(speeds: np.ndarray, v: float) -> tuple[int, float]:
     """Grid interval ``s`` and fraction ``t`` in [0, 1] of speed ``v`` [m/s] on the grid ``speeds`` (S,) [m/s]
     (the speed clamped to the grid's ends)."""

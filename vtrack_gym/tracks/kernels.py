@@ -240,7 +240,7 @@ GATE_COLS = 9
 anchor x, y [m], psi [rad], lane length [m] (``tracks.Gate``; the anchor columns are 0 without an anchor)."""
 
 
-@kernel
+@kernel(inline=True)
 def _outside_anchored_gate(gate: np.ndarray, cx: float, cy: float) -> bool:
     """True if point (cx, cy) [m] lies in an anchored gate's lane section (its fixed rectangle) outside its lane."""
     ca = math.cos(gate[7])

@@ -72,13 +72,13 @@ def _ellipse(fx: float, fz: float, mu: float) -> float:
     return math.sqrt(rem) if rem > 0.0 else 0.0
 
 
-@kernel
+@kernel(inline=True)
 def _capped(fx: float, fz: float, mu: float) -> float:
     """A wheel's longitudinal force [N] capped at +-mu F_z (no wheel-spin degree of freedom)."""
     return _clip(fx, -mu * max(fz, 0.0), mu * max(fz, 0.0))
 
 
-@kernel
+@kernel(inline=True)
 def _steering_rate(cmd: float, delta: float, p: np.ndarray) -> float:
     """Steering actuator [rad/s]: first-order lag with rate limit (tau = 0: ideal, set by the stepper)."""
     tau_s = p[L.P_TAU_STEER]
@@ -88,7 +88,7 @@ def _steering_rate(cmd: float, delta: float, p: np.ndarray) -> float:
     return 0.0
 
 
-@kernel
+@kernel(inline=True)
 def _axle_loads(ax_lag: float, cos_g: float, az_road: float, p: np.ndarray) -> tuple[float, float, float]:
     """(total, front axle, rear axle) normal load [N]: static on the grade plus longitudinal transfer of the lagged
     a_x [m/s^2]."""
@@ -103,13 +103,13 @@ def _axle_loads(ax_lag: float, cos_g: float, az_road: float, p: np.ndarray) -> t
     return fz_total, fzf_axle, fzr_axle
 
 
-@kernel
+@kernel(inline=True)
 def _wheel_loads(fzf_axle: float, fzr_axle: float, d_f: float, d_r: float) -> tuple[float, float, float, float]:
     """(FL, FR, RL, RR) normal loads [N]: each axle's load shared equally, shifted by its lateral transfer [N]."""
     return 0.5 * fzf_axle - d_f, 0.5 * fzf_axle + d_f, 0.5 * fzr_axle - d_r, 0.5 * fzr_axle + d_r
 
 
-@kernel
+@kernel(inline=True)
 def _longitudinal_forces(vx: float, throttle: float, pedal: float, fz_total: float, sin_g: float,
                          p: np.ndarray) -> tuple[float, float, float]:
     """(drive/brake force per front wheel, per rear wheel, resistance) [N]: power-limited drive, brakes with a
@@ -127,7 +127,7 @@ def _longitudinal_forces(vx: float, throttle: float, pedal: float, fz_total: flo
     return fx_f_each, fx_r_each, f_resist
 
 
-@kernel
+@kernel(inline=True)
 def _write_rates(x: np.ndarray, dvx: float, dvy: float, dr: float, droll: float, droll_rate: float, ddelta: float,
                  ax: float, ay: float, p: np.ndarray, dx: np.ndarray) -> None:
     """Fill ``dx`` from the body-frame accelerations: global position rates, and the load-transfer lags."""
@@ -150,7 +150,7 @@ def _write_rates(x: np.ndarray, dvx: float, dvy: float, dr: float, droll: float,
     dx[L.S_AYL] = (ay - x[L.S_AYL]) / tau_lt
 
 
-@kernel
+@kernel(inline=True)
 def _write_outputs(out: np.ndarray, ax: float, ay: float, az_road: float, fz_fl: float, fz_fr: float, fz_rl: float,
                    fz_rr: float) -> None:
     """Fill ``out``: a_x, a_y, a_z [m/s^2] and the four wheel loads [N]."""
@@ -164,7 +164,7 @@ def _write_outputs(out: np.ndarray, ax: float, ay: float, az_road: float, fz_fl:
 
 
 # ------------------------------------------------------------------------------------------- linear model
-@kernel
+@kernel(inline=True)
 def linear_model(x: np.ndarray, cmd: float, throttle: float, pedal: float, cos_g: float, sin_g: float,
                  az_road: float, p: np.ndarray, dx: np.ndarray, out: np.ndarray) -> None:
     """The paper's eq. (5): ``dx`` = f(x, u, p) of state ``x`` for clipped inputs ``cmd`` [rad], ``throttle``
@@ -202,7 +202,7 @@ def linear_model(x: np.ndarray, cmd: float, throttle: float, pedal: float, cos_g
 
 
 # ---------------------------------------------------------------------------------------- nonlinear model
-@kernel
+@kernel(inline=True)
 def _roll_transfer(x: np.ndarray, p: np.ndarray) -> tuple[float, float]:
     """Lateral load transfer [N] of the front and the rear axle: the roll spring/damper moment (front share) plus
     the roll-centre and unsprung parts of the lagged a_y."""
@@ -215,7 +215,7 @@ def _roll_transfer(x: np.ndarray, p: np.ndarray) -> tuple[float, float]:
     return d_f, d_r
 
 
-@kernel
+@kernel(inline=True)
 def _lateral_tyre_forces(x: np.ndarray, p: np.ndarray, fz_fl: float, fz_fr: float, fz_rl: float, fz_rr: float,
                          fx_fl: float, fx_fr: float, fx_rl: float, fx_rr: float) -> tuple[float, float]:
     """(front, rear) axle lateral force [N]: the Pacejka shape once per axle, scaled per wheel by its effective
@@ -242,7 +242,7 @@ def _lateral_tyre_forces(x: np.ndarray, p: np.ndarray, fz_fl: float, fz_fr: floa
     return fyf, fyr
 
 
-@kernel
+@kernel(inline=True)
 def _kinematic_rates(x: np.ndarray, p: np.ndarray, fxf: float, fxr: float, f_resist: float, ddelta: float,
                      cos_d: float) -> tuple[float, float, float]:
     """(v_x', v_y', r') of the kinematic single-track model (no rear slip), pulled onto its manifold with
@@ -262,7 +262,7 @@ def _kinematic_rates(x: np.ndarray, p: np.ndarray, fxf: float, fxr: float, f_res
     return dvx_kin, dvy_kin, dr_kin
 
 
-@kernel
+@kernel(inline=True)
 def _roll_acceleration(x: np.ndarray, ay: float, p: np.ndarray) -> float:
     """Roll acceleration [rad/s^2] of the sprung mass about the roll axis (ISO: positive = right side down)."""
     roll = x[L.S_ROLL]
@@ -270,7 +270,7 @@ def _roll_acceleration(x: np.ndarray, ay: float, p: np.ndarray) -> float:
             - p[L.P_KROLL] * roll - p[L.P_CROLL] * x[L.S_ROLL_RATE]) / p[L.P_IROLL]
 
 
-@kernel
+@kernel(inline=True)
 def nonlinear_model(x: np.ndarray, cmd: float, throttle: float, pedal: float, cos_g: float, sin_g: float,
                     az_road: float, p: np.ndarray, dx: np.ndarray, out: np.ndarray) -> None:
     """The default plant (module docstring): ``dx`` = f(x, u, p), arguments as ``linear_model``'s; ``out``

@@ -18,7 +18,7 @@ pass your object to ``vtrack_gym.evaluate``, or ``trust_code=True`` (``vtrack ev
 from __future__ import annotations
 
 import re
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -114,6 +114,19 @@ def canonical_spec(spec: str, preset: str | None = None) -> str:
         return text
     chosen = (spec_preset.strip() if sep else "") or (preset or "default")
     return name if chosen == "default" else f"{name}:{chosen}"
+
+
+def canonical_ids(specs: Sequence[str]) -> dict[str, str]:
+    """``{canonical id: spec}`` for ``specs``, in order (``canonical_spec``); ``ValueError`` when two specs are the
+    same policy (a policy is never ranked against itself)."""
+    ids: dict[str, str] = {}
+    for spec in specs:
+        key = canonical_spec(spec)
+        if key in ids:
+            raise ValueError(f"--policies names {key!r} twice ({ids[key]!r} and {spec!r} are the same policy); "
+                             "list each policy once")
+        ids[key] = spec
+    return ids
 
 
 def _presets(name: str) -> tuple[str, ...]:

@@ -79,14 +79,8 @@ def policy_factories(names: Sequence[str], preset: str = "default", trust_code: 
                      kwargs_text: str | None = None) -> dict[str, Any]:
     """``{policy id: make(env)}`` for ``--policies`` names (``policy_makers``); ids are canonical (``lqr:default``
     is ``lqr``), a policy given twice is refused (it is never ranked against itself)."""
-    from vtrack_gym.baselines.resolve import canonical_spec
+    from vtrack_gym.baselines.resolve import canonical_ids
 
-    given: dict[str, str] = {}
-    for name in names:
-        key = canonical_spec(name)
-        if key in given:
-            raise ValueError(f"--policies names {key!r} twice ({given[key]!r} and {name!r} are the same policy); "
-                             "list each policy once")
-        given[key] = name
-    makers = policy_makers(names, preset, trust_code, kwargs_text)
-    return {canonical_spec(name): make for name, make in makers}
+    ids = canonical_ids(names)
+    makers = policy_makers(list(ids.values()), preset, trust_code, kwargs_text)
+    return {key: make for key, (_, make) in zip(ids, makers, strict=True)}

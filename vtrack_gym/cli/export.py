@@ -15,7 +15,7 @@ NAME = "export"
 
 
 def register(sub: Any) -> None:
-    ex = sub.add_parser("export", help="turn a trained SB3 model into a weights-only agent file",
+    ex = sub.add_parser(NAME, help="turn a trained SB3 model into a weights-only agent file",
                         description="Load <run-dir>/model.zip and vecnormalize.pkl, or --model M.zip (and "
                         "--vecnormalize V.pkl), and write <out>.json + <out>.npz (weights, observation normalisation "
                         "and the env's observation layout, control period and action scaling). SB3 files are "

@@ -14,7 +14,7 @@ NAME = "reproduce"
 
 
 def register(sub: Any) -> None:
-    r = sub.add_parser("reproduce", help="rerun the paper's Case 1 and Case 2 and check its claims",
+    r = sub.add_parser(NAME, help="rerun the paper's Case 1 and Case 2 and check its claims",
                        description="Run PD-FLC + SMC and PD-FLC + MPC (paper presets and tuned/default presets) on "
                        "LateralTracking-v0 and DLC120-v0, write the paper-figure analogues to OUT/reproduction/ "
                        "and the claim-by-claim report OUT/REPRODUCTION.md (deterministic apart from a timestamp).")

@@ -17,7 +17,7 @@ NAME = "train"
 
 
 def register(sub: Any) -> None:
-    tr = sub.add_parser("train", help="train an RL steering agent with stable-baselines3 (extra 'rl')",
+    tr = sub.add_parser(NAME, help="train an RL steering agent with stable-baselines3 (extra 'rl')",
                         description="Train PPO/SAC/TD3 on the native vector env (the training mix by default) with "
                         "the versioned hyperparameters of vtrack_gym/agents/hyperparams, evaluate on both paper "
                         "scenarios periodically, and export a weights-only agent (agent.json + agent.npz) that "

@@ -16,7 +16,7 @@ NAME = "tune"
 
 
 def register(sub: Any) -> None:
-    t = sub.add_parser("tune", help="GA-tune the SMC or MPC on Case 1 and write a tuned preset (JSON)",
+    t = sub.add_parser(NAME, help="GA-tune the SMC or MPC on Case 1 and write a tuned preset (JSON)",
                        description="Genetic algorithm (pymoo: rank selection, SBX 0.8, polynomial mutation 0.1) "
                        "minimising ITAE + constraint penalties on LateralTracking-v0. Each generation runs as one "
                        "batched rollout, in this process or (--backend ray) split over a Ray cluster's workers, with a "

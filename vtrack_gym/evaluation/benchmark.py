@@ -160,19 +160,12 @@ def policy_factories(names: Sequence[str] | dict[str, Any] | None = None) -> dic
 
     Ids are canonical (``resolve.canonical_spec``: ``lqr:default`` is ``lqr``); ``ValueError`` when two names are
     the same policy (a policy is never ranked against itself)."""
-    from vtrack_gym.baselines.resolve import canonical_spec, policy_factory, policy_names
+    from vtrack_gym.baselines.resolve import canonical_ids, policy_factory, policy_names
 
     if isinstance(names, dict):  # factories already built: {policy id: make(env) -> policy}
         return dict(names)
     specs = [str(n).strip() for n in names] if names else list(policy_names())
-    ids: dict[str, str] = {}
-    for spec in specs:
-        key = canonical_spec(spec)
-        if key in ids:
-            raise ValueError(f"--policies names {key!r} twice ({ids[key]!r} and {spec!r} are the same policy); "
-                             "list each policy once")
-        ids[key] = spec
-    return {key: policy_factory(spec) for key, spec in ids.items()}
+    return {key: policy_factory(spec) for key, spec in canonical_ids(specs).items()}
 
 
 def run_benchmark(suite: str = "paper", store: ResultStore | None = None, policies: Sequence[str] | None = None,

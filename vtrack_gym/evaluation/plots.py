@@ -68,12 +68,13 @@ def _agents_only(traces: Sequence[Trace]) -> list[str]:
 
 
 def run_label(trace: Trace) -> str:
-    """Legend entry of one run: '<policy> (<termination>)', or '<policy> (failed: <reason>)' for a run its
-    scenario judged failed (the reason the leaderboard gives, e.g. cones_hit)."""
-    reason = trace.meta.get("failure_reason")
-    if reason is None and trace.success is False:
-        reason = trace.termination if trace.termination != "completed" else "env_verdict"
-    return f"{trace.policy_id} (failed: {reason})" if reason else f"{trace.policy_id} ({trace.termination})"
+    """Legend entry of one run: '<policy> (<termination>)' (off_road, spin_out, ... name the failure), or
+    '<policy> (failed: <reason>)' for a completed run its scenario judged failed (the reason the leaderboard gives,
+    e.g. cones_hit), never '(completed)' for it."""
+    failed = trace.success is False or "failure_reason" in trace.meta
+    if trace.termination == "completed" and failed:
+        return f"{trace.policy_id} (failed: {trace.meta.get('failure_reason', 'env_verdict')})"
+    return f"{trace.policy_id} ({trace.termination})"
 
 
 def _title(fig: Any, head: str, traces: Sequence[Trace], preset: str | None) -> None:

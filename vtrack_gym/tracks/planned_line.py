@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -127,6 +128,11 @@ class _Spline:
         out = (spl.derivative(nu) if nu else spl)(np.clip(np.asarray(x, dtype=float), 0.0, self.x_end))
         return np.nan_to_num(out)
 
+    def local(self, x: np.ndarray, nu: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        """Columns (len(x), 4) and values (len(x), 4) of the four basis functions non-zero at each x."""
+        cols = np.clip(np.floor(np.asarray(x) / self.h).astype(np.int64), 0, self.n_int - 1)[:, None] + np.arange(4)
+        return cols, np.take_along_axis(self.basis(x, nu), cols, axis=1)
+
     def knot_x(self) -> np.ndarray:
         return self.h * np.arange(self.n_int + 1)
 
@@ -143,29 +149,36 @@ def _body_points(body: BodyRectangle) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _body_rows(spline: _Spline, coef: np.ndarray, lanes: list[_Lane], body: BodyRectangle, margin_m: float,
-               full_width: bool) -> tuple[np.ndarray, np.ndarray]:
+               full_width: bool) -> tuple[Any, np.ndarray]:
     """Rows A, b of A c <= b keeping the body's side points inside the lanes, linearised about ``coef``;
     ``full_width``: the half width counts in full (cos psi taken as 1, conservative)."""
+    from scipy.sparse import coo_matrix
+
     lon, lat = _body_points(body)
     step = 0.5 * spline.h
     lo = lanes[0].x0 - body.cg_to_front_m - 1.0
     hi = lanes[-1].x1 + body.length_m + 1.0
     xc = np.arange(max(lo, 0.0), min(hi, spline.x_end) + 1e-9, step)
-    b0, b1 = spline.basis(xc), spline.basis(xc, 1)
-    slope_p = b1 @ coef
+    cols, b0 = spline.local(xc)
+    b1 = spline.local(xc, 1)[1]
+    slope_p = np.sum(b1 * coef[cols], axis=1)
     psi_p = np.arctan(slope_p)
     c, s = np.cos(psi_p)[:, None], np.sin(psi_p)[:, None]
     x_pt = xc[:, None] + lon[None, :] * c - lat[None, :] * s
     gain = lon[None, :] * c / (1.0 + slope_p ** 2)[:, None]      # d(lon sin psi) / d(slope), about slope_p
     y_fix = lon[None, :] * s + lat[None, :] * (1.0 if full_width else c) - gain * slope_p[:, None]
-    rows, rhs = [], []
+    vals, col_idx, rhs = [], [], []
     for lane in lanes:
         j, p = np.nonzero((x_pt >= lane.x0) & (x_pt <= lane.x1))
         sign = np.where(lat[p] > 0.0, 1.0, -1.0)      # left side: y <= left; right side: -y <= -right
         bound = np.where(lat[p] > 0.0, lane.left - margin_m, -(lane.right + margin_m))
-        rows.append(sign[:, None] * (b0[j] + gain[j, p][:, None] * b1[j]))
+        vals.append(sign[:, None] * (b0[j] + gain[j, p][:, None] * b1[j]))
+        col_idx.append(cols[j])
         rhs.append(bound - sign * y_fix[j, p])
-    return np.vstack(rows), np.concatenate(rhs)
+    data, columns = np.concatenate(vals), np.concatenate(col_idx)
+    rows = np.repeat(np.arange(data.shape[0]), 4)
+    matrix = coo_matrix((data.ravel(), (rows, columns.ravel())), shape=(data.shape[0], spline.n))
+    return matrix, np.concatenate(rhs)
 
 
 def _smoothness_rows(spline: _Spline, coef: np.ndarray,
@@ -199,7 +212,7 @@ def _solve(spline: _Spline, coef: np.ndarray, lanes: list[_Lane], body: BodyRect
     n, m = spline.n, spline.n_int + 1
     rows, rhs = _smoothness_rows(spline, coef, rate_limit)
     a_body, b_body = _body_rows(spline, coef, lanes, body, margin_m, full_width)
-    a_ub = vstack([csr_matrix(r) for r in rows] + [hstack((csr_matrix(a_body), csr_matrix((a_body.shape[0], 1 + m))))])
+    a_ub = vstack([csr_matrix(r) for r in rows] + [hstack((a_body.tocsr(), csr_matrix((a_body.shape[0], 1 + m))))])
     ends = np.array([0.0, spline.x_end])
     a_eq = np.hstack((np.vstack((spline.basis(ends, 1), spline.basis(ends, 2))), np.zeros((4, 1 + m))))
     cost = np.concatenate((np.zeros(n), [1.0], np.full(m, L1_WEIGHT * spline.h)))

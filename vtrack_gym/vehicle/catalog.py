@@ -19,7 +19,8 @@ roll inertia about its own CG, ``roll_inertia_cg_kgm2`` (the convention of publi
 vehicle models), and the roll-axis value the plant's roll equation uses is derived from it:
 ``RollParams.roll_inertia_kgm2`` = I_x,cg + m_s h_s^2 (:func:`roll_axis_inertia_kgm2`; m_s the sprung mass, h_s
 its CG's height above the roll axis). Files of the earlier format ``vtrack-vehicle/1`` give
-``roll_inertia_kgm2`` (about the roll axis) instead and are still read.
+``roll_inertia_kgm2`` (about the roll axis) instead and are still read; they may leave out
+``tyres.relaxation_length_m`` (then 0, off).
 
 The shipped files start every source with its kind (``SOURCE_TAGS``): ``paper`` (the paper's Nomenclature), ``IDSC``
 (the public reproduction of the paper's CarSim car), ``ISA`` (standard atmosphere), ``SPEC (from memory,
@@ -52,6 +53,10 @@ FORMAT_V1 = "vtrack-vehicle/1"
 
 ROLL_CG_FIELD = "roll_inertia_cg_kgm2"
 """Key of the sprung mass's roll inertia about its own CG [kg m^2] in the roll group of a ``FORMAT`` file."""
+
+RELAXATION_FIELD = "relaxation_length_m"
+RELAXATION_OFF_SOURCE = "CHOICE: off (0 m; the earlier file format has no tyre relaxation length)"
+"""A ``FORMAT_V1`` file may leave out ``tyres.relaxation_length_m``: it is then 0 (off), with this source."""
 
 MAX_VEHICLE_FILE_BYTES = 64 * 1024
 """Largest vehicle file read [bytes] (the shipped ones are ~10 kB)."""
@@ -199,7 +204,10 @@ def parse_vehicle(text: str) -> VehicleRecord:
     sources: dict[str, dict[str, str]] = {}
     roll_cg = None
     for group_name, group_fields in groups:
-        values, sources[group_name] = _read_group(_exact_keys(doc[group_name], group_fields, group_name), group_name)
+        entries = doc[group_name]
+        if not v2 and group_name == "tyres" and isinstance(entries, dict) and RELAXATION_FIELD not in entries:
+            entries = {**entries, RELAXATION_FIELD: {"value": 0.0, "source": RELAXATION_OFF_SOURCE}}
+        values, sources[group_name] = _read_group(_exact_keys(entries, group_fields, group_name), group_name)
         if v2 and group_name == "roll":
             roll_cg = _roll_axis_from_cg(values, built["chassis"])
         try:

@@ -120,6 +120,9 @@ class _Residual:
         x = np.zeros(L.N_STATE)
         x[L.S_VX], x[L.S_VY], x[L.S_R] = v * math.cos(beta), v * math.sin(beta), v / self.radius_m
         x[L.S_ROLL], x[L.S_DELTA], x[L.S_AXL], x[L.S_AYL] = phi, delta, ax, ay
+        # a relaxed tyre's lagged slip angles sit at the slip angles themselves in a steady state
+        x[L.S_ALF] = delta - math.atan2(x[L.S_VY] + self.p[L.P_A1] * x[L.S_R], x[L.S_VX])
+        x[L.S_ALR] = -math.atan2(x[L.S_VY] - self.p[L.P_A2] * x[L.S_R], x[L.S_VX])
         return x
 
     def __call__(self, z: np.ndarray, v: float) -> np.ndarray:

@@ -73,6 +73,15 @@ def _ellipse(fx: float, fz: float, mu: float) -> float:
 
 
 @kernel(inline=True)
+def _relaxed_slip(alpha: float, alpha_lag: float, vx: float, sigma: float) -> tuple[float, float]:
+    """Slip angle [rad] the tyre force sees and d(alpha_lag)/dt [rad/s]: with a relaxation length ``sigma`` [m] > 0
+    the lagged angle, which follows ``alpha`` with the time constant sigma / |v_x|; with 0 ``alpha`` itself."""
+    if sigma <= 0.0:
+        return alpha, 0.0
+    return alpha_lag, abs(vx) / sigma * (alpha - alpha_lag)
+
+
+@kernel(inline=True)
 def _capped(fx: float, fz: float, mu: float) -> float:
     """A wheel's longitudinal force [N] capped at +-mu F_z (no wheel-spin degree of freedom)."""
     return _clip(fx, -mu * max(fz, 0.0), mu * max(fz, 0.0))
@@ -129,8 +138,9 @@ def _longitudinal_forces(vx: float, throttle: float, pedal: float, fz_total: flo
 
 @kernel(inline=True)
 def _write_rates(x: np.ndarray, dvx: float, dvy: float, dr: float, droll: float, droll_rate: float, ddelta: float,
-                 ax: float, ay: float, p: np.ndarray, dx: np.ndarray) -> None:
-    """Fill ``dx`` from the body-frame accelerations: global position rates, and the load-transfer lags."""
+                 ax: float, ay: float, dalpha_f: float, dalpha_r: float, p: np.ndarray, dx: np.ndarray) -> None:
+    """Fill ``dx`` from the body-frame accelerations: global position rates, the load-transfer lags and the slip
+    angles' relaxation rates [rad/s]."""
     psi = x[L.S_PSI]
     vx = x[L.S_VX]
     vy = x[L.S_VY]
@@ -148,6 +158,8 @@ def _write_rates(x: np.ndarray, dvx: float, dvy: float, dr: float, droll: float,
     dx[L.S_DELTA] = ddelta
     dx[L.S_AXL] = (ax - x[L.S_AXL]) / tau_lt
     dx[L.S_AYL] = (ay - x[L.S_AYL]) / tau_lt
+    dx[L.S_ALF] = dalpha_f
+    dx[L.S_ALR] = dalpha_r
 
 
 @kernel(inline=True)
@@ -197,7 +209,7 @@ def linear_model(x: np.ndarray, cmd: float, throttle: float, pedal: float, cos_g
     dr = (a1 * fyf - a2 * fyr) / p[L.P_IZ]
     ax = dvx - r * vy
     ay = dvy + r * vxs
-    _write_rates(x, dvx, dvy, dr, 0.0, 0.0, ddelta, ax, ay, p, dx)
+    _write_rates(x, dvx, dvy, dr, 0.0, 0.0, ddelta, ax, ay, 0.0, 0.0, p, dx)
     _write_outputs(out, ax, ay, az_road, fz_fl, fz_fr, fz_rl, fz_rr)
 
 
@@ -217,9 +229,10 @@ def _roll_transfer(x: np.ndarray, p: np.ndarray) -> tuple[float, float]:
 
 @kernel(inline=True)
 def _lateral_tyre_forces(x: np.ndarray, p: np.ndarray, fz_fl: float, fz_fr: float, fz_rl: float, fz_rr: float,
-                         fx_fl: float, fx_fr: float, fx_rl: float, fx_rr: float) -> tuple[float, float]:
-    """(front, rear) axle lateral force [N]: the Pacejka shape once per axle, scaled per wheel by its effective
-    load and friction ellipse."""
+                         fx_fl: float, fx_fr: float, fx_rl: float,
+                         fx_rr: float) -> tuple[float, float, float, float]:
+    """(front, rear) axle lateral force [N]: the Pacejka shape once per axle (at the relaxed slip angles), scaled
+    per wheel by its effective load and friction ellipse; then the slip angles' relaxation rates [rad/s]."""
     m = p[L.P_M]
     a1 = p[L.P_A1]
     a2 = p[L.P_A2]
@@ -230,6 +243,8 @@ def _lateral_tyre_forces(x: np.ndarray, p: np.ndarray, fz_fl: float, fz_fr: floa
     vxs = x[L.S_VX] if x[L.S_VX] > _V_DYN_MIN else _V_DYN_MIN
     alpha_f = x[L.S_DELTA] - math.atan2(vy + a1 * r, vxs)
     alpha_r = -math.atan2(vy - a2 * r, vxs)
+    alpha_f, dalpha_f = _relaxed_slip(alpha_f, x[L.S_ALF], vxs, p[L.P_RELAX])
+    alpha_r, dalpha_r = _relaxed_slip(alpha_r, x[L.S_ALR], vxs, p[L.P_RELAX])
     fz_f0 = 0.5 * m * _G * a2 / wb  # static load of one wheel on flat ground (B0's reference)
     fz_r0 = 0.5 * m * _G * a1 / wb
     eps = p[L.P_LOAD_SENS]
@@ -239,7 +254,7 @@ def _lateral_tyre_forces(x: np.ndarray, p: np.ndarray, fz_fl: float, fz_fr: floa
                      + _load_factor(fz_fr, fz_f0, eps) * _ellipse(fx_fr, fz_fr, mu))
     fyr = shape_r * (_load_factor(fz_rl, fz_r0, eps) * _ellipse(fx_rl, fz_rl, mu)
                      + _load_factor(fz_rr, fz_r0, eps) * _ellipse(fx_rr, fz_rr, mu))
-    return fyf, fyr
+    return fyf, fyr, dalpha_f, dalpha_r
 
 
 @kernel(inline=True)
@@ -294,7 +309,7 @@ def nonlinear_model(x: np.ndarray, cmd: float, throttle: float, pedal: float, co
     fx_rr = _capped(fx_r_each, fz_rr, mu)
     fxf = fx_fl + fx_fr
     fxr = fx_rl + fx_rr
-    fyf, fyr = _lateral_tyre_forces(x, p, fz_fl, fz_fr, fz_rl, fz_rr, fx_fl, fx_fr, fx_rl, fx_rr)
+    fyf, fyr, dalpha_f, dalpha_r = _lateral_tyre_forces(x, p, fz_fl, fz_fr, fz_rl, fz_rr, fx_fl, fx_fr, fx_rl, fx_rr)
     cos_d = math.cos(x[L.S_DELTA])
     sin_d = math.sin(x[L.S_DELTA])
     fx_body = fxf * cos_d - fyf * sin_d + fxr - f_resist
@@ -315,7 +330,8 @@ def nonlinear_model(x: np.ndarray, cmd: float, throttle: float, pedal: float, co
         dr = w * dr + (1.0 - w) * dr_kin
     ax = dvx - r * vy
     ay = dvy + r * vx
-    _write_rates(x, dvx, dvy, dr, x[L.S_ROLL_RATE], _roll_acceleration(x, ay, p), ddelta, ax, ay, p, dx)
+    _write_rates(x, dvx, dvy, dr, x[L.S_ROLL_RATE], _roll_acceleration(x, ay, p), ddelta, ax, ay, dalpha_f,
+                 dalpha_r, p, dx)
     _write_outputs(out, ax, ay, az_road, fz_fl, fz_fr, fz_rl, fz_rr)
 
 

@@ -471,7 +471,7 @@ MAX_LATERAL_G = MAX_ACCEL_MPS2 / GRAVITY_MPS2
 def _add_track(p: argparse.ArgumentParser, text: str | None = None, where: Any = None) -> None:
     """``--track FILE`` (in the group ``where`` if given, e.g. exclusive with --env), how it is read and its
     speed-profile options."""
-    from vtrack_gym.envs.scenarios import MAX_TRACK_SMOOTHING_M
+    from vtrack_gym.envs.track_sources import MAX_TRACK_SMOOTHING_M
 
     (where if where is not None else p).add_argument("--track", type=Path, default=None, metavar="FILE",
                    help=text or "drive on this CSV track file instead of --env (columns by header: x_m, y_m, optional "
@@ -524,7 +524,7 @@ def _speed_profile(args: argparse.Namespace):
 
 def _track_read(args: argparse.Namespace) -> dict[str, Any]:
     """``load_track`` options of --track-closed / --track-smoothing-m (only those given)."""
-    from vtrack_gym.envs.scenarios import MAX_TRACK_SMOOTHING_M
+    from vtrack_gym.envs.track_sources import MAX_TRACK_SMOOTHING_M
 
     read: dict[str, Any] = {}
     if args.track_closed != "auto":

@@ -24,7 +24,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, prange
 
-from vtrack_gym.envs.config import EnvConfig, RewardConfig, ScenarioConfig
+from vtrack_gym.envs.config import EnvConfig, RewardConfig, Scenario
 from vtrack_gym.envs.observation import N_SCALARS, ObservationLayout
 from vtrack_gym.envs.pdflc_kernel import pdflc_step
 from vtrack_gym.envs.schema import REWARD_TERMS, SIGNAL_ROW
@@ -57,9 +57,9 @@ class StepConstants:
     steering_ratio: float        # hand-wheel / road-wheel angle
 
     @classmethod
-    def of(cls, scenario: ScenarioConfig, config: EnvConfig) -> StepConstants:
+    def of(cls, scenario: Scenario, config: EnvConfig) -> StepConstants:
         """The constants of an env with this scenario and config."""
-        return cls(config.physics_dt_s, config.n_substeps, scenario.end_margin_m,
+        return cls(config.physics_dt_s, config.n_substeps, scenario.track.end_margin_m,
                    config.speed_controller.method == "mamdani", config.vehicle.steering.max_road_wheel_angle_rad,
                    config.vehicle.steering.steering_ratio)
 
@@ -416,8 +416,8 @@ anchor x, y [m], psi [rad], lane length [m] (``tracks.Gate``; the anchor columns
 def body_outside_gates(table: np.ndarray, ds: float, length: float, closed: bool, gates: np.ndarray, x: np.ndarray,
                        y: np.ndarray, psi: np.ndarray, s_guess: np.ndarray, lon: np.ndarray, lat: np.ndarray,
                        out: np.ndarray, row: np.ndarray) -> None:
-    """``out[i] = True`` where a body-outline point of car i (CG x, y [m], heading psi [rad]; point offsets ``lon``,
-    ``lat`` (P,) [m] in the body frame) lies in a gate's lane section outside its lane. ``gates`` (G, GATE_COLS):
+    """``out[i, g] = True`` where a body-outline point of car i (CG x, y [m], heading psi [rad]; point offsets ``lon``,
+    ``lat`` (P,) [m] in the body frame) lies in gate g's lane section outside its lane. ``gates`` (G, GATE_COLS):
     a gate without an anchor is checked in the path's Frenet frame (s range, e_y bounds; the projection starts near
     ``s_guess`` [m], the car's station), an anchored gate against its fixed rectangle (like
     ``tracks.gate_violations``)."""
@@ -444,9 +444,9 @@ def body_outside_gates(table: np.ndarray, ds: float, length: float, closed: bool
                     along = (cx - gates[g, 5]) * ca + (cy - gates[g, 6]) * sa
                     off = -(cx - gates[g, 5]) * sa + (cy - gates[g, 6]) * ca
                     if 0.0 <= along <= gates[g, 8] and (off > gates[g, 2] or off < gates[g, 3]):
-                        out[i] = True
+                        out[i, g] = True
                 elif gates[g, 0] <= s <= gates[g, 1] and (e_y > gates[g, 2] or e_y < gates[g, 3]):
-                    out[i] = True
+                    out[i, g] = True
 
 
 def gate_rows(gates: tuple) -> np.ndarray:

@@ -91,9 +91,9 @@ def car_view(sim: Any, path: Any, i: int, label: str = "", colour: str = "#1f77b
     st = sim.plant.state[i]
     v = float(st[L.S_VX])
     delta = float(st[L.S_DELTA])
-    s0 = float(sim.err[i, 0])
+    s0 = float(sim.station_m[i])
     ratio = float(sim.config.vehicle.steering.steering_ratio)
-    return CarView(float(st[L.S_X]), float(st[L.S_Y]), float(st[L.S_PSI]), delta, v, float(sim.err[i, 1]),
+    return CarView(float(st[L.S_X]), float(st[L.S_Y]), float(st[L.S_PSI]), delta, v, float(sim.lateral_error_m[i]),
                    math.degrees(delta * ratio), label, colour,
                    preview_points(path, s0 + sim.layout.preview_distances(v)), status)
 

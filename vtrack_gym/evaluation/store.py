@@ -78,8 +78,8 @@ class StoreError(RuntimeError):
 class ResultRow:
     """One evaluated episode and where it came from (``policy_preset``: preset name, empty for agents).
 
-    ``success``: the episode's success verdict; None derives it with the interim rule
-    ``vtrack_gym.evaluation.success.episode_success`` when the row is stored.
+    ``success``: the episode's success verdict (the scenario's success criterion, ``info["success"]``); a row
+    without one (None, e.g. from an env that gives no verdict) never counts as a success.
     """
 
     suite: str
@@ -98,11 +98,8 @@ class ResultRow:
     success: bool | None = None
 
     def verdict(self) -> bool:
-        """``success``, or the interim rule's verdict when it is None."""
-        from vtrack_gym.evaluation.success import episode_success
-
-        return bool(self.success) if self.success is not None else episode_success(self.env_id, self.termination,
-                                                                                    self.metrics)
+        """``success`` (False when the row has no verdict)."""
+        return bool(self.success)
 
 
 def _now() -> str:

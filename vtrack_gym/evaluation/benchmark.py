@@ -80,10 +80,11 @@ def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str,
     """Run ``policy`` for one episode on ``env`` (reset with ``ep``'s seed and options); its row and trace.
 
     The row's ``success`` is the env's verdict (the last info's ``"success"``; an env without one gives a row that
-    never counts as a success) and its metrics carry the success criterion's own figures (``success_metrics``). The row's ``options`` carry ``ep``'s reset options and
-    the car (``vehicle_label(ep.vehicle)``, when not the default car), so cars never mix on the leaderboard. Its
-    ``policy_hash`` is ``digest`` if given, else the policy's fingerprint taken before the rollout (a policy that
-    changes its attributes while driving keeps one hash)."""
+    never counts as a success) and its metrics carry the success criterion's own figures (``success_metrics``).
+    The row's ``options`` carry ``ep``'s reset options and the car (``vehicle_label(ep.vehicle)``, when not the
+    default car), so cars never mix on the leaderboard. Its ``policy_hash`` is ``digest`` if given, else the
+    policy's fingerprint taken before the rollout (a policy that changes its attributes while driving keeps one
+    hash)."""
     digest = digest or policy_hash(policy)
     trace = rollout(policy, env, seed=ep.seed, options=ep.options)
     trace.policy_id = name

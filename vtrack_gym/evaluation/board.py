@@ -3,8 +3,8 @@
 Policy key: a board row is one (env_id, policy_id, preset, policy_hash): the same controller name with two presets
 (``smc`` default vs ``smc --preset paper``) or two agent files with different weights are two rows.
 
-Validity first: every episode has a success verdict (its scenario's success criterion, ``envs.criteria``). The metric columns are
-aggregated over the *successful* episodes only; failed episodes are counted apart (``failed``,
+Validity first: every episode has a success verdict (its scenario's success criterion, ``envs.criteria``). The
+metric columns are aggregated over the *successful* episodes only; failed episodes are counted apart (``failed``,
 ``failure_reasons``, ``failed_progress_m`` and the primary metric over them, ``failed_<primary>``), so a policy
 that crashes early (short episode, small ITAE, few cones passed) cannot look better than one that drives the
 course. Rank within each env, lexicographically: success rate (higher first), the suite's primary metric over

@@ -85,7 +85,7 @@ def test_compiled_gate_check_matches_gate_violations(name: str) -> None:
     psi = row.psi + rng.uniform(-0.15, 0.15, s.size)
     per_gate = np.zeros((s.size, gates.shape[0]), dtype=np.bool_)
     k.body_outside_gates(path.table, path.ds_m, path.length_m, path.closed, gates, x, y, psi, s, lon.ravel(),
-                         lat.ravel(), per_gate, np.zeros(k.N_COLS))
+                         lat.ravel(), c.body_length_m, per_gate, np.zeros(k.N_COLS))
     hit = per_gate.any(axis=1)
     ref = np.array([gate_violations(path, x[i:i + 1], y[i:i + 1], psi[i:i + 1], c.body_length_m, c.body_width_m,
                                     c.cg_to_front_end_m) > 0 for i in range(s.size)])

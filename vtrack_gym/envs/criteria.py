@@ -99,6 +99,7 @@ class GateState(NamedTuple):
     hit: np.ndarray            # (n, max gates) bool: gate g left by car i's body
     outline_lon: np.ndarray    # body-outline points in the body frame [m]
     outline_lat: np.ndarray
+    reach_m: float             # a Frenet gate is checked while the car's station is this close to it [m]
     row: np.ndarray            # scratch track row
 
 
@@ -121,7 +122,8 @@ class ConeGates(SuccessCriterion):
         gated = {t: (p, gate_rows(p.gates), min(g.s_start_m for g in p.gates) - c.body_length_m,
                      max(g.s_end_m for g in p.gates) + c.body_length_m) for t, p in enumerate(paths) if p.gates}
         most = max((len(p.gates) for p in paths), default=0)
-        return GateState(gated, np.zeros((n, max(most, 1)), dtype=bool), lon.ravel(), lat.ravel(), np.zeros(N_COLS))
+        return GateState(gated, np.zeros((n, max(most, 1)), dtype=bool), lon.ravel(), lat.ravel(), c.body_length_m,
+                         np.zeros(N_COLS))
 
     def reset_car(self, state: GateState, i: int, vehicle: Any) -> None:
         state.hit[i] = False
@@ -137,7 +139,7 @@ class ConeGates(SuccessCriterion):
             hit = state.hit[sel, :gates.shape[0]]
             body_outside_gates(path.table, path.ds_m, path.length_m, path.closed, gates, cars.x_m[sel],
                                cars.y_m[sel], cars.psi_rad[sel], s[sel], state.outline_lon, state.outline_lat,
-                               hit, state.row)
+                               state.reach_m, hit, state.row)
             state.hit[sel, :gates.shape[0]] = hit
 
     def verdict(self, state: GateState, cars: CarsView) -> np.ndarray:

@@ -415,17 +415,25 @@ anchor x, y [m], psi [rad], lane length [m] (``tracks.Gate``; the anchor columns
 @njit(cache=True)
 def body_outside_gates(table: np.ndarray, ds: float, length: float, closed: bool, gates: np.ndarray, x: np.ndarray,
                        y: np.ndarray, psi: np.ndarray, s_guess: np.ndarray, lon: np.ndarray, lat: np.ndarray,
-                       out: np.ndarray, row: np.ndarray) -> None:
+                       reach: float, out: np.ndarray, row: np.ndarray) -> None:
     """``out[i, g] = True`` where a body-outline point of car i (CG x, y [m], heading psi [rad]; point offsets ``lon``,
     ``lat`` (P,) [m] in the body frame) lies in gate g's lane section outside its lane. ``gates`` (G, GATE_COLS):
     a gate without an anchor is checked in the path's Frenet frame (s range, e_y bounds; the projection starts near
     ``s_guess`` [m], the car's station), an anchored gate against its fixed rectangle (like
-    ``tracks.gate_violations``)."""
-    frenet = False
-    for g in range(gates.shape[0]):
-        if gates[g, 4] < 0.5:
-            frenet = True
+    ``tracks.gate_violations``). A gate already marked in ``out`` is not checked again, nor a Frenet gate whose
+    station range is more than ``reach`` [m] (the body length) from the car's station."""
     for i in range(x.shape[0]):
+        frenet = False
+        anchored = False
+        for g in range(gates.shape[0]):
+            if out[i, g]:
+                continue
+            if gates[g, 4] > 0.5:
+                anchored = True
+            elif gates[g, 0] - reach <= s_guess[i] <= gates[g, 1] + reach:
+                frenet = True
+        if not (frenet or anchored):
+            continue
         c = math.cos(psi[i])
         sn = math.sin(psi[i])
         for j in range(lon.shape[0]):
@@ -438,6 +446,8 @@ def body_outside_gates(table: np.ndarray, ds: float, length: float, closed: bool
                 interp_row(table, ds, length, closed, s, row)
                 e_y = -(cx - row[C_X]) * math.sin(row[C_PSI]) + (cy - row[C_Y]) * math.cos(row[C_PSI])
             for g in range(gates.shape[0]):
+                if out[i, g]:
+                    continue
                 if gates[g, 4] > 0.5:
                     ca = math.cos(gates[g, 7])
                     sa = math.sin(gates[g, 7])
@@ -445,7 +455,7 @@ def body_outside_gates(table: np.ndarray, ds: float, length: float, closed: bool
                     off = -(cx - gates[g, 5]) * sa + (cy - gates[g, 6]) * ca
                     if 0.0 <= along <= gates[g, 8] and (off > gates[g, 2] or off < gates[g, 3]):
                         out[i, g] = True
-                elif gates[g, 0] <= s <= gates[g, 1] and (e_y > gates[g, 2] or e_y < gates[g, 3]):
+                elif frenet and gates[g, 0] <= s <= gates[g, 1] and (e_y > gates[g, 2] or e_y < gates[g, 3]):
                     out[i, g] = True
 
 

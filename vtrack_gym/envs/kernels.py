@@ -29,12 +29,23 @@ from vtrack_gym.envs.observation import N_SCALARS, ObservationLayout
 from vtrack_gym.envs.pdflc_kernel import pdflc_step
 from vtrack_gym.envs.schema import REWARD_TERMS, SIGNAL_ROW
 from vtrack_gym.tracks.kernels import _locate, interp_row, project_point
+from vtrack_gym.tracks.table import (
+    COL_DKAPPA,
+    COL_GRADE,
+    COL_KAPPA,
+    COL_PSI,
+    COL_X,
+    COL_Y,
+    COL_Z,
+    COL_ZPP,
+    N_COLS,
+)
 from vtrack_gym.vehicle import layout as L
 from vtrack_gym.vehicle.kernels import step_vehicle
 
-# Column order of the track tables (see vtrack_gym.tracks.path).
-C_X, C_Y, C_PSI, C_KAPPA, C_DKAPPA, C_Z, C_GRADE, C_ZPP = range(8)
-N_COLS = 8
+# Column order of the track tables: declared by their owner, ``vtrack_gym.tracks.table``.
+C_X, C_Y, C_PSI, C_KAPPA = COL_X, COL_Y, COL_PSI, COL_KAPPA
+C_DKAPPA, C_Z, C_GRADE, C_ZPP = COL_DKAPPA, COL_Z, COL_GRADE, COL_ZPP
 C_V2, C_WL, C_WR = range(N_COLS, N_COLS + 3)   # the env's own columns after the path's
 N_ENV_COLS = N_COLS + 3
 

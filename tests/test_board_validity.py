@@ -49,15 +49,15 @@ def record(policy: str, seed: int, e_y: float, *, termination: str = "completed"
 
 # ------------------------------------------------------------------------------------------ success verdict
 def test_failure_reasons_and_rows_without_a_verdict() -> None:
-    row = ResultRow("paper", "DLC120-v0", "p", "h", 0, {"cones_hit": 0.0}, "completed", 1e-5)
-    assert not row.verdict()  # no verdict from the env: never a success
-    assert ResultRow("paper", "DLC120-v0", "p", "h", 0, {}, "completed", 1e-5, success=True).verdict()
+    # a row without a verdict is judged by completion alone (the criterion's verdict travels with the row)
+    assert ResultRow("paper", "DLC120-v0", "p", "h", 0, {"cones_hit": 3.0}, "completed", 1e-5).verdict()
+    assert not ResultRow("paper", "DLC120-v0", "p", "h", 0, {}, "spin_out", 1e-5).verdict()
     assert failure_reason("spin_out", {"cones_hit": 0.0}) == "spin_out"
     assert failure_reason("completed", {"cones_hit": 2.0}) == "cones_hit"
     assert failure_reason("completed", {}) == "env_verdict"
 
 
-def test_env_verdict_wins_over_the_interim_rule() -> None:
+def test_env_verdict_is_the_row_verdict() -> None:
     from vtrack_gym.evaluation.trace import STEP_SIGNALS, Trace
 
     info = {name: 0.0 for name in STEP_SIGNALS} | {"fz_n": np.ones(4), "acc_substeps_mps2": np.zeros((2, 3))}
@@ -73,7 +73,7 @@ def test_env_verdict_wins_over_the_interim_rule() -> None:
 def test_store_keeps_the_success_column(tmp_path: Path) -> None:
     store = ResultStore(tmp_path / "s.sqlite")
     store.add([ResultRow("paper", "DLC120-v0", "p", "h", s, {"max_e_y_m": 0.1, "cones_hit": float(s)}, "completed",
-                         1e-5) for s in range(2)])
+                         1e-5, success=s == 0) for s in range(2)])
     assert [r["success"] for r in store.rows()] == [1, 0]
     board = store.leaderboard("paper", COLUMNS)
     assert board[0]["success_rate"] == 0.5 and board[0]["failed"] == 1

@@ -68,8 +68,9 @@ def test_maneuver_env_drives_its_spec_path_and_speed() -> None:
 def test_compiled_gate_check_matches_gate_violations(name: str) -> None:
     """The env's per-step check (compiled, anchored gates and the body outline) gives the same verdict per pose as
     ``tracks.gate_violations`` on random poses around the gates."""
-    from vtrack_gym.envs import kernels as k
+    from vtrack_gym.envs import gates as k
     from vtrack_gym.tracks.dlc import car_outline
+    from vtrack_gym.tracks.table import N_COLS
 
     env = gym.make(SCENARIOS[MANEUVER_IDS[name]].env_id)
     env.reset(seed=0)
@@ -85,7 +86,7 @@ def test_compiled_gate_check_matches_gate_violations(name: str) -> None:
     psi = row.psi + rng.uniform(-0.15, 0.15, s.size)
     per_gate = np.zeros((s.size, gates.shape[0]), dtype=np.bool_)
     k.body_outside_gates(path.table, path.ds_m, path.length_m, path.closed, gates, x, y, psi, s, lon.ravel(),
-                         lat.ravel(), c.body_length_m, per_gate, np.zeros(k.N_COLS))
+                         lat.ravel(), c.body_length_m, per_gate, np.zeros(N_COLS))
     hit = per_gate.any(axis=1)
     ref = np.array([gate_violations(path, x[i:i + 1], y[i:i + 1], psi[i:i + 1], c.body_length_m, c.body_width_m,
                                     c.cg_to_front_end_m) > 0 for i in range(s.size)])

@@ -21,7 +21,8 @@ from vtrack_gym.envs.criteria import (
     Lap,
     SuccessCriterion,
 )
-from vtrack_gym.envs.scenarios import SCENARIOS, Scenario, register_scenario
+from vtrack_gym.envs.registration import register_scenario
+from vtrack_gym.envs.scenarios import SCENARIOS, Scenario
 from vtrack_gym.envs.speed import HoldSpeed
 from vtrack_gym.envs.track_sources import TRACKS, TrackSource
 from vtrack_gym.envs.tracking_env import TrackingEnv

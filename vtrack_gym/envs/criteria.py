@@ -114,8 +114,9 @@ class ConeGates(SuccessCriterion):
     per_step: ClassVar[bool] = True
 
     def start(self, paths: tuple, vehicle: Any, n: int) -> GateState:
-        from vtrack_gym.envs.kernels import N_COLS, gate_rows
+        from vtrack_gym.envs.gates import gate_rows
         from vtrack_gym.tracks.dlc import car_outline
+        from vtrack_gym.tracks.table import N_COLS
 
         c = vehicle.chassis
         lon, lat = car_outline(0.0, 0.0, 0.0, c.body_length_m, c.body_width_m, c.cg_to_front_end_m)
@@ -129,7 +130,7 @@ class ConeGates(SuccessCriterion):
         state.hit[i] = False
 
     def observe_step(self, state: GateState, cars: CarsView) -> None:
-        from vtrack_gym.envs.kernels import body_outside_gates
+        from vtrack_gym.envs.gates import body_outside_gates
 
         s = cars.station_m
         for track, (path, gates, lo, hi) in state.gated.items():

@@ -183,7 +183,8 @@ MANEUVER_SCENARIOS: tuple[Scenario, ...] = tuple(maneuver_scenario(n) for n in M
 
 SCENARIOS: dict[str, Scenario] = {s.name: s for s in (LATERAL_TRACKING, DLC120, RANDOM_TRACKS, TRAINING_MIX,
                                                       TRACK, *MANEUVER_SCENARIOS)}
-"""Scenario name -> scenario; one registered id ``vtrack/<name>`` per entry (``register_scenario`` adds one)."""
+"""Scenario name -> scenario; one registered id ``vtrack/<name>`` per entry (``registration.register_scenario``
+adds one)."""
 LEGACY_IDS: tuple[str, ...] = ("LateralTracking-v0", "DLC120-v0", "LateralTrackingRandom-v0")
 """The historical un-namespaced ids, registered as aliases of ``vtrack/<id>``."""
 BUILTIN_TRACK_NAMES: tuple[str, ...] = tuple(TRACKS)
@@ -255,21 +256,4 @@ def _registered_track(env_id: str) -> dict[str, Any] | None:
     if spec is None or spec.kwargs.get("scenario") not in SCENARIOS or "track" not in spec.kwargs:
         return None
     return dict(spec.kwargs)
-
-
-def register_scenario(scenario: Scenario) -> str:
-    """Add ``scenario`` to the registry and register ``vtrack/<name>`` with Gymnasium; returns the id.
-
-    ``ValueError`` when another scenario already has the name (a registered id's behaviour never changes)."""
-    if not isinstance(scenario, Scenario):
-        raise ValueError(f"register_scenario needs a Scenario (got {type(scenario).__name__})")
-    known = SCENARIOS.get(scenario.name)
-    if known is not None and known != scenario:
-        raise ValueError(f"scenario {scenario.name!r} is already registered with other parts; give it a new name "
-                         "or the next version (-v1)")
-    SCENARIOS[scenario.name] = scenario
-    from vtrack_gym.envs.registration import register_envs
-
-    register_envs()
-    return scenario.env_id
 

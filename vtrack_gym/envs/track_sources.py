@@ -3,7 +3,8 @@
 ``TRACKS`` maps every name a scenario may give as its track to a builder ``(source, vehicle_width_m) -> paths``:
 the paper's handling course and double lane change, the standard manoeuvres (``tracks.maneuvers``; a gated one is
 sized for the driven car's body width, as ISO 3888 sizes its lanes), the procedural bank and the RL training mix.
-Anything else is a CSV file path or a ``tracks.Path``. Imports nothing heavy: builders import ``tracks`` lazily.
+Anything else is a CSV file path or a ``tracks.Path``. Imports only the manoeuvre table (numpy); builders import
+the rest of ``tracks`` lazily.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from functools import lru_cache
 from typing import Any
 
 from vtrack_gym._ranges import documented, ranged, validate
+from vtrack_gym.tracks.maneuvers import MANEUVERS
 
 MAX_TRACK_SMOOTHING_M = 50.0
 """Largest ``smoothing_m`` [m] (RMS deviation of the fit from a CSV file's points) a track source accepts."""
@@ -27,8 +29,8 @@ evaluation courses need (handling course: R >= 20 m; DLC120-v0: R >= 140 m), so 
 never meets a curvature it has not seen."""
 PROCEDURAL_MAX_DKAPPA: tuple[float, float] = (0.008, 0.004)
 """Curvature-rate bounds [1/m^2] of the two halves (handling course: 0.0063; DLC120-v0: 0.0020)."""
-MANEUVER_TRACK_NAMES: tuple[str, ...] = ("iso3888_1", "iso3888_2", "iso4138_circle", "slalom", "step_curvature")
-"""The standard manoeuvres (``tracks.maneuvers.MANEUVERS``) as track names."""
+MANEUVER_TRACK_NAMES: tuple[str, ...] = tuple(MANEUVERS)
+"""The standard manoeuvres as track names: the keys of ``tracks.maneuvers.MANEUVERS``, in its order."""
 
 
 @documented
@@ -140,7 +142,7 @@ def maneuver_path(name: str, vehicle_width_m: float) -> Any:
     """The reference path of manoeuvre ``name``; gated manoeuvres are sized for ``vehicle_width_m`` [m]."""
     from dataclasses import fields
 
-    from vtrack_gym.tracks.maneuvers import MANEUVERS, build_maneuver
+    from vtrack_gym.tracks.maneuvers import build_maneuver
 
     has_width = any(f.name == "vehicle_width_m" for f in fields(MANEUVERS[name][1]))
     return build_maneuver(name, **({"vehicle_width_m": float(vehicle_width_m)} if has_width else {})).path

@@ -78,8 +78,9 @@ class StoreError(RuntimeError):
 class ResultRow:
     """One evaluated episode and where it came from (``policy_preset``: preset name, empty for agents).
 
-    ``success``: the episode's success verdict (the scenario's success criterion, ``info["success"]``); a row
-    without one (None, e.g. from an env that gives no verdict) never counts as a success.
+    ``success``: the episode's success verdict (the scenario's success criterion, ``info["success"]``, which the
+    benchmark records); a row given without one (None: the GA's tuning rows, rows written by other code) is judged
+    by completion alone (``termination == "completed"``).
     """
 
     suite: str
@@ -98,8 +99,8 @@ class ResultRow:
     success: bool | None = None
 
     def verdict(self) -> bool:
-        """``success`` (False when the row has no verdict)."""
-        return bool(self.success)
+        """``success``, or the episode's completion when the row has no verdict."""
+        return bool(self.success) if self.success is not None else self.termination == "completed"
 
 
 def _now() -> str:

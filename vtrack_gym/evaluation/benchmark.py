@@ -10,7 +10,7 @@ from typing import Any
 
 import gymnasium as gym
 
-from vtrack_gym.evaluation.board import build_board
+from vtrack_gym.evaluation.board import build_board, failure_reason
 from vtrack_gym.evaluation.fingerprint import policy_hash
 from vtrack_gym.evaluation.metrics import evaluate_trace
 from vtrack_gym.evaluation.rollout import rollout
@@ -79,8 +79,8 @@ def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str,
                   digest: str | None = None) -> tuple[ResultRow, Trace]:
     """Run ``policy`` for one episode on ``env`` (reset with ``ep``'s seed and options); its row and trace.
 
-    The row's ``success`` is the env's verdict (the last info's ``"success"``; an env without one gives a row that
-    never counts as a success) and its metrics carry the success criterion's own figures (``success_metrics``).
+    The row's ``success`` is the env's verdict (the last info's ``"success"``; a row of an env without one is
+    judged by completion, ``ResultRow.verdict``) and its metrics carry the success criterion's own figures (``success_metrics``).
     The row's ``options`` carry ``ep``'s reset options and the car (``vehicle_label(ep.vehicle)``, when not the
     default car), so cars never mix on the leaderboard. Its ``policy_hash`` is ``digest`` if given, else the
     policy's fingerprint taken before the rollout (a policy that changes its attributes while driving keeps one
@@ -97,6 +97,8 @@ def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str,
                     wall_time_per_step_s=trace.wall_time_per_step_s, options=options,
                     policy_preset=policy_preset(policy),
                     success=trace.success)
+    if not row.verdict():  # the figures' legends name the reason
+        trace.meta["failure_reason"] = failure_reason(trace.termination, metrics)
     return row, trace
 
 
@@ -118,23 +120,19 @@ def score_policy(name: str, make: Any, episodes: Sequence[Episode], suite: str,
     return rows, traces
 
 
-def policy_factories(names: Sequence[str] | None = None) -> dict[str, Any]:
+def policy_factories(names: Sequence[str] | dict[str, Any] | None = None) -> dict[str, Any]:
     """``{policy id: make(env) -> policy}`` for every baseline (default presets) and shipped agent, or for
-    ``names`` (policy specs, see ``vtrack_gym.baselines.resolve``; all checked before any is returned).
+    ``names`` (policy specs, see ``vtrack_gym.baselines.resolve``; all checked before any is returned; a dict of
+    factories built already, e.g. of user code, is returned as is).
 
     Ids are canonical (``resolve.canonical_spec``: ``lqr:default`` is ``lqr``); ``ValueError`` when two names are
     the same policy (a policy is never ranked against itself)."""
-    from vtrack_gym.baselines.resolve import canonical_spec, policy_factory, policy_names
+    from vtrack_gym.baselines.resolve import canonical_ids, policy_factory, policy_names
 
+    if isinstance(names, dict):  # factories already built: {policy id: make(env) -> policy}
+        return dict(names)
     specs = [str(n).strip() for n in names] if names else list(policy_names())
-    ids: dict[str, str] = {}
-    for spec in specs:
-        key = canonical_spec(spec)
-        if key in ids:
-            raise ValueError(f"--policies names {key!r} twice ({ids[key]!r} and {spec!r} are the same policy); "
-                             "list each policy once")
-        ids[key] = spec
-    return {key: policy_factory(spec) for key, spec in ids.items()}
+    return {key: policy_factory(spec) for key, spec in canonical_ids(specs).items()}
 
 
 def run_benchmark(suite: str = "paper", store: ResultStore | None = None, policies: Sequence[str] | None = None,

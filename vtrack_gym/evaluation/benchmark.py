@@ -80,7 +80,8 @@ def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str,
     """Run ``policy`` for one episode on ``env`` (reset with ``ep``'s seed and options); its row and trace.
 
     The row's ``success`` is the env's verdict (the last info's ``"success"``; a row of an env without one is
-    judged by completion, ``ResultRow.verdict``) and its metrics carry the success criterion's own figures (``success_metrics``).
+    judged by completion, ``ResultRow.verdict``) and its metrics carry the success criterion's own figures
+    (``success_metrics``).
     The row's ``options`` carry ``ep``'s reset options and the car (``vehicle_label(ep.vehicle)``, when not the
     default car), so cars never mix on the leaderboard. Its ``policy_hash`` is ``digest`` if given, else the
     policy's fingerprint taken before the rollout (a policy that changes its attributes while driving keeps one

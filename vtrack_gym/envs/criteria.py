@@ -30,7 +30,7 @@ class CarsView(NamedTuple):
 
     track: np.ndarray              # int64 track index of each car
     steps: np.ndarray              # int64 control steps since reset
-    completed: np.ndarray          # bool: the episode terminated ``completed`` (fresh array per call)
+    termination: np.ndarray        # int64 termination code of each car (0: running)
     station_m: np.ndarray          # station of the CG's projection [m]
     lateral_error_m: np.ndarray    # e_y [m], left positive
     speed_mps: np.ndarray          # v_x [m/s]
@@ -39,6 +39,12 @@ class CarsView(NamedTuple):
     x_m: np.ndarray                # CG position [m]
     y_m: np.ndarray
     psi_rad: np.ndarray            # heading [rad]
+    completed_code: int            # the termination code of a completed course
+
+    @property
+    def completed(self) -> np.ndarray:
+        """Bool (n,): the episode terminated ``completed`` (a fresh array)."""
+        return self.termination == self.completed_code
 
 
 class SuccessCriterion:
@@ -64,7 +70,7 @@ class SuccessCriterion:
 
     def verdict(self, state: Any, cars: CarsView) -> np.ndarray:
         """Each car's verdict if its episode ended now (bool (n,))."""
-        return cars.completed.copy()
+        return cars.completed
 
     def metrics(self, state: Any, i: int, track: int) -> dict[str, float]:
         """The leaderboard figures of car ``i``'s episode on path ``track`` (none by default)."""

@@ -114,11 +114,11 @@ class BatchSim:
             pd_surface=np.ascontiguousarray(control_surface(pd.method, pd.surface_resolution)))
 
     def _cars_view(self, k) -> CarsView:
-        """The named views a success criterion reads (``completed`` is refreshed per call)."""
+        """The named views a success criterion reads (live: the arrays are updated in place)."""
         st = self.plant.state
-        return CarsView(self.veh_track, self.steps, self.term == k.T_COMPLETED, self.station_m, self.lateral_error_m,
-                        st[:, L.S_VX], self.v_ref, self.sig[:, k.SIG_AY], st[:, L.S_X], st[:, L.S_Y],
-                        st[:, L.S_PSI])
+        return CarsView(self.veh_track, self.steps, self.term, self.station_m, self.lateral_error_m, st[:, L.S_VX],
+                        self.v_ref, self.sig[:, k.SIG_AY], st[:, L.S_X], st[:, L.S_Y], st[:, L.S_PSI],
+                        k.T_COMPLETED)
 
     # ------------------------------------------------------------------ reset
     def set_speed_controller(self, index: int | np.ndarray | slice, config: PDFLCConfig) -> None:
@@ -258,7 +258,7 @@ class BatchSim:
 
     def success(self) -> np.ndarray:
         """Each car's verdict if its episode ended now (bool (n,)), by the scenario's success criterion."""
-        return self.criterion.verdict(self.verdicts, self._cars._replace(completed=self.term == _kernels().T_COMPLETED))
+        return self.criterion.verdict(self.verdicts, self._cars)
 
     def success_metrics(self, i: int) -> dict[str, float]:
         """The success criterion's leaderboard figures of car ``i``'s episode so far (e.g. ``cones_hit``)."""

@@ -45,7 +45,7 @@ def test_tiny_speeds_are_refused_and_the_derived_time_limit_is_capped(tmp_path: 
                                          r"the maximum 7200 s of simulated time; fix: raise the profile's speeds"):
         gym.make("vtrack/Track-v0", track=str(long_road), speed_profile=ConstantSpeed(1.0))
     env = gym.make("vtrack/Track-v0", track=str(loop), speed_profile=ConstantSpeed(1.0))  # 628 m at 1 m/s: fine
-    assert env.unwrapped.scenario.max_episode_s == pytest.approx(1.5 * 2.0 * math.pi * 100.0 + 30.0, rel=2e-3)
+    assert env.unwrapped.scenario.time_limit_s == pytest.approx(1.5 * 2.0 * math.pi * 100.0 + 30.0, rel=2e-3)
 
 
 def test_a_speed_column_below_one_mps_is_refused_where_it_sets_the_speed(tmp_path: Path) -> None:

@@ -23,7 +23,7 @@ def speed_profile(args: argparse.Namespace) -> Any:
 
 def track_read(args: argparse.Namespace) -> dict[str, Any]:
     """``load_track`` options of --track-closed / --track-smoothing-m (only those given)."""
-    from vtrack_gym.envs.scenarios import MAX_TRACK_SMOOTHING_M
+    from vtrack_gym.envs.track_sources import MAX_TRACK_SMOOTHING_M
 
     read: dict[str, Any] = {}
     if args.track_closed != "auto":

@@ -1,5 +1,5 @@
 """Frozen configuration of the envs: reward, env settings, reset options (all SI units); the scenarios live in
-``envs.scenarios`` and are re-exported here."""
+``envs.scenarios`` (``Scenario`` and the paper's entries are re-exported here)."""
 
 from __future__ import annotations
 
@@ -13,11 +13,11 @@ import numpy as np
 from vtrack_gym._ranges import closed_ranges, documented, ranged, validate
 from vtrack_gym.envs.observation import NOISY_FIELDS, OBS, ObservationLayout
 from vtrack_gym.envs.pdflc import PDFLCConfig
-from vtrack_gym.envs.scenarios import DLC120, KMH, LATERAL_TRACKING, RANDOM_TRACKS, TRACK, ScenarioConfig
+from vtrack_gym.envs.scenarios import DLC120, KMH, LATERAL_TRACKING, RANDOM_TRACKS, TRACK, Scenario
 from vtrack_gym.vehicle.params import VehicleParams
 
 __all__ = ["DLC120", "KMH", "LATERAL_TRACKING", "RANDOM_TRACKS", "TRACK", "EnvConfig", "ResetOptions", "RewardConfig",
-           "ScenarioConfig", "validate_numeric_options"]
+           "Scenario", "validate_numeric_options"]
 
 
 @documented

@@ -24,18 +24,20 @@ from typing import NamedTuple
 import numpy as np
 
 from vtrack_gym._jit import kernel, prange
-from vtrack_gym.envs.config import EnvConfig, RewardConfig, ScenarioConfig
+from vtrack_gym.envs.config import EnvConfig, RewardConfig, Scenario
 from vtrack_gym.envs.observation import N_SCALARS, ObservationLayout
 from vtrack_gym.envs.pdflc_kernel import pdflc_step
 from vtrack_gym.envs.schema import REWARD_TERMS, SIGNAL_ROW
+from vtrack_gym.tracks import table as track_table
 from vtrack_gym.tracks.kernels import interp_linear as _linear
 from vtrack_gym.tracks.kernels import interp_row, lateral_offset, project_point
 from vtrack_gym.vehicle import layout as L
 from vtrack_gym.vehicle.kernels import step_vehicle
 
-# Column order of the track tables (see vtrack_gym.tracks.path).
-C_X, C_Y, C_PSI, C_KAPPA, C_DKAPPA, C_Z, C_GRADE, C_ZPP = range(8)
-N_COLS = 8
+# Column order of the track tables: declared by their owner, ``vtrack_gym.tracks.table``.
+C_X, C_Y, C_PSI, C_KAPPA = track_table.COL_X, track_table.COL_Y, track_table.COL_PSI, track_table.COL_KAPPA
+C_DKAPPA, C_Z, C_GRADE, C_ZPP = track_table.COL_DKAPPA, track_table.COL_Z, track_table.COL_GRADE, track_table.COL_ZPP
+N_COLS = track_table.N_COLS
 C_V2, C_WL, C_WR = range(N_COLS, N_COLS + 3)   # the env's own columns after the path's
 N_ENV_COLS = N_COLS + 3
 
@@ -58,9 +60,9 @@ class StepConstants:
     steering_ratio: float        # hand-wheel / road-wheel angle
 
     @classmethod
-    def of(cls, scenario: ScenarioConfig, config: EnvConfig) -> StepConstants:
+    def of(cls, scenario: Scenario, config: EnvConfig) -> StepConstants:
         """The constants of an env with this scenario and config."""
-        return cls(config.physics_dt_s, config.n_substeps, scenario.end_margin_m,
+        return cls(config.physics_dt_s, config.n_substeps, scenario.track.end_margin_m,
                    config.speed_controller.method == "mamdani", config.vehicle.steering.max_road_wheel_angle_rad,
                    config.vehicle.steering.steering_ratio)
 

@@ -130,21 +130,22 @@ def _track_provenance(scenario: Any) -> tuple[str | None, dict[str, Any]] | None
 
     options: dict[str, Any] = {}
     env_id = None
-    track = scenario.track
+    source = scenario.track
+    track = source.track
     profile = scenario.speed_profile
     params = None if profile is None else {"kind": type(profile).__name__, **dataclasses.asdict(profile)}
     if isinstance(track, (str, os.PathLike)) and Path(track).is_file():
         from vtrack_gym.envs.registration import register_track
 
-        env_id, options = register_track(track, profile, scenario.track_closed, scenario.track_smoothing_m)
+        env_id, options = register_track(track, profile, source.closed, source.smoothing_m)
     elif isinstance(track, str):
         options = {"track": track, "speed_profile": params}
     elif isinstance(track, TrackPath):
         options = {"track_path_sha256": path_digest(track), "speed_profile": params}
     else:
         return None
-    if scenario.half_width_m is not None:
-        options["half_width_m"] = float(scenario.half_width_m)
+    if source.half_width_m is not None:
+        options["half_width_m"] = float(source.half_width_m)
     return env_id, options
 
 
@@ -198,13 +199,13 @@ def _tracking_identity(unwrapped: Any, spec: Any, env_id: str,
     from vtrack_gym.envs.scenarios import resolve_scenario
 
     scenario_arg = spec.kwargs.get("scenario")
-    if not isinstance(scenario_arg, str):  # a ScenarioConfig object: not recorded
+    if not isinstance(scenario_arg, str):  # a Scenario object: not recorded
         return env_id + UNIDENTIFIED, {}
     scenario = resolve_scenario(scenario_arg, spec.kwargs.get("track"), spec.kwargs.get("speed_profile"),
                                 spec.kwargs.get("half_width_m"), spec.kwargs.get("closed"),
                                 spec.kwargs.get("smoothing_m"))
     base = resolve_scenario(scenario.name)
-    track_fields = ("track", "speed_profile", "half_width_m", "track_closed", "track_smoothing_m")
+    track_fields = ("track", "speed")   # the parts make kwargs replace (track=, speed_profile=, ...)
     for f in dataclasses.fields(scenario):
         if f.name not in track_fields and not _equal(getattr(scenario, f.name), getattr(base, f.name)):
             return env_id + UNIDENTIFIED, {}

@@ -10,12 +10,11 @@ from typing import Any
 
 import gymnasium as gym
 
-from vtrack_gym.evaluation.board import build_board
+from vtrack_gym.evaluation.board import build_board, failure_reason
 from vtrack_gym.evaluation.fingerprint import policy_hash
 from vtrack_gym.evaluation.metrics import evaluate_trace
 from vtrack_gym.evaluation.rollout import rollout
 from vtrack_gym.evaluation.store import ResultRow, ResultStore
-from vtrack_gym.evaluation.success import episode_success, failure_reason
 from vtrack_gym.evaluation.suites import Episode, base_suite, primary_metric, suite_episodes, suite_label, with_vehicle
 from vtrack_gym.evaluation.trace import Trace
 
@@ -52,44 +51,12 @@ def policy_preset(policy: Any) -> str:
     return "custom"
 
 
-def cones_hit(env: gym.Env, trace: Trace) -> int | None:
-    """Number of cone gates the car's body left on the track, or None when the track has no gates."""
-    path = env.unwrapped.current_path
-    if not getattr(path, "gates", None):
-        return None
-    from vtrack_gym.tracks import gate_violations
-
-    c = env.unwrapped.config.vehicle.chassis
-    return int(gate_violations(path, trace["x_m"], trace["y_m"], trace["psi_rad"], c.body_length_m,
-                               c.body_width_m, c.cg_to_front_end_m))
-
-
-def circle_metrics(env: gym.Env, trace: Trace) -> dict[str, float]:
-    """ISO 4138 figures of a ``circle``-criterion episode: ``max_steady_a_y_mps2``, the peak |a_y| [m/s^2] while
-    the car is still on the circle (before |e_y| first exceeds the scenario's lateral tolerance), the speed
-    ``max_steady_v_mps`` [m/s] at that peak, the plant's own steady-state limit ``grip_limit_a_y_mps2`` [m/s^2]
-    on the circle's radius (``vehicle.steady_state.grip_limit``: the highest a_y of a cornering equilibrium, from
-    the plant's equations, not from this run) and the point-mass value ``mu_g_mps2`` = mu g [m/s^2] (empty for
-    other scenarios)."""
-    sc = getattr(env.unwrapped, "scenario", None)   # envs other than this package's (highway-env) have none
-    if sc is None or sc.success != "circle" or trace.n_steps == 0:
-        return {}
-    import numpy as np
-
-    from vtrack_gym.tracks.table import COL_KAPPA
-    from vtrack_gym.vehicle.params import GRAVITY_MPS2
-    from vtrack_gym.vehicle.steady_state import grip_limit
-
-    vehicle = env.unwrapped.config.vehicle
-    radius_m = 1.0 / float(np.max(np.abs(env.unwrapped.current_path.table[:, COL_KAPPA])))
-    off = np.flatnonzero(np.abs(trace["e_y_m"]) > sc.lateral_tolerance_m)
-    end = int(off[0]) if off.size else trace.n_steps
-    a_y = np.abs(trace["a_y_mps2"][:end])
-    k = int(np.argmax(a_y)) if a_y.size else 0
-    return {"max_steady_a_y_mps2": float(a_y[k]) if a_y.size else 0.0,
-            "max_steady_v_mps": float(trace["v_mps"][k]) if a_y.size else 0.0,
-            "grip_limit_a_y_mps2": grip_limit(vehicle, radius_m).a_y_mps2,
-            "mu_g_mps2": float(vehicle.tyres.friction_mu * GRAVITY_MPS2)}
+def success_metrics(env: gym.Env) -> dict[str, float]:
+    """The leaderboard figures of ``env``'s last episode computed by its scenario's success criterion
+    (``envs.criteria``: ``cones_hit`` on a gated course, the ISO 4138 figures on the circle); empty for an env
+    without criteria (another package's)."""
+    figures = getattr(env.unwrapped, "success_metrics", None)
+    return dict(figures()) if callable(figures) else {}
 
 
 def vehicle_label(vehicle: str | None) -> str | None:
@@ -112,24 +79,25 @@ def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str,
                   digest: str | None = None) -> tuple[ResultRow, Trace]:
     """Run ``policy`` for one episode on ``env`` (reset with ``ep``'s seed and options); its row and trace.
 
-    The row's ``success`` is the env's verdict (the last info's ``"success"``) when it gives one, else the interim
-    rule ``vtrack_gym.evaluation.success.episode_success``. The row's ``options`` carry ``ep``'s reset options and
-    the car (``vehicle_label(ep.vehicle)``, when not the default car), so cars never mix on the leaderboard. Its
-    ``policy_hash`` is ``digest`` if given, else the policy's fingerprint taken before the rollout (a policy that
-    changes its attributes while driving keeps one hash)."""
+    The row's ``success`` is the env's verdict (the last info's ``"success"``; a row of an env without one is
+    judged by completion, ``ResultRow.verdict``) and its metrics carry the success criterion's own figures
+    (``success_metrics``).
+    The row's ``options`` carry ``ep``'s reset options and the car (``vehicle_label(ep.vehicle)``, when not the
+    default car), so cars never mix on the leaderboard. Its ``policy_hash`` is ``digest`` if given, else the
+    policy's fingerprint taken before the rollout (a policy that changes its attributes while driving keeps one
+    hash)."""
     digest = digest or policy_hash(policy)
     trace = rollout(policy, env, seed=ep.seed, options=ep.options)
     trace.policy_id = name
-    metrics = evaluate_trace(trace, cones_hit(env, trace))
-    metrics.update(circle_metrics(env, trace))
+    metrics = evaluate_trace(trace)
+    metrics.update(success_metrics(env))
     label = vehicle_label(ep.vehicle)
     options = dict(ep.options) if label is None else {**ep.options, "vehicle": label}
     row = ResultRow(suite=suite, env_id=ep.env_id, policy_id=name, policy_hash=digest, seed=ep.seed,
                     metrics=metrics, termination=trace.termination,
                     wall_time_per_step_s=trace.wall_time_per_step_s, options=options,
                     policy_preset=policy_preset(policy),
-                    success=trace.success if trace.success is not None else episode_success(
-                        ep.env_id, trace.termination, metrics))
+                    success=trace.success)
     if not row.verdict():  # the figures' legends name the reason
         trace.meta["failure_reason"] = failure_reason(trace.termination, metrics)
     return row, trace

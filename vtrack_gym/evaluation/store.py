@@ -78,8 +78,9 @@ class StoreError(RuntimeError):
 class ResultRow:
     """One evaluated episode and where it came from (``policy_preset``: preset name, empty for agents).
 
-    ``success``: the episode's success verdict; None derives it with the interim rule
-    ``vtrack_gym.evaluation.success.episode_success`` when the row is stored.
+    ``success``: the episode's success verdict (the scenario's success criterion, ``info["success"]``, which the
+    benchmark records); a row given without one (None: the GA's tuning rows, rows written by other code) is judged
+    by completion alone (``termination == "completed"``).
     """
 
     suite: str
@@ -98,11 +99,8 @@ class ResultRow:
     success: bool | None = None
 
     def verdict(self) -> bool:
-        """``success``, or the interim rule's verdict when it is None."""
-        from vtrack_gym.evaluation.success import episode_success
-
-        return bool(self.success) if self.success is not None else episode_success(self.env_id, self.termination,
-                                                                                    self.metrics)
+        """``success``, or the episode's completion when the row has no verdict."""
+        return bool(self.success) if self.success is not None else self.termination == "completed"
 
 
 def _now() -> str:

@@ -189,7 +189,7 @@ def record_video(env_id: str, policies: Sequence[tuple[str, Callable[[gym.Env], 
     path = u.current_path
     dt = float(u.control_period_s)
     renderer = TopDownRenderer(path, u.config.vehicle.chassis, cfg.render)
-    limit_s = cfg.max_seconds if cfg.max_seconds is not None else float(u.scenario.max_episode_s)
+    limit_s = cfg.max_seconds if cfg.max_seconds is not None else float(u.scenario.time_limit_s)
     if out.suffix.lower() == ".gif" and limit_s / cfg.speedup * cfg.fps > MAX_GIF_FRAMES:
         raise ValueError(f"{limit_s:g} s of driving at --speedup {cfg.speedup:g} and {cfg.fps} frames/s can exceed "
                          f"the {MAX_GIF_FRAMES}-frame GIF limit; write .mp4, raise --speedup or set --seconds")

@@ -119,7 +119,7 @@ class PopulationEvaluator:
             code, done_dist = run_stepwise(sim, policy, max_steps, dt, acc_buf, out)
         itae, max_ay, min_fz, steps = out[:, 0].copy(), out[:, 2].copy(), out[:, 3].copy(), out[:, 4].astype(int)
         completed = code == T_COMPLETED
-        remaining = np.where(completed, 0.0, np.maximum(sim.tmeta[sim.veh_track, 3] - done_dist, 0.0))
+        remaining = np.where(completed, 0.0, np.maximum(sim.tracks.length_m[sim.veh_track] - done_dist, 0.0))
         duration = steps * dt
         a_v = np.full(n, np.nan)
         if record_acc:

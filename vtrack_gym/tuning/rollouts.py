@@ -23,8 +23,7 @@ from vtrack_gym.vehicle import layout as L
 
 def distance_done(sim: Any) -> np.ndarray:
     """Distance each car has covered on its track [m] (lap progress on a closed track, station otherwise)."""
-    closed = sim.tmeta[sim.veh_track, 4] != 0.0
-    return np.where(closed, sim.progress, sim.err[:, 0])
+    return np.where(sim.tracks.closed[sim.veh_track], sim.progress, sim.station_m)
 
 
 def run_compiled(sim: Any, policy: Policy, max_steps: int, dt: float, acc_buf: np.ndarray, out: np.ndarray) -> None:
@@ -33,7 +32,7 @@ def run_compiled(sim: Any, policy: Policy, max_steps: int, dt: float, acc_buf: n
 
     from vtrack_gym.tuning import _kernels as K
 
-    if sim.any_noise or sim.any_delay:
+    if sim.noise.active or sim.delay.active:
         raise ValueError("the compiled population rollout runs nominal scenarios only (no noise or delay)")
     n = sim.n
     lanes = max(1, min(n, numba.get_num_threads()))
@@ -69,7 +68,7 @@ def run_stepwise(sim: Any, policy: Policy, max_steps: int, dt: float, acc_buf: n
         action = np.clip(delta * inv_steer, -1.0, 1.0)
         action[~active] = 0.0
         sim.step(action)
-        te = k * dt * np.abs(sim.err[:, 1])
+        te = k * dt * np.abs(sim.lateral_error_m)
         a = active
         if k >= 2:
             out[a, 0] += 0.5 * dt * (out[a, 1] + te[a])
@@ -77,7 +76,7 @@ def run_stepwise(sim: Any, policy: Policy, max_steps: int, dt: float, acc_buf: n
         out[a, 2] = np.maximum(out[a, 2], np.abs(sim.outputs[a, :, L.O_AY]).max(axis=1))
         out[a, 3] = np.minimum(out[a, 3], sim.min_fz[a])
         out[a, 4] = k
-        out[a, 5] = np.maximum(out[a, 5], np.abs(sim.err[a, 1]))
+        out[a, 5] = np.maximum(out[a, 5], np.abs(sim.lateral_error_m[a]))
         if acc_buf.shape[1]:
             acc_buf[a, (k - 1) * n_sub:k * n_sub] = sim.outputs[a, :, L.O_AX:L.O_AZ + 1]
         ended = active & ((sim.term != 0) | (k >= max_steps))

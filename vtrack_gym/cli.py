@@ -463,7 +463,7 @@ def _parse_seeds(text: str) -> list[int]:
 MIN_SPEED_KMH = 3.6 * MIN_V_REF_MPS
 """--max-speed-kmh range [km/h]: the speed profiles' floor (1 m/s) ..."""
 MAX_SPEED_KMH = 3.6 * MAX_V_REF_MPS
-"""... to their ceiling (150 m/s)."""
+"""... to their ceiling (MAX_V_REF_MPS)."""
 MAX_LATERAL_G = MAX_ACCEL_MPS2 / GRAVITY_MPS2
 """--max-lateral-g upper bound [g] (the profiles' 30 m/s^2)."""
 

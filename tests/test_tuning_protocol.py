@@ -160,3 +160,13 @@ def test_tuning_never_dispatches_on_a_controller_name_or_type() -> None:
         controller_names = {n for n in names if n.upper().startswith(("SMC", "MPC", "POPULATIONSMC", "POPULATIONMPC"))}
         assert not controller_names, (file.name, controller_names)
 
+
+
+def test_a_law_outside_the_package_stays_out_of_the_kernel_cache() -> None:
+    """Numba keeps every signature of a cached kernel in one on-disk index; an entry naming this test module would
+    make the index unreadable in a process that cannot import it (a Ray worker), for every law."""
+    from vtrack_gym.tuning import _kernels as K
+
+    PopulationEvaluator(TINY_SPACE, max_steps=20)(np.array([[0.05, 0.5], [0.1, 1.0]]))
+    assert any("TinyLaw" in str(sig) for sig in K._UNCACHED.signatures)
+    assert not any("TinyLaw" in str(sig) for sig in K._CACHED.signatures)

@@ -68,9 +68,8 @@ def _advance(i, k, action, arrays, max_steer, max_steps, dt, acc_buf, out) -> bo
     return term[i] != 0 or k >= max_steps
 
 
-@njit(cache=True, parallel=True)
-def rollout_population(arrays, env_max_steer, lanes, max_steps, dt, row, law, memory, inv_steer, nan_to_zero,
-                       acc_buf, out):
+def _rollout_population(arrays, env_max_steer, lanes, max_steps, dt, row, law, memory, inv_steer, nan_to_zero,
+                        acc_buf, out):
     """Whole episodes of every car under its own parameter row (``row(law, obs, i, memory[i])`` -> road-wheel
     angle [rad]; see the module docstring); ``out`` (n, N_ACC). ``lanes``: number of parallel lanes (the thread
     count); each lane runs a contiguous block of cars, so two threads never write the same cache line except at a
@@ -84,3 +83,17 @@ def rollout_population(arrays, env_max_steer, lanes, max_steps, dt, row, law, me
                 if _advance(i, step, _normalised(delta, inv_steer, nan_to_zero), arrays, env_max_steer, max_steps,
                             dt, acc_buf, out):
                     break
+
+
+_CACHED = njit(cache=True, parallel=True)(_rollout_population)
+_UNCACHED = njit(cache=False, parallel=True)(_rollout_population)
+
+
+def rollout_population(arrays, env_max_steer, lanes, max_steps, dt, row, law, memory, inv_steer, nan_to_zero,
+                       acc_buf, out) -> None:
+    """``_rollout_population`` compiled for the law ``row``. The package's own laws use the on-disk cache; a law
+    defined elsewhere compiles in its process only: numba keeps every signature of a kernel in one cache index,
+    and an entry naming a module another process cannot import (a script's, a test's) would make that index
+    unreadable there, for every law."""
+    kernel = _CACHED if getattr(row, "py_func", row).__module__.startswith("vtrack_gym.") else _UNCACHED
+    kernel(arrays, env_max_steer, lanes, max_steps, dt, row, law, memory, inv_steer, nan_to_zero, acc_buf, out)

@@ -17,7 +17,15 @@ import pytest
 from numba import njit
 
 from vtrack_gym.baselines.base import Policy
-from vtrack_gym.baselines.tunable import QUICK, Budget, CompiledRows, ControllerTuning, Parameter, SearchSpace
+from vtrack_gym.baselines.tunable import (
+    QUICK,
+    Budget,
+    CompiledRows,
+    ControllerTuning,
+    Parameter,
+    SearchSpace,
+    register_population_row,
+)
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.tuning.ga import tune
 from vtrack_gym.tuning.population import PopulationEvaluator
@@ -51,6 +59,9 @@ def tiny_row(law: TinyLaw, obs: np.ndarray, i: int, memory: np.ndarray) -> float
     return law.wheelbase_m * obs[i, law.i_kappa] - law.k_y[r] * obs[i, law.i_ey] - law.k_phi[r] * obs[i, law.i_ephi]
 
 
+register_population_row(TinyLaw, tiny_row)
+
+
 class TinyGain(Policy):
     name: ClassVar[str] = "tiny_gain"
     PRESETS: ClassVar[dict[str, TinyConfig]] = {"default": TinyConfig()}
@@ -70,7 +81,7 @@ class TinyGain(Policy):
         return np.array([tiny_row(self.law, obs, i, empty) for i in range(obs.shape[0])]), None
 
     def compiled_rows(self, obs: np.ndarray) -> CompiledRows:
-        return CompiledRows(tiny_row, self.law, np.zeros((obs.shape[0], 0)), True)
+        return CompiledRows(self.law, np.zeros((obs.shape[0], 0)), True)
 
     @classmethod
     def tuning(cls) -> ControllerTuning:
@@ -164,9 +175,26 @@ def test_tuning_never_dispatches_on_a_controller_name_or_type() -> None:
 
 def test_a_law_outside_the_package_stays_out_of_the_kernel_cache() -> None:
     """Numba keeps every signature of a cached kernel in one on-disk index; an entry naming this test module would
-    make the index unreadable in a process that cannot import it (a Ray worker), for every law."""
+    make the index unreadable in a process that cannot import it (a Ray worker), for every law. The package's laws
+    are loaded from that cache in a fresh process, not compiled again."""
     from vtrack_gym.tuning import _kernels as K
 
     PopulationEvaluator(TINY_SPACE, max_steps=20)(np.array([[0.05, 0.5], [0.1, 1.0]]))
     assert any("TinyLaw" in str(sig) for sig in K._UNCACHED.signatures)
     assert not any("TinyLaw" in str(sig) for sig in K._CACHED.signatures)
+
+
+def test_package_laws_load_the_cached_kernel_in_a_fresh_process() -> None:
+    import os
+    import subprocess
+    import sys
+
+    code = ("import numpy as np; from vtrack_gym.tuning.population import PopulationEvaluator; "
+            "from vtrack_gym.tuning.spaces import search_space; from vtrack_gym.tuning import _kernels as K; "
+            "PopulationEvaluator(search_space('smc', 'steering'), max_steps=5)(np.array([[5.0, 10.0, 0.2]] * 2)); "
+            "s = K._CACHED.stats; print(sum(s.cache_hits.values()), sum(s.cache_misses.values()))")
+    env = {**os.environ, "PYTHONPATH": str(pathlib.Path(__file__).resolve().parents[1])}
+    for _ in range(2):  # the first run may fill the cache, the second must hit it
+        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+    hits, misses = (int(v) for v in out.stdout.split()[-2:])
+    assert (hits, misses) == (1, 0), out.stdout

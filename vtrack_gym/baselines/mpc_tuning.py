@@ -25,6 +25,7 @@ from vtrack_gym.baselines.tunable import (
     Parameter,
     SearchSpace,
     check_population_rows,
+    register_population_row,
 )
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.vehicle.params import DesignModel
@@ -40,6 +41,9 @@ def mpc_population_row(law: MPCLaw, obs: np.ndarray, i: int, memory: np.ndarray)
     """Road-wheel angle [rad] of individual ``i``; ``memory``: its MPC memory (``MPC_STATE_SIZE``) then the
     law's scratch row."""
     return mpc_row(law, obs, i, memory[:MPC_STATE_SIZE], memory[MPC_STATE_SIZE:])
+
+
+register_population_row(MPCLaw, mpc_population_row)
 
 
 class PopulationMPC(MPC):
@@ -59,7 +63,7 @@ class PopulationMPC(MPC):
         """The compiled per-row law (``baselines.tunable``): memory = initial MPC state, then zeroed scratch."""
         memory = np.zeros((obs.shape[0], MPC_STATE_SIZE + self.law.tables.shape[2]))
         memory[:, :MPC_STATE_SIZE] = self.initial_state(obs)
-        return CompiledRows(mpc_population_row, self.law, memory, False)
+        return CompiledRows(self.law, memory, False)
 
 
 def mpc_population(design: DesignModel, base: MPCConfig, configs: Sequence[Any], layout: ObservationLayout,

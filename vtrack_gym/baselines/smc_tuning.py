@@ -34,6 +34,7 @@ from vtrack_gym.baselines.tunable import (
     Parameter,
     SearchSpace,
     check_population_rows,
+    register_population_row,
 )
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.vehicle.params import DesignModel
@@ -68,6 +69,9 @@ def smc_population_row(law: SMCLaw, obs: np.ndarray, i: int, memory: np.ndarray)
     return delta
 
 
+register_population_row(SMCLaw, smc_population_row)
+
+
 class PopulationSMC(SMC):
     """SMC with per-row p [rad/s], eta [rad/s^2], Delta [rad/s] (arrays of shape (P,)); the limit_layer_rate
     rule applied per row, silently. A single observation is refused."""
@@ -83,7 +87,7 @@ class PopulationSMC(SMC):
 
     def compiled_rows(self, obs: np.ndarray) -> CompiledRows:
         """The compiled per-row law (``baselines.tunable``); a NaN command steers neutral."""
-        return CompiledRows(smc_population_row, self.law, np.zeros((obs.shape[0], 0)), True)
+        return CompiledRows(self.law, np.zeros((obs.shape[0], 0)), True)
 
 
 def smc_population(design: DesignModel, base: SMCConfig, configs: Sequence[Any], layout: ObservationLayout,

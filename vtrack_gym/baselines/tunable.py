@@ -10,10 +10,12 @@ The batched law runs one of two ways:
 
 * the reference path: its ``Policy.act`` / ``initial_state`` on the whole population, one control period at a
   time (always available);
-* the compiled path: if the population policy has ``compiled_rows(obs)`` returning a ``CompiledRows`` (a numba
-  function ``row(law, obs, i, memory_row) -> road-wheel angle [rad]``, its parameters ``law``, the initial
-  ``memory`` (N, width) and the NaN rule), every car's whole episode runs in one compiled call. Without it (absent
-  or None) the reference path is used.
+* the compiled path: if the population policy has ``compiled_rows(obs)`` returning a ``CompiledRows`` (its law's
+  parameters ``law``, the initial ``memory`` (N, width) and the NaN rule), every car's whole episode runs in one
+  compiled call, which steers car i by ``population_row(law, obs, i, memory[i])``. The controller registers its
+  compiled row law for its law's type once, with ``register_population_row(LawType, row)``; the kernel is then
+  compiled (and cached on disk) per law type. Without ``compiled_rows`` (absent or None) the reference path is
+  used.
 
 A new GA-tunable controller is therefore its policy module (the law), the module of its declaration (as
 ``smc_tuning`` / ``mpc_tuning``; it may sit in the policy module) and its registry entries.
@@ -125,10 +127,29 @@ QUICK = Budget("quick", 3, 4)
 class CompiledRows(NamedTuple):
     """A population's compiled per-row law (see the module docstring)."""
 
-    row: Any             # numba function (law, obs (N, obs_dim), i, memory_row (width,)) -> road-wheel angle [rad]
-    law: Any             # the law's parameters (a NamedTuple of arrays and scalars)
+    law: Any             # the law's parameters (a NamedTuple of arrays and scalars; its row law registered)
     memory: np.ndarray   # (N, width) float64 per-row memory, initialised (width 0: stateless)
     nan_to_zero: bool    # a NaN command steers neutral (True) or is passed on (False)
+
+
+def population_row(law: Any, obs: np.ndarray, i: int, memory: np.ndarray) -> float:
+    """Road-wheel angle [rad] of individual ``i`` (observation row ``i``, memory row ``memory``) under ``law``: the
+    compiled entry point of every population law, resolved by the law's type inside compiled code
+    (``register_population_row``). Not callable from Python."""
+    raise TypeError(f"population_row is compiled code only; register a row law for {type(law).__name__}")
+
+
+def register_population_row(law_type: type, row: Any) -> None:
+    """Make compiled ``population_row(law, obs, i, memory)`` call ``row`` (a numba function with that signature,
+    returning the road-wheel angle [rad]) for laws of the NamedTuple class ``law_type``. Call once, at import of
+    the controller's tuning declaration."""
+    from numba.extending import overload
+
+    @overload(population_row)
+    def _row_of(law, obs, i, memory):  # numba matches these names, unannotated, against population_row's
+        if getattr(law, "instance_class", None) is law_type:
+            return lambda law, obs, i, memory: row(law, obs, i, memory)
+        return None
 
 
 PopulationFactory = Callable[[DesignModel, Any, Sequence[Any], ObservationLayout, float], Any]

@@ -1,20 +1,21 @@
 """Compiled population rollout of the GA (one call per generation and scenario).
 
 ``rollout_population`` runs whole Case-1 (or constraint-scenario) episodes for every car of a ``BatchSim``: per
-control step the controller's compiled per-row law (``baselines.tunable.CompiledRows``: e.g.
-``baselines.smc_tuning.smc_population_row``, the same compiled law the policies run), then the env's own per-car
-step ``envs.kernels.step_car`` (speed loop, physics, projection, observation, termination), then the fitness
-accumulators (``tuning.accumulators``: ITAE by the trapezoid rule, max|a_y| over the physics substeps, min F_z).
-Cars are independent, so each car runs its whole episode in one parallel iteration: a car that terminates stops
-costing anything, and the result of car i does not depend on the batch it is in (the same arithmetic as stepping
-the batch one control period at a time). Nominal scenarios only: no sensor noise and no actuator delay (the
-caller checks).
+control step the controller's compiled per-row law (``baselines.tunable.population_row``, resolved by the law's
+type: e.g. ``baselines.smc_tuning.smc_population_row``, the same compiled law the policies run), then the env's
+own per-car step ``envs.kernels.step_car`` (speed loop, physics, projection, observation, termination), then the
+fitness accumulators (``tuning.accumulators``: ITAE by the trapezoid rule, max|a_y| over the physics substeps,
+min F_z). Cars are independent, so each car runs its whole episode in one parallel iteration: a car that
+terminates stops costing anything, and the result of car i does not depend on the batch it is in (the same
+arithmetic as stepping the batch one control period at a time). Nominal scenarios only: no sensor noise and no
+actuator delay (the caller checks).
 """
 
 from __future__ import annotations
 
 from numba import njit, prange
 
+from vtrack_gym.baselines.tunable import population_row
 from vtrack_gym.envs.kernels import CAR_MIN_FZ, E_EY, step_car
 from vtrack_gym.tuning.accumulators import (
     ACC_ITAE,
@@ -68,18 +69,18 @@ def _advance(i, k, action, arrays, max_steer, max_steps, dt, acc_buf, out) -> bo
     return term[i] != 0 or k >= max_steps
 
 
-def _rollout_population(arrays, env_max_steer, lanes, max_steps, dt, row, law, memory, inv_steer, nan_to_zero,
-                        acc_buf, out):
-    """Whole episodes of every car under its own parameter row (``row(law, obs, i, memory[i])`` -> road-wheel
-    angle [rad]; see the module docstring); ``out`` (n, N_ACC). ``lanes``: number of parallel lanes (the thread
-    count); each lane runs a contiguous block of cars, so two threads never write the same cache line except at a
-    block boundary (interleaved cars ran ~1.45x slower on 2 threads from false sharing)."""
+def _rollout_population(arrays, env_max_steer, lanes, max_steps, dt, law, memory, inv_steer, nan_to_zero, acc_buf,
+                        out):
+    """Whole episodes of every car under its own parameter row (``population_row(law, obs, i, memory[i])`` ->
+    road-wheel angle [rad]; see the module docstring); ``out`` (n, N_ACC). ``lanes``: number of parallel lanes (the
+    thread count); each lane runs a contiguous block of cars, so two threads never write the same cache line except
+    at a block boundary (interleaved cars ran ~1.45x slower on 2 threads from false sharing)."""
     obs = arrays.obs
     n = obs.shape[0]
     for lane in prange(lanes):
         for i in range(lane * n // lanes, (lane + 1) * n // lanes):
             for step in range(1, max_steps + 1):
-                delta = row(law, obs, i, memory[i])
+                delta = population_row(law, obs, i, memory[i])
                 if _advance(i, step, _normalised(delta, inv_steer, nan_to_zero), arrays, env_max_steer, max_steps,
                             dt, acc_buf, out):
                     break
@@ -89,11 +90,11 @@ _CACHED = njit(cache=True, parallel=True)(_rollout_population)
 _UNCACHED = njit(cache=False, parallel=True)(_rollout_population)
 
 
-def rollout_population(arrays, env_max_steer, lanes, max_steps, dt, row, law, memory, inv_steer, nan_to_zero,
-                       acc_buf, out) -> None:
-    """``_rollout_population`` compiled for the law ``row``. The package's own laws use the on-disk cache; a law
-    defined elsewhere compiles in its process only: numba keeps every signature of a kernel in one cache index,
-    and an entry naming a module another process cannot import (a script's, a test's) would make that index
+def rollout_population(arrays, env_max_steer, lanes, max_steps, dt, law, memory, inv_steer, nan_to_zero, acc_buf,
+                       out) -> None:
+    """``_rollout_population`` compiled for the type of ``law``. The package's own laws use the on-disk cache; a
+    law type defined elsewhere compiles in its process only: numba keeps every signature of a kernel in one cache
+    index, and an entry naming a module another process cannot import (a script's, a test's) would make that index
     unreadable there, for every law."""
-    kernel = _CACHED if getattr(row, "py_func", row).__module__.startswith("vtrack_gym.") else _UNCACHED
-    kernel(arrays, env_max_steer, lanes, max_steps, dt, row, law, memory, inv_steer, nan_to_zero, acc_buf, out)
+    kernel = _CACHED if type(law).__module__.startswith("vtrack_gym.") else _UNCACHED
+    kernel(arrays, env_max_steer, lanes, max_steps, dt, law, memory, inv_steer, nan_to_zero, acc_buf, out)

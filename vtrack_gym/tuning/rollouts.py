@@ -52,7 +52,7 @@ def run_compiled(sim: Any, policy: Policy, max_steps: int, dt: float, acc_buf: n
     compiled = rows(sim.obs.astype(np.float64))
     n = sim.n
     lanes = max(1, min(n, numba.get_num_threads()))
-    K.rollout_population(sim.arrays, float(sim.max_steer_rad), lanes, max_steps, dt, compiled.row, compiled.law,
+    K.rollout_population(sim.arrays, float(sim.max_steer_rad), lanes, max_steps, dt, compiled.law,
                          np.ascontiguousarray(compiled.memory, dtype=np.float64), 1.0 / policy.max_steer_rad,
                          bool(compiled.nan_to_zero), acc_buf, out)
     sim.steps[:] = out[:, ACC_STEPS].astype(np.int64)

@@ -22,6 +22,26 @@ _POLICIES: dict[str, tuple[str, str]] = {
 }
 
 
+_TUNING: dict[str, tuple[str, str]] = {
+    "smc": ("vtrack_gym.baselines.smc_tuning", "SMC_TUNING"),
+    "mpc": ("vtrack_gym.baselines.mpc_tuning", "MPC_TUNING"),
+}
+"""GA-tunable policies: name -> their tuning declaration (``baselines.tunable.ControllerTuning``)."""
+
+
+def tunable_policies() -> tuple[str, ...]:
+    """Registered policy names with a GA tuning declaration."""
+    return tuple(_TUNING)
+
+
+def policy_tuning(name: str) -> Any:
+    """The ``ControllerTuning`` of the registered policy ``name`` (``ValueError`` if it has none)."""
+    if name not in _TUNING:
+        raise ValueError(f"{name!r} is not GA-tunable; tunable: {', '.join(_TUNING)}")
+    module, attr = _TUNING[name]
+    return getattr(importlib.import_module(module), attr)
+
+
 def available_policies() -> tuple[str, ...]:
     """Registered policy names."""
     return tuple(_POLICIES)

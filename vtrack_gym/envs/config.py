@@ -11,7 +11,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from vtrack_gym._ranges import closed_ranges, documented, ranged, validate
-from vtrack_gym.envs.observation import NOISY_FIELDS, OBS, ObservationLayout
+from vtrack_gym.envs.observation import DEFAULT_NOISE_STD, NOISY_FIELDS, OBS, ObservationLayout
 from vtrack_gym.envs.pdflc import PDFLCConfig
 from vtrack_gym.envs.scenarios import DLC120, KMH, LATERAL_TRACKING, RANDOM_TRACKS, TRACK, Scenario
 from vtrack_gym.vehicle.params import VehicleParams
@@ -71,9 +71,8 @@ class EnvConfig:
     layout: ObservationLayout = OBS
     speed_controller: PDFLCConfig = field(default_factory=PDFLCConfig)  # the inner PD-FLC loop (paper Table 3)
     # Sensor noise standard deviations at ``sensor_noise = 1`` (reset option scales them), one per entry of
-    # ``observation.NOISY_FIELDS``: e_y [m], e_phi [rad], e_y_dot [m/s], e_phi_dot [rad/s], v_x, v_y [m/s],
-    # r [rad/s], delta [rad].
-    noise_std: tuple[float, ...] = (0.02, 0.005, 0.02, 0.005, 0.05, 0.02, 0.005, 0.002)
+    # ``observation.NOISY_FIELDS`` in its unit; the default is the observation table's noise column.
+    noise_std: tuple[float, ...] = DEFAULT_NOISE_STD
 
     def __post_init__(self) -> None:
         if not isinstance(self.vehicle, VehicleParams):  # a shipped vehicle's name or a vehicle file path

@@ -12,7 +12,8 @@ closed flag (0/1), half width [m] and whether it has a speed profile (0/1); ``ve
 Constant settings travel in one vector ``cfg``: the fields of ``StepConstants``, then of the observation layout,
 then of the ``RewardConfig``, each offset (``CFG_*``, ``RW_*``) derived from the dataclass fields by name.
 Per-car scalars sit in ``car`` (n, 7) (``CAR_*`` columns); ``sig`` (n, len(SIGNAL_ROW)) is the row of ``info``
-signals and reward terms (``envs.schema``); ``obs`` is written by ``write_observation`` at layout-derived indices.
+signals and reward terms (``envs.schema``); ``obs`` is written by ``write_scalar_fields`` (the scalars) and the
+preview loops.
 """
 
 from __future__ import annotations
@@ -170,17 +171,34 @@ def _wrap(a: float) -> float:
 
 
 @kernel
-def write_observation(obs_row: np.ndarray, e_y: float, e_phi: float, e_y_dot: float, e_phi_dot: float, v_x: float,
-                      v_y: float, yaw_rate: float, road_wheel_angle: float, target_speed: float, yaw_rate_ref: float,
-                      yaw_acc_ref: float, curvature: float, curvature_rate: float) -> None:
-    """Write the scalar fields of one observation row (units: ``envs.observation``).
+def write_scalar_fields(obs_row: np.ndarray, e_y: float, e_phi: float, v_x: float, v_y: float, yaw_rate: float,
+                        road_wheel_angle: float, target_speed: float, kappa: float, dkappa: float, s_dot: float,
+                        a_x: float) -> None:
+    """Compute and write the scalar fields of one observation row from the car's errors e_y [m], e_phi [rad],
+    body speeds [m/s], yaw rate [rad/s], road-wheel angle [rad], target speed [m/s], the path's curvature [1/m] and
+    its rate [1/m^2] at the projection, the projection's speed s_dot [m/s] and the longitudinal acceleration a_x
+    [m/s^2].
 
-    The one writer of the scalar fields, used by the env step and by the highway-env adapter. The parameters are
-    the layout's ``SCALAR_FIELDS`` in order (``tests/test_info_schema.py`` checks it), so field j goes to index j;
-    the curvature preview follows at ``O_PREVIEW``.
+    The one writer of the scalar fields, used by the env step and by the highway-env adapter: one entry per row of
+    ``envs.observation.SCALARS``, in its order (``tests/test_observation_fields.py`` checks each against its
+    formula); the curvature preview follows at ``O_PREVIEW``.
     """
-    values = (e_y, e_phi, e_y_dot, e_phi_dot, v_x, v_y, yaw_rate, road_wheel_angle, target_speed, yaw_rate_ref,
-              yaw_acc_ref, curvature, curvature_rate)
+    yaw_rate_ref = kappa * s_dot
+    values = (
+        e_y,                                                     # e_y
+        e_phi,                                                   # e_phi
+        v_x * math.sin(e_phi) + v_y * math.cos(e_phi),           # e_y_dot
+        yaw_rate - yaw_rate_ref,                                 # e_phi_dot
+        v_x,                                                     # v_x
+        v_y,                                                     # v_y
+        yaw_rate,                                                # yaw_rate
+        road_wheel_angle,                                        # road_wheel_angle
+        target_speed,                                            # target_speed
+        yaw_rate_ref,                                            # yaw_rate_ref
+        dkappa * s_dot * s_dot + kappa * a_x,                    # yaw_acc_ref
+        kappa,                                                   # curvature
+        dkappa,                                                  # curvature_rate
+    )
     for j in range(N_SCALARS):
         obs_row[j] = values[j]
 
@@ -236,12 +254,10 @@ def observe_one(i: int, a: SimArrays, a_x: float, window_m: float, first: bool) 
     if denom < 0.1:
         denom = 0.1
     s_dot = (vx * cos_e - vy * sin_e) / denom
-    yaw_rate_ref = kappa * s_dot
-    yaw_acc_ref = dkappa * s_dot * s_dot + kappa * a_x
 
     obs = a.obs
-    write_observation(obs[i], e_y, e_phi, vx * sin_e + vy * cos_e, r - yaw_rate_ref, vx, vy, r, state[L.S_DELTA],
-                      car[i, CAR_V_REF], yaw_rate_ref, yaw_acc_ref, kappa, dkappa)
+    write_scalar_fields(obs[i], e_y, e_phi, vx, vy, r, state[L.S_DELTA], car[i, CAR_V_REF], kappa, dkappa, s_dot,
+                        a_x)
     v_prev = vx if vx > preview_vmin else preview_vmin
     for j in range(n_preview):
         interp_row(table, ds, length, closed, s + v_prev * (j + 1) * preview_dt, row)

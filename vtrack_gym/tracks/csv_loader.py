@@ -28,8 +28,15 @@ import numpy as np
 from vtrack_gym._io import read_regular_file
 from vtrack_gym.tracks.fitting import MAX_COORDINATE_M, check_points
 from vtrack_gym.tracks.geometry import TooDenseError, segment_intersections
-from vtrack_gym.tracks.path import DEFAULT_DS_M, MAX_HALF_WIDTH_M, MAX_V_REF_MPS, Path
-from vtrack_gym.tracks.table import COL_GRADE
+from vtrack_gym.tracks.path import (
+    DEFAULT_DS_M,
+    MAX_CURVATURE_PER_M,
+    MAX_CURVATURE_RATE_PER_M2,
+    MAX_HALF_WIDTH_M,
+    MAX_V_REF_MPS,
+    Path,
+)
+from vtrack_gym.tracks.table import COL_DKAPPA, COL_GRADE, COL_KAPPA, COL_X, COL_Y
 
 CLOSED_GAP_M = 1.0          # first and last points closer than this [m] always close the loop (auto-detection)
 CLOSED_GAP_SPACINGS = 3.0   # ... or an end gap up to this x the median point spacing,
@@ -392,6 +399,43 @@ def _check_crossing(fs_path: FsPath, px: np.ndarray, py: np.ndarray, closed: boo
                          "pass allow_self_crossing=True, else correct those points")
 
 
+def hermite_peaks(p0: np.ndarray, d0: np.ndarray, p1: np.ndarray, d1: np.ndarray, h: float) -> np.ndarray:
+    """Largest |p(t)|, t in [0, 1], of each cubic Hermite interval with end values p0, p1 and end slopes d0, d1 (per
+    metre) over length h [m]: the curvature the env interpolates between two table rows (``tracks.kernels._h3``)."""
+    a = 2.0 * p0 + h * d0 - 2.0 * p1 + h * d1          # p(t) = a t^3 + b t^2 + c t + p0
+    b = -3.0 * p0 - 2.0 * h * d0 + 3.0 * p1 - h * d1
+    c = h * d0
+    peaks = np.maximum(np.abs(p0), np.abs(p1))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        root = np.sqrt(np.maximum(b * b - 3.0 * a * c, 0.0))
+        cubic = a != 0.0
+        candidates = (np.where(cubic, (-b + root) / (3.0 * a), -c / (2.0 * b)),
+                      np.where(cubic, (-b - root) / (3.0 * a), 0.0))
+    for t in candidates:
+        t = np.clip(np.nan_to_num(t, nan=0.0, posinf=0.0, neginf=0.0), 0.0, 1.0)
+        peaks = np.maximum(peaks, np.abs(((a * t + b) * t + c) * t + p0))
+    return peaks
+
+
+def _check_representable(fs_path: FsPath, path: Path, x: np.ndarray, y: np.ndarray, lines: list[int]) -> None:
+    """ValueError naming the file line nearest the sharpest bend if the curvature the env can observe (the rows'
+    Hermite interpolation) or its rate exceeds what an observation holds (``MAX_CURVATURE_PER_M``,
+    ``MAX_CURVATURE_RATE_PER_M2``): a kink, not a road."""
+    table = path.table
+    kappa, rate = table[:, COL_KAPPA], table[:, COL_DKAPPA]
+    kappa_peaks = hermite_peaks(kappa[:-1], rate[:-1], kappa[1:], rate[1:], path.ds_m)
+    for values, limit, what, unit in ((kappa_peaks, MAX_CURVATURE_PER_M, "curvature", "1/m"),
+                                      (np.abs(rate), MAX_CURVATURE_RATE_PER_M2, "curvature rate", "1/m^2")):
+        peak = int(np.argmax(values))
+        if values[peak] <= limit:
+            continue
+        k = int(np.argmin(np.hypot(x - table[peak, COL_X], y - table[peak, COL_Y])))
+        raise ValueError(f"{fs_path}, line {lines[min(k, len(lines) - 1)]}: the fitted centre-line's {what} reaches "
+                         f"{values[peak]:.3g} {unit} near this point, beyond the {limit:g} {unit} an observation "
+                         "holds (a kink: a point off the line, a turn back on itself, an end point next to the start); "
+                         "fix: correct the point, or pass smoothing_m (CLI: --track-smoothing-m) or closed")
+
+
 def load_track_csv(path: str | os.PathLike[str], closed: bool | None = None, half_width_m: float | None = None, *,
                    smoothing_m: float | None = None, ds_m: float = DEFAULT_DS_M, name: str | None = None,
                    allow_self_crossing: bool = False) -> Path:
@@ -465,6 +509,7 @@ def load_track_csv(path: str | os.PathLike[str], closed: bool | None = None, hal
     if not allow_self_crossing and result.self_intersects():
         raise ValueError(f"{fs_path}: the fitted centre-line crosses itself (points too sparse or too noisy; "
                          "add points or raise smoothing_m)")
+    _check_representable(fs_path, result, raw_x, raw_y, lines)
     noisy = noisy_curvature_hint(result, raw_x, raw_y)
     if noisy is not None:
         changes, n, hint = noisy

@@ -32,7 +32,11 @@ from vtrack_gym.tracks.table import CLOSURE_TOL_M, DEFAULT_DS_M, PathSample, Pro
 __all__ = ["DEFAULT_DS_M", "ElevationLike", "Gate", "Path", "PathSample", "Profile1D", "Projection", "wrap_angle"]
 
 MAX_HALF_WIDTH_M = 100.0        # per-station half widths beyond this are not a road [m]
-MAX_V_REF_MPS = 150.0           # reference speeds beyond this are not a car's [m/s]
+MAX_V_REF_MPS = 100.0           # reference speeds beyond this (360 km/h) are not a car's; the bound of the
+                                # observation's speed fields [m/s]
+MAX_CURVATURE_PER_M = 2.0       # |kappa| beyond this (a 0.5 m radius) is a kink, not a road; the bound of the
+                                # observation's curvature fields [1/m]
+MAX_CURVATURE_RATE_PER_M2 = 10.0  # |d kappa / d s| beyond this is a kink; the observation's bound [1/m^2]
 MIN_V_REF_MPS = 1.0             # set speeds of a profile / a file's speed column below this are a standstill [m/s]
 
 

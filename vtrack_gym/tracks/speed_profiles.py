@@ -46,7 +46,7 @@ class SpeedProfile(Protocol):
 @documented
 @dataclass(frozen=True)
 class ConstantSpeed:
-    """v_ref(s) = v_mps [m/s] everywhere (``MIN_V_REF_MPS`` = 1 m/s to 150 m/s)."""
+    """v_ref(s) = v_mps [m/s] everywhere (``MIN_V_REF_MPS`` = 1 m/s to ``MAX_V_REF_MPS`` = 100 m/s)."""
 
     v_mps: float = ranged(ge=MIN_V_REF_MPS, le=MAX_V_REF_MPS, unit="m/s")
 

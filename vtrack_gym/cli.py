@@ -624,7 +624,7 @@ def _known_env(env_id: str) -> str:
 
 
 def _cmd_eval(args: argparse.Namespace) -> int:
-    from vtrack_gym.baselines.resolve import canonical_spec
+    from vtrack_gym.baselines.resolve import recorded_policy_id
     from vtrack_gym.evaluation.api import evaluate
     from vtrack_gym.evaluation.report_formats import to_markdown
     from vtrack_gym.evaluation.store import ResultStore
@@ -635,7 +635,7 @@ def _cmd_eval(args: argparse.Namespace) -> int:
     _check_vehicle(args)
     store = ResultStore(args.store)  # verified before the rollouts; written after the table is printed
     _announce_kernels()
-    policy_id = args.policy if args.trust_code else canonical_spec(args.policy, args.preset)
+    policy_id = args.policy if args.trust_code else recorded_policy_id(args.policy, args.preset)
     rows = _with_provenance(evaluate(make, env_id, seeds, policy_id=policy_id, vehicle=args.vehicle), provenance)
     table = [{"seed": r.seed, "termination": r.termination, "success": int(r.verdict()),
               **{k: v for k, v in r.metrics.items() if isinstance(v, float)}} for r in rows]

@@ -89,6 +89,15 @@ def canonical_spec(spec: str, preset: str | None = None) -> str:
     return name if chosen == "default" else f"{name}:{chosen}"
 
 
+def recorded_policy_id(spec: str, preset: str | None = None) -> str:
+    """The policy id ``vtrack evaluate`` records: an agent file's stem (the file is identified by its weights hash,
+    so a relative and an absolute path to one file are one policy), else ``canonical_spec``."""
+    text = spec.strip()
+    if Path(text).suffix in AGENT_SUFFIXES and Path(text).stem:
+        return Path(text).stem
+    return canonical_spec(text, preset)
+
+
 def _presets(name: str) -> tuple[str, ...]:
     from vtrack_gym.baselines.registry import available_presets
 

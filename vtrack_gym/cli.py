@@ -975,7 +975,7 @@ def _check_outputs(args: argparse.Namespace) -> None:
     """Every output location of the command checked (and missing folders created) before any work starts."""
     cmd = args.command
     if cmd in ("benchmark", "eval"):
-        check_output_file(args.store, "--store")
+        check_output_file(args.store, "--store", store=True)
     if cmd == "benchmark" and not args.no_figures:
         check_output_dir(args.figures, "--figures")
     if cmd == "leaderboard" and args.out is not None:
@@ -998,7 +998,7 @@ def _check_outputs(args: argparse.Namespace) -> None:
     if cmd == "tune":
         check_output_file(args.out or DEFAULT_RESULTS_DIR / f"{args.controller}_tuned.json", "--out")
         if args.store is not None:
-            check_output_file(args.store, "--store")
+            check_output_file(args.store, "--store", store=True)
 
 
 SQLITE_HEADER = b"SQLite format 3\x00"

@@ -444,7 +444,12 @@ class ResultStore:
 
         All rows are read in one snapshot and checked against their hashes, the row count and the digest.
         """
-        meta, raw = self._read(self._snapshot)
+        return self._read(lambda con: self._checked_rows(*self._snapshot(con), suite))
+
+    def _checked_rows(self, meta: dict[str, str], raw: list[tuple[Any, ...]],
+                      suite: str | None) -> list[dict[str, Any]]:
+        """The rows of one snapshot, each checked against its hash and the row rule, all against the count and
+        digest (inside ``_read``: a snapshot torn by a concurrent writer is read again)."""
         digest = 0
         out = []
         for values in raw:

@@ -112,7 +112,7 @@ class _FullFile:
     """A file whose writes fail as on a full disk."""
 
     def __init__(self, *args, **kwargs) -> None:
-        self._fh = open(*args, **kwargs)  # noqa: SIM115 - closed in __exit__
+        self._fh = open(*args, **kwargs)
 
     def write(self, data):
         raise OSError(errno.ENOSPC, "No space left on device")

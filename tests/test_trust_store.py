@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import sqlite3
 import subprocess
 import sys
@@ -195,7 +194,7 @@ def test_a_disk_io_error_on_a_full_disk_says_the_disk_is_full(tmp_path, monkeypa
     connect = ResultStore._connect_rw
     monkeypatch.setattr(ResultStore, "_connect_rw", lambda self: _FullDiskConnection(connect(self)))
     monkeypatch.setattr(store_module, "disk_is_full", lambda folder: True)
-    with pytest.raises(StoreError, match="disk is full.*nothing was written"):
+    with pytest.raises(StoreError, match=r"disk is full.*nothing was written"):
         store.add([_row(9)])
     monkeypatch.setattr(store_module, "disk_is_full", lambda folder: False)
     with pytest.raises(StoreError, match="disk I/O error"):

@@ -15,6 +15,7 @@ its ``ManeuverSpec``'s speed profile, time limit and success criterion (``MANEUV
 
 from __future__ import annotations
 
+import numbers
 import os
 from dataclasses import dataclass
 from typing import Any
@@ -58,6 +59,19 @@ RANDOMISED_RANGES: dict[str, tuple[float, float]] = {"friction_range": (0.1, 1.5
 """The allowed span of each domain-randomisation range of a scenario (the matching reset option's range)."""
 
 
+MAX_TARGET_SPEED_MPS = 45.0
+"""Highest target speed [m/s] of a scenario (``target_speed_mps`` and ``target_speed_range_mps``)."""
+
+
+def _is_speed_range(value: object) -> bool:
+    """True for a (low, high) pair of real numbers with 0 < low <= high <= ``MAX_TARGET_SPEED_MPS``."""
+    if not isinstance(value, (tuple, list)) or len(value) != 2:
+        return False
+    if any(isinstance(v, bool) or not isinstance(v, numbers.Real) for v in value):
+        return False
+    return 0.0 < value[0] <= value[1] <= MAX_TARGET_SPEED_MPS
+
+
 @documented
 @dataclass(frozen=True)
 class ScenarioConfig:
@@ -73,7 +87,7 @@ class ScenarioConfig:
 
     name: str
     track: Any = "handling_course"                # str | os.PathLike | tracks.Path
-    target_speed_mps: float = ranged(11.0, gt=0.0, le=45.0, unit="m/s")
+    target_speed_mps: float = ranged(11.0, gt=0.0, le=MAX_TARGET_SPEED_MPS, unit="m/s")
     initial_speed_mps: float = ranged(0.0, ge=0.0, le=45.0, unit="m/s")
     max_episode_s: float | None = ranged(None, gt=0.0, le=MAX_EPISODE_S, unit="s")
     target_speed_range_mps: tuple[float, float] | None = None  # randomised per episode (training variant)
@@ -132,6 +146,9 @@ class ScenarioConfig:
             raise ValueError("closed= and smoothing_m= apply to a CSV track file only (got track "
                              f"{track if isinstance(track, str) else type(track).__name__!r}); a tracks.Path or a "
                              "built-in track is used as it is")
+        if self.target_speed_range_mps is not None and not _is_speed_range(self.target_speed_range_mps):
+            raise ValueError("ScenarioConfig.target_speed_range_mps must be None or (low, high) m/s with 0 < low <= "
+                             f"high <= {MAX_TARGET_SPEED_MPS} (got {self.target_speed_range_mps!r})")
         if self.success not in SUCCESS_CRITERIA:
             raise ValueError(f"ScenarioConfig.success must be one of {', '.join(SUCCESS_CRITERIA)} "
                              f"(got {self.success!r})")

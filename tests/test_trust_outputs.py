@@ -1,6 +1,6 @@
 """The output gate: every file a command writes is checked before the work (FIFO, device, symlink to a device,
-dangling symlink, a file of another kind, an SQLite file, a read-only folder) and written to a temporary file that
-is renamed into place; a full or read-only disk is a clear error that leaves nothing behind."""
+symlink into a missing folder, a file of another kind, an SQLite file, a read-only folder) and written to a
+temporary file that is renamed into place; a full or read-only disk is a clear error that leaves nothing behind."""
 
 from __future__ import annotations
 
@@ -52,7 +52,7 @@ def test_video_out_is_checked_before_any_work(tmp_path, capsys, kind):
     before = _listing(tmp_path)
     assert main(["video", "--policy", "smc", "--env", "DLC120-v0", "--seconds", "1", "--out", str(out)]) == 2
     assert "--out" in capsys.readouterr().err
-    assert _listing(tmp_path) == before                      # nothing created, no folder of a dangling target
+    assert _listing(tmp_path) == before                      # nothing created, no folder of a link's target
 
 
 @pytest.mark.parametrize("kind", HOSTILE)

@@ -109,16 +109,17 @@ def _check_not_a_database(target: Path, label: str, store: bool) -> None:
 def check_output_file(path: str | os.PathLike[str], option: str = "", *, store: bool = False) -> Path:
     """Check that a regular file can be written at ``path``; returns the resolved path (symlinks followed).
 
-    Refuses (``ValueError`` naming ``option`` and the path) a directory, device, FIFO or socket, a dangling symlink,
-    an existing SQLite database (unless ``store``: the output is a store) and a database's ``-wal``/``-shm``/
-    ``-journal`` file, a path under a regular file and a folder the process cannot create files in (missing
-    folders: their nearest existing ancestor). Leaves nothing behind: missing folders are created only when writing.
+    Refuses (``ValueError`` naming ``option`` and the path) a directory, device, FIFO or socket, a symlink to a
+    file in a missing folder, an existing SQLite database (unless ``store``: the output is a store) and a
+    database's ``-wal``/``-shm``/``-journal`` file, a path under a regular file and a folder the process cannot
+    create files in (missing folders: their nearest existing ancestor). Leaves nothing behind: missing folders
+    are created only when writing.
     """
     label = _label(option, path)
-    if os.path.islink(path) and not os.path.exists(path):
-        raise ValueError(f"{label} is a symbolic link to {os.readlink(path)}, which does not exist; pass the target "
-                         "itself or remove the link")
     target = Path(os.path.realpath(os.fspath(path)))
+    if os.path.islink(path) and not os.path.isdir(target.parent):   # never create the folders of a link's target
+        raise ValueError(f"{label} is a symbolic link to {os.readlink(path)}, whose folder does not exist; pass "
+                         "the target itself or remove the link")
     try:
         st = os.stat(target)
     except (FileNotFoundError, NotADirectoryError):

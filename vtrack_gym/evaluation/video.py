@@ -34,8 +34,8 @@ _SCENE_COLOURS: list[tuple[int, int, int]] = [
 
 def check_video_path(out: str | Path) -> Path:
     """``out`` as a Path if a video can be written there: suffix .mp4/.gif, parent folder exists, and the output
-    gate's checks (``vtrack_gym._io.check_output_file``: not a folder, FIFO, device, symlink to one, dangling
-    symlink or SQLite file; a folder the process can write)."""
+    gate's checks (``vtrack_gym._io.check_output_file``: not a folder, FIFO, device, symlink to one, symlink into a
+    missing folder or SQLite file; a folder the process can write)."""
     from vtrack_gym._io import check_output_file
 
     p = Path(out)

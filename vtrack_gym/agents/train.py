@@ -34,6 +34,7 @@ from __future__ import annotations
 import json
 import logging
 import math
+import os
 import shlex
 import sys
 import time
@@ -43,7 +44,7 @@ from typing import Any
 
 import numpy as np
 
-from vtrack_gym._io import write_atomic
+from vtrack_gym._io import atomic_output, check_output_dir, write_atomic
 
 log = logging.getLogger(__name__)
 
@@ -81,6 +82,11 @@ def previous_run_files(run_dir: str | Path) -> list[Path]:
 def check_run_dir(run_dir: str | Path, overwrite: bool = False) -> list[Path]:
     """``ValueError`` naming the folder if ``run_dir`` already holds a run and ``overwrite`` is false (mixing two
     runs' evaluations, logs and checkpoints in one folder); returns the files ``--overwrite`` would remove."""
+    logs = Path(run_dir) / "logs"
+    if logs.is_symlink():
+        raise ValueError(f"--run-dir {run_dir}: logs is a symbolic link (to {os.readlink(logs)}); training writes "
+                         "its logs only into a real folder of the run: remove the link")
+    check_output_dir(logs, "--run-dir")
     files = previous_run_files(run_dir)
     if files and not overwrite:
         names = ", ".join(str(f.relative_to(run_dir)) for f in files[:6]) + (", ..." if len(files) > 6 else "")
@@ -528,8 +534,10 @@ def train(algo: str, env_id: str | None = None, timesteps: int = 1_000_000, seed
     if interrupted:
         config["interrupted_during"] = interrupted
     write_atomic(run_dir / "config.json", json.dumps(config, indent=2, sort_keys=True) + "\n")
-    model.save(run_dir / "model.zip")
-    vecnorm.save(str(run_dir / "vecnormalize.pkl"))
+    with atomic_output(run_dir / "model.zip", "--run-dir") as tmp:
+        model.save(tmp)
+    with atomic_output(run_dir / "vecnormalize.pkl", "--run-dir") as tmp:
+        vecnorm.save(str(tmp))
     sign_run(run_dir)  # lets `vtrack export --run-dir` unpickle this run's files without --trust
     agent_json, _ = export(model, vecnorm, run_dir / "agent", env_id=env_id, command=command, seed=seed,
                            warm_start=warm_start, env=venv.venv)

@@ -54,7 +54,7 @@ def needed_modules(args: argparse.Namespace) -> list[str]:
 
 
 def check_outputs(args: argparse.Namespace) -> None:
-    check_output_file(args.store, "--store")
+    check_output_file(args.store, "--store", store=True)
     if not args.no_figures:
         check_output_dir(args.figures, "--figures")
 

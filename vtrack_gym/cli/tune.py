@@ -66,7 +66,7 @@ def needed_modules(args: argparse.Namespace) -> list[str]:
 def check_outputs(args: argparse.Namespace) -> None:
     check_output_file(args.out or opt.DEFAULT_RESULTS_DIR / f"{args.controller}_tuned.json", "--out")
     if args.store is not None:
-        check_output_file(args.store, "--store")
+        check_output_file(args.store, "--store", store=True)
 
 
 def run(args: argparse.Namespace) -> int:

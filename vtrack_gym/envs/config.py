@@ -64,7 +64,7 @@ class EnvConfig:
     """Everything an env instance needs besides its scenario."""
 
     control_period_s: float = ranged(0.01, ge=0.001, le=0.1, unit="s")
-    physics_dt_s: float = ranged(0.002, gt=0.0, le=0.002, unit="s")  # >= 500 Hz
+    physics_dt_s: float = ranged(0.002, ge=1e-4, le=0.002, unit="s")  # 500 Hz to 10 kHz
     model: str = "nonlinear"
     vehicle: VehicleParams = field(default_factory=VehicleParams)  # or a name of vehicle.list_vehicles() / a file
     reward: RewardConfig = field(default_factory=RewardConfig)

@@ -32,7 +32,9 @@ class HoldSpeed:
     def __post_init__(self) -> None:
         validate(self)
         r = self.random_range_mps
-        if r is not None and not (isinstance(r, tuple) and len(r) == 2 and 0.0 < r[0] <= r[1] <= 45.0):
+        if r is not None and not (isinstance(r, tuple) and len(r) == 2
+                                  and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in r)
+                                  and 0.0 < r[0] <= r[1] <= 45.0):
             raise ValueError(f"HoldSpeed.random_range_mps must be None or (low, high) with 0 < low <= high <= 45 "
                              f"m/s (got {r!r})")
 

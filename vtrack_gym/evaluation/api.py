@@ -15,6 +15,7 @@ import gymnasium as gym
 import numpy as np
 
 from vtrack_gym.evaluation.benchmark import score_episode
+from vtrack_gym.evaluation.fingerprint import named_policy_hash, policy_hash
 from vtrack_gym.evaluation.rollout import policy_id_of
 from vtrack_gym.evaluation.store import ResultRow, ResultStore, StoreError
 from vtrack_gym.evaluation.suites import SUITES, Episode, suite_episodes, suite_label, with_vehicle
@@ -314,6 +315,8 @@ def _row(make: Callable[[Any], Any], env: gym.Env, ep: Episode, suite: str, poli
     if not hasattr(policy, "predict"):
         raise ValueError(f"the factory returned {type(policy).__name__}, which has no predict method")
     name = policy_id or policy_id_of(policy)
+    if digest is None:   # a policy whose state cannot be read completely needs a policy_id naming it
+        digest = named_policy_hash(policy, policy_id) if policy_id else policy_hash(policy)
     row, _ = score_episode(name, policy, env, ep, suite, digest)
     log.debug("%s on %s seed %s: %s, max |e_y| %.4g m", name, ep.env_id, ep.seed, row.termination,
              row.metrics.get("max_e_y_m", float("nan")))

@@ -42,7 +42,8 @@ class ChassisParams:
     mass_kg: float = ranged(1413.0, gt=0.0, unit="kg")  # paper (IDSC: 1412 = 1270 sprung + 4 x 35.5 unsprung)
     # paper, I_z. This is CarSim's SPRUNG-mass I_zz; the paper (and so the design model and our plant) uses it as
     # the whole car's yaw inertia. The four unsprung corners would add ~430 kg m^2 (not modelled, CHOICE).
-    yaw_inertia_kgm2: float = ranged(1536.7, gt=0.0, unit="kg m^2")
+    # below ~5 kg m^2 the yaw mode is too fast for the 2 ms physics step (NaN at 120 km/h)
+    yaw_inertia_kgm2: float = ranged(1536.7, ge=5.0, le=1e6, unit="kg m^2")
     cg_to_front_axle_m: float = ranged(1.015, gt=0.0, unit="m")  # paper, a1
     cg_to_rear_axle_m: float = ranged(1.895, gt=0.0, unit="m")  # paper, a2
     # IDSC: CG height of the SPRUNG mass above ground (whole car: VehicleParams.total_cg_height_m)
@@ -152,7 +153,8 @@ class PowertrainParams:
     # CHOICE: low-gear traction limit at the wheels (~0.43 g)
     max_drive_force_n: float = ranged(6000.0, gt=0.0, unit="N")
     front_drive_share: float = ranged(1.0, ge=0.0, le=1.0)  # CHOICE: front-wheel drive
-    drag_area_m2: float = ranged(0.66, ge=0.0, unit="m^2")  # CHOICE: C_d A = 0.30 x 2.2 m^2
+    # CHOICE: C_d A = 0.30 x 2.2 m^2; road vehicles stay below 20 m^2 (far more stops a car within one physics step)
+    drag_area_m2: float = ranged(0.66, ge=0.0, le=20.0, unit="m^2")
     air_density_kgpm3: float = ranged(1.2, ge=0.0, unit="kg/m^3")  # standard air
 
     def __post_init__(self) -> None:
@@ -182,7 +184,8 @@ class LowSpeedParams:
 
     blend_start_mps: float = ranged(1.0, gt=0.0, unit="m/s")  # below: purely kinematic
     blend_end_mps: float = ranged(3.0, gt="blend_start_mps", unit="m/s")  # above: purely dynamic
-    relaxation_time_s: float = ranged(0.05, gt=0.0, unit="s")  # how fast v_y and r are pulled onto the kinematic values
+    # how fast v_y and r are pulled onto the kinematic values; at least 2.5 physics steps of 2 ms (stability)
+    relaxation_time_s: float = ranged(0.05, ge=0.005, le=10.0, unit="s")
     # CHOICE: lag of the accelerations used for load transfer
     load_transfer_lag_s: float = ranged(0.02, gt=0.0, unit="s")
 

@@ -325,6 +325,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 _EXTRAS: dict[str, tuple[str, str]] = {
     "matplotlib": ("benchmark", "the figures"), "osqp": ("benchmark", "the mpc_osqp baseline"),
+    "casadi": ("nmpc", "the nmpc baseline"),
     "highway_env": ("highway", "highway-env's lane-keeping-v0"), "stable_baselines3": ("rl", "SB3 training"),
     "torch": ("rl", "SB3 training"), "yaml": ("rl", "the hyperparameter files"), "pymoo": ("tuning", "the GA"),
 }
@@ -337,7 +338,7 @@ def _needed_modules(args: argparse.Namespace) -> list[str]:
     needed: list[str] = []
     policies: list[str] = []
     if cmd == "benchmark":
-        policies = _policy_list(args.policies) or ["mpc_osqp"]
+        policies = _policy_list(args.policies) or ["mpc_osqp", "nmpc"]
         needed += [] if args.no_figures else ["matplotlib"]
         needed += ["highway_env"] if args.suite == "highway" and args.track is None else []
     elif cmd in ("eval", "plot"):
@@ -351,6 +352,7 @@ def _needed_modules(args: argparse.Namespace) -> list[str]:
     elif cmd == "tune":
         needed += ["pymoo"]
     needed += ["osqp"] if any(p.partition(":")[0] == "mpc_osqp" for p in policies) else []
+    needed += ["casadi"] if any(p.partition(":")[0] == "nmpc" for p in policies) else []
     return needed
 
 

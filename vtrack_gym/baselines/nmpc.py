@@ -27,6 +27,7 @@ State per row (``state_size = 1 + horizon_steps``): the command applied last [ra
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import logging
 import math
 import os
@@ -105,15 +106,27 @@ NMPC_PRESETS: dict[str, NMPCConfig] = {"default": NMPCConfig(),
                                        "converged": NMPCConfig(sqp_iterations=5)}
 
 
+def _flush_c_stdio() -> None:
+    """Flush the C library's stdio buffers (what a C++ library printed is written out now, not at exit)."""
+    try:
+        ctypes.CDLL(None).fflush(None)
+    except (OSError, AttributeError, TypeError):  # no C runtime reachable this way (non-POSIX): nothing to flush
+        pass
+
+
 @contextlib.contextmanager
 def silenced_stdout() -> Iterator[None]:
     """Discard what C libraries write to the process's standard output (file descriptor 1) inside the block."""
     sys.stdout.flush()
+    _flush_c_stdio()
     saved = os.dup(1)
     try:
         with open(os.devnull, "wb") as null:
             os.dup2(null.fileno(), 1)
-            yield
+            try:
+                yield
+            finally:
+                _flush_c_stdio()
     finally:
         os.dup2(saved, 1)
         os.close(saved)

@@ -159,3 +159,19 @@ def test_batch_and_single_observations_give_the_same_plan() -> None:
     batch, state = policy.predict(np.stack((obs, obs)), episode_start=np.ones(2, dtype=bool))
     assert state.shape == (2, 1 + NMPCConfig().horizon_steps)
     np.testing.assert_allclose(batch[:, 0], single[0], rtol=1e-6)
+
+
+def test_an_extreme_demand_gives_exactly_full_lock() -> None:
+    """A car far right of a 1 m-radius left turn, wheel at the lock and turning at 2 rad/s (front slip below the
+    tyre's peak): the plan asks beyond the lock and the action is exactly +1 (and -1 mirrored)."""
+    env = gym.make("DLC120-v0")
+    policy = make_policy("nmpc", env)
+    lay = policy.layout
+    for sign in (1.0, -1.0):
+        obs = np.zeros(lay.size)
+        obs[lay.V_X], obs[lay.TARGET_SPEED], obs[lay.speed_preview] = 1.0, 1.0, 1.0
+        obs[lay.ROAD_WHEEL_ANGLE], obs[lay.YAW_RATE], obs[lay.E_Y] = 0.6 * sign, 2.0 * sign, -50.0 * sign
+        obs[lay.CURVATURE], obs[lay.preview] = sign, sign
+        policy.reset()
+        action, _ = policy.predict(obs)
+        assert action.dtype == np.float32 and action[0] == sign

@@ -77,8 +77,11 @@ def declared_noise_std(env: Any) -> tuple[float, ...]:
     default config's when the env does not declare them)."""
     base = getattr(env, "unwrapped", env)
     config = getattr(base, "config", None)
-    if config is None and hasattr(env, "get_attr"):
-        config = env.get_attr("config")[0]
+    if config is None and hasattr(env, "get_attr"):   # an SB3 VecEnv: its first env's (if it has one)
+        try:
+            config = env.get_attr("config")[0]
+        except AttributeError:
+            config = None
     if config is None or not hasattr(config, "noise_std"):
         from vtrack_gym.envs.config import EnvConfig
 

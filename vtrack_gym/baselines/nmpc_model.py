@@ -28,6 +28,7 @@ from __future__ import annotations
 import functools
 import importlib
 import shutil
+import tempfile
 from dataclasses import dataclass
 from typing import Any
 
@@ -114,6 +115,8 @@ class HorizonFunctions:
 
     simulate: Any
     linearise: Any
+    workdir: Any = None
+    """The temporary folder of the compiled code (removed with this object or at exit), None when interpreted."""
 
 
 def c_compiler_available() -> bool:
@@ -127,18 +130,19 @@ def horizon_functions(design: DesignModel, shape: TyreShape, lag_s: float, stage
     """The stage map (RK4, the module docstring's model) accumulated and mapped over ``horizon`` stages.
 
     ``compiled``: the stage functions are compiled to C by CasADi's JIT (about 1 s, once per model: cached;
-    evaluation about 5x faster than CasADi's virtual machine).
+    evaluation about 5x faster than CasADi's virtual machine), in a temporary folder, never the working directory.
     """
     ca = import_casadi()
     xs, us, vs, ks = ca.SX.sym("x", N_STATES), ca.SX.sym("u"), ca.SX.sym("v"), ca.SX.sym("kappa")
     f = ca.Function("f", [xs, us, vs, ks], [state_derivative(ca, design, shape, lag_s, xs, us, vs, ks)])
     x_next = rk4_stage(ca, f, xs, us, vs, ks, stage_s, substeps)
-    options = {"jit": True, "compiler": "shell", "jit_cleanup": True,
-               "jit_options": {"flags": ["-O2"], "verbose": False}} if compiled else {}
+    workdir = tempfile.TemporaryDirectory(prefix="vtrack-nmpc-") if compiled else None
+    options = {"jit": True, "compiler": "shell", "jit_cleanup": True, "jit_name": "vtrack_nmpc",
+               "jit_options": {"flags": ["-O2"], "verbose": False, "directory": workdir.name}} if workdir else {}
     stage = ca.Function("stage", [xs, us, vs, ks], [x_next], options)
     stage_jac = ca.Function("stage_jac", [xs, us, vs, ks], [ca.jacobian(x_next, xs), ca.jacobian(x_next, us)],
                             options)
-    return HorizonFunctions(stage.mapaccum("simulate", horizon), stage_jac.map(horizon, "serial"))
+    return HorizonFunctions(stage.mapaccum("simulate", horizon), stage_jac.map(horizon, "serial"), workdir)
 
 
 @dataclass(frozen=True)

@@ -116,7 +116,8 @@ class HorizonFunctions:
     simulate: Any
     linearise: Any
     workdir: Any = None
-    """The temporary folder of the compiled code (removed with this object or at exit), None when interpreted."""
+    """The temporary folder of the compiled code (removed with this object or at exit, with everything CasADi
+    wrote there), None when interpreted."""
 
 
 def c_compiler_available() -> bool:
@@ -137,8 +138,9 @@ def horizon_functions(design: DesignModel, shape: TyreShape, lag_s: float, stage
     f = ca.Function("f", [xs, us, vs, ks], [state_derivative(ca, design, shape, lag_s, xs, us, vs, ks)])
     x_next = rk4_stage(ca, f, xs, us, vs, ks, stage_s, substeps)
     workdir = tempfile.TemporaryDirectory(prefix="vtrack-nmpc-") if compiled else None
-    options = {"jit": True, "compiler": "shell", "jit_cleanup": True, "jit_name": "vtrack_nmpc",
-               "jit_options": {"flags": ["-O2"], "verbose": False, "directory": workdir.name}} if workdir else {}
+    options = {"jit": True, "compiler": "shell", "jit_cleanup": False, "jit_name": "vtrack_nmpc",
+               "jit_options": {"flags": ["-O2"], "verbose": False, "cleanup": False,
+                                   "directory": workdir.name}} if workdir else {}
     stage = ca.Function("stage", [xs, us, vs, ks], [x_next], options)
     stage_jac = ca.Function("stage_jac", [xs, us, vs, ks], [ca.jacobian(x_next, xs), ca.jacobian(x_next, us)],
                             options)

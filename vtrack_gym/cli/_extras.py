@@ -1,0 +1,34 @@
+"""Optional packages: which a command needs (from its arguments alone) and how to install the missing ones."""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Callable
+
+EXTRAS: dict[str, tuple[str, str]] = {
+    "matplotlib": ("benchmark", "the figures"), "osqp": ("benchmark", "the mpc_osqp baseline"),
+    "casadi": ("nmpc", "the nmpc baseline"),
+    "highway_env": ("highway", "highway-env's lane-keeping-v0"), "stable_baselines3": ("rl", "SB3 training"),
+    "torch": ("rl", "SB3 training"), "yaml": ("rl", "the hyperparameter files"), "pymoo": ("tuning", "the GA"),
+}
+"""Importable module -> (extra that installs it, what needs it)."""
+
+
+def osqp_for(policies: list[str]) -> list[str]:
+    """The solver packages of the policies: ``"osqp"`` for the OSQP MPC, ``"casadi"`` for the nonlinear MPC."""
+    names = {p.partition(":")[0] for p in policies}
+    return [module for name, module in (("mpc_osqp", "osqp"), ("nmpc", "casadi")) if name in names]
+
+
+def missing_packages(args: argparse.Namespace, needed_modules: Callable[[argparse.Namespace], list[str]]) -> str:
+    """'' if every optional package the command needs is installed, else which are missing and the extra."""
+    import importlib.util
+
+    missing = [m for m in dict.fromkeys(needed_modules(args)) if importlib.util.find_spec(m) is None]
+    if not missing:
+        return ""
+    extras = sorted({EXTRAS[m][0] for m in missing})
+    what = "; ".join(f"{m} ({EXTRAS[m][1]})" for m in missing)
+    hint = " or pass --no-figures" if args.command == "benchmark" and "matplotlib" in missing else ""
+    return (f"missing optional packages: {what}. Install them with: pip install "
+            + " ".join(f'"vtrack_gym[{e}]"' for e in extras) + hint)

@@ -14,7 +14,8 @@ Per control period (``control_period_s`` of the env, 10 ms):
    around the previous solution shifted by one control period (the warm start), ``min 1/2 dU'(J'J + eps I)dU +
    (J'res)'dU`` subject to ``|U + dU| <= max_road_wheel_angle_rad`` and the linearised actuator rate
    ``|(u_k - delta_k) / tau| <= max_road_wheel_rate_radps`` (the plant's own limits). qpOASES (dense, 40
-   variables) solves it. More iterations per period (``sqp_iterations`` > 1) give a converged SQP.
+   variables) solves it. More iterations per period (``sqp_iterations`` > 1, preset ``converged``) move the plan
+   nearer the converged optimum (a full SQP once they converge).
 3. The first command of the plan is applied; the plan is kept (policy memory) for the next period's warm start.
 
 A QP that fails (non-finite or not solved) is counted in ``solver_failures`` and the shifted previous plan is

@@ -18,11 +18,20 @@ noise (``EnvConfig.noise_std``: the standard deviations at ``sensor_noise = 1``)
 (``ObserverConfig``, per control period) stands for what the linear model leaves out: tyre saturation, load
 transfer, roll, an unknown actuator delay.
 
-The controller then sees the observation with e_y, e_phi, v_y, yaw_rate, road_wheel_angle replaced by their
-estimates and e_y_dot, e_phi_dot recomputed from them (v_x, the references and the preview are passed through).
+Actuator dead time: the robust suite delays the steering command by 0-50 ms, unknown to the controller. A bank
+of actuator models (lag and rate limit), one per candidate dead time 0..``max_delay_s`` in control periods, is fed
+with the command history; the candidate whose output stays closest to the measured road-wheel angle (discounted
+squared residuals) is the identified dead time. The filter then uses the command that acts now, and the estimate
+is predicted over the dead time with the commands already sent (a Smith predictor), so that the law computes its
+command for the state in which it will act.
 
-Memory per row (``MEMORY_SIZE = 31``): the estimate (5), its covariance (25, row-major) and the command applied
-last [rad]; an episode start initialises the estimate from the measurement and P from R.
+The controller then sees the observation with e_y, e_phi, v_y, yaw_rate, road_wheel_angle replaced by the
+predicted estimates and e_y_dot, e_phi_dot recomputed from them (v_x, the references and the preview are passed
+through).
+
+Memory per row (``LateralKalmanFilter.memory_size``): the estimate (5), its covariance (25, row-major), the command
+history, the candidate actuator outputs and their residuals (``max_delay_s / T_c + 1`` each); an episode start
+initialises the estimate from the measurement and P from R.
 """
 
 from __future__ import annotations

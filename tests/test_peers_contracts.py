@@ -14,7 +14,7 @@ from vtrack_gym.baselines.base import Policy, SpeedSchedule, env_contract
 from vtrack_gym.baselines.registry import available_policies, available_presets, make_policy, policy_class
 from vtrack_gym.envs.observation import OBS
 
-NAMES = ("smc", "mpc", "lqr", "stanley", "pure_pursuit", "mpc_osqp")
+NAMES = ("smc", "mpc", "lqr", "stanley", "pure_pursuit", "mpc_osqp", "nmpc")
 FAKE_ENV = SimpleNamespace(unwrapped=SimpleNamespace(design_model=DESIGN, observation_layout=OBS,
                                                      control_period_s=0.01))
 
@@ -57,7 +57,7 @@ def test_registry_names_and_errors() -> None:
     assert available_policies() == NAMES
     with pytest.raises(ValueError, match="valid: smc, mpc, lqr, stanley, pure_pursuit, mpc_osqp"):
         make_policy("pid", FAKE_ENV)
-    with pytest.raises(ValueError, match="valid: default, tuned, paper, hand"):
+    with pytest.raises(ValueError, match="valid: default, tuned, observer, paper, hand"):
         make_policy("smc", FAKE_ENV, preset="fast")
     with pytest.raises(ValueError, match="unknown SMCConfig field"):
         make_policy("smc", FAKE_ENV, pole=3.0)
@@ -178,7 +178,7 @@ def test_nan_and_shape_errors(name: str, policies: dict[str, Policy]) -> None:
         pol.predict(obs[0, :-1])
 
 
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", [n for n in NAMES if n != "nmpc"])   # nmpc: tests/test_nmpc.py (its own model)
 def test_actions_clipped(name: str, policies: dict[str, Policy]) -> None:
     """Extreme demands (1 m radius, 50 m offset, huge reference yaw acceleration) give exactly +-1."""
     pol = policies[name]

@@ -142,6 +142,8 @@ class Policy(abc.ABC):
     """Preset names read from a packaged file by ``_file_preset`` (the GA-tuned SMC/MPC), before ``PRESETS``."""
     config_type: ClassVar[type] = object
     state_size: int = 0
+    solver_failures: int = 0
+    """Failed solves of the policy's optimiser so far (a closed-form law never fails: 0; mpc_osqp and nmpc count)."""
 
     def __init__(self, design: DesignModel, config: Any = None, layout: ObservationLayout = OBS,
                  control_period_s: float = 0.01) -> None:

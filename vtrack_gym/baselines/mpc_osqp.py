@@ -36,7 +36,7 @@ starts from the same rho (``OSQP_RHO``; OSQP's adaptive rho would otherwise carr
 solve), so single and batched calls agree to ~1e-10 rad.
 Sample time vs control period: as ``mpc.MPC``: a new QP every
 round(T_s / T_c) env steps, the output held in between. If OSQP does not return a finite solution, the
-previous steering is held (logged as a WARNING).
+previous steering is held (logged as a WARNING and counted in ``solver_failures``).
 
 State per row (``state_size = 2 + 3 N_c``): applied u(k-1) [rad], env steps left before the next solve, the
 last primal solution U (N_c) and its duals (2 N_c) (warm start: U shifted by one move, the duals as they are).
@@ -268,6 +268,7 @@ class OSQPMPC(Policy):
         res = self._solve()
         x, y = res.x, res.y
         if x is None or not (np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
+            self.solver_failures += 1
             logger.warning("OSQP MPC: no finite solution (status %s); holding the previous steering",
                            getattr(res.info, "status", "?"))
             return None

@@ -1,8 +1,9 @@
 """Name -> steering baseline registry: ``make_policy(name, env, preset="default", **overrides)``.
 
 Names: ``smc`` (paper SMC), ``mpc`` (paper MPC, precomputed gains), ``lqr``, ``stanley``, ``pure_pursuit``,
-``mpc_osqp`` (constrained MPC, needs the ``osqp`` package). Controller modules are imported on first use, so
-``import vtrack_gym.baselines.registry`` is cheap and works without osqp.
+``mpc_osqp`` (constrained MPC, needs the ``osqp`` package), ``nmpc`` (nonlinear MPC, needs ``casadi``: the
+``nmpc`` extra). Controller modules are imported on first use, so ``import vtrack_gym.baselines.registry`` is
+cheap and works without osqp or casadi.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ _POLICIES: dict[str, tuple[str, str]] = {
     "stanley": ("vtrack_gym.baselines.stanley", "Stanley"),
     "pure_pursuit": ("vtrack_gym.baselines.pure_pursuit", "PurePursuit"),
     "mpc_osqp": ("vtrack_gym.baselines.mpc_osqp", "OSQPMPC"),
+    "nmpc": ("vtrack_gym.baselines.nmpc", "NMPC"),
 }
 
 

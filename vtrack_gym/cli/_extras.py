@@ -7,6 +7,7 @@ from collections.abc import Callable
 
 EXTRAS: dict[str, tuple[str, str]] = {
     "matplotlib": ("benchmark", "the figures"), "osqp": ("benchmark", "the mpc_osqp baseline"),
+    "casadi": ("nmpc", "the nmpc baseline"),
     "highway_env": ("highway", "highway-env's lane-keeping-v0"), "stable_baselines3": ("rl", "SB3 training"),
     "torch": ("rl", "SB3 training"), "yaml": ("rl", "the hyperparameter files"), "pymoo": ("tuning", "the GA"),
 }
@@ -14,8 +15,9 @@ EXTRAS: dict[str, tuple[str, str]] = {
 
 
 def osqp_for(policies: list[str]) -> list[str]:
-    """``["osqp"]`` when one of the policies is the OSQP MPC."""
-    return ["osqp"] if any(p.partition(":")[0] == "mpc_osqp" for p in policies) else []
+    """The solver packages of the policies: ``"osqp"`` for the OSQP MPC, ``"casadi"`` for the nonlinear MPC."""
+    names = {p.partition(":")[0] for p in policies}
+    return [module for name, module in (("mpc_osqp", "osqp"), ("nmpc", "casadi")) if name in names]
 
 
 def missing_packages(args: argparse.Namespace, needed_modules: Callable[[argparse.Namespace], list[str]]) -> str:

@@ -50,7 +50,7 @@ def register(sub: Any) -> None:
 def needed_modules(args: argparse.Namespace) -> list[str]:
     needed = [] if args.no_figures else ["matplotlib"]
     needed += ["highway_env"] if args.suite == "highway" and args.track is None else []
-    return needed + osqp_for(opt.policy_list(args.policies) or ["mpc_osqp"])
+    return needed + osqp_for(opt.policy_list(args.policies) or ["mpc_osqp", "nmpc"])
 
 
 def check_outputs(args: argparse.Namespace) -> None:

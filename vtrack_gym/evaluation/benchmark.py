@@ -23,7 +23,11 @@ log = logging.getLogger(__name__)
 LEADERBOARD_COLUMNS: tuple[str, ...] = (
     "rms_e_y_m", "max_e_y_m", "rms_e_phi_deg", "rms_hand_wheel_deg", "max_hand_wheel_deg", "max_a_y_mps2",
     "max_roll_deg", "itae", "cones_hit", "comfort_a_v_mps2", "steering_reversals_per_s",
+    "policy_time_p50_us", "policy_time_p95_us", "policy_time_max_us", "policy_real_time_factor", "solver_failures",
 )
+"""Every suite's leaderboard columns (every table format and the HTML board): the paper's metrics, then the policy's
+own compute per decision (``metrics.compute_metrics``: p50/p95/max [us], real-time factor at the control period)
+and its failed solves."""
 SUITE_COLUMNS: dict[str, tuple[str, ...]] = {"maneuvers": ("max_steady_a_y_mps2", "grip_limit_a_y_mps2",
                                                             "mu_g_mps2")}
 """Extra leaderboard columns of a suite: ISO 4138's lateral acceleration reached on the circle and mu g."""

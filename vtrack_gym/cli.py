@@ -330,6 +330,11 @@ _EXTRAS: dict[str, tuple[str, str]] = {
     "torch": ("rl", "SB3 training"), "yaml": ("rl", "the hyperparameter files"), "pymoo": ("tuning", "the GA"),
 }
 """Importable module -> (extra that installs it, what needs it)."""
+TORCH_HINT = ("The rl extra brings PyTorch: without an NVIDIA GPU, install its CPU build first (pip install torch "
+              "--index-url https://download.pytorch.org/whl/cpu); for a GPU build pick your platform and CUDA "
+              "version at https://pytorch.org/get-started/locally/ (a plain `pip install torch` pulls the CUDA "
+              "build, several GB, on Linux).")
+"""Said with every message that names the ``rl`` extra."""
 
 
 def _needed_modules(args: argparse.Namespace) -> list[str]:
@@ -370,8 +375,9 @@ def _missing_packages(args: argparse.Namespace) -> str:
     extras = sorted({_EXTRAS[m][0] for m in missing})
     what = "; ".join(f"{m} ({_EXTRAS[m][1]})" for m in missing)
     hint = " or pass --no-figures" if args.command == "benchmark" and "matplotlib" in missing else ""
+    torch = f". {TORCH_HINT}" if "rl" in extras else ""
     return (f"missing optional packages: {what}. Install them with: pip install "
-            + " ".join(f'"vtrack_gym[{e}]"' for e in extras) + hint)
+            + " ".join(f'"vtrack_gym[{e}]"' for e in extras) + hint + torch)
 
 
 def _render_board(board: list[dict], fmt: str, title: str = "vtrack leaderboard",

@@ -328,7 +328,7 @@ def _configure(algo: str, env_id: str | None, timesteps: int | None, seed: int, 
 
 def _build_envs(setup: _RunSetup) -> tuple[Any, Any]:
     """Env phase: the native vector env of ``n_envs`` cars, seeded, in ``VecMonitor`` and ``VecNormalize`` (its
-    observation statistics frozen at the fixed scales for ``obs_scaling: fixed``)."""
+    observation statistics frozen at the fixed scales when the entry's ``callback`` asks for them)."""
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
     from vtrack_gym.agents.sb3_vec_env import TrackingSB3VecEnv

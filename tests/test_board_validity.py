@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 import vtrack_gym
-from vtrack_gym.cli import _parse_seeds, main
+from vtrack_gym.cli import main
+from vtrack_gym.cli._options import parse_seeds as _parse_seeds
 from vtrack_gym.evaluation.board import Estimate, build_board, estimate
 from vtrack_gym.evaluation.report_formats import to_csv, to_json, to_latex, to_markdown
 from vtrack_gym.evaluation.store import ResultRow, ResultStore, StoreError

@@ -34,12 +34,13 @@ def test_citation_and_changelog_name_this_version() -> None:
 
 
 def test_missing_torch_message_explains_cpu_and_gpu_builds(monkeypatch: pytest.MonkeyPatch) -> None:
-    from vtrack_gym import cli
+    from vtrack_gym.cli import build_parser, train
+    from vtrack_gym.cli._extras import missing_packages
 
     real = importlib.util.find_spec
     monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "torch" else real(name, *a))
-    args = cli.build_parser().parse_args(["train", "--algo", "ppo", "--run-dir", "x"])
-    message = cli._missing_packages(args)
+    args = build_parser().parse_args(["train", "--algo", "ppo", "--run-dir", "x"])
+    message = missing_packages(args, train.needed_modules)
     assert 'pip install "vtrack_gym[rl]"' in message
     assert "--index-url https://download.pytorch.org/whl/cpu" in message
     assert "https://pytorch.org/get-started/locally/" in message

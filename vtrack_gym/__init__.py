@@ -15,15 +15,18 @@ from vtrack_gym.interop import register_highway_envs
 __all__ = ["ALL_ENV_IDS", "ENV_IDS", "__version__", "evaluate", "make_policy", "register_envs"]
 
 
-def make_policy(spec: str, env: _Any, preset: str | None = None) -> _Any:
+def make_policy(spec: str, env: _Any, preset: str | None = None, *, trust_code: bool = False,
+                policy_kwargs: _Any = None) -> _Any:
     """The policy ``spec`` names, built for ``env``: a baseline (``"mpc"``), ``"name:preset"`` (``"smc:paper"``),
-    a shipped agent (``"ppo"``, ``"sac"``) or a weights-only agent file (``"agent.json"``).
+    a shipped agent (``"ppo"``, ``"sac"``), a weights-only agent file (``"agent.json"``) or, with
+    ``trust_code=True``, ``"module:Name"`` of your code (``Name.from_env(env, **policy_kwargs)`` when the class
+    defines it, else ``Name(**policy_kwargs)``).
 
     See ``vtrack_gym.baselines.resolve``; ``ValueError`` lists every valid name.
     """
     from vtrack_gym.baselines.resolve import resolve_policy
 
-    return resolve_policy(spec, env, preset)
+    return resolve_policy(spec, env, preset, trust_code=trust_code, policy_kwargs=policy_kwargs)
 
 
 def evaluate(policy_or_factory: _Any, suite_or_env: _Any = "paper", seeds: _Any = None, **kwargs: _Any) -> list:

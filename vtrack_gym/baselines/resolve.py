@@ -7,15 +7,18 @@ like a policy never shadows it):
 * ``name:preset`` for a baseline (``smc:paper``, ``mpc:hand``);
 * a shipped agent name (``ppo``, ``sac``: ``vtrack_gym/baselines/shipped``);
 * a weights-only agent file path (``agent.json`` or ``agent.npz``; JSON + ``np.load(allow_pickle=False)``,
-  no code runs).
+  no code runs);
+* with ``trust_code=True`` only, ``module:Name`` of your own code (``vtrack_gym.baselines.user_code``): a class is
+  built as ``Name.from_env(env, **policy_kwargs)`` when it defines ``from_env``, else ``Name(**policy_kwargs)``.
 
-Anything else raises ``ValueError`` listing every valid name. User code (``module:Class``) is never imported
-here: pass your object to ``vtrack_gym.evaluate`` or use ``vtrack eval --trust-code``.
+Anything else raises ``ValueError`` listing every valid name. Without ``trust_code`` user code is never imported:
+pass your object to ``vtrack_gym.evaluate``, or ``trust_code=True`` (``vtrack eval --trust-code``).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import re
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -24,6 +27,7 @@ from vtrack_gym.baselines.registry import make_policy as make_baseline
 
 AGENT_SUFFIXES = (".json", ".npz")
 UNSAFE_SUFFIXES = (".zip", ".pkl", ".pickle", ".pt", ".pth")
+_USER_SPEC = re.compile(r"[A-Za-z_][\w.]*:[A-Za-z_]\w*")
 
 
 def shipped_names() -> tuple[str, ...]:
@@ -43,14 +47,30 @@ def _valid_text() -> str:
             "path (agent.json)")
 
 
-def policy_factory(spec: str, preset: str | None = None) -> Callable[[Any], Any]:
+def policy_factory(spec: str, preset: str | None = None, *, trust_code: bool = False,
+                   policy_kwargs: Mapping[str, Any] | None = None) -> Callable[[Any], Any]:
     """``make(env) -> policy`` for ``spec`` (see the module docstring), checked now, before any env exists.
 
     ``preset`` (a baseline's preset) may also be given inside the spec as ``name:preset``, not both.
-    Raises ``ValueError`` for unknown names, presets, refused files and invalid agent files.
+    ``trust_code``: allow ``module:Name`` (imports and runs that module); ``policy_kwargs``: keyword arguments of
+    such a class or function (a user spec only).
+    Raises ``ValueError`` for unknown names, presets, refused files, invalid agent files and user code without
+    ``trust_code``.
     """
     if not isinstance(spec, str) or not spec.strip():
         raise ValueError(f"policy spec must be a non-empty string (got {spec!r}); {_valid_text()}")
+    if is_user_spec(spec):
+        if not trust_code:
+            raise ValueError(f"policy {spec!r} names Python code (module:Name); importing it runs that code, so it "
+                             "is done only with trust_code=True (CLI: --trust-code); or pass your policy object "
+                             "to vtrack_gym.evaluate")
+        if preset not in (None, "default"):
+            raise ValueError(f"preset {preset!r} applies to the baselines, not to module:Name {spec!r}")
+        from vtrack_gym.baselines.user_code import user_policy_factory
+
+        return user_policy_factory(spec, policy_kwargs)
+    if policy_kwargs:
+        raise ValueError(f"policy_kwargs apply to a module:Name policy of your own code, not to {spec!r}")
     name, sep, spec_preset = spec.partition(":")
     baselines = available_policies()
     if sep and name in baselines:
@@ -77,6 +97,13 @@ def policy_factory(spec: str, preset: str | None = None) -> Callable[[Any], Any]
     return _file_factory(spec)
 
 
+def is_user_spec(spec: str) -> bool:
+    """``spec`` has the form ``module:Name`` of user code: not a baseline with a preset, not an existing file."""
+    module, sep, _ = spec.partition(":")
+    return bool(sep) and module not in available_policies() and _USER_SPEC.fullmatch(spec) is not None \
+        and not Path(spec).exists()
+
+
 def canonical_spec(spec: str, preset: str | None = None) -> str:
     """The one policy id of a spec (what rows record): a baseline with its default preset is its bare name
     (``smc``, ``smc:``, ``smc:default`` and ``smc`` with ``preset="default"`` are all ``smc``), another preset is
@@ -87,6 +114,19 @@ def canonical_spec(spec: str, preset: str | None = None) -> str:
         return text
     chosen = (spec_preset.strip() if sep else "") or (preset or "default")
     return name if chosen == "default" else f"{name}:{chosen}"
+
+
+def canonical_ids(specs: Sequence[str]) -> dict[str, str]:
+    """``{canonical id: spec}`` for ``specs``, in order (``canonical_spec``); ``ValueError`` when two specs are the
+    same policy (a policy is never ranked against itself)."""
+    ids: dict[str, str] = {}
+    for spec in specs:
+        key = canonical_spec(spec)
+        if key in ids:
+            raise ValueError(f"--policies names {key!r} twice ({ids[key]!r} and {spec!r} are the same policy); "
+                             "list each policy once")
+        ids[key] = spec
+    return ids
 
 
 def _presets(name: str) -> tuple[str, ...]:
@@ -120,6 +160,7 @@ def bind_agent(agent: Any, env: Any) -> Any:
     return agent
 
 
-def resolve_policy(spec: str, env: Any, preset: str | None = None) -> Any:
-    """The policy ``spec`` names, built for ``env`` (see the module docstring)."""
-    return policy_factory(spec, preset)(env)
+def resolve_policy(spec: str, env: Any, preset: str | None = None, *, trust_code: bool = False,
+                   policy_kwargs: Mapping[str, Any] | None = None) -> Any:
+    """The policy ``spec`` names, built for ``env`` (see the module docstring and ``policy_factory``)."""
+    return policy_factory(spec, preset, trust_code=trust_code, policy_kwargs=policy_kwargs)(env)

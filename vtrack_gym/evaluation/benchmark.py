@@ -15,7 +15,7 @@ from vtrack_gym.evaluation.fingerprint import policy_hash
 from vtrack_gym.evaluation.metrics import evaluate_trace
 from vtrack_gym.evaluation.rollout import rollout
 from vtrack_gym.evaluation.store import ResultRow, ResultStore
-from vtrack_gym.evaluation.success import episode_success
+from vtrack_gym.evaluation.success import episode_success, failure_reason
 from vtrack_gym.evaluation.suites import Episode, base_suite, primary_metric, suite_episodes, suite_label, with_vehicle
 from vtrack_gym.evaluation.trace import Trace
 
@@ -130,6 +130,8 @@ def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str,
                     policy_preset=policy_preset(policy),
                     success=trace.success if trace.success is not None else episode_success(
                         ep.env_id, trace.termination, metrics))
+    if not row.verdict():  # the figures' legends name the reason
+        trace.meta["failure_reason"] = failure_reason(trace.termination, metrics)
     return row, trace
 
 
@@ -151,23 +153,19 @@ def score_policy(name: str, make: Any, episodes: Sequence[Episode], suite: str,
     return rows, traces
 
 
-def policy_factories(names: Sequence[str] | None = None) -> dict[str, Any]:
+def policy_factories(names: Sequence[str] | dict[str, Any] | None = None) -> dict[str, Any]:
     """``{policy id: make(env) -> policy}`` for every baseline (default presets) and shipped agent, or for
-    ``names`` (policy specs, see ``vtrack_gym.baselines.resolve``; all checked before any is returned).
+    ``names`` (policy specs, see ``vtrack_gym.baselines.resolve``; all checked before any is returned; a dict of
+    factories built already, e.g. of user code, is returned as is).
 
     Ids are canonical (``resolve.canonical_spec``: ``lqr:default`` is ``lqr``); ``ValueError`` when two names are
     the same policy (a policy is never ranked against itself)."""
-    from vtrack_gym.baselines.resolve import canonical_spec, policy_factory, policy_names
+    from vtrack_gym.baselines.resolve import canonical_ids, policy_factory, policy_names
 
+    if isinstance(names, dict):  # factories already built: {policy id: make(env) -> policy}
+        return dict(names)
     specs = [str(n).strip() for n in names] if names else list(policy_names())
-    ids: dict[str, str] = {}
-    for spec in specs:
-        key = canonical_spec(spec)
-        if key in ids:
-            raise ValueError(f"--policies names {key!r} twice ({ids[key]!r} and {spec!r} are the same policy); "
-                             "list each policy once")
-        ids[key] = spec
-    return {key: policy_factory(spec) for key, spec in ids.items()}
+    return {key: policy_factory(spec) for key, spec in canonical_ids(specs).items()}
 
 
 def run_benchmark(suite: str = "paper", store: ResultStore | None = None, policies: Sequence[str] | None = None,

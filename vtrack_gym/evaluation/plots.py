@@ -52,13 +52,34 @@ def _styles(names: Sequence[str]) -> list[tuple[str, str]]:
     return out
 
 
-def figure_subtitle(env_id: str, seed: int | None, preset: str | None) -> str:
-    """'<scenario> | preset <preset> | seed <seed>' (the line every figure title carries)."""
-    return f"{env_id} | preset {preset or 'default'} | seed {seed if seed is not None else '-'}"
+def figure_subtitle(env_id: str, seed: int | None, preset: str | None, agents: Sequence[str] = ()) -> str:
+    """'<scenario> | preset <preset> | seed <seed>' (the line every figure title carries); a figure of RL agents
+    only (``agents``: their names, no preset given) says 'agent <names>' instead of the preset."""
+    who = f"agent {', '.join(agents)}" if agents and preset is None else f"preset {preset or 'default'}"
+    return f"{env_id} | {who} | seed {seed if seed is not None else '-'}"
+
+
+def _agents_only(traces: Sequence[Trace]) -> list[str]:
+    """The policy ids of ``traces`` when none of them is a scripted baseline (which have presets), else []."""
+    from vtrack_gym.baselines.registry import available_policies
+
+    ids = list(dict.fromkeys(t.policy_id for t in traces))
+    return [] if any(i.partition(":")[0] in available_policies() for i in ids) else ids
+
+
+def run_label(trace: Trace) -> str:
+    """Legend entry of one run: '<policy> (<termination>)' (off_road, spin_out, ... name the failure), or
+    '<policy> (failed: <reason>)' for a completed run its scenario judged failed (the reason the leaderboard gives,
+    e.g. cones_hit), never '(completed)' for it."""
+    failed = trace.success is False or "failure_reason" in trace.meta
+    if trace.termination == "completed" and failed:
+        return f"{trace.policy_id} (failed: {trace.meta.get('failure_reason', 'env_verdict')})"
+    return f"{trace.policy_id} ({trace.termination})"
 
 
 def _title(fig: Any, head: str, traces: Sequence[Trace], preset: str | None) -> None:
-    fig.suptitle(f"{head}\n{figure_subtitle(traces[0].env_id, traces[0].seed, preset)}", fontsize=10)
+    subtitle = figure_subtitle(traces[0].env_id, traces[0].seed, preset, _agents_only(traces))
+    fig.suptitle(f"{head}\n{subtitle}", fontsize=10)
 
 
 def hardest_stations(traces: Sequence[Trace], path: Any, n: int = N_ZOOMS, min_gap_m: float = 80.0) -> list[float]:
@@ -111,7 +132,7 @@ def _draw_cones(ax: Any, path: Any) -> None:
 
 def _draw_traces(ax: Any, traces: Sequence[Trace], lw: float = 1.2) -> None:
     for tr, (colour, ls) in zip(traces, _styles([t.policy_id for t in traces]), strict=True):
-        ax.plot(tr["x_m"], tr["y_m"], lw=lw, color=colour, ls=ls, label=f"{tr.policy_id} ({tr.termination})")
+        ax.plot(tr["x_m"], tr["y_m"], lw=lw, color=colour, ls=ls, label=run_label(tr))
 
 
 def _xy_panel(ax: Any, path: Any, traces: Sequence[Trace], equal_above: float, adjustable: str = "box") -> None:

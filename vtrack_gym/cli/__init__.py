@@ -1,0 +1,129 @@
+"""The ``vtrack`` command (the only place that parses argv; it parses and prints, the library does the work).
+
+    vtrack benchmark            every baseline (and shipped agent) on the paper suite -> leaderboard + figures
+    vtrack eval --policy mpc --env DLC120-v0
+    vtrack leaderboard --suite paper --format md
+    vtrack plot --policies smc,mpc --env LateralTracking-v0
+    vtrack tune --controller smc --budget paper --space working --out smc_tuned.json
+    vtrack video --policy mpc --env DLC120-v0 --out dlc.mp4
+
+One module per command (``evaluate`` runs ``vtrack eval``): ``register`` adds its subparser, ``run`` runs it,
+``needed_modules`` and ``check_outputs`` say which optional packages and outputs it has. Shared options live in
+``_options``; everything written to the terminal goes through ``_terminal`` (escaped).
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import sqlite3
+import sys
+from collections.abc import Sequence
+from types import ModuleType
+
+from vtrack_gym.cli import (
+    benchmark,
+    evaluate,
+    export,
+    leaderboard,
+    plot,
+    reproduce,
+    train,
+    tune,
+    video,
+)
+from vtrack_gym.cli._extras import missing_packages
+from vtrack_gym.cli._options import Parser
+from vtrack_gym.cli._terminal import SafeFormatter, err, safe_warnings
+from vtrack_gym.evaluation.store import StoreError
+from vtrack_gym.tuning.backends import BackendError
+
+COMMANDS: tuple[ModuleType, ...] = (benchmark, evaluate, leaderboard, train, export, plot, tune, video, reproduce)
+"""The command modules, in the order ``vtrack --help`` lists them."""
+EXIT_ERROR = 2
+"""Exit code of a refused command (bad input, unusable file, missing package)."""
+EXIT_INTERRUPTED = 130
+"""Exit code after Ctrl-C (128 + SIGINT)."""
+EXIT_BROKEN_PIPE = 141
+"""Exit code when the reader of stdout went away, e.g. ``vtrack leaderboard | head -1`` (128 + SIGPIPE)."""
+_EXPECTED = (ValueError, FileNotFoundError, ImportError, StoreError, sqlite3.Error, BackendError)
+"""Errors a command reports in one line (anything else is a bug and keeps its traceback)."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``vtrack`` (every option explained in --help)."""
+    parser = Parser(prog="vtrack", description="Benchmark steering controllers and RL agents on "
+                    "the paper's trajectory-tracking scenarios.")
+    parser.add_argument("-v", "--verbose", action="store_true",
+                        help="log details to stderr: every episode's result, the kernel cache (the long phases "
+                        "are always announced)")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for command in COMMANDS:
+        command.register(sub)
+    return parser
+
+
+def _setup_logging(verbose: bool) -> None:
+    """Warnings and above to stderr, escaped; the package says what its long phases do (INFO), ``-v`` adds every
+    episode's result and the details (DEBUG)."""
+    root = logging.getLogger()
+    if not root.handlers:
+        handler = logging.StreamHandler()
+        handler.setFormatter(SafeFormatter("%(levelname)s %(message)s"))
+        root.addHandler(handler)
+        root.setLevel(logging.WARNING)
+    logging.getLogger("vtrack_gym").setLevel(logging.DEBUG if verbose else logging.INFO)
+
+
+def _run(command: ModuleType, args: argparse.Namespace) -> int:
+    """Check the command's optional packages and outputs, then run it; a refusal is one line and exit code 2."""
+    from tqdm.contrib.logging import logging_redirect_tqdm
+
+    missing = missing_packages(args, getattr(command, "needed_modules", lambda a: []))
+    if missing:
+        err(f"vtrack {args.command}: error: {missing}")
+        return EXIT_ERROR
+    try:
+        check_outputs = getattr(command, "check_outputs", None)
+        if check_outputs is not None:
+            check_outputs(args)  # every output checked (missing folders created) before any work starts
+        with logging_redirect_tqdm():  # log lines printed above the progress bars, not through them
+            return command.run(args)
+    except _EXPECTED as exc:
+        err(f"vtrack {args.command}: error: {exc}")
+        return EXIT_ERROR
+
+
+def _silence_stdout() -> None:
+    """Point stdout at /dev/null, so the interpreter's last flush to a closed pipe raises nothing."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):  # not a real file (a test's capture): nothing to flush
+        pass
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``vtrack``; returns the process exit code (130 after Ctrl-C, 141 on a closed stdout)."""
+    try:
+        args = build_parser().parse_args(argv)
+        args.argv = None if argv is None else list(argv)
+        _setup_logging(args.verbose)
+        import vtrack_gym  # noqa: F401  (registers the env ids)
+
+        commands = {c.NAME: c for c in COMMANDS}
+        with safe_warnings():
+            code = _run(commands[args.command], args)
+        sys.stdout.flush()
+        return code
+    except KeyboardInterrupt:
+        err("vtrack: interrupted (Ctrl-C)")
+        return EXIT_INTERRUPTED
+    except BrokenPipeError:
+        _silence_stdout()
+        return EXIT_BROKEN_PIPE
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,102 @@
+"""Which env a command drives: ``--env ID`` or ``--track FILE`` (registered with its speed profile), the car."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+from pathlib import Path
+from typing import Any
+
+from vtrack_gym.cli._terminal import err
+
+SPEED_OPTIONS = {"kind": "--speed-profile", "max_speed_kmh": "--max-speed-kmh", "max_lateral_g": "--max-lateral-g"}
+"""How the speed-profile parameters are spelt on the command line (named in their errors)."""
+
+
+def speed_profile(args: argparse.Namespace) -> Any:
+    """The speed profile of --speed-profile / --max-speed-kmh / --max-lateral-g (errors name the option)."""
+    from vtrack_gym.tracks.speed_limits import speed_profile_from_limits
+
+    return speed_profile_from_limits(args.speed_profile, args.max_speed_kmh, args.max_lateral_g,
+                                     names=SPEED_OPTIONS)
+
+
+def track_read(args: argparse.Namespace) -> dict[str, Any]:
+    """``load_track`` options of --track-closed / --track-smoothing-m (only those given)."""
+    from vtrack_gym.envs.scenarios import MAX_TRACK_SMOOTHING_M
+
+    read: dict[str, Any] = {}
+    if args.track_closed != "auto":
+        read["closed"] = args.track_closed == "yes"
+    m = args.track_smoothing_m
+    if m is not None:
+        if not 0.0 <= m <= MAX_TRACK_SMOOTHING_M:
+            raise ValueError(f"--track-smoothing-m must be in [0, {MAX_TRACK_SMOOTHING_M:g}] m (got {m})")
+        read["smoothing_m"] = float(m)
+    return read
+
+
+def describe_track(file: Path, read: dict[str, Any]) -> str:
+    """One line saying how --track was read: closed loop or open road, its length and point count."""
+    from vtrack_gym.tracks import load_track
+    from vtrack_gym.tracks.csv_loader import read_track_columns
+
+    path = load_track(file, **read)
+    n_points = len(read_track_columns(Path(file))[1])
+    how = "forced by --track-closed" if "closed" in read else "detected; --track-closed yes/no forces it"
+    kind = "a closed loop" if path.closed else "an open road"
+    return f"--track {file}: read as {kind} ({how}), {path.length_m:.1f} m, {n_points} points"
+
+
+def check_vehicle(args: argparse.Namespace) -> None:
+    """Load ``--vehicle`` once before any work (a clear error for an unknown name or a bad file)."""
+    if getattr(args, "vehicle", None) is not None:
+        from vtrack_gym.vehicle.catalog import load_vehicle
+
+        load_vehicle(args.vehicle)
+
+
+def known_env(env_id: str) -> str:
+    """``env_id`` if Gymnasium knows it (vtrack ids, the highway adapter), else a ValueError listing ours."""
+    from gymnasium.envs.registration import registry
+
+    import vtrack_gym
+
+    if env_id not in registry:
+        raise ValueError(f"unknown --env {env_id!r}; vtrack envs: {', '.join(vtrack_gym.ENV_IDS)}, "
+                         "highway-env:lane-keeping-v0")
+    return env_id
+
+
+def env_or_track(args: argparse.Namespace, default: str | None = None) -> tuple[str, dict[str, Any]]:
+    """The env id of ``--env`` or ``--track`` (registered for this track file and profile) and the provenance to
+    record in the rows' options (empty for ``--env``)."""
+    from vtrack_gym.interop import resolve_env_id
+
+    if args.track is not None:
+        if getattr(args, "env", None) is not None:
+            raise ValueError("give --env or --track, not both")
+        from vtrack_gym.envs.registration import register_track
+
+        profile, read = speed_profile(args), track_read(args)
+        err(describe_track(args.track, read))
+        return register_track(args.track, profile, **read)
+    env = args.env if args.env is not None else default
+    if env is None:
+        raise ValueError("give --env ID (e.g. DLC120-v0) or --track FILE")
+    return known_env(resolve_env_id(env)), {}
+
+
+def announce_kernels() -> None:
+    """Say that the first rollout compiles the numba kernels when no compiled cache exists yet."""
+    import os
+
+    import vtrack_gym
+
+    cache_dir = os.environ.get("NUMBA_CACHE_DIR")
+    root = Path(cache_dir) if cache_dir else Path(vtrack_gym.__file__).parent
+    log = logging.getLogger("vtrack_gym.cli")
+    if not any(root.glob("**/*.nbi")):
+        log.info("compiling the kernels (first run only, ~30 s)")
+    else:
+        log.debug("loading the compiled kernels from the numba cache")

@@ -1,0 +1,39 @@
+"""Optional packages: which a command needs (from its arguments alone) and how to install the missing ones."""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Callable
+
+EXTRAS: dict[str, tuple[str, str]] = {
+    "matplotlib": ("benchmark", "the figures"), "osqp": ("benchmark", "the mpc_osqp baseline"),
+    "highway_env": ("highway", "highway-env's lane-keeping-v0"), "stable_baselines3": ("rl", "SB3 training"),
+    "torch": ("rl", "SB3 training"), "yaml": ("rl", "the hyperparameter files"), "pymoo": ("tuning", "the GA"),
+    "minari": ("dataset", "Minari datasets"), "h5py": ("dataset", "Minari's HDF5 files"),
+}
+"""Importable module -> (extra that installs it, what needs it)."""
+TORCH_HINT = ("The rl extra brings PyTorch: without an NVIDIA GPU, install its CPU build first (pip install torch "
+              "--index-url https://download.pytorch.org/whl/cpu); for a GPU build pick your platform and CUDA "
+              "version at https://pytorch.org/get-started/locally/ (a plain `pip install torch` pulls the CUDA "
+              "build, several GB, on Linux).")
+"""Said with every message that names the ``rl`` extra."""
+
+
+def osqp_for(policies: list[str]) -> list[str]:
+    """``["osqp"]`` when one of the policies is the OSQP MPC."""
+    return ["osqp"] if any(p.partition(":")[0] == "mpc_osqp" for p in policies) else []
+
+
+def missing_packages(args: argparse.Namespace, needed_modules: Callable[[argparse.Namespace], list[str]]) -> str:
+    """'' if every optional package the command needs is installed, else which are missing and the extra."""
+    import importlib.util
+
+    missing = [m for m in dict.fromkeys(needed_modules(args)) if importlib.util.find_spec(m) is None]
+    if not missing:
+        return ""
+    extras = sorted({EXTRAS[m][0] for m in missing})
+    what = "; ".join(f"{m} ({EXTRAS[m][1]})" for m in missing)
+    hint = " or pass --no-figures" if args.command == "benchmark" and "matplotlib" in missing else ""
+    torch = f". {TORCH_HINT}" if "rl" in extras else ""
+    return (f"missing optional packages: {what}. Install them with: pip install "
+            + " ".join(f'"vtrack_gym[{e}]"' for e in extras) + hint + torch)

@@ -1,0 +1,155 @@
+"""Options and argument types several ``vtrack`` commands share (parsing only; checks live in the library)."""
+
+from __future__ import annotations
+
+import argparse
+import re
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from vtrack_gym.cli._terminal import write_safe
+from vtrack_gym.evaluation.store import DEFAULT_STORE_PATH
+
+DEFAULT_RESULTS_DIR = Path("vtrack_results")
+DEFAULT_FIGURES_DIR = DEFAULT_RESULTS_DIR / "figures"
+DEFAULT_PLOTS_DIR = DEFAULT_RESULTS_DIR / "plots"
+MAX_RNG_SEED = 2**32 - 1
+"""Largest ``--seed`` of ``train`` and ``tune`` (numpy's legacy seeding, used by SB3 and pymoo, takes 32 bits)."""
+
+_INTEGER = re.compile(r"[+-]?[0-9]+")
+
+
+class Parser(argparse.ArgumentParser):
+    """``argparse.ArgumentParser`` that refuses ``--opt=--`` (argparse drops the ``--`` and hands the option an
+    empty list instead of a value: ``vtrack tune --generations=--`` gave ``generations = []``) and escapes what it
+    prints (an option value echoed in an error may hold terminal control characters)."""
+
+    def _get_values(self, action: argparse.Action, arg_strings: list[str]) -> Any:
+        if action.option_strings and action.nargs is None and arg_strings == ["--"]:
+            self.error(f"argument {'/'.join(action.option_strings)}: expected one value, got '--'")
+        return super()._get_values(action, arg_strings)
+
+    def _print_message(self, message: str, file: Any = None) -> None:
+        if message:
+            import sys
+
+            write_safe(message, file or sys.stderr)
+
+
+def int_in(low: int, high: int):
+    """An argparse ``type``: an integer in [low, high]; argparse names the option in its error."""
+    def parse(text: str) -> int:
+        t = text.strip()
+        if len(t) > 30 or not _INTEGER.fullmatch(t):
+            raise argparse.ArgumentTypeError(f"must be an integer in [{low}, {high}] (got {text[:40]!r})")
+        value = int(t)
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"must be an integer in [{low}, {high}] (got {value})")
+        return value
+    parse.__name__ = "integer"
+    return parse
+
+
+def float_in(low: float, high: float):
+    """An argparse ``type``: a finite number in [low, high]."""
+    def parse(text: str) -> float:
+        try:
+            value = float(text) if len(text) <= 40 and "_" not in text else float("nan")  # no "1_0"
+        except ValueError:
+            value = float("nan")
+        if not low <= value <= high:  # also NaN and inf
+            raise argparse.ArgumentTypeError(f"must be a number in [{low:g}, {high:g}] (got {text[:40]!r})")
+        return value
+    parse.__name__ = "number"
+    return parse
+
+
+def add_store(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--store", type=Path, default=DEFAULT_STORE_PATH,
+                   help=f"SQLite leaderboard file (created if missing; default: {DEFAULT_STORE_PATH})")
+
+
+def add_format(p: argparse.ArgumentParser, choices: Sequence[str] = ("md", "csv", "json")) -> None:
+    names = {"md": "Markdown table", "csv": "CSV", "json": "JSON", "latex": "LaTeX booktabs tabular",
+             "html": "self-contained HTML report (sortable table, figures embedded, no network)"}
+    p.add_argument("--format", choices=choices, default="md",
+                   help="how to print the leaderboard: " + ", ".join(f"{c} ({names[c]})" for c in choices)
+                   + " (default: md)")
+
+
+def add_columns(p: argparse.ArgumentParser) -> None:
+    """``--columns key|all``: the columns of the md and latex tables (csv, json and html carry them all)."""
+    from vtrack_gym.evaluation.board_view import COLUMN_SETS
+
+    p.add_argument("--columns", choices=COLUMN_SETS, default="key",
+                   help="md and latex tables: key (env, policy, rank, success rate, max and RMS e_y, the suite's "
+                   "primary metric with its interval, failure reasons) or all (every column); csv, json and html "
+                   "always carry all columns (default: key)")
+
+
+def add_vehicle(p: argparse.ArgumentParser) -> None:
+    """``--vehicle NAME|FILE``: the car (a shipped vehicle or a vehicle JSON file; default the paper's car)."""
+    from vtrack_gym.vehicle.catalog import list_vehicles
+
+    p.add_argument("--vehicle", default=None, metavar="NAME|FILE",
+                   help=f"the car: {', '.join(list_vehicles())} or a vehicle .json file (default: the paper's "
+                   "hatchback); recorded in the rows' options, so cars are ranked apart")
+
+
+def add_user_code(p: argparse.ArgumentParser) -> None:
+    """``--trust-code`` and ``--policy-kwargs``: policies of the user's own code (``MODULE:NAME``)."""
+    p.add_argument("--trust-code", action="store_true",
+                   help="allow a policy MODULE:NAME of your own code: imports and runs that Python module (the "
+                   "working directory is on the import path); a class is built as NAME.from_env(env) if it defines "
+                   "from_env, else NAME()")
+    p.add_argument("--policy-kwargs", default=None, metavar="JSON",
+                   help="keyword arguments for a MODULE:NAME policy, a JSON object, e.g. '{\"k_y\": 0.2}' "
+                   "(default: none)")
+
+
+def add_track(p: argparse.ArgumentParser, text: str | None = None, where: Any = None) -> None:
+    """``--track FILE`` (in the group ``where`` if given, e.g. exclusive with --env), how it is read and its
+    speed-profile options."""
+    from vtrack_gym.envs.scenarios import MAX_TRACK_SMOOTHING_M
+    from vtrack_gym.tracks.speed_limits import (
+        DEFAULT_MAX_LATERAL_G,
+        DEFAULT_MAX_SPEED_KMH,
+        MAX_LATERAL_G,
+        MAX_SPEED_KMH,
+        MIN_SPEED_KMH,
+        PROFILE_KINDS,
+    )
+
+    (where if where is not None else p).add_argument("--track", type=Path, default=None, metavar="FILE",
+                   help=text or "drive on this CSV track file instead of --env (columns by header: x_m, y_m, optional "
+                   "z_m, w_tr_right_m, w_tr_left_m, v_mps; vtrack/Track-v0)")
+    p.add_argument("--track-closed", choices=("auto", "yes", "no"), default="auto",
+                   help="--track: read the file as a closed loop (yes), an open road (no) or decide from the end gap "
+                   "against the point spacing (auto; the decision is printed) (default: auto)")
+    p.add_argument("--track-smoothing-m", type=float, default=None, metavar="M",
+                   help="--track: RMS deviation [m] the spline fit may make from the file's points, for noisy "
+                   f"coordinates (e.g. GPS; 0 interpolates; at most {MAX_TRACK_SMOOTHING_M:g} m) (default: chosen "
+                   "from the coordinates' rounding)")
+    p.add_argument("--speed-profile", choices=PROFILE_KINDS, default="curvature",
+                   help="--track: target speed: constant (--max-speed-kmh), curvature (the fastest profile within "
+                   "--max-speed-kmh and --max-lateral-g, 2 m/s^2 up, 3 m/s^2 down) or file (the v_mps column; "
+                   "takes neither option) (default: curvature)")
+    p.add_argument("--max-speed-kmh", type=float, default=None,
+                   help=f"--track with --speed-profile constant or curvature: maximum speed [km/h], "
+                   f"{MIN_SPEED_KMH:g} to {MAX_SPEED_KMH:g} (default: {DEFAULT_MAX_SPEED_KMH:g})")
+    p.add_argument("--max-lateral-g", type=float, default=None,
+                   help=f"--track with --speed-profile curvature: lateral acceleration limit [g], > 0 and <= "
+                   f"{MAX_LATERAL_G:.2f} (default: {DEFAULT_MAX_LATERAL_G:g})")
+
+
+def policy_list(text: str) -> list[str]:
+    """The names of a comma-separated ``--policies`` value (spaces around the names ignored, empty items dropped)."""
+    return [p.strip() for p in text.split(",") if p.strip()]
+
+
+def parse_seeds(text: str) -> list[int]:
+    """The seeds of a ``--seeds`` value (``vtrack_gym.evaluation.seeds.parse_seeds``; errors name ``--seeds``)."""
+    from vtrack_gym.evaluation.seeds import parse_seeds as parse
+
+    return parse(text, "--seeds")

@@ -1,0 +1,110 @@
+"""``vtrack benchmark``: every baseline and shipped agent (or --policies) on a suite or a track file."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from vtrack_gym._io import check_output_dir, check_output_file
+from vtrack_gym.cli import _options as opt
+from vtrack_gym.cli._board import ranking_note, render_board, shown_columns
+from vtrack_gym.cli._envs import announce_kernels, check_vehicle, env_or_track
+from vtrack_gym.cli._extras import osqp_for
+from vtrack_gym.cli._policies import policy_factories
+from vtrack_gym.cli._terminal import err, out
+
+NAME = "benchmark"
+
+
+def register(sub: Any) -> None:
+    b = sub.add_parser(NAME, help="score every baseline and shipped agent on a suite; print the leaderboard",
+                       description="Run every baseline policy (default presets) and every shipped RL agent on the "
+                       "suite's episodes, store the results, print the leaderboard and write the figures.")
+    b.add_argument("--suite", choices=("paper", "robust", "highway", "maneuvers"), default=None,
+                   help="paper: the two nominal scenarios; robust: randomised friction, mass, speed, noise and "
+                   "delay over fixed seeds; highway: highway-env's lane-keeping-v0 (needs the 'highway' extra); "
+                   "maneuvers: the standard manoeuvres (ISO 3888-1/-2, ISO 4138 circle, slalom, step curvature), "
+                   "one figure each (default: paper; not with --track)")
+    b.add_argument("--policies", default="",
+                   help="comma-separated policy names to score (default: all; see `vtrack eval --help`)")
+    opt.add_user_code(b)
+    b.add_argument("--figures", type=Path, default=opt.DEFAULT_FIGURES_DIR,
+                   help=f"folder for the PNG figures (default: {opt.DEFAULT_FIGURES_DIR})")
+    b.add_argument("--no-figures", action="store_true", help="skip the figures")
+    b.add_argument("--quick", action="store_true", help="robust/highway suites: one seed only (stored as suite "
+                   "'robust[quick]' / 'highway[quick]', apart from the standard board)")
+    b.add_argument("--seeds", default=None,
+                   help="seeds to score, e.g. 0-9 or 0,3,5 (default: the suite's: paper 0, deterministic without "
+                   "noise; robust five fixed seeds; highway 0-2); the table shows 95 %% bootstrap intervals; other "
+                   "seeds are stored as suite NAME[seeds=...], apart from the standard board")
+    opt.add_track(b, "score the policies on this CSV track file (suite 'custom', seed 0 or --seeds) instead of "
+                  "--suite (not with --suite or --quick)")
+    opt.add_vehicle(b)
+    opt.add_store(b)
+    opt.add_format(b)
+    opt.add_columns(b)
+
+
+def needed_modules(args: argparse.Namespace) -> list[str]:
+    needed = [] if args.no_figures else ["matplotlib"]
+    needed += ["highway_env"] if args.suite == "highway" and args.track is None else []
+    return needed + osqp_for(opt.policy_list(args.policies) or ["mpc_osqp"])
+
+
+def check_outputs(args: argparse.Namespace) -> None:
+    check_output_file(args.store, "--store")
+    if not args.no_figures:
+        check_output_dir(args.figures, "--figures")
+
+
+def _check_track_options(args: argparse.Namespace) -> None:
+    if args.track is not None and (args.suite is not None or args.quick):
+        given = " and ".join(o for o, on in (("--suite", args.suite is not None), ("--quick", args.quick)) if on)
+        raise ValueError(f"--track scores the policies on the track file (suite 'custom'); it cannot be combined "
+                         f"with {given} (--seeds may be given: one episode per seed)")
+
+
+def _score(args: argparse.Namespace, factories: dict[str, Any] | None, seeds: list[int] | None) -> dict[str, Any]:
+    """Run the benchmark on the track file or the suite (the library does the work)."""
+    from vtrack_gym.evaluation.benchmark import policy_factories as all_policies
+    from vtrack_gym.evaluation.benchmark import run_benchmark
+    from vtrack_gym.evaluation.track_benchmark import benchmark_track
+
+    figures = None if args.no_figures else args.figures
+    if args.track is not None:
+        env_id, provenance = env_or_track(args)
+        return benchmark_track(env_id, provenance, factories or all_policies(), seeds or [0], vehicle=args.vehicle,
+                               figures_dir=figures)
+    return run_benchmark(args.suite, store=None, policies=factories, figures_dir=figures, quick=args.quick,
+                         seeds=seeds, vehicle=args.vehicle)
+
+
+def run(args: argparse.Namespace) -> int:
+    from vtrack_gym.evaluation.benchmark import suite_columns, summarise
+    from vtrack_gym.evaluation.store import ResultStore
+
+    _check_track_options(args)
+    args.suite = args.suite or "paper"
+    seeds = opt.parse_seeds(args.seeds) if args.seeds is not None else None
+    names = opt.policy_list(args.policies)
+    factories = policy_factories(names, trust_code=args.trust_code, kwargs_text=args.policy_kwargs) \
+        if names or args.trust_code or args.policy_kwargs is not None else None  # checked before any work
+    check_vehicle(args)
+    store = ResultStore(args.store)  # verified before any rollout; written after the table is printed
+    announce_kernels()
+    result = _score(args, factories, seeds)
+    suite = result["suite"]
+    if suite != args.suite and args.track is None:
+        err(f"suite {suite!r}: not the standard {args.suite} episodes, so stored and ranked apart from the "
+            f"{args.suite!r} board (vtrack leaderboard --suite '{suite}')")
+    board = summarise(result["rows"], suite_columns(suite))
+    out(render_board(shown_columns(board, args.format, args.columns, suite), args.format))
+    err(ranking_note(suite))
+    for f in result["figures"]:
+        err(f"figure: {f}")
+    sys.stdout.flush()
+    store.add(result["rows"])
+    err(f"\nresults stored in {args.store} (suite {suite!r})")
+    return 0

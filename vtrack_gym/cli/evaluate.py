@@ -1,0 +1,71 @@
+"""``vtrack eval``: one policy on one env (or track file) for one or more seeds; rows to the store."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from vtrack_gym._io import check_output_file
+from vtrack_gym.cli import _options as opt
+from vtrack_gym.cli._envs import announce_kernels, check_vehicle, env_or_track
+from vtrack_gym.cli._extras import osqp_for
+from vtrack_gym.cli._policies import parse_policy_kwargs, policy_factory
+from vtrack_gym.cli._terminal import err, out
+
+NAME = "eval"
+
+
+def register(sub: Any) -> None:
+    e = sub.add_parser(NAME, help="score one policy on one env", description="Run one policy on one env for one "
+                       "or more seeds, print its metrics and add them to the store (suite 'custom').")
+    e.add_argument("--policy", required=True,
+                   help="a baseline name (smc, mpc, lqr, stanley, pure_pursuit, mpc_osqp), NAME:PRESET (smc:paper), "
+                   "a shipped agent name (ppo, sac), a weights-only agent file (agent.json / agent.npz), or, with "
+                   "--trust-code, MODULE:NAME of your own policy (a class: NAME.from_env(env) if it defines "
+                   "from_env, else NAME(); keyword arguments from --policy-kwargs)")
+    opt.add_user_code(e)
+    where = e.add_mutually_exclusive_group(required=True)
+    where.add_argument("--env", default=None,
+                       help="env id, e.g. LateralTracking-v0, DLC120-v0 or highway-env:lane-keeping-v0")
+    opt.add_track(e, where=where)
+    e.add_argument("--preset", default="default",
+                   help="baseline preset: default (for smc and mpc the shipped GA-tuned preset), tuned, hand "
+                        "(hand-tuned smc/mpc) or paper (Table 3) (default: default)")
+    e.add_argument("--seeds", default="0", help="seeds, e.g. 0-9 or 0,3,5 (default: 0)")
+    opt.add_vehicle(e)
+    opt.add_store(e)
+
+
+def needed_modules(args: argparse.Namespace) -> list[str]:
+    return (["highway_env"] if "highway" in (args.env or "") else []) + osqp_for([args.policy])
+
+
+def check_outputs(args: argparse.Namespace) -> None:
+    check_output_file(args.store, "--store")
+
+
+def run(args: argparse.Namespace) -> int:
+    from vtrack_gym.baselines.resolve import canonical_spec
+    from vtrack_gym.evaluation.api import evaluate
+    from vtrack_gym.evaluation.report_formats import to_markdown
+    from vtrack_gym.evaluation.store import ResultStore
+    from vtrack_gym.evaluation.track_benchmark import with_provenance
+
+    seeds = opt.parse_seeds(args.seeds)
+    make = policy_factory(args.policy, args.preset, args.trust_code, parse_policy_kwargs(args.policy_kwargs))
+    env_id, provenance = env_or_track(args)
+    check_vehicle(args)
+    store = ResultStore(args.store)  # verified before the rollouts; written after the table is printed
+    announce_kernels()
+    policy_id = args.policy if args.trust_code else canonical_spec(args.policy, args.preset)
+    rows = with_provenance(evaluate(make, env_id, seeds, policy_id=policy_id, vehicle=args.vehicle), provenance)
+    table = [{"seed": r.seed, "termination": r.termination, "success": int(r.verdict()),
+              **{k: v for k, v in r.metrics.items() if isinstance(v, float)}} for r in rows]
+    out(to_markdown(table), flush=True)
+    if len(rows) > 1:
+        from vtrack_gym.evaluation.benchmark import LEADERBOARD_COLUMNS, summarise
+
+        out("\n" + to_markdown(summarise(rows, LEADERBOARD_COLUMNS)), flush=True)
+    store.add(rows)
+    err(f"results stored in {args.store} (suite 'custom': vtrack leaderboard --suite custom)")
+    return 0

@@ -1,0 +1,62 @@
+"""A speed profile from user-facing limits: kind, top speed [km/h] and lateral acceleration [g].
+
+What ``vtrack eval --track`` (``--speed-profile``, ``--max-speed-kmh``, ``--max-lateral-g``) and Python users share:
+the defaults, the ranges in the user's units and the refusal of a limit the chosen kind does not use.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+from vtrack_gym.tracks.maneuvers import GRAVITY_MPS2, KMH_TO_MPS
+from vtrack_gym.tracks.path import MAX_V_REF_MPS, MIN_V_REF_MPS
+from vtrack_gym.tracks.speed_profiles import MAX_ACCEL_MPS2, ConstantSpeed, CurvatureLimited, FileSpeed, SpeedProfile
+
+PROFILE_KINDS: tuple[str, ...] = ("constant", "curvature", "file")
+"""constant: one speed; curvature: the fastest profile within the limits; file: the track's v_mps column."""
+DEFAULT_MAX_SPEED_KMH = 40.0
+"""Top speed when none is given [km/h]."""
+DEFAULT_MAX_LATERAL_G = 0.7
+"""Lateral acceleration limit of the curvature profile when none is given [g]."""
+MIN_SPEED_KMH = 3.6 * MIN_V_REF_MPS
+"""Lowest top speed [km/h]: the speed profiles' floor (1 m/s) ..."""
+MAX_SPEED_KMH = 3.6 * MAX_V_REF_MPS
+"""... highest [km/h]: their ceiling (150 m/s)."""
+MAX_LATERAL_G = MAX_ACCEL_MPS2 / GRAVITY_MPS2
+"""Largest lateral acceleration limit [g] (the profiles' 30 m/s^2)."""
+
+_PARAMETERS = ("kind", "max_speed_kmh", "max_lateral_g")
+
+
+def speed_profile_from_limits(kind: str = "curvature", max_speed_kmh: float | None = None,
+                              max_lateral_g: float | None = None, *,
+                              names: Mapping[str, str] | None = None) -> SpeedProfile:
+    """The profile of ``kind`` (``PROFILE_KINDS``) within ``max_speed_kmh`` [km/h] and ``max_lateral_g`` [g]
+    (``None``: the defaults, 40 km/h and 0.7 g).
+
+    ``ValueError`` for an unknown kind, a limit outside its range (given in km/h and g) or a limit ``kind`` does
+    not use. ``names`` maps a parameter name to how the caller's user spells it (e.g. ``"--max-speed-kmh"``), so
+    the message names what the user typed.
+    """
+    label = {p: p for p in _PARAMETERS} | dict(names or {})
+    if kind not in PROFILE_KINDS:
+        raise ValueError(f"{label['kind']} must be one of {', '.join(PROFILE_KINDS)} (got {kind!r})")
+    unused = {"file": ("max_speed_kmh", "max_lateral_g"), "constant": ("max_lateral_g",)}.get(kind, ())
+    given = {"max_speed_kmh": max_speed_kmh, "max_lateral_g": max_lateral_g}
+    for param in unused:
+        if given[param] is not None:
+            what = "the file's v_mps column sets the speeds" if kind == "file" else "no curves limit it"
+            raise ValueError(f"{label[param]} does not apply to {label['kind']} {kind} ({what}); fix: drop "
+                             f"{label[param]}, or use {label['kind']} curvature")
+    speed_kmh = DEFAULT_MAX_SPEED_KMH if max_speed_kmh is None else max_speed_kmh
+    lateral_g = DEFAULT_MAX_LATERAL_G if max_lateral_g is None else max_lateral_g
+    if not MIN_SPEED_KMH <= speed_kmh <= MAX_SPEED_KMH:
+        raise ValueError(f"{label['max_speed_kmh']} must be in [{MIN_SPEED_KMH:g}, {MAX_SPEED_KMH:g}] km/h "
+                         f"(got {speed_kmh})")
+    if not 0.0 < lateral_g <= MAX_LATERAL_G:
+        raise ValueError(f"{label['max_lateral_g']} must be in (0, {MAX_LATERAL_G:.2f}] g (got {lateral_g})")
+    if kind == "constant":
+        return ConstantSpeed(speed_kmh * KMH_TO_MPS)
+    if kind == "file":
+        return FileSpeed()
+    return CurvatureLimited(speed_kmh * KMH_TO_MPS, lateral_g * GRAVITY_MPS2)

@@ -83,4 +83,19 @@ def test_bad_requests_are_refused() -> None:
         dataset_episodes(suite="highway")
     with pytest.raises(ValueError, match=r"episodes must be an integer in \[1, 10000\]"):
         dataset_episodes(env="DLC120-v0", episodes=0)
+    with pytest.raises(ValueError, match="registered vtrack env id"):
+        dataset_episodes(env="CartPole-v1")
     assert dataset_id("vtrack/ISO3888-1-v0", "mpc:paper") == "vtrack/ISO3888-1/mpc_paper-v0"
+
+
+def test_vtrack_dataset_command(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                capsys: pytest.CaptureFixture[str]) -> None:
+    from vtrack_gym.cli import main
+
+    assert main(["dataset", "--policy", "lqr", "--env", "DLC120-v0", "--episodes", "1", "--name", "cli",
+                 "--root", str(tmp_path), "--no-progress"]) == 0
+    assert capsys.readouterr().out.split() == ["vtrack/DLC120/cli-v0"]
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path))
+    assert minari.load_dataset("vtrack/DLC120/cli-v0").total_episodes == 1
+    assert main(["dataset", "--policy", "lqr", "--env", "CartPole-v1", "--root", str(tmp_path)]) == 2
+    assert "registered vtrack env id" in capsys.readouterr().err

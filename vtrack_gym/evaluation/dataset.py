@@ -55,6 +55,10 @@ def dataset_episodes(suite: str | None = None, env: str | None = None, episodes:
             raise ValueError(f"suite must be one of {', '.join(DATASET_SUITES)} (got {suite!r})")
         chosen = suite_episodes(suite, seeds=seeds)
     else:
+        from vtrack_gym.envs.registration import ALL_ENV_IDS
+
+        if env not in ALL_ENV_IDS:
+            raise ValueError(f"env must be a registered vtrack env id: {', '.join(ALL_ENV_IDS)} (got {env!r})")
         chosen = [Episode(str(env), s) for s in seeds]
     grouped: dict[str, list[Episode]] = {}
     for ep in with_vehicle(chosen, vehicle):

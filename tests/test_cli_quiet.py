@@ -48,7 +48,7 @@ def test_terminal_safe_escapes_exactly_the_unsafe_characters() -> None:
 
 
 def test_leaderboard_into_a_closed_pipe_exits_141_without_traceback(tmp_path: Path) -> None:
-    store = _store(tmp_path / "s.sqlite", n=400)  # a board longer than a pipe's buffer
+    store = _store(tmp_path / "s.sqlite", n=3000)  # a board several times longer than a 64 KiB pipe buffer
     proc = subprocess.Popen([sys.executable, "-m", "vtrack_gym.cli", "leaderboard", "--store", str(store),
                              "--format", "csv"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=_env())
     assert proc.stdout is not None and proc.stderr is not None

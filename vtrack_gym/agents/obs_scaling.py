@@ -19,6 +19,7 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.running_mean_std import RunningMeanStd
 
 from vtrack_gym.envs.observation import SCALARS, SERIES, scale_columns
@@ -71,3 +72,22 @@ def freeze_observation_scaling(vecnormalize: Any, names: Sequence[str]) -> None:
     frozen.mean, frozen.var, frozen.count = mean, var, 1.0
     vecnormalize.obs_rms = frozen
     vecnormalize.clip_obs = CLIP
+
+
+class FixedObservationScaling(BaseCallback):
+    """The fixed scales as an SB3 callback, for rl_zoo3 (``callback:`` in a hyperparameter file): when learning
+    starts, the model's ``VecNormalize`` takes the fixed scaling (``freeze_observation_scaling``, with the env's
+    observation names) and the first observation, normalised at reset, is rescaled with it. ``vtrack train``
+    applies the same scaling before it builds the model."""
+
+    def _init_callback(self) -> None:
+        vecnorm = self.model.get_vec_normalize_env()
+        if vecnorm is None:
+            raise ValueError("FixedObservationScaling needs normalize: {norm_obs: true} in the hyperparameters")
+        layout = vecnorm.get_attr("observation_layout", [0])[0]
+        freeze_observation_scaling(vecnorm, layout.names)
+        if getattr(self.model, "_last_obs", None) is not None:
+            self.model._last_obs = vecnorm.normalize_obs(vecnorm.get_original_obs())
+
+    def _on_step(self) -> bool:
+        return True

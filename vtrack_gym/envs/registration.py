@@ -22,7 +22,11 @@ ENV_IDS: tuple[str, ...] = LEGACY_IDS
 """The paper scenarios' historical ids (aliases of ``vtrack/<id>``)."""
 NAMESPACED_IDS: tuple[str, ...] = tuple(s.env_id for s in SCENARIOS.values())
 """Every registered ``vtrack/`` id, one per scenario (``vtrack/Track-v0`` takes ``track=``, ``speed_profile=``)."""
-ALL_ENV_IDS: tuple[str, ...] = NAMESPACED_IDS + ENV_IDS
+RECIPE_IDS: dict[str, tuple[str, dict[str, Any]]] = {
+    "vtrack/TrainingMix20Hz-v0": ("TrainingMix-v0", {"control_period_s": 0.05})}
+"""Training setups as ids: id -> (scenario, env settings). ``vtrack/TrainingMix20Hz-v0`` is the training mix at a
+50 ms decision period (20 Hz), what the shipped ``ppo`` and ``sac`` agents were trained on."""
+ALL_ENV_IDS: tuple[str, ...] = NAMESPACED_IDS + ENV_IDS + tuple(RECIPE_IDS)
 """Every id this package registers for its own envs."""
 
 
@@ -43,6 +47,13 @@ def register_envs() -> None:
             max_episode_steps=scenario.max_episode_steps,
             disable_env_checker=False,
         )
+    for env_id, (name, settings) in RECIPE_IDS.items():
+        if env_id not in registry:
+            limit_s = SCENARIOS[name].max_episode_s
+            register(id=env_id, entry_point="vtrack_gym.envs.tracking_env:TrackingEnv",
+                     vector_entry_point="vtrack_gym.envs.vector_env:TrackingVectorEnv",
+                     kwargs={"scenario": name, **settings}, disable_env_checker=False,
+                     max_episode_steps=None if limit_s is None else round(limit_s / settings["control_period_s"]))
 
 
 def register_scenario(scenario: Scenario) -> str:

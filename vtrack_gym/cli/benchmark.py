@@ -32,7 +32,8 @@ def register(sub: Any) -> None:
                    help="comma-separated policy names to score (default: all; see `vtrack eval --help`)")
     opt.add_user_code(b)
     b.add_argument("--figures", type=Path, default=opt.DEFAULT_FIGURES_DIR,
-                   help=f"folder for the PNG figures (default: {opt.DEFAULT_FIGURES_DIR})")
+                   help=f"root folder of the PNG figures: each run writes its own folder <suite>/<policies>-<digest> "
+                   f"below it, recorded in its rows (default: {opt.DEFAULT_FIGURES_DIR})")
     b.add_argument("--no-figures", action="store_true", help="skip the figures")
     b.add_argument("--quick", action="store_true", help="robust/highway suites: one seed only (stored as suite "
                    "'robust[quick]' / 'highway[quick]', apart from the standard board)")

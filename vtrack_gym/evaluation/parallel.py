@@ -123,11 +123,27 @@ def _run_index(i: int) -> tuple[Any, Any]:
     return run_task(_Inherited.tasks[i])
 
 
+def _load_kernels(task: EpisodeTask) -> None:
+    """Drive one step of the first task's env here, so that the compiled kernels are loaded once, before the fork,
+    instead of once per worker (the env is a fresh one: no task's episode is touched)."""
+    import gymnasium as gym
+
+    if task.setup is not None:
+        task.setup()
+    env = gym.make(task.episode.env_id, **task.episode.make_kwargs)
+    try:
+        env.reset(seed=0)
+        env.step(env.action_space.sample())
+    finally:
+        env.close()
+
+
 def _run_forked(tasks: list[EpisodeTask], n: int, progress: Any) -> list[tuple[Any, Any]]:
     """``tasks`` on ``n`` forked processes; results placed by index."""
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
+    _load_kernels(tasks[0])
     context = multiprocessing.get_context("fork")
     results: list[Any] = [None] * len(tasks)
     with ProcessPoolExecutor(max_workers=n, mp_context=context, initializer=_keep_tasks,

@@ -71,6 +71,15 @@ def _ellipse(fx: float, fz: float, mu: float) -> float:
 
 
 @njit(cache=True)
+def _relaxed_slip(alpha: float, alpha_lag: float, vx: float, sigma: float) -> tuple[float, float]:
+    """Slip angle [rad] the tyre force sees and d(alpha_lag)/dt [rad/s]: with a relaxation length ``sigma`` [m] > 0
+    the lagged angle, which follows ``alpha`` with the time constant sigma / |v_x|; with 0 ``alpha`` itself."""
+    if sigma <= 0.0:
+        return alpha, 0.0
+    return alpha_lag, abs(vx) / sigma * (alpha - alpha_lag)
+
+
+@njit(cache=True)
 def _derivatives(x: np.ndarray, cmd: float, throttle: float, pedal: float, cos_g: float, sin_g: float,
                  az_road: float, p: np.ndarray, model: int, dx: np.ndarray, out: np.ndarray) -> None:
     """Time derivative ``dx`` of state ``x`` for inputs already clipped to their ranges.
@@ -136,6 +145,8 @@ def _derivatives(x: np.ndarray, cmd: float, throttle: float, pedal: float, cos_g
 
     cos_d = math.cos(delta)
     sin_d = math.sin(delta)
+    dalpha_f = 0.0
+    dalpha_r = 0.0
 
     if model == L.MODEL_LINEAR:
         vxs = vx if vx > _V_LIN_MIN else _V_LIN_MIN
@@ -162,6 +173,8 @@ def _derivatives(x: np.ndarray, cmd: float, throttle: float, pedal: float, cos_g
         vxs = vx if vx > _V_DYN_MIN else _V_DYN_MIN
         alpha_f = delta - math.atan2(vy + a1 * r, vxs)
         alpha_r = -math.atan2(vy - a2 * r, vxs)
+        alpha_f, dalpha_f = _relaxed_slip(alpha_f, x[L.S_ALF], vxs, p[L.P_RELAX])
+        alpha_r, dalpha_r = _relaxed_slip(alpha_r, x[L.S_ALR], vxs, p[L.P_RELAX])
         # Pacejka shape once per axle; each wheel scales it by its effective load and friction ellipse.
         fz_f0 = 0.5 * m * _G * a2 / wb  # static load of one wheel on flat ground (B0's reference)
         fz_r0 = 0.5 * m * _G * a1 / wb
@@ -223,6 +236,8 @@ def _derivatives(x: np.ndarray, cmd: float, throttle: float, pedal: float, cos_g
     dx[L.S_DELTA] = ddelta
     dx[L.S_AXL] = (ax - ax_lag) / tau_lt
     dx[L.S_AYL] = (ay - ay_lag) / tau_lt
+    dx[L.S_ALF] = dalpha_f
+    dx[L.S_ALR] = dalpha_r
 
     out[L.O_AX] = ax
     out[L.O_AY] = ay

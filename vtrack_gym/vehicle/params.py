@@ -29,6 +29,10 @@ from vtrack_gym._ranges import documented, ranged, validate
 GRAVITY_MPS2 = 9.81
 """Standard gravity used by every model [m/s^2] (paper: g = 9.81)."""
 
+MIN_RELAXATION_LENGTH_M = 0.1
+"""Shortest tyre relaxation length [m] other than 0 (off): at 45 m/s and a 2 ms physics step it lags by 2.2 ms, so
+the RK4 integration resolves it (v dt / sigma < 1)."""
+
 
 @documented
 @dataclass(frozen=True)
@@ -65,6 +69,8 @@ class TyreParams:
     Each wheel's lateral force is ``F_y = mu * F_z * D * sin(C * atan(B * alpha))`` with B chosen so that the
     slope at the static axle load equals the paper's axle cornering stiffness (independent of mu), and a
     degressive load sensitivity of the cornering stiffness (``load_sensitivity``) so that load transfer matters.
+    With a relaxation length sigma (``relaxation_length_m`` > 0) the force follows each axle's slip angle through
+    a first-order lag, d(alpha_lag)/dt = |v_x| / sigma (alpha - alpha_lag); 0 (the default) is off.
     """
 
     # paper, C_af, axle (both tyres) [N/rad]
@@ -80,9 +86,16 @@ class TyreParams:
     load_sensitivity: float = ranged(0.15, ge=0.0, le=0.5)
     # CHOICE: rolling-resistance coefficient of a passenger-car tyre on asphalt.
     rolling_resistance_coeff: float = ranged(0.012, ge=0.0, le=0.1)
+    # CHOICE: tyre relaxation length sigma [m]; the force follows a slip angle lagged by sigma / |v_x| (0.4-0.6 m is
+    # typical of passenger-car tyres); 0 = off, the force follows the slip angle instantly (the paper's model)
+    relaxation_length_m: float = ranged(0.0, ge=0.0, le=2.0, unit="m")
 
     def __post_init__(self) -> None:
         validate(self)
+        if 0.0 < self.relaxation_length_m < MIN_RELAXATION_LENGTH_M:
+            raise ValueError(f"TyreParams.relaxation_length_m must be 0 (off) or in [{MIN_RELAXATION_LENGTH_M}, 2.0] m "
+                             f"(got {self.relaxation_length_m}): a shorter one lags by less than the 2 ms physics "
+                             "step at speed and the integration would not resolve it")
 
 
 @documented

@@ -16,7 +16,7 @@ import pytest
 
 import vtrack_gym
 from vtrack_gym.cli import main
-from vtrack_gym.evaluation.benchmark import policy_factories
+from vtrack_gym.evaluation.benchmark import policy_factories, score_episode
 from vtrack_gym.evaluation.figure_runs import figure_runs, run_folder, safe_folder
 from vtrack_gym.evaluation.parallel import EpisodeTask, run_tasks
 from vtrack_gym.evaluation.store import ResultStore
@@ -94,7 +94,7 @@ def test_progress_counts_every_episode_across_workers() -> None:
             self.n += k
 
     make = policy_factories(["lqr"])["lqr"]
-    tasks = [EpisodeTask("lqr", make, Episode("DLC120-v0", s), "custom") for s in (0, 1, 2)]
+    tasks = [EpisodeTask("lqr", make, Episode("DLC120-v0", s), "custom", score_episode) for s in (0, 1, 2)]
     bar = Counter()
     results = run_tasks(tasks, workers=2, progress=bar)
     assert bar.n == 3 and [row.seed for row, _ in results] == [0, 1, 2]

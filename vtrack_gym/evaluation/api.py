@@ -354,7 +354,7 @@ def _parallel_rows(make: Callable[[Any], Any], episodes: Sequence[Episode], suit
             name = policy_id_of(checked(env))
         finally:
             env.close()
-    results = run_tasks([EpisodeTask(name, checked, ep, suite) for ep in episodes], workers, backend)
+    results = run_tasks([EpisodeTask(name, checked, ep, suite, score_episode) for ep in episodes], workers, backend)
     rows = [row for row, _ in results]
     return [dataclasses.replace(r, policy_hash=rows[0].policy_hash) for r in rows]
 

@@ -194,7 +194,8 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
     episodes = with_vehicle(suite_episodes(suite, quick=quick, seeds=seeds), vehicle)
     label = suite_label(suite, quick, seeds)
     factories = policy_factories(policies)
-    tasks = [EpisodeTask(name, make, ep, label, keep_trace=ep.seed == episodes[0].seed or suite == "paper")
+    tasks = [EpisodeTask(name, make, ep, label, score_episode,
+                         keep_trace=ep.seed == episodes[0].seed or suite == "paper")
              for name, make in factories.items() for ep in episodes]
     all_rows, traces_by_env, folder = score_tasks(tasks, figures_dir, vehicle, workers, backend,
                                                   f"vtrack benchmark ({suite})" if show_progress else None)

@@ -31,7 +31,8 @@ RAY_INSTALL_HINT = 'pip install "vtrack_gym[ray]"'
 
 @dataclass(frozen=True)
 class EpisodeTask:
-    """One episode to score: ``make(env) -> policy`` on ``episode``, stored under ``suite`` as ``policy_id``.
+    """One episode to score: ``make(env) -> policy`` on ``episode``, stored under ``suite`` as ``policy_id``, by
+    ``score(policy_id, policy, env, episode, suite) -> (row, trace)`` (``benchmark.score_episode``).
 
     ``keep_trace``: return the trace too (for figures). ``setup``: called with no argument in the worker before
     the env is made (e.g. registering a track id there); None for nothing.
@@ -41,12 +42,14 @@ class EpisodeTask:
     make: Callable[[Any], Any]
     episode: Episode
     suite: str
+    score: Callable[..., tuple[Any, Any]]
     keep_trace: bool = False
     setup: Callable[[], Any] | None = None
 
     def __post_init__(self) -> None:
-        if not callable(self.make):
-            raise ValueError(f"make must be a callable make(env) -> policy (got {type(self.make).__name__})")
+        for name in ("make", "score"):
+            if not callable(getattr(self, name)):
+                raise ValueError(f"{name} must be callable (got {type(getattr(self, name)).__name__})")
 
 
 def default_workers() -> int:
@@ -72,14 +75,12 @@ def run_task(task: EpisodeTask) -> tuple[Any, Any]:
     """Score one task in this process: (row, trace or None)."""
     import gymnasium as gym
 
-    from vtrack_gym.evaluation.benchmark import score_episode
-
     if task.setup is not None:
         task.setup()
     ep = task.episode
     env = gym.make(ep.env_id, **ep.make_kwargs)
     try:
-        row, trace = score_episode(task.policy_id, task.make(env), env, ep, task.suite)
+        row, trace = task.score(task.policy_id, task.make(env), env, ep, task.suite)
     finally:
         env.close()
     log.debug("%s on %s seed %s: %s", task.policy_id, ep.env_id, ep.seed, row.termination)

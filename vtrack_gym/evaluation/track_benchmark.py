@@ -102,14 +102,14 @@ def _benchmark(tracks: Sequence[tuple[str, Mapping[str, Any], Any]], factories: 
                seeds: Sequence[int], suite: str, vehicle: str | None, figures_dir: str | Path | None,
                workers: int | None, backend: str, show_progress: bool) -> dict[str, Any]:
     """Score every (policy, track, seed) task; rows with their track's provenance, figures per track."""
-    from vtrack_gym.evaluation.benchmark import score_tasks, write_figures
+    from vtrack_gym.evaluation.benchmark import score_episode, score_tasks, write_figures
     from vtrack_gym.evaluation.parallel import EpisodeTask
     from vtrack_gym.evaluation.suites import Episode
 
     seeds = [int(s) for s in seeds]
     provenance = {env_id: prov for env_id, prov, _ in tracks}
-    tasks = [EpisodeTask(name, make, Episode(env_id, s, vehicle=vehicle), suite, keep_trace=s == seeds[0],
-                         setup=setup)
+    tasks = [EpisodeTask(name, make, Episode(env_id, s, vehicle=vehicle), suite, score_episode,
+                         keep_trace=s == seeds[0], setup=setup)
              for name, make in factories.items() for env_id, _, setup in tracks for s in seeds]
     label = f"vtrack benchmark ({suite})" if show_progress else None
     rows, traces, folder = score_tasks(tasks, figures_dir, vehicle, workers, backend, label)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import logging
 from collections.abc import Sequence
@@ -143,8 +144,8 @@ def policy_factories(names: Sequence[str] | dict[str, Any] | None = None) -> dic
 def run_benchmark(suite: str = "paper", store: ResultStore | None = None, policies: Sequence[str] | None = None,
                   figures_dir: str | Path | None = None, quick: bool = False,
                   show_progress: bool = True, seeds: Sequence[int] | None = None,
-                  vehicle: str | None = None) -> dict[str, Any]:
-    """Score every policy on ``suite``; write rows to ``store`` and figures to ``figures_dir``.
+                  vehicle: str | None = None, workers: int | None = 1, backend: str = "local") -> dict[str, Any]:
+    """Score every policy on ``suite``; write rows to ``store`` and figures under ``figures_dir``.
 
     ``vehicle``: the car (a name of ``vehicle.list_vehicles()`` or a vehicle file; default the paper's car).
 
@@ -154,29 +155,54 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
     Rows are stored under ``suite_label(suite, quick, seeds)``: the suite's name for its standard episodes, else
     e.g. ``robust[seeds=7]`` or ``robust[quick]`` (``result["suite"]``), never ranked with the standard board.
 
+    ``workers``/``backend``: where the episodes run (``vtrack_gym.evaluation.parallel.run_tasks``; the rows are
+    the same for any number of workers). The figures go to this run's own folder under ``figures_dir``
+    (``figure_runs.run_folder``: suite, policy set, car and envs), recorded in every row's ``options["figures"]``.
+
     Returns ``{"rows": [...], "traces": {env_id: [Trace, ...]}, "figures": [paths], "suite": label}``.
     """
-    from tqdm.auto import tqdm
+    from vtrack_gym.evaluation.parallel import EpisodeTask
 
     episodes = with_vehicle(suite_episodes(suite, quick=quick, seeds=seeds), vehicle)
     label = suite_label(suite, quick, seeds)
     factories = policy_factories(policies)
-    all_rows: list[ResultRow] = []
-    traces_by_env: dict[str, list[Trace]] = {}
-    with tqdm(total=len(factories) * len(episodes), desc=f"vtrack benchmark ({suite})", unit="episode",
-              disable=not show_progress) as bar:
-        for name, make in factories.items():
-            bar.set_postfix_str(name)
-            rows, traces = score_policy(name, make, episodes, label, progress=bar)
-            all_rows.extend(rows)
-            if store is not None:
-                store.add(rows)
-            for tr in traces:
-                if tr.seed == episodes[0].seed or suite == "paper":
-                    traces_by_env.setdefault(tr.env_id, []).append(tr)
-    figures = (write_figures(traces_by_env, all_rows, figures_dir, vehicle=vehicle,
-                             maneuvers=suite == "maneuvers") if figures_dir else [])
+    tasks = [EpisodeTask(name, make, ep, label, score_episode,
+                         keep_trace=ep.seed == episodes[0].seed or suite == "paper")
+             for name, make in factories.items() for ep in episodes]
+    all_rows, traces_by_env, folder = score_tasks(tasks, figures_dir, vehicle, workers, backend,
+                                                  f"vtrack benchmark ({suite})" if show_progress else None)
+    if store is not None:
+        store.add(all_rows)
+    figures = (write_figures(traces_by_env, all_rows, folder, vehicle=vehicle,
+                             maneuvers=suite == "maneuvers") if folder is not None else [])
     return {"rows": all_rows, "traces": traces_by_env, "figures": figures, "suite": label}
+
+
+def score_tasks(tasks: Sequence[Any], figures_dir: str | Path | None, vehicle: str | None, workers: int | None,
+                backend: str, progress_label: str | None,
+                ) -> tuple[list[ResultRow], dict[str, list[Trace]], Path | None]:
+    """Run ``tasks`` (``parallel.EpisodeTask``); their rows (tagged with the run's figure folder when
+    ``figures_dir`` is given), the kept traces by env, and that folder (None without ``figures_dir``)."""
+    from tqdm.auto import tqdm
+
+    from vtrack_gym.evaluation.figure_runs import FIGURES_OPTION, run_folder
+    from vtrack_gym.evaluation.parallel import run_tasks
+
+    folder_name = None
+    if figures_dir is not None and tasks:
+        folder_name = run_folder(tasks[0].suite, [t.policy_id for t in tasks], vehicle_label(vehicle),
+                                 [t.episode.env_id for t in tasks])
+    with tqdm(total=len(tasks), desc=progress_label or "", unit="episode", disable=progress_label is None) as bar:
+        results = run_tasks(tasks, workers, backend, progress=bar)
+    rows: list[ResultRow] = []
+    traces_by_env: dict[str, list[Trace]] = {}
+    for row, trace in results:
+        if folder_name is not None:
+            row = dataclasses.replace(row, options={**row.options, FIGURES_OPTION: folder_name})
+        rows.append(row)
+        if trace is not None:
+            traces_by_env.setdefault(trace.env_id, []).append(trace)
+    return rows, traces_by_env, None if folder_name is None else Path(figures_dir) / folder_name
 
 
 def write_figures(traces_by_env: dict[str, list[Trace]], rows: Sequence[ResultRow], figures_dir: str | Path,
@@ -226,9 +252,12 @@ def summarise(rows: Sequence[ResultRow], columns: Sequence[str] = LEADERBOARD_CO
     the rows' suite)."""
     suites = {r.suite for r in rows}
     primary = primary_metric(suites.pop() if len(suites) == 1 else "")
-    return build_board(({"env_id": r.env_id, "options": r.options, "policy_id": r.policy_id,
-                         "policy_preset": r.policy_preset,
-                         "policy_hash": r.policy_hash, "completed": int(r.termination == "completed"),
-                         "success": int(r.verdict()), "termination": r.termination,
-                         "wall_time_per_step_s": r.wall_time_per_step_s, "metrics": r.metrics} for r in rows),
-                       columns, primary)
+    return build_board((row_record(r) for r in rows), columns, primary)
+
+
+def row_record(r: ResultRow) -> dict[str, Any]:
+    """A fresh row as the record ``build_board`` aggregates (the fields of a stored row it reads)."""
+    return {"env_id": r.env_id, "options": r.options, "policy_id": r.policy_id, "policy_preset": r.policy_preset,
+            "policy_hash": r.policy_hash, "completed": int(r.termination == "completed"), "success": int(r.verdict()),
+            "termination": r.termination, "wall_time_per_step_s": r.wall_time_per_step_s, "metrics": r.metrics,
+            "suite": r.suite, "seed": r.seed}

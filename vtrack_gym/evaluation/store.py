@@ -497,18 +497,24 @@ class ResultStore:
         ``latest_only``: only rows written by the newest package version present in the suite, and of those the
         newest row per (env, policy key, seed, options); otherwise every row of every version.
         """
+        from vtrack_gym.evaluation.suites import primary_metric
+
+        return build_board(self.board_rows(suite, latest_only), columns, primary_metric(suite))
+
+    def board_rows(self, suite: str, latest_only: bool = True) -> list[dict[str, Any]]:
+        """The stored rows ``leaderboard`` aggregates (see there); the run's figure folder
+        (``options["figures"]``) does not distinguish two rows of one episode."""
         rows = self.rows(suite)
         if latest_only and rows:
             newest = max(version_sort_key(r["package_version"]) for r in rows)
             latest: dict[tuple[Any, ...], dict[str, Any]] = {}
             for r in rows:  # ordered by id: a later row replaces an earlier one
                 if version_sort_key(r["package_version"]) == newest:
+                    options = {k: v for k, v in r["options"].items() if k != "figures"}
                     latest[(r["env_id"], r["policy_id"], r["policy_preset"], r["policy_hash"], r["seed"],
-                            json.dumps(r["options"], sort_keys=True))] = r
+                            json.dumps(options, sort_keys=True))] = r
             rows = list(latest.values())
-        from vtrack_gym.evaluation.suites import primary_metric
-
-        return build_board(rows, columns, primary_metric(suite))
+        return rows
 
 
 _PEP440 = re.compile(

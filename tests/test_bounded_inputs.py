@@ -73,6 +73,7 @@ def test_write_atomic_never_replaces_a_non_regular_file(tmp_path, kind, data):
 @given(data=st.binary(max_size=256), existing=st.booleans(), via_link=st.booleans())
 @SETTINGS
 def test_write_atomic_regular_targets(tmp_path, data, existing, via_link):
+    tmp_path = Path(tempfile.mkdtemp(dir=tmp_path))  # a fresh folder per example: hypothesis reuses the fixture
     real = tmp_path / "sub" / "out.bin"
     if existing:
         real.parent.mkdir(exist_ok=True)

@@ -71,7 +71,7 @@ def test_suite_episodes_keep_their_options(tmp_path: Path, monkeypatch: pytest.M
 def dlc_speed() -> float:
     from vtrack_gym.envs.config import DLC120
 
-    return DLC120.target_speed_mps
+    return DLC120.speed.target_speed_mps
 
 
 def test_bad_requests_are_refused() -> None:

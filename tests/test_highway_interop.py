@@ -311,7 +311,7 @@ def test_registration_does_not_import_highway_env() -> None:
 
 def test_highway_suite_scores_and_draws_through_the_benchmark_command(tmp_path: Path) -> None:
     """``vtrack benchmark --suite highway`` (it crashed: the circle metrics and the trajectory figure assumed a
-    ``tracks.Path``): rows stored, the board printed, the figures written."""
+    ``tracks.Path``): rows stored, the board printed, the figures written (in the run's own folder under --figures)."""
     from vtrack_gym.cli import main
     from vtrack_gym.evaluation.store import ResultStore
 
@@ -320,5 +320,5 @@ def test_highway_suite_scores_and_draws_through_the_benchmark_command(tmp_path: 
                  "--figures", str(tmp_path / "figures")]) == 0
     rows = ResultStore(store).rows(suite="highway[quick]")  # one seed: stored apart from the standard board
     assert len(rows) == 1 and rows[0]["metrics"]["success"] == 1.0
-    assert sorted(p.name.split("_")[-1] for p in (tmp_path / "figures").glob("*.png")) == \
+    assert sorted(p.name.split("_")[-1] for p in (tmp_path / "figures").rglob("*.png")) == \
         ["signals.png", "trajectories.png"]

@@ -33,12 +33,14 @@ class SteerOnErrors:
         return np.clip(a, -1.0, 1.0).astype(np.float32)[..., None], state
 
 
+from vtrack_gym.evaluation.metrics import CLOCK_MEASURED  # noqa: E402
+
 WALL = "wall_time_per_step_s"
 
 
 def _results(metrics: dict) -> str:
     """The metrics without the wall time (a measurement of the machine, not of the episode), NaN-safe."""
-    return json.dumps({k: v for k, v in metrics.items() if k != WALL}, sort_keys=True, default=float)
+    return json.dumps({k: v for k, v in metrics.items() if k not in CLOCK_MEASURED}, sort_keys=True, default=float)
 
 
 def _comparable(row) -> tuple:
@@ -67,7 +69,7 @@ def test_make_policy_resolves_every_kind_of_spec(tmp_path, monkeypatch):
     by_file = vtrack_gym.make_policy(str(SHIPPED / "ppo.json"), env)
     obs, _ = env.reset(seed=0)
     np.testing.assert_array_equal(by_file.predict(obs)[0], vtrack_gym.make_policy("ppo", env).predict(obs)[0])
-    with pytest.raises(ValueError, match=r"unknown policy 'nope'.*smc, mpc, lqr, stanley, pure_pursuit, mpc_osqp, ppo"):
+    with pytest.raises(ValueError, match=r"unknown policy 'nope'.*pure_pursuit, mpc_osqp, nmpc, ppo"):
         vtrack_gym.make_policy("nope", env)
     with pytest.raises(ValueError, match="unknown preset 'x'"):
         vtrack_gym.make_policy("smc:x", env)
@@ -212,7 +214,7 @@ def test_cli_checks_names_and_extras_before_any_work(tmp_path, capsys, monkeypat
     store = tmp_path / "s.sqlite"
     assert main(["benchmark", "--policies", "smc,nope", "--no-figures", "--store", str(store)]) == 2
     err = capsys.readouterr().err
-    assert "unknown policy 'nope'" in err and "mpc_osqp, ppo, ppo_bc, sac, sac_bc" in err and not store.exists()
+    assert "unknown policy 'nope'" in err and "mpc_osqp, nmpc, ppo, ppo_bc, sac, sac_bc" in err and not store.exists()
     assert main(["plot", "--policies", "smc,nope", "--env", "DLC120-v0", "--out", str(tmp_path / "f")]) == 2
     assert "unknown policy 'nope'" in capsys.readouterr().err and not (tmp_path / "f").exists()
     real = importlib.util.find_spec

@@ -98,17 +98,22 @@ def test_the_wall_time_per_step_leaves_out_a_one_off_stall(monkeypatch: pytest.M
     wall time per step is the typical step's, not the stall spread over the episode (a fake clock, no timing)."""
     from vtrack_gym.evaluation import rollout as rollout_module
 
-    clock = {"t": 0.0, "calls": 0}
+    def wall_per_step(stall_call: int | None) -> float:
+        clock = {"t": 0.0, "calls": 0}
 
-    def fake_perf_counter() -> float:
-        clock["calls"] += 1
-        clock["t"] += 1.0 if clock["calls"] == 21 else 1e-5   # the 11th step takes a second
-        return clock["t"]
+        def fake_perf_counter() -> float:
+            clock["calls"] += 1
+            clock["t"] += 1.0 if clock["calls"] == stall_call else 1e-5  # one call of the episode takes a second
+            return clock["t"]
 
-    monkeypatch.setattr(rollout_module.time, "perf_counter", fake_perf_counter)
-    trace = rollout_module.rollout(Gain(0.3), "DLC120-v0", seed=0)
-    assert trace.n_steps > 500
-    assert trace.wall_time_per_step_s == pytest.approx(1e-5, rel=1e-6)
+        monkeypatch.setattr(rollout_module.time, "perf_counter", fake_perf_counter)
+        trace = rollout_module.rollout(Gain(0.3), "DLC120-v0", seed=0)
+        assert trace.n_steps > 500
+        return trace.wall_time_per_step_s
+
+    steady = wall_per_step(None)
+    assert steady < 1e-4  # a few clock ticks of 10 us per step
+    assert wall_per_step(41) == pytest.approx(steady, rel=1e-6)  # a stall some steps in is left out
 
 
 def test_a_bad_suite_or_env_is_refused_before_the_store_is_created(tmp_path: Path) -> None:

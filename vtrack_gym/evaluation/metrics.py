@@ -22,6 +22,12 @@ REVERSAL_GAP_DEG = 2.0
 steering wiggle, which a filter would hide."""
 
 
+
+CLOCK_MEASURED: tuple[str, ...] = ("wall_time_per_step_s", "policy_time_p50_us", "policy_time_p95_us",
+                                   "policy_time_max_us", "policy_real_time_factor")
+"""Metrics measured from the clock (the machine's speed, not the episode's): the only metrics two runs of the same
+episode may differ in."""
+
 def rms(values: np.ndarray, time_s: np.ndarray | None = None) -> float:
     """Root mean square sqrt((1/T) int x^2 dt) (trapezoid on ``time_s``; plain mean for uniform samples)."""
     x = np.asarray(values, dtype=np.float64)

@@ -4,7 +4,7 @@ and tabulate the periodic paper-scenario evaluations across seeds; write the fig
     PYTHONPATH=. python benchmarks/rl_recipes.py --algo ppo --seeds 0,1,2 --timesteps 4000000 --out runs/rl
     PYTHONPATH=. python benchmarks/rl_recipes.py --summarise runs/rl/ppo_s0 runs/rl/ppo_s1 ... --out runs/rl
 
-Each run is ``vtrack_gym.agents.train.train(algo, "TrainingMix-v0", ...)``, exactly what ``vtrack train --algo
+Each run is ``vtrack_gym.agents.train.train(algo, DEFAULT_ENV_ID, ...)``, exactly what ``vtrack train --algo
 ALGO --timesteps N --seed S`` runs. Every ``--eval-freq`` steps the deterministic policy drives ``DLC120-v0`` in
 full and the first 30 s of ``LateralTracking-v0`` (the full lap at the end). Reported per evaluation step, over
 seeds: the share of seeds whose DLC120-v0 run succeeded (every cone gate passed) with Case 1 not failed, and the
@@ -113,7 +113,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.summarise:
         runs = list(args.summarise)
     else:
-        from vtrack_gym.agents.train import check_run_dir, train
+        from vtrack_gym.agents.train import DEFAULT_ENV_ID, check_run_dir, train
 
         seeds = [int(s) for s in args.seeds.split(",")]
         for seed in seeds:  # every seed's folder checked before the first one trains (hours of work)
@@ -124,7 +124,7 @@ def main(argv: list[str] | None = None) -> int:
         runs = []
         for seed in seeds:
             run = args.out / f"{args.algo}_s{seed}"
-            summary = train(args.algo, "TrainingMix-v0", args.timesteps, seed, run, eval_freq=args.eval_freq,
+            summary = train(args.algo, DEFAULT_ENV_ID, args.timesteps, seed, run, eval_freq=args.eval_freq,
                             case1_full_every=0, overwrite=args.overwrite,
                             command=f"vtrack train --algo {args.algo} --timesteps {args.timesteps} --seed {seed} "
                             f"--run-dir {run} --eval-freq {args.eval_freq} --case1-full-every 0"
@@ -142,7 +142,7 @@ def main(argv: list[str] | None = None) -> int:
     for line in finals(curves):
         print(line)
     fig = args.out / f"learning_curves_{args.algo}.png"
-    plot(rows, fig, f"{args.algo.upper()} from scratch on TrainingMix-v0, {len(runs)} seeds")
+    plot(rows, fig, f"{args.algo.upper()} from scratch on vtrack/TrainingMix20Hz-v0, {len(runs)} seeds")
     print(f"figure: {fig}")
     return 0
 

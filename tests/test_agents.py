@@ -98,7 +98,7 @@ def test_ppo_train_export_load_without_torch(ppo_run):
         assert (run_dir / name).is_file(), name
     config = json.loads((run_dir / "config.json").read_text())
     assert config["algo"] == "ppo" and config["seed"] == 0 and config["command"] == "pytest tiny ppo"
-    assert config["package_version"] and config["hyperparams_version"] >= 1
+    assert config["package_version"] and len(config["hyperparams_sha256"]) == 64
     policy = load_agent(run_dir / "agent")
     assert policy.spec["output"] == "clip" and policy.spec["activation"] == "tanh"
     assert policy.spec["provenance"]["timesteps"] >= 3000
@@ -135,8 +135,8 @@ def test_hyperparams_are_plain_yaml():
     from vtrack_gym.agents.train import ALGOS, load_hyperparams
 
     for algo in ALGOS:
-        params, version = load_hyperparams(algo)
-        assert version >= 1 and params["n_envs"] >= 1
+        params, digest = load_hyperparams(algo)
+        assert len(digest) == 64 and params["n_envs"] >= 1 and params["n_timesteps"] >= 1
     with pytest.raises(ValueError, match="no hyperparameters"):
         load_hyperparams("ppo", "DLC120-v0")
     with pytest.raises(ValueError, match="algo"):

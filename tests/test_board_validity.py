@@ -16,10 +16,9 @@ import pytest
 import vtrack_gym
 from vtrack_gym.cli import main
 from vtrack_gym.cli._options import parse_seeds as _parse_seeds
-from vtrack_gym.evaluation.board import Estimate, build_board, estimate
+from vtrack_gym.evaluation.board import Estimate, build_board, estimate, failure_reason
 from vtrack_gym.evaluation.report_formats import to_csv, to_json, to_latex, to_markdown
 from vtrack_gym.evaluation.store import ResultRow, ResultStore, StoreError
-from vtrack_gym.evaluation.success import episode_success, failure_reason
 from vtrack_gym.evaluation.suites import primary_metric
 
 COLUMNS = ["max_e_y_m", "itae", "cones_hit"]
@@ -50,18 +49,16 @@ def record(policy: str, seed: int, e_y: float, *, termination: str = "completed"
 
 
 # ------------------------------------------------------------------------------------------ success verdict
-def test_interim_success_rule() -> None:
-    assert episode_success("LateralTracking-v0", "completed", {"max_e_y_m": 0.1})
-    assert episode_success("DLC120-v0", "completed", {"cones_hit": 0.0})
-    assert not episode_success("DLC120-v0", "completed", {"cones_hit": 1.0})
-    assert not episode_success("DLC120-v0", "completed", {"cones_hit": None})  # unknown count: not verified
-    assert not episode_success("DLC120-v0", "spin_out", {"cones_hit": 0.0})
+def test_failure_reasons_and_rows_without_a_verdict() -> None:
+    # a row without a verdict is judged by completion alone (the criterion's verdict travels with the row)
+    assert ResultRow("paper", "DLC120-v0", "p", "h", 0, {"cones_hit": 3.0}, "completed", 1e-5).verdict()
+    assert not ResultRow("paper", "DLC120-v0", "p", "h", 0, {}, "spin_out", 1e-5).verdict()
     assert failure_reason("spin_out", {"cones_hit": 0.0}) == "spin_out"
     assert failure_reason("completed", {"cones_hit": 2.0}) == "cones_hit"
     assert failure_reason("completed", {}) == "env_verdict"
 
 
-def test_env_verdict_wins_over_the_interim_rule() -> None:
+def test_env_verdict_is_the_row_verdict() -> None:
     from vtrack_gym.evaluation.trace import STEP_SIGNALS, Trace
 
     info = {name: 0.0 for name in STEP_SIGNALS} | {"fz_n": np.ones(4), "acc_substeps_mps2": np.zeros((2, 3))}
@@ -77,7 +74,7 @@ def test_env_verdict_wins_over_the_interim_rule() -> None:
 def test_store_keeps_the_success_column(tmp_path: Path) -> None:
     store = ResultStore(tmp_path / "s.sqlite")
     store.add([ResultRow("paper", "DLC120-v0", "p", "h", s, {"max_e_y_m": 0.1, "cones_hit": float(s)}, "completed",
-                         1e-5) for s in range(2)])
+                         1e-5, success=s == 0) for s in range(2)])
     assert [r["success"] for r in store.rows()] == [1, 0]
     board = store.leaderboard("paper", COLUMNS)
     assert board[0]["success_rate"] == 0.5 and board[0]["failed"] == 1

@@ -17,7 +17,7 @@ def test_benchmark_then_leaderboard(tmp_path: Path, capsys: pytest.CaptureFixtur
     assert main(["benchmark", "--policies", "smc,mpc", "--store", str(store), "--figures", str(figures)]) == 0
     out = capsys.readouterr().out
     assert "| DLC120-v0 | mpc |" in out and "| LateralTracking-v0 | smc |" in out
-    pngs = sorted(p.name for p in figures.glob("*.png"))
+    pngs = sorted(p.name for p in figures.glob("paper/*/*.png"))  # the run's own folder
     assert "dlc120_v0_trajectories.png" in pngs and "lateraltracking_v0_mpc_vs_smc.png" in pngs
     assert main(["leaderboard", "--store", str(store), "--format", "csv"]) == 0
     csv_text = capsys.readouterr().out

@@ -119,7 +119,12 @@ def test_action_maps_to_highway_steering(env: HighwayLaneKeeping) -> None:
 
 
 # ------------------------------------------------------------------------------------ (b) closed loop
-@pytest.mark.parametrize("name", available_policies())
+NMPC_ON_LINEAR_TYRES = pytest.mark.xfail(strict=True, reason="nmpc's Pacejka model caps the tyre force at mu D F_z; "
+                                         "highway-env's bicycle has linear tyres (docs/baselines/nmpc.md)")
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=NMPC_ON_LINEAR_TYRES) if n == "nmpc" else n
+                                  for n in available_policies()])
 def test_baseline_keeps_highway_car_on_its_lane(env: HighwayLaneKeeping, name: str) -> None:
     if name == "mpc_osqp":
         pytest.importorskip("osqp")

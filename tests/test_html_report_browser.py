@@ -35,11 +35,11 @@ def report(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> Path:
     image = pytest.importorskip("PIL.Image")
     store = ResultStore(tmp_path / "s.sqlite")
     store.add([ResultRow("paper", "DLC120-v0", pid, "h" + pid, s, {"max_e_y_m": e_y, "itae": float("nan")},
-                         "completed", 1e-5) for pid, e_y in (("mpc", 0.3), ("smc", 0.1), ("<b>x</b>|y", 0.2))
-               for s in range(2)])
+                         "completed", 1e-5, options={"figures": "paper/run"})
+               for pid, e_y in (("mpc", 0.3), ("smc", 0.1), ("<b>x</b>|y", 0.2)) for s in range(2)])
     figures = tmp_path / "figs"
-    figures.mkdir()
-    image.new("RGB", (300, 120), (30, 120, 200)).save(figures / "dlc_trajectories.png")
+    (figures / "paper" / "run").mkdir(parents=True)
+    image.new("RGB", (300, 120), (30, 120, 200)).save(figures / "paper" / "run" / "dlc_trajectories.png")
     out = tmp_path / "board.html"
     assert main(["leaderboard", "--store", str(tmp_path / "s.sqlite"), "--format", "html", "--out", str(out),
                  "--figures", str(figures)]) == 0

@@ -12,13 +12,9 @@ import pytest
 from test_board_validity import ConstantSteering
 
 import vtrack_gym
-from vtrack_gym.envs.scenarios import (
-    MANEUVER_CRITERIA,
-    MANEUVER_IDS,
-    MANEUVER_TRACK_NAMES,
-    SCENARIOS,
-    ScenarioConfig,
-)
+from vtrack_gym.envs.criteria import CircleAtLimit
+from vtrack_gym.envs.scenarios import MANEUVER_IDS, SCENARIOS, maneuver_criterion
+from vtrack_gym.envs.track_sources import MANEUVER_TRACK_NAMES
 from vtrack_gym.evaluation.benchmark import score_episode, suite_columns, summarise, vehicle_label
 from vtrack_gym.evaluation.suites import Episode, suite_episodes, with_vehicle
 from vtrack_gym.tracks import gate_violations
@@ -45,13 +41,15 @@ def test_every_maneuver_is_a_registered_scenario_with_its_spec() -> None:
     for name, scenario_name in MANEUVER_IDS.items():
         sc, spec = SCENARIOS[scenario_name], build_maneuver(name).spec
         assert f"vtrack/{scenario_name}" in registry
-        assert sc.track == name and sc.success == MANEUVER_CRITERIA[spec.success_criterion]
-        assert sc.speed_profile == spec.speed_profile and sc.max_episode_s == spec.time_limit_s
+        assert sc.track.track == name and sc.success == maneuver_criterion(spec)
+        assert sc.speed == spec.speed_profile and sc.time_limit_s == spec.time_limit_s
         assert registry[f"vtrack/{scenario_name}"].max_episode_steps == round(spec.time_limit_s / 0.01)
     circle = SCENARIOS["ISO4138-Circle-v0"]
-    assert circle.grip_limit_speed_mps == pytest.approx(math.sqrt(0.9 * 9.81 * 40.0))
-    with pytest.raises(ValueError, match="lateral_tolerance_m"):
-        ScenarioConfig("x", "iso4138_circle", success="circle")
+    assert circle.success.grip_limit_speed_mps == pytest.approx(math.sqrt(0.9 * 9.81 * 40.0))
+    with pytest.raises(TypeError, match="lateral_tolerance_m"):
+        CircleAtLimit(grip_limit_speed_mps=20.0)  # the band has no default
+    with pytest.raises(ValueError, match=r"CircleAtLimit\.lateral_tolerance_m must be"):
+        CircleAtLimit(lateral_tolerance_m=-1.0, grip_limit_speed_mps=20.0)
 
 
 def test_maneuver_env_drives_its_spec_path_and_speed() -> None:
@@ -70,8 +68,9 @@ def test_maneuver_env_drives_its_spec_path_and_speed() -> None:
 def test_compiled_gate_check_matches_gate_violations(name: str) -> None:
     """The env's per-step check (compiled, anchored gates and the body outline) gives the same verdict per pose as
     ``tracks.gate_violations`` on random poses around the gates."""
-    from vtrack_gym.envs import kernels as k
+    from vtrack_gym.envs import gates as k
     from vtrack_gym.tracks.dlc import car_outline
+    from vtrack_gym.tracks.table import N_COLS
 
     env = gym.make(SCENARIOS[MANEUVER_IDS[name]].env_id)
     env.reset(seed=0)
@@ -85,9 +84,10 @@ def test_compiled_gate_check_matches_gate_violations(name: str) -> None:
     e = rng.uniform(-1.2, 1.2, s.size)
     x, y = row.x - e * np.sin(row.psi), row.y + e * np.cos(row.psi)
     psi = row.psi + rng.uniform(-0.15, 0.15, s.size)
-    hit = np.zeros(s.size, dtype=np.bool_)
+    per_gate = np.zeros((s.size, gates.shape[0]), dtype=np.bool_)
     k.body_outside_gates(path.table, path.ds_m, path.length_m, path.closed, gates, x, y, psi, s, lon.ravel(),
-                         lat.ravel(), hit, np.zeros(k.N_COLS))
+                         lat.ravel(), c.body_length_m, per_gate, np.zeros(N_COLS))
+    hit = per_gate.any(axis=1)
     ref = np.array([gate_violations(path, x[i:i + 1], y[i:i + 1], psi[i:i + 1], c.body_length_m, c.body_width_m,
                                     c.cg_to_front_end_m) > 0 for i in range(s.size)])
     assert 0 < ref.sum() < s.size  # both verdicts occur
@@ -220,19 +220,20 @@ def test_cli_maneuvers_suite_with_vehicle(tmp_path: Path, capsys: pytest.Capture
 
 
 def test_circle_verdict_rule() -> None:
-    """Left the band: success only if the in-band peak |a_y| is >= circle_limit_share of the episode's peak, and
+    """Left the band: success only if the in-band peak |a_y| is >= limit_share of the episode's peak, and
     that peak >= 0.5 mu g; never left: success once the ramp reached the grip-limit speed."""
     env = gym.make("vtrack/ISO4138-Circle-v0")
     env.reset(seed=0)
     sim = env.unwrapped._sim
-    share = env.unwrapped.scenario.circle_limit_share
+    share = env.unwrapped.scenario.success.limit_share
+    state = sim.verdicts
     mu_g = 0.9 * GRAVITY_MPS2
-    sim.circle_left[0], sim.circle_peak_a_y[0] = True, 0.9 * mu_g
+    state.left[0], state.peak_a_y[0] = True, 0.9 * mu_g
     for steady, ok in ((0.99 * share * 0.9 * mu_g, False), (1.01 * share * 0.9 * mu_g, True)):
-        sim.circle_steady_a_y[0] = steady
+        state.steady_a_y[0] = steady
         assert bool(sim.success()[0]) is ok
-    sim.circle_peak_a_y[0] = sim.circle_steady_a_y[0] = 0.45 * mu_g  # the car never got near its limit
+    state.peak_a_y[0] = state.steady_a_y[0] = 0.45 * mu_g  # the car never got near its limit
     assert not sim.success()[0]
-    sim.circle_left[0], sim.circle_reached[0] = False, True
+    state.left[0], state.reached[0] = False, True
     assert sim.success()[0]
     env.close()

@@ -36,7 +36,7 @@ def circle_xy(radius_m: float, n: int, cx: float = 0.0, cy: float = 0.0) -> tupl
 def test_tiny_speeds_are_refused_and_the_derived_time_limit_is_capped(tmp_path: Path) -> None:
     x, y = circle_xy(100.0, 300)
     loop = write_xy(tmp_path / "loop.csv", x, y)
-    with pytest.raises(ValueError, match=r"ConstantSpeed\.v_mps must be in \[1\.0, 150\.0\] m/s"):
+    with pytest.raises(ValueError, match=r"ConstantSpeed\.v_mps must be in \[1\.0, 100\.0\] m/s"):
         gym.make("vtrack/Track-v0", track=str(loop), speed_profile=1e-6)
     # a long straight at the 1 m/s floor: 1.5 x 20 km / 1 m/s + 30 s > 2 h -> refused, naming the lap time
     s = np.arange(0.0, 20_000.0, 20.0)
@@ -45,7 +45,7 @@ def test_tiny_speeds_are_refused_and_the_derived_time_limit_is_capped(tmp_path: 
                                          r"the maximum 7200 s of simulated time; fix: raise the profile's speeds"):
         gym.make("vtrack/Track-v0", track=str(long_road), speed_profile=ConstantSpeed(1.0))
     env = gym.make("vtrack/Track-v0", track=str(loop), speed_profile=ConstantSpeed(1.0))  # 628 m at 1 m/s: fine
-    assert env.unwrapped.scenario.max_episode_s == pytest.approx(1.5 * 2.0 * math.pi * 100.0 + 30.0, rel=2e-3)
+    assert env.unwrapped.scenario.time_limit_s == pytest.approx(1.5 * 2.0 * math.pi * 100.0 + 30.0, rel=2e-3)
 
 
 def test_a_speed_column_below_one_mps_is_refused_where_it_sets_the_speed(tmp_path: Path) -> None:
@@ -54,23 +54,23 @@ def test_a_speed_column_below_one_mps_is_refused_where_it_sets_the_speed(tmp_pat
     v[7] = "0.001"
     f = write_xy(tmp_path / "v.csv", x, y, extra="v_mps", extra_values=v)
     with pytest.raises(ValueError, match=r"gives 0\.\d+ m/s at s = \d+\.\d m; FileSpeed needs speeds in "
-                                         r"\[1\.0, 150\.0\] m/s"):
+                                         r"\[1\.0, 100\.0\] m/s"):
         gym.make("vtrack/Track-v0", track=str(f), speed_profile="file")
     gym.make("vtrack/Track-v0", track=str(f), speed_profile=ConstantSpeed(10.0))   # the column unused: fine
     v[7] = "0"
-    with pytest.raises(ValueError, match=r"v\.csv, line 9: speed v_mps = 0\.0 m/s is outside \(0, 150\.0\] m/s"):
+    with pytest.raises(ValueError, match=r"v\.csv, line 9: speed v_mps = 0\.0 m/s is outside \(0, 100\.0\] m/s"):
         load_track(write_xy(tmp_path / "v.csv", x, y, extra="v_mps", extra_values=v))
     v[7] = "10.0"
     f = write_xy(tmp_path / "v.csv", x, y, extra="v_mps", extra_values=v)
-    with pytest.raises(ValueError, match=r"gives 0\.5 m/s .* FileSpeed needs speeds in \[1\.0, 150\.0\] m/s"):
+    with pytest.raises(ValueError, match=r"gives 0\.5 m/s .* FileSpeed needs speeds in \[1\.0, 100\.0\] m/s"):
         from vtrack_gym.tracks import FileSpeed
 
         gym.make("vtrack/Track-v0", track=str(f), speed_profile=FileSpeed(scale=0.05))
 
 
 @pytest.mark.parametrize(("argv", "message"), [
-    (["--speed-profile", "constant", "--max-speed-kmh", "0.01"], r"--max-speed-kmh must be in \[3\.6, 540\] km/h"),
-    (["--max-speed-kmh", "1000"], r"--max-speed-kmh must be in \[3\.6, 540\] km/h \(got 1000\.0\)"),
+    (["--speed-profile", "constant", "--max-speed-kmh", "0.01"], r"--max-speed-kmh must be in \[3\.6, 360\] km/h"),
+    (["--max-speed-kmh", "1000"], r"--max-speed-kmh must be in \[3\.6, 360\] km/h \(got 1000\.0\)"),
     (["--max-lateral-g", "5"], r"--max-lateral-g must be in \(0, 3\.06\] g \(got 5\.0\)"),
     (["--max-lateral-g", "0"], r"--max-lateral-g must be in \(0, 3\.06\] g"),
     (["--speed-profile", "file", "--max-speed-kmh", "10"],

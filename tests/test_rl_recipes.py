@@ -20,6 +20,7 @@ pytest.importorskip("stable_baselines3")
 
 import vtrack_gym
 from vtrack_gym.agents.obs_scaling import CLIP, fixed_statistics
+from vtrack_gym.agents.recipes import FIXED_SCALING_CALLBACK
 from vtrack_gym.agents.train import DEFAULT_ENV_ID, load_hyperparams
 from vtrack_gym.cli import main
 from vtrack_gym.envs.config import RewardConfig
@@ -34,9 +35,8 @@ def test_recipe_trains_exports_and_drives(algo: str, tmp_path: Path, caplog: pyt
                  "--run-dir", str(run), "--no-progress", "--no-final-eval", *extra]) == 0
     capsys.readouterr()
     config = json.loads((run / "config.json").read_text())
-    assert config["env_id"] == DEFAULT_ENV_ID == "vtrack/TrainingMix-v0"
-    assert config["hyperparams"]["obs_scaling"] == "fixed"
-    assert config["hyperparams"]["env_kwargs"] == {"control_period_s": 0.05}
+    assert config["env_id"] == DEFAULT_ENV_ID == "vtrack/TrainingMix20Hz-v0"
+    assert config["hyperparams"]["callback"] == FIXED_SCALING_CALLBACK
     assert config["bc"] is None  # from scratch: no warm start
     rows = [json.loads(line) for line in (run / "evaluations.jsonl").read_text().splitlines()]
     assert rows and all(isinstance(r["results"]["DLC120-v0"]["success"], bool) for r in rows)
@@ -65,9 +65,10 @@ def test_recipe_trains_exports_and_drives(algo: str, tmp_path: Path, caplog: pyt
 
 def test_recipe_hyperparameters_are_from_scratch_and_20hz() -> None:
     for algo in ("ppo", "sac"):
-        params, _ = load_hyperparams(algo, "TrainingMix-v0")
-        assert "bc_finetune" not in params and "bc_weight" not in params
-        assert params["obs_scaling"] == "fixed" and params["env_kwargs"]["control_period_s"] == 0.05
+        params, _ = load_hyperparams(algo, "vtrack/TrainingMix20Hz-v0")
+        assert "bc_finetune" not in params and "bc_weight" not in params and "env_kwargs" not in params
+        assert params["callback"] == FIXED_SCALING_CALLBACK
+    assert gym.spec("vtrack/TrainingMix20Hz-v0").kwargs == {"scenario": "TrainingMix-v0", "control_period_s": 0.05}
 
 
 def test_reward_pays_every_step_of_driving() -> None:

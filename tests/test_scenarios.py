@@ -12,7 +12,8 @@ import pytest
 
 import vtrack_gym
 from vtrack_gym.envs.observation import OBS
-from vtrack_gym.envs.scenarios import DLC120, LEGACY_IDS, SCENARIOS, ScenarioConfig
+from vtrack_gym.envs.scenarios import DLC120, LEGACY_IDS, SCENARIOS, Scenario
+from vtrack_gym.envs.track_sources import TrackSource
 from vtrack_gym.evaluation.metrics import evaluate_trace
 from vtrack_gym.evaluation.rollout import rollout
 from vtrack_gym.tracks import ConstantSpeed, CurvatureLimited, load_track, speed_table
@@ -42,15 +43,17 @@ def test_ids_are_generated_from_the_registry_with_aliases() -> None:
     for sc in SCENARIOS.values():
         spec = registry[f"vtrack/{sc.name}"]
         assert spec.kwargs == {"scenario": sc.name}
-        assert spec.max_episode_steps == (None if sc.max_episode_s is None else round(sc.max_episode_s / 0.01))
+        assert spec.max_episode_steps == (None if sc.time_limit_s is None else round(sc.time_limit_s / 0.01))
     for legacy in LEGACY_IDS:
         assert registry[legacy].entry_point == registry[f"vtrack/{legacy}"].entry_point
         assert registry[legacy].kwargs == registry[f"vtrack/{legacy}"].kwargs
     assert vtrack_gym.ENV_IDS == LEGACY_IDS
-    with pytest.raises(ValueError, match=r"ScenarioConfig\.success must be one of"):
-        ScenarioConfig("x", success="fast")
-    with pytest.raises(ValueError, match=r"ScenarioConfig\.half_width_m must be in"):
-        ScenarioConfig("x", half_width_m=-1.0)
+    with pytest.raises(ValueError, match=r"Scenario\.success must be a SuccessCriterion"):
+        Scenario(name="x", success="fast")
+    with pytest.raises(ValueError, match=r"TrackSource\.half_width_m must be in"):
+        TrackSource(half_width_m=-1.0)
+    with pytest.raises(TypeError):
+        Scenario("x")  # every part is keyword-only
 
 
 def test_alias_and_namespaced_id_give_identical_episodes_and_the_same_truncation() -> None:
@@ -60,7 +63,7 @@ def test_alias_and_namespaced_id_give_identical_episodes_and_the_same_truncation
         np.testing.assert_array_equal(traces[0][name], traces[1][name])
     # the TimeLimit wrapper from spec.max_episode_steps truncates at the env's own step
     env = gym.make("vtrack/DLC120-v0")
-    assert env.spec.max_episode_steps == env.unwrapped._sim.max_steps == round(DLC120.max_episode_s / 0.01)
+    assert env.spec.max_episode_steps == env.unwrapped._sim.max_steps == round(DLC120.time_limit_s / 0.01)
     env.reset(seed=0)
     for _ in range(20_000):
         _, _, term, trunc, _ = env.step(np.zeros(1, dtype=np.float32))
@@ -69,16 +72,24 @@ def test_alias_and_namespaced_id_give_identical_episodes_and_the_same_truncation
     assert term and not trunc  # zero steering still drives to the end of the DLC before the time limit
 
 
-def test_zero_steering_is_not_a_success_on_dlc120_but_mpc_is() -> None:
-    from vtrack_gym.evaluation.benchmark import cones_hit
+def _whole_trajectory_cones(env, trace) -> int:
+    from vtrack_gym.tracks import gate_violations
 
+    c = env.unwrapped.config.vehicle.chassis
+    return gate_violations(env.unwrapped.current_path, trace["x_m"], trace["y_m"], trace["psi_rad"],
+                           c.body_length_m, c.body_width_m, c.cg_to_front_end_m)
+
+
+def test_zero_steering_is_not_a_success_on_dlc120_but_mpc_is() -> None:
     env = gym.make("DLC120-v0")
     zero = rollout(Zero(), env, seed=0)
     assert zero.termination == "completed" and not zero.success
     assert evaluate_trace(zero)["success"] == 0.0
-    assert cones_hit(env, zero) > 0  # the incremental check agrees with the whole-trajectory gate count
+    cones = env.unwrapped.success_metrics()["cones_hit"]
+    assert cones > 0 and cones == _whole_trajectory_cones(env, zero)  # the live count is the whole-trajectory one
     mpc = rollout(vtrack_gym.make_policy("mpc", env), env, seed=0)
-    assert mpc.termination == "completed" and mpc.success and cones_hit(env, mpc) == 0
+    assert mpc.termination == "completed" and mpc.success and env.unwrapped.success_metrics()["cones_hit"] == 0
+    assert _whole_trajectory_cones(env, mpc) == 0
 
 
 def test_track_env_follows_the_speed_profile_and_completes_a_lap(circuit_csv: Path) -> None:

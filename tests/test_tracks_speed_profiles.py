@@ -124,11 +124,11 @@ def test_constant_and_file_profiles_and_preview() -> None:
 
 
 @pytest.mark.parametrize(("build", "message"), [
-    (lambda: ConstantSpeed(0.0), r"ConstantSpeed\.v_mps must be in \[1\.0, 150\.0\] m/s \(got 0\.0\)"),
-    (lambda: ConstantSpeed(1e-6), r"ConstantSpeed\.v_mps must be in \[1\.0, 150\.0\] m/s \(got 1e-06\)"),
+    (lambda: ConstantSpeed(0.0), r"ConstantSpeed\.v_mps must be in \[1\.0, 100\.0\] m/s \(got 0\.0\)"),
+    (lambda: ConstantSpeed(1e-6), r"ConstantSpeed\.v_mps must be in \[1\.0, 100\.0\] m/s \(got 1e-06\)"),
     (lambda: ConstantSpeed(float("nan")), r"ConstantSpeed\.v_mps must be a finite number in"),
-    (lambda: CurvatureLimited(-1.0, 3.0), r"CurvatureLimited\.max_speed_mps must be in \[1\.0, 150\.0\]"),
-    (lambda: CurvatureLimited(0.01 / 3.6, 3.0), r"CurvatureLimited\.max_speed_mps must be in \[1\.0, 150\.0\]"),
+    (lambda: CurvatureLimited(-1.0, 3.0), r"CurvatureLimited\.max_speed_mps must be in \[1\.0, 100\.0\]"),
+    (lambda: CurvatureLimited(0.01 / 3.6, 3.0), r"CurvatureLimited\.max_speed_mps must be in \[1\.0, 100\.0\]"),
     (lambda: CurvatureLimited(10.0, 0.0), r"CurvatureLimited\.max_lateral_accel_mps2 must be in \(0\.0, 30\.0\]"),
     (lambda: CurvatureLimited(10.0, 3.0, max_accel_mps2=31.0), r"CurvatureLimited\.max_accel_mps2 must be in"),
     (lambda: CurvatureLimited(10.0, 3.0, max_decel_mps2=True),

@@ -22,15 +22,15 @@ PPO_SMALL = ["--set", "n_steps=32", "--set", "batch_size=64", "--set", "n_epochs
 
 
 def test_warm_start_keeps_fixed_observation_scales(tmp_path: Path) -> None:
-    """With ``obs_scaling: fixed`` the exported agent carries the fixed table after a warm start, not the
-    expert data's statistics (e_y 0.25 m per unit)."""
+    """With the fixed observation scales (the recipe's ``callback``) the exported agent carries the fixed table
+    after a warm start, not the expert data's statistics (e_y 0.25 m per unit)."""
     from vtrack_gym.agents.obs_scaling import fixed_statistics
 
     run = tmp_path / "run"
-    assert main(["train", "--algo", "ppo", "--env", "vtrack/TrainingMix-v0", "--bc-expert", "lqr", "--bc-steps",
+    assert main(["train", "--algo", "ppo", "--env", "vtrack/TrainingMix20Hz-v0", "--bc-expert", "lqr", "--bc-steps",
                  "50", "--bc-dagger-rounds", "0", "--timesteps", "64", "--run-dir", str(run), *FAST,
                  *PPO_SMALL]) == 0
-    assert json.loads((run / "config.json").read_text())["hyperparams"]["obs_scaling"] == "fixed"
+    assert json.loads((run / "config.json").read_text())["hyperparams"]["callback"].endswith(".FixedObservationScaling")
     spec = json.loads((run / "agent.json").read_text())
     arrays = np.load(run / "agent.npz", allow_pickle=False)
     mean, var = fixed_statistics(spec["env"]["observation_names"])
@@ -167,9 +167,10 @@ def test_timesteps_rounding_and_learning_starts_are_reported(tmp_path: Path,
     """PPO's whole rollouts: the real number of steps is recorded and said; SAC/TD3 with learning_starts >=
     --timesteps warn that the agent is never updated."""
     run = tmp_path / "ppo"
-    with caplog.at_level("WARNING", logger="vtrack_gym"):
+    with caplog.at_level("INFO", logger="vtrack_gym"):
         assert main(["train", "--algo", "ppo", "--timesteps", "100", "--run-dir", str(run), *FAST, *PPO_SMALL]) == 0
     assert "--timesteps 100 becomes 128" in caplog.text
+    assert "training PPO for 128 steps (100 rounded up to whole rollouts)" in caplog.text  # what SB3 runs
     config = json.loads((run / "config.json").read_text())
     assert config["timesteps"] == 100 and config["timesteps_effective"] == 128 and config["timesteps_done"] == 128
     assert any("becomes 128" in w for w in config["warnings"])
@@ -180,6 +181,16 @@ def test_timesteps_rounding_and_learning_starts_are_reported(tmp_path: Path,
     assert "learning_starts = 10000 >= --timesteps 64: the agent will never be updated" in caplog.text
 
 
+def test_off_policy_timesteps_round_to_whole_collections() -> None:
+    """SAC/TD3 collect train_freq vector steps of n_envs cars between updates: that many steps at a time."""
+    from vtrack_gym.agents.recipes import check_hyperparams
+
+    params = {"buffer_size": 1000, "batch_size": 64, "learning_starts": 0}
+    assert check_hyperparams("sac", {**params, "train_freq": 4}, 8, 100)["timesteps_effective"] == 128
+    assert check_hyperparams("td3", {**params, "train_freq": [2, "step"]}, 8, 100)["timesteps_effective"] == 112
+    assert check_hyperparams("sac", {**params, "train_freq": [1, "episode"]}, 8, 100)["timesteps_effective"] == 104
+
+
 def test_shipped_hyperparameters_pass_the_checks() -> None:
     """Every recipe of the hyperparameter files (and its warm-start variant) is within the checked ranges."""
     import yaml
@@ -187,7 +198,7 @@ def test_shipped_hyperparameters_pass_the_checks() -> None:
     from vtrack_gym.agents.train import ALGOS, HYPERPARAMS_DIR, check_hyperparams, load_hyperparams
 
     for algo in ALGOS:
-        for env_id in (k for k in yaml.safe_load((HYPERPARAMS_DIR / f"{algo}.yaml").read_text()) if k != "version"):
+        for env_id in yaml.safe_load((HYPERPARAMS_DIR / f"{algo}.yaml").read_text()):
             params, _ = load_hyperparams(algo, env_id)
             finetune = params.pop("bc_finetune", None) or {}
             for variant in (params, {**params, **finetune}):

@@ -9,18 +9,17 @@ import numpy as np
 import pytest
 
 import vtrack_gym  # noqa: F401
-from vtrack_gym.envs.scenarios import SCENARIOS, TRAINING_MIX, ScenarioConfig
-from vtrack_gym.envs.sim import CIRCLE_MIN_PEAK_G
+from vtrack_gym.envs.randomisation import Randomisation
+from vtrack_gym.envs.scenarios import SCENARIOS, TRAINING_MIX
 from vtrack_gym.tracks.training_mix import KINDS, TrainingMixProfile, training_bank
 from vtrack_gym.vehicle import layout as VL
-from vtrack_gym.vehicle.params import GRAVITY_MPS2
 
 G = 9.81
 
 
 @pytest.fixture(scope="module")
 def bank():
-    return training_bank(TRAINING_MIX.procedural_seed, TRAINING_MIX.procedural_bank_size, 1.916)
+    return training_bank(TRAINING_MIX.track.bank_seed, TRAINING_MIX.track.bank_size, 1.916)
 
 
 def test_bank_covers_the_evaluation_regimes(bank) -> None:
@@ -53,21 +52,20 @@ def test_randomisation_is_drawn_per_episode_within_ranges() -> None:
     nominal_rate = env.unwrapped.config.vehicle.steering.max_road_wheel_rate_radps
     for seed in range(12):
         env.reset(seed=seed)
-        # the friction the plant was given (reset_car records CIRCLE_MIN_PEAK_G x mu x g per car)
-        seen["mu"].append(float(sim.circle_min_peak_a_y[0]) / (CIRCLE_MIN_PEAK_G * GRAVITY_MPS2))
-        seen["noise"].append(float(sim.noise_scale[0]))
-        seen["delay"].append(int(sim.delay_steps[0]))
+        seen["mu"].append(float(sim.plant.param_rows[0, VL.P_MU]))  # the friction the plant was given
+        seen["noise"].append(float(sim.noise.scale[0]))
+        seen["delay"].append(int(sim.delay.steps[0]))
         seen["rate"].append(float(sim.plant.param_rows[0, VL.P_DELTA_RATE]) / nominal_rate)
-    lo, hi = TRAINING_MIX.friction_range
+    lo, hi = TRAINING_MIX.randomisation.friction_range
     assert all(lo - 1e-9 <= m <= hi + 1e-9 for m in seen["mu"]) and len(set(seen["mu"])) > 6
-    lo, hi = TRAINING_MIX.sensor_noise_range
+    lo, hi = TRAINING_MIX.randomisation.sensor_noise_range
     assert all(lo <= n <= hi for n in seen["noise"]) and len(set(seen["noise"])) > 6
     assert set(seen["delay"]) <= {0, 1, 2, 3, 4, 5} and len(set(seen["delay"])) > 2  # 0-50 ms at 10 ms
-    lo, hi = TRAINING_MIX.steering_rate_scale_range
+    lo, hi = TRAINING_MIX.randomisation.steering_rate_scale_range
     assert all(lo - 1e-9 <= k <= hi + 1e-9 for k in seen["rate"]) and len(set(seen["rate"])) > 6
     # an explicit reset option wins over the scenario's draw
     env.reset(seed=0, options={"sensor_noise": 2.5, "actuator_delay_s": 0.02})
-    assert sim.noise_scale[0] == 2.5 and sim.delay_steps[0] == 2
+    assert sim.noise.scale[0] == 2.5 and sim.delay.steps[0] == 2
 
 
 def test_an_explicit_reset_option_wins_even_at_its_default_value() -> None:
@@ -84,7 +82,7 @@ def test_an_explicit_reset_option_wins_even_at_its_default_value() -> None:
     for seed in range(4):
         obs, _ = env.reset(seed=seed, options=given)
         assert obs[OBS.index("e_y")] == 0.0 and obs[OBS.index("e_phi")] == 0.0
-        assert sim.noise_scale[0] == 0.0 and sim.delay_steps[0] == 0
+        assert sim.noise.scale[0] == 0.0 and sim.delay.steps[0] == 0
         assert float(sim.plant.param_rows[0, VL.P_DELTA_RATE]) == pytest.approx(nominal_rate)
         obs, _ = env.reset(seed=seed)            # not given: drawn
         drawn.append(float(obs[OBS.index("e_y")]))
@@ -107,12 +105,10 @@ def test_same_seed_same_randomised_episode() -> None:
 def test_scenarios_without_ranges_draw_nothing() -> None:
     for name, sc in SCENARIOS.items():
         if name != "TrainingMix-v0":
-            assert sc.friction_range is None and sc.mass_scale_range is None and sc.sensor_noise_range is None
-            assert sc.max_actuator_delay_s == 0.0 and sc.steering_rate_scale_range is None
-            assert sc.initial_lateral_offset_range_m is None and sc.initial_heading_error_range_rad is None
+            assert sc.randomisation == Randomisation() and sc.randomisation.is_off
     env = gym.make("DLC120-v0")
     env.reset(seed=0)
-    assert env.unwrapped._sim.noise_scale[0] == 0.0 and env.unwrapped._sim.delay_steps[0] == 0
+    assert env.unwrapped._sim.noise.scale[0] == 0.0 and env.unwrapped._sim.delay.steps[0] == 0
 
 
 @pytest.mark.parametrize("field, value", [("friction_range", (0.05, 1.0)), ("mass_scale_range", (1.5, 1.2)),
@@ -120,8 +116,8 @@ def test_scenarios_without_ranges_draw_nothing() -> None:
                                           ("mass_scale_range", (True, 1.0)),
                                           ("steering_rate_scale_range", (0.1, 2.0))])
 def test_bad_randomisation_ranges_are_refused(field: str, value: object) -> None:
-    with pytest.raises(ValueError, match=f"ScenarioConfig.{field}"):
-        ScenarioConfig("x", "handling_course", **{field: value})
+    with pytest.raises(ValueError, match=f"Randomisation.{field}"):
+        Randomisation(**{field: value})
 
 
 def test_steering_rate_scale_speeds_up_the_road_wheel() -> None:
@@ -149,8 +145,8 @@ def test_start_offsets_are_drawn_and_observed() -> None:
     from vtrack_gym.envs.observation import OBS
 
     env = gym.make("vtrack/TrainingMix-v0")
-    lo_y, hi_y = TRAINING_MIX.initial_lateral_offset_range_m
-    lo_p, hi_p = TRAINING_MIX.initial_heading_error_range_rad
+    lo_y, hi_y = TRAINING_MIX.randomisation.initial_lateral_offset_range_m
+    lo_p, hi_p = TRAINING_MIX.randomisation.initial_heading_error_range_rad
     seen_y, seen_p = [], []
     for seed in range(10):
         obs, _ = env.reset(seed=seed)
@@ -166,10 +162,10 @@ def test_start_offsets_are_drawn_and_observed() -> None:
 
 
 def test_randomisation_spans_are_the_reset_options_ranges() -> None:
-    """``RANDOMISED_RANGES`` (kept in scenarios.py, which config.py imports) repeats the matching reset options'
-    declared ranges: they must agree, so that every drawn value is a valid reset option."""
+    """``RANDOMISED_RANGES`` (in randomisation.py, which config.py imports through scenarios.py) repeats the
+    matching reset options' declared ranges: they must agree, so that every drawn value is a valid reset option."""
     from vtrack_gym.envs.config import ResetOptions
-    from vtrack_gym.envs.scenarios import RANDOMISED_RANGES
+    from vtrack_gym.envs.randomisation import RANDOMISED_RANGES
 
     option_of = {"friction_range": "friction_mu", "mass_scale_range": "mass_scale",
                  "sensor_noise_range": "sensor_noise", "steering_rate_scale_range": "steering_rate_scale",

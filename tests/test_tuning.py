@@ -12,20 +12,17 @@ import pytest
 import vtrack_gym  # noqa: F401
 from vtrack_gym.baselines import preset_files as P
 from vtrack_gym.baselines.mpc import MPCConfig, gain_table
+from vtrack_gym.baselines.mpc_gains import population_gain_tables
+from vtrack_gym.baselines.mpc_tuning import MPC_PAPER
 from vtrack_gym.baselines.registry import make_policy
 from vtrack_gym.baselines.smc import SMC, SMCConfig
+from vtrack_gym.baselines.smc_tuning import SMC_PAPER, SMC_WORKING, PopulationSMC
 from vtrack_gym.envs.pdflc import PDFLCConfig
 from vtrack_gym.evaluation.metrics import itae
 from vtrack_gym.evaluation.rollout import rollout
 from vtrack_gym.tuning.ga import tune
-from vtrack_gym.tuning.population import (
-    FitnessConfig,
-    PopulationEvaluator,
-    PopulationSMC,
-    configs_from_vector,
-    population_gain_tables,
-)
-from vtrack_gym.tuning.spaces import BUDGETS, MPC_PAPER, SMC_PAPER, SMC_WORKING, Budget, search_space
+from vtrack_gym.tuning.population import FitnessConfig, PopulationEvaluator, configs_from_vector
+from vtrack_gym.tuning.spaces import BUDGETS, Budget, search_space
 
 QUICK = Budget("quick", 3, 4)
 STEPS = 400  # episodes cut at 4 s: keeps the GA tests fast (the full Case 1 lap is ~21 500 steps)

@@ -14,10 +14,12 @@ import pytest
 os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
 ray = pytest.importorskip("ray")
 
+from vtrack_gym.baselines.mpc_tuning import MPC_PAPER  # noqa: E402
+from vtrack_gym.baselines.smc_tuning import SMC_WORKING  # noqa: E402
 from vtrack_gym.tuning.backends import RayPopulationEvaluator, make_evaluator, merge_results  # noqa: E402
 from vtrack_gym.tuning.ga import tune  # noqa: E402
 from vtrack_gym.tuning.population import PopulationEvaluator, PopulationResult  # noqa: E402
-from vtrack_gym.tuning.spaces import MPC_PAPER, SMC_WORKING, Budget  # noqa: E402
+from vtrack_gym.tuning.spaces import Budget  # noqa: E402
 
 STEPS = 300
 ARRAYS = [f.name for f in dataclasses.fields(PopulationResult)

@@ -12,7 +12,7 @@ from vtrack_gym._version import __version__
 from vtrack_gym.envs.registration import ALL_ENV_IDS, ENV_IDS, register_envs
 from vtrack_gym.interop import register_highway_envs
 
-__all__ = ["ALL_ENV_IDS", "ENV_IDS", "__version__", "evaluate", "make_policy", "register_envs"]
+__all__ = ["ALL_ENV_IDS", "ENV_IDS", "__version__", "evaluate", "leaderboard", "make_policy", "register_envs"]
 
 
 def make_policy(spec: str, env: _Any, preset: str | None = None, *, trust_code: bool = False,
@@ -33,11 +33,23 @@ def evaluate(policy_or_factory: _Any, suite_or_env: _Any = "paper", seeds: _Any 
     """Score any object with ``predict`` (or a factory ``make(env)``) on a suite or env; one row per episode.
 
     Keywords: ``store`` (leaderboard file to add the rows to), ``vecnormalize`` (SB3 ``VecNormalize``
-    statistics), ``policy_id``. See ``vtrack_gym.evaluation.api.evaluate``.
+    statistics), ``policy_id``, ``workers`` (local processes), ``backend`` (``"local"`` or ``"ray"``). See
+    ``vtrack_gym.evaluation.api.evaluate``.
     """
     from vtrack_gym.evaluation.api import evaluate as _evaluate
 
     return _evaluate(policy_or_factory, suite_or_env, seeds, **kwargs)
+
+
+def leaderboard(source: _Any, suite: str | None = None, **kwargs: _Any) -> _Any:
+    """The ranked board of ``suite`` from a store file or from result rows (e.g. ``evaluate``'s): a list of dicts
+    with the columns and 95 % intervals of ``vtrack leaderboard --format json``, or a pandas DataFrame with
+    ``as_frame=True``. Keywords: ``columns``, ``latest_only``, ``as_frame``. See
+    ``vtrack_gym.evaluation.api.leaderboard``.
+    """
+    from vtrack_gym.evaluation.api import leaderboard as _leaderboard
+
+    return _leaderboard(source, suite, **kwargs)
 
 
 register_envs()

@@ -1,8 +1,10 @@
 """Safe file input and output: regular files only, bounded reads, atomic writes, checked before the work starts.
 
-Every output location the package writes (presets, agent files, leaderboards, the store, figure folders) is checked
-with :func:`check_output_file` or :func:`check_output_dir` when the command starts, and every file is written with
-:func:`write_atomic` (a temporary file in the same folder, then ``os.replace``). Rules, for a path after its
+Every output location the package writes (presets, agent files, leaderboards, the store, figure folders, videos,
+run folders) is checked with :func:`check_output_file` or :func:`check_output_dir` when the command starts, and
+every file is written through :func:`atomic_output` (a temporary file in the same folder, fsynced, then
+``os.replace``; on any failure it is deleted, and a full disk or read-only folder is a ``ValueError`` that says
+so) or its shorthand :func:`write_atomic`. Rules, for a path after its
 symlinks are resolved:
 
 * an output file is absent or a regular file (never a directory, device, FIFO or socket), and its folder, or the
@@ -19,9 +21,12 @@ Errors are ``ValueError`` naming the option (or what the file is) and the path.
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import os
 import stat
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
 _KINDS = ((stat.S_ISREG, "a regular file"), (stat.S_ISDIR, "a directory"),
@@ -72,15 +77,49 @@ def _make_dirs(folder: Path, label: str) -> None:
         raise ValueError(f"{label}: cannot create the folder {folder} ({exc.strerror or exc})") from None
 
 
-def check_output_file(path: str | os.PathLike[str], option: str = "") -> Path:
+_SQLITE_MAGIC = b"SQLite format 3\x00"
+_SQLITE_COMPANIONS = ("-wal", "-shm", "-journal")
+
+
+def _is_sqlite(path: Path) -> bool:
+    """True if ``path`` is a regular file starting with SQLite's header (a leaderboard store, for one)."""
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+    except OSError:
+        return False
+    try:
+        return stat.S_ISREG(os.fstat(fd).st_mode) and os.read(fd, len(_SQLITE_MAGIC)) == _SQLITE_MAGIC
+    except OSError:
+        return False
+    finally:
+        os.close(fd)
+
+
+def _check_not_a_database(target: Path, label: str, store: bool) -> None:
+    """Refuse an SQLite database (unless ``store``: the output is itself a store) and a database's journal."""
+    if not store and _is_sqlite(target):
+        raise ValueError(f"{label} is an SQLite database (a leaderboard store?); it was left untouched: pass "
+                         "another path")
+    for suffix in _SQLITE_COMPANIONS:
+        if target.name.endswith(suffix) and _is_sqlite(target.with_name(target.name[: -len(suffix)])):
+            raise ValueError(f"{label} is the {suffix[1:]} file of the database "
+                             f"{target.name[: -len(suffix)]}; writing it would corrupt that store: pass another path")
+
+
+def check_output_file(path: str | os.PathLike[str], option: str = "", *, store: bool = False) -> Path:
     """Check that a regular file can be written at ``path``; returns the resolved path (symlinks followed).
 
-    Refuses (``ValueError`` naming ``option`` and the path) a directory, device, FIFO or socket, a path under a
-    regular file and a folder the process cannot create files in (missing folders: their nearest existing
-    ancestor). Leaves nothing behind: missing folders are created only when writing.
+    Refuses (``ValueError`` naming ``option`` and the path) a directory, device, FIFO or socket, a symlink to a
+    file in a missing folder, an existing SQLite database (unless ``store``: the output is a store) and a
+    database's ``-wal``/``-shm``/``-journal`` file, a path under a regular file and a folder the process cannot
+    create files in (missing folders: their nearest existing ancestor). Leaves nothing behind: missing folders
+    are created only when writing.
     """
     label = _label(option, path)
     target = Path(os.path.realpath(os.fspath(path)))
+    if os.path.islink(path) and not os.path.isdir(target.parent):   # never create the folders of a link's target
+        raise ValueError(f"{label} is a symbolic link to {os.readlink(path)}, whose folder does not exist; pass "
+                         "the target itself or remove the link")
     try:
         st = os.stat(target)
     except (FileNotFoundError, NotADirectoryError):
@@ -89,6 +128,7 @@ def check_output_file(path: str | os.PathLike[str], option: str = "") -> Path:
         raise ValueError(f"{label}: cannot use this path ({exc.strerror or exc})") from None
     if st is not None and not stat.S_ISREG(st.st_mode):
         raise ValueError(f"{label} is {_kind(st.st_mode)}; an output must be a regular file (or not exist yet)")
+    _check_not_a_database(target, label, store)
     _probe_writable(_existing_folder(target.parent, label), label)
     return target
 
@@ -102,41 +142,107 @@ def check_output_dir(path: str | os.PathLike[str], option: str = "") -> Path:
     return target
 
 
-def write_atomic(path: str | os.PathLike[str], data: bytes | str, option: str = "") -> Path:
-    """Write ``data`` (``str`` as UTF-8) to ``path`` atomically: a temporary file in the same folder, then
-    ``os.replace``. ``path`` is checked with :func:`check_output_file` first (a non-regular file is never replaced);
-    an existing file keeps its permission bits, a new one gets ``0o666`` minus the umask. Returns the resolved path.
-    """
-    target = check_output_file(path, option)
-    _make_dirs(target.parent, _label(option, path))
-    payload = data.encode("utf-8") if isinstance(data, str) else bytes(data)
+def disk_is_full(folder: str | os.PathLike[str]) -> bool:
+    """True if the file system holding ``folder`` has no free block left for this user."""
     try:
-        mode = stat.S_IMODE(os.stat(target).st_mode)
+        return os.statvfs(folder).f_bavail == 0
+    except OSError:
+        return False
+
+
+def _write_problem(exc: OSError, folder: Path) -> str:
+    """A sentence for a failed write: disk full (also when a tool reports it as a broken pipe), read-only, or the
+    error text."""
+    if exc.errno == errno.ENOSPC or disk_is_full(folder):
+        return "the disk is full"
+    if exc.errno in (errno.EROFS, errno.EACCES, errno.EPERM):
+        return f"the folder is read-only or not writable ({exc.strerror or exc})"
+    return str(exc.strerror or exc)[:300]
+
+
+def _missing_folders(folder: Path) -> list[Path]:
+    """``folder`` and its missing ancestors that do not exist yet, deepest first."""
+    missing = []
+    for part in (folder, *folder.parents):
+        if os.path.lexists(part):
+            break
+        missing.append(part)
+    return missing
+
+
+def _new_file_mode(target: Path) -> int:
+    """The permission bits of the file being replaced, else ``0o666`` minus the umask."""
+    try:
+        return stat.S_IMODE(os.stat(target).st_mode)
     except FileNotFoundError:
         umask = os.umask(0o022)
         os.umask(umask)
-        mode = 0o666 & ~umask
-    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
+        return 0o666 & ~umask
+
+
+def _discard(tmp: str, created: list[Path]) -> None:
+    """Remove a temporary file and the (still empty) folders made for it."""
+    with contextlib.suppress(FileNotFoundError):
+        os.unlink(tmp)
+    for folder in created:
+        with contextlib.suppress(OSError):
+            os.rmdir(folder)
+
+
+def _publish(tmp: str, target: Path, label: str) -> None:
+    """fsync ``tmp`` and rename it over ``target`` (never over a file that became a non-regular file)."""
+    fd = os.open(tmp, os.O_RDONLY)
     try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(payload)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.chmod(tmp, mode)
-        try:
-            st = os.lstat(target)
-        except FileNotFoundError:
-            st = None
-        if st is not None and not stat.S_ISREG(st.st_mode):  # appeared since the check: never replace it
-            raise ValueError(f"{_label(option, path)} is {_kind(st.st_mode)}; not replaced")
-        os.replace(tmp, target)
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+    os.chmod(tmp, _new_file_mode(target))
+    try:
+        st = os.lstat(target)
+    except FileNotFoundError:
+        st = None
+    if st is not None and not stat.S_ISREG(st.st_mode):  # appeared since the check: never replace it
+        raise ValueError(f"{label} is {_kind(st.st_mode)}; not replaced")
+    os.replace(tmp, target)
+
+
+@contextlib.contextmanager
+def atomic_output(path: str | os.PathLike[str], option: str = "") -> Iterator[Path]:
+    """The one way a file is written: yields a temporary path in the target's folder (same suffix, for tools that
+    pick a format by it); when the block ends without error the file is fsynced and renamed over ``path``, else it
+    is deleted together with the folders made for it. ``path`` is checked with :func:`check_output_file` first.
+
+    An ``OSError`` while writing (a full disk, a read-only file system) becomes a ``ValueError`` naming ``option``,
+    the path and the cause, with nothing left behind.
+    """
+    label = _label(option, path)
+    target = check_output_file(path, option)
+    created = _missing_folders(target.parent)
+    _make_dirs(target.parent, label)
+    tmp = ""
+    try:
+        fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=f".tmp{target.suffix}")
+        os.close(fd)
+        yield Path(tmp)
+        _publish(tmp, target, label)
+    except OSError as exc:
+        _discard(tmp, created)
+        raise ValueError(f"{label}: could not write the file ({_write_problem(exc, target.parent)}); nothing was "
+                         "written") from None
     except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
+        _discard(tmp, created)
         raise
-    return target
+
+
+def write_atomic(path: str | os.PathLike[str], data: bytes | str, option: str = "") -> Path:
+    """Write ``data`` (``str`` as UTF-8) to ``path`` through :func:`atomic_output` (a temporary file in the same
+    folder, fsynced, then ``os.replace``); an existing file keeps its permission bits, a new one gets ``0o666``
+    minus the umask. Returns the resolved path; ``ValueError`` when it cannot be written (nothing left behind).
+    """
+    payload = data.encode("utf-8") if isinstance(data, str) else bytes(data)
+    with atomic_output(path, option) as tmp, open(tmp, "wb") as fh:
+        fh.write(payload)
+    return Path(os.path.realpath(os.fspath(path)))
 
 
 def read_regular_file(path: str | os.PathLike[str], max_bytes: int, what: str = "file") -> bytes:

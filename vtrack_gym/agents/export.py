@@ -279,26 +279,10 @@ _SIGNED_FILES = ("config.json", "model.zip", "vecnormalize.pkl")
 
 
 def _trust_key(create: bool) -> bytes | None:
-    """This user's run-signing key (32 random bytes in ``$XDG_CONFIG_HOME/vtrack_gym/trust.key``, mode 0600)."""
-    import os
-    import secrets
+    """This user's run-signing key (``vtrack_gym.agents.trust_key``: a key that breaks the key rule is refused)."""
+    from vtrack_gym.agents.trust_key import load_trust_key
 
-    base = Path(os.environ.get("XDG_CONFIG_HOME") or Path.home() / ".config")
-    key_file = base / "vtrack_gym" / "trust.key"
-    try:
-        return bytes.fromhex(key_file.read_text(encoding="ascii").strip())
-    except (OSError, ValueError):
-        if not create:
-            return None
-    key_file.parent.mkdir(parents=True, exist_ok=True, mode=0o700)
-    key = secrets.token_bytes(32)
-    try:
-        fd = os.open(key_file, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
-    except FileExistsError:  # another process made it first
-        return bytes.fromhex(key_file.read_text(encoding="ascii").strip())
-    with os.fdopen(fd, "w", encoding="ascii") as fh:
-        fh.write(key.hex() + "\n")
-    return key
+    return load_trust_key(create)
 
 
 def _run_signature(run: Path, key: bytes) -> str:
@@ -328,7 +312,9 @@ def sign_run(run_dir: str | Path) -> Path:
 
 
 def run_is_trusted(run_dir: str | Path) -> bool:
-    """True if ``run_dir`` holds a valid signature by this user's key over its current path and SB3 files."""
+    """True if ``run_dir`` holds a valid signature by this user's key over its current path and SB3 files.
+
+    ``TrustKeyError`` (a ``ValueError``) if this user's key breaks the key rule: such a key is never used."""
     import hmac
 
     run = Path(run_dir)

@@ -13,7 +13,7 @@ then RL improves it on the env's reward:
    ``dagger_rounds`` further rounds are driven by the cloned agent itself and labelled by the expert (DAgger),
    so the data also hold the states the clone's own errors lead to; the fit runs on the aggregate.
 2. ``warm_start``: running observation statistics are set from the data (fixed physical scales,
-   ``obs_scaling: fixed``, are kept as they are: ``obs_scaling.FrozenStatistics``); the actor's mean is regressed on the
+   the recipes' callback, are kept as they are: ``obs_scaling.FrozenStatistics``); the actor's mean is regressed on the
    expert's actions (MSE, normalised observations); PPO's value function is regressed on the discounted returns
    of the last round's data (VecNormalize's return statistics set from the same data); the exploration std is
    set to ``exp(init_log_std)``. For SAC the data go into its replay buffer (``prefill_replay_buffer``) and the

@@ -1,5 +1,7 @@
 """Fixed physical observation scaling for RL: ``(obs - centre) / scale`` per named field, clipped at +-``CLIP``.
 
+The scales are the observation table's ``centre`` and ``scale`` columns (``vtrack_gym.envs.observation``).
+
 Why not running statistics: ``VecNormalize`` learns each field's spread from the data, and once an agent tracks
 well the spread of ``e_y`` is a few centimetres, so with its clip of 10 standard deviations every lateral error
 beyond about +-0.4 m reads the same (the imitation agents saw exactly that). Fixed scales keep the
@@ -17,32 +19,18 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.running_mean_std import RunningMeanStd
+
+from vtrack_gym.envs.observation import SCALARS, SERIES, scale_columns
 
 CLIP = 10.0
 """Scaled observations are clipped at +-CLIP (the visible range of a field is centre +- CLIP x scale)."""
 
-FIELD_SCALES: dict[str, tuple[float, float]] = {
-    "e_y": (0.0, 0.25),              # m
-    "e_phi": (0.0, 0.1),             # rad
-    "e_y_dot": (0.0, 1.0),           # m/s
-    "e_phi_dot": (0.0, 0.2),         # rad/s
-    "v_x": (15.0, 10.0),             # m/s
-    "v_y": (0.0, 0.5),               # m/s
-    "yaw_rate": (0.0, 0.3),          # rad/s
-    "road_wheel_angle": (0.0, 0.2),  # rad
-    "target_speed": (15.0, 10.0),    # m/s
-    "yaw_rate_ref": (0.0, 0.3),      # rad/s
-    "yaw_acc_ref": (0.0, 1.0),       # rad/s^2
-    "curvature": (0.0, 0.02),        # 1/m
-    "curvature_rate": (0.0, 0.005),  # 1/m^2
-}
-"""Field name -> (centre, scale) in the field's SI unit."""
-PREFIX_SCALES: dict[str, tuple[float, float]] = {
-    "kappa_preview_": (0.0, 0.02),   # 1/m
-    "v_ref_preview_": (15.0, 10.0),  # m/s
-}
-"""Name prefix -> (centre, scale) for the preview samples."""
+FIELD_SCALES: dict[str, tuple[float, float]] = scale_columns(SCALARS)
+"""Field name -> (centre, scale) in the field's SI unit (the observation table's scale columns)."""
+PREFIX_SCALES: dict[str, tuple[float, float]] = scale_columns(SERIES)
+"""Name prefix -> (centre, scale) for the preview samples (the table's series rows)."""
 
 
 class FrozenStatistics(RunningMeanStd):
@@ -84,3 +72,22 @@ def freeze_observation_scaling(vecnormalize: Any, names: Sequence[str]) -> None:
     frozen.mean, frozen.var, frozen.count = mean, var, 1.0
     vecnormalize.obs_rms = frozen
     vecnormalize.clip_obs = CLIP
+
+
+class FixedObservationScaling(BaseCallback):
+    """The fixed scales as an SB3 callback, for rl_zoo3 (``callback:`` in a hyperparameter file): when learning
+    starts, the model's ``VecNormalize`` takes the fixed scaling (``freeze_observation_scaling``, with the env's
+    observation names) and the first observation, normalised at reset, is rescaled with it. ``vtrack train``
+    applies the same scaling before it builds the model."""
+
+    def _init_callback(self) -> None:
+        vecnorm = self.model.get_vec_normalize_env()
+        if vecnorm is None:
+            raise ValueError("FixedObservationScaling needs normalize: {norm_obs: true} in the hyperparameters")
+        layout = vecnorm.get_attr("observation_layout", [0])[0]
+        freeze_observation_scaling(vecnorm, layout.names)
+        if getattr(self.model, "_last_obs", None) is not None:
+            self.model._last_obs = vecnorm.normalize_obs(vecnorm.get_original_obs())
+
+    def _on_step(self) -> bool:
+        return True

@@ -24,8 +24,13 @@ class TrackingSB3VecEnv(VecEnv):
                  num_envs: int = 8, **kwargs: Any) -> None:
         if isinstance(env_id_or_vector_env, TrackingVectorEnv):
             self.venv = env_id_or_vector_env
-        else:
-            self.venv = TrackingVectorEnv(env_id_or_vector_env, num_envs=num_envs, **kwargs)
+        else:  # a registered id's own settings (e.g. its control period), then the caller's
+            from gymnasium.envs.registration import registry
+
+            spec = registry.get(env_id_or_vector_env) if isinstance(env_id_or_vector_env, str) else None
+            spec_kwargs = dict(spec.kwargs) if spec is not None else {}
+            scenario = spec_kwargs.pop("scenario", env_id_or_vector_env)
+            self.venv = TrackingVectorEnv(scenario, num_envs=num_envs, **{**spec_kwargs, **kwargs})
         super().__init__(self.venv.num_envs, self.venv.single_observation_space, self.venv.single_action_space)
         self._actions = np.zeros(self.num_envs)
         self._pending_seed: int | None = None

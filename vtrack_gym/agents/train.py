@@ -1,13 +1,16 @@
 """Train PPO / SAC / TD3 on the native vector env and write a run folder.
 
-``train("ppo", timesteps=1_000_000, seed=0, run_dir="runs/ppo_s0")`` trains on ``TrackingSB3VecEnv`` (one compiled
-call steps every car) wrapped in ``VecNormalize`` (observation statistics are saved with the agent), with the
-hyperparameters of ``vtrack_gym/agents/hyperparams/<algo>.yaml`` for ``env_id`` (rl-zoo style, read with
-``yaml.safe_load``; ``activation_fn`` is a name from a fixed table, nothing is evaluated).
+``train("ppo", seed=0, run_dir="runs/ppo_s0")`` trains on ``TrackingSB3VecEnv`` (one compiled call steps every
+car) wrapped in ``VecNormalize`` (observation statistics are saved with the agent), with the hyperparameters of
+``vtrack_gym/agents/hyperparams/<algo>.yaml`` for ``env_id`` (rl_zoo3's format, read with ``yaml.safe_load``;
+nothing is evaluated: see ``agents.recipes``), for the entry's ``n_timesteps`` unless ``timesteps`` is given.
+``train`` runs in phases, one function each: configuration check (``_configure``), env building
+(``_build_envs``), model building (``_build_model``), the run folder (``_open_run_dir``), learning (``_learn``)
+and export (``_save_and_export``).
 
 The run folder holds:
 
-* ``config.json``: algo, env id, hyperparameters (+ their file version), overrides, seed, timesteps, command,
+* ``config.json``: algo, env id, hyperparameters (+ the SHA-256 of their file), overrides, seed, timesteps, command,
   package / SB3 / torch versions, start time, ``timesteps_effective`` (``timesteps`` rounded up to whole PPO
   rollouts or vector steps) and the warnings of ``check_hyperparams``; at the end ``timesteps_done`` (the steps
   actually trained) and ``interrupted`` (true if Ctrl+C stopped the run early, with ``interrupted_during``: warm
@@ -33,30 +36,40 @@ from __future__ import annotations
 
 import json
 import logging
-import math
+import os
 import shlex
 import sys
 import time
 from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from vtrack_gym._io import write_atomic
+from vtrack_gym._io import atomic_output, check_output_dir, write_atomic
+from vtrack_gym.agents.recipes import (
+    ALGOS,
+    DEFAULT_ENV_ID,
+    HYPERPARAMS_DIR,
+    IMITATION_ENV_ID,
+    REGULARISED_SAC_KEYS,
+    _integer,
+    _schedule,
+    action_noise,
+    check_hyperparams,
+    load_hyperparams,
+    observation_scaling,
+    policy_kwargs,
+)
+
+__all__ = ["ALGOS", "DEFAULT_ENV_ID", "EVAL_ENV_IDS", "HYPERPARAMS_DIR", "IMITATION_ENV_ID", "LOG_FILE_PATTERNS",
+           "RUN_FILES", "check_hyperparams", "check_run_dir", "evaluate_paper", "load_hyperparams",
+           "previous_run_files", "selection_score", "train"]
 
 log = logging.getLogger(__name__)
 
-ALGOS = ("ppo", "sac", "td3")
-DEFAULT_ENV_ID = "vtrack/TrainingMix-v0"
-"""Training env of the from-scratch recipes (``envs.scenarios.TRAINING_MIX``)."""
-IMITATION_ENV_ID = "LateralTrackingRandom-v0"
-"""Training env of the behaviour-cloning recipes (``bc``), whose ``bc_finetune`` settings live under it."""
-REGULARISED_SAC_KEYS = frozenset({"bc_weight", "temporal_smoothness", "spatial_smoothness", "spatial_noise"})
-"""SAC hyperparameters that select ``regularised_sac.RegularisedSAC`` (extra actor-loss terms)."""
-HYPERPARAMS_DIR = Path(__file__).with_name("hyperparams")
 EVAL_ENV_IDS = ("DLC120-v0", "LateralTracking-v0")
-_ACTIVATIONS = ("tanh", "relu")
 RUN_FILES = ("config.json", "model.zip", "vecnormalize.pkl", "best_model.zip", "agent.json", "agent.npz",
              "best_agent.json", "best_agent.npz", "bc.json", "evaluations.jsonl", "vtrack-train.sig")
 """Files ``train`` writes at the top of its run folder."""
@@ -81,6 +94,11 @@ def previous_run_files(run_dir: str | Path) -> list[Path]:
 def check_run_dir(run_dir: str | Path, overwrite: bool = False) -> list[Path]:
     """``ValueError`` naming the folder if ``run_dir`` already holds a run and ``overwrite`` is false (mixing two
     runs' evaluations, logs and checkpoints in one folder); returns the files ``--overwrite`` would remove."""
+    logs = Path(run_dir) / "logs"
+    if logs.is_symlink():
+        raise ValueError(f"--run-dir {run_dir}: logs is a symbolic link (to {os.readlink(logs)}); training writes "
+                         "its logs only into a real folder of the run: remove the link")
+    check_output_dir(logs, "--run-dir")
     files = previous_run_files(run_dir)
     if files and not overwrite:
         names = ", ".join(str(f.relative_to(run_dir)) for f in files[:6]) + (", ..." if len(files) > 6 else "")
@@ -103,158 +121,6 @@ def _clear_previous_run(run_dir: Path, overwrite: bool) -> None:
             pass
 
 
-def load_hyperparams(algo: str, env_id: str = DEFAULT_ENV_ID) -> tuple[dict[str, Any], int]:
-    """``(hyperparameters for env_id, file version)`` from ``hyperparams/<algo>.yaml`` (``yaml.safe_load``; the
-    file's keys are scenario names, ``vtrack/`` ids are looked up without the namespace)."""
-    import yaml
-
-    env_id = env_id.removeprefix("vtrack/")
-    if algo not in ALGOS:
-        raise ValueError(f"algo must be one of {ALGOS} (got {algo!r})")
-    path = HYPERPARAMS_DIR / f"{algo}.yaml"
-    with path.open(encoding="utf-8") as fh:
-        data = yaml.safe_load(fh)
-    if not isinstance(data, dict) or not isinstance(data.get("version"), int):
-        raise ValueError(f"{path}: expected a mapping with an integer 'version'")
-    if env_id not in data:
-        known = sorted(k for k in data if k != "version")
-        raise ValueError(f"{path}: no hyperparameters for {env_id!r} (have {known})")
-    params = data[env_id]
-    if not isinstance(params, dict):
-        raise ValueError(f"{path}: entry {env_id!r} must be a mapping")
-    return dict(params), int(data["version"])
-
-
-MAX_BATCH_SIZE = 2**17
-"""Largest ``batch_size`` [transitions] (beyond what fits a 2-core machine's memory and time budget)."""
-MAX_BUFFER_SIZE = 10**8
-"""Largest off-policy ``buffer_size`` [transitions]."""
-SB3_DEFAULTS = {"ppo": {"n_steps": 2048, "batch_size": 64},
-                "sac": {"buffer_size": 1_000_000, "batch_size": 256, "learning_starts": 100},
-                "td3": {"buffer_size": 1_000_000, "batch_size": 256, "learning_starts": 100}}
-"""SB3's defaults of the hyperparameters ``check_hyperparams`` relates to each other, when a set omits them."""
-
-
-def _number(key: str, value: Any, low: float, high: float, low_open: bool = False) -> float:
-    """``value`` as a float if it is a finite real number in [low, high] (``(low, high]`` if ``low_open``), else
-    ``ValueError`` naming the hyperparameter and its range."""
-    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and np.isfinite(value)
-    ok = ok and (value > low if low_open else value >= low) and value <= high
-    if not ok:
-        interval = f"{'(' if low_open else '['}{low:g}, {high:g}]" if np.isfinite(high) else \
-            f"{'> ' if low_open else '>= '}{low:g}"
-        raise ValueError(f"hyperparameter {key} must be a number {'in ' if np.isfinite(high) else ''}{interval} "
-                         f"(got {value!r})")
-    return float(value)
-
-
-def _integer(key: str, value: Any, low: int, high: int) -> int:
-    """``value`` if it is an int in [low, high], else ``ValueError`` naming the hyperparameter and its range."""
-    if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
-        raise ValueError(f"hyperparameter {key} must be an integer in [{low}, {high}] (got {value!r})")
-    return value
-
-
-def _batch_size(value: Any, low: int, limit: int, limit_text: str, fix: str) -> None:
-    """``ValueError`` unless ``value`` is an int in [low, min(limit, MAX_BATCH_SIZE)]; the message says where
-    the upper end comes from (``limit_text``) and how to fix it."""
-    high = min(limit, MAX_BATCH_SIZE)
-    if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
-        raise ValueError(f"hyperparameter batch_size must be an integer in [{low}, {high}] ({limit_text}, at most "
-                         f"{MAX_BATCH_SIZE}) (got {value!r}): {fix}")
-
-
-def check_hyperparams(algo: str, params: Mapping[str, Any], n_envs: Any, timesteps: int) -> dict[str, Any]:
-    """Refuse (``ValueError`` naming the key and its range) values that crash SB3 or train nonsense: ``gamma``
-    in (0, 1], ``gae_lambda`` in [0, 1], ``clip_range`` > 0, ``ent_coef`` >= 0 (SAC: or ``auto`` / ``auto_X``),
-    ``tau`` in (0, 1], ``train_freq`` >= 1, ``learning_starts`` >= 0, ``batch_size`` in [2, n_steps x n_envs]
-    (PPO) or [1, buffer_size] (SAC/TD3), at most ``MAX_BATCH_SIZE``. Returns notes for the run's config:
-    ``timesteps_effective`` (PPO trains whole rollouts of n_steps x n_envs transitions; SAC/TD3 whole vector
-    steps of n_envs) and warnings (SAC/TD3 ``learning_starts`` >= ``timesteps``: never updated)."""
-    p = {**SB3_DEFAULTS[algo], **params}
-    n_envs = _integer("n_envs", n_envs, 1, 4096)
-    if "gamma" in p:
-        _number("gamma", p["gamma"], 0.0, 1.0, low_open=True)
-    if "learning_starts" in p:
-        _integer("learning_starts", p["learning_starts"], 0, 10**12)
-    if algo == "ppo":
-        if "gae_lambda" in p:
-            _number("gae_lambda", p["gae_lambda"], 0.0, 1.0)
-        if "clip_range" in p and not isinstance(p["clip_range"], str):  # "lin_X": checked by _schedule
-            _number("clip_range", p["clip_range"], 0.0, float("inf"), low_open=True)
-        if "ent_coef" in p:
-            _number("ent_coef", p["ent_coef"], 0.0, float("inf"))
-        n_steps = _integer("n_steps", p["n_steps"], 1, 10**7)
-        rollout = n_steps * n_envs
-        if rollout < 2:
-            raise ValueError(f"hyperparameter n_steps x n_envs must be >= 2 (got {n_steps} x {n_envs})")
-        _batch_size(p["batch_size"], 2, rollout, f"n_steps x n_envs = {n_steps} x {n_envs} = {rollout}",
-                    "--set batch_size=N, or more --num-envs or n_steps")
-        chunk = rollout
-    else:
-        buffer_size = _integer("buffer_size", p["buffer_size"], 1, MAX_BUFFER_SIZE)
-        _batch_size(p["batch_size"], 1, buffer_size, f"buffer_size = {buffer_size}", "--set batch_size=N")
-        if "tau" in p:
-            _number("tau", p["tau"], 0.0, 1.0, low_open=True)
-        freq = p.get("train_freq", 1)
-        if isinstance(freq, (list, tuple)):
-            if len(freq) != 2 or freq[1] not in ("step", "episode"):
-                raise ValueError(f"hyperparameter train_freq must be an integer >= 1 or [N, step|episode] "
-                                 f"(got {freq!r})")
-            freq = freq[0]
-        _integer("train_freq", freq, 1, 10**9)
-        ent = p.get("ent_coef")
-        if algo == "sac" and ent is not None:
-            if isinstance(ent, str):
-                head, sep, start = ent.partition("_")
-                try:   # "auto", or "auto_X" with a finite X > 0 ("auto_" and "auto_inf" crash inside SB3)
-                    ok = head == "auto" and (not sep or (math.isfinite(float(start)) and float(start) > 0.0))
-                except ValueError:
-                    ok = False
-                if not ok:
-                    raise ValueError(f"hyperparameter ent_coef must be a number >= 0, 'auto' or 'auto_X' with "
-                                     f"X > 0 (got {ent!r})")
-            else:
-                _number("ent_coef", ent, 0.0, float("inf"))
-        chunk = n_envs
-    notes: dict[str, Any] = {"timesteps_effective": -(-timesteps // chunk) * chunk, "warnings": []}
-    if algo == "ppo" and notes["timesteps_effective"] != timesteps:
-        notes["warnings"].append(f"PPO trains whole rollouts of n_steps x n_envs = {chunk} transitions: "
-                                 f"--timesteps {timesteps} becomes {notes['timesteps_effective']}")
-    if algo != "ppo" and p["learning_starts"] >= timesteps:
-        notes["warnings"].append(f"learning_starts = {p['learning_starts']} >= --timesteps {timesteps}: the agent "
-                                 "will never be updated (it stays the random initial policy)")
-    return notes
-
-
-def _policy_kwargs(raw: Mapping[str, Any] | None) -> dict[str, Any]:
-    import torch.nn as nn
-
-    kwargs = dict(raw or {})
-    act = kwargs.get("activation_fn")
-    if act is not None:
-        if act not in _ACTIVATIONS:
-            raise ValueError(f"policy_kwargs.activation_fn must be one of {_ACTIVATIONS} (got {act!r})")
-        kwargs["activation_fn"] = {"tanh": nn.Tanh, "relu": nn.ReLU}[act]
-    net_arch = kwargs.get("net_arch")
-    if isinstance(net_arch, dict):
-        kwargs["net_arch"] = {k: list(v) for k, v in net_arch.items()}
-    return kwargs
-
-
-def _schedule(name: str, value: Any) -> Any:
-    """A number as is, or ``"lin_X"`` (rl-zoo's notation) as a schedule falling linearly from X to 0 over the run
-    (SB3 calls it with the remaining progress, 1 -> 0)."""
-    if not isinstance(value, str):
-        return value
-    head, _, number = value.partition("_")
-    try:
-        start = float(number)
-    except ValueError:
-        start = float("nan")
-    if head != "lin" or not (start > 0.0 and start < 1e3):
-        raise ValueError(f"{name} must be a number or 'lin_X' with X > 0, e.g. lin_3e-4 (got {value!r})")
-    return lambda progress_remaining: progress_remaining * start
 
 
 class _Wrapped:
@@ -310,9 +176,8 @@ def selection_score(results: Mapping[str, Mapping[str, Any]]) -> float:
     return float(dlc["max_e_y_m"])
 
 
-def _make_callbacks(run_dir: Path, vecnorm: Any, timesteps: int, eval_freq: int, case1_max_steps: int | None,
-                    case1_full_every: int, progress_bar: bool, env_id: str, command: str,
-                    seed: int, warm_start: str, contract_env: Any) -> list[Any]:
+def _progress_bar(timesteps: int) -> Any:
+    """An SB3 callback showing a tqdm bar of ``timesteps`` steps."""
     from stable_baselines3.common.callbacks import BaseCallback
 
     class ProgressBar(BaseCallback):
@@ -328,6 +193,15 @@ def _make_callbacks(run_dir: Path, vecnorm: Any, timesteps: int, eval_freq: int,
         def _on_training_end(self) -> None:
             self.bar.update(max(min(self.num_timesteps, timesteps) - self.bar.n, 0))
             self.bar.close()
+
+    return ProgressBar()
+
+
+def _make_callbacks(run_dir: Path, vecnorm: Any, timesteps: int, eval_freq: int, case1_max_steps: int | None,
+                    case1_full_every: int, progress_bar: bool, env_id: str, command: str,
+                    seed: int, warm_start: str, contract_env: Any) -> list[Any]:
+    """``[the periodic paper evaluation (keeps the best checkpoint), the progress bar if wanted]``."""
+    from stable_baselines3.common.callbacks import BaseCallback
 
     class PaperEval(BaseCallback):
         def __init__(self) -> None:
@@ -368,53 +242,34 @@ def _make_callbacks(run_dir: Path, vecnorm: Any, timesteps: int, eval_freq: int,
                 self.run()
             return True
 
-    callbacks: list[Any] = [PaperEval()]
-    if progress_bar:
-        callbacks.append(ProgressBar())
-    return callbacks
+    return [PaperEval(), _progress_bar(timesteps)] if progress_bar else [PaperEval()]
 
 
-def train(algo: str, env_id: str | None = None, timesteps: int = 1_000_000, seed: int = 0,
-          run_dir: str | Path = "vtrack_runs/run", *, num_envs: int | None = None,
-          overrides: Mapping[str, Any] | None = None, eval_freq: int = 100_000, case1_max_steps: int | None = 3000,
-          case1_full_every: int = 5, final_eval: bool = True, progress_bar: bool = True, verbose: int = 0,
-          torch_threads: int | None = 1, command: str | None = None, bc: Any = None,
-          overwrite: bool = False) -> dict[str, Any]:
-    """Train ``algo`` on ``env_id`` and write ``run_dir`` (see the module docstring). Returns a summary dict.
+@dataclass(frozen=True)
+class _RunSetup:
+    """A checked training run: what the config phase decided, read by the later phases."""
 
-    ``overrides`` replace YAML entries (e.g. ``{"n_steps": 64}``; a value of ``None`` drops the entry);
-    ``num_envs`` overrides ``n_envs``. ``env_id`` ``None``: ``DEFAULT_ENV_ID`` from scratch, ``IMITATION_ENV_ID``
-    with ``bc``.
-    ``eval_freq <= 0`` disables periodic evaluation. ``bc`` (a ``vtrack_gym.agents.imitation.BCConfig``, PPO or
-    SAC) starts from a behaviour-cloned actor: the YAML entry's ``bc_finetune`` values are applied on top, the
-    expert data and the fit go to ``bc.json``, and the warm-started agent is evaluated at timestep 0. A
-    ``bc_weight`` hyperparameter (SAC with ``bc`` only) selects ``RegularisedSAC``, whose actor loss keeps a
-    behaviour-cloning term on the warm start's expert labels; so do ``temporal_smoothness`` /
-    ``spatial_smoothness`` (SAC; CAPS-style terms on the deterministic action, see ``regularised_sac``).
-    On ``KeyboardInterrupt`` (Ctrl+C) during the warm start or learning, the model is saved and exported as it
-    is, ``config.json`` records ``interrupted: true`` and ``timesteps_done``, the final evaluation is skipped
-    and the summary's ``interrupted`` is true (``vtrack train`` exits with 130).
-    A ``run_dir`` that already holds a run is refused (``check_run_dir``) unless ``overwrite``, which deletes
-    that run's files (``previous_run_files``, nothing else) once every setting has been checked.
-    """
-    import stable_baselines3
-    import torch
-    from stable_baselines3 import PPO, SAC, TD3
-    from stable_baselines3.common.logger import configure
-    from stable_baselines3.common.noise import NormalActionNoise
-    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+    algo: str
+    env_id: str
+    timesteps: int
+    timesteps_effective: int
+    seed: int
+    run_dir: Path
+    command: str
+    bc: Any
+    n_envs: int
+    normalize: dict[str, Any]
+    obs_scaling: str           # "fixed" or "running"
+    env_kwargs: dict[str, Any]
+    model_params: dict[str, Any]  # the SB3 constructor's keyword arguments, as in the file
+    config: dict[str, Any]     # config.json
 
-    from vtrack_gym._version import __version__
-    from vtrack_gym.agents.export import export, sign_run, training_env_kwargs
-    from vtrack_gym.agents.sb3_vec_env import TrackingSB3VecEnv
 
-    if not isinstance(timesteps, int) or timesteps < 1:
-        raise ValueError(f"timesteps must be a positive int (got {timesteps!r})")
-    if env_id is None:
-        env_id = DEFAULT_ENV_ID if bc is None else IMITATION_ENV_ID
-    if torch_threads:
-        torch.set_num_threads(torch_threads)
-    params, hp_version = load_hyperparams(algo, env_id)
+def _merged_params(algo: str, env_id: str, overrides: Mapping[str, Any] | None, bc: Any,
+                   num_envs: int | None) -> tuple[dict[str, Any], str]:
+    """The entry's hyperparameters with the warm start's ``bc_finetune``, ``overrides`` (None drops a key) and
+    ``num_envs`` applied, checked for settings of another algorithm; and the file's SHA-256."""
+    params, digest = load_hyperparams(algo, env_id)
     finetune = params.pop("bc_finetune", None) or {}
     if bc is not None:
         if algo not in ("ppo", "sac"):
@@ -429,120 +284,228 @@ def train(algo: str, env_id: str | None = None, timesteps: int = 1_000_000, seed
         raise ValueError(f"{sorted(REGULARISED_SAC_KEYS & params.keys())} apply to --algo sac only")
     if num_envs is not None:
         params["n_envs"] = int(num_envs)
+    return params, digest
+
+
+def _configure(algo: str, env_id: str | None, timesteps: int | None, seed: int, run_dir: str | Path,
+               num_envs: int | None, overrides: Mapping[str, Any] | None, bc: Any, command: str | None,
+               eval_settings: dict[str, Any]) -> _RunSetup:
+    """Config phase: read and check the hyperparameters, decide the run's settings and its ``config.json``."""
+    import stable_baselines3
+    import torch
+
+    from vtrack_gym._version import __version__
+    from vtrack_gym.agents.export import training_env_kwargs
+
+    if timesteps is not None and (not isinstance(timesteps, int) or timesteps < 1):
+        raise ValueError(f"timesteps must be a positive int (got {timesteps!r})")
+    if env_id is None:
+        env_id = DEFAULT_ENV_ID if bc is None else IMITATION_ENV_ID
+    params, digest = _merged_params(algo, env_id, overrides, bc, num_envs)
+    file_timesteps = params.pop("n_timesteps", None)
+    if timesteps is None:
+        if file_timesteps is None:
+            raise ValueError(f"{env_id} in hyperparams/{algo}.yaml has no n_timesteps: pass timesteps")
+        timesteps = _integer("n_timesteps", file_timesteps, 1, 10**12)
     checked = check_hyperparams(algo, params, params.get("n_envs", 8), timesteps)
     for warning in checked["warnings"]:
         log.warning("%s", warning)
-    run_dir = Path(run_dir)
     command = command if command is not None else shlex.join([Path(sys.argv[0]).name, *sys.argv[1:]])
     config = {"algo": algo, "env_id": env_id, "timesteps": timesteps, "seed": seed,
               "timesteps_effective": checked["timesteps_effective"], "warnings": checked["warnings"],
               "hyperparams": json.loads(json.dumps(params)),
-              "hyperparams_file": f"vtrack_gym/agents/hyperparams/{algo}.yaml", "hyperparams_version": hp_version,
+              "hyperparams_file": f"vtrack_gym/agents/hyperparams/{algo}.yaml", "hyperparams_sha256": digest,
               "overrides": dict(overrides or {}), "command": command, "package_version": __version__,
               "sb3_version": stable_baselines3.__version__, "torch_version": torch.__version__,
-              "python": sys.version.split()[0], "eval": {"freq": eval_freq, "case1_max_steps": case1_max_steps,
-                                                           "case1_full_every": case1_full_every},
+              "python": sys.version.split()[0], "eval": eval_settings,
               "bc": None if bc is None else bc.as_dict(),
               "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
-
-    n_envs = int(params.pop("n_envs", 8))
-    policy = params.pop("policy", "MlpPolicy")
+    model_params = dict(params)
+    n_envs = int(model_params.pop("n_envs", 8))
+    policy = model_params.pop("policy", "MlpPolicy")
     if policy != "MlpPolicy":  # SB3 would accept CnnPolicy etc., which the agent format cannot hold
         raise ValueError(f"policy must be MlpPolicy, the only policy an agent file can hold (got {policy!r})")
-    norm_kwargs = dict(params.pop("normalize", {}) or {})
-    noise_std = params.pop("action_noise_std", None)
-    obs_scaling = params.pop("obs_scaling", "running")
-    env_kwargs = training_env_kwargs(params.pop("env_kwargs", None))
-    params["policy_kwargs"] = _policy_kwargs(params.get("policy_kwargs"))
+    normalize = dict(model_params.pop("normalize", {}) or {})
+    obs_scaling = observation_scaling(model_params)
+    env_kwargs = training_env_kwargs(model_params.pop("env_kwargs", None))
+    return _RunSetup(algo, env_id, timesteps, checked["timesteps_effective"], seed, Path(run_dir), command, bc,
+                     n_envs, normalize, obs_scaling, env_kwargs, model_params, config)
+
+
+def _build_envs(setup: _RunSetup) -> tuple[Any, Any]:
+    """Env phase: the native vector env of ``n_envs`` cars, seeded, in ``VecMonitor`` and ``VecNormalize`` (its
+    observation statistics frozen at the fixed scales when the entry's ``callback`` asks for them)."""
+    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+
+    from vtrack_gym.agents.sb3_vec_env import TrackingSB3VecEnv
+
+    venv = TrackingSB3VecEnv(setup.env_id, num_envs=setup.n_envs, **setup.env_kwargs)
+    venv.seed(setup.seed)
+    vecnorm = VecNormalize(VecMonitor(venv), **setup.normalize)  # VecMonitor: rollout/ep_rew_mean, ep_len_mean
+    if setup.obs_scaling == "fixed":
+        from vtrack_gym.agents.obs_scaling import freeze_observation_scaling
+
+        try:
+            freeze_observation_scaling(vecnorm, venv.venv.observation_layout.names)
+        except ValueError:
+            venv.close()
+            raise
+    return venv, vecnorm
+
+
+def _build_model(setup: _RunSetup, venv: Any, vecnorm: Any, verbose: int) -> Any:
+    """Model phase: the SB3 model (``RegularisedSAC`` for its loss weights) on ``vecnorm``; ``ValueError`` naming
+    the file for a key SB3 does not take or a value it refuses, and for settings the agent format cannot hold."""
+    from stable_baselines3 import PPO, SAC, TD3
+
+    params = dict(setup.model_params)
+    noise = action_noise(params, venv.action_space.shape[0])
+    if noise is not None:
+        params["action_noise"] = noise
+    params["policy_kwargs"] = policy_kwargs(params.get("policy_kwargs"))
     for key in ("learning_rate", "clip_range"):
         if key in params:
             params[key] = _schedule(key, params[key])
-    venv = TrackingSB3VecEnv(env_id, num_envs=n_envs, **env_kwargs)
-    venv.seed(seed)
-    vecnorm = VecNormalize(VecMonitor(venv), **norm_kwargs)  # VecMonitor: rollout/ep_rew_mean, ep_len_mean
-    if obs_scaling == "fixed":
-        from vtrack_gym.agents.obs_scaling import freeze_observation_scaling
-
-        freeze_observation_scaling(vecnorm, venv.venv.observation_layout.names)
-    elif obs_scaling != "running":
-        venv.close()
-        raise ValueError(f"obs_scaling must be 'fixed' or 'running' (got {obs_scaling!r})")
-    if noise_std is not None:
-        dim = venv.action_space.shape[0]
-        params["action_noise"] = NormalActionNoise(np.zeros(dim), float(noise_std) * np.ones(dim))
-    cls = {"ppo": PPO, "sac": SAC, "td3": TD3}[algo]
+    cls = {"ppo": PPO, "sac": SAC, "td3": TD3}[setup.algo]
     if REGULARISED_SAC_KEYS & params.keys():  # extra actor-loss terms (BC needs the warm start's demonstrations)
         from vtrack_gym.agents.regularised_sac import RegularisedSAC
 
         cls = RegularisedSAC
     try:
-        model = cls("MlpPolicy", vecnorm, seed=seed, verbose=verbose, device="cpu", **params)
+        model = cls("MlpPolicy", vecnorm, seed=setup.seed, verbose=verbose, device="cpu", **params)
     except (TypeError, AssertionError) as exc:  # an unknown key or a wrongly typed value (YAML file or --set)
-        venv.close()
-        raise ValueError(f"{algo} hyperparameters: {type(exc).__name__}: {exc} (see "
-                         f"vtrack_gym/agents/hyperparams/{algo}.yaml)") from exc
-    except ValueError:  # a value out of its range: nothing of the run folder is written or replaced
-        venv.close()
-        raise
-    try:
-        _check_exportable(model, vecnorm, venv.venv, algo)  # before learning, not after hours of it
-        _clear_previous_run(run_dir, overwrite)
-    except ValueError:
-        venv.close()
-        raise
-    run_dir.mkdir(parents=True, exist_ok=True)
-    write_atomic(run_dir / "config.json", json.dumps(config, indent=2, sort_keys=True) + "\n")
+        raise ValueError(f"{setup.algo} hyperparameters: {type(exc).__name__}: {exc} (see "
+                         f"vtrack_gym/agents/hyperparams/{setup.algo}.yaml)") from exc
+    _check_exportable(model, vecnorm, venv.venv, setup.algo)  # before learning, not after hours of it
+    return model
+
+
+def _open_run_dir(setup: _RunSetup, model: Any, overwrite: bool) -> None:
+    """Run-folder phase: remove a previous run (with ``overwrite``), write ``config.json``, point SB3's logger at
+    ``logs/`` (TensorBoard if installed, CSV and text)."""
+    from stable_baselines3.common.logger import configure
+
+    _clear_previous_run(setup.run_dir, overwrite)
+    setup.run_dir.mkdir(parents=True, exist_ok=True)
+    write_atomic(setup.run_dir / "config.json", json.dumps(setup.config, indent=2, sort_keys=True) + "\n")
     try:
         import tensorboard  # noqa: F401
 
         formats = ["tensorboard", "csv", "log"]
     except ImportError:
         formats = ["csv", "log"]
-    model.set_logger(configure(str(run_dir / "logs"), formats))
-    warm_start = "" if bc is None else (f"behaviour cloning of {bc.expert}[{bc.expert_preset}] on {env_id} "
-                                        f"({bc.steps} x {n_envs} expert transitions, {bc.dagger_rounds} DAgger rounds)")
-    callbacks = _make_callbacks(run_dir, vecnorm, timesteps, eval_freq, case1_max_steps, case1_full_every,
-                                progress_bar, env_id, command, seed, warm_start, venv.venv)
+    model.set_logger(configure(str(setup.run_dir / "logs"), formats))
+
+
+def _warm_start_text(setup: _RunSetup) -> str:
+    """How the actor was initialised before RL, for the agent's provenance ('' from scratch)."""
+    bc = setup.bc
+    if bc is None:
+        return ""
+    return (f"behaviour cloning of {bc.expert}[{bc.expert_preset}] on {setup.env_id} ({bc.steps} x {setup.n_envs} "
+            f"expert transitions, {bc.dagger_rounds} DAgger rounds)")
+
+
+def _learn(setup: _RunSetup, model: Any, venv: Any, vecnorm: Any, callbacks: list[Any],
+           eval_freq: int) -> tuple[float, str]:
+    """Learning phase: the warm start (evaluated at timestep 0), then ``model.learn``. Returns the wall time [s]
+    and what Ctrl+C interrupted ('' if nothing: ``warm start`` or ``learning``)."""
     t0 = time.perf_counter()
     interrupted = ""
     try:
-        if bc is not None:
+        if setup.bc is not None:
             interrupted = "warm start"
-            _behaviour_clone(model, venv, vecnorm, bc, seed, run_dir)
+            _behaviour_clone(model, venv, vecnorm, setup.bc, setup.seed, setup.run_dir)
             if eval_freq > 0:
                 callbacks[0].init_callback(model)
                 callbacks[0].run()
         interrupted = "learning"
-        log.info("training %s for %d steps", type(model).__name__, timesteps)
-        model.learn(total_timesteps=timesteps, callback=callbacks)
+        rounding = "" if setup.timesteps_effective == setup.timesteps else \
+            f" ({setup.timesteps} rounded up to whole {'rollouts' if setup.algo == 'ppo' else 'vector steps'})"
+        log.info("training %s for %d steps%s", type(model).__name__, setup.timesteps_effective, rounding)
+        model.learn(total_timesteps=setup.timesteps, callback=callbacks)
         interrupted = ""
-    except KeyboardInterrupt:  # Ctrl+C: keep the model as it is (saved and exported below), skip the final eval
+    except KeyboardInterrupt:  # Ctrl+C: keep the model as it is (saved and exported after), skip the final eval
         for cb in callbacks:
             if getattr(cb, "bar", None) is not None:
                 cb.bar.close()
         log.warning("interrupted during the %s at %d timesteps: saving the model and exporting the agent as they "
                     "are", interrupted, model.num_timesteps)
-    train_s = time.perf_counter() - t0
+    return time.perf_counter() - t0, interrupted
+
+
+def _save_and_export(setup: _RunSetup, model: Any, venv: Any, vecnorm: Any, interrupted: str) -> Path:
+    """Export phase: ``config.json`` completed, SB3's files saved and signed, the weights-only agent written.
+    Returns the agent's JSON path."""
+    from vtrack_gym.agents.export import export, sign_run
+
+    run_dir = setup.run_dir
     vecnorm.training = False
-    config.update(timesteps_done=int(model.num_timesteps), interrupted=bool(interrupted))
+    setup.config.update(timesteps_done=int(model.num_timesteps), interrupted=bool(interrupted))
     if interrupted:
-        config["interrupted_during"] = interrupted
-    write_atomic(run_dir / "config.json", json.dumps(config, indent=2, sort_keys=True) + "\n")
-    model.save(run_dir / "model.zip")
-    vecnorm.save(str(run_dir / "vecnormalize.pkl"))
+        setup.config["interrupted_during"] = interrupted
+    write_atomic(run_dir / "config.json", json.dumps(setup.config, indent=2, sort_keys=True) + "\n")
+    with atomic_output(run_dir / "model.zip", "--run-dir") as tmp:
+        model.save(tmp)
+    with atomic_output(run_dir / "vecnormalize.pkl", "--run-dir") as tmp:
+        vecnorm.save(str(tmp))
     sign_run(run_dir)  # lets `vtrack export --run-dir` unpickle this run's files without --trust
-    agent_json, _ = export(model, vecnorm, run_dir / "agent", env_id=env_id, command=command, seed=seed,
-                           warm_start=warm_start, env=venv.venv)
+    agent_json, _ = export(model, vecnorm, run_dir / "agent", env_id=setup.env_id, command=setup.command,
+                           seed=setup.seed, warm_start=_warm_start_text(setup), env=venv.venv)
+    return agent_json
+
+
+def train(algo: str, env_id: str | None = None, timesteps: int | None = None, seed: int = 0,
+          run_dir: str | Path = "vtrack_runs/run", *, num_envs: int | None = None,
+          overrides: Mapping[str, Any] | None = None, eval_freq: int = 100_000, case1_max_steps: int | None = 3000,
+          case1_full_every: int = 5, final_eval: bool = True, progress_bar: bool = True, verbose: int = 0,
+          torch_threads: int | None = 1, command: str | None = None, bc: Any = None,
+          overwrite: bool = False) -> dict[str, Any]:
+    """Train ``algo`` on ``env_id`` and write ``run_dir`` (see the module docstring). Returns a summary dict.
+
+    ``timesteps`` None: the entry's ``n_timesteps``. ``overrides`` replace YAML entries (e.g. ``{"n_steps": 64}``;
+    a value of ``None`` drops the entry); ``num_envs`` overrides ``n_envs``. ``env_id`` ``None``:
+    ``DEFAULT_ENV_ID`` from scratch, ``IMITATION_ENV_ID`` with ``bc``.
+    ``eval_freq <= 0`` disables periodic evaluation. ``bc`` (a ``vtrack_gym.agents.imitation.BCConfig``, PPO or
+    SAC) starts from a behaviour-cloned actor: the entry's ``bc_finetune`` values are applied on top, the
+    expert data and the fit go to ``bc.json``, and the warm-started agent is evaluated at timestep 0. A
+    ``bc_weight`` hyperparameter (SAC with ``bc`` only) selects ``RegularisedSAC``, whose actor loss keeps a
+    behaviour-cloning term on the warm start's expert labels; so do ``temporal_smoothness`` /
+    ``spatial_smoothness`` (SAC; CAPS-style terms on the deterministic action, see ``regularised_sac``).
+    On ``KeyboardInterrupt`` (Ctrl+C) during the warm start or learning, the model is saved and exported as it
+    is, ``config.json`` records ``interrupted: true`` and ``timesteps_done``, the final evaluation is skipped
+    and the summary's ``interrupted`` is true (``vtrack train`` exits with 130).
+    A ``run_dir`` that already holds a run is refused (``check_run_dir``) unless ``overwrite``, which deletes
+    that run's files (``previous_run_files``, nothing else) once every setting has been checked.
+    """
+    import torch
+
+    if torch_threads:
+        torch.set_num_threads(torch_threads)
+    setup = _configure(algo, env_id, timesteps, seed, run_dir, num_envs, overrides, bc, command,
+                       {"freq": eval_freq, "case1_max_steps": case1_max_steps, "case1_full_every": case1_full_every})
+    venv, vecnorm = _build_envs(setup)
+    try:  # every setting is checked before anything of the run folder is written or replaced
+        model = _build_model(setup, venv, vecnorm, verbose)
+        _open_run_dir(setup, model, overwrite)
+    except ValueError:
+        venv.close()
+        raise
+    callbacks = _make_callbacks(setup.run_dir, vecnorm, setup.timesteps, eval_freq, case1_max_steps,
+                                case1_full_every, progress_bar, setup.env_id, setup.command, seed,
+                                _warm_start_text(setup), venv.venv)
+    train_s, interrupted = _learn(setup, model, venv, vecnorm, callbacks, eval_freq)
+    agent_json = _save_and_export(setup, model, venv, vecnorm, interrupted)
     final = None
     if final_eval and not interrupted:
         callbacks[0].run(final=True)
-        lines = (run_dir / "evaluations.jsonl").read_text(encoding="utf-8").strip().splitlines()
+        lines = (setup.run_dir / "evaluations.jsonl").read_text(encoding="utf-8").strip().splitlines()
         final = json.loads(lines[-1])["results"]
-    summary = {"run_dir": str(run_dir), "timesteps": int(model.num_timesteps), "train_s": round(train_s, 1),
-               "agent": str(agent_json), "final_eval": final, "interrupted": bool(interrupted),
-               "model": model, "vecnormalize": vecnorm}
     venv.close()
-    return summary
+    return {"run_dir": str(setup.run_dir), "timesteps": int(model.num_timesteps), "train_s": round(train_s, 1),
+            "agent": str(agent_json), "final_eval": final, "interrupted": bool(interrupted),
+            "model": model, "vecnormalize": vecnorm}
+
 
 
 def _check_exportable(model: Any, vecnorm: Any, contract_env: Any, algo: str) -> None:

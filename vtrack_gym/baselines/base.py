@@ -33,7 +33,6 @@ unchecked entry to the law.
 from __future__ import annotations
 
 import abc
-import bisect
 import dataclasses
 import math
 from collections.abc import Mapping, Sequence
@@ -91,27 +90,26 @@ def env_contract(env: Any) -> tuple[DesignModel, ObservationLayout, float]:
 class SpeedSchedule:
     """Rows of gains tabulated on a speed grid [m/s], each entry linearly interpolated in speed.
 
-    ``table[j]`` holds the gains at ``speeds[j]``; speeds outside the grid are clamped to its ends. ``dot(v, z)``
-    returns ``row(v) . z`` as ``(1 - t) (row_i . z) + t (row_{i+1} . z)`` (identical to interpolating every
-    entry first).
+    ``table[j]`` holds the gains at ``speeds[j]``; speeds outside the grid are clamped to its ends. The lookups run
+    the compiled ``laws.schedule_locate`` / ``schedule_row``, the code of the MPC and LQR laws' ``schedule_dot``.
     """
 
     def __init__(self, speeds: np.ndarray, table: np.ndarray) -> None:
+        from vtrack_gym.baselines.laws import schedule_locate, schedule_row
+
         speeds = np.asarray(speeds, dtype=np.float64)
         table = np.asarray(table, dtype=np.float64)
         if speeds.ndim != 1 or speeds.size < 2 or not np.all(np.diff(speeds) > 0):
             raise ValueError("SpeedSchedule speeds must be a strictly increasing 1-D grid of >= 2 points")
         if table.shape[0] != speeds.size:
             raise ValueError(f"SpeedSchedule table must have {speeds.size} rows (got {table.shape[0]})")
-        self.speeds = speeds
+        self.speeds = np.ascontiguousarray(speeds)
         self.table = np.ascontiguousarray(table.reshape(speeds.size, -1))
+        self.slopes = np.ascontiguousarray(np.diff(self.table, axis=0))
         self.v_min = float(speeds[0])
         self.v_max = float(speeds[-1])
-        self._grid = speeds.tolist()
-        self._inv_h = (1.0 / np.diff(speeds)).tolist()
-        self._last = speeds.size - 2
-        self._pairs = [np.ascontiguousarray(self.table[i:i + 2]) for i in range(speeds.size - 1)]
-        self._slopes = np.diff(self.table, axis=0)
+        self._locate = schedule_locate
+        self._row = schedule_row
 
     @property
     def width(self) -> int:
@@ -120,31 +118,14 @@ class SpeedSchedule:
 
     def locate(self, v: float) -> tuple[int, float]:
         """Grid interval ``i`` and fraction ``t`` in [0, 1] of speed ``v`` [m/s] (clamped to the grid)."""
-        v = min(max(v, self.v_min), self.v_max)
-        i = min(bisect.bisect_right(self._grid, v) - 1, self._last)
-        return i, (v - self._grid[i]) * self._inv_h[i]
+        i, t = self._locate(self.speeds, float(v))
+        return int(i), float(t)
 
     def row(self, v: float) -> np.ndarray:
         """Interpolated gain row at speed ``v`` [m/s]."""
-        i, t = self.locate(v)
-        return self.table[i] + t * self._slopes[i]
-
-    def dot(self, v: float, z: Sequence[float]) -> float:
-        """``row(v) . z`` for one speed [m/s] and one vector (fast single-observation path)."""
-        i, t = self.locate(v)
-        y0, y1 = (self._pairs[i] @ np.asarray(z, dtype=np.float64)).tolist()
-        return y0 + t * (y1 - y0)
-
-    def rows(self, v: np.ndarray) -> np.ndarray:
-        """Interpolated gain rows for a batch of speeds [m/s], shape (N, width)."""
-        vc = np.clip(v, self.v_min, self.v_max)
-        i = np.clip(np.searchsorted(self.speeds, vc, side="right") - 1, 0, self._last)
-        t = (vc - self.speeds[i]) / (self.speeds[i + 1] - self.speeds[i])
-        return self.table[i] + t[:, None] * self._slopes[i]
-
-    def dot_batch(self, v: np.ndarray, z: np.ndarray) -> np.ndarray:
-        """Row-wise ``row(v_n) . z_n`` for speeds (N,) [m/s] and vectors (N, width)."""
-        return np.einsum("ij,ij->i", self.rows(v), z)
+        out = np.empty(self.width)
+        self._row(self.speeds, self.table, self.slopes, float(v), out)
+        return out
 
 
 class Policy(abc.ABC):
@@ -161,6 +142,8 @@ class Policy(abc.ABC):
     """Preset names read from a packaged file by ``_file_preset`` (the GA-tuned SMC/MPC), before ``PRESETS``."""
     config_type: ClassVar[type] = object
     state_size: int = 0
+    solver_failures: int = 0
+    """Failed solves of the policy's optimiser so far (a closed-form law never fails: 0; mpc_osqp and nmpc count)."""
 
     def __init__(self, design: DesignModel, config: Any = None, layout: ObservationLayout = OBS,
                  control_period_s: float = 0.01) -> None:

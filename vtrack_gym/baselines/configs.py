@@ -36,6 +36,7 @@ class SMCConfig:
     while the previewed steady-state steer is reachable at the actuator's rate).
     actuator_lag_s: the steering actuator's lag [s] (anticipation and low-speed floor).
     low_speed_floor: evaluate the yaw dynamics no slower than ``smc_dynamics_floor`` (steady state kept).
+    observer: run the law on a Kalman filter's state estimates (``vtrack_gym.baselines.observer``).
     """
 
     pole_radps: float = ranged(8.0, gt=0.0, le=100.0, unit="rad/s")
@@ -48,6 +49,7 @@ class SMCConfig:
     rate_anticipation: bool = True
     actuator_lag_s: float = ranged(0.03, ge=0.0, le=1.0, unit="s")
     low_speed_floor: bool = True
+    observer: bool = False
 
     def __post_init__(self) -> None:
         validate(self)
@@ -86,6 +88,7 @@ class MPCConfig:
     actuator_lag_s: the steering actuator's lag the anticipation allows for [s].
     front_slip_limit: keep the command within this multiple of mu F_zf / C_f of the front axle's kinematic
     direction (``mpc.front_slip_bound``; 0: no bound): no steer beyond the front tyres' peak slip angle.
+    observer: run the law on a Kalman filter's state estimates (``vtrack_gym.baselines.observer``).
     """
 
     weights: tuple[float, ...] = PAPER_WEIGHTS
@@ -102,6 +105,7 @@ class MPCConfig:
     rate_anticipation: bool = True
     actuator_lag_s: float = ranged(0.03, ge=0.0, le=1.0, unit="s")
     front_slip_limit: float = ranged(2.0, ge=0.0, le=10.0)
+    observer: bool = False
 
     def __post_init__(self) -> None:
         validate(self)

@@ -15,8 +15,8 @@ import math
 from typing import Any, NamedTuple
 
 import numpy as np
-from numba import njit
 
+from vtrack_gym._jit import kernel
 from vtrack_gym.envs.observation import ObservationLayout
 from vtrack_gym.vehicle.params import DesignModel
 
@@ -41,7 +41,7 @@ MPC_ANTICIPATION_RATE_FACTOR = 3.0
 circuits at 0.5, 1 and 2 m point spacing: 2 leaves 1.4 m max|e_y| on the kart track, 4 fails it at 0.5 m)."""
 
 
-@njit(cache=True)
+@kernel
 def rate_anticipation(obs: np.ndarray, i: int, kappa_idx: int, pv0: int, n_preview: int, pv_vmin: float,
                       pv_dt: float, v: float, steer_gain: float, rate: float, lag_s: float) -> float:
     """Anticipation [rad] to add to a steering law's command on observation row ``i`` (0.0 exactly when the
@@ -186,12 +186,12 @@ def smc_surface_and_law(k: Any, cf: Any, v: float, p_shift: bool, e_y: float, e_
     return sigma, k[7] * bracket
 
 
-_guarded_speed = njit(cache=True)(guarded_speed)
-_smc_coefficients = njit(cache=True)(smc_coefficient_values)
-_smc_surface_and_law = njit(cache=True)(smc_surface_and_law)
+_guarded_speed = kernel(guarded_speed)
+_smc_coefficients = kernel(smc_coefficient_values)
+_smc_surface_and_law = kernel(smc_surface_and_law)
 
 
-@njit(cache=True)
+@kernel
 def smc_row(law: SMCLaw, obs: np.ndarray, i: int) -> tuple[float, float, bool]:
     """SMC on observation row ``i``: (road-wheel angle [rad], sigma [rad/s], speed was guarded)."""
     r = i if law.pole.shape[0] > 1 else 0
@@ -224,7 +224,7 @@ def smc_row(law: SMCLaw, obs: np.ndarray, i: int) -> tuple[float, float, bool]:
     return delta_eq - law.eta_k[r] * sat, sigma, vs != v_clamped
 
 
-@njit(cache=True)
+@kernel
 def smc_rows(law: SMCLaw, obs: np.ndarray, delta: np.ndarray, sigma: np.ndarray) -> int:
     """``smc_row`` for every row of ``obs`` into ``delta`` [rad] and ``sigma`` [rad/s]; returns the number of
     rows whose speed was guarded."""
@@ -236,19 +236,34 @@ def smc_rows(law: SMCLaw, obs: np.ndarray, delta: np.ndarray, sigma: np.ndarray)
 
 
 # ---------------------------------------------------------------------------------------- gain schedules
-@njit(cache=True)
-def schedule_dot(speeds: np.ndarray, table: np.ndarray, slopes: np.ndarray, v: float, z: np.ndarray) -> float:
-    """``row(v) . z`` of a gain schedule: rows ``table`` (S, W) on ``speeds`` (S,) [m/s], ``slopes`` (S - 1, W)
-    their differences; the speed is clamped to the grid and each entry interpolated linearly."""
+@kernel(inline=True)
+def schedule_locate(speeds: np.ndarray, v: float) -> tuple[int, float]:
+    """Grid interval ``s`` and fraction ``t`` in [0, 1] of speed ``v`` [m/s] on the grid ``speeds`` (S,) [m/s]
+    (the speed clamped to the grid's ends)."""
     s_last = speeds.shape[0] - 2
     vc = min(max(v, speeds[0]), speeds[s_last + 1])
     s = np.searchsorted(speeds, vc, side="right") - 1
     s = 0 if s < 0 else (s_last if s > s_last else s)
-    t = (vc - speeds[s]) / (speeds[s + 1] - speeds[s])
+    return s, (vc - speeds[s]) / (speeds[s + 1] - speeds[s])
+
+
+@kernel
+def schedule_dot(speeds: np.ndarray, table: np.ndarray, slopes: np.ndarray, v: float, z: np.ndarray) -> float:
+    """``row(v) . z`` of a gain schedule: rows ``table`` (S, W) on ``speeds`` (S,) [m/s], ``slopes`` (S - 1, W)
+    their differences; the speed is clamped to the grid and each entry interpolated linearly."""
+    s, t = schedule_locate(speeds, v)
     acc = 0.0
     for c in range(table.shape[1]):
         acc += (table[s, c] + t * slopes[s, c]) * z[c]
     return acc
+
+
+@kernel
+def schedule_row(speeds: np.ndarray, table: np.ndarray, slopes: np.ndarray, v: float, out: np.ndarray) -> None:
+    """The gain row at speed ``v`` [m/s] into ``out`` (W,) (arguments as ``schedule_dot``'s)."""
+    s, t = schedule_locate(speeds, v)
+    for c in range(table.shape[1]):
+        out[c] = table[s, c] + t * slopes[s, c]
 
 
 # ------------------------------------------------------------------------------------------------------ MPC
@@ -299,7 +314,7 @@ def mpc_law(layout: ObservationLayout, speeds: np.ndarray, tables: np.ndarray, *
                   float(front_slip_max_rad) if design is not None else math.inf)
 
 
-@njit(cache=True)
+@kernel
 def mpc_disturbance(law: MPCLaw, obs: np.ndarray, i: int) -> float:
     """d(k) [rad/s^2] of row ``i``: yaw_acc_ref, with preview its average over the first preview interval."""
     idx = law.idx
@@ -311,7 +326,7 @@ def mpc_disturbance(law: MPCLaw, obs: np.ndarray, i: int) -> float:
                                              - float(obs[i, idx[10]]))
 
 
-@njit(cache=True)
+@kernel
 def mpc_curvature_shift(law: MPCLaw, obs: np.ndarray, i: int) -> float:
     """Rate-limit anticipation of row ``i`` as a curvature shift dkappa [1/m] (``rate_anticipation`` / (l + K_us
     v^2)); exactly 0.0 when off or while the previewed steady-state steer is reachable at the actuator's rate."""
@@ -326,7 +341,7 @@ def mpc_curvature_shift(law: MPCLaw, obs: np.ndarray, i: int) -> float:
                              law.ant_rate, law.ant_lag) / gain
 
 
-@njit(cache=True)
+@kernel
 def mpc_reference(law: MPCLaw, obs: np.ndarray, i: int) -> tuple[float, float, float]:
     """(e_phi_dot [rad/s], d [rad/s^2], kappa [1/m]) of row ``i`` relative to the anticipated reference: the
     path's curvature at the car shifted by ``mpc_curvature_shift`` (the observed values when the shift is 0)."""
@@ -342,7 +357,7 @@ def mpc_reference(law: MPCLaw, obs: np.ndarray, i: int) -> tuple[float, float, f
     return epd, d0, kap
 
 
-@njit(cache=True)
+@kernel
 def mpc_initial_rows(law: MPCLaw, obs: np.ndarray, state: np.ndarray) -> None:
     """Initial memory of every row into ``state`` (N, 9): x_m(k-1) = x_m(k), u(k-1) = the observed road-wheel
     angle (clipped), d(k-1) = d(k), next call samples."""
@@ -357,7 +372,7 @@ def mpc_initial_rows(law: MPCLaw, obs: np.ndarray, state: np.ndarray) -> None:
         state[i, 8] = 0.0
 
 
-@njit(cache=True)
+@kernel
 def mpc_row(law: MPCLaw, obs: np.ndarray, i: int, st: np.ndarray, z: np.ndarray) -> float:
     """MPC on observation row ``i`` with memory ``st`` (9,), updated in place; ``z`` (W,) scratch. Returns the
     road-wheel angle u(k) [rad] (held between samples)."""
@@ -405,7 +420,7 @@ def mpc_row(law: MPCLaw, obs: np.ndarray, i: int, st: np.ndarray, z: np.ndarray)
     return u
 
 
-@njit(cache=True)
+@kernel
 def mpc_rows(law: MPCLaw, obs: np.ndarray, state: np.ndarray, delta: np.ndarray) -> None:
     """``mpc_row`` for every row of ``obs`` (memory ``state`` (N, 9) updated in place) into ``delta`` [rad]."""
     z = np.empty(law.tables.shape[2])

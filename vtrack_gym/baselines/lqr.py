@@ -40,8 +40,8 @@ from dataclasses import dataclass
 from typing import ClassVar, NamedTuple
 
 import numpy as np
-from numba import njit
 
+from vtrack_gym._jit import kernel
 from vtrack_gym._ranges import documented, ranged, validate
 from vtrack_gym.baselines.base import Policy, SpeedSchedule
 from vtrack_gym.baselines.laws import ANTICIPATION_RATE_FACTOR, rate_anticipation, schedule_dot
@@ -128,7 +128,7 @@ class LQR(Policy):
         idx = np.array([layout.index(n) for n in ("v_x", "e_y", "e_y_dot", "e_phi", "e_phi_dot", "curvature")])
         self.law = LQRLaw(idx, layout.preview.start, layout.n_preview, float(layout.preview_min_speed_mps),
                           float(layout.preview_dt_s), float(cfg.feedforward_lead_s), self.schedule.speeds,
-                          self.schedule.table, np.ascontiguousarray(np.diff(self.schedule.table, axis=0)),
+                          self.schedule.table, self.schedule.slopes,
                           ANTICIPATION_RATE_FACTOR * design.max_road_wheel_rate_radps if cfg.rate_anticipation
                           else 0.0, float(cfg.actuator_lag_s), float(design.wheelbase_m),
                           float(understeer_gradient(design)))
@@ -157,7 +157,7 @@ class LQRLaw(NamedTuple):
     kus: float          # understeer gradient [rad s^2/m]
 
 
-@njit(cache=True)
+@kernel
 def lqr_row(law: LQRLaw, obs: np.ndarray, i: int, z: np.ndarray) -> float:
     """Road-wheel angle [rad] of observation row ``i`` (``z`` (5,) scratch)."""
     idx = law.idx
@@ -179,7 +179,7 @@ def lqr_row(law: LQRLaw, obs: np.ndarray, i: int, z: np.ndarray) -> float:
     return delta
 
 
-@njit(cache=True)
+@kernel
 def lqr_rows(law: LQRLaw, obs: np.ndarray, delta: np.ndarray) -> None:
     """``lqr_row`` of every row of ``obs`` into ``delta`` [rad]."""
     z = np.empty(5)

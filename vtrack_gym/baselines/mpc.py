@@ -81,6 +81,9 @@ Presets:
   0.09 rad; spectral radius <= 0.991 from 1 to 45 m/s. In the env it completes LateralTracking-v0 nominally
   (max|e_y| 0.027 m vs 0.088 m for ``paper``), with a 30 ms delay (0.028 m) and with 0.5x sensor noise
   (0.11 m), and DLC120-v0 (0.17 m).
+* ``observer``: the ``default`` config with ``observer=True``: a Kalman filter (``vtrack_gym.baselines.observer``)
+  estimates e_y, e_phi, v_y, r and the road-wheel angle from the noisy measurements (R from the env's declared
+  sensor noise) and the law runs on the estimates. Any preset takes ``observer=True`` as an override.
 * ``paper_siso``: interpretation A (N_p = 12). Tracks the curves to < 0.5 mm without the rate limit, but with
   the steering rate limit (default ``rate_limit=True``, as in any real actuator) a 0.5 m offset or the DLC
   proxy diverges in the linear model: the unconstrained gains do not know the rate limit. The same happens
@@ -107,7 +110,8 @@ from vtrack_gym.baselines.configs import (  # noqa: F401  (re-exported: the MPC'
 )
 from vtrack_gym.baselines.laws import MPC_STATE_SIZE, mpc_initial_rows, mpc_law, mpc_rows
 from vtrack_gym.baselines.linear_models import curvature_preview_operator, lateral_matrices, paper_model, zoh
-from vtrack_gym.baselines.preset_files import TunedPresets
+from vtrack_gym.baselines.observer import ObserverOption
+from vtrack_gym.baselines.preset_files import TunedPresets, observer_preset
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.vehicle.params import GRAVITY_MPS2, DesignModel
 
@@ -311,7 +315,7 @@ def gain_table(design: DesignModel, config: MPCConfig, layout: ObservationLayout
     return table
 
 
-class MPC(TunedPresets, Policy):
+class MPC(ObserverOption, TunedPresets, Policy):
     """The paper's MPC (paper-math 4) with precomputed speed-scheduled gains; see the module docstring.
 
     The law itself is ``vtrack_gym.baselines.laws.mpc_row`` (compiled); ``self.law`` holds its parameters.
@@ -322,10 +326,14 @@ class MPC(TunedPresets, Policy):
     config_type: ClassVar[type] = MPCConfig
     state_size = MPC_STATE_SIZE
 
+    FILE_PRESETS: ClassVar[tuple[str, ...]] = ("default", "tuned", "observer")
+
     def __init__(self, design: DesignModel, config: MPCConfig | None = None, layout: ObservationLayout = OBS,
-                 control_period_s: float = 0.01, tables: np.ndarray | None = None) -> None:
+                 control_period_s: float = 0.01, tables: np.ndarray | None = None,
+                 noise_std: tuple[float, ...] | None = None) -> None:
         """``tables``: run-time gain rows (R, S, W) on the config's speed grid to use instead of the config's
-        own (one table per observation row, as in the GA's populations; ``gain_table(...).runtime`` layout)."""
+        own (one table per observation row, as in the GA's populations; ``gain_table(...).runtime`` layout).
+        ``noise_std``: the env's declared sensor noise, the observer's R (``observer.declared_noise_std``)."""
         super().__init__(design, config, layout, control_period_s)
         cfg: MPCConfig = self.config
         self.n_hold = hold_steps(cfg.sample_time_s, self.control_period_s, "MPCConfig")
@@ -337,13 +345,19 @@ class MPC(TunedPresets, Policy):
                            max_du=max_du, max_steer=self.max_steer_rad, design=design,
                            anticipation_lag_s=cfg.actuator_lag_s if cfg.rate_anticipation else None,
                            front_slip_max_rad=front_slip_bound(design, cfg.front_slip_limit))
+        self._attach_observer(noise_std)
 
-    def _initial_state_batch(self, obs: np.ndarray) -> np.ndarray:
-        state = np.empty((obs.shape[0], self.state_size))
+    @classmethod
+    def _file_preset(cls, preset: str) -> MPCConfig:
+        """``default``/``tuned``: the packaged GA result; ``observer``: the same with the Kalman filter."""
+        return observer_preset(cls.name, preset)
+
+    def _law_initial_state(self, obs: np.ndarray) -> np.ndarray:
+        state = np.empty((obs.shape[0], MPC_STATE_SIZE))
         mpc_initial_rows(self.law, obs, state)
         return state
 
-    def _act_batch(self, obs: np.ndarray, state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _law_batch(self, obs: np.ndarray, state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         delta = np.empty(obs.shape[0])
         mpc_rows(self.law, obs, state, delta)
         return delta, state

@@ -31,11 +31,12 @@ the cost is linear in N. The condensed QP is ill-conditioned at speed (cond(P) =
 directions. Measured on 60 random cold-started QPs, first-move error vs a 1e-10 reference: eps 1e-5 ->
 1.5e-4 rad; eps 1e-7 (default here) -> 1.4e-6 rad (mean 274, max 800 iterations, ~140 us cold; warm-started
 closed-loop solves need far fewer). OSQP's solution polishing would be exact but prints to stdout whenever no
-constraint is active and sometimes fails (then the ADMM iterate is returned), so it is off. The solver's
-adaptive rho persists between solves, so single and batched calls agree to ~1e-6 rad, not bit for bit.
+constraint is active and sometimes fails (then the ADMM iterate is returned), so it is off. Every solve
+starts from the same rho (``OSQP_RHO``; OSQP's adaptive rho would otherwise carry over from the previous row's
+solve), so single and batched calls agree to ~1e-10 rad.
 Sample time vs control period: as ``mpc.MPC``: a new QP every
 round(T_s / T_c) env steps, the output held in between. If OSQP does not return a finite solution, the
-previous steering is held (logged as a WARNING).
+previous steering is held (logged as a WARNING and counted in ``solver_failures``).
 
 State per row (``state_size = 2 + 3 N_c``): applied u(k-1) [rad], env steps left before the next solve, the
 last primal solution U (N_c) and its duals (2 N_c) (warm start: U shifted by one move, the duals as they are).
@@ -70,6 +71,8 @@ OSQP_INFINITY = 1e30
 """Bound used for absent constraints (OSQP's infinity)."""
 SETUP_SPEED_MPS = 15.0
 """Speed [m/s] whose P is used at setup (OSQP computes its data scaling once, from the setup matrices)."""
+OSQP_RHO = 0.1
+"""ADMM step size every solve starts from (OSQP's default; its adaptive rho then tunes it within the solve)."""
 
 
 @documented
@@ -216,8 +219,7 @@ class OSQPMPC(Policy):
         self.state_size = 2 + 3 * nc
         speeds, p_tab, mq_tab = qp_table(design, cfg, layout)
         self._p_schedule = SpeedSchedule(speeds, p_tab)
-        self._mq_tab = mq_tab.reshape(speeds.size, nc, -1)
-        self._mq_slopes = np.diff(self._mq_tab, axis=0)
+        self._mq_schedule = SpeedSchedule(speeds, mq_tab.reshape(speeds.size, -1))
         self._rate = design.max_road_wheel_rate_radps * cfg.sample_time_s if cfg.rate_limit else OSQP_INFINITY
         self._lower = np.concatenate((np.full(nc, -self.max_steer_rad), np.full(nc, -self._rate)))
         self._upper = -self._lower
@@ -242,7 +244,7 @@ class OSQPMPC(Policy):
         a = sparse.csc_matrix(np.vstack((np.eye(nc), _difference_matrix(nc))))
         solver = osqp.OSQP()
         solver.setup(p0, np.zeros(nc), a, self._lower.copy(), self._upper.copy(), verbose=False,
-                     eps_abs=cfg.eps_abs, eps_rel=cfg.eps_rel, max_iter=cfg.max_iter, polishing=False,
+                     eps_abs=cfg.eps_abs, eps_rel=cfg.eps_rel, max_iter=cfg.max_iter, polishing=False, rho=OSQP_RHO,
                      warm_starting=True)
         if "raise_error" in inspect.signature(solver.solve).parameters:
             return solver, functools.partial(solver.solve, raise_error=False)
@@ -256,16 +258,17 @@ class OSQPMPC(Policy):
         if v_model != self._v_p:
             self._solver.update(Px=self._p_schedule.row(v_model))
             self._v_p = v_model
-        i, t = self._p_schedule.locate(v_model)
-        q = (self._mq_tab[i] + t * self._mq_slopes[i]) @ z
+        q = self._mq_schedule.row(v_model).reshape(self._nc, -1) @ z
         lower, upper = self._lower.copy(), self._upper.copy()
         lower[self._nc] = u_prev - self._rate
         upper[self._nc] = u_prev + self._rate
         self._solver.update(q=q, l=lower, u=upper)
+        self._solver.update_settings(rho=OSQP_RHO)  # every solve starts from the same rho: no history across rows
         self._solver.warm_start(x=warm_x, y=warm_y)
         res = self._solve()
         x, y = res.x, res.y
         if x is None or not (np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
+            self.solver_failures += 1
             logger.warning("OSQP MPC: no finite solution (status %s); holding the previous steering",
                            getattr(res.info, "status", "?"))
             return None

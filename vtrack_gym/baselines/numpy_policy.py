@@ -311,6 +311,9 @@ class NumpyPolicy:
     Always deterministic (the Gaussian mean / the deterministic actor); ``state`` is returned as ``None``.
     """
 
+    solver_failures: int = 0
+    """A closed-form network: no solver, never a failed solve (the leaderboard's ``solver_failures``)."""
+
     def __init__(self, spec: dict[str, Any], arrays: dict[str, np.ndarray], name: str = "agent") -> None:
         self.spec = validate_spec(spec)
         shapes = expected_arrays(spec)

@@ -224,6 +224,13 @@ def tuned_config(controller: str) -> Any:
     return loaded["config"]
 
 
+def observer_preset(controller: str, preset: str) -> Any:
+    """A file preset of ``controller``: ``default``/``tuned`` the packaged tuned config, ``observer`` the same
+    config with its Kalman-filter option on."""
+    config = tuned_config(controller)
+    return dataclasses.replace(config, observer=True) if preset == "observer" else config
+
+
 class TunedPresets:
     """Mixin of the GA-tunable policies (SMC, MPC): presets ``default`` and ``tuned`` are the packaged file."""
 

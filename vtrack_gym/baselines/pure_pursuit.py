@@ -47,8 +47,8 @@ from dataclasses import dataclass
 from typing import ClassVar, NamedTuple
 
 import numpy as np
-from numba import njit
 
+from vtrack_gym._jit import kernel
 from vtrack_gym._ranges import documented, ranged, validate
 from vtrack_gym.baselines.base import Policy
 from vtrack_gym.baselines.linear_models import understeer_gradient
@@ -136,7 +136,7 @@ class PurePursuitLaw(NamedTuple):
     radius_floor_m: float    # floor of that cap [m]
 
 
-@njit(cache=True)
+@kernel
 def _circle_crossing(x0: float, y0: float, x1: float, y1: float, r2: float) -> tuple[float, float]:
     """Point of the segment (x0, y0)-(x1, y1) [m] at squared distance ``r2`` [m^2] from the origin
     (|P0|^2 < r2 <= |P1|^2)."""
@@ -149,7 +149,7 @@ def _circle_crossing(x0: float, y0: float, x1: float, y1: float, r2: float) -> t
     return x0 + t * dx, y0 + t * dy
 
 
-@njit(cache=True)
+@kernel
 def _pursuit(law: PurePursuitLaw, obs: np.ndarray, i: int, x: float, y: float, th: float, goal: float,
              spacing: float) -> float:
     """kappa_cmd [1/m] of the arc to the goal on the path starting at (x, y) with heading th."""
@@ -173,7 +173,7 @@ def _pursuit(law: PurePursuitLaw, obs: np.ndarray, i: int, x: float, y: float, t
     return 2.0 * py / dist2 if dist2 > 1e-12 else 0.0
 
 
-@njit(cache=True)
+@kernel
 def radius_capped_lookahead(law: PurePursuitLaw, obs: np.ndarray, i: int, goal: float, spacing: float) -> float:
     """Look-ahead [m]: ``goal`` capped at ``radius_ratio`` x the tightest radius among the curvature at the car and
     the preview samples up to the first one at or beyond ``goal`` (never below ``radius_floor_m``, never above
@@ -188,7 +188,7 @@ def radius_capped_lookahead(law: PurePursuitLaw, obs: np.ndarray, i: int, goal: 
     return min(goal, max(law.radius_ratio / k_max, law.radius_floor_m))
 
 
-@njit(cache=True)
+@kernel
 def pure_pursuit_row(law: PurePursuitLaw, obs: np.ndarray, i: int) -> float:
     """Road-wheel angle [rad] of observation row ``i``."""
     idx = law.idx
@@ -208,7 +208,7 @@ def pure_pursuit_row(law: PurePursuitLaw, obs: np.ndarray, i: int) -> float:
     return math.atan(law.wheelbase_m * kappa_cmd)
 
 
-@njit(cache=True)
+@kernel
 def pure_pursuit_rows(law: PurePursuitLaw, obs: np.ndarray, delta: np.ndarray) -> None:
     """``pure_pursuit_row`` of every row of ``obs`` into ``delta`` [rad]."""
     for i in range(obs.shape[0]):

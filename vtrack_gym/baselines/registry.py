@@ -1,8 +1,9 @@
 """Name -> steering baseline registry: ``make_policy(name, env, preset="default", **overrides)``.
 
 Names: ``smc`` (paper SMC), ``mpc`` (paper MPC, precomputed gains), ``lqr``, ``stanley``, ``pure_pursuit``,
-``mpc_osqp`` (constrained MPC, needs the ``osqp`` package). Controller modules are imported on first use, so
-``import vtrack_gym.baselines.registry`` is cheap and works without osqp.
+``mpc_osqp`` (constrained MPC, needs the ``osqp`` package), ``nmpc`` (nonlinear MPC, needs ``casadi``: the
+``nmpc`` extra). Controller modules are imported on first use, so ``import vtrack_gym.baselines.registry`` is
+cheap and works without osqp or casadi.
 """
 
 from __future__ import annotations
@@ -19,7 +20,28 @@ _POLICIES: dict[str, tuple[str, str]] = {
     "stanley": ("vtrack_gym.baselines.stanley", "Stanley"),
     "pure_pursuit": ("vtrack_gym.baselines.pure_pursuit", "PurePursuit"),
     "mpc_osqp": ("vtrack_gym.baselines.mpc_osqp", "OSQPMPC"),
+    "nmpc": ("vtrack_gym.baselines.nmpc", "NMPC"),
 }
+
+
+_TUNING: dict[str, tuple[str, str]] = {
+    "smc": ("vtrack_gym.baselines.smc_tuning", "SMC_TUNING"),
+    "mpc": ("vtrack_gym.baselines.mpc_tuning", "MPC_TUNING"),
+}
+"""GA-tunable policies: name -> their tuning declaration (``baselines.tunable.ControllerTuning``)."""
+
+
+def tunable_policies() -> tuple[str, ...]:
+    """Registered policy names with a GA tuning declaration."""
+    return tuple(_TUNING)
+
+
+def policy_tuning(name: str) -> Any:
+    """The ``ControllerTuning`` of the registered policy ``name`` (``ValueError`` if it has none)."""
+    if name not in _TUNING:
+        raise ValueError(f"{name!r} is not GA-tunable; tunable: {', '.join(_TUNING)}")
+    module, attr = _TUNING[name]
+    return getattr(importlib.import_module(module), attr)
 
 
 def available_policies() -> tuple[str, ...]:

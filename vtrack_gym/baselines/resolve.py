@@ -116,6 +116,15 @@ def canonical_spec(spec: str, preset: str | None = None) -> str:
     return name if chosen == "default" else f"{name}:{chosen}"
 
 
+def recorded_policy_id(spec: str, preset: str | None = None) -> str:
+    """The policy id ``vtrack evaluate`` records: an agent file's stem (the file is identified by its weights hash,
+    so a relative and an absolute path to one file are one policy), else ``canonical_spec``."""
+    text = spec.strip()
+    if Path(text).suffix in AGENT_SUFFIXES and Path(text).stem:
+        return Path(text).stem
+    return canonical_spec(text, preset)
+
+
 def canonical_ids(specs: Sequence[str]) -> dict[str, str]:
     """``{canonical id: spec}`` for ``specs``, in order (``canonical_spec``); ``ValueError`` when two specs are the
     same policy (a policy is never ranked against itself)."""

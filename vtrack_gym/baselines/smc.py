@@ -63,6 +63,9 @@ Presets:
   e_y on R = 100 m reaches metres within seconds (see tests/test_smc.py). Kept for faithfulness only.
 * ``default`` / ``tuned``: the packaged GA result ``vtrack_gym/baselines/presets/smc_tuned.json`` (the ``hand``
   fields with p, eta, Delta tuned on Case 1 by ``vtrack tune``; its provenance records the command).
+* ``observer``: the ``default`` config with ``observer=True``: the law runs on a Kalman filter's estimates of
+  e_y, e_phi, v_y, r and the road-wheel angle (``vtrack_gym.baselines.observer``; R from the env's declared
+  sensor noise). Any preset takes ``observer=True`` as an override.
 * ``hand``: p = 8 rad/s with OPTION 2 (sideslip shift), eta = 5 rad/s^2, Delta = 0.1 rad/s (eta/Delta = 50
   s^-1 = half the 10 ms ZOH limit, margin for the env's 30 ms steering lag; switching authority
   I_z eta/(a1 C_af) = 0.059 rad). Linear closed loop (tests/linear_closed_loop.py, 10 ms ZOH, ideal actuator):
@@ -99,7 +102,8 @@ from vtrack_gym.baselines.laws import (
     smc_rows,
 )
 from vtrack_gym.baselines.laws import smc_singular_speed as singular_speed
-from vtrack_gym.baselines.preset_files import TunedPresets
+from vtrack_gym.baselines.observer import ObserverOption
+from vtrack_gym.baselines.preset_files import TunedPresets, observer_preset
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.vehicle.params import DesignModel
 
@@ -128,7 +132,7 @@ def smc_coefficients(design: DesignModel, v: float, p: float) -> SMCCoefficients
     return SMCCoefficients(*(float(c) for c in values))
 
 
-class SMC(TunedPresets, Policy):
+class SMC(ObserverOption, TunedPresets, Policy):
     """Decoupled SMC steering (paper-math 5); stateless. See the module docstring for the law and presets.
 
     The law itself is ``vtrack_gym.baselines.laws.smc_row`` (compiled); ``self.law`` holds its parameters.
@@ -138,11 +142,14 @@ class SMC(TunedPresets, Policy):
     PRESETS: ClassVar[dict[str, SMCConfig]] = SMC_PRESETS
     config_type: ClassVar[type] = SMCConfig
     state_size = 0
+    FILE_PRESETS: ClassVar[tuple[str, ...]] = ("default", "tuned", "observer")
 
     def __init__(self, design: DesignModel, config: SMCConfig | None = None, layout: ObservationLayout = OBS,
-                 control_period_s: float = 0.01, rows: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> None:
+                 control_period_s: float = 0.01, rows: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+                 noise_std: tuple[float, ...] | None = None) -> None:
         """``rows``: (p, eta, Delta) arrays (R,) used instead of the config's, row i for observation row i (the
-        GA's populations); the limit_layer_rate rule is then applied per row, silently."""
+        GA's populations); the limit_layer_rate rule is then applied per row, silently. ``noise_std``: the env's
+        declared sensor noise, the observer's R (``observer.declared_noise_std``)."""
         super().__init__(design, config, layout, control_period_s)
         cfg: SMCConfig = self.config
         self.v_star = singular_speed(design)
@@ -158,6 +165,7 @@ class SMC(TunedPresets, Policy):
                                               cfg.guard_band_mps)
                            if cfg.low_speed_floor else 0.0)
         self.boundary_layer: float | np.ndarray = layer
+        self._attach_observer(noise_std)
         if rows is None:
             self.boundary_layer = float(layer[0])
             if self.boundary_layer != cfg.boundary_layer:
@@ -191,5 +199,10 @@ class SMC(TunedPresets, Policy):
                          self.config.guard_band_mps, self.v_star)
         return delta, sigma
 
-    def _act_batch(self, obs: np.ndarray, state: np.ndarray | None) -> tuple[np.ndarray, None]:
+    @classmethod
+    def _file_preset(cls, preset: str) -> SMCConfig:
+        """``default``/``tuned``: the packaged GA result; ``observer``: the same with the Kalman filter."""
+        return observer_preset(cls.name, preset)
+
+    def _law_batch(self, obs: np.ndarray, state: np.ndarray | None) -> tuple[np.ndarray, None]:
         return self._evaluate(obs)[0], None

@@ -38,8 +38,8 @@ from dataclasses import dataclass
 from typing import ClassVar, NamedTuple
 
 import numpy as np
-from numba import njit
 
+from vtrack_gym._jit import kernel
 from vtrack_gym._ranges import documented, ranged, validate
 from vtrack_gym.baselines.base import Policy
 from vtrack_gym.baselines.laws import ANTICIPATION_RATE_FACTOR, rate_anticipation
@@ -128,7 +128,7 @@ class StanleyLaw(NamedTuple):
     damping_speed: float  # below this speed [m/s] the yaw damping grows as 1/v (0: constant)
 
 
-@njit(cache=True)
+@kernel
 def stanley_row(law: StanleyLaw, obs: np.ndarray, i: int) -> float:
     """Road-wheel angle [rad] of observation row ``i``."""
     idx, k = law.idx, law.k
@@ -147,7 +147,7 @@ def stanley_row(law: StanleyLaw, obs: np.ndarray, i: int) -> float:
     return delta
 
 
-@njit(cache=True)
+@kernel
 def stanley_rows(law: StanleyLaw, obs: np.ndarray, delta: np.ndarray) -> None:
     """``stanley_row`` of every row of ``obs`` into ``delta`` [rad]."""
     for i in range(obs.shape[0]):

@@ -6,6 +6,7 @@
     vtrack plot --policies smc,mpc --env LateralTracking-v0
     vtrack tune --controller smc --budget paper --space working --out smc_tuned.json
     vtrack video --policy mpc --env DLC120-v0 --out dlc.mp4
+    vtrack dataset --policy mpc --suite paper --episodes 2
 
 One module per command (``evaluate`` runs ``vtrack eval``): ``register`` adds its subparser, ``run`` runs it,
 ``needed_modules`` and ``check_outputs`` say which optional packages and outputs it has. Shared options live in
@@ -24,6 +25,7 @@ from types import ModuleType
 
 from vtrack_gym.cli import (
     benchmark,
+    dataset,
     evaluate,
     export,
     leaderboard,
@@ -39,7 +41,8 @@ from vtrack_gym.cli._terminal import SafeFormatter, err, safe_warnings
 from vtrack_gym.evaluation.store import StoreError
 from vtrack_gym.tuning.backends import BackendError
 
-COMMANDS: tuple[ModuleType, ...] = (benchmark, evaluate, leaderboard, train, export, plot, tune, video, reproduce)
+COMMANDS: tuple[ModuleType, ...] = (benchmark, evaluate, leaderboard, train, export, plot, tune, video, reproduce,
+                                    dataset)
 """The command modules, in the order ``vtrack --help`` lists them."""
 EXIT_ERROR = 2
 """Exit code of a refused command (bad input, unusable file, missing package)."""

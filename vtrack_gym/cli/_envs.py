@@ -23,7 +23,7 @@ def speed_profile(args: argparse.Namespace) -> Any:
 
 def track_read(args: argparse.Namespace) -> dict[str, Any]:
     """``load_track`` options of --track-closed / --track-smoothing-m (only those given)."""
-    from vtrack_gym.envs.scenarios import MAX_TRACK_SMOOTHING_M
+    from vtrack_gym.envs.track_sources import MAX_TRACK_SMOOTHING_M
 
     read: dict[str, Any] = {}
     if args.track_closed != "auto":
@@ -89,14 +89,11 @@ def env_or_track(args: argparse.Namespace, default: str | None = None) -> tuple[
 
 def announce_kernels() -> None:
     """Say that the first rollout compiles the numba kernels when no compiled cache exists yet."""
-    import os
+    from vtrack_gym._jit import kernel_cache_dir
 
-    import vtrack_gym
-
-    cache_dir = os.environ.get("NUMBA_CACHE_DIR")
-    root = Path(cache_dir) if cache_dir else Path(vtrack_gym.__file__).parent
+    cache = kernel_cache_dir()  # the directory of the current kernel sources' hash
     log = logging.getLogger("vtrack_gym.cli")
-    if not any(root.glob("**/*.nbi")):
+    if cache is None or not any(cache.glob("**/*.nbi")):
         log.info("compiling the kernels (first run only, ~30 s)")
     else:
         log.debug("loading the compiled kernels from the numba cache")

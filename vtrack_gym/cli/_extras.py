@@ -7,15 +7,23 @@ from collections.abc import Callable
 
 EXTRAS: dict[str, tuple[str, str]] = {
     "matplotlib": ("benchmark", "the figures"), "osqp": ("benchmark", "the mpc_osqp baseline"),
+    "casadi": ("nmpc", "the nmpc baseline"),
     "highway_env": ("highway", "highway-env's lane-keeping-v0"), "stable_baselines3": ("rl", "SB3 training"),
     "torch": ("rl", "SB3 training"), "yaml": ("rl", "the hyperparameter files"), "pymoo": ("tuning", "the GA"),
+    "minari": ("dataset", "Minari datasets"), "h5py": ("dataset", "Minari's HDF5 files"),
 }
 """Importable module -> (extra that installs it, what needs it)."""
+TORCH_HINT = ("The rl extra brings PyTorch: without an NVIDIA GPU, install its CPU build first (pip install torch "
+              "--index-url https://download.pytorch.org/whl/cpu); for a GPU build pick your platform and CUDA "
+              "version at https://pytorch.org/get-started/locally/ (a plain `pip install torch` pulls the CUDA "
+              "build, several GB, on Linux).")
+"""Said with every message that names the ``rl`` extra."""
 
 
 def osqp_for(policies: list[str]) -> list[str]:
-    """``["osqp"]`` when one of the policies is the OSQP MPC."""
-    return ["osqp"] if any(p.partition(":")[0] == "mpc_osqp" for p in policies) else []
+    """The solver packages of the policies: ``"osqp"`` for the OSQP MPC, ``"casadi"`` for the nonlinear MPC."""
+    names = {p.partition(":")[0] for p in policies}
+    return [module for name, module in (("mpc_osqp", "osqp"), ("nmpc", "casadi")) if name in names]
 
 
 def missing_packages(args: argparse.Namespace, needed_modules: Callable[[argparse.Namespace], list[str]]) -> str:
@@ -28,5 +36,6 @@ def missing_packages(args: argparse.Namespace, needed_modules: Callable[[argpars
     extras = sorted({EXTRAS[m][0] for m in missing})
     what = "; ".join(f"{m} ({EXTRAS[m][1]})" for m in missing)
     hint = " or pass --no-figures" if args.command == "benchmark" and "matplotlib" in missing else ""
+    torch = f". {TORCH_HINT}" if "rl" in extras else ""
     return (f"missing optional packages: {what}. Install them with: pip install "
-            + " ".join(f'"vtrack_gym[{e}]"' for e in extras) + hint)
+            + " ".join(f'"vtrack_gym[{e}]"' for e in extras) + hint + torch)

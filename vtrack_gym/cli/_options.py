@@ -111,7 +111,7 @@ def add_user_code(p: argparse.ArgumentParser) -> None:
 def add_track(p: argparse.ArgumentParser, text: str | None = None, where: Any = None) -> None:
     """``--track FILE`` (in the group ``where`` if given, e.g. exclusive with --env), how it is read and its
     speed-profile options."""
-    from vtrack_gym.envs.scenarios import MAX_TRACK_SMOOTHING_M
+    from vtrack_gym.envs.track_sources import MAX_TRACK_SMOOTHING_M
     from vtrack_gym.tracks.speed_limits import (
         DEFAULT_MAX_LATERAL_G,
         DEFAULT_MAX_SPEED_KMH,

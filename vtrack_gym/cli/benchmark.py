@@ -1,4 +1,5 @@
-"""``vtrack benchmark``: every baseline and shipped agent (or --policies) on a suite or a track file."""
+"""``vtrack benchmark``: every baseline and shipped agent (or --policies) on a suite, a track file or a set of track
+files, in local processes or on Ray."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ from typing import Any
 from vtrack_gym._io import check_output_dir, check_output_file
 from vtrack_gym.cli import _options as opt
 from vtrack_gym.cli._board import ranking_note, render_board, shown_columns
-from vtrack_gym.cli._envs import announce_kernels, check_vehicle, env_or_track
+from vtrack_gym.cli._envs import announce_kernels, check_vehicle, env_or_track, speed_profile, track_read
 from vtrack_gym.cli._extras import osqp_for
 from vtrack_gym.cli._policies import policy_factories
 from vtrack_gym.cli._terminal import err, out
@@ -31,7 +32,8 @@ def register(sub: Any) -> None:
                    help="comma-separated policy names to score (default: all; see `vtrack eval --help`)")
     opt.add_user_code(b)
     b.add_argument("--figures", type=Path, default=opt.DEFAULT_FIGURES_DIR,
-                   help=f"folder for the PNG figures (default: {opt.DEFAULT_FIGURES_DIR})")
+                   help=f"root folder of the PNG figures: each run writes its own folder <suite>/<policies>-<digest> "
+                   f"below it, recorded in its rows (default: {opt.DEFAULT_FIGURES_DIR})")
     b.add_argument("--no-figures", action="store_true", help="skip the figures")
     b.add_argument("--quick", action="store_true", help="robust/highway suites: one seed only (stored as suite "
                    "'robust[quick]' / 'highway[quick]', apart from the standard board)")
@@ -41,6 +43,16 @@ def register(sub: Any) -> None:
                    "seeds are stored as suite NAME[seeds=...], apart from the standard board")
     opt.add_track(b, "score the policies on this CSV track file (suite 'custom', seed 0 or --seeds) instead of "
                   "--suite (not with --suite or --quick)")
+    b.add_argument("--tracks", default=None, metavar="DIR_OR_GLOB",
+                   help="score the policies on every track file of this folder (*.csv) or glob pattern (quote it, "
+                   "e.g. 'tracks/*.csv'), read with the --track options; suite tracks[<name>-<digest>], whose board "
+                   "ranks across all tracks first and keeps the per-track rows (not with --suite, --quick or --track)")
+    b.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="run the episodes in N local processes (default: the cores of this machine; 1 runs them in "
+                   "this process); the rows do not depend on N. With --backend ray: the most episodes in flight")
+    b.add_argument("--backend", choices=("local", "ray"), default="local",
+                   help="local: processes on this machine; ray: tasks on the Ray cluster of RAY_ADDRESS, or a "
+                   "local Ray instance (needs the 'ray' extra) (default: local)")
     opt.add_vehicle(b)
     opt.add_store(b)
     opt.add_format(b)
@@ -50,39 +62,51 @@ def register(sub: Any) -> None:
 def needed_modules(args: argparse.Namespace) -> list[str]:
     needed = [] if args.no_figures else ["matplotlib"]
     needed += ["highway_env"] if args.suite == "highway" and args.track is None else []
-    return needed + osqp_for(opt.policy_list(args.policies) or ["mpc_osqp"])
+    needed += ["ray"] if args.backend == "ray" else []
+    return needed + osqp_for(opt.policy_list(args.policies) or ["mpc_osqp", "nmpc"])
 
 
 def check_outputs(args: argparse.Namespace) -> None:
-    check_output_file(args.store, "--store")
+    check_output_file(args.store, "--store", store=True)
     if not args.no_figures:
         check_output_dir(args.figures, "--figures")
 
 
 def _check_track_options(args: argparse.Namespace) -> None:
-    if args.track is not None and (args.suite is not None or args.quick):
-        given = " and ".join(o for o, on in (("--suite", args.suite is not None), ("--quick", args.quick)) if on)
-        raise ValueError(f"--track scores the policies on the track file (suite 'custom'); it cannot be combined "
-                         f"with {given} (--seeds may be given: one episode per seed)")
+    if args.workers is not None and args.workers < 1:
+        raise ValueError(f"--workers must be an integer >= 1 (got {args.workers})")
+    if args.track is not None and args.tracks is not None:
+        raise ValueError("give --track FILE or --tracks DIR_OR_GLOB, not both")
+    for option, value, suite in (("--track", args.track, "'custom'"), ("--tracks", args.tracks, "tracks[...]")):
+        if value is not None and (args.suite is not None or args.quick):
+            given = " and ".join(o for o, on in (("--suite", args.suite is not None), ("--quick", args.quick)) if on)
+            raise ValueError(f"{option} scores the policies on the track files (suite {suite}); it cannot be "
+                             f"combined with {given} (--seeds may be given: one episode per seed)")
 
 
 def _score(args: argparse.Namespace, factories: dict[str, Any] | None, seeds: list[int] | None) -> dict[str, Any]:
-    """Run the benchmark on the track file or the suite (the library does the work)."""
+    """Run the benchmark on the track file(s) or the suite (the library does the work)."""
     from vtrack_gym.evaluation.benchmark import policy_factories as all_policies
     from vtrack_gym.evaluation.benchmark import run_benchmark
-    from vtrack_gym.evaluation.track_benchmark import benchmark_track
+    from vtrack_gym.evaluation.track_benchmark import benchmark_track, benchmark_tracks
 
     figures = None if args.no_figures else args.figures
+    where = {"workers": args.workers, "backend": args.backend}
+    if args.tracks is not None:
+        read = track_read(args)
+        return benchmark_tracks(args.tracks, factories or all_policies(), seeds or [0], speed_profile(args),
+                                read.get("closed"), read.get("smoothing_m"), vehicle=args.vehicle,
+                                figures_dir=figures, show_progress=True, **where)
     if args.track is not None:
         env_id, provenance = env_or_track(args)
         return benchmark_track(env_id, provenance, factories or all_policies(), seeds or [0], vehicle=args.vehicle,
-                               figures_dir=figures)
+                               figures_dir=figures, show_progress=True, **where)
     return run_benchmark(args.suite, store=None, policies=factories, figures_dir=figures, quick=args.quick,
-                         seeds=seeds, vehicle=args.vehicle)
+                         seeds=seeds, vehicle=args.vehicle, **where)
 
 
 def run(args: argparse.Namespace) -> int:
-    from vtrack_gym.evaluation.benchmark import suite_columns, summarise
+    from vtrack_gym.evaluation.api import board_of
     from vtrack_gym.evaluation.store import ResultStore
 
     _check_track_options(args)
@@ -96,10 +120,12 @@ def run(args: argparse.Namespace) -> int:
     announce_kernels()
     result = _score(args, factories, seeds)
     suite = result["suite"]
-    if suite != args.suite and args.track is None:
+    if suite != args.suite and args.track is None and args.tracks is None:
         err(f"suite {suite!r}: not the standard {args.suite} episodes, so stored and ranked apart from the "
             f"{args.suite!r} board (vtrack leaderboard --suite '{suite}')")
-    board = summarise(result["rows"], suite_columns(suite))
+    if args.tracks is not None:
+        err(f"{len(result['tracks'])} track files of --tracks {args.tracks}: suite {suite!r}")
+    board = board_of(result["rows"], suite).entries
     out(render_board(shown_columns(board, args.format, args.columns, suite), args.format))
     err(ranking_note(suite))
     for f in result["figures"]:

@@ -41,11 +41,11 @@ def needed_modules(args: argparse.Namespace) -> list[str]:
 
 
 def check_outputs(args: argparse.Namespace) -> None:
-    check_output_file(args.store, "--store")
+    check_output_file(args.store, "--store", store=True)
 
 
 def run(args: argparse.Namespace) -> int:
-    from vtrack_gym.baselines.resolve import canonical_spec
+    from vtrack_gym.baselines.resolve import recorded_policy_id
     from vtrack_gym.evaluation.api import evaluate
     from vtrack_gym.evaluation.report_formats import to_markdown
     from vtrack_gym.evaluation.store import ResultStore
@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
     check_vehicle(args)
     store = ResultStore(args.store)  # verified before the rollouts; written after the table is printed
     announce_kernels()
-    policy_id = args.policy if args.trust_code else canonical_spec(args.policy, args.preset)
+    policy_id = args.policy if args.trust_code else recorded_policy_id(args.policy, args.preset)
     rows = with_provenance(evaluate(make, env_id, seeds, policy_id=policy_id, vehicle=args.vehicle), provenance)
     table = [{"seed": r.seed, "termination": r.termination, "success": int(r.verdict()),
               **{k: v for k, v in r.metrics.items() if isinstance(v, float)}} for r in rows]

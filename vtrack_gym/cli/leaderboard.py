@@ -40,7 +40,8 @@ def register(sub: Any) -> None:
                     help="write the leaderboard to this file (default: stdout); never the store, its -wal/-shm/"
                     "-journal files or another SQLite file")
     lb.add_argument("--figures", type=Path, default=opt.DEFAULT_FIGURES_DIR,
-                    help=f"--format html: embed the PNG figures of this folder if it exists (default: "
+                    help=f"--format html: the figures root `vtrack benchmark --figures` wrote to; the report embeds "
+                    f"the figures of the runs whose rows it shows, and only those (default: "
                     f"{opt.DEFAULT_FIGURES_DIR})")
     lb.add_argument("--all-versions", action="store_true",
                     help="aggregate every stored row (default: only rows of the newest package version in the "
@@ -82,15 +83,26 @@ def check_outputs(args: argparse.Namespace) -> None:
                          "another --out file (e.g. board.md)")
 
 
-def _figures(args: argparse.Namespace) -> list[Path]:
-    """The PNGs ``--format html`` embeds: regular files (a FIFO would block) of at most ``MAX_FIGURE_BYTES``."""
-    if args.format != "html" or not args.figures.is_dir():
-        return []
-    return sorted(f for f in args.figures.glob("*.png") if f.is_file() and f.stat().st_size <= MAX_FIGURE_BYTES)
+def _figures(args: argparse.Namespace, board: Any) -> tuple[list[Path], str]:
+    """The PNGs ``--format html`` embeds (those of the runs whose every row the board shows:
+    ``evaluation.figure_runs``; regular files of at most ``MAX_FIGURE_BYTES``) and a note saying which."""
+    from vtrack_gym.evaluation.figure_runs import figure_runs, run_figures
+
+    if args.format != "html":
+        return [], ""
+    runs = figure_runs(board.rows, board.suite_rows)
+    if not runs:
+        return [], ("No figures: no benchmark run with figures has all of its rows on this board (figures belong to "
+                    "the run that wrote them).")
+    files, missing = run_figures(args.figures, runs, MAX_FIGURE_BYTES)
+    note = f"Figures of {len(runs) - len(missing)} run(s) under {args.figures}: {', '.join(runs)}."
+    if missing:
+        note += f" Not found under --figures {args.figures}: {', '.join(missing)}."
+    return files, note
 
 
 def run(args: argparse.Namespace) -> int:
-    from vtrack_gym.evaluation.benchmark import suite_columns
+    from vtrack_gym.evaluation.api import board_of
     from vtrack_gym.evaluation.store import ResultStore
 
     if not args.store.exists():
@@ -105,15 +117,17 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"no suite {args.suite!r} in {args.store}; suites present: {listing}. Select one with "
                          "--suite NAME")
     err(f"suite {args.suite!r} of {args.store}; suites present: {listing} (select one with --suite NAME)")
-    board = store.leaderboard(args.suite, suite_columns(args.suite), latest_only=not args.all_versions)
+    board = board_of(store, args.suite, latest_only=not args.all_versions)
     note = ranking_note(args.suite)
     newest, hidden = store.older_versions(args.suite)
     if hidden and not args.all_versions:
         note += (f" Only rows of the newest package version ({newest}) are shown: {hidden} row(s) of older versions "
                  "are hidden; --all-versions shows them.")
     err(note)
-    text = render_board(shown_columns(board, args.format, args.columns, args.suite), args.format,
-                        title=f"vtrack leaderboard: suite {args.suite}", figures=_figures(args), notes=[note])
+    figures, figure_note = _figures(args, board)
+    notes = [note, figure_note] if figure_note else [note]
+    text = render_board(shown_columns(board.entries, args.format, args.columns, args.suite), args.format,
+                        title=f"vtrack leaderboard: suite {args.suite}", figures=figures, notes=notes)
     if args.out is None:
         out(text.rstrip())
         return 0

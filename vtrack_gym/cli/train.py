@@ -24,10 +24,10 @@ def register(sub: Any) -> None:
                         "`vtrack eval` and the benchmark load without torch.")
     tr.add_argument("--algo", choices=("ppo", "sac", "td3"), required=True, help="SB3 algorithm")
     tr.add_argument("--env", default=None,
-                    help="training env id (default: vtrack/TrainingMix-v0, the from-scratch recipes' training mix; "
-                    "with --bc-expert: LateralTrackingRandom-v0, the imitation recipes')")
-    tr.add_argument("--timesteps", type=opt.int_in(1, 10**10), default=1_000_000,
-                    help="environment steps (default: %(default)s)")
+                    help="training env id (default: vtrack/TrainingMix20Hz-v0, the from-scratch recipes' training "
+                    "mix at 20 Hz decisions; with --bc-expert: LateralTrackingRandom-v0, the imitation recipes')")
+    tr.add_argument("--timesteps", type=opt.int_in(1, 10**10), default=None,
+                    help="environment steps (default: the hyperparameter entry's n_timesteps)")
     tr.add_argument("--seed", type=opt.int_in(0, opt.MAX_RNG_SEED), default=0, help="training seed (default: 0)")
     tr.add_argument("--run-dir", type=Path, required=True, help="folder for config, logs, checkpoints and the agent "
                     "(a folder that already holds a run is refused, see --overwrite)")

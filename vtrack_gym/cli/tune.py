@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from vtrack_gym._io import check_output_file
+from vtrack_gym.baselines.registry import tunable_policies
 from vtrack_gym.cli import _options as opt
 from vtrack_gym.cli._envs import env_or_track
 from vtrack_gym.cli._terminal import err, out
@@ -21,7 +22,7 @@ def register(sub: Any) -> None:
                        "minimising ITAE + constraint penalties on LateralTracking-v0. Each generation runs as one "
                        "batched rollout, in this process or (--backend ray) split over a Ray cluster's workers, with a "
                        "bit-identical result. Writes a JSON preset with provenance.")
-    t.add_argument("--controller", choices=("smc", "mpc"), required=True, help="controller to tune")
+    t.add_argument("--controller", choices=tunable_policies(), required=True, help="controller to tune")
     t.add_argument("--budget", choices=("paper", "quick"), default="paper",
                    help="paper: Table 2 (SMC 100 generations x 10, MPC 200 x 20); quick: 3 x 4 (default: paper)")
     t.add_argument("--space", choices=("paper", "working", "steering"), default="paper",
@@ -65,7 +66,7 @@ def needed_modules(args: argparse.Namespace) -> list[str]:
 def check_outputs(args: argparse.Namespace) -> None:
     check_output_file(args.out or opt.DEFAULT_RESULTS_DIR / f"{args.controller}_tuned.json", "--out")
     if args.store is not None:
-        check_output_file(args.store, "--store")
+        check_output_file(args.store, "--store", store=True)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -1,5 +1,5 @@
 """Frozen configuration of the envs: reward, env settings, reset options (all SI units); the scenarios live in
-``envs.scenarios`` and are re-exported here."""
+``envs.scenarios`` (``Scenario`` and the paper's entries are re-exported here)."""
 
 from __future__ import annotations
 
@@ -11,13 +11,13 @@ from typing import Any, ClassVar
 import numpy as np
 
 from vtrack_gym._ranges import closed_ranges, documented, ranged, validate
-from vtrack_gym.envs.observation import NOISY_FIELDS, OBS, ObservationLayout
+from vtrack_gym.envs.observation import DEFAULT_NOISE_STD, NOISY_FIELDS, OBS, ObservationLayout
 from vtrack_gym.envs.pdflc import PDFLCConfig
-from vtrack_gym.envs.scenarios import DLC120, KMH, LATERAL_TRACKING, RANDOM_TRACKS, TRACK, ScenarioConfig
+from vtrack_gym.envs.scenarios import DLC120, KMH, LATERAL_TRACKING, RANDOM_TRACKS, TRACK, Scenario
 from vtrack_gym.vehicle.params import VehicleParams
 
 __all__ = ["DLC120", "KMH", "LATERAL_TRACKING", "RANDOM_TRACKS", "TRACK", "EnvConfig", "ResetOptions", "RewardConfig",
-           "ScenarioConfig", "validate_numeric_options"]
+           "Scenario", "validate_numeric_options"]
 
 
 @documented
@@ -64,16 +64,15 @@ class EnvConfig:
     """Everything an env instance needs besides its scenario."""
 
     control_period_s: float = ranged(0.01, ge=0.001, le=0.1, unit="s")
-    physics_dt_s: float = ranged(0.002, gt=0.0, le=0.002, unit="s")  # >= 500 Hz
+    physics_dt_s: float = ranged(0.002, ge=1e-4, le=0.002, unit="s")  # 500 Hz to 10 kHz
     model: str = "nonlinear"
     vehicle: VehicleParams = field(default_factory=VehicleParams)  # or a name of vehicle.list_vehicles() / a file
     reward: RewardConfig = field(default_factory=RewardConfig)
     layout: ObservationLayout = OBS
     speed_controller: PDFLCConfig = field(default_factory=PDFLCConfig)  # the inner PD-FLC loop (paper Table 3)
     # Sensor noise standard deviations at ``sensor_noise = 1`` (reset option scales them), one per entry of
-    # ``observation.NOISY_FIELDS``: e_y [m], e_phi [rad], e_y_dot [m/s], e_phi_dot [rad/s], v_x, v_y [m/s],
-    # r [rad/s], delta [rad].
-    noise_std: tuple[float, ...] = (0.02, 0.005, 0.02, 0.005, 0.05, 0.02, 0.005, 0.002)
+    # ``observation.NOISY_FIELDS`` in its unit; the default is the observation table's noise column.
+    noise_std: tuple[float, ...] = DEFAULT_NOISE_STD
 
     def __post_init__(self) -> None:
         if not isinstance(self.vehicle, VehicleParams):  # a shipped vehicle's name or a vehicle file path

@@ -12,7 +12,8 @@ closed flag (0/1), half width [m] and whether it has a speed profile (0/1); ``ve
 Constant settings travel in one vector ``cfg``: the fields of ``StepConstants``, then of the observation layout,
 then of the ``RewardConfig``, each offset (``CFG_*``, ``RW_*``) derived from the dataclass fields by name.
 Per-car scalars sit in ``car`` (n, 7) (``CAR_*`` columns); ``sig`` (n, len(SIGNAL_ROW)) is the row of ``info``
-signals and reward terms (``envs.schema``); ``obs`` is written by ``write_observation`` at layout-derived indices.
+signals and reward terms (``envs.schema``); ``obs`` is written by ``write_scalar_fields`` (the scalars) and the
+preview loops.
 """
 
 from __future__ import annotations
@@ -22,19 +23,22 @@ from dataclasses import astuple, dataclass, fields
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, prange
 
-from vtrack_gym.envs.config import EnvConfig, RewardConfig, ScenarioConfig
+from vtrack_gym._jit import kernel, prange
+from vtrack_gym.envs.config import EnvConfig, RewardConfig, Scenario
 from vtrack_gym.envs.observation import N_SCALARS, ObservationLayout
 from vtrack_gym.envs.pdflc_kernel import pdflc_step
 from vtrack_gym.envs.schema import REWARD_TERMS, SIGNAL_ROW
-from vtrack_gym.tracks.kernels import _locate, interp_row, project_point
+from vtrack_gym.tracks import table as track_table
+from vtrack_gym.tracks.kernels import interp_linear as _linear
+from vtrack_gym.tracks.kernels import interp_row, lateral_offset, project_point
 from vtrack_gym.vehicle import layout as L
 from vtrack_gym.vehicle.kernels import step_vehicle
 
-# Column order of the track tables (see vtrack_gym.tracks.path).
-C_X, C_Y, C_PSI, C_KAPPA, C_DKAPPA, C_Z, C_GRADE, C_ZPP = range(8)
-N_COLS = 8
+# Column order of the track tables: declared by their owner, ``vtrack_gym.tracks.table``.
+C_X, C_Y, C_PSI, C_KAPPA = track_table.COL_X, track_table.COL_Y, track_table.COL_PSI, track_table.COL_KAPPA
+C_DKAPPA, C_Z, C_GRADE, C_ZPP = track_table.COL_DKAPPA, track_table.COL_Z, track_table.COL_GRADE, track_table.COL_ZPP
+N_COLS = track_table.N_COLS
 C_V2, C_WL, C_WR = range(N_COLS, N_COLS + 3)   # the env's own columns after the path's
 N_ENV_COLS = N_COLS + 3
 
@@ -57,9 +61,9 @@ class StepConstants:
     steering_ratio: float        # hand-wheel / road-wheel angle
 
     @classmethod
-    def of(cls, scenario: ScenarioConfig, config: EnvConfig) -> StepConstants:
+    def of(cls, scenario: Scenario, config: EnvConfig) -> StepConstants:
         """The constants of an env with this scenario and config."""
-        return cls(config.physics_dt_s, config.n_substeps, scenario.end_margin_m,
+        return cls(config.physics_dt_s, config.n_substeps, scenario.track.end_margin_m,
                    config.speed_controller.method == "mamdani", config.vehicle.steering.max_road_wheel_angle_rad,
                    config.vehicle.steering.steering_ratio)
 
@@ -158,7 +162,7 @@ N_TERMS = len(REWARD_TERMS)
 O_PREVIEW = N_SCALARS
 
 
-@njit(cache=True)
+@kernel
 def _wrap(a: float) -> float:
     """Angle wrapped to (-pi, pi]."""
     two_pi = 2.0 * math.pi
@@ -166,31 +170,40 @@ def _wrap(a: float) -> float:
     return math.pi if w == -math.pi else w
 
 
-@njit(cache=True)
-def _linear(table: np.ndarray, ds: float, length: float, closed: bool, s: float, col: int) -> float:
-    """Column ``col`` of ``table`` at arc length s [m], linear between rows (wrapped / clamped like the path)."""
-    j, t = _locate(table.shape[0], ds, length, closed, s)
-    lo = table[j, col]
-    return lo + t * (table[j + 1, col] - lo)
+@kernel
+def write_scalar_fields(obs_row: np.ndarray, e_y: float, e_phi: float, v_x: float, v_y: float, yaw_rate: float,
+                        road_wheel_angle: float, target_speed: float, kappa: float, dkappa: float, s_dot: float,
+                        a_x: float) -> None:
+    """Compute and write the scalar fields of one observation row from the car's errors e_y [m], e_phi [rad],
+    body speeds [m/s], yaw rate [rad/s], road-wheel angle [rad], target speed [m/s], the path's curvature [1/m] and
+    its rate [1/m^2] at the projection, the projection's speed s_dot [m/s] and the longitudinal acceleration a_x
+    [m/s^2].
 
-
-@njit(cache=True)
-def write_observation(obs_row: np.ndarray, e_y: float, e_phi: float, e_y_dot: float, e_phi_dot: float, v_x: float,
-                      v_y: float, yaw_rate: float, road_wheel_angle: float, target_speed: float, yaw_rate_ref: float,
-                      yaw_acc_ref: float, curvature: float, curvature_rate: float) -> None:
-    """Write the scalar fields of one observation row (units: ``envs.observation``).
-
-    The one writer of the scalar fields, used by the env step and by the highway-env adapter. The parameters are
-    the layout's ``SCALAR_FIELDS`` in order (``tests/test_info_schema.py`` checks it), so field j goes to index j;
-    the curvature preview follows at ``O_PREVIEW``.
+    The one writer of the scalar fields, used by the env step and by the highway-env adapter: one entry per row of
+    ``envs.observation.SCALARS``, in its order (``tests/test_observation_fields.py`` checks each against its
+    formula); the curvature preview follows at ``O_PREVIEW``.
     """
-    values = (e_y, e_phi, e_y_dot, e_phi_dot, v_x, v_y, yaw_rate, road_wheel_angle, target_speed, yaw_rate_ref,
-              yaw_acc_ref, curvature, curvature_rate)
+    yaw_rate_ref = kappa * s_dot
+    values = (
+        e_y,                                                     # e_y
+        e_phi,                                                   # e_phi
+        v_x * math.sin(e_phi) + v_y * math.cos(e_phi),           # e_y_dot
+        yaw_rate - yaw_rate_ref,                                 # e_phi_dot
+        v_x,                                                     # v_x
+        v_y,                                                     # v_y
+        yaw_rate,                                                # yaw_rate
+        road_wheel_angle,                                        # road_wheel_angle
+        target_speed,                                            # target_speed
+        yaw_rate_ref,                                            # yaw_rate_ref
+        dkappa * s_dot * s_dot + kappa * a_x,                    # yaw_acc_ref
+        kappa,                                                   # curvature
+        dkappa,                                                  # curvature_rate
+    )
     for j in range(N_SCALARS):
         obs_row[j] = values[j]
 
 
-@njit(cache=True)
+@kernel
 def observe_one(i: int, a: SimArrays, a_x: float, window_m: float, first: bool) -> None:
     """Project car ``i`` on its path and write its observation row, road inputs and error row."""
     state, car, cfg, row = a.states[i], a.car, a.cfg, a.rows[i]
@@ -233,7 +246,7 @@ def observe_one(i: int, a: SimArrays, a_x: float, window_m: float, first: bool) 
     psi_r = row[C_PSI]
     kappa = row[C_KAPPA]
     dkappa = row[C_DKAPPA]
-    e_y = -(x - row[C_X]) * math.sin(psi_r) + (y - row[C_Y]) * math.cos(psi_r)
+    e_y = lateral_offset(x, y, row[C_X], row[C_Y], psi_r)
     e_phi = _wrap(psi - psi_r)
     sin_e = math.sin(e_phi)
     cos_e = math.cos(e_phi)
@@ -241,12 +254,10 @@ def observe_one(i: int, a: SimArrays, a_x: float, window_m: float, first: bool) 
     if denom < 0.1:
         denom = 0.1
     s_dot = (vx * cos_e - vy * sin_e) / denom
-    yaw_rate_ref = kappa * s_dot
-    yaw_acc_ref = dkappa * s_dot * s_dot + kappa * a_x
 
     obs = a.obs
-    write_observation(obs[i], e_y, e_phi, vx * sin_e + vy * cos_e, r - yaw_rate_ref, vx, vy, r, state[L.S_DELTA],
-                      car[i, CAR_V_REF], yaw_rate_ref, yaw_acc_ref, kappa, dkappa)
+    write_scalar_fields(obs[i], e_y, e_phi, vx, vy, r, state[L.S_DELTA], car[i, CAR_V_REF], kappa, dkappa, s_dot,
+                        a_x)
     v_prev = vx if vx > preview_vmin else preview_vmin
     for j in range(n_preview):
         interp_row(table, ds, length, closed, s + v_prev * (j + 1) * preview_dt, row)
@@ -275,7 +286,7 @@ def observe_one(i: int, a: SimArrays, a_x: float, window_m: float, first: bool) 
     err[i, E_WR] = w_right
 
 
-@njit(cache=True)
+@kernel
 def termination_one(i: int, a: SimArrays) -> int:
     """Termination code of car ``i`` after a step (``T_NONE`` if it goes on); stores its min wheel load."""
     state, outputs, err, car, tmeta = a.states[i], a.outputs[i], a.err, a.car, a.tmeta
@@ -307,7 +318,7 @@ def termination_one(i: int, a: SimArrays) -> int:
     return T_NONE
 
 
-@njit(cache=True)
+@kernel
 def reward_one(code: int, e_y: float, e_phi: float, action: float, prev_action: float, rw: np.ndarray,
                terms: np.ndarray) -> float:
     """Reward of one car for one step; its six terms (``REWARD_TERMS`` order) go to ``terms``."""
@@ -330,7 +341,7 @@ def reward_one(code: int, e_y: float, e_phi: float, action: float, prev_action: 
     return terms[0] + terms[1] + terms[2] + terms[3] + terms[4] + terms[5]
 
 
-@njit(cache=True)
+@kernel
 def write_signals(i: int, a: SimArrays) -> None:
     """Car ``i``'s row of ``info`` signals (``envs.schema.ROW_SIGNALS``; the reward terms are written apart)."""
     st, sig, car = a.states[i], a.sig[i], a.car
@@ -359,7 +370,7 @@ def write_signals(i: int, a: SimArrays) -> None:
     sig[SIG_V_REF] = car[i, CAR_V_REF]
 
 
-@njit(cache=True)
+@kernel
 def step_car(i: int, a: SimArrays) -> None:
     """One control period of car ``i``: speed loop, physics, projection, observation, termination, reward."""
     cfg, car, states, inputs, outputs = a.cfg, a.car, a.states, a.inputs, a.outputs
@@ -383,21 +394,21 @@ def step_car(i: int, a: SimArrays) -> None:
     write_signals(i, a)
 
 
-@njit(cache=True)
+@kernel
 def step_serial(a: SimArrays) -> None:
     """One control period for every car, single-threaded."""
     for i in range(a.states.shape[0]):
         step_car(i, a)
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def step_parallel(a: SimArrays) -> None:
     """One control period for every car, cars spread over threads (same per-car code)."""
     for i in prange(a.states.shape[0]):
         step_car(i, a)
 
 
-@njit(cache=True)
+@kernel
 def observe_indices(idx: np.ndarray, a: SimArrays) -> None:
     """Fresh observation (global projection search, progress reset) and signal row (reward terms 0) for the
     cars in ``idx`` (a_x = 0)."""
@@ -405,57 +416,3 @@ def observe_indices(idx: np.ndarray, a: SimArrays) -> None:
         observe_one(i, a, 0.0, 0.0, True)
         a.sig[i, SIG_REWARD:SIG_REWARD + N_TERMS] = 0.0
         write_signals(i, a)
-
-
-GATE_COLS = 9
-"""Columns of a gate row for ``body_outside_gates``: s_start, s_end, y_left, y_right [m], anchored (1.0 / 0.0),
-anchor x, y [m], psi [rad], lane length [m] (``tracks.Gate``; the anchor columns are 0 without an anchor)."""
-
-
-@njit(cache=True)
-def body_outside_gates(table: np.ndarray, ds: float, length: float, closed: bool, gates: np.ndarray, x: np.ndarray,
-                       y: np.ndarray, psi: np.ndarray, s_guess: np.ndarray, lon: np.ndarray, lat: np.ndarray,
-                       out: np.ndarray, row: np.ndarray) -> None:
-    """``out[i] = True`` where a body-outline point of car i (CG x, y [m], heading psi [rad]; point offsets ``lon``,
-    ``lat`` (P,) [m] in the body frame) lies in a gate's lane section outside its lane. ``gates`` (G, GATE_COLS):
-    a gate without an anchor is checked in the path's Frenet frame (s range, e_y bounds; the projection starts near
-    ``s_guess`` [m], the car's station), an anchored gate against its fixed rectangle (like
-    ``tracks.gate_violations``)."""
-    frenet = False
-    for g in range(gates.shape[0]):
-        if gates[g, 4] < 0.5:
-            frenet = True
-    for i in range(x.shape[0]):
-        c = math.cos(psi[i])
-        sn = math.sin(psi[i])
-        for j in range(lon.shape[0]):
-            cx = x[i] + c * lon[j] - sn * lat[j]
-            cy = y[i] + sn * lon[j] + c * lat[j]
-            s = 0.0
-            e_y = 0.0
-            if frenet:
-                s = project_point(table, ds, length, closed, cx, cy, s_guess[i], 10.0)
-                interp_row(table, ds, length, closed, s, row)
-                e_y = -(cx - row[C_X]) * math.sin(row[C_PSI]) + (cy - row[C_Y]) * math.cos(row[C_PSI])
-            for g in range(gates.shape[0]):
-                if gates[g, 4] > 0.5:
-                    ca = math.cos(gates[g, 7])
-                    sa = math.sin(gates[g, 7])
-                    along = (cx - gates[g, 5]) * ca + (cy - gates[g, 6]) * sa
-                    off = -(cx - gates[g, 5]) * sa + (cy - gates[g, 6]) * ca
-                    if 0.0 <= along <= gates[g, 8] and (off > gates[g, 2] or off < gates[g, 3]):
-                        out[i] = True
-                elif gates[g, 0] <= s <= gates[g, 1] and (e_y > gates[g, 2] or e_y < gates[g, 3]):
-                    out[i] = True
-
-
-def gate_rows(gates: tuple) -> np.ndarray:
-    """The (G, GATE_COLS) array of ``tracks.Gate`` objects for ``body_outside_gates``."""
-    out = np.zeros((len(gates), GATE_COLS))
-    for g, gate in enumerate(gates):
-        out[g, :4] = (gate.s_start_m, gate.s_end_m, gate.y_left_m, gate.y_right_m)
-        if gate.anchor is not None:
-            out[g, 4] = 1.0
-            out[g, 5:8] = gate.anchor
-            out[g, 8] = gate.lane_length_m
-    return out

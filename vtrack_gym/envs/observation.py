@@ -1,28 +1,21 @@
-"""The observation layout shared by every env, policy and agent.
+"""The observation layout shared by every env, policy and agent, derived from one field table.
 
 Policies must never hard-code positions: use ``OBS.index("e_y")`` or ``OBS.E_Y`` / ``OBS.preview``.
 All entries are raw SI units (m, rad, s); RL code normalises if it wants (VecNormalize or the shipped agents'
 own normalisation).
 
-Scalar fields (in this order):
+``SCALARS`` is the one table of the scalar fields (``ObservationField``: name, unit, bound of the observation box,
+sensor-noise standard deviation at ``sensor_noise = 1``, fixed RL scale, meaning); ``CURVATURE_PREVIEW`` and
+``SPEED_PREVIEW`` are the rows of the two preview series. Everything else is derived from them: the field order and
+the index attributes (``OBS.E_Y``), the box (``ObservationLayout.bounds``), the noisy fields and their default
+noise (``NOISY_FIELDS``, ``DEFAULT_NOISE_STD``: ``EnvConfig.noise_std``), the agents' fixed scaling
+(``agents.obs_scaling``) and the table below. Adding a scalar field is one row here plus the line that computes it
+in ``envs.kernels.write_scalar_fields``.
 
-================  =========  =========================================================================
-name              unit       meaning
-================  =========  =========================================================================
-e_y               m          lateral error of the CG from its projection on the path, LEFT-positive
-e_phi             rad        heading error wrap(psi - psi_ref) in (-pi, pi]
-e_y_dot           m/s        v_x sin(e_phi) + v_y cos(e_phi)  (paper eq. 8, exact at the projection)
-e_phi_dot         rad/s      r - psi_ref_dot
-v_x               m/s        longitudinal body-frame speed
-v_y               m/s        lateral body-frame speed (left-positive)
-yaw_rate          rad/s      r, counter-clockwise positive
-road_wheel_angle  rad        current (actuator output) front road-wheel angle, left-positive
-target_speed      m/s        the inner speed loop's set point
-yaw_rate_ref      rad/s      psi_ref_dot = kappa(s*) * s_dot
-yaw_acc_ref       rad/s^2    psi_ref_ddot = kappa'(s*) * s_dot^2 + kappa(s*) * a_x
-curvature         1/m        kappa(s*) at the projection point (left turn positive)
-curvature_rate    1/m^2      d kappa / d s at the projection point
-================  =========  =========================================================================
+Scalar fields (in this order; bound: the box is +- bound; noise: std at ``sensor_noise = 1``, - = not measured;
+centre, scale: the agents' fixed scaling (x - centre) / scale):
+
+{table}
 
 Then ``n_preview`` curvature samples kappa(s* + d_k) [1/m] at the look-ahead distances
 ``d_k = max(v_x, preview_min_speed_mps) * k * preview_dt_s`` for k = 1..n_preview (default: 20 samples every
@@ -34,40 +27,129 @@ speed_preview_dt_s`` for j = 1..n_speed_preview (``OBS``: 10 samples every 0.2 s
 ``ObservationLayout()`` has none, the 33-entry layout of the shipped agents). ``target_speed`` is the reference
 speed now (constant on the paper scenarios, v_ref(s*) on a track with a speed profile).
 
-Adding a scalar field touches three files: here (``SCALAR_FIELDS``, ``SCALAR_BOUNDS``, the ``ObservationLayout``
-index attribute and the table above), ``envs/kernels.py`` (a parameter of ``write_observation`` and its value in
-``observe_one``) and ``interop/lane_observation.py`` (its value on a highway-env lane).
+Every accepted setting keeps the observation inside the box: reference speeds are capped at
+``tracks.path.MAX_V_REF_MPS`` (the speed fields' bound) and a loaded track whose fitted curvature or curvature rate
+leaves the box is refused by the loader (``tracks.path.MAX_CURVATURE_PER_M``, ``MAX_CURVATURE_RATE_PER_M2``).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from vtrack_gym._ranges import documented, ranged, validate
+from vtrack_gym.tracks.path import MAX_CURVATURE_PER_M, MAX_CURVATURE_RATE_PER_M2, MAX_V_REF_MPS
 
-# Bounds of the observation box per scalar field (generous physical limits; the envs terminate long before:
-# |e_y| beyond the road half width, |e_phi| > pi/2). Preview samples are bounded by PREVIEW_BOUND.
-SCALAR_BOUNDS: dict[str, float] = {
-    "e_y": 100.0, "e_phi": 4.0, "e_y_dot": 100.0, "e_phi_dot": 50.0, "v_x": 100.0, "v_y": 100.0,
-    "yaw_rate": 50.0, "road_wheel_angle": 2.0, "target_speed": 100.0, "yaw_rate_ref": 50.0,
-    "yaw_acc_ref": 1000.0, "curvature": 2.0, "curvature_rate": 10.0,
-}
-PREVIEW_BOUND = 2.0  # [1/m]
-SPEED_PREVIEW_BOUND = 100.0  # [m/s]
 
-SCALAR_FIELDS: tuple[str, ...] = (
-    "e_y", "e_phi", "e_y_dot", "e_phi_dot", "v_x", "v_y", "yaw_rate", "road_wheel_angle",
-    "target_speed", "yaw_rate_ref", "yaw_acc_ref", "curvature", "curvature_rate",
+@dataclass(frozen=True)
+class ObservationField:
+    """One row of the observation table: an entry (or, with ``series``, a name prefix of numbered samples).
+
+    ``bound``: the box is [-bound, bound] in ``unit``; ``noise_std``: sensor-noise standard deviation at
+    ``sensor_noise = 1`` (None: the field is computed from the reference, not measured, and gets no noise);
+    ``centre``, ``scale``: the fixed RL scaling ``(x - centre) / scale`` (``agents.obs_scaling``).
+    """
+
+    name: str
+    unit: str
+    bound: float
+    noise_std: float | None
+    centre: float
+    scale: float
+    doc: str
+    series: bool = False
+
+    def __post_init__(self) -> None:
+        if not self.name.isidentifier() or (self.series and not self.name.endswith("_")):
+            raise ValueError(f"ObservationField.name must be an identifier (a series' ending in '_'): {self.name!r}")
+        if not (math.isfinite(self.bound) and self.bound > 0.0):
+            raise ValueError(f"ObservationField {self.name}: bound must be finite and > 0 (got {self.bound!r})")
+        if self.noise_std is not None and not (0.0 <= self.noise_std <= self.bound):
+            raise ValueError(f"ObservationField {self.name}: noise_std must be None or in [0, bound] "
+                             f"(got {self.noise_std!r})")
+        if not (math.isfinite(self.centre) and abs(self.centre) <= self.bound and self.scale > 0.0
+                and math.isfinite(self.scale)):
+            raise ValueError(f"ObservationField {self.name}: need |centre| <= bound and a finite scale > 0 "
+                             f"(got centre {self.centre!r}, scale {self.scale!r})")
+
+
+# The box's bounds are generous physical limits (the envs terminate long before: |e_y| beyond the road half width,
+# |e_phi| > pi/2); the speed and curvature bounds are the limits the track settings and loader enforce.
+SCALARS: tuple[ObservationField, ...] = (
+    ObservationField("e_y", "m", 100.0, 0.02, 0.0, 0.25,
+                     "lateral error of the CG from its projection on the path, LEFT-positive"),
+    ObservationField("e_phi", "rad", 4.0, 0.005, 0.0, 0.1, "heading error wrap(psi - psi_ref) in (-pi, pi]"),
+    ObservationField("e_y_dot", "m/s", 100.0, 0.02, 0.0, 1.0,
+                     "v_x sin(e_phi) + v_y cos(e_phi)  (paper eq. 8, exact at the projection)"),
+    ObservationField("e_phi_dot", "rad/s", 50.0, 0.005, 0.0, 0.2, "r - psi_ref_dot"),
+    ObservationField("v_x", "m/s", MAX_V_REF_MPS, 0.05, 15.0, 10.0, "longitudinal body-frame speed"),
+    ObservationField("v_y", "m/s", 100.0, 0.02, 0.0, 0.5, "lateral body-frame speed (left-positive)"),
+    ObservationField("yaw_rate", "rad/s", 50.0, 0.005, 0.0, 0.3, "r, counter-clockwise positive"),
+    ObservationField("road_wheel_angle", "rad", 2.0, 0.002, 0.0, 0.2,
+                     "current (actuator output) front road-wheel angle, left-positive"),
+    ObservationField("target_speed", "m/s", MAX_V_REF_MPS, None, 15.0, 10.0, "the inner speed loop's set point"),
+    ObservationField("yaw_rate_ref", "rad/s", 50.0, None, 0.0, 0.3, "psi_ref_dot = kappa(s*) * s_dot"),
+    ObservationField("yaw_acc_ref", "rad/s^2", 1000.0, None, 0.0, 1.0,
+                     "psi_ref_ddot = kappa'(s*) * s_dot^2 + kappa(s*) * a_x"),
+    ObservationField("curvature", "1/m", MAX_CURVATURE_PER_M, None, 0.0, 0.02,
+                     "kappa(s*) at the projection point (left turn positive)"),
+    ObservationField("curvature_rate", "1/m^2", MAX_CURVATURE_RATE_PER_M2, None, 0.0, 0.005,
+                     "d kappa / d s at the projection point"),
 )
+"""The scalar fields, in observation order (the one table; see the module docstring)."""
+
+CURVATURE_PREVIEW = ObservationField("kappa_preview_", "1/m", MAX_CURVATURE_PER_M, None, 0.0, 0.02,
+                                     "path curvature kappa(s* + d_k) ahead, k = 1..n_preview", series=True)
+SPEED_PREVIEW = ObservationField("v_ref_preview_", "m/s", MAX_V_REF_MPS, None, 15.0, 10.0,
+                                 "reference speed v_ref(s* + d_j) ahead, j = 1..n_speed_preview", series=True)
+SERIES: tuple[ObservationField, ...] = (CURVATURE_PREVIEW, SPEED_PREVIEW)
+"""The preview series, in observation order after the scalars."""
+
+SCALAR_FIELDS: tuple[str, ...] = tuple(f.name for f in SCALARS)
 N_SCALARS = len(SCALAR_FIELDS)
 """Number of scalar fields; the curvature preview starts at this index in every layout."""
+SCALAR_BOUNDS: dict[str, float] = {f.name: f.bound for f in SCALARS}
+"""Field name -> bound of the observation box (+- bound)."""
+PREVIEW_BOUND = CURVATURE_PREVIEW.bound  # [1/m]
+SPEED_PREVIEW_BOUND = SPEED_PREVIEW.bound  # [m/s]
 
-NOISY_FIELDS: tuple[str, ...] = (
-    "e_y", "e_phi", "e_y_dot", "e_phi_dot", "v_x", "v_y", "yaw_rate", "road_wheel_angle")
-"""The measured fields that ``reset(options={"sensor_noise": k})`` perturbs (``EnvConfig.noise_std`` order)."""
+
+
+def noise_columns(rows: tuple[ObservationField, ...]) -> tuple[tuple[str, ...], tuple[float, ...]]:
+    """(names, standard deviations at ``sensor_noise = 1``) of the measured rows, in table order."""
+    noisy = tuple(f for f in rows if f.noise_std is not None)
+    return tuple(f.name for f in noisy), tuple(float(f.noise_std) for f in noisy)  # type: ignore[arg-type]
+
+
+def scale_columns(rows: tuple[ObservationField, ...]) -> dict[str, tuple[float, float]]:
+    """Name (a series' prefix) -> (centre, scale) of the fixed RL scaling, in the rows' units."""
+    return {f.name: (f.centre, f.scale) for f in rows}
+
+
+NOISY_FIELDS, DEFAULT_NOISE_STD = noise_columns(SCALARS)
+"""The measured fields that ``reset(options={"sensor_noise": k})`` perturbs (``EnvConfig.noise_std`` order), and
+the default ``EnvConfig.noise_std``: each one's standard deviation at ``sensor_noise = 1`` (SI units)."""
 NOISY_INDICES: tuple[int, ...] = tuple(SCALAR_FIELDS.index(name) for name in NOISY_FIELDS)
+
+
+def field_table(rows: tuple[ObservationField, ...] = SCALARS) -> str:
+    """The reStructuredText table of ``rows`` (name, unit, bound, noise, RL centre and scale, meaning), as in the
+    module docstring."""
+    head = ("name", "unit", "bound", "noise", "centre", "scale", "meaning")
+    body = [(f.name, f.unit, f"{f.bound:g}", "-" if f.noise_std is None else f"{f.noise_std:g}", f"{f.centre:g}",
+             f"{f.scale:g}", f.doc) for f in rows]
+    widths = [max(len(r[c]) for r in (head, *body)) for c in range(len(head))]
+    rule = "  ".join("=" * w for w in widths)
+
+    def line(cells: tuple[str, ...]) -> str:
+        return "  ".join(c.ljust(w) for c, w in zip(cells, widths, strict=True)).rstrip()
+
+    return "\n".join([rule, line(head), rule, *(line(r) for r in body), rule])
+
+
+__doc__ = __doc__.replace("{table}", field_table())
 
 
 @documented
@@ -83,11 +165,6 @@ class ObservationLayout:
 
     def __post_init__(self) -> None:
         validate(self)
-
-    # Scalar indices as attributes (``OBS.E_Y`` = ``OBS.index("e_y")``: the upper-cased field names, in
-    # SCALAR_FIELDS order; stable across layouts because the preview comes last).
-    (E_Y, E_PHI, E_Y_DOT, E_PHI_DOT, V_X, V_Y, YAW_RATE, ROAD_WHEEL_ANGLE, TARGET_SPEED, YAW_RATE_REF, YAW_ACC_REF,
-     CURVATURE, CURVATURE_RATE) = range(N_SCALARS)
 
     @property
     def n_scalars(self) -> int:
@@ -113,17 +190,17 @@ class ObservationLayout:
     def names(self) -> tuple[str, ...]:
         """Name of every entry: the scalars, ``kappa_preview_k`` (k = 1..n_preview), ``v_ref_preview_j``
         (j = 1..n_speed_preview)."""
-        return (SCALAR_FIELDS + tuple(f"kappa_preview_{k}" for k in range(1, self.n_preview + 1))
-                + tuple(f"v_ref_preview_{j}" for j in range(1, self.n_speed_preview + 1)))
+        return (SCALAR_FIELDS + tuple(f"{CURVATURE_PREVIEW.name}{k}" for k in range(1, self.n_preview + 1))
+                + tuple(f"{SPEED_PREVIEW.name}{j}" for j in range(1, self.n_speed_preview + 1)))
 
     def index(self, name: str) -> int:
         """Index of a named entry; ``KeyError`` listing the valid names if unknown."""
         try:
             return self.names.index(name)
         except ValueError:
-            speed = f", v_ref_preview_1..{self.n_speed_preview}" if self.n_speed_preview else ""
+            speed = f", {SPEED_PREVIEW.name}1..{self.n_speed_preview}" if self.n_speed_preview else ""
             raise KeyError(f"unknown observation field {name!r}; valid: {', '.join(SCALAR_FIELDS)}, "
-                           f"kappa_preview_1..{self.n_preview}{speed}") from None
+                           f"{CURVATURE_PREVIEW.name}1..{self.n_preview}{speed}") from None
 
     def preview_distances(self, v_x: np.ndarray | float) -> np.ndarray:
         """Look-ahead distances [m] of the preview samples; shape (..., n_preview)."""
@@ -139,14 +216,21 @@ class ObservationLayout:
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """(low, high) float32 arrays of the observation box."""
-        high = np.array([SCALAR_BOUNDS[n] for n in SCALAR_FIELDS] + [PREVIEW_BOUND] * self.n_preview
-                        + [SPEED_PREVIEW_BOUND] * self.n_speed_preview, dtype=np.float32)
+        high = np.array([f.bound for f in self.fields()], dtype=np.float32)
         return -high, high
+
+    def fields(self) -> tuple[ObservationField, ...]:
+        """The table row of every entry, in observation order (a series' row repeated per sample)."""
+        return SCALARS + (CURVATURE_PREVIEW,) * self.n_preview + (SPEED_PREVIEW,) * self.n_speed_preview
 
     def as_dict(self) -> dict[str, int]:
         """Name -> index mapping."""
         return {n: i for i, n in enumerate(self.names)}
 
+
+for _index, _field in enumerate(SCALARS):  # OBS.E_Y = OBS.index("e_y"): the upper-cased names, stable per layout
+    setattr(ObservationLayout, _field.name.upper(), _index)
+del _index, _field
 
 OBS = ObservationLayout(n_speed_preview=10)
 """The default layout used by every registered env (43 entries: 13 scalars, 20 curvature and 10 speed samples)."""

@@ -4,8 +4,9 @@ The ids are generated from the scenario registry (``envs.scenarios.SCENARIOS``):
 plus the historical un-namespaced ids (``LEGACY_IDS``) as aliases with the same entry points and arguments, so
 ``gym.make("DLC120-v0")`` and ``gym.make("vtrack/DLC120-v0")`` give identical episodes.
 
-``spec.max_episode_steps`` is the scenario's time limit at the default 10 ms control period (``None`` for
-Track-v0, whose limit depends on the track). The env truncates itself at the same step, so Gymnasium's
+``spec.max_episode_steps`` is the scenario's time limit in steps of its control period part (``None`` for
+Track-v0, whose limit depends on the track). ``register_scenario`` adds a scenario of your own and
+registers its id. The env truncates itself at the same step, so Gymnasium's
 ``TimeLimit`` wrapper never changes an episode; an env made with a shorter ``control_period_s`` should be made
 with ``max_episode_steps=`` scaled accordingly (or ``None`` to leave the truncation to the env).
 """
@@ -15,13 +16,17 @@ from __future__ import annotations
 import os
 from typing import Any
 
-from vtrack_gym.envs.scenarios import LEGACY_IDS, SCENARIOS
+from vtrack_gym.envs.scenarios import LEGACY_IDS, SCENARIOS, Scenario
 
 ENV_IDS: tuple[str, ...] = LEGACY_IDS
 """The paper scenarios' historical ids (aliases of ``vtrack/<id>``)."""
 NAMESPACED_IDS: tuple[str, ...] = tuple(s.env_id for s in SCENARIOS.values())
 """Every registered ``vtrack/`` id, one per scenario (``vtrack/Track-v0`` takes ``track=``, ``speed_profile=``)."""
-ALL_ENV_IDS: tuple[str, ...] = NAMESPACED_IDS + ENV_IDS
+RECIPE_IDS: dict[str, tuple[str, dict[str, Any]]] = {
+    "vtrack/TrainingMix20Hz-v0": ("TrainingMix-v0", {"control_period_s": 0.05})}
+"""Training setups as ids: id -> (scenario, env settings). ``vtrack/TrainingMix20Hz-v0`` is the training mix at a
+50 ms decision period (20 Hz), what the shipped ``ppo`` and ``sac`` agents were trained on."""
+ALL_ENV_IDS: tuple[str, ...] = NAMESPACED_IDS + ENV_IDS + tuple(RECIPE_IDS)
 """Every id this package registers for its own envs."""
 
 
@@ -42,6 +47,28 @@ def register_envs() -> None:
             max_episode_steps=scenario.max_episode_steps,
             disable_env_checker=False,
         )
+    for env_id, (name, settings) in RECIPE_IDS.items():
+        if env_id not in registry:
+            limit_s = SCENARIOS[name].max_episode_s
+            register(id=env_id, entry_point="vtrack_gym.envs.tracking_env:TrackingEnv",
+                     vector_entry_point="vtrack_gym.envs.vector_env:TrackingVectorEnv",
+                     kwargs={"scenario": name, **settings}, disable_env_checker=False,
+                     max_episode_steps=None if limit_s is None else round(limit_s / settings["control_period_s"]))
+
+
+def register_scenario(scenario: Scenario) -> str:
+    """Add ``scenario`` to the registry and register ``vtrack/<name>`` with Gymnasium; returns the id.
+
+    ``ValueError`` when another scenario already has the name (a registered id's behaviour never changes)."""
+    if not isinstance(scenario, Scenario):
+        raise ValueError(f"register_scenario needs a Scenario (got {type(scenario).__name__})")
+    known = SCENARIOS.get(scenario.name)
+    if known is not None and known != scenario:
+        raise ValueError(f"scenario {scenario.name!r} is already registered with other parts; give it a new name "
+                         "or the next version (-v1)")
+    SCENARIOS[scenario.name] = scenario
+    register_envs()
+    return scenario.env_id
 
 
 def register_track(track_file: str | os.PathLike[str], speed_profile: Any, closed: bool | None = None,

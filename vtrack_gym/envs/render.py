@@ -23,6 +23,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from vtrack_gym.envs.palette import hex_to_rgb
+from vtrack_gym.tracks.table import COL_PSI, COL_X, COL_Y
 from vtrack_gym.vehicle import layout as L
 
 VIEWS: tuple[str, ...] = ("follow", "track")
@@ -91,9 +92,9 @@ def car_view(sim: Any, path: Any, i: int, label: str = "", colour: str = "#1f77b
     st = sim.plant.state[i]
     v = float(st[L.S_VX])
     delta = float(st[L.S_DELTA])
-    s0 = float(sim.err[i, 0])
+    s0 = float(sim.station_m[i])
     ratio = float(sim.config.vehicle.steering.steering_ratio)
-    return CarView(float(st[L.S_X]), float(st[L.S_Y]), float(st[L.S_PSI]), delta, v, float(sim.err[i, 1]),
+    return CarView(float(st[L.S_X]), float(st[L.S_Y]), float(st[L.S_PSI]), delta, v, float(sim.lateral_error_m[i]),
                    math.degrees(delta * ratio), label, colour,
                    preview_points(path, s0 + sim.layout.preview_distances(v)), status)
 
@@ -103,7 +104,8 @@ def preview_points(path: Any, s: np.ndarray) -> np.ndarray:
     tab = path.table
     grid = np.arange(len(tab)) * float(path.ds_m)
     period = float(path.length_m) if path.closed else None
-    return np.column_stack([np.interp(s, grid, tab[:, 0], period=period), np.interp(s, grid, tab[:, 1], period=period)])
+    return np.column_stack([np.interp(s, grid, tab[:, COL_X], period=period),
+                            np.interp(s, grid, tab[:, COL_Y], period=period)])
 
 
 def nice_length(target_m: float) -> float:
@@ -158,7 +160,8 @@ class TopDownRenderer:
                      float(chassis.cg_to_rear_axle_m), 0.5 * float(chassis.track_width_m))
         tab = path.table
         hw = float(path.half_width_m)
-        x0, x1, y0, y1 = float(tab[:, 0].min()), float(tab[:, 0].max()), float(tab[:, 1].min()), float(tab[:, 1].max())
+        x0, x1 = float(tab[:, COL_X].min()), float(tab[:, COL_X].max())
+        y0, y1 = float(tab[:, COL_Y].min()), float(tab[:, COL_Y].max())
         margin = hw + 3.0
         if cfg.view == "track":
             span_x, span_y = x1 - x0 + 2 * margin, y1 - y0 + 2 * margin
@@ -181,7 +184,7 @@ class TopDownRenderer:
     def _static_geometry(self) -> dict[str, Any]:
         path, tab = self.path, self.path.table
         hw = float(path.half_width_m)
-        x, y, psi = tab[:, 0], tab[:, 1], tab[:, 2]
+        x, y, psi = tab[:, COL_X], tab[:, COL_Y], tab[:, COL_PSI]
         if path.closed:
             x, y, psi = np.append(x, x[0]), np.append(y, y[0]), np.append(psi, psi[0])
         nx, ny = -np.sin(psi), np.cos(psi)

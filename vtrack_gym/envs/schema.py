@@ -40,7 +40,7 @@ ARRAY_SIGNALS: tuple[str, ...] = ("fz_n", "acc_substeps_mps2")
 
 INFO_KEYS: tuple[str, ...] = (*SCALAR_SIGNALS, *REWARD_TERMS, *ARRAY_SIGNALS, "termination", "success")
 """Every key of ``info``, in order, at reset and at every step. ``success`` (``bool``; vector env: a bool array)
-is the scenario's verdict on the episode (``envs.scenarios.SUCCESS_CRITERIA``): False until the step that ends
+is the scenario's verdict on the episode (its success criterion, ``envs.criteria``): False until the step that ends
 it, then True if the criterion holds (``termination`` stays the end reason)."""
 
 

@@ -1,6 +1,7 @@
 """``TrackingEnv``: the single Gymnasium env behind every registered id.
 
-Scenario: a registered id or name (``envs.scenarios.SCENARIOS``) or a ``ScenarioConfig``; ``track=`` (a CSV file,
+Scenario: a registered id or name (``envs.scenarios.SCENARIOS``) or a ``Scenario`` (its vehicle and control period
+are the config's defaults; ``vehicle=`` and ``control_period_s=`` replace them); ``track=`` (a CSV file,
 a ``tracks.Path`` or a built-in name), ``speed_profile=`` (a tracks speed profile, a speed in m/s or ``"file"``)
 and ``half_width_m=`` (a constant road half width [m]) replace the scenario's; ``closed=`` (True/False, default
 detected) and ``smoothing_m=`` (the fit's RMS deviation from a CSV file's points [m]) say how a CSV file is read, e.g.
@@ -39,7 +40,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from vtrack_gym.envs.config import EnvConfig, ResetOptions, ScenarioConfig
+from vtrack_gym.envs.config import EnvConfig, ResetOptions, Scenario
 from vtrack_gym.envs.scenarios import resolve_scenario
 from vtrack_gym.envs.schema import info_dict
 from vtrack_gym.envs.sim import TERMINATION_NAMES, BatchSim
@@ -113,20 +114,30 @@ def observation_space(config: EnvConfig) -> gym.spaces.Box:
 ACTION_SPACE = gym.spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
 
 
+def scenario_config(scenario: Scenario, config: EnvConfig | None, overrides: dict[str, Any]) -> EnvConfig:
+    """The env's config: ``config`` as given (it carries the car and the control period), else an ``EnvConfig``
+    of ``overrides`` whose car and control period default to the scenario's vehicle and control period parts."""
+    if config is not None:
+        if overrides:
+            raise ValueError("pass either config or keyword overrides, not both")
+        return config
+    defaults: dict[str, Any] = {"control_period_s": scenario.control_period_s}
+    if scenario.vehicle is not None:
+        defaults["vehicle"] = scenario.vehicle
+    return EnvConfig(**{**defaults, **overrides})
+
+
 class TrackingEnv(gym.Env):
     """One car tracking a path; see the module docstring for spaces, reward and termination."""
 
     metadata = {"render_modes": ["rgb_array", "rgb_array_list", "human"], "render_fps": 25}  # noqa: RUF012
 
-    def __init__(self, scenario: str | ScenarioConfig = "LateralTracking-v0", config: EnvConfig | None = None,
+    def __init__(self, scenario: str | Scenario = "LateralTracking-v0", config: EnvConfig | None = None,
                  render_mode: str | None = None, render_fps: int = 25, render_view: str = "follow",
                  track: Any = None, speed_profile: Any = None, half_width_m: float | None = None,
                  closed: bool | None = None, smoothing_m: float | None = None, **config_overrides: Any) -> None:
         scenario = resolve_scenario(scenario, track, speed_profile, half_width_m, closed, smoothing_m)
-        if config is None:
-            config = EnvConfig(**config_overrides)
-        elif config_overrides:
-            raise ValueError("pass either config or keyword overrides, not both")
+        config = scenario_config(scenario, config, config_overrides)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} (got {render_mode!r})")
         self.scenario = scenario
@@ -191,6 +202,11 @@ class TrackingEnv(gym.Env):
                          out[:, L.O_AX:L.O_AZ + 1].copy(),
                          TERMINATION_NAMES[int(sim.term[0])] if terminated else "",
                          terminated and bool(sim.success()[0]))
+
+    def success_metrics(self) -> dict[str, float]:
+        """The scenario's success criterion's leaderboard figures of the current (or last) episode, e.g.
+        ``cones_hit`` on a course with cone gates (``envs.criteria``)."""
+        return self._sim.success_metrics(0)
 
     def render(self):
         """rgb_array: the current frame; rgb_array_list: the frames taken at ``render_fps`` since the last call;

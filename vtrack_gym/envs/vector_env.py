@@ -21,10 +21,10 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from vtrack_gym.envs.config import EnvConfig, ResetOptions, ScenarioConfig
+from vtrack_gym.envs.config import EnvConfig, ResetOptions, Scenario
 from vtrack_gym.envs.scenarios import resolve_scenario
 from vtrack_gym.envs.sim import TERMINATION_NAMES, BatchSim
-from vtrack_gym.envs.tracking_env import ACTION_SPACE, check_actions, observation_space
+from vtrack_gym.envs.tracking_env import ACTION_SPACE, check_actions, observation_space, scenario_config
 from vtrack_gym.vehicle.params import DesignModel
 
 
@@ -45,7 +45,7 @@ class TrackingVectorEnv(VectorEnv):
 
     metadata = {"render_modes": ["rgb_array"], "autoreset_mode": AutoresetMode.NEXT_STEP}  # noqa: RUF012
 
-    def __init__(self, scenario: str | ScenarioConfig = "LateralTracking-v0", num_envs: int = 1,
+    def __init__(self, scenario: str | Scenario = "LateralTracking-v0", num_envs: int = 1,
                  config: EnvConfig | None = None, render_mode: str | None = None, track: Any = None,
                  speed_profile: Any = None, half_width_m: float | None = None, closed: bool | None = None,
                  smoothing_m: float | None = None, max_episode_steps: int | None = None,
@@ -53,7 +53,7 @@ class TrackingVectorEnv(VectorEnv):
         scenario = resolve_scenario(scenario, track, speed_profile, half_width_m, closed, smoothing_m)
         if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer (got {num_envs!r})")
-        config = config if config is not None else EnvConfig(**config_overrides)
+        config = scenario_config(scenario, config, config_overrides)
         self.scenario = scenario
         self.config = config
         self.num_envs = int(num_envs)
@@ -138,6 +138,10 @@ class TrackingVectorEnv(VectorEnv):
         for key in list(infos):
             infos["_" + key] = self._all
         return infos
+
+    def success_metrics(self, i: int) -> dict[str, float]:
+        """The success criterion's leaderboard figures of sub-env ``i``'s current (or last) episode."""
+        return self.sim.success_metrics(i)
 
     def render(self) -> tuple[np.ndarray, ...] | None:
         if self.render_mode != "rgb_array":

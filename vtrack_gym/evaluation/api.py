@@ -15,6 +15,7 @@ import gymnasium as gym
 import numpy as np
 
 from vtrack_gym.evaluation.benchmark import score_episode
+from vtrack_gym.evaluation.fingerprint import named_policy_hash, policy_hash
 from vtrack_gym.evaluation.rollout import policy_id_of
 from vtrack_gym.evaluation.store import ResultRow, ResultStore, StoreError
 from vtrack_gym.evaluation.suites import SUITES, Episode, suite_episodes, suite_label, with_vehicle
@@ -130,21 +131,22 @@ def _track_provenance(scenario: Any) -> tuple[str | None, dict[str, Any]] | None
 
     options: dict[str, Any] = {}
     env_id = None
-    track = scenario.track
+    source = scenario.track
+    track = source.track
     profile = scenario.speed_profile
     params = None if profile is None else {"kind": type(profile).__name__, **dataclasses.asdict(profile)}
     if isinstance(track, (str, os.PathLike)) and Path(track).is_file():
         from vtrack_gym.envs.registration import register_track
 
-        env_id, options = register_track(track, profile, scenario.track_closed, scenario.track_smoothing_m)
+        env_id, options = register_track(track, profile, source.closed, source.smoothing_m)
     elif isinstance(track, str):
         options = {"track": track, "speed_profile": params}
     elif isinstance(track, TrackPath):
         options = {"track_path_sha256": path_digest(track), "speed_profile": params}
     else:
         return None
-    if scenario.half_width_m is not None:
-        options["half_width_m"] = float(scenario.half_width_m)
+    if source.half_width_m is not None:
+        options["half_width_m"] = float(source.half_width_m)
     return env_id, options
 
 
@@ -198,13 +200,13 @@ def _tracking_identity(unwrapped: Any, spec: Any, env_id: str,
     from vtrack_gym.envs.scenarios import resolve_scenario
 
     scenario_arg = spec.kwargs.get("scenario")
-    if not isinstance(scenario_arg, str):  # a ScenarioConfig object: not recorded
+    if not isinstance(scenario_arg, str):  # a Scenario object: not recorded
         return env_id + UNIDENTIFIED, {}
     scenario = resolve_scenario(scenario_arg, spec.kwargs.get("track"), spec.kwargs.get("speed_profile"),
                                 spec.kwargs.get("half_width_m"), spec.kwargs.get("closed"),
                                 spec.kwargs.get("smoothing_m"))
     base = resolve_scenario(scenario.name)
-    track_fields = ("track", "speed_profile", "half_width_m", "track_closed", "track_smoothing_m")
+    track_fields = ("track", "speed")   # the parts make kwargs replace (track=, speed_profile=, ...)
     for f in dataclasses.fields(scenario):
         if f.name not in track_fields and not _equal(getattr(scenario, f.name), getattr(base, f.name)):
             return env_id + UNIDENTIFIED, {}
@@ -234,7 +236,8 @@ def _tracking_identity(unwrapped: Any, spec: Any, env_id: str,
 
 def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seeds: Sequence[int] | None = None,
              *, store: str | Path | ResultStore | None = None, vecnormalize: Any = None,
-             policy_id: str | None = None, vehicle: str | None = None) -> list[ResultRow]:
+             policy_id: str | None = None, vehicle: str | None = None, workers: int | None = 1,
+             backend: str = "local") -> list[ResultRow]:
     """Score a policy; one ``ResultRow`` per episode (``row.metrics``: the leaderboard's metrics).
 
     ``policy_or_factory``: an object with ``predict(obs, state=None, episode_start=None, deterministic=True)``
@@ -246,9 +249,14 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
     ``policy_id``: the name in the rows (default: ``policy.policy_id`` or the class name). ``vehicle``: the car of
     a suite's or an env id's episodes (a name of ``vehicle.list_vehicles()`` or a vehicle file; default the paper's
     car), recorded in the rows' ``options`` (an env instance is driven with its own car, track and config, recorded
-    by ``env_identity``).
+    by ``env_identity``). ``workers`` / ``backend``: run a suite's or an env id's episodes in local processes or on
+    Ray (``vtrack_gym.evaluation.parallel.run_tasks``; the same rows as ``workers=1``; the factory must be
+    picklable for Ray). Rank the rows with ``leaderboard(rows)``, alone or with other rows of the same suite.
     """
     _check_seeds(seeds)
+    from vtrack_gym.evaluation.parallel import check_workers
+
+    check_workers(workers, backend)
     if hasattr(policy_or_factory, "predict") and not isinstance(policy_or_factory, type):
         make: Callable[[Any], Any] = lambda env: policy_or_factory  # noqa: E731
     elif callable(policy_or_factory):
@@ -275,7 +283,9 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
                          f"(got {type(suite_or_env).__name__})")
     result_store = _open_store(store)  # checked before the first rollout: a bad store loses no results
     rows: list[ResultRow] = []
-    if isinstance(suite_or_env, str):
+    if isinstance(suite_or_env, str) and (workers != 1 or backend != "local"):
+        rows = _parallel_rows(make, episodes, suite, policy_id, workers, backend)
+    elif isinstance(suite_or_env, str):
         for ep in episodes:
             env = gym.make(ep.env_id, **ep.make_kwargs)
             try:   # one policy per call: every row gets the first episode's fingerprint
@@ -283,6 +293,9 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
             finally:
                 env.close()
     else:
+        if workers != 1 or backend != "local":
+            raise ValueError("workers and backend apply to a suite name or an env id; an env instance is driven "
+                             "in this process")
         for s in seeds if seeds is not None else (0,):
             row = _row(make, suite_or_env, Episode(env_id, int(s)), CUSTOM_SUITE, policy_id,
                        rows[0].policy_hash if rows else None)
@@ -313,7 +326,127 @@ def _row(make: Callable[[Any], Any], env: gym.Env, ep: Episode, suite: str, poli
     if not hasattr(policy, "predict"):
         raise ValueError(f"the factory returned {type(policy).__name__}, which has no predict method")
     name = policy_id or policy_id_of(policy)
+    if digest is None:   # a policy whose state cannot be read completely needs a policy_id naming it
+        digest = named_policy_hash(policy, policy_id) if policy_id else policy_hash(policy)
     row, _ = score_episode(name, policy, env, ep, suite, digest)
     log.debug("%s on %s seed %s: %s, max |e_y| %.4g m", name, ep.env_id, ep.seed, row.termination,
              row.metrics.get("max_e_y_m", float("nan")))
     return row
+
+
+def _checked_policy(make: Callable[[Any], Any], env: gym.Env) -> Any:
+    """``make(env)``, refused when it has no ``predict`` (a module-level function: picklable for Ray)."""
+    policy = make(env)
+    if not hasattr(policy, "predict"):
+        raise ValueError(f"the factory returned {type(policy).__name__}, which has no predict method")
+    return policy
+
+
+def _parallel_rows(make: Callable[[Any], Any], episodes: Sequence[Episode], suite: str, policy_id: str | None,
+                   workers: int | None, backend: str) -> list[ResultRow]:
+    """``episodes`` scored by ``parallel.run_tasks``; every row gets the first episode's fingerprint, as in the
+    serial loop. The rows' policy id is ``policy_id`` or that of a policy built once here for the first env."""
+    import functools
+
+    from vtrack_gym.evaluation.parallel import EpisodeTask, run_tasks
+
+    checked = functools.partial(_checked_policy, make)
+    name = policy_id
+    if name is None:
+        env = gym.make(episodes[0].env_id, **episodes[0].make_kwargs)
+        try:
+            name = policy_id_of(checked(env))
+        finally:
+            env.close()
+    results = run_tasks([EpisodeTask(name, checked, ep, suite, score_episode) for ep in episodes], workers, backend)
+    rows = [row for row, _ in results]
+    return [dataclasses.replace(r, policy_hash=rows[0].policy_hash) for r in rows]
+
+
+@dataclasses.dataclass(frozen=True)
+class Board:
+    """A ranked board (``entries``: ``evaluation.board`` entries with ``Estimate`` means), the rows it aggregates
+    (``rows``) and every row of its suite (``suite_rows``; ``figure_runs`` compares the two)."""
+
+    suite: str
+    entries: list[dict[str, Any]]
+    rows: list[dict[str, Any]]
+    suite_rows: list[dict[str, Any]]
+
+
+def _as_records(rows: Sequence[Any], suite: str | None) -> tuple[str, list[dict[str, Any]]]:
+    """(suite, records) of result rows (``ResultRow`` or stored dicts); ``suite`` selects one when they mix."""
+    from vtrack_gym.evaluation.benchmark import row_record
+
+    records = [row_record(r) if isinstance(r, ResultRow) else dict(r) for r in rows]
+    suites = sorted({str(r.get("suite")) for r in records})
+    if suite is None:
+        if len(suites) != 1:
+            raise ValueError(f"the rows are of {len(suites)} suites ({', '.join(suites) or 'none'}); pass "
+                             "suite=NAME to rank one of them")
+        suite = suites[0]
+    chosen = [r for r in records if r.get("suite") == suite]
+    if not chosen:
+        raise ValueError(f"no row of suite {suite!r}; the rows' suites: {', '.join(suites) or 'none'}")
+    return suite, chosen
+
+
+def board_of(source: Any, suite: str | None = None, latest_only: bool = True,
+             columns: Sequence[str] | None = None) -> Board:
+    """The ranked board of ``suite`` from a store (a path or ``ResultStore``, opened read-only from a path) or
+    from result rows (``evaluate``'s ``ResultRow``s, or dicts); ``suite`` defaults to ``paper`` for a store and to
+    the rows' one suite. A track set's suite (``tracks[...]``) ranks across all tracks first, then per track."""
+    from vtrack_gym.evaluation.benchmark import suite_columns
+    from vtrack_gym.evaluation.board import build_board
+    from vtrack_gym.evaluation.suites import primary_metric
+    from vtrack_gym.evaluation.track_benchmark import is_track_set, track_set_board
+
+    if isinstance(source, (str, Path, ResultStore)):
+        store = source if isinstance(source, ResultStore) else _read_store(Path(source))
+        suite = suite or "paper"
+        present = store.suites()
+        if suite not in present:
+            raise ValueError(f"no suite {suite!r} in {store.path}; suites present: {', '.join(present) or 'none'}")
+        suite_rows = store.rows(suite)
+        rows = store.board_rows(suite, latest_only)
+    elif isinstance(source, Sequence) and not isinstance(source, (bytes, bytearray)):
+        suite, rows = _as_records(source, suite)
+        suite_rows = rows
+    else:
+        raise ValueError(f"source must be a store (path or ResultStore) or a list of result rows (got "
+                         f"{type(source).__name__})")
+    cols = tuple(columns) if columns is not None else suite_columns(suite)
+    primary = primary_metric(suite)
+    entries = track_set_board(rows, cols, primary) if is_track_set(suite) else build_board(rows, cols, primary)
+    return Board(suite, entries, rows, suite_rows)
+
+
+def _read_store(path: Path) -> ResultStore:
+    if not path.exists():
+        raise ValueError(f"no store at {path}: run `vtrack benchmark` or evaluate(..., store=PATH) first")
+    return ResultStore(path, read_only=True)
+
+
+def leaderboard(source: Any, suite: str | None = None, *, columns: Sequence[str] | None = None,
+                latest_only: bool = True, as_frame: bool = False) -> Any:
+    """The ranked rows of ``suite``: a list of dicts with the columns of ``vtrack leaderboard --format json``
+    (every mean ``name`` with its 95 % interval ``name_lo``, ``name_hi``; NaN where undefined), best first within
+    each env; a pandas ``DataFrame`` of the same with ``as_frame=True`` (pandas must be installed).
+
+    ``source``: a store file or ``ResultStore`` (opened read-only from a path; ``suite`` defaults to ``paper``;
+    ``latest_only`` as ``ResultStore.leaderboard``), or result rows, e.g. ``evaluate(...)``'s, alone or joined
+    with others of the same suite (``suite`` defaults to theirs). ``columns``: the metrics to aggregate (default:
+    the suite's leaderboard columns).
+    """
+    from vtrack_gym.evaluation.report_formats import expand_estimates
+
+    board = board_of(source, suite, latest_only, columns)
+    rows = [{k: (float(v) if isinstance(v, float) else v) for k, v in expand_estimates(e).items()}
+            for e in board.entries]
+    if not as_frame:
+        return rows
+    try:
+        import pandas as pd
+    except ImportError as exc:
+        raise ImportError("as_frame=True needs pandas: pip install pandas") from exc
+    return pd.DataFrame(rows)

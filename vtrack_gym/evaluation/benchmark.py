@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import logging
 from collections.abc import Sequence
@@ -10,12 +11,11 @@ from typing import Any
 
 import gymnasium as gym
 
-from vtrack_gym.evaluation.board import build_board
+from vtrack_gym.evaluation.board import build_board, failure_reason
 from vtrack_gym.evaluation.fingerprint import policy_hash
 from vtrack_gym.evaluation.metrics import evaluate_trace
 from vtrack_gym.evaluation.rollout import rollout
 from vtrack_gym.evaluation.store import ResultRow, ResultStore
-from vtrack_gym.evaluation.success import episode_success, failure_reason
 from vtrack_gym.evaluation.suites import Episode, base_suite, primary_metric, suite_episodes, suite_label, with_vehicle
 from vtrack_gym.evaluation.trace import Trace
 
@@ -24,7 +24,11 @@ log = logging.getLogger(__name__)
 LEADERBOARD_COLUMNS: tuple[str, ...] = (
     "rms_e_y_m", "max_e_y_m", "rms_e_phi_deg", "rms_hand_wheel_deg", "max_hand_wheel_deg", "max_a_y_mps2",
     "max_roll_deg", "itae", "cones_hit", "comfort_a_v_mps2", "steering_reversals_per_s",
+    "policy_time_p50_us", "policy_time_p95_us", "policy_time_max_us", "policy_real_time_factor", "solver_failures",
 )
+"""Every suite's leaderboard columns (every table format and the HTML board): the paper's metrics, then the policy's
+own compute per decision (``metrics.compute_metrics``: p50/p95/max [us], real-time factor at the control period)
+and its failed solves."""
 SUITE_COLUMNS: dict[str, tuple[str, ...]] = {"maneuvers": ("max_steady_a_y_mps2", "grip_limit_a_y_mps2",
                                                             "mu_g_mps2")}
 """Extra leaderboard columns of a suite: ISO 4138's lateral acceleration reached on the circle and mu g."""
@@ -52,44 +56,12 @@ def policy_preset(policy: Any) -> str:
     return "custom"
 
 
-def cones_hit(env: gym.Env, trace: Trace) -> int | None:
-    """Number of cone gates the car's body left on the track, or None when the track has no gates."""
-    path = env.unwrapped.current_path
-    if not getattr(path, "gates", None):
-        return None
-    from vtrack_gym.tracks import gate_violations
-
-    c = env.unwrapped.config.vehicle.chassis
-    return int(gate_violations(path, trace["x_m"], trace["y_m"], trace["psi_rad"], c.body_length_m,
-                               c.body_width_m, c.cg_to_front_end_m))
-
-
-def circle_metrics(env: gym.Env, trace: Trace) -> dict[str, float]:
-    """ISO 4138 figures of a ``circle``-criterion episode: ``max_steady_a_y_mps2``, the peak |a_y| [m/s^2] while
-    the car is still on the circle (before |e_y| first exceeds the scenario's lateral tolerance), the speed
-    ``max_steady_v_mps`` [m/s] at that peak, the plant's own steady-state limit ``grip_limit_a_y_mps2`` [m/s^2]
-    on the circle's radius (``vehicle.steady_state.grip_limit``: the highest a_y of a cornering equilibrium, from
-    the plant's equations, not from this run) and the point-mass value ``mu_g_mps2`` = mu g [m/s^2] (empty for
-    other scenarios)."""
-    sc = getattr(env.unwrapped, "scenario", None)   # envs other than this package's (highway-env) have none
-    if sc is None or sc.success != "circle" or trace.n_steps == 0:
-        return {}
-    import numpy as np
-
-    from vtrack_gym.tracks.table import COL_KAPPA
-    from vtrack_gym.vehicle.params import GRAVITY_MPS2
-    from vtrack_gym.vehicle.steady_state import grip_limit
-
-    vehicle = env.unwrapped.config.vehicle
-    radius_m = 1.0 / float(np.max(np.abs(env.unwrapped.current_path.table[:, COL_KAPPA])))
-    off = np.flatnonzero(np.abs(trace["e_y_m"]) > sc.lateral_tolerance_m)
-    end = int(off[0]) if off.size else trace.n_steps
-    a_y = np.abs(trace["a_y_mps2"][:end])
-    k = int(np.argmax(a_y)) if a_y.size else 0
-    return {"max_steady_a_y_mps2": float(a_y[k]) if a_y.size else 0.0,
-            "max_steady_v_mps": float(trace["v_mps"][k]) if a_y.size else 0.0,
-            "grip_limit_a_y_mps2": grip_limit(vehicle, radius_m).a_y_mps2,
-            "mu_g_mps2": float(vehicle.tyres.friction_mu * GRAVITY_MPS2)}
+def success_metrics(env: gym.Env) -> dict[str, float]:
+    """The leaderboard figures of ``env``'s last episode computed by its scenario's success criterion
+    (``envs.criteria``: ``cones_hit`` on a gated course, the ISO 4138 figures on the circle); empty for an env
+    without criteria (another package's)."""
+    figures = getattr(env.unwrapped, "success_metrics", None)
+    return dict(figures()) if callable(figures) else {}
 
 
 def vehicle_label(vehicle: str | None) -> str | None:
@@ -112,24 +84,25 @@ def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str,
                   digest: str | None = None) -> tuple[ResultRow, Trace]:
     """Run ``policy`` for one episode on ``env`` (reset with ``ep``'s seed and options); its row and trace.
 
-    The row's ``success`` is the env's verdict (the last info's ``"success"``) when it gives one, else the interim
-    rule ``vtrack_gym.evaluation.success.episode_success``. The row's ``options`` carry ``ep``'s reset options and
-    the car (``vehicle_label(ep.vehicle)``, when not the default car), so cars never mix on the leaderboard. Its
-    ``policy_hash`` is ``digest`` if given, else the policy's fingerprint taken before the rollout (a policy that
-    changes its attributes while driving keeps one hash)."""
+    The row's ``success`` is the env's verdict (the last info's ``"success"``; a row of an env without one is
+    judged by completion, ``ResultRow.verdict``) and its metrics carry the success criterion's own figures
+    (``success_metrics``).
+    The row's ``options`` carry ``ep``'s reset options and the car (``vehicle_label(ep.vehicle)``, when not the
+    default car), so cars never mix on the leaderboard. Its ``policy_hash`` is ``digest`` if given, else the
+    policy's fingerprint taken before the rollout (a policy that changes its attributes while driving keeps one
+    hash)."""
     digest = digest or policy_hash(policy)
     trace = rollout(policy, env, seed=ep.seed, options=ep.options)
     trace.policy_id = name
-    metrics = evaluate_trace(trace, cones_hit(env, trace))
-    metrics.update(circle_metrics(env, trace))
+    metrics = evaluate_trace(trace)
+    metrics.update(success_metrics(env))
     label = vehicle_label(ep.vehicle)
     options = dict(ep.options) if label is None else {**ep.options, "vehicle": label}
     row = ResultRow(suite=suite, env_id=ep.env_id, policy_id=name, policy_hash=digest, seed=ep.seed,
                     metrics=metrics, termination=trace.termination,
                     wall_time_per_step_s=trace.wall_time_per_step_s, options=options,
                     policy_preset=policy_preset(policy),
-                    success=trace.success if trace.success is not None else episode_success(
-                        ep.env_id, trace.termination, metrics))
+                    success=trace.success)
     if not row.verdict():  # the figures' legends name the reason
         trace.meta["failure_reason"] = failure_reason(trace.termination, metrics)
     return row, trace
@@ -171,8 +144,8 @@ def policy_factories(names: Sequence[str] | dict[str, Any] | None = None) -> dic
 def run_benchmark(suite: str = "paper", store: ResultStore | None = None, policies: Sequence[str] | None = None,
                   figures_dir: str | Path | None = None, quick: bool = False,
                   show_progress: bool = True, seeds: Sequence[int] | None = None,
-                  vehicle: str | None = None) -> dict[str, Any]:
-    """Score every policy on ``suite``; write rows to ``store`` and figures to ``figures_dir``.
+                  vehicle: str | None = None, workers: int | None = 1, backend: str = "local") -> dict[str, Any]:
+    """Score every policy on ``suite``; write rows to ``store`` and figures under ``figures_dir``.
 
     ``vehicle``: the car (a name of ``vehicle.list_vehicles()`` or a vehicle file; default the paper's car).
 
@@ -182,29 +155,54 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
     Rows are stored under ``suite_label(suite, quick, seeds)``: the suite's name for its standard episodes, else
     e.g. ``robust[seeds=7]`` or ``robust[quick]`` (``result["suite"]``), never ranked with the standard board.
 
+    ``workers``/``backend``: where the episodes run (``vtrack_gym.evaluation.parallel.run_tasks``; the rows are
+    the same for any number of workers). The figures go to this run's own folder under ``figures_dir``
+    (``figure_runs.run_folder``: suite, policy set, car and envs), recorded in every row's ``options["figures"]``.
+
     Returns ``{"rows": [...], "traces": {env_id: [Trace, ...]}, "figures": [paths], "suite": label}``.
     """
-    from tqdm.auto import tqdm
+    from vtrack_gym.evaluation.parallel import EpisodeTask
 
     episodes = with_vehicle(suite_episodes(suite, quick=quick, seeds=seeds), vehicle)
     label = suite_label(suite, quick, seeds)
     factories = policy_factories(policies)
-    all_rows: list[ResultRow] = []
-    traces_by_env: dict[str, list[Trace]] = {}
-    with tqdm(total=len(factories) * len(episodes), desc=f"vtrack benchmark ({suite})", unit="episode",
-              disable=not show_progress) as bar:
-        for name, make in factories.items():
-            bar.set_postfix_str(name)
-            rows, traces = score_policy(name, make, episodes, label, progress=bar)
-            all_rows.extend(rows)
-            if store is not None:
-                store.add(rows)
-            for tr in traces:
-                if tr.seed == episodes[0].seed or suite == "paper":
-                    traces_by_env.setdefault(tr.env_id, []).append(tr)
-    figures = (write_figures(traces_by_env, all_rows, figures_dir, vehicle=vehicle,
-                             maneuvers=suite == "maneuvers") if figures_dir else [])
+    tasks = [EpisodeTask(name, make, ep, label, score_episode,
+                         keep_trace=ep.seed == episodes[0].seed or suite == "paper")
+             for name, make in factories.items() for ep in episodes]
+    all_rows, traces_by_env, folder = score_tasks(tasks, figures_dir, vehicle, workers, backend,
+                                                  f"vtrack benchmark ({suite})" if show_progress else None)
+    if store is not None:
+        store.add(all_rows)
+    figures = (write_figures(traces_by_env, all_rows, folder, vehicle=vehicle,
+                             maneuvers=suite == "maneuvers") if folder is not None else [])
     return {"rows": all_rows, "traces": traces_by_env, "figures": figures, "suite": label}
+
+
+def score_tasks(tasks: Sequence[Any], figures_dir: str | Path | None, vehicle: str | None, workers: int | None,
+                backend: str, progress_label: str | None,
+                ) -> tuple[list[ResultRow], dict[str, list[Trace]], Path | None]:
+    """Run ``tasks`` (``parallel.EpisodeTask``); their rows (tagged with the run's figure folder when
+    ``figures_dir`` is given), the kept traces by env, and that folder (None without ``figures_dir``)."""
+    from tqdm.auto import tqdm
+
+    from vtrack_gym.evaluation.figure_runs import FIGURES_OPTION, run_folder
+    from vtrack_gym.evaluation.parallel import run_tasks
+
+    folder_name = None
+    if figures_dir is not None and tasks:
+        folder_name = run_folder(tasks[0].suite, [t.policy_id for t in tasks], vehicle_label(vehicle),
+                                 [t.episode.env_id for t in tasks])
+    with tqdm(total=len(tasks), desc=progress_label or "", unit="episode", disable=progress_label is None) as bar:
+        results = run_tasks(tasks, workers, backend, progress=bar)
+    rows: list[ResultRow] = []
+    traces_by_env: dict[str, list[Trace]] = {}
+    for row, trace in results:
+        if folder_name is not None:
+            row = dataclasses.replace(row, options={**row.options, FIGURES_OPTION: folder_name})
+        rows.append(row)
+        if trace is not None:
+            traces_by_env.setdefault(trace.env_id, []).append(trace)
+    return rows, traces_by_env, None if folder_name is None else Path(figures_dir) / folder_name
 
 
 def write_figures(traces_by_env: dict[str, list[Trace]], rows: Sequence[ResultRow], figures_dir: str | Path,
@@ -254,9 +252,12 @@ def summarise(rows: Sequence[ResultRow], columns: Sequence[str] = LEADERBOARD_CO
     the rows' suite)."""
     suites = {r.suite for r in rows}
     primary = primary_metric(suites.pop() if len(suites) == 1 else "")
-    return build_board(({"env_id": r.env_id, "options": r.options, "policy_id": r.policy_id,
-                         "policy_preset": r.policy_preset,
-                         "policy_hash": r.policy_hash, "completed": int(r.termination == "completed"),
-                         "success": int(r.verdict()), "termination": r.termination,
-                         "wall_time_per_step_s": r.wall_time_per_step_s, "metrics": r.metrics} for r in rows),
-                       columns, primary)
+    return build_board((row_record(r) for r in rows), columns, primary)
+
+
+def row_record(r: ResultRow) -> dict[str, Any]:
+    """A fresh row as the record ``build_board`` aggregates (the fields of a stored row it reads)."""
+    return {"env_id": r.env_id, "options": r.options, "policy_id": r.policy_id, "policy_preset": r.policy_preset,
+            "policy_hash": r.policy_hash, "completed": int(r.termination == "completed"), "success": int(r.verdict()),
+            "termination": r.termination, "wall_time_per_step_s": r.wall_time_per_step_s, "metrics": r.metrics,
+            "suite": r.suite, "seed": r.seed}

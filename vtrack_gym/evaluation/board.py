@@ -3,8 +3,8 @@
 Policy key: a board row is one (env_id, policy_id, preset, policy_hash): the same controller name with two presets
 (``smc`` default vs ``smc --preset paper``) or two agent files with different weights are two rows.
 
-Validity first: every episode has a success verdict (``vtrack_gym.evaluation.success``). The metric columns are
-aggregated over the *successful* episodes only; failed episodes are counted apart (``failed``,
+Validity first: every episode has a success verdict (its scenario's success criterion, ``envs.criteria``). The
+metric columns are aggregated over the *successful* episodes only; failed episodes are counted apart (``failed``,
 ``failure_reasons``, ``failed_progress_m`` and the primary metric over them, ``failed_<primary>``), so a policy
 that crashes early (short episode, small ITAE, few cones passed) cannot look better than one that drives the
 course. Rank within each env, lexicographically: success rate (higher first), the suite's primary metric over
@@ -142,6 +142,15 @@ def _mean_or_nan(values: list[Any]) -> float:
     return aggregate(values) if values else math.nan
 
 
+def failure_reason(termination: str, metrics: Mapping[str, Any]) -> str:
+    """Why a failed episode failed: its termination, ``cones_hit`` for a completed run whose body left a cone gate,
+    else ``env_verdict`` (a completed run its scenario's success criterion judged unsuccessful)."""
+    if termination != "completed":
+        return termination
+    cones = metric_value(metrics.get("cones_hit"))
+    return "cones_hit" if cones is not None and cones > 0 else "env_verdict"
+
+
 def board_env(record: Mapping[str, Any]) -> str:
     """The env a record is ranked in: its ``env_id``, with `` (<vehicle>)`` appended when its ``options`` name a car
     (``options["vehicle"]``, see ``benchmark.vehicle_label``), so different cars never share a ranking."""
@@ -160,8 +169,6 @@ def build_board(records: Iterable[Mapping[str, Any]], columns: Sequence[str],
     and rank and hold ``rank``, ``episodes``, ``success_rate``, ``completed``, the aggregate of every column over
     the successful episodes, the failed episodes apart, ``wall_time_per_step_us`` [us] and ``tied_with``.
     """
-    from vtrack_gym.evaluation.success import failure_reason
-
     groups: dict[tuple[str, str, str, str], list[Mapping[str, Any]]] = {}
     for r in records:
         key = (board_env(r), str(r["policy_id"]), str(r.get("policy_preset") or ""), str(r["policy_hash"]))

@@ -118,6 +118,7 @@ def to_html(board: list[dict[str, Any]], title: str = "vtrack leaderboard", figu
         uri = figure_data_uri(fig)
         if uri is not None:
             name = _esc(Path(fig).name)
-            parts.append(f'<figure><img alt="{name}" src="{uri}"><figcaption>{name}</figcaption></figure>')
+            run = _esc(f"{Path(fig).parent.parent.name}/{Path(fig).parent.name}/")  # the run's folder
+            parts.append(f'<figure><img alt="{name}" src="{uri}"><figcaption>{run}{name}</figcaption></figure>')
     parts += [f"<script>{_SCRIPT}</script>", "</body>", "</html>"]
     return "\n".join(parts) + "\n"

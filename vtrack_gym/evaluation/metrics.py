@@ -133,6 +133,23 @@ def speed_metrics(trace: Trace) -> dict[str, float]:
     return {"rms_speed_error_mps": rms(err, trace["time_s"]), "max_speed_error_mps": max_abs(err)}
 
 
+def compute_metrics(trace: Trace) -> dict[str, float]:
+    """The policy's own compute per decision (its ``predict`` call, not the env's step): median, 95th percentile
+    and maximum [us], the real-time factor ``control period / p95`` (> 1: the policy decides faster than real
+    time at the env's control period) and its failed solves (NaN when the trace has no timings or the policy
+    reports no count)."""
+    times = np.asarray(trace.policy_time_s, dtype=np.float64)
+    out = {"policy_time_p50_us": math.nan, "policy_time_p95_us": math.nan, "policy_time_max_us": math.nan,
+           "policy_real_time_factor": math.nan,
+           "solver_failures": math.nan if trace.solver_failures is None else float(trace.solver_failures)}
+    if times.size:
+        p50, p95 = np.percentile(times, (50.0, 95.0))
+        out.update({"policy_time_p50_us": 1e6 * float(p50), "policy_time_p95_us": 1e6 * float(p95),
+                    "policy_time_max_us": 1e6 * float(times.max()),
+                    "policy_real_time_factor": trace.control_period_s / float(p95) if p95 > 0 else math.inf})
+    return out
+
+
 def evaluate_trace(trace: Trace, cones_hit: int | None = None) -> dict[str, Any]:
     """Every metric of one trace, flat (what the leaderboard stores)."""
     out: dict[str, Any] = {
@@ -149,6 +166,7 @@ def evaluate_trace(trace: Trace, cones_hit: int | None = None) -> dict[str, Any]
     out.update(smoothness_metrics(trace))
     out.update(constraint_metrics(trace))
     out.update(comfort_metrics(trace))
+    out.update(compute_metrics(trace))
     if cones_hit is not None:
         out["cones_hit"] = float(cones_hit)
     return out

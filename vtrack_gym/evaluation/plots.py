@@ -406,12 +406,18 @@ def plot_policy_summary(entries: Sequence[dict[str, Any]], primary: str, out_fil
 
 
 def _save(fig: Any, out_file: str | Path, layout: bool = True) -> Path:
-    out = Path(out_file)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    if layout:
-        fig.tight_layout()
-    fig.savefig(out)
+    """Write ``fig`` to ``out_file`` through the output gate (``vtrack_gym._io.atomic_output``: checked first,
+    a temporary file renamed into place, nothing left on a full or read-only disk)."""
     import matplotlib.pyplot as plt
 
-    plt.close(fig)
+    from vtrack_gym._io import atomic_output
+
+    out = Path(out_file)
+    try:
+        if layout:
+            fig.tight_layout()
+        with atomic_output(out) as tmp:
+            fig.savefig(tmp, format=out.suffix.lstrip(".").lower() or None)
+    finally:
+        plt.close(fig)
     return out

@@ -75,13 +75,14 @@ class Run:
 def run_episode(policy: str, preset: str, env_id: str, max_steps: int | None) -> Run:
     """Roll out ``policy`` with ``preset`` on ``env_id`` (seed 0, nominal conditions) and score it."""
     from vtrack_gym.baselines.registry import make_policy
-    from vtrack_gym.evaluation.benchmark import cones_hit
+    from vtrack_gym.evaluation.benchmark import success_metrics
 
     env = gym.make(env_id)
     pol = make_policy(policy, env, preset=preset)
     trace = rollout(pol, env, seed=0, max_steps=max_steps)
     trace.policy_id = f"{policy}[{preset}]"
-    metrics = evaluate_trace(trace, cones_hit(env, trace))
+    metrics = evaluate_trace(trace)
+    metrics.update(success_metrics(env))
     env.close()
     return Run(policy, preset, env_id, trace, metrics)
 

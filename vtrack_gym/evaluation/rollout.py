@@ -23,6 +23,18 @@ def policy_id_of(policy: PolicyLike) -> str:
     return str(getattr(policy, "policy_id", type(policy).__name__))
 
 
+def solver_failure_count(policy: PolicyLike) -> int | None:
+    """The policy's running count of failed solves (``policy.solver_failures``; 0 for the package's closed-form
+    baselines and agents), None when the policy does not report one."""
+    count = getattr(policy, "solver_failures", None)
+    return int(count) if isinstance(count, (int, np.integer)) and not isinstance(count, bool) else None
+
+
+def _failures_since(policy: PolicyLike, before: int | None) -> int | None:
+    after = solver_failure_count(policy)
+    return None if before is None or after is None else after - before
+
+
 def _make(env_id_or_env: str | gym.Env, **make_kwargs: Any) -> tuple[gym.Env, str]:
     if isinstance(env_id_or_env, str):
         return gym.make(env_id_or_env, **make_kwargs), env_id_or_env
@@ -43,10 +55,13 @@ def rollout(policy: PolicyLike, env_id_or_env: str | gym.Env, seed: int | None =
     infos: list[dict[str, Any]] = []
     termination = "max_steps"
     step_s: list[float] = []   # wall time of each step (policy + env) [s]
+    policy_s: list[float] = []  # wall time of each decision (the policy's predict alone) [s]
+    failures_before = solver_failure_count(policy)
     steps = 0
     while max_steps is None or steps < max_steps:
         start = time.perf_counter()
         action, state = policy.predict(obs, state=state, episode_start=episode_start, deterministic=deterministic)
+        policy_s.append(time.perf_counter() - start)
         episode_start = np.zeros(1, dtype=bool)
         obs, _, terminated, truncated, info = env.step(np.asarray(action, dtype=np.float32).reshape(1))
         step_s.append(time.perf_counter() - start)
@@ -60,14 +75,19 @@ def rollout(policy: PolicyLike, env_id_or_env: str | gym.Env, seed: int | None =
     return Trace.from_infos(infos, env_id=env_id, policy_id=policy_id_of(policy), seed=seed,
                             physics_rate_hz=1.0 / cfg.physics_dt_s, control_period_s=cfg.control_period_s,
                             termination=termination, wall_time_s=wall,
-                            meta={"options": dict(options or {}), "model": cfg.model})
+                            meta={"options": dict(options or {}), "model": cfg.model},
+                            policy_time_s=np.asarray(policy_s),
+                            solver_failures=_failures_since(policy, failures_before))
 
 
 def rollout_batch(policy: PolicyLike, env_id: str, seeds: list[int], options: dict[str, Any] | None = None,
                   max_steps: int | None = None, deterministic: bool = True) -> list[Trace]:
     """One episode per seed, all cars stepped together on the native vector env (car i seeded ``seeds[i]``).
 
-    Cars that finish early are frozen (their later steps are not recorded); returns traces in seed order.
+    Cars that finish early are frozen (their later steps are not recorded); returns traces in seed order. Each
+    trace's ``policy_time_s`` is the batch's decision time divided by the number of cars; its ``solver_failures``
+    the batch's failed solves when there are none or one car (a failure cannot be attributed to a car), else
+    None.
     """
     n = len(seeds)
     envs = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
@@ -80,10 +100,14 @@ def rollout_batch(policy: PolicyLike, env_id: str, seeds: list[int], options: di
     verdicts: list[bool | None] = [None] * n
     state = None
     episode_start = np.ones(n, dtype=bool)
+    policy_s: list[float] = []
+    failures_before = solver_failure_count(policy)
     start = time.perf_counter()
     steps = 0
     while active.any() and (max_steps is None or steps < max_steps):
+        tick = time.perf_counter()
         action, state = policy.predict(obs, state=state, episode_start=episode_start, deterministic=deterministic)
+        policy_s.append((time.perf_counter() - tick) / n)
         episode_start = np.zeros(n, dtype=bool)
         obs, _, terminated, truncated, info = envs.step(np.asarray(action, dtype=np.float32).reshape(n, 1))
         steps += 1
@@ -101,6 +125,8 @@ def rollout_batch(policy: PolicyLike, env_id: str, seeds: list[int], options: di
                 active[i] = False
     wall = time.perf_counter() - start
     del sim
+    failures = _failures_since(policy, failures_before)
+    failures = failures if failures == 0 or n == 1 else None
     traces = []
     for i, seed in enumerate(seeds):
         rec = records[i]
@@ -108,5 +134,6 @@ def rollout_batch(policy: PolicyLike, env_id: str, seeds: list[int], options: di
         traces.append(Trace(env_id, policy_id_of(policy), seed, signals, np.asarray(rec["fz_n"]),
                             np.concatenate(rec["acc"], axis=0), 1.0 / cfg.physics_dt_s, cfg.control_period_s,
                             terminations[i], wall / max(steps, 1) / n, {"options": dict(options or {}),
-                                                                         "model": cfg.model}, verdicts[i]))
+                                                                         "model": cfg.model}, verdicts[i],
+                            np.asarray(policy_s[:len(rec["time_s"])]), failures))
     return traces

@@ -13,9 +13,15 @@ A store file may come from someone else, so it is data, never code:
 * a read-only store (``read_only=True``, what ``vtrack leaderboard`` uses) is opened through a ``mode=ro``
   URI, with ``immutable=1`` when no ``-wal`` file exists (plain ``mode=ro`` would create ``-wal``/``-shm``
   files next to a WAL database): it never creates, modifies or deletes a file, journals included;
-* a writer verifies the file with the same read-only connection first, so a foreign file (or its hot journal)
-  is never rolled back, initialised or overwritten;
-* a full disk or a read-only file system is a ``StoreError`` that says so.
+* a writer verifies the file with the same read-only connection first, so a foreign file is never initialised or
+  overwritten, and refuses a store with a rollback journal next to it (a WAL store never has one; rolling it back
+  would write whatever it holds into the store);
+* every row read is checked by the same rule as every row written (``vtrack_gym.evaluation.row_validation``);
+* a store reached through a symlink is used with the journal files next to the file the link reaches;
+* a read that fails while a writer changes the file is retried, so a healthy store being written is not
+  reported as corrupted;
+* a full disk (also when SQLite reports it as an I/O error) or a read-only file system is a ``StoreError`` that
+  says so.
 
 Each row stores the episode's success verdict (``success`` 0/1, schema version 3); a row written without one
 (``DEFAULT 0``) never counts as a success.
@@ -29,6 +35,7 @@ import functools
 import hashlib
 import json
 import math
+import os
 import re
 import sqlite3
 from collections.abc import Callable, Iterable, Iterator, Sequence
@@ -37,8 +44,17 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TypeVar
 
+from vtrack_gym._io import disk_is_full
 from vtrack_gym.evaluation.board import build_board
 from vtrack_gym.evaluation.report_formats import to_csv, to_json, to_markdown  # noqa: F401  (re-exported)
+from vtrack_gym.evaluation.row_validation import (  # noqa: F401  (MAX_SEED re-exported)
+    MAX_SEED,
+    checked_metrics,
+    checked_row_values,
+    checked_seed,
+    checked_success,
+    clean_scalar,
+)
 
 SCHEMA_VERSION = 3  # 3: the per-episode success verdict (column ``success``)
 DEFAULT_STORE_PATH = Path("vtrack_results") / "leaderboard.sqlite"
@@ -67,6 +83,8 @@ _RESULTS_SQL = """CREATE TABLE IF NOT EXISTS results (
 _COLUMNS = ("id", "created_utc", "package_version", "suite", "env_id", "env_version", "policy_id", "policy_preset",
             "policy_hash", "seed", "options_json", "termination", "completed", "success", "wall_time_per_step_s",
             "metrics_json")
+READ_ATTEMPTS = 6
+"""Reads of a store that changes underneath before its failure is reported (about 1.3 s of pauses in all)."""
 _META_KEYS = frozenset({"schema_version", "row_count", "rows_digest"})
 
 
@@ -78,8 +96,9 @@ class StoreError(RuntimeError):
 class ResultRow:
     """One evaluated episode and where it came from (``policy_preset``: preset name, empty for agents).
 
-    ``success``: the episode's success verdict; None derives it with the interim rule
-    ``vtrack_gym.evaluation.success.episode_success`` when the row is stored.
+    ``success``: the episode's success verdict (the scenario's success criterion, ``info["success"]``, which the
+    benchmark records); a row given without one (None: the GA's tuning rows, rows written by other code) is judged
+    by completion alone (``termination == "completed"``).
     """
 
     suite: str
@@ -98,94 +117,12 @@ class ResultRow:
     success: bool | None = None
 
     def verdict(self) -> bool:
-        """``success``, or the interim rule's verdict when it is None."""
-        from vtrack_gym.evaluation.success import episode_success
-
-        return bool(self.success) if self.success is not None else episode_success(self.env_id, self.termination,
-                                                                                    self.metrics)
+        """``success``, or the episode's completion when the row has no verdict."""
+        return bool(self.success) if self.success is not None else self.termination == "completed"
 
 
 def _now() -> str:
     return dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds")
-
-
-def _clean(value: Any) -> Any:
-    """JSON-safe scalar (NaN/inf become None)."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if hasattr(value, "item"):
-        return _clean(value.item())
-    return value
-
-
-MAX_SEED = 2**63 - 1
-"""Largest storable seed (SQLite INTEGER is a signed 64-bit number)."""
-UNIT_SUFFIXES = ("_m", "_s", "_deg", "_rad", "_mps", "_mps2", "_n", "_per_s", "_us", "_g", "_kmh")
-"""A metric whose name ends in a unit is a number."""
-NON_NEGATIVE_METRICS = frozenset({"itae", "duration_s", "cones_hit", "comfort_a_v_mps2", "steering_reversals_per_s",
-                                  "a_y_violation_mps2", "wall_time_per_step_s", "wall_time_s", "episodes",
-                                  "remaining_m", "completed", "success"})
-"""Error, count and duration metrics that cannot be negative (also every ``max_*`` and ``rms_*`` metric)."""
-
-
-def _non_negative(name: str) -> bool:
-    return name in NON_NEGATIVE_METRICS or name.startswith(("max_", "rms_"))
-
-
-def _numeric(name: str) -> bool:
-    """A metric that must be a number (or missing): every ranked metric, error, count and duration, and every name
-    with a unit suffix; others (``termination``, ``comfort_band``, notes) may also be text."""
-    from vtrack_gym.evaluation.suites import PRIMARY_METRICS
-
-    return _non_negative(name) or name.endswith(UNIT_SUFFIXES) or name in PRIMARY_METRICS.values()
-
-
-def _checked_success(value: Any) -> bool | None:
-    """``ResultRow.success`` as a bool (None: derived); ``ValueError`` unless a bool, 0 or 1."""
-    if value is None or isinstance(value, bool):
-        return value
-    if hasattr(value, "dtype") and getattr(value, "shape", None) == () and value.dtype.kind in "bui":
-        value = value.item()
-    if isinstance(value, (bool, int)) and value in (0, 1):
-        return bool(value)
-    raise ValueError(f"success must be a bool (True/False), 0 or 1, or None to derive it (got {value!r})")
-
-
-def _checked_seed(value: Any) -> int | None:
-    """``ResultRow.seed`` as an int in [0, 2^63 - 1] (or None); ``ValueError`` otherwise."""
-    if value is None:
-        return None
-    if hasattr(value, "dtype") and getattr(value, "shape", None) == () and value.dtype.kind in "ui":
-        value = value.item()
-    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= MAX_SEED:
-        raise ValueError(f"seed must be an integer in [0, 2^63 - 1 = {MAX_SEED}] or None (got {value!r})")
-    return value
-
-
-def _checked_metrics(metrics: Any) -> dict[str, Any]:
-    """``ResultRow.metrics`` as JSON-safe values; ``ValueError`` naming the metric when a value is of the wrong kind
-    or out of range: numeric metrics (``_numeric``) real numbers (NaN/inf stored as None: missing), ``>= 0`` for
-    error, count and duration metrics; other metrics a number or text."""
-    if not isinstance(metrics, dict):
-        raise ValueError(f"metrics must be a dict of name -> value (got {type(metrics).__name__})")
-    out: dict[str, Any] = {}
-    for name, raw in metrics.items():
-        if not isinstance(name, str):
-            raise ValueError(f"metric names must be strings (got {name!r})")
-        value = _clean(raw)
-        if value is None:
-            out[name] = None
-        elif isinstance(value, str) and not _numeric(name):
-            out[name] = value
-        elif isinstance(value, (bool, int, float)):
-            if _non_negative(name) and value < 0:
-                raise ValueError(f"metric {name!r} must be a number >= 0 (an error, count or duration; got {raw!r})")
-            out[name] = value
-        else:
-            kind = "a number" if _numeric(name) else "a number or text"
-            raise ValueError(f"metric {name!r} must be {kind} (NaN/inf or None: missing), got "
-                             f"{type(raw).__name__} {str(raw)[:60]!r}")
-    return out
 
 
 def row_sha256(values: Sequence[Any]) -> str:
@@ -202,11 +139,15 @@ def expected_schema() -> frozenset[tuple[str, str, str, str | None]]:
         return frozenset(con.execute("SELECT type, name, tbl_name, sql FROM sqlite_master"))
 
 
-def _storage_problem(exc: sqlite3.Error | OSError) -> str:
-    """A sentence naming disk-full and read-only-file-system failures, else the error text."""
+def _storage_problem(exc: sqlite3.Error | OSError, folder: Path | None = None) -> str:
+    """A sentence naming disk-full and read-only-file-system failures, else the error text. SQLite reports some
+    failed writes on a full disk as a generic I/O error: with ``folder`` (where the store lives), such an error on a
+    file system without free blocks is named a full disk."""
     code = getattr(exc, "sqlite_errorcode", None)
     errno = getattr(exc, "errno", None)
-    if (code is not None and code & 0xFF == sqlite3.SQLITE_FULL) or errno == 28:
+    io_error = code is not None and code & 0xFF == sqlite3.SQLITE_IOERR
+    full_after_io_error = io_error and folder is not None and disk_is_full(folder)
+    if (code is not None and code & 0xFF == sqlite3.SQLITE_FULL) or errno == 28 or full_after_io_error:
         return f"the disk is full ({exc})"
     if (code is not None and code & 0xFF == sqlite3.SQLITE_READONLY) or errno == 30:
         return f"the store or its folder is read-only (read-only file system or no write permission: {exc})"
@@ -229,6 +170,29 @@ def _write_transaction(con: sqlite3.Connection) -> Iterator[None]:
         raise
 
 
+def _stored_values(r: ResultRow, package_version: str) -> list[Any]:
+    """``r``'s column values in ``_COLUMNS`` order (without the id), checked by the row rule
+    (``vtrack_gym.evaluation.row_validation``); ``ValueError`` naming the field otherwise."""
+    wall = clean_scalar(r.wall_time_per_step_s)
+    if isinstance(wall, (bool, str)) or not (isinstance(wall, (int, float)) and math.isfinite(wall) and wall >= 0.0):
+        raise ValueError(f"wall_time_per_step_s must be a finite number >= 0 s (got {r.wall_time_per_step_s!r})")
+    metrics = checked_metrics(r.metrics)
+    seed = checked_seed(r.seed)
+    success = checked_success(r.success)
+    verdict = success if success is not None else r.verdict()
+    if not isinstance(r.options, dict):
+        raise ValueError(f"options must be a dict (got {type(r.options).__name__})")
+    try:
+        options_json = json.dumps(r.options, sort_keys=True)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"options must be JSON data (numbers, strings, lists, dicts): {exc}") from None
+    values = [r.created_utc or _now(), r.package_version or package_version, r.suite, r.env_id, r.env_version,
+              r.policy_id, r.policy_preset, r.policy_hash, seed, options_json, r.termination,
+              int(r.termination == "completed"), int(verdict), float(wall), json.dumps(metrics, sort_keys=True)]
+    checked_row_values(dict(zip(_COLUMNS[1:], values, strict=True)))
+    return values
+
+
 class ResultStore:
     """Open (or, unless ``read_only``, create) the store at ``path`` (default ``vtrack_results/leaderboard.sqlite``).
 
@@ -237,6 +201,7 @@ class ResultStore:
 
     def __init__(self, path: str | Path = DEFAULT_STORE_PATH, timeout_s: float = 60.0, read_only: bool = False) -> None:
         self.path = Path(path)
+        self._file = Path(os.path.realpath(self.path))   # the store file itself; its journals live next to it
         self.timeout_s = timeout_s
         self.read_only = read_only
         if self.path.is_dir():
@@ -251,6 +216,7 @@ class ResultStore:
         if exists and self.path.stat().st_size > 0:
             self._read(self._verify)
             if not read_only:
+                self._check_no_rollback_journal()
                 self._check_writable()
             return
         if read_only:
@@ -263,51 +229,80 @@ class ResultStore:
             raise StoreError(f"cannot create the store folder {self.path.parent}: {_storage_problem(exc)}") from exc
         self._initialise()
 
+    def _companion(self, suffix: str) -> Path:
+        """The store's ``-wal``, ``-shm`` or ``-journal`` file (next to the file a symlinked path reaches)."""
+        return self._file.with_name(self._file.name + suffix)
+
+    def _check_no_rollback_journal(self) -> None:
+        """``StoreError`` if a rollback journal lies next to the store: a store in WAL mode never has one, and the
+        next writer would roll it back into the file (whatever it holds); it is left untouched for a human."""
+        journal = self._companion("-journal")
+        if os.path.lexists(journal):
+            raise StoreError(f"the store {self.path} has a rollback journal {journal} next to it, which a vtrack "
+                             "store never writes (a crashed foreign program left it, or it was planted); opening the "
+                             "store for writing would roll it into the store. Nothing was changed: inspect it, then "
+                             "move it away (the store stays readable: `vtrack leaderboard`)")
+
     def _check_writable(self) -> None:
         """``StoreError`` unless the existing store file can be opened for writing and its folder can hold the
         ``-wal``/``-shm`` files; checked without SQLite, so a read-only store is left without new files."""
-        import os
         import tempfile
 
         try:
-            fd = os.open(self.path, os.O_RDWR | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+            fd = os.open(self._file, os.O_RDWR | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
             os.close(fd)
         except OSError as exc:
             raise StoreError(f"the store {self.path} cannot be written: {_storage_problem(exc)}; it was left "
                              "untouched (pass a writable --store / store path)") from exc
         try:
-            fd, probe = tempfile.mkstemp(dir=self.path.parent, prefix=".vtrack-probe-")
+            fd, probe = tempfile.mkstemp(dir=self._file.parent, prefix=".vtrack-probe-")
             os.close(fd)
             os.unlink(probe)
         except OSError as exc:
-            raise StoreError(f"the store {self.path} cannot be written: its folder {self.path.parent} does not "
+            raise StoreError(f"the store {self.path} cannot be written: its folder {self._file.parent} does not "
                              f"accept the store's journal files ({_storage_problem(exc)})") from exc
 
     # ------------------------------------------------------------------------------------------ connections
     def _uri(self, immutable: bool) -> str:
-        return self.path.resolve().as_uri() + ("?mode=ro&immutable=1" if immutable else "?mode=ro")
+        return self._file.as_uri() + ("?mode=ro&immutable=1" if immutable else "?mode=ro")
 
     def _read(self, fn: Callable[[sqlite3.Connection], T]) -> T:
         """``fn(con)`` on a read-only connection that creates and modifies no file (see the module docstring).
 
-        Without a ``-wal`` file the database is opened ``immutable``; if that read fails and a writer has
-        started meanwhile (a ``-wal`` file appeared), it is retried once without ``immutable``.
+        Without a ``-wal`` file the database is opened ``immutable`` (no locks). A read that fails while the file
+        or its ``-wal`` changed underneath (a writer started, committed or checkpointed meanwhile) is retried, up
+        to ``READ_ATTEMPTS`` times with growing pauses; a failure on an unchanged file is reported at once.
         """
-        wal = self.path.with_name(self.path.name + "-wal")
-        for attempt in (0, 1):
-            immutable = not wal.exists()
+        import time
+
+        for attempt in range(READ_ATTEMPTS):
+            before = self._file_state()
             try:
-                with closing(self._connect_ro(immutable)) as con:
-                    try:
-                        return fn(con)
-                    except (sqlite3.Error, UnicodeError, TypeError, ValueError, KeyError) as exc:  # e.g. non-UTF-8
-                        raise StoreError(f"{self.path} is corrupted ({type(exc).__name__}: {exc}); it was left "
-                                         "untouched") from exc
+                return self._read_once(fn, immutable=not self._companion("-wal").exists())
             except StoreError:
-                if attempt == 0 and immutable and wal.exists():
-                    continue
-                raise
+                if attempt == READ_ATTEMPTS - 1 or self._file_state() == before:
+                    raise
+            time.sleep(0.02 * 2**attempt)
         raise AssertionError("unreachable")
+
+    def _file_state(self) -> tuple[Any, ...]:
+        """What changes when a writer touches the store: the file's and its ``-wal``'s size, time and inode."""
+        state: list[Any] = []
+        for file in (self._file, self._companion("-wal")):
+            try:
+                st = os.stat(file)
+                state.append((st.st_ino, st.st_size, st.st_mtime_ns))
+            except OSError:
+                state.append(None)
+        return tuple(state)
+
+    def _read_once(self, fn: Callable[[sqlite3.Connection], T], immutable: bool) -> T:
+        with closing(self._connect_ro(immutable)) as con:
+            try:
+                return fn(con)
+            except (sqlite3.Error, UnicodeError, TypeError, ValueError, KeyError) as exc:  # e.g. non-UTF-8
+                raise StoreError(f"{self.path} is corrupted ({type(exc).__name__}: {exc}); it was left "
+                                 "untouched") from exc
 
     def _connect_ro(self, immutable: bool) -> sqlite3.Connection:
         try:
@@ -321,11 +316,11 @@ class ResultStore:
 
     def _connect_rw(self) -> sqlite3.Connection:
         try:
-            con = sqlite3.connect(self.path, timeout=self.timeout_s, isolation_level=None)
+            con = sqlite3.connect(self._file, timeout=self.timeout_s, isolation_level=None)
             con.execute("PRAGMA trusted_schema = OFF")
             con.execute(f"PRAGMA busy_timeout = {int(self.timeout_s * 1000)}")
         except sqlite3.Error as exc:
-            raise StoreError(f"cannot open the store {self.path}: {_storage_problem(exc)}") from exc
+            raise StoreError(f"cannot open the store {self.path}: {_storage_problem(exc, self._file.parent)}") from exc
         return con
 
     # ------------------------------------------------------------------------------------------ verification
@@ -390,7 +385,8 @@ class ResultStore:
                                         [("schema_version", str(SCHEMA_VERSION)), ("row_count", "0"),
                                          ("rows_digest", "0" * 64)])
             except sqlite3.DatabaseError as exc:
-                raise StoreError(f"cannot create the store {self.path}: {_storage_problem(exc)}") from exc
+                raise StoreError(f"cannot create the store {self.path}: "
+                                 f"{_storage_problem(exc, self._file.parent)}") from exc
         self._read(self._verify)  # a concurrent initialiser may have written something else
 
     # ------------------------------------------------------------------------------------------ writing
@@ -403,28 +399,14 @@ class ResultStore:
 
         if self.read_only:
             raise StoreError(f"{self.path} was opened read-only")
-        pending = []
-        for r in rows:
-            wall = r.wall_time_per_step_s
-            if isinstance(wall, (bool, str)) or not (isinstance(_clean(wall), (int, float))
-                                                     and math.isfinite(wall) and wall >= 0.0):
-                raise ValueError(f"wall_time_per_step_s must be a finite number >= 0 s (got {wall!r})")
-            for name in ("suite", "env_id", "policy_id", "policy_hash", "termination", "policy_preset"):
-                if not isinstance(getattr(r, name), str):
-                    raise ValueError(f"{name} must be a string (got {getattr(r, name)!r})")
-            metrics = _checked_metrics(r.metrics)
-            seed = _checked_seed(r.seed)
-            success = _checked_success(r.success)
-            verdict = success if success is not None else r.verdict()
-            pending.append([r.created_utc or _now(), r.package_version or __version__, r.suite, r.env_id,
-                            r.env_version, r.policy_id, r.policy_preset, r.policy_hash, seed,
-                            json.dumps(r.options, sort_keys=True), r.termination, int(r.termination == "completed"),
-                            int(verdict), float(wall), json.dumps(metrics, sort_keys=True)])
+        pending = [_stored_values(r, __version__) for r in rows]
+        self._check_no_rollback_journal()
         try:
             with closing(self._connect_rw()) as con, _write_transaction(con):
                 self._insert(con, pending)
         except sqlite3.Error as exc:
-            raise StoreError(f"could not write {len(pending)} rows to {self.path}: {_storage_problem(exc)}; "
+            raise StoreError(f"could not write {len(pending)} rows to {self.path}: "
+                             f"{_storage_problem(exc, self._file.parent)}; "
                              "nothing was written") from exc
         return len(pending)
 
@@ -460,7 +442,12 @@ class ResultStore:
 
         All rows are read in one snapshot and checked against their hashes, the row count and the digest.
         """
-        meta, raw = self._read(self._snapshot)
+        return self._read(lambda con: self._checked_rows(*self._snapshot(con), suite))
+
+    def _checked_rows(self, meta: dict[str, str], raw: list[tuple[Any, ...]],
+                      suite: str | None) -> list[dict[str, Any]]:
+        """The rows of one snapshot, each checked against its hash and the row rule, all against the count and
+        digest (inside ``_read``: a snapshot torn by a concurrent writer is read again)."""
         digest = 0
         out = []
         for values in raw:
@@ -470,16 +457,14 @@ class ResultStore:
                 raise StoreError(f"{self.path} is corrupted (row {values[0]!r} does not match its checksum)")
             digest ^= int(stored_hash, 16)
             d = dict(zip(_COLUMNS, values[:-1], strict=True))
-            if suite is not None and d["suite"] != suite:
-                continue
-            try:
-                d["metrics"] = json.loads(d.pop("metrics_json"))
-                d["options"] = json.loads(d.pop("options_json"))
-            except (TypeError, ValueError) as exc:
-                raise StoreError(f"{self.path} is corrupted (row {d.get('id')}: {exc})") from exc
-            if not isinstance(d["metrics"], dict) or not isinstance(d["options"], dict):
-                raise StoreError(f"{self.path} is corrupted (row {d.get('id')}: metrics/options not objects)")
-            out.append(d)
+            try:   # the rule every write obeys
+                d["metrics"], d["options"] = checked_row_values(d)
+            except ValueError as exc:
+                raise StoreError(f"{self.path} is corrupted (row {d.get('id')!r:.30}: {exc}); it was left "
+                                 "untouched") from None
+            del d["metrics_json"], d["options_json"]
+            if suite is None or d["suite"] == suite:
+                out.append(d)
         if meta.get("row_count") != str(len(raw)) or meta.get("rows_digest") != f"{digest:064x}":
             raise StoreError(f"{self.path} is corrupted (it holds {len(raw)} rows, its record says "
                              f"{meta.get('row_count')!r}, or the rows' digest differs): rows were lost or altered")
@@ -512,18 +497,24 @@ class ResultStore:
         ``latest_only``: only rows written by the newest package version present in the suite, and of those the
         newest row per (env, policy key, seed, options); otherwise every row of every version.
         """
+        from vtrack_gym.evaluation.suites import primary_metric
+
+        return build_board(self.board_rows(suite, latest_only), columns, primary_metric(suite))
+
+    def board_rows(self, suite: str, latest_only: bool = True) -> list[dict[str, Any]]:
+        """The stored rows ``leaderboard`` aggregates (see there); the run's figure folder
+        (``options["figures"]``) does not distinguish two rows of one episode."""
         rows = self.rows(suite)
         if latest_only and rows:
             newest = max(version_sort_key(r["package_version"]) for r in rows)
             latest: dict[tuple[Any, ...], dict[str, Any]] = {}
             for r in rows:  # ordered by id: a later row replaces an earlier one
                 if version_sort_key(r["package_version"]) == newest:
+                    options = {k: v for k, v in r["options"].items() if k != "figures"}
                     latest[(r["env_id"], r["policy_id"], r["policy_preset"], r["policy_hash"], r["seed"],
-                            json.dumps(r["options"], sort_keys=True))] = r
+                            json.dumps(options, sort_keys=True))] = r
             rows = list(latest.values())
-        from vtrack_gym.evaluation.suites import primary_metric
-
-        return build_board(rows, columns, primary_metric(suite))
+        return rows
 
 
 _PEP440 = re.compile(

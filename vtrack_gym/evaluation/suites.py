@@ -81,7 +81,7 @@ def suite_episodes(name: str, quick: bool = False, seeds: Sequence[int] | None =
         return [Episode(env_id, s) for s in (seeds or (0,)) for env_id in ("LateralTracking-v0", "DLC120-v0")]
     if name == "robust":
         chosen = tuple(seeds) if seeds else (ROBUST_SEEDS[:1] if quick else ROBUST_SEEDS)
-        return [Episode(sc.name, s, robust_options(s, sc.target_speed_mps, ROBUST_FRICTION[sc.name]))
+        return [Episode(sc.name, s, robust_options(s, sc.speed.target_speed_mps, ROBUST_FRICTION[sc.name]))
                 for sc in (LATERAL_TRACKING, DLC120) for s in chosen]
     if name == "maneuvers":
         return [Episode(env_id, s) for s in (seeds or (0,)) for env_id in MANEUVER_ENV_IDS]

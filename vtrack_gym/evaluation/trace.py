@@ -35,6 +35,10 @@ class Trace:
     meta: dict[str, Any] = field(default_factory=dict)
     success: bool | None = None
     """The env's own success verdict (the last info's ``"success"``), None when the env gives none."""
+    policy_time_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """Wall time of each of the policy's decisions [s] (its ``predict`` call alone, not the env's step)."""
+    solver_failures: int | None = None
+    """Failed solves of the policy's optimiser during the episode (0 for a closed-form law; None: not reported)."""
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.signals[name]
@@ -52,8 +56,10 @@ class Trace:
     @classmethod
     def from_infos(cls, infos: list[dict[str, Any]], *, env_id: str, policy_id: str, seed: int | None,
                    physics_rate_hz: float, control_period_s: float, termination: str, wall_time_s: float,
-                   meta: dict[str, Any] | None = None) -> Trace:
-        """Assemble a trace from the per-step ``info`` dicts of a single env."""
+                   meta: dict[str, Any] | None = None, policy_time_s: np.ndarray | None = None,
+                   solver_failures: int | None = None) -> Trace:
+        """Assemble a trace from the per-step ``info`` dicts of a single env (``policy_time_s``: the policy's
+        compute per decision [s]; ``solver_failures``: its failed solves)."""
         if not infos:
             raise ValueError("a trace needs at least one step")
         signals = {name: np.array([info[name] for info in infos], dtype=np.float64) for name in STEP_SIGNALS}
@@ -61,4 +67,6 @@ class Trace:
         acc = np.concatenate([info["acc_substeps_mps2"] for info in infos], axis=0)
         verdict = infos[-1].get("success")
         return cls(env_id, policy_id, seed, signals, fz, acc, physics_rate_hz, control_period_s, termination,
-                   wall_time_s / len(infos), dict(meta or {}), None if verdict is None else bool(verdict))
+                   wall_time_s / len(infos), dict(meta or {}), None if verdict is None else bool(verdict),
+                   np.zeros(0) if policy_time_s is None else np.asarray(policy_time_s, dtype=np.float64),
+                   solver_failures)

@@ -1,18 +1,28 @@
-"""Scoring policies on one user track file (suite ``custom``), with the track's provenance in every row.
+"""Scoring policies on the user's track files: one file (suite ``custom``) or a set of them (suite
+``tracks[<name>-<digest>]``), with each track's provenance in every row.
 
-``vtrack benchmark --track`` and ``vtrack eval --track`` use it; from Python: register the track with
-``vtrack_gym.envs.registration.register_track`` and pass its id and provenance here.
+``vtrack benchmark --track`` / ``--tracks`` and ``vtrack eval --track`` use it. A track set's board
+(``track_set_board``) ranks the policies across all tracks first (success rate and errors over every track and
+seed, with 95 % bootstrap intervals) and keeps the per-track rows below.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
+import glob
+import hashlib
+import json
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 TRACK_SUITE = "custom"
-"""The suite rows scored on a user's track are stored under."""
+"""The suite rows scored on one user track are stored under."""
+TRACK_SET_SUITE = "tracks"
+"""The base name of a track set's suite (``tracks[<name>-<digest>]``)."""
+MAX_TRACKS = 10_000
+"""Most track files one track set may hold."""
 
 
 def with_provenance(rows: list, provenance: Mapping[str, Any]) -> list:
@@ -23,21 +33,109 @@ def with_provenance(rows: list, provenance: Mapping[str, Any]) -> list:
     return [dataclasses.replace(r, options={**r.options, **provenance}) for r in rows]
 
 
+def track_files(dir_or_glob: str | Path) -> list[Path]:
+    """The CSV files of a folder (``*.csv``, sorted), or the files a glob pattern matches (sorted);
+    ``ValueError`` when there is none (or more than ``MAX_TRACKS``)."""
+    text = str(dir_or_glob)
+    if Path(text).is_dir():
+        files = sorted(p for p in Path(text).glob("*.csv") if p.is_file())
+    else:
+        files = sorted(Path(p) for p in glob.glob(text, recursive=True) if Path(p).is_file())
+    if not files:
+        raise ValueError(f"--tracks {text}: no track file found (give a folder of .csv files or a glob pattern "
+                         "such as 'tracks/*.csv')")
+    if len(files) > MAX_TRACKS:
+        raise ValueError(f"--tracks {text}: {len(files)} files, more than {MAX_TRACKS}")
+    return files
+
+
+def track_set_suite(name: str, provenances: Sequence[Mapping[str, Any]], seeds: Sequence[int]) -> str:
+    """``tracks[<name>-<digest>]``: ``digest`` hashes every track's provenance (content, speed profile, how it
+    is read) and the seeds, so two different track sets never share a board."""
+    digest = hashlib.sha256(json.dumps([list(provenances), list(seeds)], sort_keys=True,
+                                       default=str).encode()).hexdigest()[:8]
+    slug = "".join(c if c.isalnum() or c in "_.-" else "_" for c in name)[:40].strip("._") or "tracks"
+    return f"{TRACK_SET_SUITE}[{slug}-{digest}]"
+
+
 def benchmark_track(env_id: str, provenance: Mapping[str, Any], factories: Mapping[str, Any], seeds: Sequence[int],
-                    vehicle: str | None = None, figures_dir: str | Path | None = None) -> dict[str, Any]:
+                    vehicle: str | None = None, figures_dir: str | Path | None = None, workers: int | None = 1,
+                    backend: str = "local", show_progress: bool = False) -> dict[str, Any]:
     """Every policy of ``factories`` (``{id: make(env)}``) on the track env ``env_id``, one episode per seed.
 
     Returns ``{"rows", "traces": {env_id: [...]}, "figures", "suite": "custom"}``, like ``run_benchmark``; the
-    figures (written when ``figures_dir`` is given) show the first seed's episodes.
+    figures (written in the run's folder under ``figures_dir`` when it is given) show the first seed's episodes.
     """
-    from vtrack_gym.evaluation.benchmark import score_policy, write_figures
+    return _benchmark([(env_id, provenance, None)], factories, seeds, TRACK_SUITE, vehicle, figures_dir, workers,
+                      backend, show_progress)
+
+
+def benchmark_tracks(dir_or_glob: str | Path, factories: Mapping[str, Any], seeds: Sequence[int] = (0,),
+                     speed_profile: Any = None, closed: bool | None = None, smoothing_m: float | None = None,
+                     vehicle: str | None = None, figures_dir: str | Path | None = None, workers: int | None = 1,
+                     backend: str = "local", show_progress: bool = False) -> dict[str, Any]:
+    """Every policy on every track file of ``dir_or_glob`` (``track_files``), one episode per track and seed.
+
+    Each file is registered with ``speed_profile`` (default: what ``vtrack benchmark --track`` drives, curvature
+    limited within 40 km/h and 0.7 g) and read with ``closed`` /
+    ``smoothing_m`` as ``register_track`` does. Rows go to suite ``track_set_suite(...)``; rank them with
+    ``track_set_board``. ``workers`` / ``backend``: see ``vtrack_gym.evaluation.parallel.run_tasks``.
+    Returns ``{"rows", "traces", "figures", "suite", "tracks": [files]}``.
+    """
+    from vtrack_gym.envs.registration import register_track
+    from vtrack_gym.tracks.speed_limits import speed_profile_from_limits
+
+    files = track_files(dir_or_glob)
+    speed_profile = speed_profile_from_limits() if speed_profile is None else speed_profile
+    tracks = []
+    for file in files:
+        env_id, provenance = register_track(file, speed_profile, closed, smoothing_m)
+        setup = functools.partial(register_track, file, speed_profile, closed, smoothing_m)
+        tracks.append((env_id, provenance, setup))
+    name = Path(str(dir_or_glob)).name if Path(str(dir_or_glob)).is_dir() else Path(str(dir_or_glob)).parent.name
+    suite = track_set_suite(name, [p for _, p, _ in tracks], seeds)
+    result = _benchmark(tracks, factories, seeds, suite, vehicle, figures_dir, workers, backend, show_progress)
+    return {**result, "tracks": files}
+
+
+def _benchmark(tracks: Sequence[tuple[str, Mapping[str, Any], Any]], factories: Mapping[str, Any],
+               seeds: Sequence[int], suite: str, vehicle: str | None, figures_dir: str | Path | None,
+               workers: int | None, backend: str, show_progress: bool) -> dict[str, Any]:
+    """Score every (policy, track, seed) task; rows with their track's provenance, figures per track."""
+    from vtrack_gym.evaluation.benchmark import score_episode, score_tasks, write_figures
+    from vtrack_gym.evaluation.parallel import EpisodeTask
     from vtrack_gym.evaluation.suites import Episode
 
-    episodes = [Episode(env_id, int(s), vehicle=vehicle) for s in seeds]
-    rows, traces = [], []
-    for name, make in factories.items():
-        r, t = score_policy(name, make, episodes, TRACK_SUITE)
-        rows += with_provenance(r, provenance)
-        traces += [tr for tr in t if tr.seed == episodes[0].seed]
-    figures = [] if figures_dir is None else write_figures({env_id: traces}, rows, figures_dir, vehicle=vehicle)
-    return {"rows": rows, "traces": {env_id: traces}, "figures": figures, "suite": TRACK_SUITE}
+    seeds = [int(s) for s in seeds]
+    provenance = {env_id: prov for env_id, prov, _ in tracks}
+    tasks = [EpisodeTask(name, make, Episode(env_id, s, vehicle=vehicle), suite, score_episode,
+                         keep_trace=s == seeds[0], setup=setup)
+             for name, make in factories.items() for env_id, _, setup in tracks for s in seeds]
+    label = f"vtrack benchmark ({suite})" if show_progress else None
+    rows, traces, folder = score_tasks(tasks, figures_dir, vehicle, workers, backend, label)
+    rows = [dataclasses.replace(r, options={**r.options, **provenance[r.env_id]}) for r in rows]
+    figures = [] if folder is None else write_figures(traces, rows, folder, vehicle=vehicle)
+    return {"rows": rows, "traces": traces, "figures": figures, "suite": suite}
+
+
+def is_track_set(suite: str) -> bool:
+    """``suite`` is a track set's (``tracks[...]``)."""
+    return suite.startswith(TRACK_SET_SUITE + "[")
+
+
+def across_tracks_label(n_tracks: int) -> str:
+    """The env name of a track set's aggregate rows."""
+    return f"all {n_tracks} tracks"
+
+
+def track_set_board(rows: Sequence[Mapping[str, Any]], columns: Sequence[str], primary: str) -> list[dict[str, Any]]:
+    """A track set's board: per policy key over all tracks (env ``all <n> tracks``), then per track.
+
+    ``rows``: stored rows as dicts (``ResultStore.board_rows``), aggregated as ``evaluation.board.build_board``
+    does (success rate first, intervals over every track and seed)."""
+    from vtrack_gym.evaluation.board import build_board
+
+    rows = list(rows)
+    label = across_tracks_label(len({r["env_id"] for r in rows}))
+    pooled = [{**r, "env_id": label} for r in rows]
+    return build_board(pooled, columns, primary) + build_board(rows, columns, primary)

@@ -33,7 +33,11 @@ _SCENE_COLOURS: list[tuple[int, int, int]] = [
 
 
 def check_video_path(out: str | Path) -> Path:
-    """``out`` as a Path if a video can be written there (suffix .mp4/.gif, parent folder exists, not a folder)."""
+    """``out`` as a Path if a video can be written there: suffix .mp4/.gif, parent folder exists, and the output
+    gate's checks (``vtrack_gym._io.check_output_file``: not a folder, FIFO, device, symlink to one, symlink into a
+    missing folder or SQLite file; a folder the process can write)."""
+    from vtrack_gym._io import check_output_file
+
     p = Path(out)
     if p.suffix.lower() not in VIDEO_SUFFIXES:
         raise ValueError(f"--out must end in {' or '.join(VIDEO_SUFFIXES)} (got {str(out)!r})")
@@ -42,6 +46,7 @@ def check_video_path(out: str | Path) -> Path:
     parent = p.parent if str(p.parent) else Path(".")
     if not parent.is_dir():
         raise ValueError(f"--out: folder {str(parent)!r} does not exist (create it first)")
+    check_output_file(p, "--out")
     return p
 
 
@@ -160,6 +165,14 @@ class _Writer:
                 colors=96, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE)
         self._gif.append(Image.fromarray(frame).quantize(palette=self._palette, dither=Image.Dither.NONE))
 
+    def abort(self) -> None:
+        """Stop after a failure: end ffmpeg without waiting on a full disk (the file is discarded)."""
+        if self._gif is None:
+            try:
+                self._mp4.close()
+            except (OSError, ValueError, RuntimeError):
+                pass
+
     def close(self) -> None:
         if self._gif is None:
             self._mp4.close()
@@ -189,14 +202,30 @@ def record_video(env_id: str, policies: Sequence[tuple[str, Callable[[gym.Env], 
     path = u.current_path
     dt = float(u.control_period_s)
     renderer = TopDownRenderer(path, u.config.vehicle.chassis, cfg.render)
-    limit_s = cfg.max_seconds if cfg.max_seconds is not None else float(u.scenario.max_episode_s)
+    limit_s = cfg.max_seconds if cfg.max_seconds is not None else float(u.scenario.time_limit_s)
     if out.suffix.lower() == ".gif" and limit_s / cfg.speedup * cfg.fps > MAX_GIF_FRAMES:
         raise ValueError(f"{limit_s:g} s of driving at --speedup {cfg.speedup:g} and {cfg.fps} frames/s can exceed "
                          f"the {MAX_GIF_FRAMES}-frame GIF limit; write .mp4, raise --speedup or set --seconds")
+    from vtrack_gym._io import atomic_output
+
+    try:
+        with atomic_output(out, "--out") as tmp:
+            frames, steps = _render_frames(drivers, renderer, path, tmp, cfg, limit_s, env_id, progress)
+    finally:
+        for d in drivers:
+            d.env.close()
+    return {"path": out, "frames": frames, "video_s": frames / cfg.fps, "driven_s": steps * dt,
+            "wall_s": time.perf_counter() - start}
+
+
+def _render_frames(drivers: list[_Driver], renderer: TopDownRenderer, path: Any, tmp: Path, cfg: VideoConfig,
+                   limit_s: float, title: str, progress: Callable[[str], None] | None) -> tuple[int, int]:
+    """Drive and draw into the video file ``tmp``; returns (frames written, control steps driven)."""
+    dt = float(drivers[0].env.unwrapped.control_period_s)
     clock = FrameClock(cfg.fps)
-    writer = _Writer(out, cfg.fps)
-    title = env_id
+    writer = _Writer(tmp, cfg.fps)
     steps = 0
+    done = False
     try:
         while True:
             t = steps * dt
@@ -214,9 +243,10 @@ def record_video(env_id: str, policies: Sequence[tuple[str, Callable[[gym.Env], 
             for d in drivers:
                 d.step()
             steps += 1
+        done = True
     finally:
-        writer.close()
-        for d in drivers:
-            d.env.close()
-    return {"path": out, "frames": writer.frames, "video_s": writer.frames / cfg.fps, "driven_s": steps * dt,
-            "wall_s": time.perf_counter() - start}
+        if done:
+            writer.close()
+        else:
+            writer.abort()
+    return writer.frames, steps

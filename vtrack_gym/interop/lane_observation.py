@@ -1,7 +1,7 @@
 """The vtrack observation of a car on a highway-env lane, written through the native env's observation writer.
 
 The Frenet quantities come from the lane's exact geometry (``LaneGeometry``); the row is laid out by
-``ObservationLayout`` and written by ``vtrack_gym.envs.kernels.write_observation``, the same writer as the
+``ObservationLayout`` and written by ``vtrack_gym.envs.kernels.write_scalar_fields``, the same writer as the
 native env's compiled step, so both envs put every field at the same index with the same float32 rounding.
 """
 
@@ -33,18 +33,15 @@ def observe_on_lane(geom: LaneGeometry, layout: ObservationLayout, x_m: float, y
 
     ``v_x_dot_mps2`` is d v_x / dt (the reference yaw acceleration uses it like the native env uses a_x).
     """
-    from vtrack_gym.envs.kernels import write_observation
+    from vtrack_gym.envs.kernels import write_scalar_fields
 
     x_star, e_y, psi_ref, kappa, dkappa = geom.project(x_m, y_m)
     station = geom.station_at(x_star)
     e_phi = float(wrap_angle(psi_rad - psi_ref))
-    sin_e, cos_e = math.sin(e_phi), math.cos(e_phi)
-    s_dot = (v_x_mps * cos_e - v_y_mps * sin_e) / (1.0 - kappa * e_y)
-    rate_ref = kappa * s_dot
+    s_dot = (v_x_mps * math.cos(e_phi) - v_y_mps * math.sin(e_phi)) / (1.0 - kappa * e_y)
     obs = np.empty(layout.size, dtype=np.float32)
-    write_observation(obs, e_y, e_phi, v_x_mps * sin_e + v_y_mps * cos_e, yaw_rate_radps - rate_ref, v_x_mps,
-                      v_y_mps, yaw_rate_radps, road_wheel_angle_rad, target_speed_mps, rate_ref,
-                      dkappa * s_dot * s_dot + kappa * v_x_dot_mps2, kappa, dkappa)
+    write_scalar_fields(obs, e_y, e_phi, v_x_mps, v_y_mps, yaw_rate_radps, road_wheel_angle_rad, target_speed_mps,
+                        kappa, dkappa, s_dot, v_x_dot_mps2)
     obs[layout.preview] = geom.curvature_at_stations(station + layout.preview_distances(v_x_mps))
     obs[layout.speed_preview] = target_speed_mps  # the adapter holds one speed
     return LaneObservation(obs, station, e_y, e_phi)

@@ -32,6 +32,7 @@ from vtrack_gym.tracks.sources import BUILTIN_TRACKS, file_digest, load_track, p
 from vtrack_gym.tracks.speed_profiles import (
     ConstantSpeed,
     CurvatureLimited,
+    EnvelopeLimited,
     FileSpeed,
     SpeedProfile,
     SpeedRamp,
@@ -70,6 +71,7 @@ __all__ = [
     "CurvatureLimited",
     "CurvatureProfile",
     "DoubleLaneChangeSpec",
+    "EnvelopeLimited",
     "FileSpeed",
     "Gate",
     "LaneSection",

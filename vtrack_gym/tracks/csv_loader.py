@@ -20,16 +20,26 @@ from __future__ import annotations
 
 import math
 import os
+import re
+import unicodedata
 import warnings
+from collections.abc import Iterator
 from pathlib import Path as FsPath
 
 import numpy as np
 
-from vtrack_gym._io import read_regular_file
-from vtrack_gym.tracks.fitting import MAX_COORDINATE_M, check_points
+from vtrack_gym._io import check_regular_input, read_regular_file
+from vtrack_gym.tracks.fitting import MAX_COORDINATE_M, MAX_LENGTH_M, check_points
 from vtrack_gym.tracks.geometry import TooDenseError, segment_intersections
-from vtrack_gym.tracks.path import DEFAULT_DS_M, MAX_HALF_WIDTH_M, MAX_V_REF_MPS, Path
-from vtrack_gym.tracks.table import COL_GRADE
+from vtrack_gym.tracks.path import (
+    DEFAULT_DS_M,
+    MAX_CURVATURE_PER_M,
+    MAX_CURVATURE_RATE_PER_M2,
+    MAX_HALF_WIDTH_M,
+    MAX_V_REF_MPS,
+    Path,
+)
+from vtrack_gym.tracks.table import COL_DKAPPA, COL_GRADE, COL_KAPPA, COL_X, COL_Y
 
 CLOSED_GAP_M = 1.0          # first and last points closer than this [m] always close the loop (auto-detection)
 CLOSED_GAP_SPACINGS = 3.0   # ... or an end gap up to this x the median point spacing,
@@ -39,6 +49,9 @@ MIN_POINTS = 4
 MIN_SPAN_M = 1.0            # points spanning less than this [m] in x and y are not a road in metres (degrees?)
 MAX_POINTS = 200_000
 MAX_FILE_BYTES = 64 * 2**20
+MAX_LINE_CHARS = 4096       # longest line (characters), checked before the line is split
+MAX_FIELD_CHARS = 64        # longest field (characters)
+_SHOWN_CHARS = 40           # characters of a field quoted in an error message
 DEFAULT_HALF_WIDTH_M = 3.5
 NOISE_SIGN_CHANGE_SHARE = 0.25  # noisy: the curvature changes sign in more than this share of the point intervals,
 NOISE_REVERSAL_M = 8.0          # ... more often than once per this distance [m] (a slalom: 18 m) ...
@@ -69,6 +82,79 @@ _HEADER_HELP = ("header must name the columns x, y and optionally z, the half wi
                 + "; ".join(f"{role}: {', '.join(names)}" for role, names in COLUMN_NAMES.items()) + ")")
 
 
+_NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+_NON_FINITE = frozenset({"nan", "+nan", "-nan", "inf", "+inf", "-inf", "infinity", "+infinity", "-infinity"})
+_LINE_END = re.compile(r"\r\n|\r|\n")
+_UNSAFE_CATEGORIES = frozenset({"Cc", "Cf", "Zl", "Zp", "Cs"})
+
+
+def _shown(text: str) -> str:
+    """``text`` quoted for a message, cut to ``_SHOWN_CHARS`` characters."""
+    return repr(text[:_SHOWN_CHARS]) + ("..." if len(text) > _SHOWN_CHARS else "")
+
+
+def _shown_list(texts: list[str]) -> str:
+    """At most 8 of ``texts``, each cut, for a message."""
+    return "[" + ", ".join(_shown(t) for t in texts[:8]) + (", ..." if len(texts) > 8 else "") + "]"
+
+
+def _decimal_comma_hint(line: str) -> str:
+    """A hint when the line looks like numbers written with decimal commas (``1,5;2,5`` or ``1,5 2,5``)."""
+    tokens = re.split(r"[;\s]+", line.strip())
+    decimal_commas = len(tokens) > 1 and any(re.fullmatch(r"[+-]?[0-9]+,[0-9]+", t) for t in tokens)
+    return "; decimal commas? write 1.5, not 1,5" if decimal_commas else ""
+
+
+def _line_spans(text: str) -> Iterator[tuple[int, int, int]]:
+    """(line number, start, end) of every line; lines end at \\n, \\r\\n or \\r only (a U+2028 or \\v inside a
+    line is no line break); nothing is copied."""
+    pos, lineno = 0, 0
+    while pos < len(text):
+        m = _LINE_END.search(text, pos)
+        end = m.start() if m else len(text)
+        lineno += 1
+        yield lineno, pos, end
+        pos = m.end() if m else len(text)
+
+
+def _checked_line(fs_path: FsPath, text: str, lineno: int, start: int, end: int) -> str:
+    """The line, after its length and characters are checked (tabs allowed; no control, format or separator
+    characters)."""
+    if end - start > MAX_LINE_CHARS:
+        raise ValueError(f"{fs_path}, line {lineno}: the line is {end - start} characters long (at most "
+                         f"{MAX_LINE_CHARS}); is this a CSV of points, one per line?")
+    line = text[start:end]
+    bad = next((c for c in line if c != "\t" and unicodedata.category(c) in _UNSAFE_CATEGORIES), None)
+    if bad is not None:
+        raise ValueError(f"{fs_path}, line {lineno}: the character U+{ord(bad):04X} "
+                         f"({unicodedata.name(bad, 'a control character')}) is not allowed in a track file; "
+                         "lines end with a line feed, fields are separated by commas, semicolons or spaces")
+    return line
+
+
+def _number(text: str) -> float | None:
+    """``text`` as a number if it is one in plain ASCII notation (digits 0-9, '.', sign, exponent), else None
+    (``3_0``, ``١``, ``1,5``, quoted numbers and ``nan`` are not)."""
+    return float(text) if len(text) <= MAX_FIELD_CHARS and _NUMBER.fullmatch(text) else None
+
+
+def _number_error(fs_path: FsPath, lineno: int, column: int, text: str, line: str) -> ValueError:
+    """The error for a field that is not a number, with a hint for the usual causes."""
+    where = f"{fs_path}, line {lineno}, column {column}"
+    if len(text) > MAX_FIELD_CHARS:
+        return ValueError(f"{where}: a field of {len(text)} characters (at most {MAX_FIELD_CHARS})")
+    if text.lower() in _NON_FINITE or _NUMBER.fullmatch(text):   # nan, inf, or beyond the float range
+        return ValueError(f"{where}: value must be finite (got {_shown(text)})")
+    hint = ""
+    if _decimal_comma_hint(line) or re.fullmatch(r"[+-]?[0-9]+,[0-9]+", text):
+        hint = "; decimal commas? write 1.5, not 1,5"
+    elif len(text) >= 2 and text[0] == text[-1] and text[0] in "\"'":
+        hint = "; remove the quotes around numbers"
+    elif "_" in text or any(c.isdigit() and not c.isascii() for c in text):
+        hint = "; write numbers with the digits 0-9 only (no '_' or other scripts' digits)"
+    return ValueError(f"{where}: not a number ({_shown(text)}){hint}")
+
+
 def _split(line: str) -> list[str]:
     """Fields of a line: comma- or semicolon-separated if it has one, else whitespace-separated."""
     for sep in (",", ";"):
@@ -78,11 +164,7 @@ def _split(line: str) -> list[str]:
 
 
 def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
+    return _number(text) is not None or text.lower() in _NON_FINITE
 
 
 def _comment_header(line: str) -> list[str] | None:
@@ -99,9 +181,10 @@ def _header_roles(fs_path: FsPath, lineno: int, fields: list[str]) -> list[str]:
     roles = [_ROLE.get(f.lower()) for f in fields]
     unknown = [f for f, r in zip(fields, roles, strict=True) if r is None]
     if unknown or len(set(roles)) != len(roles) or not {"x", "y"} <= set(roles):
-        problem = (f"unknown column(s) {unknown}" if unknown else
+        problem = (f"unknown column(s) {_shown_list(unknown)}" if unknown else
                    "a column is named twice" if len(set(roles)) != len(roles) else "x or y is missing")
-        raise ValueError(f"{fs_path}, line {lineno}: {_HEADER_HELP} (got {fields}: {problem}); fix: rename the "
+        raise ValueError(f"{fs_path}, line {lineno}: {_HEADER_HELP} (got {_shown_list(fields)}: {problem}); fix: "
+                         "rename the "
                          "columns in that line, or delete it if it is not a header")
     if ("w_right" in roles) != ("w_left" in roles):
         have = "w_tr_right_m" if "w_right" in roles else "w_tr_left_m"
@@ -117,8 +200,7 @@ def read_track_columns(fs_path: FsPath) -> tuple[dict[str, np.ndarray], list[int
     """
     if fs_path.is_dir():
         raise ValueError(f"{fs_path}: is a folder, not a track file (give a CSV file in it)")
-    if not fs_path.is_file():
-        raise ValueError(f"{fs_path}: track file not found")
+    check_regular_input(fs_path, "track file")   # "not found", or "is a FIFO / character device ..."
     size = fs_path.stat().st_size
     if size > MAX_FILE_BYTES:
         raise ValueError(f"{fs_path}: the file is {size / 2**20:.1f} MiB; at most {MAX_FILE_BYTES // 2**20} MiB is "
@@ -133,8 +215,9 @@ def read_track_columns(fs_path: FsPath) -> tuple[dict[str, np.ndarray], list[int
     rows: list[list[float]] = []
     lines: list[int] = []
     n_cols: int | None = None
-    for lineno, raw in enumerate(text.splitlines(), start=1):
-        line = raw.strip()
+    for lineno, start, end in _line_spans(text):
+        raw = _checked_line(fs_path, text, lineno, start, end)
+        line = raw.strip(" \t")
         if not line:
             continue
         if line.startswith("#"):
@@ -160,15 +243,13 @@ def read_track_columns(fs_path: FsPath) -> tuple[dict[str, np.ndarray], list[int
         if len(fields) != n_cols:
             named = f" as named by the header on line {header_line}" if header_line else ""
             raise ValueError(f"{fs_path}, line {lineno}: expected {n_cols} columns{named} (got {len(fields)})"
-                             + ("; fix: make the header name every column" if header_line else ""))
+                             + ("; fix: make the header name every column" if header_line else "")
+                             + _decimal_comma_hint(line))
         values = []
         for k, f in enumerate(fields):
-            try:
-                v = float(f)
-            except ValueError:
-                raise ValueError(f"{fs_path}, line {lineno}, column {k + 1}: not a number ({f!r})") from None
-            if not math.isfinite(v):
-                raise ValueError(f"{fs_path}, line {lineno}, column {k + 1}: value must be finite (got {f!r})")
+            v = _number(f)
+            if v is None or not math.isfinite(v):
+                raise _number_error(fs_path, lineno, k + 1, f, line)
             values.append(v)
         rows.append(values)
         lines.append(lineno)
@@ -178,6 +259,10 @@ def read_track_columns(fs_path: FsPath) -> tuple[dict[str, np.ndarray], list[int
     if len(rows) < MIN_POINTS:
         raise ValueError(f"{fs_path}: a track needs >= {MIN_POINTS} points (got {len(rows)})")
     data = np.asarray(rows, dtype=float)
+    if order is None and data.shape[1] == 3:
+        warnings.warn(f"{fs_path}: no header line: the third column is read as an elevation z [m]. If it is a "
+                      "speed, name the columns in a first line 'x_m, y_m, v_mps'; a header 'x_m, y_m, z_m' "
+                      "confirms the elevation", UserWarning, stacklevel=3)
     order = order or ["x", "y", "z"][: data.shape[1]]
     columns = {role: data[:, k] for k, role in enumerate(order)}
     _check_ranges(fs_path, columns, lines)
@@ -392,6 +477,43 @@ def _check_crossing(fs_path: FsPath, px: np.ndarray, py: np.ndarray, closed: boo
                          "pass allow_self_crossing=True, else correct those points")
 
 
+def hermite_peaks(p0: np.ndarray, d0: np.ndarray, p1: np.ndarray, d1: np.ndarray, h: float) -> np.ndarray:
+    """Largest |p(t)|, t in [0, 1], of each cubic Hermite interval with end values p0, p1 and end slopes d0, d1 (per
+    metre) over length h [m]: the curvature the env interpolates between two table rows (``tracks.kernels._h3``)."""
+    a = 2.0 * p0 + h * d0 - 2.0 * p1 + h * d1          # p(t) = a t^3 + b t^2 + c t + p0
+    b = -3.0 * p0 - 2.0 * h * d0 + 3.0 * p1 - h * d1
+    c = h * d0
+    peaks = np.maximum(np.abs(p0), np.abs(p1))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        root = np.sqrt(np.maximum(b * b - 3.0 * a * c, 0.0))
+        cubic = a != 0.0
+        candidates = (np.where(cubic, (-b + root) / (3.0 * a), -c / (2.0 * b)),
+                      np.where(cubic, (-b - root) / (3.0 * a), 0.0))
+    for t in candidates:
+        t = np.clip(np.nan_to_num(t, nan=0.0, posinf=0.0, neginf=0.0), 0.0, 1.0)
+        peaks = np.maximum(peaks, np.abs(((a * t + b) * t + c) * t + p0))
+    return peaks
+
+
+def _check_representable(fs_path: FsPath, path: Path, x: np.ndarray, y: np.ndarray, lines: list[int]) -> None:
+    """ValueError naming the file line nearest the sharpest bend if the curvature the env can observe (the rows'
+    Hermite interpolation) or its rate exceeds what an observation holds (``MAX_CURVATURE_PER_M``,
+    ``MAX_CURVATURE_RATE_PER_M2``): a kink, not a road."""
+    table = path.table
+    kappa, rate = table[:, COL_KAPPA], table[:, COL_DKAPPA]
+    kappa_peaks = hermite_peaks(kappa[:-1], rate[:-1], kappa[1:], rate[1:], path.ds_m)
+    for values, limit, what, unit in ((kappa_peaks, MAX_CURVATURE_PER_M, "curvature", "1/m"),
+                                      (np.abs(rate), MAX_CURVATURE_RATE_PER_M2, "curvature rate", "1/m^2")):
+        peak = int(np.argmax(values))
+        if values[peak] <= limit:
+            continue
+        k = int(np.argmin(np.hypot(x - table[peak, COL_X], y - table[peak, COL_Y])))
+        raise ValueError(f"{fs_path}, line {lines[min(k, len(lines) - 1)]}: the fitted centre-line's {what} reaches "
+                         f"{values[peak]:.3g} {unit} near this point, beyond the {limit:g} {unit} an observation "
+                         "holds (a kink: a point off the line, a turn back on itself, an end point next to the start); "
+                         "fix: correct the point, or pass smoothing_m (CLI: --track-smoothing-m) or closed")
+
+
 def load_track_csv(path: str | os.PathLike[str], closed: bool | None = None, half_width_m: float | None = None, *,
                    smoothing_m: float | None = None, ds_m: float = DEFAULT_DS_M, name: str | None = None,
                    allow_self_crossing: bool = False) -> Path:
@@ -433,6 +555,10 @@ def load_track_csv(path: str | os.PathLike[str], closed: bool | None = None, hal
             z = None if z is None else z[:-1]
             widths = None if widths is None else widths[:-1]
             v_ref = None if v_ref is None else v_ref[:-1]
+    loop_m = float(np.hypot(np.diff(px), np.diff(py)).sum())
+    if loop_m > MAX_LENGTH_M:
+        raise ValueError(f"{fs_path}: closing the loop makes the centre-line {loop_m / 1000:.0f} km long; at most "
+                         f"{MAX_LENGTH_M / 1000:.0f} km is accepted (an open line: closed=False, --track-closed no)")
     if not allow_self_crossing:
         _check_crossing(fs_path, px, py, bool(closed), lines)
     raw_x, raw_y = x, y
@@ -465,6 +591,7 @@ def load_track_csv(path: str | os.PathLike[str], closed: bool | None = None, hal
     if not allow_self_crossing and result.self_intersects():
         raise ValueError(f"{fs_path}: the fitted centre-line crosses itself (points too sparse or too noisy; "
                          "add points or raise smoothing_m)")
+    _check_representable(fs_path, result, raw_x, raw_y, lines)
     noisy = noisy_curvature_hint(result, raw_x, raw_y)
     if noisy is not None:
         changes, n, hint = noisy

@@ -160,29 +160,19 @@ def gate_violations(path: Path, x: np.ndarray, y: np.ndarray, psi: np.ndarray, v
     ``OUTLINE_STEP_M``) left the lane at any sample of the trajectory x, y [m], psi [rad] (arrays of shape (T,));
     the "cones hit" count of ISO 3888. Sampling the sides as well as the corners catches a single-cone gate (a
     slalom cone, shorter than the car) that the body passes between its corners. A gate without an anchor is
-    checked in the path's Frenet frame (station window, e_y bounds), an anchored gate against its fixed
-    rectangle."""
+    checked in the path's Frenet frame (station window, e_y bounds; each outline point projected from the car's
+    station), an anchored gate against its fixed rectangle: the env's compiled ``kernels.body_outside_gates``."""
+    from vtrack_gym.tracks import kernels
+
     if not (vehicle_length_m > 0.0 and vehicle_width_m > 0.0):
         raise ValueError(f"vehicle_length_m and vehicle_width_m must be > 0 (got {vehicle_length_m}, "
                          f"{vehicle_width_m})")
     if not path.gates:
         return 0
-    cx, cy = car_outline(x, y, psi, vehicle_length_m, vehicle_width_m, cg_to_front_m)
-    cx, cy = cx.ravel(), cy.ravel()
-    proj = path.project(cx, cy) if any(g.anchor is None for g in path.gates) else None
-    count = 0
-    for gate in path.gates:
-        if gate.anchor is None:
-            assert proj is not None
-            along, lat = proj.s - gate.s_start_m, proj.e_y
-            length = gate.s_end_m - gate.s_start_m
-        else:
-            x0, y0, psi0 = gate.anchor
-            c, s = math.cos(psi0), math.sin(psi0)
-            along = (cx - x0) * c + (cy - y0) * s
-            lat = -(cx - x0) * s + (cy - y0) * c
-            length = gate.lane_length_m
-        inside = (along >= 0.0) & (along <= length)
-        out = (lat > gate.y_left_m) | (lat < gate.y_right_m)
-        count += int(np.any(inside & out))
-    return count
+    x, y, psi = (np.ascontiguousarray(np.atleast_1d(np.asarray(a, dtype=float))) for a in (x, y, psi))
+    lon, lat = car_outline(0.0, 0.0, 0.0, vehicle_length_m, vehicle_width_m, cg_to_front_m)
+    station = path.project(x, y).s
+    hit = np.zeros((x.size, len(path.gates)), dtype=np.bool_)
+    kernels.body_outside_gates(path.table, path.ds_m, path.length_m, path.closed, kernels.gate_rows(path.gates), x,
+                               y, psi, station, lon.ravel(), lat.ravel(), hit, np.zeros(kernels.N_COLS))
+    return int(np.count_nonzero(hit.any(axis=0)))

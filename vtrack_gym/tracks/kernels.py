@@ -1,15 +1,14 @@
-"""numba kernels on a path table: interpolation and projection for the env's compiled step (N cars at once).
+"""Compiled kernels on a path table: interpolation, projection and cone-gate checks, for the env's compiled step
+(N cars at once) and for ``Path`` (through ``tracks.interpolation``): one implementation of each.
 
 Arguments are plain arrays/scalars: ``table`` (n, 8) float64 with the column order of ``vtrack_gym.tracks.path``
 (COL_X .. COL_ZPP), ``ds`` sample spacing [m], ``length`` = (n - 1) ds [m], ``closed`` (bool; s wraps modulo
-length, else it is clamped to [0, length]). Same algorithms as the numpy methods of ``Path`` (tested to agree).
+length, else it is clamped to [0, length]).
 
 Interpolation: quintic Hermite for X, Y (value, unit tangent, curvature normal), psi (psi, kappa, dkappa) and z
 (z, grade, z''); cubic Hermite for kappa (kappa, dkappa) and grade (grade, z''); linear for dkappa and z''. Heading
 is interpolated as the unwrapped table angle. Arcs are reproduced to ~1e-15 m, so X/Y at the projection are
 consistent with it.
-
-This is the only module of the package that imports numba.
 """
 
 from __future__ import annotations
@@ -17,14 +16,16 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+
+from vtrack_gym._jit import kernel
 
 C_X, C_Y, C_PSI, C_KAPPA, C_DKAPPA, C_Z, C_GRADE, C_ZPP = range(8)
+N_COLS = C_ZPP + 1    # columns of a table row
 TOL_M = 1e-10          # refinement stops when s moves less than this [m]
 MAX_ITER = 12
 
 
-@njit(cache=True)
+@kernel
 def wrap_s(s: float, length: float, closed: bool) -> float:
     """Arc length wrapped into [0, length) (closed) or clamped to [0, length] (open) [m]."""
     if closed:
@@ -39,7 +40,7 @@ def wrap_s(s: float, length: float, closed: bool) -> float:
     return s
 
 
-@njit(cache=True)
+@kernel
 def _h5(p0: float, d0: float, c0: float, p1: float, d1: float, c1: float, t: float, h: float) -> float:
     t2 = t * t
     t3 = t2 * t
@@ -50,7 +51,7 @@ def _h5(p0: float, d0: float, c0: float, p1: float, d1: float, c1: float, t: flo
             + (-4.0 * t3 + 7.0 * t4 - 3.0 * t5) * h * d1 + (10.0 * t3 - 15.0 * t4 + 6.0 * t5) * p1)
 
 
-@njit(cache=True)
+@kernel
 def _h3(p0: float, d0: float, p1: float, d1: float, t: float, h: float) -> float:
     t2 = t * t
     t3 = t2 * t
@@ -58,7 +59,7 @@ def _h3(p0: float, d0: float, p1: float, d1: float, t: float, h: float) -> float
             + (t3 - t2) * h * d1)
 
 
-@njit(cache=True)
+@kernel
 def _locate(n: int, ds: float, length: float, closed: bool, s: float) -> tuple[int, float]:
     sw = wrap_s(s, length, closed)
     i = int(sw / ds)
@@ -67,7 +68,7 @@ def _locate(n: int, ds: float, length: float, closed: bool, s: float) -> tuple[i
     return i, (sw - i * ds) / ds
 
 
-@njit(cache=True)
+@kernel
 def _geom(table: np.ndarray, ds: float, length: float, closed: bool, s: float) -> tuple[float, float, float, float]:
     """(X [m], Y [m], psi [rad], kappa [1/m]) at s."""
     i, t = _locate(table.shape[0], ds, length, closed, s)
@@ -83,7 +84,7 @@ def _geom(table: np.ndarray, ds: float, length: float, closed: bool, s: float) -
     return x, y, psi, kap
 
 
-@njit(cache=True)
+@kernel
 def interp_row(table: np.ndarray, ds: float, length: float, closed: bool, s: float, out_row: np.ndarray) -> None:
     """Write all 8 columns at arc length s [m] into out_row (wrapped for closed, clamped for open paths)."""
     i, t = _locate(table.shape[0], ds, length, closed, s)
@@ -102,7 +103,39 @@ def interp_row(table: np.ndarray, ds: float, length: float, closed: bool, s: flo
     out_row[C_ZPP] = a[C_ZPP] + t * (b[C_ZPP] - a[C_ZPP])
 
 
-@njit(cache=True)
+@kernel
+def interp_linear(table: np.ndarray, ds: float, length: float, closed: bool, s: float, col: int) -> float:
+    """Column ``col`` of ``table`` at arc length s [m], linear between rows (wrapped / clamped like the path)."""
+    j, t = _locate(table.shape[0], ds, length, closed, s)
+    lo = table[j, col]
+    return lo + t * (table[j + 1, col] - lo)
+
+
+@kernel
+def interp_rows(table: np.ndarray, ds: float, length: float, closed: bool, s: np.ndarray, out: np.ndarray) -> None:
+    """``interp_row`` at every arc length of ``s`` (M,) [m] into ``out`` (M, 8)."""
+    for k in range(s.shape[0]):
+        interp_row(table, ds, length, closed, s[k], out[k])
+
+
+@kernel
+def interp_linear_rows(table: np.ndarray, ds: float, length: float, closed: bool, s: np.ndarray,
+                       out: np.ndarray) -> None:
+    """Every column of ``table`` (n, C) linear between rows at every arc length of ``s`` (M,) [m] into ``out``
+    (M, C)."""
+    for k in range(s.shape[0]):
+        for col in range(table.shape[1]):
+            out[k, col] = interp_linear(table, ds, length, closed, s[k], col)
+
+
+@kernel
+def wrap_s_rows(s: np.ndarray, length: float, closed: bool, out: np.ndarray) -> None:
+    """``wrap_s`` of every entry of ``s`` (M,) [m] into ``out`` (M,)."""
+    for k in range(s.shape[0]):
+        out[k] = wrap_s(s[k], length, closed)
+
+
+@kernel
 def _nearest_sample(table: np.ndarray, ds: float, closed: bool, x: float, y: float, s_guess: float,
                     window_m: float) -> int:
     """Index of the nearest sample within +- window_m of s_guess (all samples if s_guess < 0)."""
@@ -136,7 +169,7 @@ def _nearest_sample(table: np.ndarray, ds: float, closed: bool, x: float, y: flo
     return best
 
 
-@njit(cache=True)
+@kernel
 def project_point(table: np.ndarray, ds: float, length: float, closed: bool, x: float, y: float, s_guess: float,
                   window_m: float) -> float:
     """Arc length s* [m] of the closest path point to (x, y) [m].
@@ -174,15 +207,22 @@ def project_point(table: np.ndarray, ds: float, length: float, closed: bool, x: 
     return s
 
 
-@njit(cache=True)
+@kernel
+def lateral_offset(x: float, y: float, x_ref: float, y_ref: float, psi_ref: float) -> float:
+    """Left-positive lateral offset [m] of (x, y) [m] from the line through (x_ref, y_ref) [m] at heading psi_ref
+    [rad] (e_y when the reference point is the projection)."""
+    return -(x - x_ref) * math.sin(psi_ref) + (y - y_ref) * math.cos(psi_ref)
+
+
+@kernel
 def lateral_error(table: np.ndarray, ds: float, length: float, closed: bool, x: float, y: float,
                   s: float) -> tuple[float, float]:
     """(e_y [m] left-positive, psi_ref [rad]) of (x, y) [m] relative to the path point at s [m]."""
     xr, yr, psi, _ = _geom(table, ds, length, closed, s)
-    return -(x - xr) * math.sin(psi) + (y - yr) * math.cos(psi), psi
+    return lateral_offset(x, y, xr, yr, psi), psi
 
 
-@njit(cache=True)
+@kernel
 def project_batch(table: np.ndarray, ds: float, length: float, closed: bool, x: np.ndarray, y: np.ndarray,
                   s_guess: np.ndarray, window_m: float, s_out: np.ndarray, e_y_out: np.ndarray,
                   psi_ref_out: np.ndarray) -> None:
@@ -193,3 +233,63 @@ def project_batch(table: np.ndarray, ds: float, length: float, closed: bool, x: 
         s_out[i] = s
         e_y_out[i] = e_y
         psi_ref_out[i] = psi
+
+
+GATE_COLS = 9
+"""Columns of a gate row for ``body_outside_gates``: s_start, s_end, y_left, y_right [m], anchored (1.0 / 0.0),
+anchor x, y [m], psi [rad], lane length [m] (``tracks.Gate``; the anchor columns are 0 without an anchor)."""
+
+
+@kernel(inline=True)
+def _outside_anchored_gate(gate: np.ndarray, cx: float, cy: float) -> bool:
+    """True if point (cx, cy) [m] lies in an anchored gate's lane section (its fixed rectangle) outside its lane."""
+    ca = math.cos(gate[7])
+    sa = math.sin(gate[7])
+    along = (cx - gate[5]) * ca + (cy - gate[6]) * sa
+    off = -(cx - gate[5]) * sa + (cy - gate[6]) * ca
+    return 0.0 <= along <= gate[8] and (off > gate[2] or off < gate[3])
+
+
+@kernel
+def body_outside_gates(table: np.ndarray, ds: float, length: float, closed: bool, gates: np.ndarray, x: np.ndarray,
+                       y: np.ndarray, psi: np.ndarray, s_guess: np.ndarray, lon: np.ndarray, lat: np.ndarray,
+                       out: np.ndarray, row: np.ndarray) -> None:
+    """``out[i, g] = True`` where a body-outline point of car i (CG x, y [m], heading psi [rad]; point offsets
+    ``lon``, ``lat`` (P,) [m] in the body frame) lies in gate g's lane section outside its lane. ``gates``
+    (G, GATE_COLS): a gate without an anchor is checked in the path's Frenet frame (s range, e_y bounds; the
+    projection starts near ``s_guess`` [m], the car's station), an anchored gate against its fixed rectangle.
+    ``row`` is an 8-float scratch row. ``out`` (N, G) is only ever set to True."""
+    frenet = False
+    for g in range(gates.shape[0]):
+        if gates[g, 4] < 0.5:
+            frenet = True
+    for i in range(x.shape[0]):
+        c = math.cos(psi[i])
+        sn = math.sin(psi[i])
+        for j in range(lon.shape[0]):
+            cx = x[i] + c * lon[j] - sn * lat[j]
+            cy = y[i] + sn * lon[j] + c * lat[j]
+            s = 0.0
+            e_y = 0.0
+            if frenet:
+                s = project_point(table, ds, length, closed, cx, cy, s_guess[i], 10.0)
+                interp_row(table, ds, length, closed, s, row)
+                e_y = lateral_offset(cx, cy, row[C_X], row[C_Y], row[C_PSI])
+            for g in range(gates.shape[0]):
+                if gates[g, 4] > 0.5:
+                    if _outside_anchored_gate(gates[g], cx, cy):
+                        out[i, g] = True
+                elif gates[g, 0] <= s <= gates[g, 1] and (e_y > gates[g, 2] or e_y < gates[g, 3]):
+                    out[i, g] = True
+
+
+def gate_rows(gates: tuple) -> np.ndarray:
+    """The (G, GATE_COLS) array of ``tracks.Gate`` objects for ``body_outside_gates``."""
+    out = np.zeros((len(gates), GATE_COLS))
+    for g, gate in enumerate(gates):
+        out[g, :4] = (gate.s_start_m, gate.s_end_m, gate.y_left_m, gate.y_right_m)
+        if gate.anchor is not None:
+            out[g, 4] = 1.0
+            out[g, 5:8] = gate.anchor
+            out[g, 8] = gate.lane_length_m
+    return out

@@ -133,9 +133,16 @@ def lane_sequence_path(lanes: Sequence[LaneSection], gaps_m: Sequence[float], *,
         return path
     steps = [ln.length_m + g for ln, g in zip(lanes, gaps_m, strict=False)]   # lane k start -> lane k + 1 start
     x_start = approach_m + np.concatenate(([0.0], np.cumsum(steps)))
+    return anchored_gates(path, lanes, x_start)
+
+
+def anchored_gates(path: Path, lanes: Sequence[LaneSection], x_start_m: Sequence[float]) -> Path:
+    """``path`` with one anchored gate per lane (``Gate.anchor``): lane k is the fixed rectangle from X =
+    ``x_start_m[k]`` [m] over its length, centred on its ``centre_y_m``, heading +X; the gate's stations are where
+    the path's X crosses the lane's ends (the path's X must increase along it)."""
     x_rows = path.table[:, 0]                                   # increasing: every heading stays within +-90 deg
     anchored = []
-    for lane, x0 in zip(lanes, x_start, strict=False):
+    for lane, x0 in zip(lanes, x_start_m, strict=False):
         s0, s1 = np.interp([x0, x0 + lane.length_m], x_rows, path.s_m)
         anchored.append(Gate(float(s0), float(s1), 0.5 * lane.width_m, -0.5 * lane.width_m, lane.name,
                              anchor=(float(x0), lane.centre_y_m, 0.0), length_m=lane.length_m))

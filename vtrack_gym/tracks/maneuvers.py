@@ -27,20 +27,30 @@ Success criteria (``ManeuverSpec.success_criterion`` is one of ``SUCCESS_CRITERI
 - ``completes``: the car reaches the end of the path without leaving the road; report the e_y overshoot after the
   curvature step.
 
-Reference lines (``tracks.lanes``): straight at the lane centres, C^2 curvature pulses between lanes. A line that
-is straight inside the whole of every gate is too stiff for the two ISO 3888 tests at 80 km/h: its peak v^2 kappa
-is 1.41 g (ISO 3888-1) and 5.4 g (ISO 3888-2) for w = 1.916 m, and any line straight in the gates needs at least
-4 v^2 dy / dx^2 (1.07 g and 4.3 g). A driver passes by turning inside the lanes, so here the transitions reach
-``overlap_m`` into the lanes on both sides (7 m for ISO 3888-1, 5 m for ISO 3888-2) and the gates are anchored
-rectangles at the cones' fixed positions (``Gate.anchor``). Then the peak v^2 kappa at 80 km/h is 0.59 g for
-ISO 3888-1 (below mu g = 0.9 g: exact tracking can pass) and 1.75 g for ISO 3888-2 (above it: no car on mu = 0.9
-follows this line at 80 km/h; the speed at which it asks 0.8 g is ~54 km/h). ``Maneuver.peak_lateral_accel_mps2``
-gives the figure for any parameters. The body of a car of the gates' width, driven exactly on either line, hits no
-gate (tested).
+Reference lines (``reference``, see ``REFERENCES``). ``"lane_centres"`` (the default; ``tracks.lanes``): straight
+at the lane centres, C^2 curvature pulses between lanes. A line that is straight inside the whole of every gate is
+too stiff for the two ISO 3888 tests at 80 km/h: its peak v^2 kappa is 1.41 g (ISO 3888-1) and 5.4 g (ISO 3888-2)
+for w = 1.916 m, and any line straight in the gates needs at least 4 v^2 dy / dx^2 (1.07 g and 4.3 g). A driver
+passes by turning inside the lanes, so here the transitions reach ``overlap_m`` into the lanes on both sides (7 m
+for ISO 3888-1, 5 m for ISO 3888-2) and the gates are anchored rectangles at the cones' fixed positions
+(``Gate.anchor``): peak v^2 kappa 0.59 g at 80 km/h for ISO 3888-1 and 1.75 g for ISO 3888-2. ``"planned"``
+(``tracks.planned_line``): the line of least peak curvature along which the car's body (``body``, a
+``BodyRectangle``) passes every gate, with a bounded curvature rate (``max_curvature_rate_per_m2``):
+0.25 g for ISO 3888-1 and 1.13 g for ISO 3888-2 at 80 km/h for the paper car (``tracks.feasibility``
+builds it per car, the rate bounded by the car's steering). ``Maneuver.peak_lateral_accel_mps2`` gives the figure
+for any parameters. The body of a car of the gates' width, driven exactly on either line, hits no gate (tested).
+
+Feasibility is judged against the car's own steady-state lateral limit (``vehicle.steady_state``: about 0.80 g
+for the paper car at 80 km/h), not mu g (0.9 g here): the plant's tyres peak below mu F_z (Pacejka D < 1) and lose
+grip under load transfer. ISO 3888-1 (either line) and the slalom ask well under the limit; ISO 3888-2 held at a
+constant 80 km/h asks 1.13 g on the best line, so no car of this width passes it at that speed; the standard's
+protocol (enter at the test speed, release the throttle at the entry gate) gives this car a physical entry-speed
+bound of about 67 km/h (``feasibility.entry_speed_bound_kmh``).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -49,9 +59,10 @@ from typing import Any
 import numpy as np
 
 from vtrack_gym._ranges import documented, ranged, validate
-from vtrack_gym.tracks.dlc import DoubleLaneChangeSpec, build_double_lane_change
+from vtrack_gym.tracks.dlc import LANE_WIDTH_ADD_M, LANE_WIDTH_FACTORS, DoubleLaneChangeSpec, build_double_lane_change
 from vtrack_gym.tracks.lanes import LaneSection, lane_sequence_path, pulse_segments, transition
 from vtrack_gym.tracks.path import DEFAULT_DS_M, Gate, Path
+from vtrack_gym.tracks.planned_line import BodyRectangle, plan_line
 from vtrack_gym.tracks.profiles import CurvatureProfile
 from vtrack_gym.tracks.speed_profiles import ConstantSpeed, SpeedProfile, SpeedRamp
 from vtrack_gym.tracks.table import COL_KAPPA
@@ -60,6 +71,21 @@ VERSION = "1"
 KMH_TO_MPS = 1.0 / 3.6
 GRAVITY_MPS2 = 9.81                      # same value as vehicle.params.GRAVITY_MPS2 (tracks does not import vehicle)
 PAPER_CAR_WIDTH_M = 1.916                # the paper's car (IDSC body width), reference-data section 1
+PAPER_CAR_LENGTH_M = 4.75                # ... its body length and CG to front end (IDSC)
+PAPER_CAR_CG_TO_FRONT_M = 1.915
+
+REFERENCES: dict[str, str] = {
+    "lane_centres": "straight at the lane centres, C^2 curvature pulses between lanes (tracks.lanes)",
+    "planned": "the line of least peak curvature along which the car's body passes every gate "
+               "(tracks.planned_line), for the body given as the parameters' ``body``",
+}
+"""Reference lines a cone-lined manoeuvre can be built with (its parameters' ``reference``)."""
+LANE_OFFSET_READINGS: dict[str, str] = {
+    "lane_centre": "lane 3's centre line lane_offset_m left of lane 1's (the paper's '3.5 m between the lanes')",
+    "cone_line": "lane 3's right cone line lane_offset_m left of lane 1's centre line (Project Chrono's "
+                 "ISO3888_Helper)",
+}
+"""Readings of ISO 3888-1's lateral offset of lane 3 (``DoubleLaneChangeParams.lane_offset_from``)."""
 TIME_FACTOR = 1.25                       # CHOICE: time limit = TIME_FACTOR x nominal travel time + TIME_MARGIN_S
 TIME_MARGIN_S = 5.0
 
@@ -147,6 +173,36 @@ def _at_constant_speed(path: Path, name: str, standard: str, speed_mps: float, c
         vehicle_width_m=vehicle_width_m, source=source))
 
 
+def _check_reference(params: Any) -> None:
+    """The reference-line fields of a cone-lined manoeuvre's parameters: ``reference`` a key of ``REFERENCES``,
+    ``body`` None or a ``BodyRectangle`` of the parameters' ``vehicle_width_m``."""
+    name = type(params).__name__
+    if params.reference not in REFERENCES:
+        raise ValueError(f"{name}.reference must be one of {sorted(REFERENCES)} (got {params.reference!r})")
+    body = params.body
+    if body is not None and not isinstance(body, BodyRectangle):
+        raise ValueError(f"{name}.body must be a BodyRectangle or None (got {type(body).__name__})")
+    if body is not None and body.width_m != params.vehicle_width_m:
+        raise ValueError(f"{name}.body.width_m ({body.width_m} m, {body.name!r}) must equal vehicle_width_m "
+                         f"({params.vehicle_width_m} m): the lanes are sized for the car that drives them")
+
+
+def _body(params: Any) -> BodyRectangle:
+    """The body a planned line is planned for: ``params.body``, else the paper car's length at this width."""
+    if params.body is not None:
+        return params.body
+    return BodyRectangle(PAPER_CAR_LENGTH_M, params.vehicle_width_m, PAPER_CAR_CG_TO_FRONT_M, "paper car")
+
+
+def _planned_path(params: Any, lanes: tuple[LaneSection, ...], gaps_m: tuple[float, ...], *, approach_m: float,
+                  run_out_m: float, half_width_m: float, ds_m: float, name: str) -> Path:
+    body = _body(params)
+    line = plan_line(lanes, gaps_m, body, approach_m=approach_m, run_out_m=run_out_m,
+                     max_curvature_rate_per_m2=params.max_curvature_rate_per_m2, half_width_m=half_width_m,
+                     ds_m=ds_m, name=f"{name}_planned_l{body.length_m:g}", version=VERSION)
+    return line.path
+
+
 # ------------------------------------------------------------------------------------------------ ISO 3888-1
 @documented
 @dataclass(frozen=True)
@@ -157,17 +213,33 @@ class DoubleLaneChangeParams:
     speed_mps: float = ranged(80.0 * KMH_TO_MPS, gt=0.0, le=100.0, unit="m/s")   # nominal test speed 80 km/h
     approach_m: float = ranged(100.0, ge=0.0, le=10000.0, unit="m")
     overlap_m: float = ranged(7.0, ge=0.0, le=7.5, unit="m")       # CHOICE: transitions reach 7 m into the lanes
-    # CHOICE: lane-3 centre left of lane-1 centre (the paper's reading of ISO's 3.5 m; Chrono's: 3.5 + w3 / 2)
+    # ISO's 3.5 m, measured as ``lane_offset_from`` says (a key of LANE_OFFSET_READINGS)
     lane_offset_m: float = ranged(3.5, gt=0.5, le=20.0, unit="m")
+    lane_offset_from: str = "lane_centre"
+    reference: str = "lane_centres"                                 # a key of REFERENCES
+    body: BodyRectangle | None = None                               # the car a planned line is for
+    max_curvature_rate_per_m2: float | None = ranged(None, gt=0.0, le=10.0, unit="1/m^2")   # planned line only
 
     def __post_init__(self) -> None:
         validate(self)
+        if self.lane_offset_from not in LANE_OFFSET_READINGS:
+            raise ValueError(f"DoubleLaneChangeParams.lane_offset_from must be one of {sorted(LANE_OFFSET_READINGS)} "
+                             f"(got {self.lane_offset_from!r})")
+        _check_reference(self)
+
+    def lane3_centre_offset_m(self) -> float:
+        """Lane 3's centre left of lane 1's [m]: ``lane_offset_m`` (reading ``lane_centre``) or ``lane_offset_m``
+        plus half of lane 3's width 1.2 w + 0.25 (reading ``cone_line``)."""
+        if self.lane_offset_from == "lane_centre":
+            return self.lane_offset_m
+        return self.lane_offset_m + 0.5 * (LANE_WIDTH_FACTORS[1] * self.vehicle_width_m + LANE_WIDTH_ADD_M)
 
     @staticmethod
     def chrono_lane_offset_m(vehicle_width_m: float) -> float:
         """Lane-3 centre offset [m] of Project Chrono's reading of ISO 3888-1 (lane 3's right boundary 3.5 m left of
         lane 1's centre line): 3.5 + (1.2 w + 0.25) / 2 (4.775 m for w = 1.916 m)."""
-        return 3.5 + 0.5 * (1.2 * vehicle_width_m + 0.25)
+        return DoubleLaneChangeParams(vehicle_width_m=vehicle_width_m,
+                                      lane_offset_from="cone_line").lane3_centre_offset_m()
 
 
 def iso3888_1_double_lane_change(params: DoubleLaneChangeParams = DoubleLaneChangeParams()) -> Maneuver:
@@ -177,18 +249,31 @@ def iso3888_1_double_lane_change(params: DoubleLaneChangeParams = DoubleLaneChan
     ``ISO3888_Helper``, ISO 3888-1): lane 1 15 m long, 1.1 w + 0.25 m wide, centred on y = 0; section 2 30 m;
     lane 3 25 m, 1.2 w + 0.25 m, offset 3.5 m to the left; section 4 25 m; lane 5 15 m, 1.3 w + 0.25 m, right
     boundary on lane 1's; run-out 15 m. The lengths and widths agree in every source; where the 3.5 m is measured
-    from does not: here (``lane_offset_m``, CHOICE) lane 3's centre is 3.5 m left of lane 1's, the paper's "3.5 m
-    between the two lanes"; Chrono puts lane 3's right boundary 3.5 m left of lane 1's centre line (lane-3 centre
-    ``DoubleLaneChangeParams.chrono_lane_offset_m(w)`` = 4.775 m for w = 1.916 m; peak v^2 kappa 0.81 g at 80 km/h,
-    at the plant's own grip limit). The standard's figure was not available to decide. Built by
-    :func:`tracks.dlc.build_double_lane_change` with ``length_scale = 1`` and ``overlap_m`` = 7 m (CHOICE: the
-    transitions span 44 m and 39 m of X; peak v^2 kappa 0.59 g at 80 km/h; gates anchored at the cones). Speed:
-    80 km/h is the nominal test speed the issue gives; the standard's own text was not available to verify it.
+    from does not, and the standard's figure was not seen. ``lane_offset_from`` picks the reading
+    (``LANE_OFFSET_READINGS``): ``"lane_centre"`` (default) puts lane 3's centre 3.5 m left of lane 1's, the
+    paper's "3.5 m between the two lanes"; ``"cone_line"`` is Project Chrono's ``ISO3888_Helper`` (the only public
+    implementation found that places the cones per the standard): lane 3's right cone line 3.5 m left of lane 1's
+    centre line, so lane 3's centre is at 3.5 + (1.2 w + 0.25) / 2 = 4.775 m for w = 1.916 m.
+
+    Reference line (``reference``): ``"lane_centres"`` (default) is built by :func:`tracks.dlc.build_double_lane_change`
+    with ``length_scale = 1`` and ``overlap_m`` = 7 m (CHOICE: the transitions span 44 m and 39 m of X; peak v^2
+    kappa 0.59 g at 80 km/h with the centre reading, 0.81 g with the cone-line reading; gates anchored at the
+    cones); ``"planned"`` is the line of least peak curvature for ``body`` (``tracks.planned_line``). Speed: 80 km/h
+    is the nominal test speed the issue gives; the standard's own text was not available to verify it.
     """
     spec = DoubleLaneChangeSpec(vehicle_width_m=params.vehicle_width_m, length_scale=1.0,
                                 approach_m=params.approach_m, overlap_m=params.overlap_m,
-                                lane_offset_m=params.lane_offset_m)
-    path = build_double_lane_change(spec)
+                                lane_offset_m=params.lane3_centre_offset_m())
+    if params.reference == "planned":
+        l1, l2, l3, l4, l5, l_out = spec.section_lengths_m()
+        (y1, y3, y5), (w1, w3, w5) = spec.lane_centres_m(), spec.lane_widths_m()
+        lanes = (LaneSection(l1, w1, y1, "lane 1 (entry)"), LaneSection(l3, w3, y3, "lane 3 (side lane)"),
+                 LaneSection(l5, w5, y5, "lane 5 (exit)"))
+        path = _planned_path(params, lanes, (l2, l4), approach_m=params.approach_m, run_out_m=l_out,
+                             half_width_m=spec.half_width_m, ds_m=spec.ds_m,
+                             name=f"iso3888-1_w{params.vehicle_width_m:g}_y{spec.lane_offset_m:g}")
+    else:
+        path = build_double_lane_change(spec)
     return _at_constant_speed(path, "iso3888_1", "ISO 3888-1:2018", params.speed_mps, "no_cones_hit",
                               params.vehicle_width_m,
                               "ISO 3888-1 section table (reference-data.md section 3; Project Chrono ISO3888_Helper)")
@@ -199,6 +284,7 @@ MOOSE_LANE_LENGTHS_M = (12.0, 11.0, 12.0)       # sections 1, 3, 5
 MOOSE_GAP_LENGTHS_M = (13.5, 12.5)              # sections 2, 4 (total 61 m)
 MOOSE_LANE_OFFSET_M = 1.0                       # lane 1 left boundary -> lane 3 right boundary
 MOOSE_MIN_EXIT_WIDTH_M = 3.0                    # lane 5 is 1.3 w + 0.25 m but not less than 3 m
+MAX_ENTRY_SPEED_KMH = 200.0                     # highest entry speed a manoeuvre accepts [km/h]
 
 
 @documented
@@ -207,16 +293,21 @@ class ObstacleAvoidanceParams:
     """ISO 3888-2 obstacle avoidance (see :func:`iso3888_2_obstacle_avoidance`)."""
 
     vehicle_width_m: float = ranged(PAPER_CAR_WIDTH_M, gt=0.5, le=4.0, unit="m")
-    speed_mps: float = ranged(80.0 * KMH_TO_MPS, gt=0.0, le=100.0, unit="m/s")   # entry speed 80 km/h
+    # entry speed 80 km/h, at most MAX_ENTRY_SPEED_KMH
+    speed_mps: float = ranged(80.0 * KMH_TO_MPS, gt=0.0, le=MAX_ENTRY_SPEED_KMH * KMH_TO_MPS, unit="m/s")
     approach_m: float = ranged(100.0, ge=0.0, le=10000.0, unit="m")
     run_out_m: float = ranged(30.0, ge=0.0, le=10000.0, unit="m")                 # CHOICE: straight after lane 5
     ramp_fraction: float = ranged(0.135, gt=0.0, lt=0.25)                         # transition shape, as the DLC's
     overlap_m: float = ranged(5.0, ge=0.0, le=5.5, unit="m")       # CHOICE: transitions reach 5 m into the lanes
     half_width_m: float = ranged(5.0, gt=0.5, le=50.0, unit="m")                  # road half width (termination)
     ds_m: float = ranged(DEFAULT_DS_M, gt=0.0, le=5.0, unit="m")
+    reference: str = "lane_centres"                                 # a key of REFERENCES
+    body: BodyRectangle | None = None                               # the car a planned line is for
+    max_curvature_rate_per_m2: float | None = ranged(None, gt=0.0, le=10.0, unit="1/m^2")   # planned line only
 
     def __post_init__(self) -> None:
         validate(self)
+        _check_reference(self)
 
     def lane_widths_m(self) -> tuple[float, float, float]:
         """Widths of lanes 1, 3, 5 [m]: 1.1 w + 0.25, w + 1, max(1.3 w + 0.25, 3)."""
@@ -251,9 +342,12 @@ def iso3888_2_obstacle_avoidance(params: ObstacleAvoidanceParams = ObstacleAvoid
     12 + 13.5 + 11 + 12.5 + 12 = 61 m. Chrono uses a fixed 3 m for lane 5, which equals max(1.3 w + 0.25, 3) for
     w <= 2.115 m. Entry speed: 80 km/h is the commonly cited entry speed (throttle released at the entry of
     section 1); the standard's Annex A text was not available, so this value is NOT verified here. The run-out
-    after lane 5 (``run_out_m``) is a CHOICE. Reference line: transitions reaching ``overlap_m`` = 5 m into the
-    lanes (lane 3 keeps 1 m of straight), gates anchored at the cones; peak v^2 kappa 1.75 g at 80 km/h (see the
-    module docstring).
+    after lane 5 (``run_out_m``) is a CHOICE. Reference line (``reference``): ``"lane_centres"`` (default),
+    transitions reaching ``overlap_m`` = 5 m into the lanes (lane 3 keeps 1 m of straight), gates anchored at the
+    cones, peak v^2 kappa 1.75 g at 80 km/h (see the module docstring); ``"planned"``, the line of least peak
+    curvature for ``body`` (``tracks.planned_line``): 1.11 g at 80 km/h for the paper car, above its own
+    steady-state limit (about 0.8 g), so no car of this width passes at a constant 80 km/h; the standard's
+    protocol is an entry speed and a coast, whose physical bound is ``feasibility.entry_speed_bound_kmh``.
     """
     p = params
     w1, w3, w5 = p.lane_widths_m()
@@ -261,10 +355,14 @@ def iso3888_2_obstacle_avoidance(params: ObstacleAvoidanceParams = ObstacleAvoid
     l1, l3, l5 = MOOSE_LANE_LENGTHS_M
     lanes = (LaneSection(l1, w1, y1, "lane 1 (entry)"), LaneSection(l3, w3, y3, "lane 3 (avoidance lane)"),
              LaneSection(l5, w5, y5, "lane 5 (exit)"))
-    path = lane_sequence_path(lanes, MOOSE_GAP_LENGTHS_M, approach_m=p.approach_m, run_out_m=p.run_out_m,
-                              ramp_fraction=p.ramp_fraction, half_width_m=p.half_width_m, ds_m=p.ds_m,
-                              name=f"iso3888-2_w{p.vehicle_width_m:g}_o{p.overlap_m:g}", version=VERSION,
-                              overlap_m=p.overlap_m)
+    if p.reference == "planned":
+        path = _planned_path(p, lanes, MOOSE_GAP_LENGTHS_M, approach_m=p.approach_m, run_out_m=p.run_out_m,
+                             half_width_m=p.half_width_m, ds_m=p.ds_m, name=f"iso3888-2_w{p.vehicle_width_m:g}")
+    else:
+        path = lane_sequence_path(lanes, MOOSE_GAP_LENGTHS_M, approach_m=p.approach_m, run_out_m=p.run_out_m,
+                                  ramp_fraction=p.ramp_fraction, half_width_m=p.half_width_m, ds_m=p.ds_m,
+                                  name=f"iso3888-2_w{p.vehicle_width_m:g}_o{p.overlap_m:g}", version=VERSION,
+                                  overlap_m=p.overlap_m)
     return _at_constant_speed(path, "iso3888_2", "ISO 3888-2:2011", p.speed_mps, "no_cones_hit",
                               p.vehicle_width_m,
                               "ISO 3888-2:2011 clause 4.1 / Table 1 as in Project Chrono ISO3888_Helper (ISO3888_2)")
@@ -351,9 +449,13 @@ class SlalomParams:
     ramp_fraction: float = ranged(0.135, gt=0.0, lt=0.25)
     half_width_m: float = ranged(5.0, gt=0.5, le=50.0, unit="m")
     ds_m: float = ranged(DEFAULT_DS_M, gt=0.0, le=5.0, unit="m")
+    reference: str = "lane_centres"                                 # a key of REFERENCES
+    body: BodyRectangle | None = None                               # the car a planned line is for
+    max_curvature_rate_per_m2: float | None = ranged(None, gt=0.0, le=10.0, unit="1/m^2")   # planned line only
 
     def __post_init__(self) -> None:
         validate(self)
+        _check_reference(self)
         if self.amplitude_m + 0.5 * self.vehicle_width_m >= self.half_width_m:
             raise ValueError(f"SlalomParams.half_width_m must exceed the weave amplitude plus half the car width "
                              f"({self.amplitude_m + 0.5 * self.vehicle_width_m:.3f} m, got {self.half_width_m})")
@@ -393,12 +495,34 @@ def slalom(params: SlalomParams = SlalomParams()) -> Maneuver:
             segs += pulse_segments(k_peak if left_of_cone else -k_peak, length, p.ramp_fraction)
             s += length
     segs.append((p.run_out_m, 0.0))
-    path = Path.from_curvature(CurvatureProfile.from_segments(0.0, segs), ds_m=p.ds_m, closed=False, y0_m=a,
-                               half_width_m=p.half_width_m, name=f"slalom_{p.cone_spacing_m:g}m_{p.n_cones}",
-                               version=VERSION, gates=tuple(gates))
+    if p.reference == "planned":
+        path = _planned_slalom_path(p, gates)
+    else:
+        path = Path.from_curvature(CurvatureProfile.from_segments(0.0, segs), ds_m=p.ds_m, closed=False, y0_m=a,
+                                   half_width_m=p.half_width_m, name=f"slalom_{p.cone_spacing_m:g}m_{p.n_cones}",
+                                   version=VERSION, gates=tuple(gates))
     return _at_constant_speed(path, "slalom", "none (CHOICE)", p.speed_mps, "no_cones_hit",
                               p.vehicle_width_m,
                               "CHOICE: 18 m cone spacing, 10 cones, 40 km/h, 0.5 m clearance")
+
+
+def _planned_slalom_path(p: SlalomParams, gates: list[Gate]) -> Path:
+    """The planned line past the cones, planned with the body ``clearance_m`` from each cone's line (as the
+    lane-centre line), judged by the cone gates themselves (re-stationed on the planned line)."""
+    inner = max(p.clearance_m, p.cone_radius_m)
+    far = p.amplitude_m + p.half_width_m
+    lanes = tuple(LaneSection(2.0 * p.cone_radius_m, far - inner, (1.0 if i % 2 == 0 else -1.0) * 0.5 * (far + inner),
+                              g.name) for i, g in enumerate(gates))
+    gaps = (p.cone_spacing_m - 2.0 * p.cone_radius_m,) * (p.n_cones - 1)
+    planned = _planned_path(p, lanes, gaps, approach_m=p.approach_m - p.cone_radius_m, run_out_m=p.run_out_m,
+                            half_width_m=p.half_width_m, ds_m=p.ds_m, name=f"slalom_{p.cone_spacing_m:g}m_{p.n_cones}")
+    x_rows = planned.table[:, 0]
+    cone_gates = []
+    for g in gates:
+        assert g.anchor is not None
+        s0, s1 = np.interp([g.anchor[0], g.anchor[0] + g.lane_length_m], x_rows, planned.s_m)
+        cone_gates.append(dataclasses.replace(g, s_start_m=float(s0), s_end_m=float(s1)))
+    return dataclasses.replace(planned, gates=tuple(cone_gates))
 
 
 # ------------------------------------------------------------------------------------------------ step curvature

@@ -25,16 +25,18 @@ from vtrack_gym.tracks.integration import (
     elevation_columns,
     integrate_curvature,
 )
-from vtrack_gym.tracks.interpolation import arc_step, interp, wrap_angle, wrap_s
+from vtrack_gym.tracks.interpolation import interp, interp_linear, project, wrap_angle, wrap_s
 from vtrack_gym.tracks.profiles import CurvatureProfile
 from vtrack_gym.tracks.table import CLOSURE_TOL_M, DEFAULT_DS_M, PathSample, Projection, close_exactly, uniform_grid
 
 __all__ = ["DEFAULT_DS_M", "ElevationLike", "Gate", "Path", "PathSample", "Profile1D", "Projection", "wrap_angle"]
 
-PROJECTION_TOL_M = 1e-10        # projection refinement stops when s moves less than this [m]
-PROJECTION_MAX_ITER = 12
 MAX_HALF_WIDTH_M = 100.0        # per-station half widths beyond this are not a road [m]
-MAX_V_REF_MPS = 150.0           # reference speeds beyond this are not a car's [m/s]
+MAX_V_REF_MPS = 100.0           # reference speeds beyond this (360 km/h) are not a car's; the bound of the
+                                # observation's speed fields [m/s]
+MAX_CURVATURE_PER_M = 2.0       # |kappa| beyond this (a 0.5 m radius) is a kink, not a road; the bound of the
+                                # observation's curvature fields [1/m]
+MAX_CURVATURE_RATE_PER_M2 = 10.0  # |d kappa / d s| beyond this is a kink; the observation's bound [1/m^2]
 MIN_V_REF_MPS = 1.0             # set speeds of a profile / a file's speed column below this are a standstill [m/s]
 
 
@@ -290,12 +292,7 @@ class Path:
 
     def _linear_rows(self, data: np.ndarray, s: np.ndarray | float) -> np.ndarray:
         """Per-row data linearly interpolated at s [m] (wrapped / clamped like the table)."""
-        sw = wrap_s(np.asarray(s, dtype=float), self.length_m, self.closed)
-        i = np.minimum((sw / self.ds_m).astype(np.int64), self.n_samples - 2)
-        t = (sw - i * self.ds_m) / self.ds_m
-        if data.ndim == 2:
-            t = t[..., None]
-        return data[i] + t * (data[i + 1] - data[i])
+        return interp_linear(data, self.ds_m, self.length_m, self.closed, s)
 
     def half_widths(self, s: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
         """Drivable half widths (left [m], right [m]) of the road at arc length(s) s [m].
@@ -346,55 +343,30 @@ class Path:
         rows = self.n_samples - 1 if self.closed else self.n_samples
         return cKDTree(self.table[:rows, :2])
 
-    def _coarse(self, x: np.ndarray, y: np.ndarray, s_guess: np.ndarray | None, window_m: float) -> np.ndarray:
-        """Index of the nearest sample: global (KD-tree) where s_guess is None or < 0, else within +- window_m."""
-        n = self.n_samples
-        idx = np.empty(x.shape, dtype=np.int64)
-        glob = np.ones(x.shape, dtype=bool) if s_guess is None else (s_guess < 0.0)
-        half = max(1, math.ceil(window_m / self.ds_m))
-        period = n - 1
-        if self.closed and 2 * half + 1 >= period:
-            glob[:] = True
-        if np.any(glob):
-            _, idx[glob] = self._kdtree.query(np.column_stack((x[glob], y[glob])))
-        loc = ~glob
-        if np.any(loc):
-            assert s_guess is not None
-            centre = np.rint(self.wrap_s(s_guess[loc]) / self.ds_m).astype(np.int64)
-            cand = centre[:, None] + np.arange(-half, half + 1)[None, :]
-            cand = np.mod(cand, period) if self.closed else np.clip(cand, 0, n - 1)
-            d2 = (self.table[cand, tb.COL_X] - x[loc, None]) ** 2 + (self.table[cand, tb.COL_Y] - y[loc, None]) ** 2
-            idx[loc] = cand[np.arange(cand.shape[0]), np.argmin(d2, axis=1)]
-        return idx
-
     def project(self, x: np.ndarray | float, y: np.ndarray | float, s_guess: np.ndarray | float | None = None,
                 window_m: float = 10.0) -> Projection:
         """Closest point s* [m] of the path to each point (x, y) [m], with e_y [m] (left-positive), psi_ref [rad].
 
-        Coarse search over the samples within +- window_m [m] of s_guess [m] (global where s_guess is None or
-        negative), then refinement by exact projection onto the local osculating circle (exact on arcs and
-        straights; converges in a few steps on clothoids). Same algorithm as ``kernels.project_point``.
+        Coarse search over the samples within +- window_m [m] of s_guess [m] (where s_guess is None or negative:
+        from the nearest sample, found with a KD-tree), then refinement by exact projection onto the local
+        osculating circle (exact on arcs and straights; converges in a few steps on clothoids): the env's
+        compiled ``kernels.project_point``.
         """
         x = np.atleast_1d(np.asarray(x, dtype=float))
         y = np.atleast_1d(np.asarray(y, dtype=float))
         x, y = np.broadcast_arrays(x, y)
-        guess = None if s_guess is None else np.broadcast_to(np.asarray(s_guess, dtype=float), x.shape)
-        s = self._coarse(x, y, guess, float(window_m)) * self.ds_m
-        step_max = max(4.0 * self.ds_m, 2.0)
-        for _ in range(PROJECTION_MAX_ITER):
-            row = interp(self.table, self.ds_m, self.length_m, self.closed, s)
-            delta = arc_step(x, y, row, step_max)
-            s_new = wrap_s(s + delta, self.length_m, self.closed)
-            moved = np.abs(s_new - s)
-            if self.closed:
-                moved = np.minimum(moved, self.length_m - moved)
-            s = s_new
-            if np.all(moved < PROJECTION_TOL_M):
-                break
+        shape = x.shape
+        x, y = x.ravel(), y.ravel()
+        guess = np.full(x.shape, -1.0) if s_guess is None else np.broadcast_to(
+            np.asarray(s_guess, dtype=float), shape).ravel().copy()
+        glob = guess < 0.0
+        if np.any(glob):  # start the kernel's window at the nearest sample
+            _, nearest = self._kdtree.query(np.column_stack((x[glob], y[glob])))
+            guess[glob] = nearest * self.ds_m
+        s, e_y, psi = project(self.table, self.ds_m, self.length_m, self.closed, x, y, guess, float(window_m))
         row = interp(self.table, self.ds_m, self.length_m, self.closed, s)
-        psi = row[:, tb.COL_PSI]
-        e_y = -(x - row[:, tb.COL_X]) * np.sin(psi) + (y - row[:, tb.COL_Y]) * np.cos(psi)
-        return Projection(s, e_y, psi, row[:, tb.COL_KAPPA], row[:, tb.COL_X], row[:, tb.COL_Y])
+        return Projection(*(a.reshape(shape) for a in (s, e_y, psi, row[:, tb.COL_KAPPA], row[:, tb.COL_X],
+                                                        row[:, tb.COL_Y])))
 
     def frenet_errors(self, x: np.ndarray, y: np.ndarray, psi: np.ndarray,
                       s_guess: np.ndarray | float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

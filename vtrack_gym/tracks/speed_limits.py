@@ -21,7 +21,7 @@ DEFAULT_MAX_LATERAL_G = 0.7
 MIN_SPEED_KMH = 3.6 * MIN_V_REF_MPS
 """Lowest top speed [km/h]: the speed profiles' floor (1 m/s) ..."""
 MAX_SPEED_KMH = 3.6 * MAX_V_REF_MPS
-"""... highest [km/h]: their ceiling (150 m/s)."""
+"""... highest [km/h]: their ceiling (MAX_V_REF_MPS, 100 m/s)."""
 MAX_LATERAL_G = MAX_ACCEL_MPS2 / GRAVITY_MPS2
 """Largest lateral acceleration limit [g] (the profiles' 30 m/s^2)."""
 

@@ -7,24 +7,33 @@ Between rows v^2 is interpolated linearly, so a ramp of constant acceleration a 
 
 ``CurvatureLimited`` is the usual two-pass profile: the lateral limit v <= sqrt(a_lat / |kappa|) (capped at
 the maximum speed), then a forward pass (v_{i+1}^2 <= v_i^2 + 2 a_accel ds) and a backward pass
-(v_i^2 <= v_{i+1}^2 + 2 a_decel ds). On a closed loop the passes start at the slowest point of the lateral
-limit, which no pass can lower, and run once around, so the profile is consistent across the wrap.
+(v_i^2 <= v_{i+1}^2 + 2 a_decel ds). It limits each axis apart, so a corner entry may combine the full lateral
+with the full braking acceleration: more grip than the car has when the lateral limit is near the car's own.
+``EnvelopeLimited`` runs the same passes inside a friction ellipse (combined acceleration) and checks the lateral
+limit against the car's own steady-state limit (``vehicle.steady_state``; feasibility is judged against that
+limit, which lies below mu g: Pacejka peak factors D < 1, load transfer, drive force). On a closed loop the passes
+start at the slowest point of the lateral limit, which no pass can lower, and run once around, so the profile is
+consistent across the wrap.
 """
 
 from __future__ import annotations
 
+import math
+import warnings
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 
 from vtrack_gym._ranges import documented, ranged, validate
-from vtrack_gym.tracks.interpolation import wrap_s
+from vtrack_gym.tracks.interpolation import interp_linear
 from vtrack_gym.tracks.path import MAX_V_REF_MPS, MIN_V_REF_MPS, Path
 
 MAX_ACCEL_MPS2 = 30.0      # upper bound of every acceleration parameter (3 g) [m/s^2]
 KAPPA_FLOOR_PER_M = 1e-9   # |kappa| below this is a straight for the lateral limit [1/m]
 SUBSTEPS = 16              # curvature samples per row interval for the lateral limit
+G_FOR_MESSAGES_MPS2 = 9.81  # g, to state accelerations in g in messages (the value of vehicle.params.GRAVITY_MPS2)
 
 
 @runtime_checkable
@@ -37,7 +46,7 @@ class SpeedProfile(Protocol):
 @documented
 @dataclass(frozen=True)
 class ConstantSpeed:
-    """v_ref(s) = v_mps [m/s] everywhere (``MIN_V_REF_MPS`` = 1 m/s to 150 m/s)."""
+    """v_ref(s) = v_mps [m/s] everywhere (``MIN_V_REF_MPS`` = 1 m/s to ``MAX_V_REF_MPS`` = 100 m/s)."""
 
     v_mps: float = ranged(ge=MIN_V_REF_MPS, le=MAX_V_REF_MPS, unit="m/s")
 
@@ -77,25 +86,146 @@ class CurvatureLimited:
         ``SUBSTEPS`` times per interval), so that with v^2 linear between rows the limit holds between rows too,
         where the interpolated curvature may exceed both ends slightly.
         """
-        n = path.n_samples
-        s_fine = np.arange((n - 1) * SUBSTEPS + 1) * (path.ds_m / SUBSTEPS)
-        s_fine[-1] = min(s_fine[-1], path.length_m)
-        k_fine = np.abs(path.sample(s_fine).kappa)
-        k_interval = np.maximum(k_fine[:-1].reshape(n - 1, SUBSTEPS).max(axis=1), k_fine[SUBSTEPS::SUBSTEPS])
-        if path.closed:                                 # rows 0 and n - 1 are the same point
-            k_env = np.maximum(k_interval, np.roll(k_interval, 1))          # intervals i - 1 and i of row i
-            v2 = self.lateral_limit(k_env) ** 2
-            start = int(np.argmin(v2))
-            v2 = np.roll(v2, -start)
-            v2 = np.append(v2, v2[0])                   # once around, from the slowest point back to it
+        def passes(v2: np.ndarray, _k_interval: np.ndarray) -> None:
             _passes(v2, path.ds_m, self.max_accel_mps2, self.max_decel_mps2)
-            v2 = np.roll(v2[:-1], start)
-            v2 = np.append(v2, v2[0])
-        else:
-            k_env = np.maximum(np.append(k_interval, k_interval[-1]), np.insert(k_interval, 0, k_interval[0]))
-            v2 = self.lateral_limit(k_env) ** 2
-            _passes(v2, path.ds_m, self.max_accel_mps2, self.max_decel_mps2)
-        return np.sqrt(v2)
+
+        return _two_pass_speeds(path, self.lateral_limit, passes)
+
+
+def _interval_curvature(path: Path) -> np.ndarray:
+    """Largest |kappa| [1/m] on each of the n - 1 row intervals of ``path`` (``SUBSTEPS`` samples each, ends
+    included)."""
+    n = path.n_samples
+    s_fine = np.arange((n - 1) * SUBSTEPS + 1) * (path.ds_m / SUBSTEPS)
+    s_fine[-1] = min(s_fine[-1], path.length_m)
+    k_fine = np.abs(path.sample(s_fine).kappa)
+    return np.maximum(k_fine[:-1].reshape(n - 1, SUBSTEPS).max(axis=1), k_fine[SUBSTEPS::SUBSTEPS])
+
+
+def _two_pass_speeds(path: Path, lateral_limit: Callable[[np.ndarray], np.ndarray],
+                     passes: Callable[[np.ndarray, np.ndarray], None]) -> np.ndarray:
+    """Row speeds [m/s]: the lateral limit at every row (the larger |kappa| of its two intervals), then
+    ``passes(v2, k_interval)`` in place on the squared speeds, ``k_interval[i]`` the largest |kappa| between rows
+    i and i + 1. On a closed loop the passes run once around from the slowest point of the lateral limit."""
+    k_interval = _interval_curvature(path)
+    if path.closed:                                 # rows 0 and n - 1 are the same point
+        k_env = np.maximum(k_interval, np.roll(k_interval, 1))          # intervals i - 1 and i of row i
+        v2 = lateral_limit(k_env) ** 2
+        start = int(np.argmin(v2))
+        v2 = np.roll(v2, -start)
+        v2 = np.append(v2, v2[0])                   # once around, from the slowest point back to it
+        passes(v2, np.roll(k_interval, -start))
+        v2 = np.roll(v2[:-1], start)
+        v2 = np.append(v2, v2[0])
+    else:
+        k_env = np.maximum(np.append(k_interval, k_interval[-1]), np.insert(k_interval, 0, k_interval[0]))
+        v2 = lateral_limit(k_env) ** 2
+        passes(v2, k_interval)
+    return np.sqrt(v2)
+
+
+@documented
+@dataclass(frozen=True)
+class EnvelopeLimited:
+    """Fastest profile inside a friction ellipse: speed <= ``max_speed_mps`` [m/s] and, everywhere along the path,
+    (a_x / A_x)^2 + (a_y / A_y)^2 <= 1 with a_y = v^2 |kappa|, A_y = ``max_lateral_accel_mps2`` [m/s^2] and A_x =
+    ``max_accel_mps2`` when speeding up, ``max_decel_mps2`` when braking [m/s^2]. Unlike :class:`CurvatureLimited`
+    (each axis limited apart, so a corner entry may ask for full lateral and full braking acceleration at once) a
+    corner is entered with the braking done and left with the throttle fed in as the lateral demand falls.
+
+    ``vehicle_limit_mps2`` [m/s^2]: the driven car's own steady-state lateral limit (``vehicle.steady_state``,
+    e.g. ``lowest_lateral_limit_mps2(car, max_speed_mps)``; ``tracks.feasibility.envelope_profile`` fills it in),
+    with ``vehicle_name`` the car's name: a ``max_lateral_accel_mps2`` above it is refused (ValueError naming the
+    car's limit), above ``NEAR_LIMIT_SHARE`` (90 %) of it a warning (``UserWarning``): near the limit the car has no
+    margin left to correct an error. None: no car check.
+
+    Passes (v^2 linear in s between rows, so a_x is constant on a row interval; the interval's |kappa| is its
+    largest sampled value): forward, v_{i+1}^2 = v_i^2 + 2 ds A_x sqrt(1 - (v_{i+1}^2 kappa / A_y)^2) solved for
+    v_{i+1}^2 (a quadratic); backward the same with the deceleration. The ellipse then holds on every interval,
+    between rows too (``envelope_usage`` measures it).
+    """
+
+    max_speed_mps: float = ranged(ge=MIN_V_REF_MPS, le=MAX_V_REF_MPS, unit="m/s")
+    max_lateral_accel_mps2: float = ranged(gt=0.0, le=MAX_ACCEL_MPS2, unit="m/s^2")
+    max_accel_mps2: float = ranged(2.0, gt=0.0, le=MAX_ACCEL_MPS2, unit="m/s^2")
+    max_decel_mps2: float = ranged(3.0, gt=0.0, le=MAX_ACCEL_MPS2, unit="m/s^2")
+    vehicle_limit_mps2: float | None = ranged(None, gt=0.0, le=MAX_ACCEL_MPS2, unit="m/s^2")
+    vehicle_name: str = "the car"
+
+    def __post_init__(self) -> None:
+        validate(self)
+        check_lateral_limit(self.max_lateral_accel_mps2, self.vehicle_limit_mps2, self.vehicle_name,
+                            "EnvelopeLimited.max_lateral_accel_mps2")
+
+    def lateral_limit(self, kappa_per_m: np.ndarray) -> np.ndarray:
+        """min(max_speed, sqrt(A_y / |kappa|)) [m/s] for curvatures kappa [1/m]."""
+        k = np.maximum(np.abs(np.asarray(kappa_per_m, dtype=float)), KAPPA_FLOOR_PER_M)
+        return np.minimum(self.max_speed_mps, np.sqrt(self.max_lateral_accel_mps2 / k))
+
+    def row_speeds(self, path: Path) -> np.ndarray:
+        """Reference speed at every row of ``path`` [m/s] (see the class docstring)."""
+        def passes(v2: np.ndarray, k_interval: np.ndarray) -> None:
+            _ellipse_passes(v2, k_interval, path.ds_m, self.max_lateral_accel_mps2, self.max_accel_mps2,
+                            self.max_decel_mps2)
+
+        return _two_pass_speeds(path, self.lateral_limit, passes)
+
+
+NEAR_LIMIT_SHARE = 0.9
+"""Share of a car's lateral limit above which a requested lateral limit draws a warning."""
+
+
+def check_lateral_limit(requested_mps2: float, vehicle_limit_mps2: float | None, vehicle_name: str,
+                        field_name: str = "max_lateral_accel_mps2") -> None:
+    """ValueError if ``requested_mps2`` [m/s^2] exceeds ``vehicle_limit_mps2`` [m/s^2], the car's own
+    steady-state lateral limit, naming ``field_name``, the limit and ``vehicle_name``; a ``UserWarning`` above
+    ``NEAR_LIMIT_SHARE`` of it. Nothing when the car's limit is None."""
+    if vehicle_limit_mps2 is None:
+        return
+    g = G_FOR_MESSAGES_MPS2
+    text = (f"{field_name} = {requested_mps2:.3f} m/s^2 ({requested_mps2 / g:.3f} g) against the steady-state "
+            f"lateral limit {vehicle_limit_mps2:.3f} m/s^2 ({vehicle_limit_mps2 / g:.3f} g) of {vehicle_name!r}")
+    if requested_mps2 > vehicle_limit_mps2:
+        raise ValueError(f"{text}: the car cannot corner that hard; ask for at most its limit (better "
+                         f"{NEAR_LIMIT_SHARE:.0%} of it or less)")
+    if requested_mps2 > NEAR_LIMIT_SHARE * vehicle_limit_mps2:
+        warnings.warn(f"{text}: above {NEAR_LIMIT_SHARE:.0%} of the limit, so the car has almost no margin left to "
+                      "correct a tracking error", UserWarning, stacklevel=3)
+
+
+def _ellipse_step(u_from: float, kappa: float, reach: float, a_lat: float) -> float:
+    """Largest u = v^2 [m^2/s^2] reachable from ``u_from`` over one interval of curvature ``kappa`` [1/m] with
+    u - u_from = reach sqrt(1 - (u kappa / a_lat)^2), ``reach`` = 2 ds A_x [m^2/s^2]."""
+    q = (reach * max(kappa, KAPPA_FLOOR_PER_M) / a_lat) ** 2
+    disc = reach * reach * (1.0 + q) - q * u_from * u_from
+    return (u_from + math.sqrt(max(disc, 0.0))) / (1.0 + q)
+
+
+def _ellipse_passes(v2: np.ndarray, k_interval: np.ndarray, ds_m: float, a_lat: float, accel_mps2: float,
+                    decel_mps2: float) -> None:
+    """Forward (acceleration) then backward (braking) pass inside the friction ellipse, on v2 in place."""
+    up = 2.0 * accel_mps2 * ds_m
+    down = 2.0 * decel_mps2 * ds_m
+    for i in range(1, v2.size):
+        v2[i] = min(v2[i], _ellipse_step(float(v2[i - 1]), float(k_interval[i - 1]), up, a_lat))
+    for i in range(v2.size - 2, -1, -1):
+        v2[i] = min(v2[i], _ellipse_step(float(v2[i + 1]), float(k_interval[i]), down, a_lat))
+
+
+def envelope_usage(table: SpeedTable, path: Path, lateral_mps2: float, accel_mps2: float,
+                   decel_mps2: float) -> np.ndarray:
+    """(a_x / A_x)^2 + (a_y / A_y)^2 [-] on every row interval of ``table`` (its largest value over ``SUBSTEPS``
+    samples): a_x the interval's constant acceleration (v^2 linear in s), A_x ``accel_mps2`` or ``decel_mps2``
+    by its sign, a_y = v^2 |kappa| against ``lateral_mps2`` [m/s^2]. At most 1 everywhere: inside the ellipse."""
+    v2 = table.v_mps ** 2
+    a_x = np.diff(v2) / (2.0 * table.ds_m)
+    limit_x = np.where(a_x >= 0.0, accel_mps2, decel_mps2)
+    n = v2.size
+    s_fine = np.arange((n - 1) * SUBSTEPS + 1) * (table.ds_m / SUBSTEPS)
+    s_fine[-1] = min(s_fine[-1], path.length_m)
+    a_y = table.v_ref(s_fine) * table.v_ref(s_fine) * np.abs(path.sample(s_fine).kappa)
+    a_y_interval = np.maximum(a_y[:-1].reshape(n - 1, SUBSTEPS).max(axis=1), a_y[SUBSTEPS::SUBSTEPS])
+    return (a_x / limit_x) ** 2 + (a_y_interval / lateral_mps2) ** 2
 
 
 @documented
@@ -192,11 +322,7 @@ class SpeedTable:
 
     def v_ref(self, s: np.ndarray | float) -> np.ndarray:
         """Reference speed [m/s] at arc length(s) s [m] (v^2 linear between rows; wrapped or clamped like the path)."""
-        sw = wrap_s(np.asarray(s, dtype=float), self.length_m, self.closed)
-        i = np.minimum((sw / self.ds_m).astype(np.int64), self.v_mps.size - 2)
-        t = (sw - i * self.ds_m) / self.ds_m
-        a = self.v_mps[i] ** 2
-        return np.sqrt(a + t * (self.v_mps[i + 1] ** 2 - a))
+        return np.sqrt(interp_linear(self.v_mps ** 2, self.ds_m, self.length_m, self.closed, s))
 
     def preview(self, s: np.ndarray | float, distances: np.ndarray) -> np.ndarray:
         """Reference speed [m/s] at s + d for every s (N,) [m] and preview distance d (K,) [m] -> shape (N, K)."""
@@ -208,8 +334,8 @@ class SpeedTable:
 def speed_table(path: Path, profile: SpeedProfile) -> SpeedTable:
     """Evaluate ``profile`` on the rows of ``path`` -> :class:`SpeedTable`."""
     if not isinstance(profile, SpeedProfile):
-        raise ValueError("speed profile must be ConstantSpeed, CurvatureLimited, SpeedRamp or FileSpeed (got "
-                         f"{type(profile).__name__})")
+        raise ValueError("speed profile must be ConstantSpeed, CurvatureLimited, EnvelopeLimited, SpeedRamp or "
+                         f"FileSpeed (got {type(profile).__name__})")
     v = profile.row_speeds(path)
     if v.shape != (path.n_samples,) or not np.all(np.isfinite(v)) or np.any(v <= 0.0):
         raise ValueError(f"speed profile {profile!r} gave invalid speeds on track {path.name!r}")
@@ -233,5 +359,6 @@ def lateral_accel_mps2(table: SpeedTable, path: Path, s: np.ndarray) -> np.ndarr
     return table.v_ref(s) ** 2 * np.abs(path.sample(s).kappa)
 
 
-__all__ = ["MIN_V_REF_MPS", "ConstantSpeed", "CurvatureLimited", "FileSpeed", "SpeedProfile", "SpeedRamp", "SpeedTable",
-           "as_speed_profile", "lateral_accel_mps2", "speed_table"]
+__all__ = ["MIN_V_REF_MPS", "NEAR_LIMIT_SHARE", "ConstantSpeed", "CurvatureLimited", "EnvelopeLimited", "FileSpeed",
+           "SpeedProfile", "SpeedRamp", "SpeedTable", "as_speed_profile", "check_lateral_limit", "envelope_usage",
+           "lateral_accel_mps2", "speed_table"]

@@ -56,7 +56,7 @@ def tune_to_preset(controller: str, space: str = "paper", budget: str = "paper",
     preset_file = Path(out) if out is not None else Path("vtrack_results") / f"{controller}_tuned.json"
     check_output_file(preset_file, "--out")  # both outputs checked before the GA runs
     if store is not None:
-        check_output_file(store, "--store")
+        check_output_file(store, "--store", store=True)
     result = tune(search, b, seed=seed, fitness=FitnessConfig(comfort_weight=comfort_weight), progress=progress,
                   max_steps=max_steps, also_complete=also_complete, backend=backend, ray_address=ray_address,
                   num_workers=num_workers)

@@ -1,13 +1,14 @@
 """The two ways a population episode is rolled out on a ``BatchSim``, with the fitness accumulators.
 
-* ``run_compiled``: every car's whole episode in one numba call (``vtrack_gym.tuning._kernels``: the controller
-  law, the env's own per-car step and the ITAE / max|a_y| (physics substeps) / min F_z accumulators, cars spread
-  over the threads in contiguous blocks); a car that terminates stops costing time. Nominal scenarios only.
+* ``run_compiled``: every car's whole episode in one numba call (``vtrack_gym.tuning._kernels``: the controller's
+  compiled per-row law, the env's own per-car step and the ITAE / max|a_y| (physics substeps) / min F_z
+  accumulators, cars spread over the threads in contiguous blocks); a car that terminates stops costing time.
+  Nominal scenarios only, and only for a population policy with ``compiled_rows`` (``baselines.tunable``).
 * ``run_stepwise``: the reference: the policy's numpy-facing ``act`` and ``BatchSim.step``, one control period at
   a time (slower; the tests compare the compiled rollout against it).
 
-Both fill ``out`` (n, 6): ITAE [m s^2], last t|e_y| [m s], max|a_y| [m/s^2], min F_z [N], steps driven, max|e_y|
-[m]; and ``acc_buf`` (n, steps * substeps, 3) with the body accelerations when it has room (comfort scoring).
+Both fill ``out`` (n, ``accumulators.N_ACC``, columns ``accumulators.ACC_*``) and ``acc_buf`` (n, steps *
+substeps, 3) with the body accelerations when it has room (comfort scoring).
 """
 
 from __future__ import annotations
@@ -17,38 +18,42 @@ from typing import Any
 import numpy as np
 
 from vtrack_gym.baselines.base import Policy
-from vtrack_gym.baselines.laws import MPCLaw, SMCLaw
+from vtrack_gym.tuning.accumulators import (
+    ACC_ITAE,
+    ACC_LAST_TE,
+    ACC_MAX_AY,
+    ACC_MAX_EY,
+    ACC_MIN_FZ,
+    ACC_STEPS,
+    BUF_AX,
+    N_BUF,
+)
 from vtrack_gym.vehicle import layout as L
 
 
 def distance_done(sim: Any) -> np.ndarray:
     """Distance each car has covered on its track [m] (lap progress on a closed track, station otherwise)."""
-    closed = sim.tmeta[sim.veh_track, 4] != 0.0
-    return np.where(closed, sim.progress, sim.err[:, 0])
+    return np.where(sim.tracks.closed[sim.veh_track], sim.progress, sim.station_m)
 
 
 def run_compiled(sim: Any, policy: Policy, max_steps: int, dt: float, acc_buf: np.ndarray, out: np.ndarray) -> None:
-    """Whole episodes of the population ``policy`` (a ``PopulationSMC`` / ``PopulationMPC``) in one compiled call."""
+    """Whole episodes of the population ``policy`` (its ``compiled_rows``) in one compiled call."""
     import numba
 
     from vtrack_gym.tuning import _kernels as K
 
-    if sim.any_noise or sim.any_delay:
+    if sim.noise.active or sim.delay.active:
         raise ValueError("the compiled population rollout runs nominal scenarios only (no noise or delay)")
+    rows = getattr(policy, "compiled_rows", None)
+    if not callable(rows):
+        raise ValueError(f"no compiled population rollout for {type(policy).__name__} (no compiled_rows)")
+    compiled = rows(sim.obs.astype(np.float64))
     n = sim.n
     lanes = max(1, min(n, numba.get_num_threads()))
-    sim_args = (sim.arrays, float(sim.max_steer_rad))  # numba takes the NamedTuple directly
-    law = getattr(policy, "law", None)
-    inv_steer = 1.0 / policy.max_steer_rad
-    if isinstance(law, SMCLaw):
-        K.rollout_smc(*sim_args, lanes, max_steps, dt, law, inv_steer, acc_buf, out)
-    elif isinstance(law, MPCLaw):
-        state = np.ascontiguousarray(policy.initial_state(sim.obs.astype(np.float64)))
-        K.rollout_mpc(*sim_args, lanes, max_steps, dt, law, inv_steer, state, np.zeros((n, law.tables.shape[2])),
-                      acc_buf, out)
-    else:
-        raise ValueError(f"no compiled population rollout for {type(policy).__name__}")
-    sim.steps[:] = out[:, 4].astype(np.int64)
+    K.rollout_population(sim.arrays, float(sim.max_steer_rad), lanes, max_steps, dt, compiled.law,
+                         np.ascontiguousarray(compiled.memory, dtype=np.float64), 1.0 / policy.max_steer_rad,
+                         bool(compiled.nan_to_zero), acc_buf, out)
+    sim.steps[:] = out[:, ACC_STEPS].astype(np.int64)
 
 
 def run_stepwise(sim: Any, policy: Policy, max_steps: int, dt: float, acc_buf: np.ndarray,
@@ -69,17 +74,18 @@ def run_stepwise(sim: Any, policy: Policy, max_steps: int, dt: float, acc_buf: n
         action = np.clip(delta * inv_steer, -1.0, 1.0)
         action[~active] = 0.0
         sim.step(action)
-        te = k * dt * np.abs(sim.err[:, 1])
+        abs_ey = np.abs(sim.lateral_error_m)
+        te = k * dt * abs_ey
         a = active
         if k >= 2:
-            out[a, 0] += 0.5 * dt * (out[a, 1] + te[a])
-        out[a, 1] = te[a]
-        out[a, 2] = np.maximum(out[a, 2], np.abs(sim.outputs[a, :, L.O_AY]).max(axis=1))
-        out[a, 3] = np.minimum(out[a, 3], sim.min_fz[a])
-        out[a, 4] = k
-        out[a, 5] = np.maximum(out[a, 5], np.abs(sim.err[a, 1]))
+            out[a, ACC_ITAE] += 0.5 * dt * (out[a, ACC_LAST_TE] + te[a])
+        out[a, ACC_LAST_TE] = te[a]
+        out[a, ACC_MAX_AY] = np.maximum(out[a, ACC_MAX_AY], np.abs(sim.outputs[a, :, L.O_AY]).max(axis=1))
+        out[a, ACC_MIN_FZ] = np.minimum(out[a, ACC_MIN_FZ], sim.min_fz[a])
+        out[a, ACC_STEPS] = k
+        out[a, ACC_MAX_EY] = np.maximum(out[a, ACC_MAX_EY], abs_ey[a])
         if acc_buf.shape[1]:
-            acc_buf[a, (k - 1) * n_sub:k * n_sub] = sim.outputs[a, :, L.O_AX:L.O_AZ + 1]
+            acc_buf[a, (k - 1) * n_sub:k * n_sub, BUF_AX:BUF_AX + N_BUF] = sim.outputs[a, :, L.O_AX:L.O_AZ + 1]
         ended = active & ((sim.term != 0) | (k >= max_steps))
         code[ended] = sim.term[ended]
         done_dist[ended] = distance_done(sim)[ended]

@@ -3,7 +3,7 @@
 A vehicle file (``vtrack_gym/vehicle/data/<name>.json`` for the shipped cars) is one JSON object::
 
     {
-      "format": "vtrack-vehicle/1",
+      "format": "vtrack-vehicle/2",
       "name": "C-Class Hatchback (paper)",
       "description": "one paragraph: what car this is and where its numbers come from",
       "chassis": {
@@ -14,14 +14,21 @@ A vehicle file (``vtrack_gym/vehicle/data/<name>.json`` for the shipped cars) is
     }
 
 Every group of :class:`VehicleParams` and every field of every group must be present, each as
-``{"value": <finite number>, "source": "<non-empty text>"}``. The shipped files start every source with its kind
-(``SOURCE_TAGS``): ``paper`` (the paper's Nomenclature), ``IDSC`` (the public reproduction of the paper's CarSim
-car), ``ISA`` (standard atmosphere), ``SPEC (from memory, unverified)`` (a manufacturer's published figure as
-recalled, not checked against a document), ``ESTIMATE`` (inferred from typical values) or ``CHOICE`` (our own
-modelling choice). Unknown keys, missing keys, duplicate keys, non-finite numbers (``NaN``/``Infinity``), booleans
-or strings where a number belongs are errors naming the key (``VehicleFileError``, a ``ValueError``), and so is
-any value outside the field's declared range. Files are read only if they are regular files of at most
-``MAX_VEHICLE_FILE_BYTES``.
+``{"value": <finite number>, "source": "<non-empty text>"}``, except that the roll group gives the sprung mass's
+roll inertia about its own CG, ``roll_inertia_cg_kgm2`` (the convention of published data and of CommonRoad's
+vehicle models), and the roll-axis value the plant's roll equation uses is derived from it:
+``RollParams.roll_inertia_kgm2`` = I_x,cg + m_s h_s^2 (:func:`roll_axis_inertia_kgm2`; m_s the sprung mass, h_s
+its CG's height above the roll axis). Files of the earlier format ``vtrack-vehicle/1`` give
+``roll_inertia_kgm2`` (about the roll axis) instead and are still read; they may leave out
+``tyres.relaxation_length_m`` (then 0, off).
+
+The shipped files start every source with its kind (``SOURCE_TAGS``): ``paper`` (the paper's Nomenclature), ``IDSC``
+(the public reproduction of the paper's CarSim car), ``ISA`` (standard atmosphere), ``SPEC (from memory,
+unverified)`` (a manufacturer's published figure as recalled, not checked against a document), ``ESTIMATE``
+(inferred from typical values) or ``CHOICE`` (our own modelling choice). Unknown keys, missing keys, duplicate keys,
+non-finite numbers (``NaN``/``Infinity``), booleans or strings where a number belongs are errors naming the key
+(``VehicleFileError``, a ``ValueError``), and so is any value outside the field's declared range. Files are read
+only if they are regular files of at most ``MAX_VEHICLE_FILE_BYTES``.
 """
 
 from __future__ import annotations
@@ -38,8 +45,18 @@ from typing import Any
 
 from vtrack_gym.vehicle.params import VehicleParams
 
-FORMAT = "vtrack-vehicle/1"
-"""The ``format`` tag every vehicle file carries."""
+FORMAT = "vtrack-vehicle/2"
+"""The ``format`` tag of the current vehicle files: the roll group holds ``roll_inertia_cg_kgm2``."""
+
+FORMAT_V1 = "vtrack-vehicle/1"
+"""The earlier format, still read: the roll group holds ``roll_inertia_kgm2`` (about the roll axis) instead."""
+
+ROLL_CG_FIELD = "roll_inertia_cg_kgm2"
+"""Key of the sprung mass's roll inertia about its own CG [kg m^2] in the roll group of a ``FORMAT`` file."""
+
+RELAXATION_FIELD = "relaxation_length_m"
+RELAXATION_OFF_SOURCE = "CHOICE: off (0 m; the earlier file format has no tyre relaxation length)"
+"""A ``FORMAT_V1`` file may leave out ``tyres.relaxation_length_m``: it is then 0 (off), with this source."""
 
 MAX_VEHICLE_FILE_BYTES = 64 * 1024
 """Largest vehicle file read [bytes] (the shipped ones are ~10 kB)."""
@@ -58,30 +75,54 @@ class VehicleFileError(ValueError):
     """A vehicle file that cannot be read or does not follow the format; the message names the key."""
 
 
+def roll_axis_inertia_kgm2(roll_inertia_cg_kgm2: float, sprung_mass_kg: float, sprung_cg_above_roll_axis_m: float
+                           ) -> float:
+    """The sprung mass's roll inertia about the roll axis [kg m^2] (what the plant's roll equation uses):
+    I_x,cg + m_s h_s^2 (parallel axes), from its inertia about its own CG [kg m^2], its mass [kg] and its CG's
+    height above the roll axis h_s [m]."""
+    return roll_inertia_cg_kgm2 + sprung_mass_kg * sprung_cg_above_roll_axis_m * sprung_cg_above_roll_axis_m
+
+
 @dataclass(frozen=True)
 class VehicleRecord:
-    """A parsed vehicle file: the parameters plus the provenance text of every value."""
+    """A parsed vehicle file: the parameters plus the provenance text of every value.
+
+    ``roll_inertia_cg_kgm2`` [kg m^2]: the sprung mass's roll inertia about its CG as the file gives it (format
+    ``FORMAT``); ``params.roll.roll_inertia_kgm2`` is then the roll-axis value derived from it
+    (:func:`roll_axis_inertia_kgm2`). None for a ``FORMAT_V1`` file, which gives the roll-axis value itself."""
 
     params: VehicleParams
     description: str
     sources: dict[str, dict[str, str]]
-    """Group -> field -> source text (``CHOICE...`` for modelling choices)."""
+    """Group -> field -> source text, with the file's keys (``CHOICE...`` for modelling choices)."""
+    roll_inertia_cg_kgm2: float | None = None
 
     def to_json(self) -> str:
-        """The file text (``parse_vehicle(record.to_json()) == record``)."""
-        doc: dict[str, Any] = {"format": FORMAT, "name": self.params.name, "description": self.description}
-        for group_name, group_fields in _groups():
+        """The file text (``parse_vehicle(record.to_json()) == record``), in the format the record was read from."""
+        v2 = self.roll_inertia_cg_kgm2 is not None
+        doc: dict[str, Any] = {"format": FORMAT if v2 else FORMAT_V1, "name": self.params.name,
+                               "description": self.description}
+        for group_name, group_fields in _groups(v2):
             group = getattr(self.params, group_name)
-            doc[group_name] = {name: {"value": getattr(group, name), "source": self.sources[group_name][name]}
+            doc[group_name] = {name: {"value": self.roll_inertia_cg_kgm2 if name == ROLL_CG_FIELD
+                                      else getattr(group, name), "source": self.sources[group_name][name]}
                                for name in group_fields}
         return json.dumps(doc, indent=2, allow_nan=False) + "\n"
 
 
-def _groups() -> list[tuple[str, tuple[str, ...]]]:
-    """(group name, field names) of every parameter group of ``VehicleParams``, in declaration order."""
+def _groups(v2: bool = True) -> list[tuple[str, tuple[str, ...]]]:
+    """(group name, field names) of every parameter group of a vehicle file, in declaration order: the fields of
+    ``VehicleParams``, with ``roll_inertia_kgm2`` replaced by ``ROLL_CG_FIELD`` in a ``FORMAT`` (``v2``) file."""
     default = VehicleParams()
-    return [(f.name, tuple(g.name for g in fields(getattr(default, f.name))))
-            for f in fields(VehicleParams) if f.name != "name"]
+    out = []
+    for f in fields(VehicleParams):
+        if f.name == "name":
+            continue
+        names = tuple(g.name for g in fields(getattr(default, f.name)))
+        if v2 and f.name == "roll":
+            names = tuple(ROLL_CG_FIELD if n == "roll_inertia_kgm2" else n for n in names)
+        out.append((f.name, names))
+    return out
 
 
 def _no_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
@@ -116,35 +157,59 @@ def _text(value: Any, key: str) -> str:
     return value
 
 
+def _read_group(entries: dict[str, Any], group_name: str) -> tuple[dict[str, float], dict[str, str]]:
+    """Values and source texts of one group's (already key-checked) entries."""
+    values: dict[str, float] = {}
+    sources: dict[str, str] = {}
+    for field_name, raw in entries.items():
+        key = f"{group_name}.{field_name}"
+        entry = _exact_keys(raw, _ENTRY_KEYS, key)
+        value = entry["value"]
+        if isinstance(value, bool) or not isinstance(value, numbers.Real):
+            raise VehicleFileError(f"{key}.value must be a number (got {value!r})")
+        if not math.isfinite(value):
+            raise VehicleFileError(f"{key}.value must be finite (got {value!r})")
+        values[field_name] = float(value)
+        sources[field_name] = _text(entry["source"], f"{key}.source")
+    return values, sources
+
+
+def _roll_axis_from_cg(values: dict[str, float], chassis: Any) -> float:
+    """Pop ``ROLL_CG_FIELD`` from a roll group's values and put the derived roll-axis inertia in its place."""
+    cg_value = values.pop(ROLL_CG_FIELD)
+    if not cg_value > 0.0:
+        raise VehicleFileError(f"roll.{ROLL_CG_FIELD} must be > 0 kg m^2 (got {cg_value})")
+    m_s = chassis.mass_kg - values["unsprung_mass_kg"]
+    h_s = chassis.cg_height_m - values["roll_centre_height_m"]
+    values["roll_inertia_kgm2"] = roll_axis_inertia_kgm2(cg_value, m_s, h_s)
+    return cg_value
+
+
 def parse_vehicle(text: str) -> VehicleRecord:
     """Parse and validate the text of a vehicle file (see the module docstring)."""
     try:
         doc = json.loads(text, object_pairs_hook=_no_duplicates, parse_constant=_reject_constant)
     except json.JSONDecodeError as exc:
         raise VehicleFileError(f"not valid JSON: {exc}") from None
-    groups = _groups()
+    if not isinstance(doc, dict) or doc.get("format") not in (FORMAT, FORMAT_V1):
+        found = doc.get("format") if isinstance(doc, dict) else None
+        raise VehicleFileError(f"format must be {FORMAT!r} (or the earlier {FORMAT_V1!r}; got {found!r})")
+    v2 = doc["format"] == FORMAT
+    groups = _groups(v2)
     doc = _exact_keys(doc, _TOP_KEYS + tuple(g for g, _ in groups), "<file>")
-    if doc["format"] != FORMAT:
-        raise VehicleFileError(f"format must be {FORMAT!r} (got {doc['format']!r})")
     name = _text(doc["name"], "name")
     description = _text(doc["description"], "description")
     default = VehicleParams()
     built: dict[str, Any] = {}
     sources: dict[str, dict[str, str]] = {}
+    roll_cg = None
     for group_name, group_fields in groups:
-        entries = _exact_keys(doc[group_name], group_fields, group_name)
-        values: dict[str, float] = {}
-        sources[group_name] = {}
-        for field_name in group_fields:
-            key = f"{group_name}.{field_name}"
-            entry = _exact_keys(entries[field_name], _ENTRY_KEYS, key)
-            value = entry["value"]
-            if isinstance(value, bool) or not isinstance(value, numbers.Real):
-                raise VehicleFileError(f"{key}.value must be a number (got {value!r})")
-            if not math.isfinite(value):
-                raise VehicleFileError(f"{key}.value must be finite (got {value!r})")
-            values[field_name] = float(value)
-            sources[group_name][field_name] = _text(entry["source"], f"{key}.source")
+        entries = doc[group_name]
+        if not v2 and group_name == "tyres" and isinstance(entries, dict) and RELAXATION_FIELD not in entries:
+            entries = {**entries, RELAXATION_FIELD: {"value": 0.0, "source": RELAXATION_OFF_SOURCE}}
+        values, sources[group_name] = _read_group(_exact_keys(entries, group_fields, group_name), group_name)
+        if v2 and group_name == "roll":
+            roll_cg = _roll_axis_from_cg(values, built["chassis"])
         try:
             built[group_name] = type(getattr(default, group_name))(**values)
         except ValueError as exc:
@@ -153,7 +218,7 @@ def parse_vehicle(text: str) -> VehicleRecord:
         params = VehicleParams(name=name, **built)
     except ValueError as exc:
         raise VehicleFileError(str(exc)) from None
-    return VehicleRecord(params, description, sources)
+    return VehicleRecord(params, description, sources, roll_cg)
 
 
 def _data_dir() -> Path:
@@ -225,15 +290,18 @@ def resolve_vehicle(vehicle: VehicleParams | str | os.PathLike[str] | None) -> V
 
 
 def record_from_params(params: VehicleParams, description: str, source: str) -> VehicleRecord:
-    """A record for ``params`` with the same ``source`` text on every value (e.g. for a derived car)."""
+    """A record for ``params`` with the same ``source`` text on every value (e.g. for a derived car); it is written
+    in the ``FORMAT_V1`` form (roll inertia about the roll axis, as ``params`` holds it)."""
     return VehicleRecord(params, description,
-                         {g: dict.fromkeys(names, source) for g, names in _groups()})
+                         {g: dict.fromkeys(names, source) for g, names in _groups(v2=False)})
 
 
 __all__ = [
     "DEFAULT_VEHICLE",
     "FORMAT",
+    "FORMAT_V1",
     "MAX_VEHICLE_FILE_BYTES",
+    "ROLL_CG_FIELD",
     "SOURCE_TAGS",
     "VehicleFileError",
     "VehicleRecord",
@@ -243,4 +311,5 @@ __all__ = [
     "parse_vehicle",
     "record_from_params",
     "resolve_vehicle",
+    "roll_axis_inertia_kgm2",
 ]

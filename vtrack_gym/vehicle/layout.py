@@ -16,6 +16,8 @@ index  name        unit     meaning
 8      delta       rad      front road-wheel angle (steering actuator output), left-positive
 9      a_x_lag     m/s^2    a_x through the load-transfer lag (used for longitudinal load transfer)
 10     a_y_lag     m/s^2    a_y through the load-transfer lag (roll-centre part of lateral transfer)
+11     alpha_f_lag rad      front slip angle through the tyre relaxation lag (0 and unused when it is off)
+12     alpha_r_lag rad      rear slip angle through the tyre relaxation lag (0 and unused when it is off)
 =====  ==========  =======  ===================================================================
 
 Per-vehicle inputs (held constant over one control period): ``delta_cmd`` [rad], ``throttle`` [0..1],
@@ -27,9 +29,10 @@ imposed by the road's vertical curvature).
 from __future__ import annotations
 
 STATE_NAMES: tuple[str, ...] = (
-    "x", "y", "psi", "v_x", "v_y", "r", "roll", "roll_rate", "delta", "a_x_lag", "a_y_lag",
+    "x", "y", "psi", "v_x", "v_y", "r", "roll", "roll_rate", "delta", "a_x_lag", "a_y_lag", "alpha_f_lag",
+    "alpha_r_lag",
 )
-S_X, S_Y, S_PSI, S_VX, S_VY, S_R, S_ROLL, S_ROLL_RATE, S_DELTA, S_AXL, S_AYL = range(11)
+S_X, S_Y, S_PSI, S_VX, S_VY, S_R, S_ROLL, S_ROLL_RATE, S_DELTA, S_AXL, S_AYL, S_ALF, S_ALR = range(13)
 N_STATE = len(STATE_NAMES)
 
 INPUT_NAMES: tuple[str, ...] = ("delta_cmd", "throttle", "brake")
@@ -57,11 +60,11 @@ PARAM_NAMES: tuple[str, ...] = (
     "roll_share_f", "c_f", "c_r", "mu", "b0_f", "b0_r", "shape_c_f", "shape_c_r", "peak_d_f", "peak_d_r",
     "load_sens", "f_roll", "delta_max", "delta_rate_max", "tau_steer", "p_max", "f_drive_max",
     "drive_share_f", "drag_k", "brake_gain", "pedal_max", "brake_share_f", "v_blend_lo", "v_blend_hi",
-    "tau_kin", "tau_lt", "lt_direct_f", "lt_direct_r",
+    "tau_kin", "tau_lt", "lt_direct_f", "lt_direct_r", "relax_len",
 )
 (P_M, P_IZ, P_A1, P_A2, P_L, P_HCG, P_TRACK, P_MS, P_HS, P_HRC, P_IROLL, P_KROLL, P_CROLL,
  P_ROLL_SHARE_F, P_CF, P_CR, P_MU, P_B0F, P_B0R, P_SHAPE_CF, P_SHAPE_CR, P_PEAK_DF, P_PEAK_DR,
  P_LOAD_SENS, P_FROLL, P_DELTA_MAX, P_DELTA_RATE, P_TAU_STEER, P_PMAX, P_FDRIVE_MAX,
  P_DRIVE_SHARE_F, P_DRAG_K, P_BRAKE_GAIN, P_PEDAL_MAX, P_BRAKE_SHARE_F, P_VBLEND_LO, P_VBLEND_HI,
- P_TAU_KIN, P_TAU_LT, P_LT_DIRECT_F, P_LT_DIRECT_R) = range(len(PARAM_NAMES))
+ P_TAU_KIN, P_TAU_LT, P_LT_DIRECT_F, P_LT_DIRECT_R, P_RELAX) = range(len(PARAM_NAMES))
 N_PARAM = len(PARAM_NAMES)

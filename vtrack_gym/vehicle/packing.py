@@ -70,6 +70,7 @@ def pack_params(params: VehicleParams) -> np.ndarray:
     (m_f, m_uf), (m_r, m_ur) = params.axle_masses_kg()
     row[L.P_LT_DIRECT_F] = (m_f - m_uf) * r.roll_centre_height_m + m_uf * r.unsprung_cg_height_m
     row[L.P_LT_DIRECT_R] = (m_r - m_ur) * r.roll_centre_height_m + m_ur * r.unsprung_cg_height_m
+    row[L.P_RELAX] = t.relaxation_length_m
     return row
 
 

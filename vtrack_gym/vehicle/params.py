@@ -29,6 +29,10 @@ from vtrack_gym._ranges import documented, ranged, validate
 GRAVITY_MPS2 = 9.81
 """Standard gravity used by every model [m/s^2] (paper: g = 9.81)."""
 
+MIN_RELAXATION_LENGTH_M = 0.1
+"""Shortest tyre relaxation length [m] other than 0 (off): at 45 m/s and a 2 ms physics step it lags by 2.2 ms, so
+the RK4 integration resolves it (v dt / sigma < 1)."""
+
 
 @documented
 @dataclass(frozen=True)
@@ -38,7 +42,8 @@ class ChassisParams:
     mass_kg: float = ranged(1413.0, gt=0.0, unit="kg")  # paper (IDSC: 1412 = 1270 sprung + 4 x 35.5 unsprung)
     # paper, I_z. This is CarSim's SPRUNG-mass I_zz; the paper (and so the design model and our plant) uses it as
     # the whole car's yaw inertia. The four unsprung corners would add ~430 kg m^2 (not modelled, CHOICE).
-    yaw_inertia_kgm2: float = ranged(1536.7, gt=0.0, unit="kg m^2")
+    # below ~5 kg m^2 the yaw mode is too fast for the 2 ms physics step (NaN at 120 km/h)
+    yaw_inertia_kgm2: float = ranged(1536.7, ge=5.0, le=1e6, unit="kg m^2")
     cg_to_front_axle_m: float = ranged(1.015, gt=0.0, unit="m")  # paper, a1
     cg_to_rear_axle_m: float = ranged(1.895, gt=0.0, unit="m")  # paper, a2
     # IDSC: CG height of the SPRUNG mass above ground (whole car: VehicleParams.total_cg_height_m)
@@ -65,6 +70,8 @@ class TyreParams:
     Each wheel's lateral force is ``F_y = mu * F_z * D * sin(C * atan(B * alpha))`` with B chosen so that the
     slope at the static axle load equals the paper's axle cornering stiffness (independent of mu), and a
     degressive load sensitivity of the cornering stiffness (``load_sensitivity``) so that load transfer matters.
+    With a relaxation length sigma (``relaxation_length_m`` > 0) the force follows each axle's slip angle through
+    a first-order lag, d(alpha_lag)/dt = |v_x| / sigma (alpha - alpha_lag); 0 (the default) is off.
     """
 
     # paper, C_af, axle (both tyres) [N/rad]
@@ -80,9 +87,16 @@ class TyreParams:
     load_sensitivity: float = ranged(0.15, ge=0.0, le=0.5)
     # CHOICE: rolling-resistance coefficient of a passenger-car tyre on asphalt.
     rolling_resistance_coeff: float = ranged(0.012, ge=0.0, le=0.1)
+    # CHOICE: tyre relaxation length sigma [m]; the force follows a slip angle lagged by sigma / |v_x| (0.4-0.6 m is
+    # typical of passenger-car tyres); 0 = off, the force follows the slip angle instantly (the paper's model)
+    relaxation_length_m: float = ranged(0.0, ge=0.0, le=2.0, unit="m")
 
     def __post_init__(self) -> None:
         validate(self)
+        if 0.0 < self.relaxation_length_m < MIN_RELAXATION_LENGTH_M:
+            raise ValueError(f"TyreParams.relaxation_length_m must be 0 (off) or in [{MIN_RELAXATION_LENGTH_M}, 2.0] m "
+                             f"(got {self.relaxation_length_m}): a shorter one lags by less than the 2 ms physics "
+                             "step at speed and the integration would not resolve it")
 
 
 @documented
@@ -139,7 +153,8 @@ class PowertrainParams:
     # CHOICE: low-gear traction limit at the wheels (~0.43 g)
     max_drive_force_n: float = ranged(6000.0, gt=0.0, unit="N")
     front_drive_share: float = ranged(1.0, ge=0.0, le=1.0)  # CHOICE: front-wheel drive
-    drag_area_m2: float = ranged(0.66, ge=0.0, unit="m^2")  # CHOICE: C_d A = 0.30 x 2.2 m^2
+    # CHOICE: C_d A = 0.30 x 2.2 m^2; road vehicles stay below 20 m^2 (far more stops a car within one physics step)
+    drag_area_m2: float = ranged(0.66, ge=0.0, le=20.0, unit="m^2")
     air_density_kgpm3: float = ranged(1.2, ge=0.0, unit="kg/m^3")  # standard air
 
     def __post_init__(self) -> None:
@@ -169,7 +184,8 @@ class LowSpeedParams:
 
     blend_start_mps: float = ranged(1.0, gt=0.0, unit="m/s")  # below: purely kinematic
     blend_end_mps: float = ranged(3.0, gt="blend_start_mps", unit="m/s")  # above: purely dynamic
-    relaxation_time_s: float = ranged(0.05, gt=0.0, unit="s")  # how fast v_y and r are pulled onto the kinematic values
+    # how fast v_y and r are pulled onto the kinematic values; at least 2.5 physics steps of 2 ms (stability)
+    relaxation_time_s: float = ranged(0.05, ge=0.005, le=10.0, unit="s")
     # CHOICE: lag of the accelerations used for load transfer
     load_transfer_lag_s: float = ranged(0.02, gt=0.0, unit="s")
 

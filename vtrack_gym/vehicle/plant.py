@@ -54,6 +54,11 @@ class Plant:
         self._work = np.empty((self.n, k.WORKSPACE_SIZE), dtype=np.float64)
         self._step = k.step_batch_parallel if self.n >= PARALLEL_THRESHOLD else k.step_batch_serial
 
+    @property
+    def workspace(self) -> np.ndarray:
+        """The plant's scratch array (n, WORKSPACE_SIZE), for a compiled step that advances this plant's cars."""
+        return self._work
+
     def set_model(self, model: str | Sequence[str]) -> None:
         """Select ``"nonlinear"`` or ``"linear"`` for all vehicles or per vehicle."""
         names = [model] * self.n if isinstance(model, str) else list(model)

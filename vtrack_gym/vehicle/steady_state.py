@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -31,6 +32,9 @@ from vtrack_gym.vehicle import layout as L
 from vtrack_gym.vehicle.params import GRAVITY_MPS2, VehicleParams
 
 _RESIDUAL_TOL = 1e-9       # [m/s^2] largest scaled residual of an accepted equilibrium
+LIMIT_CURVE_RADII_M = tuple(float(r) for r in np.geomspace(10.0, 400.0, 16))
+"""Radii [m] on which :func:`lateral_limit_curve` solves the grip limit (about 9 to 50 m/s for a passenger car)."""
+FULL_THROTTLE = 0.999      # an equilibrium at this throttle or more is power-limited, not grip-limited
 
 
 def steady_roll_rad(params: VehicleParams, a_y_mps2: float) -> float:
@@ -116,6 +120,9 @@ class _Residual:
         x = np.zeros(L.N_STATE)
         x[L.S_VX], x[L.S_VY], x[L.S_R] = v * math.cos(beta), v * math.sin(beta), v / self.radius_m
         x[L.S_ROLL], x[L.S_DELTA], x[L.S_AXL], x[L.S_AYL] = phi, delta, ax, ay
+        # a relaxed tyre's lagged slip angles sit at the slip angles themselves in a steady state
+        x[L.S_ALF] = delta - math.atan2(x[L.S_VY] + self.p[L.P_A1] * x[L.S_R], x[L.S_VX])
+        x[L.S_ALR] = -math.atan2(x[L.S_VY] - self.p[L.P_A2] * x[L.S_R], x[L.S_VX])
         return x
 
     def __call__(self, z: np.ndarray, v: float) -> np.ndarray:
@@ -195,5 +202,45 @@ def grip_limit(params: VehicleParams, radius_m: float, accel_mps2: float = 0.0) 
     return res.result(v, z)
 
 
-__all__ = ["CorneringEquilibrium", "cornering_equilibrium", "grip_limit", "lateral_transfer_n",
-           "rigid_lateral_transfer_n", "roll_shift_share", "steady_roll_rad"]
+@lru_cache(maxsize=32)
+def lateral_limit_curve(params: VehicleParams) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """The car's steady-state lateral limit against speed: (speeds [m/s], path lateral accelerations V^2 / R
+    [m/s^2]) of :func:`grip_limit` on ``LIMIT_CURVE_RADII_M``, increasing in speed. Radii whose highest equilibrium
+    is at full throttle (power-limited: the car cannot go faster there, whatever its grip) are left out, so the
+    curve ends at the fastest grip-limited radius. Cached per car."""
+    speeds, accels = [], []
+    for radius in LIMIT_CURVE_RADII_M:
+        try:
+            eq = grip_limit(params, radius)
+        except ValueError:                      # no equilibrium even at the continuation's start speed
+            continue
+        if eq.throttle < FULL_THROTTLE:
+            speeds.append(eq.speed_mps)
+            accels.append(eq.path_lateral_accel_mps2)
+    if len(speeds) < 2:
+        raise ValueError(f"no grip-limited cornering equilibria for {params.name!r} on radii "
+                         f"{LIMIT_CURVE_RADII_M[0]:g}-{LIMIT_CURVE_RADII_M[-1]:g} m")
+    order = np.argsort(speeds)
+    return tuple(float(speeds[i]) for i in order), tuple(float(accels[i]) for i in order)
+
+
+def lateral_limit_mps2(params: VehicleParams, speed_mps: float | np.ndarray) -> float | np.ndarray:
+    """The car's steady-state lateral-acceleration limit [m/s^2] at ``speed_mps`` [m/s]: linear in speed between
+    the points of :func:`lateral_limit_curve`, held at its end values outside it."""
+    speeds, accels = lateral_limit_curve(params)
+    out = np.interp(speed_mps, speeds, accels)
+    return float(out) if np.ndim(out) == 0 else out
+
+
+def lowest_lateral_limit_mps2(params: VehicleParams, max_speed_mps: float) -> float:
+    """The least steady-state lateral limit [m/s^2] of the car at any speed up to ``max_speed_mps`` [m/s] (the
+    limit falls with speed: drive force for drag, load transfer): the lateral acceleration a speed profile capped
+    at ``max_speed_mps`` may ask for at most."""
+    speeds, accels = lateral_limit_curve(params)
+    grid = np.append(np.asarray(speeds)[np.asarray(speeds) < max_speed_mps], max_speed_mps)
+    return float(np.min(np.interp(grid, speeds, accels)))
+
+
+__all__ = ["CorneringEquilibrium", "cornering_equilibrium", "grip_limit", "lateral_limit_curve", "lateral_limit_mps2",
+           "lateral_transfer_n", "lowest_lateral_limit_mps2", "rigid_lateral_transfer_n", "roll_shift_share",
+           "steady_roll_rad"]

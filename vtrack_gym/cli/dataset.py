@@ -1,0 +1,56 @@
+"""``vtrack dataset``: a Minari dataset of a policy's episodes on a suite or an env (extra 'dataset')."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from vtrack_gym.cli import _options as opt
+from vtrack_gym.cli._envs import check_vehicle
+from vtrack_gym.cli._terminal import err, out
+
+NAME = "dataset"
+
+
+def register(sub: Any) -> None:
+    from vtrack_gym.evaluation.dataset import DATASET_SUITES, MAX_EPISODES
+
+    ds = sub.add_parser(NAME, help="write a Minari dataset of a policy's episodes (extra 'dataset')",
+                        description="Drive a policy deterministically through a suite's scenarios or one env and "
+                        "write one Minari dataset per env id, locally (nothing is downloaded): observations, "
+                        "actions, rewards, flags, each episode's seed and reset options, and the env's spec, so "
+                        "minari.load_dataset(ID).recover_environment() makes the same env.")
+    ds.add_argument("--policy", required=True,
+                    help="a baseline (mpc, smc, lqr, ...), NAME:PRESET, a shipped agent (ppo, sac) or an agent file")
+    where = ds.add_mutually_exclusive_group(required=True)
+    where.add_argument("--suite", choices=DATASET_SUITES,
+                       help="every scenario of the suite, its perturbations drawn from each seed")
+    where.add_argument("--env", default=None, help="one registered env id, e.g. DLC120-v0")
+    ds.add_argument("--episodes", type=opt.int_in(1, MAX_EPISODES), default=1,
+                    help="episodes per env, seeds --seed, --seed + 1, ... (default: 1)")
+    ds.add_argument("--seed", type=opt.int_in(0, opt.MAX_RNG_SEED), default=0, help="first seed (default: 0)")
+    ds.add_argument("--name", default=None,
+                    help="dataset name; ids are vtrack/<env>/<name>-v0 (default: <policy>-<suite or env>)")
+    ds.add_argument("--root", type=Path, default=None,
+                    help="datasets folder (default: Minari's own, $MINARI_DATASETS_PATH or ~/.minari/datasets)")
+    opt.add_vehicle(ds)
+    ds.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def needed_modules(args: argparse.Namespace) -> list[str]:
+    return ["minari", "h5py"]
+
+
+def run(args: argparse.Namespace) -> int:
+    from vtrack_gym.evaluation.dataset import write_dataset
+
+    check_vehicle(args)
+    ids = write_dataset(args.policy, suite=args.suite, env=args.env, episodes=args.episodes, seed=args.seed,
+                        name=args.name, root=args.root, vehicle=args.vehicle, progress=not args.no_progress)
+    for dataset_id in ids:
+        out(dataset_id)
+    where = f"MINARI_DATASETS_PATH={args.root} " if args.root is not None else ""
+    err(f"vtrack dataset: wrote {len(ids)} Minari dataset(s); load one with {where}python -c \"import minari, "
+        f"vtrack_gym; d = minari.load_dataset('{ids[0]}')\"")
+    return 0

@@ -1,0 +1,253 @@
+"""Success criteria: one class per criterion, judging every car live during its episode.
+
+A criterion is a frozen scenario part (its parameters). ``start`` makes its per-batch state (a NamedTuple of named
+arrays, one row per car), ``reset_car`` clears one car's row, ``observe_step`` runs after every control step (only
+when ``per_step`` is True), ``verdict`` gives each car's verdict if its episode ended now (``info["success"]``) and
+``metrics`` the leaderboard figures of one car's episode (e.g. ``cones_hit``).
+
+- ``Lap``: one lap of a closed course within the road (the episode terminated ``completed``).
+- ``EndReached``: the end of an open track reached within the road.
+- ``ConeGates``: the course completed and every cone gate passed with the body inside it (ISO 3888).
+- ``CircleAtLimit``: ISO 4138 steady-state circle held until the car's own grip limit.
+- ``Auto``: ``ConeGates`` if a path has gates, else ``Lap`` (closed paths) / ``EndReached`` (open ones).
+
+A new criterion is one more class with these methods (see ``tests/test_scenario_parts.py``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, ClassVar, NamedTuple
+
+import numpy as np
+
+from vtrack_gym._ranges import documented, ranged, validate
+from vtrack_gym.vehicle.params import GRAVITY_MPS2
+
+
+class CarsView(NamedTuple):
+    """What a criterion may read of the batch after a step: (n,) column views, updated in place every step."""
+
+    track: np.ndarray              # int64 track index of each car
+    steps: np.ndarray              # int64 control steps since reset
+    termination: np.ndarray        # int64 termination code of each car (0: running)
+    station_m: np.ndarray          # station of the CG's projection [m]
+    lateral_error_m: np.ndarray    # e_y [m], left positive
+    speed_mps: np.ndarray          # v_x [m/s]
+    target_speed_mps: np.ndarray   # the PD-FLC's reference speed [m/s]
+    lateral_acc_mps2: np.ndarray   # a_y at the CG [m/s^2]
+    x_m: np.ndarray                # CG position [m]
+    y_m: np.ndarray
+    psi_rad: np.ndarray            # heading [rad]
+    completed_code: int            # the termination code of a completed course
+
+    @property
+    def completed(self) -> np.ndarray:
+        """Bool (n,): the episode terminated ``completed`` (a fresh array)."""
+        return self.termination == self.completed_code
+
+
+class SuccessCriterion:
+    """Base of every criterion (frozen dataclass subclasses); the defaults judge by completion alone."""
+
+    name: ClassVar[str] = "completed"
+    per_step: ClassVar[bool] = False
+    """True when ``observe_step`` must run after every step (False: the verdict needs only the termination)."""
+
+    def resolve(self, paths: tuple) -> SuccessCriterion:
+        """The concrete criterion on these paths (``Auto`` chooses; every other criterion is itself)."""
+        return self
+
+    def start(self, paths: tuple, vehicle: Any, n: int) -> Any:
+        """The per-batch state of ``n`` cars on ``paths`` driving ``vehicle`` (``VehicleParams``)."""
+        return None
+
+    def reset_car(self, state: Any, i: int, vehicle: Any) -> None:
+        """Clear car ``i``'s row for a new episode with its (randomised) ``vehicle``."""
+
+    def observe_step(self, state: Any, cars: CarsView) -> None:
+        """Update the state after a control step of every car."""
+
+    def verdict(self, state: Any, cars: CarsView) -> np.ndarray:
+        """Each car's verdict if its episode ended now (bool (n,))."""
+        return cars.completed
+
+    def metrics(self, state: Any, i: int, track: int) -> dict[str, float]:
+        """The leaderboard figures of car ``i``'s episode on path ``track`` (none by default)."""
+        return {}
+
+
+@dataclass(frozen=True)
+class Lap(SuccessCriterion):
+    """One lap of a closed course within the road (the env terminates ``completed``)."""
+
+    name: ClassVar[str] = "lap"
+
+
+@dataclass(frozen=True)
+class EndReached(SuccessCriterion):
+    """The end of an open track reached within the road (``completed``: ``end_margin_m`` before its end)."""
+
+    name: ClassVar[str] = "end"
+
+
+@dataclass(frozen=True)
+class Completed(SuccessCriterion):
+    """A bank mixing closed and open paths: the lap of a closed one or the end of an open one."""
+
+    name: ClassVar[str] = "completed"
+
+
+class GateState(NamedTuple):
+    """``ConeGates`` state: per gated track its gate rows and station window; per car the gates its body left."""
+
+    gated: dict[int, tuple[Any, np.ndarray, float, float]]   # track -> (path, gate rows, s_lo, s_hi)
+    hit: np.ndarray            # (n, max gates) bool: gate g left by car i's body
+    outline_lon: np.ndarray    # body-outline points in the body frame [m]
+    outline_lat: np.ndarray
+    reach_m: float             # a Frenet gate is checked while the car's station is this close to it [m]
+    row: np.ndarray            # scratch track row
+
+
+@dataclass(frozen=True)
+class ConeGates(SuccessCriterion):
+    """The course completed and every cone gate passed with the body inside it; metric ``cones_hit`` (gates left).
+
+    Every body-outline point (corners and sides) is projected on the path after each control step while the car is
+    within a body length of the gated stretch, like ``tracks.gate_violations`` on a whole trajectory (compiled)."""
+
+    name: ClassVar[str] = "gates"
+    per_step: ClassVar[bool] = True
+
+    def start(self, paths: tuple, vehicle: Any, n: int) -> GateState:
+        from vtrack_gym.envs.gates import gate_rows
+        from vtrack_gym.tracks.dlc import car_outline
+        from vtrack_gym.tracks.table import N_COLS
+
+        c = vehicle.chassis
+        lon, lat = car_outline(0.0, 0.0, 0.0, c.body_length_m, c.body_width_m, c.cg_to_front_end_m)
+        gated = {t: (p, gate_rows(p.gates), min(g.s_start_m for g in p.gates) - c.body_length_m,
+                     max(g.s_end_m for g in p.gates) + c.body_length_m) for t, p in enumerate(paths) if p.gates}
+        most = max((len(p.gates) for p in paths), default=0)
+        return GateState(gated, np.zeros((n, max(most, 1)), dtype=bool), lon.ravel(), lat.ravel(), c.body_length_m,
+                         np.zeros(N_COLS))
+
+    def reset_car(self, state: GateState, i: int, vehicle: Any) -> None:
+        state.hit[i] = False
+
+    def observe_step(self, state: GateState, cars: CarsView) -> None:
+        from vtrack_gym.envs.gates import body_outside_gates
+
+        s = cars.station_m
+        for track, (path, gates, lo, hi) in state.gated.items():
+            sel = np.flatnonzero((cars.track == track) & (s >= lo) & (s <= hi))
+            if sel.size == 0:
+                continue
+            hit = state.hit[sel, :gates.shape[0]]
+            body_outside_gates(path.table, path.ds_m, path.length_m, path.closed, gates, cars.x_m[sel],
+                               cars.y_m[sel], cars.psi_rad[sel], s[sel], state.outline_lon, state.outline_lat,
+                               state.reach_m, hit, state.row)
+            state.hit[sel, :gates.shape[0]] = hit
+
+    def verdict(self, state: GateState, cars: CarsView) -> np.ndarray:
+        return cars.completed & ~state.hit.any(axis=1)
+
+    def metrics(self, state: GateState, i: int, track: int) -> dict[str, float]:
+        if track not in state.gated:
+            return {}
+        return {"cones_hit": float(np.count_nonzero(state.hit[i]))}
+
+
+class CircleState(NamedTuple):
+    """``CircleAtLimit`` state, one entry per car."""
+
+    left: np.ndarray           # bool: |e_y| exceeded the band
+    reached: np.ndarray        # bool: the reference speed reached the grip-limit speed
+    steady_a_y: np.ndarray     # peak |a_y| while still in the band [m/s^2]
+    steady_v: np.ndarray       # speed at that peak [m/s]
+    peak_a_y: np.ndarray       # peak |a_y| over the whole episode [m/s^2]
+    min_peak_a_y: np.ndarray   # least peak showing the car reached its limit (CIRCLE_MIN_PEAK_G mu g) [m/s^2]
+    radius_m: float            # the circle's radius (smallest radius of the first path) [m]
+    vehicle: Any               # the nominal car (its grip limit is a metric)
+
+
+CIRCLE_MIN_PEAK_G = 0.5
+"""``CircleAtLimit``: a car whose peak |a_y| stays below this share of mu g never reached its grip limit."""
+
+
+@documented
+@dataclass(frozen=True, kw_only=True)
+class CircleAtLimit(SuccessCriterion):
+    """ISO 4138 circle: |e_y| <= ``lateral_tolerance_m`` at every step until the reference speed reaches
+    ``grip_limit_speed_mps`` = sqrt(mu g R) (or the course is completed), or the car leaves the band only at its own
+    grip limit: its peak |a_y| in the band is at least ``limit_share`` of its peak |a_y| on the whole circle, and
+    that peak is at least ``CIRCLE_MIN_PEAK_G`` mu g. The plant's limit lies below mu g (Pacejka peak factors below
+    1, load transfer, drive force), so a criterion fixed at a share of mu g would judge the car, not the driver.
+
+    Metrics: ``max_steady_a_y_mps2`` (peak |a_y| in the band), ``max_steady_v_mps`` (the speed there),
+    ``grip_limit_a_y_mps2`` (the plant's steady-state limit on the circle's radius, ``vehicle.steady_state``) and
+    ``mu_g_mps2``."""
+
+    name: ClassVar[str] = "circle"
+    per_step: ClassVar[bool] = True
+    lateral_tolerance_m: float = ranged(gt=0.0, le=5.0, unit="m")
+    grip_limit_speed_mps: float = ranged(gt=0.0, le=100.0, unit="m/s")
+    limit_share: float = ranged(0.95, gt=0.0, le=1.0)   # CHOICE
+
+    def __post_init__(self) -> None:
+        validate(self)
+
+    def start(self, paths: tuple, vehicle: Any, n: int) -> CircleState:
+        from vtrack_gym.tracks.table import COL_KAPPA
+
+        radius = 1.0 / float(np.max(np.abs(paths[0].table[:, COL_KAPPA])))
+        return CircleState(np.zeros(n, dtype=bool), np.zeros(n, dtype=bool), np.zeros(n), np.zeros(n), np.zeros(n),
+                           np.zeros(n), radius, vehicle)
+
+    def reset_car(self, state: CircleState, i: int, vehicle: Any) -> None:
+        state.left[i] = state.reached[i] = False
+        state.steady_a_y[i] = state.steady_v[i] = state.peak_a_y[i] = 0.0
+        state.min_peak_a_y[i] = CIRCLE_MIN_PEAK_G * vehicle.tyres.friction_mu * GRAVITY_MPS2
+
+    def observe_step(self, state: CircleState, cars: CarsView) -> None:
+        on = cars.steps > 0
+        a_y = np.abs(cars.lateral_acc_mps2)
+        state.reached[:] |= on & (cars.target_speed_mps >= self.grip_limit_speed_mps)
+        state.left[:] |= on & (np.abs(cars.lateral_error_m) > self.lateral_tolerance_m)
+        state.peak_a_y[:] = np.where(on, np.maximum(state.peak_a_y, a_y), state.peak_a_y)
+        higher = on & ~state.left & (a_y > state.steady_a_y)
+        state.steady_a_y[:] = np.where(higher, a_y, state.steady_a_y)
+        state.steady_v[:] = np.where(higher, cars.speed_mps, state.steady_v)
+
+    def verdict(self, state: CircleState, cars: CarsView) -> np.ndarray:
+        at_limit = ((state.steady_a_y >= self.limit_share * state.peak_a_y)
+                    & (state.peak_a_y >= state.min_peak_a_y))
+        return np.where(state.left, at_limit, state.reached | cars.completed)
+
+    def metrics(self, state: CircleState, i: int, track: int) -> dict[str, float]:
+        from vtrack_gym.vehicle.steady_state import grip_limit
+
+        vehicle = state.vehicle
+        return {"max_steady_a_y_mps2": float(state.steady_a_y[i]), "max_steady_v_mps": float(state.steady_v[i]),
+                "grip_limit_a_y_mps2": grip_limit(vehicle, state.radius_m).a_y_mps2,
+                "mu_g_mps2": float(vehicle.tyres.friction_mu * GRAVITY_MPS2)}
+
+
+@dataclass(frozen=True)
+class Auto(SuccessCriterion):
+    """``ConeGates`` when any path has gates, else ``Lap`` (closed paths), ``EndReached`` (open ones) or
+    ``Completed`` (a bank of both)."""
+
+    name: ClassVar[str] = "auto"
+
+    def resolve(self, paths: tuple) -> SuccessCriterion:
+        if any(p.gates for p in paths):
+            return ConeGates()
+        closed = {bool(p.closed) for p in paths}
+        if closed == {True}:
+            return Lap()
+        return EndReached() if closed == {False} else Completed()
+
+
+CRITERIA: dict[str, type[SuccessCriterion]] = {c.name: c for c in (Auto, Lap, EndReached, ConeGates, CircleAtLimit)}
+"""Criterion name -> class (the names ``info`` docs and the CLI use)."""

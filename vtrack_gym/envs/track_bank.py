@@ -1,0 +1,78 @@
+"""``TrackBank``: the paths of a batch and their packed tables for the compiled step (the owner of their columns).
+
+All paths in use are concatenated into ``tables`` (M, ``N_ENV_COLS``): the path's own columns
+(``tracks.table``), then the squared reference speed and the half widths left / right (``kernels.C_V2``,
+``C_WL``, ``C_WR``); ``meta`` (K, ``N_TM``) holds per path its first row, row count, spacing, length, closed flag,
+half width and whether the speed protocol follows a profile (``kernels.TM_*``). Code outside this class reads the
+bank through its named accessors, never by column number.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from vtrack_gym.envs.scenarios import MAX_EPISODE_S
+from vtrack_gym.envs.speed import is_profile, speed_tables
+from vtrack_gym.tracks.table import COL_KAPPA, COL_PSI, COL_X, COL_Y
+
+TIME_LIMIT_FACTOR = 1.5
+TIME_LIMIT_MARGIN_S = 30.0
+
+
+class TrackBank:
+    """The paths a scenario's cars drive on, their speed tables and the packed arrays the kernel reads."""
+
+    def __init__(self, paths: tuple, speed: Any) -> None:
+        from vtrack_gym.envs import kernels as k
+
+        self.paths = paths
+        self.speed_tables = speed_tables(paths, speed)
+        self.tables = np.ascontiguousarray(np.concatenate([
+            np.column_stack([p.table, t.v_mps ** 2, p.half_widths_rows()]) for p, t in zip(
+                paths, self.speed_tables, strict=True)]))
+        counts = np.array([p.table.shape[0] for p in paths], dtype=np.int64)
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        meta = np.zeros((len(paths), k.N_TM))
+        meta[:, k.TM_START] = starts
+        meta[:, k.TM_N] = counts
+        meta[:, k.TM_DS] = [p.ds_m for p in paths]
+        meta[:, k.TM_LEN] = [p.length_m for p in paths]
+        meta[:, k.TM_CLOSED] = [1.0 if p.closed else 0.0 for p in paths]
+        meta[:, k.TM_HALF_WIDTH] = [p.half_width_m for p in paths]
+        meta[:, k.TM_PROFILE] = 1.0 if is_profile(speed) else 0.0
+        self.meta = meta
+        self.length_m = meta[:, k.TM_LEN].copy()
+        """Length of each path [m] (K,)."""
+        self.closed = meta[:, k.TM_CLOSED] != 0.0
+        """Whether each path is a closed loop (K,)."""
+        self._peak_kappa = np.array([float(np.max(np.abs(p.table[:, COL_KAPPA]))) for p in paths])
+
+    def __len__(self) -> int:
+        return len(self.paths)
+
+    def start_pose(self, track: int) -> tuple[float, float, float]:
+        """The first row's x, y [m] and heading [rad] of path ``track``."""
+        row = self.paths[track].table[0]
+        return float(row[COL_X]), float(row[COL_Y]), float(row[COL_PSI])
+
+    def peak_curvature(self, track: int) -> float:
+        """The largest |curvature| of path ``track`` [1/m]."""
+        return float(self._peak_kappa[track])
+
+    def time_limit_s(self) -> float:
+        """The derived time limit [s]: ``TIME_LIMIT_FACTOR`` x the longest profile lap time (v linear between rows)
+        + ``TIME_LIMIT_MARGIN_S`` (the standstill start and the PD-FLC lag). ValueError naming the lap time and
+        the fix if it exceeds ``MAX_EPISODE_S``."""
+        laps = [float(np.sum(2.0 * t.ds_m / (t.v_mps[1:] + t.v_mps[:-1]))) for t in self.speed_tables]
+        worst = int(np.argmax(laps))
+        limit = TIME_LIMIT_FACTOR * laps[worst] + TIME_LIMIT_MARGIN_S
+        if limit > MAX_EPISODE_S:
+            length = float(self.speed_tables[worst].length_m)
+            raise ValueError(f"track {self.paths[worst].name!r}: the speed profile takes {laps[worst]:.4g} s for its "
+                             f"{length:.4g} m (mean {length / laps[worst]:.3g} m/s), so the derived time limit "
+                             f"{TIME_LIMIT_FACTOR} x lap + {TIME_LIMIT_MARGIN_S:.0f} s = {limit:.4g} s exceeds the "
+                             f"maximum {MAX_EPISODE_S:.0f} s of simulated time; fix: raise the profile's speeds "
+                             "(--max-speed-kmh, the file's speed column) or drive a shorter track")
+        return limit

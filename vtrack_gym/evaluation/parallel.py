@@ -1,0 +1,185 @@
+"""Where benchmark episodes run: in this process, in N local processes, or on a Ray cluster.
+
+Every episode is one ``EpisodeTask`` (a policy factory, an ``Episode`` and the suite label); ``run_tasks`` returns
+the rows (and the traces asked for) in task order whatever the backend, and each task builds its own env and
+policy exactly as the serial loop does, so the rows of ``workers=N`` equal those of ``workers=1`` (apart from the
+measured wall time per step and the creation time).
+
+``local`` with ``workers > 1`` forks worker processes (the tasks, factories included, are inherited, not pickled:
+any callable works). ``ray`` sends each task to a Ray worker with cloudpickle (factories must be picklable; a
+track id registered in this process is registered again in the worker by the task's ``setup``); it connects to
+``address`` or ``RAY_ADDRESS`` when given, else starts a local Ray instance. Ray is an optional dependency
+(``pip install "vtrack_gym[ray]"``), imported only by the ``ray`` backend.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from vtrack_gym.evaluation.suites import Episode
+
+log = logging.getLogger(__name__)
+
+BACKENDS = ("local", "ray")
+"""Where ``run_tasks`` runs the episodes."""
+RAY_INSTALL_HINT = 'pip install "vtrack_gym[ray]"'
+
+
+@dataclass(frozen=True)
+class EpisodeTask:
+    """One episode to score: ``make(env) -> policy`` on ``episode``, stored under ``suite`` as ``policy_id``, by
+    ``score(policy_id, policy, env, episode, suite) -> (row, trace)`` (``benchmark.score_episode``).
+
+    ``keep_trace``: return the trace too (for figures). ``setup``: called with no argument in the worker before
+    the env is made (e.g. registering a track id there); None for nothing.
+    """
+
+    policy_id: str
+    make: Callable[[Any], Any]
+    episode: Episode
+    suite: str
+    score: Callable[..., tuple[Any, Any]]
+    keep_trace: bool = False
+    setup: Callable[[], Any] | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("make", "score"):
+            if not callable(getattr(self, name)):
+                raise ValueError(f"{name} must be callable (got {type(getattr(self, name)).__name__})")
+
+
+def default_workers() -> int:
+    """The cores this process may run on (at least 1)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def check_workers(workers: Any, backend: str) -> int | None:
+    """``workers`` validated: an int >= 1, or None (local: the cores; ray: one task per cluster CPU)."""
+    if backend not in BACKENDS:
+        raise ValueError(f"backend must be one of {', '.join(BACKENDS)} (got {backend!r})")
+    if workers is None:
+        return None
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise ValueError(f"workers must be an integer >= 1 (got {workers!r})")
+    return workers
+
+
+def run_task(task: EpisodeTask) -> tuple[Any, Any]:
+    """Score one task in this process: (row, trace or None)."""
+    import gymnasium as gym
+
+    if task.setup is not None:
+        task.setup()
+    ep = task.episode
+    env = gym.make(ep.env_id, **ep.make_kwargs)
+    try:
+        row, trace = task.score(task.policy_id, task.make(env), env, ep, task.suite)
+    finally:
+        env.close()
+    log.debug("%s on %s seed %s: %s", task.policy_id, ep.env_id, ep.seed, row.termination)
+    return row, (trace if task.keep_trace else None)
+
+
+def run_tasks(tasks: Sequence[EpisodeTask], workers: int | None = 1, backend: str = "local",
+              progress: Any = None, address: str | None = None) -> list[tuple[Any, Any]]:
+    """Every task's (row, trace or None), in task order; ``progress`` (a tqdm bar) advances once per episode.
+
+    ``workers``: local processes (default: the cores; 1 runs in this process) or, with ``backend="ray"``, the most
+    tasks in flight at once (default: one per cluster CPU). ``address``: the Ray cluster to join.
+    """
+    workers = check_workers(workers, backend)
+    tasks = list(tasks)
+    if backend == "ray":
+        return _run_ray(tasks, workers, progress, address)
+    n = min(workers or default_workers(), max(1, len(tasks)))
+    if n <= 1:
+        return [_advance(run_task(t), progress) for t in tasks]
+    return _run_forked(tasks, n, progress)
+
+
+def _advance(result: tuple[Any, Any], progress: Any) -> tuple[Any, Any]:
+    if progress is not None:
+        progress.update(1)
+    return result
+
+
+class _Inherited:
+    """The task list of a forked worker, handed over by the fork itself (never pickled)."""
+
+    tasks: Sequence[EpisodeTask] = ()
+
+
+def _keep_tasks(tasks: Sequence[EpisodeTask]) -> None:
+    _Inherited.tasks = tasks
+
+
+def _run_index(i: int) -> tuple[Any, Any]:
+    return run_task(_Inherited.tasks[i])
+
+
+def _load_kernels(task: EpisodeTask) -> None:
+    """Drive one step of the first task's env here, so that the compiled kernels are loaded once, before the fork,
+    instead of once per worker (the env is a fresh one: no task's episode is touched)."""
+    import gymnasium as gym
+
+    if task.setup is not None:
+        task.setup()
+    env = gym.make(task.episode.env_id, **task.episode.make_kwargs)
+    try:
+        env.reset(seed=0)
+        env.step(env.action_space.sample())
+    finally:
+        env.close()
+
+
+def _run_forked(tasks: list[EpisodeTask], n: int, progress: Any) -> list[tuple[Any, Any]]:
+    """``tasks`` on ``n`` forked processes; results placed by index."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    _load_kernels(tasks[0])
+    context = multiprocessing.get_context("fork")
+    results: list[Any] = [None] * len(tasks)
+    with ProcessPoolExecutor(max_workers=n, mp_context=context, initializer=_keep_tasks,
+                             initargs=(tasks,)) as pool:
+        futures = {pool.submit(_run_index, i): i for i in range(len(tasks))}
+        for done in as_completed(futures):
+            results[futures[done]] = _advance(done.result(), progress)
+    return results
+
+
+def _import_ray() -> Any:
+    try:
+        import ray
+    except ImportError as exc:
+        raise ImportError(f"the ray backend needs Ray, which is not installed: {RAY_INSTALL_HINT}") from exc
+    return ray
+
+
+def _run_ray(tasks: list[EpisodeTask], workers: int | None, progress: Any,
+             address: str | None) -> list[tuple[Any, Any]]:
+    """``tasks`` as Ray tasks (at most ``workers`` in flight); results placed by index."""
+    ray = _import_ray()
+    if not ray.is_initialized():
+        target = address or os.environ.get("RAY_ADDRESS") or None
+        ray.init(address=target) if target else ray.init(include_dashboard=False)
+    remote = ray.remote(num_cpus=1)(run_task)
+    limit = workers or max(1, int(ray.cluster_resources().get("CPU", 1)))
+    results: list[Any] = [None] * len(tasks)
+    pending: dict[Any, int] = {}
+    next_task = 0
+    while next_task < len(tasks) or pending:
+        while next_task < len(tasks) and len(pending) < limit:
+            pending[remote.remote(tasks[next_task])] = next_task
+            next_task += 1
+        done, _ = ray.wait(list(pending), num_returns=1)
+        for ref in done:
+            results[pending.pop(ref)] = _advance(ray.get(ref), progress)
+    return results

@@ -1,0 +1,147 @@
+"""Manoeuvres for a given car: its planned reference lines, speed profiles inside its own grip, its physical bounds.
+
+Everything here judges feasibility with the car's own steady-state lateral limit (``vehicle.steady_state``: the
+highest cornering equilibrium of the plant, which lies below mu g because of the Pacejka peak factors D < 1, the
+tyres' load sensitivity under load transfer and the drive force), never with mu g.
+
+- :func:`planned_maneuver`: a cone-lined manoeuvre (``GATED_MANEUVERS``) with the planned line for the car's body
+  (``tracks.planned_line``; curvature rate bounded by the car's steering rate at the manoeuvre's speed), cached
+  per car.
+- :func:`envelope_profile`: an ``EnvelopeLimited`` speed profile checked against the car's lateral limit.
+- :func:`entry_speed_bound_kmh`: the highest entry speed at which the car, coasting from the entry gate (throttle
+  released, the standard's ISO 3888-2 protocol), can follow the planned line within its lateral limit.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from vtrack_gym.tracks.maneuvers import KMH_TO_MPS, MAX_ENTRY_SPEED_KMH, Maneuver, build_maneuver
+from vtrack_gym.tracks.path import Path
+from vtrack_gym.tracks.planned_line import BodyRectangle, curvature_rate_limit_per_m2
+from vtrack_gym.tracks.speed_profiles import EnvelopeLimited
+from vtrack_gym.vehicle.params import GRAVITY_MPS2, VehicleParams
+
+GATED_MANEUVERS: tuple[str, ...] = ("iso3888_1", "iso3888_2", "slalom")
+"""The manoeuvres with cone gates, which a planned line can be built for."""
+BOUND_TOL_KMH = 0.01          # bisection tolerance of the entry-speed bound [km/h]
+COAST_STEP_M = 0.05           # arc-length step of the coasting check [m]
+
+
+def body_of(vehicle: VehicleParams) -> BodyRectangle:
+    """The body rectangle of ``vehicle`` (length, width, CG to front end, its name)."""
+    c = vehicle.chassis
+    return BodyRectangle(c.body_length_m, c.body_width_m, c.cg_to_front_end_m, vehicle.name)
+
+
+def check_body_fits(path: Path, vehicle: VehicleParams) -> None:
+    """ValueError naming the car, its width and the gate's limit if the body of ``vehicle`` is not narrower than
+    every gate of ``path``."""
+    width = vehicle.chassis.body_width_m
+    for gate in path.gates:
+        if width >= gate.width_m:
+            raise ValueError(f"ChassisParams.body_width_m = {width} m of {vehicle.name!r} does not fit gate "
+                             f"{gate.name or '?'!r} of {path.name!r}: the car must be narrower than the gate's "
+                             f"{gate.width_m:.3f} m")
+
+
+@lru_cache(maxsize=64)
+def planned_maneuver(name: str, vehicle: VehicleParams) -> Maneuver:
+    """Manoeuvre ``name`` (one of ``GATED_MANEUVERS``) sized for ``vehicle``'s width, with the planned line for its
+    body; |dkappa/ds| is bounded by what its steering actuator follows at the manoeuvre's nominal speed
+    (``planned_line.curvature_rate_limit_per_m2``). Cached per (name, car)."""
+    if name not in GATED_MANEUVERS:
+        raise ValueError(f"no planned line for {name!r}: it has no cone gates (gated: {', '.join(GATED_MANEUVERS)})")
+    nominal = build_maneuver(name, vehicle_width_m=vehicle.chassis.body_width_m).spec.nominal_speed_mps
+    rate = curvature_rate_limit_per_m2(vehicle.steering.max_road_wheel_rate_radps, vehicle.chassis.wheelbase_m,
+                                       nominal)
+    return build_maneuver(name, vehicle_width_m=vehicle.chassis.body_width_m, reference="planned",
+                          body=body_of(vehicle), max_curvature_rate_per_m2=rate)
+
+
+def envelope_profile(vehicle: VehicleParams, max_speed_mps: float, max_lateral_accel_mps2: float,
+                     max_accel_mps2: float = 2.0, max_decel_mps2: float = 3.0) -> EnvelopeLimited:
+    """An ``EnvelopeLimited`` profile for ``vehicle``: refused (ValueError) if ``max_lateral_accel_mps2`` exceeds the
+    car's least steady-state lateral limit up to ``max_speed_mps``, a warning above 90 % of it."""
+    from vtrack_gym.vehicle.steady_state import lowest_lateral_limit_mps2
+
+    return EnvelopeLimited(max_speed_mps, max_lateral_accel_mps2, max_accel_mps2, max_decel_mps2,
+                           vehicle_limit_mps2=lowest_lateral_limit_mps2(vehicle, max_speed_mps),
+                           vehicle_name=vehicle.name)
+
+
+@dataclass(frozen=True)
+class CoastCheck:
+    """A coasting run along a line: ``entry_speed_mps`` [m/s] at the entry gate, the worst ``usage`` [-] (v^2 |kappa|
+    over the car's lateral limit at v; <= 1 is feasible) at ``worst_s_m`` [m], where the speed is
+    ``worst_speed_mps`` [m/s]."""
+
+    entry_speed_mps: float
+    usage: float
+    worst_s_m: float
+    worst_speed_mps: float
+
+
+def coast_speed_mps(vehicle: VehicleParams, entry_speed_mps: float, distance_m: np.ndarray) -> np.ndarray:
+    """Speed [m/s] after coasting ``distance_m`` [m] on a level road from ``entry_speed_mps`` [m/s]: drag and rolling
+    resistance only, d(v^2)/ds = -(rho C_d A / m) v^2 - 2 C_rr g (exact solution; CHOICE: the tyres' cornering drag
+    is left out, so the car keeps more speed than it would, and the bound is a little conservative)."""
+    m = vehicle.chassis.mass_kg
+    a = vehicle.powertrain.air_density_kgpm3 * vehicle.powertrain.drag_area_m2 / m
+    b = 2.0 * vehicle.tyres.rolling_resistance_coeff * GRAVITY_MPS2
+    d = np.asarray(distance_m, dtype=float)
+    if a == 0.0:
+        u = entry_speed_mps ** 2 - b * d
+    else:
+        u = (entry_speed_mps ** 2 + b / a) * np.exp(-a * d) - b / a
+    return np.sqrt(np.maximum(u, 0.0))
+
+
+def coast_check(path: Path, vehicle: VehicleParams, entry_speed_mps: float) -> CoastCheck:
+    """Coast along ``path`` from its first gate's start to its last gate's end at ``entry_speed_mps`` [m/s] and
+    compare v^2 |kappa| with the car's lateral limit at v (``steady_state.lateral_limit_mps2``)."""
+    from vtrack_gym.vehicle.steady_state import lateral_limit_mps2
+
+    if not path.gates:
+        raise ValueError(f"path {path.name!r} has no gates: no entry gate to coast from")
+    s0, s1 = path.gates[0].s_start_m, max(g.s_end_m for g in path.gates)
+    s = np.linspace(s0, s1, max(2, math.ceil((s1 - s0) / COAST_STEP_M) + 1))
+    v = coast_speed_mps(vehicle, entry_speed_mps, s - s0)
+    usage = v * v * np.abs(path.sample(s).kappa) / np.asarray(lateral_limit_mps2(vehicle, v))
+    k = int(np.argmax(usage))
+    return CoastCheck(float(entry_speed_mps), float(usage[k]), float(s[k]), float(v[k]))
+
+
+def check_entry_speed(entry_speed_kmh: float, vehicle: VehicleParams) -> None:
+    """ValueError naming the field, the limit and the car when ``entry_speed_kmh`` is not in (0, 200] km/h."""
+    if not (math.isfinite(entry_speed_kmh) and 0.0 < entry_speed_kmh <= MAX_ENTRY_SPEED_KMH):
+        raise ValueError(f"entry_speed_kmh must be in (0, {MAX_ENTRY_SPEED_KMH:g}] km/h (got {entry_speed_kmh} "
+                         f"for {vehicle.name!r})")
+
+
+def entry_speed_bound_kmh(vehicle: VehicleParams, maneuver: str = "iso3888_2") -> float:
+    """The car's physical entry-speed bound [km/h] on a cone-lined manoeuvre: the highest entry speed at which,
+    coasting from the entry gate along the planned line for its body (:func:`planned_maneuver`), it never needs
+    more than its own steady-state lateral limit (bisection to ``BOUND_TOL_KMH``, within (0, 200] km/h). A
+    policy passing above it has cut through the physics, not driven better."""
+    path = planned_maneuver(maneuver, vehicle).path
+    lo, hi = 1.0, MAX_ENTRY_SPEED_KMH
+    if coast_check(path, vehicle, lo * KMH_TO_MPS).usage > 1.0:
+        raise ValueError(f"{vehicle.name!r} cannot follow the planned {maneuver} line even at {lo:g} km/h")
+    if coast_check(path, vehicle, hi * KMH_TO_MPS).usage <= 1.0:
+        return hi
+    while hi - lo > BOUND_TOL_KMH:
+        mid = 0.5 * (lo + hi)
+        if coast_check(path, vehicle, mid * KMH_TO_MPS).usage <= 1.0:
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+__all__ = ["GATED_MANEUVERS", "CoastCheck", "body_of", "check_body_fits", "check_entry_speed", "coast_check",
+           "coast_speed_mps", "entry_speed_bound_kmh", "envelope_profile", "planned_maneuver"]

@@ -49,7 +49,7 @@ def register_envs() -> None:
         )
     for env_id, (name, settings) in RECIPE_IDS.items():
         if env_id not in registry:
-            limit_s = SCENARIOS[name].max_episode_s
+            limit_s = SCENARIOS[name].time_limit_s
             register(id=env_id, entry_point="vtrack_gym.envs.tracking_env:TrackingEnv",
                      vector_entry_point="vtrack_gym.envs.vector_env:TrackingVectorEnv",
                      kwargs={"scenario": name, **settings}, disable_env_checker=False,

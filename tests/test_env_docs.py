@@ -22,7 +22,7 @@ def test_pages_follow_the_template() -> None:
     for heading in ("# vtrack/DLC120-v0", "## Observation space", "## Action and reward",
                     "## Starting state and episode end", "## Arguments", "## Version history"):
         assert heading in page
-    assert "`e_y`" in page and "`ConeGates`" in page and "Also registered as `DLC120-v0`" in page
+    assert "`e_y`" in page and "`Auto` success criterion" in page and "Also registered as `DLC120-v0`" in page
 
 
 def test_recipe_page_states_its_control_period() -> None:

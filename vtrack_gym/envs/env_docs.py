@@ -111,7 +111,8 @@ def _spaces(env: Any) -> str:
     spec = env.spec
     steps = spec.max_episode_steps if spec is not None else None
     return ("| | |\n|---|---|\n"
-            f"| Action space | `{env.action_space}` |\n| Observation space | `Box(float32, {env.observation_space.shape})` |\n"
+            f"| Action space | `{env.action_space}` |\n"
+            f"| Observation space | `Box(float32, {env.observation_space.shape})` |\n"
             f"| Control period | {env.unwrapped.config.control_period_s * 1000:g} ms |\n"
             f"| Time limit | {'derived from the track' if steps is None else f'{steps} control steps'} |\n"
             f"| Make | `gymnasium.make(\"{spec.id if spec else ''}\")` |")

@@ -37,7 +37,7 @@ def test_block_finder_sees_skips():
 
 
 def test_readme_has_python_blocks():
-    assert len(BLOCKS) >= 2
+    assert len(BLOCKS) >= 1  # the example; the tutorials' blocks run in tests/test_docs.py
 
 
 def test_readme_skips_have_reasons():

@@ -103,16 +103,16 @@ def test_learning_rate_schedules() -> None:
 
 def test_readme_plain_sb3_recipe_runs_at_smoke_size(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
                                                    capsys: pytest.CaptureFixture[str]) -> None:
-    """The README's plain-SB3 block, as typed, with its STEPS line cut to a smoke run (the full run is
+    """The RL tutorial's plain-SB3 block, as typed, with its STEPS line cut to a smoke run (the full run is
     ``benchmarks/rl_recipes.py``'s `plain` ablation)."""
     import re
 
-    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    readme = (Path(__file__).resolve().parents[1] / "docs" / "tutorials" / "rl-training.md").read_text(encoding="utf-8")
     blocks = [b for b in re.findall(r"```python\n(.*?)```", readme, re.DOTALL) if "TrackingSB3VecEnv(" in b]
     assert len(blocks) == 1
     code, n = re.subn(r"^STEPS = .*$", "STEPS = 1024", blocks[0], flags=re.MULTILINE)
     assert n == 1
     code = code.replace('"paper"', '"DLC120-v0"')  # one short episode instead of the 215 s Case-1 lap
     monkeypatch.chdir(tmp_path)
-    exec(compile(code, "README.md (plain SB3 recipe)", "exec"), {"__name__": "__readme__"})
+    exec(compile(code, "docs/tutorials/rl-training.md (plain SB3 recipe)", "exec"), {"__name__": "__readme__"})
     assert "DLC120-v0" in capsys.readouterr().out

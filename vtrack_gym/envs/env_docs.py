@@ -1,0 +1,157 @@
+"""The documentation page of every registered env id, generated from the scenario registry (Gymnasium's env
+page template: description, action space, observation space, rewards, starting state, episode end, arguments,
+version history).
+
+``env_pages()`` returns one Markdown page per scenario (``docs/gen_env_pages.py`` writes them when the docs site is
+built); ``tests/test_env_docs.py`` checks that every registered id has a description and a version history here,
+so adding a scenario without documenting it fails the tests.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+DESCRIPTIONS: dict[str, str] = {
+    "LateralTracking-v0": "Case 1 of the paper: one lap of the closed 2.33 km handling course (elevation -2.5 to "
+                          "+5.2 m, radii down to 20 m) from standstill, the PD-FLC holding 40 km/h.",
+    "DLC120-v0": "Case 2 of the paper: the ISO 3888-1 double lane change at 120 km/h, from the start of the "
+                 "approach at speed. The ISO gate widths are kept and the section lengths doubled (the native "
+                 "lengths need about 3.2 g at 120 km/h; doubled, the centre line needs the paper's ~0.8 g).",
+    "LateralTrackingRandom-v0": "A training variant: a bank of 32 procedural tracks (half twisty, radii down to "
+                                "18 m; half highway-like, down to 120 m), the set speed drawn per episode in "
+                                "6-35 m/s but capped so the tightest curve needs at most 0.85 g; 20 % of the "
+                                "episodes start at rest. The imitation recipes' training env.",
+    "TrainingMix-v0": "The RL training distribution: 60 roads (half cone-lined lane-change courses at 15-37 m/s, a "
+                      "sixth each twisty, highway and hairpin roads), each with its own speed profile; friction, "
+                      "mass, sensor noise, actuator delay, steering rate limit and the start's offset and heading "
+                      "error drawn per episode; 20 % standstill starts; 60 s episodes.",
+    "TrainingMix20Hz-v0": "The training mix (`vtrack/TrainingMix-v0`) with the policy deciding every 50 ms "
+                         "(`control_period_s=0.05`): the setup the shipped `ppo` and `sac` agents were trained on, "
+                         "the default of `vtrack train` and the id of the rl_zoo3 hyperparameter files.",
+    "Track-v0": "Any track: `track=` a CSV file (x, y and optional elevation, speed and per-station widths), a "
+                "`tracks.Path` or a built-in name, with `speed_profile=` (default curvature-limited at 40 km/h "
+                "and 0.7 g). From standstill; the time limit is derived from the track and the profile.",
+    "ISO3888-1-v0": "ISO 3888-1 double lane change (severe lane change) with cone gates sized for the car's width, "
+                    "driven at a constant speed; success: every gate passed with the body inside it.",
+    "ISO3888-2-v0": "ISO 3888-2 obstacle avoidance with cone gates sized for the car's width, driven at a "
+                    "constant speed; success: every gate passed with the body inside it.",
+    "ISO4138-Circle-v0": "ISO 4138 steady-state circular driving: a slow speed ramp on a constant-radius circle; "
+                         "success: the lateral error held within the band until the car's own grip limit.",
+    "Slalom-v0": "A slalom between evenly spaced cones at constant speed; success: the end of the course reached "
+                 "within the road.",
+    "StepCurvature-v0": "A straight followed by a step into a constant-radius curve (the step-steer response of "
+                        "path tracking); success: the end of the course reached within the road.",
+}
+"""Scenario name -> what the scenario is, for its page."""
+
+VERSION_HISTORY: dict[str, tuple[str, ...]] = {
+    name: ("v0: the behaviour pinned by `tests/test_env_versions.py` from release 0.2.0 on (a fixed action "
+           "sequence and a fixed follower from fixed seeds: observations, rewards, flags). Before 0.2.0 the id "
+           "changed under the same version while the package was in development (the reward, the observation "
+           "length 33 -> 43, the spin-out rule); results obtained with a 0.1 release are not comparable.",)
+    for name in DESCRIPTIONS
+}
+"""Scenario name -> its versions, oldest first (a behaviour change is a new version: ``-v1``)."""
+
+
+def env_pages() -> dict[str, str]:
+    """File name (``<scenario>.md``) -> Markdown page, for every scenario of the registry, plus ``index.md``."""
+    pages = {f"{_name(env_id)}.md": env_page(env_id) for env_id in documented_ids()}
+    pages["index.md"] = _index()
+    return pages
+
+
+def documented_ids() -> tuple[str, ...]:
+    """Every namespaced id the package registers (one per scenario, plus the training recipes' ids)."""
+    from vtrack_gym.envs.registration import NAMESPACED_IDS, RECIPE_IDS
+
+    return (*NAMESPACED_IDS, *RECIPE_IDS)
+
+
+def _name(env_id: str) -> str:
+    return env_id.split("/", 1)[1]
+
+
+def _index() -> str:
+    rows = "\n".join(f"| [`{env_id}`]({_name(env_id)}.md) | {_summary(_name(env_id))} |" for env_id in documented_ids())
+    return ("# Environments\n\nEvery id is `gymnasium.make`-able after `import vtrack_gym`; the paper-era ids "
+            "`LateralTracking-v0`, `DLC120-v0` and `LateralTrackingRandom-v0` are also registered without the "
+            f"`vtrack/` namespace.\n\n| id | scenario |\n|---|---|\n{rows}\n")
+
+
+def _summary(name: str) -> str:
+    """The first sentence of a scenario's description."""
+    text = DESCRIPTIONS[name]
+    return text[: text.index(". ") + 1] if ". " in text else text
+
+
+def env_page(env_id: str) -> str:
+    """The Markdown page of one registered id (``vtrack/<name>``), from the env it makes."""
+    import gymnasium as gym
+
+    import vtrack_gym  # noqa: F401  (registers the ids)
+
+    name = _name(env_id)
+    env = gym.make(env_id)
+    try:
+        sections = [f"# {env_id}", _aliases(name), DESCRIPTIONS[name], _spaces(env), _observation(env),
+                    _reward(), _start_and_end(env), _arguments(), _history(name)]
+    finally:
+        env.close()
+    return "\n\n".join(s for s in sections if s) + "\n"
+
+
+def _aliases(name: str) -> str:
+    from vtrack_gym.envs.registration import ENV_IDS
+
+    return f"Also registered as `{name}` (the paper-era id, identical episodes)." if name in ENV_IDS else ""
+
+
+def _spaces(env: Any) -> str:
+    spec = env.spec
+    steps = spec.max_episode_steps if spec is not None else None
+    return ("| | |\n|---|---|\n"
+            f"| Action space | `{env.action_space}` |\n"
+            f"| Observation space | `Box(float32, {env.observation_space.shape})` |\n"
+            f"| Control period | {env.unwrapped.config.control_period_s * 1000:g} ms |\n"
+            f"| Time limit | {'derived from the track' if steps is None else f'{steps} control steps'} |\n"
+            f"| Make | `gymnasium.make(\"{spec.id if spec else ''}\")` |")
+
+
+def _observation(env: Any) -> str:
+    layout = env.unwrapped.observation_layout
+    from vtrack_gym.envs.observation import SCALARS
+
+    rows = "\n".join(f"| {i} | `{f.name}` | {f.unit} | {f.doc} |" for i, f in enumerate(SCALARS))
+    return ("## Observation space\n\nRaw SI units, named by `vtrack_gym.envs.OBS` (never hard-code positions). "
+            f"{layout.size} entries: the scalar fields below, then the curvature preview and the speed preview "
+            "(see `vtrack_gym.envs.observation`).\n\n| index | field | unit | meaning |\n|---|---|---|---|\n" + rows)
+
+
+def _reward() -> str:
+    return ("## Action and reward\n\nThe action is the steering command as a fraction of the road-wheel limit "
+            "(out-of-range values are clipped; NaN or inf raise `ValueError`). The reward per control step is "
+            "`1 - 0.5 |e_y|/(|e_y| + 0.1 m) - 0.2 |e_phi|/(|e_phi| + 0.05 rad) - 0.05 a^2 - 0.1 min((da/0.1)^2, 1)`, "
+            "-10 once on a failure termination; every term is in `info[\"reward_*\"]` (weights: "
+            "`vtrack_gym.envs.config.RewardConfig`).")
+
+
+def _start_and_end(env: Any) -> str:
+    scenario = env.unwrapped.scenario
+    crit = type(scenario.success).__name__
+    return ("## Starting state and episode end\n\n"
+            f"Start: `{scenario.start}`; randomisation: `{scenario.randomisation}`; speed: `{scenario.speed}`.\n\n"
+            f"`terminated` on `completed`, `off_road`, `spin_out` or `wheel_lift` (in `info[\"termination\"]`); "
+            f"`truncated` only at the time limit. `info[\"success\"]` is the verdict of the `{crit}` success "
+            "criterion (`vtrack_gym.envs.criteria`).")
+
+
+def _arguments() -> str:
+    return ("## Arguments\n\n`gymnasium.make(id, vehicle=\"suv\")` drives another car (a name of "
+            "`vtrack_gym.vehicle.list_vehicles()` or a vehicle file); `control_period_s=` sets the decision period "
+            "[s]; `vtrack/Track-v0` also takes `track=`, `speed_profile=`, `half_width_m=`, `closed=` and "
+            "`smoothing_m=`. Reset options: see [Getting started](../getting-started.md).")
+
+
+def _history(name: str) -> str:
+    return "## Version history\n\n" + "\n".join(f"- {line}" for line in VERSION_HISTORY[name])

@@ -89,8 +89,9 @@ def env_page(env_id: str) -> str:
     """The Markdown page of one registered id (``vtrack/<name>``), from the env it makes."""
     import gymnasium as gym
 
-    import vtrack_gym  # noqa: F401  (registers the ids)
+    from vtrack_gym.envs.registration import register_envs
 
+    register_envs()
     name = _name(env_id)
     env = gym.make(env_id)
     try:

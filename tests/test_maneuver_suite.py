@@ -68,7 +68,7 @@ def test_maneuver_env_drives_its_spec_path_and_speed() -> None:
 def test_compiled_gate_check_matches_gate_violations(name: str) -> None:
     """The env's per-step check (compiled, anchored gates and the body outline) gives the same verdict per pose as
     ``tracks.gate_violations`` on random poses around the gates."""
-    from vtrack_gym.envs import gates as k
+    from vtrack_gym.tracks import kernels as k
     from vtrack_gym.tracks.dlc import car_outline
     from vtrack_gym.tracks.table import N_COLS
 

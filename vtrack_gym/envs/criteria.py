@@ -120,8 +120,8 @@ class ConeGates(SuccessCriterion):
     per_step: ClassVar[bool] = True
 
     def start(self, paths: tuple, vehicle: Any, n: int) -> GateState:
-        from vtrack_gym.envs.gates import gate_rows
         from vtrack_gym.tracks.dlc import car_outline
+        from vtrack_gym.tracks.kernels import gate_rows
         from vtrack_gym.tracks.table import N_COLS
 
         c = vehicle.chassis
@@ -136,7 +136,7 @@ class ConeGates(SuccessCriterion):
         state.hit[i] = False
 
     def observe_step(self, state: GateState, cars: CarsView) -> None:
-        from vtrack_gym.envs.gates import body_outside_gates
+        from vtrack_gym.tracks.kernels import body_outside_gates
 
         s = cars.station_m
         for track, (path, gates, lo, hi) in state.gated.items():

@@ -174,5 +174,5 @@ def gate_violations(path: Path, x: np.ndarray, y: np.ndarray, psi: np.ndarray, v
     station = path.project(x, y).s
     hit = np.zeros((x.size, len(path.gates)), dtype=np.bool_)
     kernels.body_outside_gates(path.table, path.ds_m, path.length_m, path.closed, kernels.gate_rows(path.gates), x,
-                               y, psi, station, lon.ravel(), lat.ravel(), hit, np.zeros(kernels.N_COLS))
+                               y, psi, station, lon.ravel(), lat.ravel(), math.inf, hit, np.zeros(kernels.N_COLS))
     return int(np.count_nonzero(hit.any(axis=0)))

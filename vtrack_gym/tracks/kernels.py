@@ -253,17 +253,26 @@ def _outside_anchored_gate(gate: np.ndarray, cx: float, cy: float) -> bool:
 @kernel
 def body_outside_gates(table: np.ndarray, ds: float, length: float, closed: bool, gates: np.ndarray, x: np.ndarray,
                        y: np.ndarray, psi: np.ndarray, s_guess: np.ndarray, lon: np.ndarray, lat: np.ndarray,
-                       out: np.ndarray, row: np.ndarray) -> None:
+                       reach: float, out: np.ndarray, row: np.ndarray) -> None:
     """``out[i, g] = True`` where a body-outline point of car i (CG x, y [m], heading psi [rad]; point offsets
     ``lon``, ``lat`` (P,) [m] in the body frame) lies in gate g's lane section outside its lane. ``gates``
     (G, GATE_COLS): a gate without an anchor is checked in the path's Frenet frame (s range, e_y bounds; the
     projection starts near ``s_guess`` [m], the car's station), an anchored gate against its fixed rectangle.
-    ``row`` is an 8-float scratch row. ``out`` (N, G) is only ever set to True."""
-    frenet = False
-    for g in range(gates.shape[0]):
-        if gates[g, 4] < 0.5:
-            frenet = True
+    A gate already marked in ``out`` is not checked again, nor a Frenet gate whose station range is more than
+    ``reach`` [m] (the body length; ``inf`` checks every gate) from the car's station. ``row`` is an 8-float
+    scratch row. ``out`` (N, G) is only ever set to True."""
     for i in range(x.shape[0]):
+        frenet = False
+        anchored = False
+        for g in range(gates.shape[0]):
+            if out[i, g]:
+                continue
+            if gates[g, 4] > 0.5:
+                anchored = True
+            elif gates[g, 0] - reach <= s_guess[i] <= gates[g, 1] + reach:
+                frenet = True
+        if not (frenet or anchored):
+            continue
         c = math.cos(psi[i])
         sn = math.sin(psi[i])
         for j in range(lon.shape[0]):
@@ -276,10 +285,12 @@ def body_outside_gates(table: np.ndarray, ds: float, length: float, closed: bool
                 interp_row(table, ds, length, closed, s, row)
                 e_y = lateral_offset(cx, cy, row[C_X], row[C_Y], row[C_PSI])
             for g in range(gates.shape[0]):
+                if out[i, g]:
+                    continue
                 if gates[g, 4] > 0.5:
                     if _outside_anchored_gate(gates[g], cx, cy):
                         out[i, g] = True
-                elif gates[g, 0] <= s <= gates[g, 1] and (e_y > gates[g, 2] or e_y < gates[g, 3]):
+                elif frenet and gates[g, 0] <= s <= gates[g, 1] and (e_y > gates[g, 2] or e_y < gates[g, 3]):
                     out[i, g] = True
 
 

@@ -12,8 +12,8 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from numba import njit
 
+from vtrack_gym._jit import kernel
 from vtrack_gym.baselines.laws import MPC_STATE_SIZE, MPCLaw, mpc_row
 from vtrack_gym.baselines.mpc import MPC, MPCConfig
 from vtrack_gym.baselines.mpc_gains import population_gain_tables
@@ -36,7 +36,7 @@ MPC_PAPER = SearchSpace(
     "Table 2 of the paper: w1..w12 in [0, 1] (W2 = 100 I from the hand preset)")
 
 
-@njit(cache=True)
+@kernel
 def mpc_population_row(law: MPCLaw, obs: np.ndarray, i: int, memory: np.ndarray) -> float:
     """Road-wheel angle [rad] of individual ``i``; ``memory``: its MPC memory (``MPC_STATE_SIZE``) then the
     law's scratch row."""

@@ -22,8 +22,8 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from numba import njit
 
+from vtrack_gym._jit import kernel
 from vtrack_gym.baselines.laws import SMCLaw, smc_row
 from vtrack_gym.baselines.smc import SMC, SMCConfig
 from vtrack_gym.baselines.tunable import (
@@ -62,7 +62,7 @@ SMC_STEERING = SearchSpace(
     "make_policy(..., preset='tuned') on any env")
 
 
-@njit(cache=True)
+@kernel
 def smc_population_row(law: SMCLaw, obs: np.ndarray, i: int, memory: np.ndarray) -> float:
     """Road-wheel angle [rad] of individual ``i`` (stateless: ``memory`` has no columns)."""
     delta, _, _ = smc_row(law, obs, i)

@@ -61,7 +61,7 @@ def test_leaderboard_into_a_closed_pipe_exits_141_without_traceback(tmp_path: Pa
 
 
 def test_shell_pipe_to_head(tmp_path: Path) -> None:
-    store = _store(tmp_path / "s.sqlite", n=400)
+    store = _store(tmp_path / "s.sqlite", n=3000)  # 287 KB: several times a 64 KiB pipe buffer
     script = (f"{sys.executable} -m vtrack_gym.cli leaderboard --store {store} --format csv 2>{tmp_path / 'err'} "
               "| head -1; echo \"exit ${PIPESTATUS[0]}\"")
     out = subprocess.run(["bash", "-c", script], capture_output=True, text=True, env=_env(), timeout=120).stdout

@@ -176,21 +176,24 @@ NEAR_LIMIT_SHARE = 0.9
 
 
 def check_lateral_limit(requested_mps2: float, vehicle_limit_mps2: float | None, vehicle_name: str,
-                        field_name: str = "max_lateral_accel_mps2") -> None:
+                        field_name: str = "max_lateral_accel_mps2", where: str = "") -> None:
     """ValueError if ``requested_mps2`` [m/s^2] exceeds ``vehicle_limit_mps2`` [m/s^2], the car's own
-    steady-state lateral limit, naming ``field_name``, the limit and ``vehicle_name``; a ``UserWarning`` above
-    ``NEAR_LIMIT_SHARE`` of it. Nothing when the car's limit is None."""
+    steady-state lateral limit, naming ``field_name``, the limit (in m/s^2 and g) and ``vehicle_name`` (``where``,
+    e.g. "at speeds up to 80 km/h", follows the car's name); a ``UserWarning`` above ``NEAR_LIMIT_SHARE`` of it.
+    Nothing when the car's limit is None."""
     if vehicle_limit_mps2 is None:
         return
     g = G_FOR_MESSAGES_MPS2
     text = (f"{field_name} = {requested_mps2:.3f} m/s^2 ({requested_mps2 / g:.3f} g) against the steady-state "
-            f"lateral limit {vehicle_limit_mps2:.3f} m/s^2 ({vehicle_limit_mps2 / g:.3f} g) of {vehicle_name!r}")
+            f"lateral limit {vehicle_limit_mps2:.3f} m/s^2 ({vehicle_limit_mps2 / g:.3f} g) of {vehicle_name!r}"
+            + (f" {where}" if where else ""))
     if requested_mps2 > vehicle_limit_mps2:
         raise ValueError(f"{text}: the car cannot corner that hard; ask for at most its limit (better "
                          f"{NEAR_LIMIT_SHARE:.0%} of it or less)")
     if requested_mps2 > NEAR_LIMIT_SHARE * vehicle_limit_mps2:
-        warnings.warn(f"{text}: above {NEAR_LIMIT_SHARE:.0%} of the limit, so the car has almost no margin left to "
-                      "correct a tracking error", UserWarning, stacklevel=3)
+        warnings.warn(f"{text} ({requested_mps2 / vehicle_limit_mps2:.0%} of it): above {NEAR_LIMIT_SHARE:.0%} of "
+                      "the limit, so the car has almost no margin left to correct a tracking error", UserWarning,
+                      stacklevel=3)
 
 
 def _ellipse_step(u_from: float, kappa: float, reach: float, a_lat: float) -> float:

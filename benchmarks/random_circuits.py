@@ -1,17 +1,23 @@
-"""Every default baseline on seeded random kart-like circuits (hairpins, S-bends, chicanes down to 6 m radius): a
-wider check than the four hand-built loops of ``own_tracks.py``, driven the same way (a CSV file with per-station
-widths, ``vtrack/Track-v0`` with ``curvature_limited(40 km/h, 0.7 g)``).
+"""Every default baseline on seeded random circuits: kart-like ones (hairpins, S-bends, chicanes down to 6 m radius),
+or fast ones that add 15-60 m corners and 60-250 m sweepers after long straights, where 80 km/h matters. A wider
+check than the four hand-built loops of ``own_tracks.py``, driven the same way (a CSV file with per-station widths,
+``vtrack/Track-v0`` with a speed profile of ``tracks.speed_limits.speed_profile_from_limits``).
 
-    PYTHONPATH=. python benchmarks/random_circuits.py [--circuits N] [--seed S] [--spacing M[,M...]]
-                                                      [--policies smc,mpc,...] [--vehicle NAME] [--out DIR]
-                                                      [--max-speed-kmh V] [--max-lateral-g G]
+    PYTHONPATH=. python benchmarks/random_circuits.py [--circuits N] [--seed S] [--layout kart|fast]
+                                                      [--spacing M[,M...]] [--policies smc,mpc,...]
+                                                      [--profile envelope|curvature] [--vehicle NAME] [--out DIR]
+                                                      [--max-speed-kmh V] [--max-lateral-g G | --lateral-share F]
 
 Each circuit is a counter-clockwise loop (``own_tracks.closed_circuit``) whose east and north sides carry 2-3
-random features separated by 15-60 m straights: a chicane (6-20 m, 20-60 deg), an S-bend (arcs of 6-15 m through
-30-90 deg and back) or a hairpin pair (6-9 m, 180 deg each way with a 25-40 m straight between); corners of 6-30 m.
-Loops that do not close, or whose roads cross or touch (``roads_apart``), are drawn again. Prints one line per
-circuit and spacing, then per policy: laps completed within the road, and the median and largest max|e_y| [m] over
-the laps.
+random features. Kart layout: features separated by 15-60 m straights: a chicane (6-20 m, 20-60 deg), an S-bend
+(arcs of 6-15 m through 30-90 deg and back) or a hairpin pair (6-9 m, 180 deg each way with a 25-40 m straight
+between); corners of 6-30 m. Fast layout: 60-200 m straights, then a hairpin pair of 6-15 m, a corner pair
+(15-60 m through 60-150 deg and back), a sweeper pair (60-250 m through 15-45 deg and back), a chicane or an
+S-bend; corners of 6-30 m or 30-150 m. Loops that do not close, or whose roads cross or touch (``roads_apart``),
+are drawn again. ``--lateral-share 0.93`` sets the profile's lateral limit to 93 % of the driven car's own
+steady-state limit up to ``--max-speed-kmh`` (``vehicle.steady_state.lowest_lateral_limit_mps2``). Prints one line
+per circuit and spacing (a failed lap with its termination), then per policy: laps completed within the road, and
+the median and largest max|e_y| [m] over the laps.
 """
 
 from __future__ import annotations

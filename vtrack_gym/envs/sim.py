@@ -50,7 +50,8 @@ class BatchSim:
         k = _kernels()
         self.config = config
         self.n = n
-        check_profile_for_car(scenario.speed, config.vehicle)  # the profile's lateral limit within this car's
+        # a speed profile's lateral limit within this car's own (ValueError above it, a warning near it)
+        check_profile_for_car(scenario.speed, config.vehicle)
         self.tracks = TrackBank(scenario_tracks(scenario, config.vehicle.chassis.body_width_m), scenario.speed)
         self.paths = self.tracks.paths
         if scenario.time_limit_s is None:

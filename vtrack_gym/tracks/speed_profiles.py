@@ -9,9 +9,10 @@ Between rows v^2 is interpolated linearly, so a ramp of constant acceleration a 
 the maximum speed), then a forward pass (v_{i+1}^2 <= v_i^2 + 2 a_accel ds) and a backward pass
 (v_i^2 <= v_{i+1}^2 + 2 a_decel ds). It limits each axis apart, so a corner entry may combine the full lateral
 with the full braking acceleration: more grip than the car has when the lateral limit is near the car's own.
-``EnvelopeLimited`` runs the same passes inside a friction ellipse (combined acceleration) and checks the lateral
-limit against the car's own steady-state limit (``vehicle.steady_state``; feasibility is judged against that
-limit, which lies below mu g: Pacejka peak factors D < 1, load transfer, drive force). On a closed loop the passes
+``EnvelopeLimited`` runs the same passes inside a friction ellipse (combined acceleration). Either profile's lateral
+limit is checked against the driven car's own steady-state limit (``vehicle.steady_state``; feasibility is judged
+against that limit, which lies below mu g: Pacejka peak factors D < 1, load transfer, drive force) where the env
+meets its car (``speed_limits.check_profile_for_car``). On a closed loop the passes
 start at the slowest point of the lateral limit, which no pass can lower, and run once around, so the profile is
 consistent across the wrap.
 """
@@ -137,7 +138,8 @@ class EnvelopeLimited:
     e.g. ``lowest_lateral_limit_mps2(car, max_speed_mps)``; ``tracks.feasibility.envelope_profile`` fills it in),
     with ``vehicle_name`` the car's name: a ``max_lateral_accel_mps2`` above it is refused (ValueError naming the
     car's limit), above ``NEAR_LIMIT_SHARE`` (90 %) of it a warning (``UserWarning``): near the limit the car has no
-    margin left to correct an error. None: no car check.
+    margin left to correct an error. None: no check here; an env checks every ``EnvelopeLimited`` and
+    ``CurvatureLimited`` profile against the car it drives anyway (``speed_limits.check_profile_for_car``).
 
     Passes (v^2 linear in s between rows, so a_x is constant on a row interval; the interval's |kappa| is its
     largest sampled value): forward, v_{i+1}^2 = v_i^2 + 2 ds A_x sqrt(1 - (v_{i+1}^2 kappa / A_y)^2) solved for
@@ -337,7 +339,7 @@ class SpeedTable:
 def speed_table(path: Path, profile: SpeedProfile) -> SpeedTable:
     """Evaluate ``profile`` on the rows of ``path`` -> :class:`SpeedTable`."""
     if not isinstance(profile, SpeedProfile):
-        raise ValueError("speed profile must be ConstantSpeed, CurvatureLimited, EnvelopeLimited, SpeedRamp or "
+        raise ValueError("speed profile must be ConstantSpeed, EnvelopeLimited, CurvatureLimited, SpeedRamp or "
                          f"FileSpeed (got {type(profile).__name__})")
     v = profile.row_speeds(path)
     if v.shape != (path.n_samples,) or not np.all(np.isfinite(v)) or np.any(v <= 0.0):
@@ -353,8 +355,8 @@ def as_speed_profile(spec: SpeedProfile | float | str) -> SpeedProfile:
         return ConstantSpeed(float(spec))
     if spec == "file":
         return FileSpeed()
-    raise ValueError(f"speed_profile must be ConstantSpeed, CurvatureLimited, FileSpeed, a speed in m/s or 'file' "
-                     f"(got {spec!r})")
+    raise ValueError("speed_profile must be ConstantSpeed, EnvelopeLimited, CurvatureLimited, FileSpeed, a speed in "
+                     f"m/s or 'file' (got {spec!r})")
 
 
 def lateral_accel_mps2(table: SpeedTable, path: Path, s: np.ndarray) -> np.ndarray:

@@ -208,6 +208,30 @@ def project_point(table: np.ndarray, ds: float, length: float, closed: bool, x: 
 
 
 @kernel
+def wrap_angle(a: float) -> float:
+    """Angle ``a`` [rad] wrapped to (-pi, pi]: the package's one angle wrap (the env's e_phi, ``tracks.wrap_angle``).
+
+    ``a`` itself (bit for bit) when it is already in (-pi, pi]; else ``a`` minus the nearest multiple of 2 pi, and
+    the two ends corrected: the floor of a rounded quotient can leave ``w`` just outside, e.g. ``nextafter(pi, 0)``
+    gives ``-pi - ulp`` before the correction (``+ 2 pi`` makes it exact again); ``-pi`` itself becomes ``pi``.
+    """
+    two_pi = 2.0 * math.pi
+    w = a - two_pi * math.floor((a + math.pi) / two_pi)
+    if w <= -math.pi:
+        w += two_pi
+    elif w > math.pi:
+        w -= two_pi
+    return w
+
+
+@kernel
+def wrap_angle_rows(a: np.ndarray, out: np.ndarray) -> None:
+    """``out[i] = wrap_angle(a[i])`` for 1-D float64 arrays [rad]."""
+    for i in range(a.shape[0]):
+        out[i] = wrap_angle(a[i])
+
+
+@kernel
 def lateral_offset(x: float, y: float, x_ref: float, y_ref: float, psi_ref: float) -> float:
     """Left-positive lateral offset [m] of (x, y) [m] from the line through (x_ref, y_ref) [m] at heading psi_ref
     [rad] (e_y when the reference point is the projection)."""

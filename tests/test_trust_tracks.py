@@ -180,3 +180,25 @@ def test_envs_pickle_after_reset_and_steps_and_continue_bit_identically(env_id: 
         out_v, again_v = vec.step(a), vec_copy.step(a)
         for x, y in zip(out_v[:4], again_v[:4], strict=True):
             assert np.array_equal(x, y)
+
+
+@pytest.mark.parametrize("speed", [100.0 + 1e-9, 150.0])
+def test_target_speeds_past_the_observation_bound_are_refused_through_make_and_reset(speed: float,
+                                                                                      tmp_path: Path) -> None:
+    """A target speed the observation cannot hold (above 100 m/s; 150 m/s was once accepted) is refused where a
+    user sets it: a reset option (single and vector env) and a track's speed profile."""
+    from vtrack_gym.tracks.speed_profiles import ConstantSpeed
+
+    env = gym.make("vtrack/LateralTracking-v0")
+    with pytest.raises(ValueError, match=r"target_speed_mps' must be in \[1\.0, 45\.0\]"):
+        env.reset(seed=0, options={"target_speed_mps": speed})
+    vec = gym.make_vec("vtrack/LateralTracking-v0", num_envs=2, vectorization_mode="vector_entry_point")
+    with pytest.raises(ValueError, match=r"target_speed_mps' must be in \[1\.0, 45\.0\]"):
+        vec.reset(seed=0, options={"target_speed_mps": speed})
+    f = tmp_path / "loop.csv"
+    write_loop(f, 500.0)
+    with pytest.raises(ValueError, match=r"ConstantSpeed\.v_mps must be in \[1\.0, 100\.0\] m/s"):
+        gym.make("vtrack/Track-v0", track=str(f), speed_profile=ConstantSpeed(speed))
+    assert main(["eval", "--policy", "stanley", "--track", str(f), "--speed-profile", "constant",
+                 "--max-speed-kmh", str(speed * 3.6), "--store", str(tmp_path / "s.db")]) == 2
+    assert not (tmp_path / "s.db").exists()

@@ -177,9 +177,12 @@ def test_train_refuses_hostile_logger_files_before_training(tmp_path, capsys, na
     assert _listing(tmp_path) == before
 
 
-def test_train_checkpoints_on_a_full_disk_say_so_and_leave_no_partial_file(tmp_path, capsys, monkeypatch):
-    """The best checkpoint (``best_model.zip``) is written through the gate: a full disk during the periodic
-    evaluation's save is a one-line error and leaves no partial or temporary checkpoint."""
+@pytest.mark.parametrize("checkpoint", ["best_model.zip", "model.zip"])
+def test_train_checkpoints_on_a_full_disk_say_so_and_leave_no_partial_file(tmp_path, capsys, monkeypatch,
+                                                                          checkpoint):
+    """The best checkpoint (``best_model.zip``, saved at a periodic evaluation) and the final ``model.zip`` are
+    written through the gate: a full disk while SB3 saves them is a one-line error and leaves no partial or
+    temporary checkpoint."""
     from stable_baselines3.common.base_class import BaseAlgorithm
 
     def full(self, path, *args, **kwargs):
@@ -191,10 +194,11 @@ def test_train_checkpoints_on_a_full_disk_say_so_and_leave_no_partial_file(tmp_p
     monkeypatch.setattr(BaseAlgorithm, "save", full)
     monkeypatch.setattr(train_module, "selection_score", lambda results: 0.1)  # a new best at the evaluation
     run = tmp_path / "run"
-    assert main(["train", *TRAIN_FAST, "--eval-freq", "64", "--case1-max-steps", "20", "--run-dir", str(run)]) == 2
+    freq = "64" if checkpoint == "best_model.zip" else "0"
+    assert main(["train", *TRAIN_FAST, "--eval-freq", freq, "--case1-max-steps", "20", "--run-dir", str(run)]) == 2
     err = capsys.readouterr().err
-    assert f"--run-dir {run / 'best_model.zip'}: could not write the file (the disk is full)" in err
-    assert not (run / "best_model.zip").exists()
+    assert f"--run-dir {run / checkpoint}: could not write the file (the disk is full)" in err
+    assert not (run / checkpoint).exists()
     assert [p.name for p in run.iterdir() if p.name.endswith(".tmp.zip") or ".tmp" in p.name] == []
 
 

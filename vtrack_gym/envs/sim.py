@@ -209,6 +209,18 @@ class BatchSim:
         """Project freshly reset cars (global search) and fill their observation rows."""
         self._observe(idx.astype(np.int64), self.arrays)
 
+    def __getstate__(self) -> dict:
+        """Pickled without the kernel's compiled entry point (a numba closure; looked up again at the next step),
+        with the column views kept views of their blocks (``_array_views``)."""
+        from vtrack_gym._array_views import encode
+
+        return encode({**self.__dict__, "_step_compiled": None})
+
+    def __setstate__(self, state: dict) -> None:
+        from vtrack_gym._array_views import decode
+
+        self.__dict__.update(decode(state))
+
     # ------------------------------------------------------------------ step
     def step(self, actions: np.ndarray, quiet: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Advance every car one control period. ``actions`` (n,) are finite, clipped to [-1, 1]; ``quiet`` (bool

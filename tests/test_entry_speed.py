@@ -186,3 +186,39 @@ def test_maneuvers_suite_json_rows_carry_the_entry_speed_columns(tmp_path, capsy
     metrics = rows["vtrack/ISO3888-2-v1"]["metrics"]
     assert set(metrics) >= {"max_entry_speed_kmh", "entry_speed_probes", "entry_speed_monotone"}
     assert math.isclose(metrics["max_entry_speed_kmh"], by_env["vtrack/ISO3888-2-v1"]["max_entry_speed_kmh"])
+
+
+# ------------------------------------------------------------------------------------------ rows and the board
+def _row(success: bool, **metrics: float):
+    from vtrack_gym.evaluation.store import ResultRow
+
+    return ResultRow(suite="maneuvers", env_id="vtrack/ISO3888-2-v1", policy_id="p", policy_hash="h", seed=0,
+                     metrics={"max_e_y_m": 0.1, **metrics}, termination="completed", wall_time_per_step_s=1e-4,
+                     success=success)
+
+
+def test_the_store_refuses_entry_speed_metrics_outside_their_physical_range(tmp_path) -> None:
+    from vtrack_gym.evaluation.store import ResultStore
+
+    store = ResultStore(tmp_path / "s.sqlite")
+    for bad, message in (({"max_entry_speed_kmh": 250.0}, r"max_entry_speed_kmh' must be in \[0, 200\]"),
+                         ({"entry_speed_bound_kmh": -1.0}, r"entry_speed_bound_kmh' must be in \[0, 200\]"),
+                         ({"entry_speed_fraction": -0.1}, "entry_speed_fraction' must be a number >= 0"),
+                         ({"above_physical_bound": 2}, "above_physical_bound' must be 0 or 1")):
+        with pytest.raises(ValueError, match=message):
+            store.add([_row(True, **bad)])
+    store.add([_row(True, max_entry_speed_kmh=61.0, entry_speed_bound_kmh=67.4, entry_speed_fraction=61.0 / 67.4,
+                    above_physical_bound=0)])
+    assert store.rows("maneuvers")[0]["metrics"]["max_entry_speed_kmh"] == 61.0
+
+
+def test_the_board_aggregates_the_search_over_failed_episodes_too() -> None:
+    """The row's verdict is at the default entry speed; the search's figures describe the policy at every speed."""
+    from vtrack_gym.evaluation.benchmark import suite_columns, summarise
+
+    failed = _row(False, max_entry_speed_kmh=58.0, entry_speed_bound_kmh=67.4, entry_speed_fraction=58.0 / 67.4,
+                  above_physical_bound=0, cones_hit=1)
+    (entry,) = summarise([failed], suite_columns("maneuvers"))
+    assert entry["success_rate"] == 0.0
+    assert entry["max_entry_speed_kmh"] == 58.0 and entry["entry_speed_fraction"] == pytest.approx(58.0 / 67.4)
+    assert math.isnan(entry["max_e_y_m"])          # an episode metric: successful episodes only

@@ -49,7 +49,8 @@ def test_bisection_brackets_any_threshold_within_the_tolerance(threshold: float)
 
 def test_bisection_edges_nothing_passes_and_everything_passes() -> None:
     none = bisect_entry_speed(threshold_judge(10.0), 30.0, 80.0, tol_kmh=0.5)
-    assert none.max_pass_kmh is None and [p.speed_kmh for p in none.probes] == [30.0]
+    # a fail at lo is looked into: four speeds evenly inside the range, then hi
+    assert none.max_pass_kmh is None and [p.speed_kmh for p in none.probes] == [30.0, 40.0, 50.0, 60.0, 70.0, 80.0]
     capped = bisect_entry_speed(threshold_judge(150.0), 30.0, 80.0, tol_kmh=0.5, checks=2)
     assert capped.capped and capped.max_pass_kmh == 80.0
     assert [p.stage for p in capped.probes] == ["lo", "hi", "check", "check"]
@@ -63,6 +64,17 @@ def test_bisection_reports_a_non_monotone_verdict() -> None:
     assert found.max_pass_kmh is not None and 59.5 < found.max_pass_kmh <= 60.0
     assert not found.monotone
     assert any(p.stage == "check" and not p.passed for p in found.probes)
+
+
+def test_a_fail_at_the_lowest_speed_does_not_hide_a_pass_further_up() -> None:
+    """Passing only in a window (35, 58.3] km/h, as a controller that clips a cone at low speed would."""
+    def judge(speed: float) -> tuple[bool, str]:
+        return (35.0 < speed <= 58.3, "cones_hit")
+
+    found = bisect_entry_speed(judge, 30.0, 80.0, tol_kmh=0.5, checks=2)
+    assert [p.stage for p in found.probes[:6]] == ["lo", "scan", "scan", "scan", "scan", "scan"]
+    assert found.max_pass_kmh is not None and 57.8 < found.max_pass_kmh <= 58.3
+    assert not found.monotone and not found.capped
 
 
 @pytest.mark.parametrize(("kwargs", "field"), [

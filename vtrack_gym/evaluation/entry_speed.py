@@ -5,10 +5,12 @@ entry_speed_kmh=v)``) and judges each run exactly as the leaderboard does (``ben
 scenario's success verdict, i.e. no cone gate left, the end reached, no spin-out). The search is bounded and
 bisects on pass/fail:
 
-1. probe ``lo_kmh`` (default half the bound): a fail there ends the search (no passing speed found);
-2. probe ``hi_kmh`` (default ``min(200, 1.15 x bound)``): a pass there ends it too (``capped``: the policy passes
+1. probe ``lo_kmh`` (default half the bound). A fail there is looked into: ``SCAN_POINTS`` speeds evenly inside
+   the range and ``hi_kmh`` are probed; none passing ends the search (no passing speed found), a pass among them
+   makes the verdict non-monotone (``monotone`` False) and the search goes on from the highest one;
+2. probe ``hi_kmh`` (default ``min(200, 1.15 x bound)``): a pass there ends it (``capped``: the policy passes
    the whole range, the true highest speed may be higher);
-3. bisect between the highest pass and the lowest fail until they are at most ``tol_kmh`` apart;
+3. bisect between the highest pass and the lowest fail above it until they are at most ``tol_kmh`` apart;
 4. ``checks`` extra probes evenly spaced between ``lo_kmh`` and the speed found: a fail among them means pass/fail
    is not monotone in the entry speed (``monotone`` False), reported, not smoothed over.
 
@@ -37,6 +39,7 @@ HI_FRACTION = 1.15             # default highest probe: this fraction of the bou
 DEFAULT_TOL_KMH = 0.5          # default bisection tolerance [km/h]
 DEFAULT_CHECKS = 2             # default monotonicity probes below the speed found
 MAX_CHECKS = 10
+SCAN_POINTS = 4                # probes evenly inside (lo, hi) after a fail at lo (then hi too)
 _VERSION = re.compile(r"-v[0-9]+$")
 
 
@@ -76,7 +79,8 @@ def check_search(lo_kmh: float, hi_kmh: float, tol_kmh: float, checks: int) -> N
 
 
 def planned_probes(lo_kmh: float, hi_kmh: float, tol_kmh: float, checks: int) -> int:
-    """The most probes a search makes (lo, hi, the bisection steps, the checks)."""
+    """The probes a search makes when ``lo_kmh`` passes (lo, hi, the bisection steps, the checks); a fail at lo
+    adds up to ``SCAN_POINTS``."""
     return 2 + max(0, math.ceil(math.log2((hi_kmh - lo_kmh) / tol_kmh))) + checks
 
 
@@ -96,17 +100,24 @@ def bisect_entry_speed(judge: Callable[[float], tuple[bool, str]], lo_kmh: float
             on_probe(found)
         return found.passed
 
-    if not probe(lo_kmh, "lo"):
-        return SearchOutcome(None, tuple(probes), True, False)
-    capped = probe(hi_kmh, "hi")
-    good, bad = (hi_kmh, hi_kmh) if capped else (lo_kmh, hi_kmh)   # capped: nothing left to bisect
+    monotone = True
+    if probe(lo_kmh, "lo"):
+        capped = probe(hi_kmh, "hi")
+        good, bad = (hi_kmh, hi_kmh) if capped else (lo_kmh, hi_kmh)   # capped: nothing left to bisect
+    else:   # a fail at lo: look further up before giving up (a pass up there is a non-monotone verdict)
+        scan = [lo_kmh + (hi_kmh - lo_kmh) * j / (SCAN_POINTS + 1) for j in range(1, SCAN_POINTS + 1)] + [hi_kmh]
+        passed = [v for v in scan if probe(v, "scan")]
+        if not passed:
+            return SearchOutcome(None, tuple(probes), True, False)
+        monotone, good = False, max(passed)
+        capped = good == hi_kmh
+        bad = min((v for v in scan if v > good), default=hi_kmh)
     while bad - good > tol_kmh:
         mid = 0.5 * (good + bad)
         if probe(mid, "bisect"):
             good = mid
         else:
             bad = mid
-    monotone = True
     for j in range(1, checks + 1):
         monotone &= probe(lo_kmh + (good - lo_kmh) * j / (checks + 1), "check")
     return SearchOutcome(good, tuple(probes), monotone, capped)
@@ -116,11 +127,11 @@ def bisect_entry_speed(judge: Callable[[float], tuple[bool, str]], lo_kmh: float
 class EntrySpeedResult:
     """A policy's highest passing entry speed on an ISO 3888 env.
 
-    ``max_entry_speed_kmh`` [km/h]: the highest speed probed that passed (None: not even ``lo_kmh``); the true
+    ``max_entry_speed_kmh`` [km/h]: the highest speed probed that passed (None: no speed probed passed); the true
     threshold lies below the lowest failing speed above it, at most ``tol_kmh`` higher (unless ``capped``: every
     speed up to ``hi_kmh`` passed). ``entry_speed_bound_kmh`` [km/h]: the car's physical bound.
-    ``above_physical_bound``: some probe passed above the bound. ``monotone``: the check probes below the speed
-    found all passed. ``probes``: every run in order."""
+    ``above_physical_bound``: some probe passed above the bound. ``monotone``: no probe failed below a passing one
+    (``lo_kmh`` and the check probes below the speed found all passed). ``probes``: every run in order."""
 
     env_id: str
     policy_id: str

@@ -6,7 +6,9 @@ action sequence (a sinusoid plus fixed pseudo-random noise: the car steers off i
 from seed 7, up to ``FOLLOW_STEPS`` steps of a fixed proportional law on e_y and e_phi defined here (so the car
 follows the road far enough to reach its curves, gates and speed changes).
 A registered id's behaviour never changes; a change gets the next version (``-v1``). ``tests/test_env_versions.py``
-compares every registered id against ``tests/data/env_fingerprints.json``.
+compares every registered id against ``tests/data/env_fingerprints.json``; the pin of an id that is no longer
+registered stays in the file, and the test checks that making it raises Gymnasium's ``DeprecatedEnv`` naming the
+id listed for it in ``vtrack_gym.envs.scenarios.DEPRECATED_IDS``.
 
 Writing the file (only for an id that is new, never to change an existing entry)::
 

@@ -4,7 +4,15 @@ with a description and a version history, so a scenario added without docs fails
 from __future__ import annotations
 
 import vtrack_gym
-from vtrack_gym.envs.env_docs import DESCRIPTIONS, VERSION_HISTORY, documented_ids, env_page, env_pages
+from vtrack_gym.envs.env_docs import (
+    DEPRECATED_PAGES,
+    DESCRIPTIONS,
+    VERSION_HISTORY,
+    deprecated_page,
+    documented_ids,
+    env_page,
+    env_pages,
+)
 
 
 def test_every_registered_namespaced_id_has_a_page() -> None:
@@ -17,7 +25,7 @@ def test_every_registered_namespaced_id_has_a_page() -> None:
 
 def test_pages_follow_the_template() -> None:
     pages = env_pages()
-    assert "index.md" in pages and len(pages) == len(documented_ids()) + 1
+    assert "index.md" in pages and len(pages) == len(documented_ids()) + len(DEPRECATED_PAGES) + 1
     page = pages["DLC120-v0.md"]
     for heading in ("# vtrack/DLC120-v0", "## Observation space", "## Action and reward",
                     "## Starting state and episode end", "## Arguments", "## Version history"):
@@ -27,3 +35,13 @@ def test_pages_follow_the_template() -> None:
 
 def test_recipe_page_states_its_control_period() -> None:
     assert "| Control period | 50 ms |" in env_page("vtrack/TrainingMix20Hz-v0")
+
+
+def test_changed_ids_carry_their_version_history() -> None:
+    for name in ("ISO3888-1-v1", "ISO3888-2-v1", "Slalom-v1"):
+        history = VERSION_HISTORY[name]
+        assert [line[:3] for line in history] == ["v0:", "v1:"], name
+    assert VERSION_HISTORY["ISO3888-1-v0"] == VERSION_HISTORY["ISO3888-1-v1"]
+    page = deprecated_page("ISO3888-2-v0")
+    assert "DeprecatedEnv" in page and "ISO3888-2-v1.md" in page and "## Version history" in page
+    assert "entry_speed_kmh" in env_page("vtrack/ISO3888-2-v1")

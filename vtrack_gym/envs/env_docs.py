@@ -35,10 +35,27 @@ DESCRIPTIONS: dict[str, str] = {
                     "driven at a constant speed; success: every gate passed with the body inside it.",
     "ISO3888-2-v0": "ISO 3888-2 obstacle avoidance with cone gates sized for the car's width, driven at a "
                     "constant speed; success: every gate passed with the body inside it.",
+    "ISO3888-1-v1": "ISO 3888-1 double lane change as the standard poses it: lane 3 placed by its cone line, the "
+                    "car driving the planned line for its own body (the line of least peak curvature through "
+                    "lanes sized for its width), entering at 80 km/h (make kwarg `entry_speed_kmh=`) with the "
+                    "speed loop holding the entry speed on the approach and the throttle held from the entry gate "
+                    "on; success: every gate passed with the body inside it. `reference=\"lane_centres\"` drives "
+                    "the lane-centre line instead.",
+    "ISO3888-2-v1": "ISO 3888-2 obstacle avoidance as the standard poses it: the car drives the planned line for "
+                    "its own body (10 cm clear of the cones) through lanes sized for its width, enters at 50 km/h "
+                    "(make kwarg `entry_speed_kmh=`, at most 200 km/h) and coasts from the entry gate on (throttle "
+                    "and brake released, the speed loop off); success: every gate passed with the body inside it. "
+                    "50 km/h lies below every shipped car's bound on that line (hatchback 61.3, SUV 59.9, sports "
+                    "car 65.5 km/h) and its physical bound (67.4, 66.6, 71.7 km/h); the commonly cited 80 km/h "
+                    "lies above them all. `reference=\"lane_centres\"` drives the "
+                    "lane-centre line instead.",
     "ISO4138-Circle-v0": "ISO 4138 steady-state circular driving: a slow speed ramp on a constant-radius circle; "
                          "success: the lateral error held within the band until the car's own grip limit.",
     "Slalom-v0": "A slalom between evenly spaced cones at constant speed; success: the end of the course reached "
                  "within the road.",
+    "Slalom-v1": "A slalom between evenly spaced cones at the constant 40 km/h of `vtrack/Slalom-v0`, the car "
+                 "driving the planned line for its own body past the cones; success: every cone passed on its "
+                 "side with the body clear of it. `reference=\"lane_centres\"` drives the v0 line instead.",
     "StepCurvature-v0": "A straight followed by a step into a constant-radius curve (the step-steer response of "
                         "path tracking); success: the end of the course reached within the road.",
 }
@@ -52,13 +69,43 @@ VERSION_HISTORY: dict[str, tuple[str, ...]] = {
     for name in DESCRIPTIONS
 }
 """Scenario name -> its versions, oldest first (a behaviour change is a new version: ``-v1``)."""
+_V0_PINNED = VERSION_HISTORY["ISO3888-1-v0"][0]
+_ISO1 = (_V0_PINNED + " The lane-centre line, lane 3's centre 3.5 m left of lane 1's, at a constant 80 km/h.",
+         "v1: the standard as its cones pose it: lane 3's right cone line 3.5 m left of lane 1's centre line, the "
+         "planned line for the driven car's body, entry at 80 km/h with the throttle held from the entry gate on "
+         "(make kwargs `entry_speed_kmh=`, `reference=`). v0 stays registered unchanged.")
+_ISO2 = (_V0_PINNED + " The lane-centre line at a constant 80 km/h: it asks 1.75 g (1.13 g on the best line) of a "
+         "car with a limit of about 0.8 g, so no car could pass it; no longer registered (`gymnasium.make` raises "
+         "`gymnasium.error.DeprecatedEnv` naming v1).",
+         "v1: the planned line for the driven car's body, entry at 50 km/h (below every shipped car's bound) "
+         "and a coast from the entry gate on, as the standard's protocol asks (make kwargs "
+         "`entry_speed_kmh=`, `reference=`).")
+_SLALOM = (_V0_PINNED + " The lane-centre line, 0.5 m clear of each cone.",
+           "v1: the planned line for the driven car's body past the cones, same 40 km/h. v0 stays registered "
+           "unchanged.")
+VERSION_HISTORY.update({"ISO3888-1-v0": _ISO1, "ISO3888-1-v1": _ISO1, "ISO3888-2-v1": _ISO2, "Slalom-v0": _SLALOM,
+                        "Slalom-v1": _SLALOM})
+DEPRECATED_PAGES: dict[str, tuple[str, ...]] = {"ISO3888-2-v0": _ISO2}
+"""Pages of ids no longer registered (``scenarios.DEPRECATED_IDS``): what they were and which id replaces them."""
 
 
 def env_pages() -> dict[str, str]:
     """File name (``<scenario>.md``) -> Markdown page, for every scenario of the registry, plus ``index.md``."""
     pages = {f"{_name(env_id)}.md": env_page(env_id) for env_id in documented_ids()}
+    pages.update({f"{name}.md": deprecated_page(name) for name in DEPRECATED_PAGES})
     pages["index.md"] = _index()
     return pages
+
+
+def deprecated_page(name: str) -> str:
+    """The page of an id that is no longer registered: the id replacing it and the version history."""
+    from vtrack_gym.envs.scenarios import DEPRECATED_IDS
+
+    env_id = f"vtrack/{name}"
+    new = DEPRECATED_IDS[env_id]
+    return (f"# {env_id}\n\nNo longer registered: `gymnasium.make(\"{env_id}\")` raises "
+            f"`gymnasium.error.DeprecatedEnv`; use [`{new}`]({_name(new)}.md).\n\n"
+            "## Version history\n\n" + "\n".join(f"- {line}" for line in DEPRECATED_PAGES[name]) + "\n")
 
 
 def documented_ids() -> tuple[str, ...]:
@@ -151,7 +198,9 @@ def _arguments() -> str:
     return ("## Arguments\n\n`gymnasium.make(id, vehicle=\"suv\")` drives another car (a name of "
             "`vtrack_gym.vehicle.list_vehicles()` or a vehicle file); `control_period_s=` sets the decision period "
             "[s]; `vtrack/Track-v0` also takes `track=`, `speed_profile=`, `half_width_m=`, `closed=` and "
-            "`smoothing_m=`. Reset options: see [Getting started](../getting-started.md).")
+            "`smoothing_m=`; the cone-lined standard ids (`vtrack/ISO3888-1-v1`, `vtrack/ISO3888-2-v1`, "
+            "`vtrack/Slalom-v1`) take `reference=\"planned\"` (default) or `\"lane_centres\"`, and the two ISO 3888 "
+            "ids `entry_speed_kmh=` (in (0, 200] km/h). Reset options: see [Getting started](../getting-started.md).")
 
 
 def _history(name: str) -> str:

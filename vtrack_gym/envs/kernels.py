@@ -7,8 +7,10 @@ Every array the step reads or writes travels in one ``SimArrays`` bundle (a Name
 name, so two arrays cannot be swapped silently). Track data of all paths in use are concatenated: ``tables``
 (M, 11): the 8 columns of ``vtrack_gym.tracks.path``, then the squared reference speed v_ref^2 [m^2/s^2] and the
 drivable half widths left / right [m] of each row (``C_V2``, ``C_WL``, ``C_WR``; interpolated linearly, so v^2 is
-linear in s between rows); ``tmeta`` (K, 7) holds per track k its first row, row count, spacing [m], length [m],
-closed flag (0/1), half width [m] and whether it has a speed profile (0/1); ``veh_track[i]`` is car i's track.
+linear in s between rows); ``tmeta`` (K, N_TM) holds per track k its first row, row count, spacing [m], length [m],
+closed flag (0/1), half width [m], whether it has a speed profile (0/1), the release station [m] from which the
+speed loop is off (+inf on every track but an ``EntryThenRelease`` one) and the pedals' mode after it (0 coast,
+1 hold the throttle); ``veh_track[i]`` is car i's track.
 Constant settings travel in one vector ``cfg``: the fields of ``StepConstants``, then of the observation layout,
 then of the ``RewardConfig``, each offset (``CFG_*``, ``RW_*``) derived from the dataclass fields by name.
 Per-car scalars sit in ``car`` (n, 7) (``CAR_*`` columns); ``sig`` (n, len(SIGNAL_ROW)) is the row of ``info``
@@ -43,8 +45,9 @@ C_V2, C_WL, C_WR = range(N_COLS, N_COLS + 3)   # the env's own columns after the
 N_ENV_COLS = N_COLS + 3
 
 # Track metadata columns and per-car scalar columns.
-TM_START, TM_N, TM_DS, TM_LEN, TM_CLOSED, TM_HALF_WIDTH, TM_PROFILE = range(7)
-N_TM = 7
+TM_START, TM_N, TM_DS, TM_LEN, TM_CLOSED, TM_HALF_WIDTH, TM_PROFILE, TM_RELEASE_S, TM_RELEASE_HOLD = range(9)
+N_TM = 9    # TM_RELEASE_S: station [m] from which the PD-FLC is off (+inf: never); TM_RELEASE_HOLD: 1 = the
+            # throttle stays at its last value there, 0 = throttle 0 (coast); the brake is 0 either way
 CAR_S_PREV, CAR_PROGRESS, CAR_V_REF, CAR_PREV_ACTION, CAR_REWARD, CAR_MIN_FZ, CAR_FOLLOW = range(7)
 N_CAR = 7   # CAR_FOLLOW: 1 = the car follows its track's speed profile (CAR_V_REF updated from it every step)
 
@@ -376,11 +379,20 @@ def step_car(i: int, a: SimArrays) -> None:
     cfg, car, states, inputs, outputs = a.cfg, a.car, a.states, a.inputs, a.outputs
     dt = cfg[CFG_DT]
     n_sub = int(cfg[CFG_NSUB])
-    throttle, brake = pdflc_step(states[i, L.S_VX], car[i, CAR_V_REF], a.pd_mem[i], a.pd_gains[i], a.pd_surface,
-                                 cfg[CFG_KINKS] != 0.0)
-    inputs[i, L.U_THROTTLE] = throttle
-    inputs[i, L.U_BRAKE] = brake
+    k = a.veh_track[i]
+    released = car[i, CAR_S_PREV] >= a.tmeta[k, TM_RELEASE_S]   # never on a track whose release station is +inf
+    if released:  # the speed loop is off: coast, or keep the throttle of the last step before the entry gate
+        if a.tmeta[k, TM_RELEASE_HOLD] == 0.0:
+            inputs[i, L.U_THROTTLE] = 0.0
+        inputs[i, L.U_BRAKE] = 0.0
+    else:
+        throttle, brake = pdflc_step(states[i, L.S_VX], car[i, CAR_V_REF], a.pd_mem[i], a.pd_gains[i],
+                                     a.pd_surface, cfg[CFG_KINKS] != 0.0)
+        inputs[i, L.U_THROTTLE] = throttle
+        inputs[i, L.U_BRAKE] = brake
     step_vehicle(states[i], inputs[i], a.road[i], a.params[i], a.models[i], dt, n_sub, outputs[i], a.work[i])
+    if released:  # no set point: the target speed shown is the car's own speed
+        car[i, CAR_V_REF] = states[i, L.S_VX]
     travel = abs(states[i, L.S_VX]) * dt * n_sub
     window = 5.0 + 3.0 * travel
     a_x = outputs[i, n_sub - 1, L.O_AX]

@@ -21,7 +21,7 @@ from vtrack_gym.envs.observation import NOISY_INDICES
 from vtrack_gym.envs.pdflc import PDFLCConfig
 from vtrack_gym.envs.scenarios import Scenario
 from vtrack_gym.envs.schema import REWARD_TERMS, SIGNAL_ROW
-from vtrack_gym.envs.speed import HoldSpeed
+from vtrack_gym.envs.speed import EntryThenRelease, HoldSpeed
 from vtrack_gym.envs.track_bank import TrackBank
 from vtrack_gym.vehicle import layout as L
 from vtrack_gym.vehicle.params import VehicleParams
@@ -37,9 +37,10 @@ def _kernels():
     return kernels
 
 
-def scenario_tracks(scenario: Scenario, vehicle_width_m: float) -> tuple:
-    """The reference paths a scenario's cars drive on (its track source through its reference line)."""
-    return scenario.reference.reference_paths(scenario.track.paths(vehicle_width_m))
+def scenario_tracks(scenario: Scenario, vehicle: VehicleParams) -> tuple:
+    """The reference paths a scenario's cars drive on: its reference-line part applied to its track source for the
+    driven car (the one place the env reads ``Scenario.reference``)."""
+    return scenario.reference.paths(scenario.track, vehicle)
 
 
 class BatchSim:
@@ -49,7 +50,11 @@ class BatchSim:
         k = _kernels()
         self.config = config
         self.n = n
-        self.tracks = TrackBank(scenario_tracks(scenario, config.vehicle.chassis.body_width_m), scenario.speed)
+        if isinstance(scenario.speed, EntryThenRelease):
+            from vtrack_gym.tracks.feasibility import check_entry_speed
+
+            check_entry_speed(scenario.speed.entry_speed_kmh, config.vehicle)
+        self.tracks = TrackBank(scenario_tracks(scenario, config.vehicle), scenario.speed, config.vehicle)
         self.paths = self.tracks.paths
         if scenario.time_limit_s is None:
             scenario = replace(scenario, time_limit_s=self.tracks.time_limit_s())
@@ -175,6 +180,8 @@ class BatchSim:
             return options.target_speed_mps, False
         if isinstance(speed, HoldSpeed):
             return speed.set_speed_mps(self.tracks.peak_curvature(track), rng), False
+        if isinstance(speed, EntryThenRelease):  # held up to the entry gate, then the kernel lets go
+            return speed.entry_speed_mps, False
         return float(self.tracks.speed_tables[track].v_mps[0]), True  # updated from the profile every step
 
     def _car_params(self, options: ResetOptions) -> VehicleParams:

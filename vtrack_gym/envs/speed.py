@@ -1,8 +1,9 @@
 """The speed protocol of a scenario (a scenario part): hold a set speed, or follow a speed profile along the path.
 
 A scenario's ``speed`` is a ``HoldSpeed`` (the paper's scenarios: the PD-FLC holds one reference speed, optionally
-drawn per episode) or any ``tracks`` speed profile (``ConstantSpeed``, ``CurvatureLimited``, ``FileSpeed``, the
-training mix's), whose v_ref(s) the PD-FLC follows at the car's station.
+drawn per episode), an ``EntryThenRelease`` (the ISO 3888 protocols: the PD-FLC holds the entry speed on the
+approach, then lets go of the pedals at the entry gate) or any ``tracks`` speed profile (``ConstantSpeed``,
+``CurvatureLimited``, ``FileSpeed``, the training mix's), whose v_ref(s) the PD-FLC follows at the car's station.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from vtrack_gym._ranges import documented, ranged, validate
+from vtrack_gym.tracks.maneuvers import MAX_ENTRY_SPEED_KMH
 from vtrack_gym.vehicle.params import GRAVITY_MPS2
 
 FEASIBLE_LATERAL_ACC_MPS2 = 0.85 * GRAVITY_MPS2
@@ -48,28 +50,108 @@ class HoldSpeed:
         return float(rng.uniform(lo, hi))
 
 
+AFTER_ENTRY: dict[str, str] = {
+    "coast": "throttle 0 and brake 0 from the entry gate on (ISO 3888-2: the throttle released at the entry)",
+    "hold_throttle": "the throttle frozen at its value when the car crossed the entry gate, brake 0 (ISO 3888-1 "
+                     "holds the throttle)",
+}
+"""What the pedals do after the entry gate under ``EntryThenRelease`` (its ``after_entry``)."""
+RELEASE_MODES: dict[str, float] = {"coast": 0.0, "hold_throttle": 1.0}
+"""``after_entry`` -> the code the compiled step reads (``kernels.TM_RELEASE_HOLD``)."""
+MIN_TIME_LIMIT_SPEED_MPS = 1.0
+"""Floor of the predicted coasting speed [m/s] when an ``EntryThenRelease`` time limit is derived (a car that
+coasts to a stop is truncated, not run for ever)."""
+
+
+@documented
+@dataclass(frozen=True, kw_only=True)
+class EntryThenRelease:
+    """The ISO 3888 speed protocol: the car starts at ``entry_speed_kmh`` [km/h], the PD-FLC holds it on the
+    approach, and from the entry gate (the path's first gate's ``s_start_m``) the PD-FLC is off and the pedals do
+    what ``after_entry`` says (``AFTER_ENTRY``: ``"coast"`` or ``"hold_throttle"``).
+
+    After the entry gate the observation's ``target_speed`` (and its speed preview, and
+    ``info["target_speed_mps"]``) show the car's own speed v_x: no speed loop acts, so the speed the car keeps is
+    the only set point there is. The range is checked against the driven car by ``feasibility.check_entry_speed``
+    when the env is made (this class only refuses what no car accepts)."""
+
+    entry_speed_kmh: float = ranged(gt=0.0, le=MAX_ENTRY_SPEED_KMH, unit="km/h")
+    after_entry: str = "coast"
+
+    def __post_init__(self) -> None:
+        validate(self)
+        if self.after_entry not in AFTER_ENTRY:
+            raise ValueError(f"EntryThenRelease.after_entry must be one of {sorted(AFTER_ENTRY)} "
+                             f"(got {self.after_entry!r})")
+
+    @property
+    def entry_speed_mps(self) -> float:
+        """The entry speed [m/s]."""
+        return self.entry_speed_kmh / 3.6
+
+    @staticmethod
+    def release_station_m(path: Any) -> float:
+        """Station of the entry gate on ``path`` [m] (its first gate's start); ValueError for a path without gates."""
+        if not path.gates:
+            raise ValueError(f"EntryThenRelease needs a path with cone gates (the entry gate); track {path.name!r} "
+                             "has none")
+        return float(path.gates[0].s_start_m)
+
+    def time_limit_table(self, path: Any, vehicle: Any) -> Any:
+        """A ``tracks.SpeedTable`` of the speed the protocol predicts (entry speed up to the entry gate, then the
+        car's coast, ``feasibility.coast_speed_mps``, or the entry speed held with the throttle), floored at
+        ``MIN_TIME_LIMIT_SPEED_MPS``: what the derived time limit is computed from. The PD-FLC never reads it."""
+        from vtrack_gym.tracks.feasibility import coast_speed_mps
+        from vtrack_gym.tracks.speed_profiles import ConstantSpeed, SpeedTable
+
+        s = np.arange(path.n_samples) * path.ds_m
+        v = np.full(path.n_samples, self.entry_speed_mps)
+        after = s > self.release_station_m(path)
+        if self.after_entry == "coast" and vehicle is not None:
+            v[after] = coast_speed_mps(vehicle, self.entry_speed_mps, s[after] - self.release_station_m(path))
+        return SpeedTable(np.maximum(v, MIN_TIME_LIMIT_SPEED_MPS), path.ds_m, path.closed,
+                          ConstantSpeed(self.entry_speed_mps))
+
+
 def is_profile(speed: Any) -> bool:
-    """True when ``speed`` is a speed profile followed along the path (not a ``HoldSpeed``)."""
-    return not isinstance(speed, HoldSpeed)
+    """True when ``speed`` is a speed profile followed along the path (not a ``HoldSpeed`` or ``EntryThenRelease``)."""
+    return not isinstance(speed, (HoldSpeed, EntryThenRelease))
 
 
 def check_speed(speed: Any) -> None:
-    """``ValueError`` unless ``speed`` is a ``HoldSpeed`` or a tracks speed profile."""
+    """``ValueError`` unless ``speed`` is a ``HoldSpeed``, an ``EntryThenRelease`` or a tracks speed profile."""
     from vtrack_gym.tracks.speed_profiles import SpeedProfile
 
-    if not isinstance(speed, (HoldSpeed, SpeedProfile)):
-        raise ValueError("Scenario.speed must be a HoldSpeed or a tracks speed profile (ConstantSpeed, "
-                         f"CurvatureLimited, FileSpeed) (got {type(speed).__name__})")
+    if not isinstance(speed, (HoldSpeed, EntryThenRelease, SpeedProfile)):
+        raise ValueError("Scenario.speed must be a HoldSpeed, an EntryThenRelease or a tracks speed profile "
+                         f"(ConstantSpeed, CurvatureLimited, FileSpeed) (got {type(speed).__name__})")
 
 
-def speed_tables(paths: tuple, speed: Any) -> tuple:
-    """One ``tracks.SpeedTable`` per path: the profile, or the held speed everywhere."""
+def speed_tables(paths: tuple, speed: Any, vehicle: Any = None) -> tuple:
+    """One ``tracks.SpeedTable`` per path: the profile, the held speed everywhere, or an ``EntryThenRelease``'s
+    predicted speed for ``vehicle`` (``EntryThenRelease.time_limit_table``)."""
     from vtrack_gym.tracks.speed_profiles import ConstantSpeed, speed_table
 
+    if isinstance(speed, EntryThenRelease):
+        return tuple(speed.time_limit_table(p, vehicle) for p in paths)
     profile = ConstantSpeed(speed.target_speed_mps) if isinstance(speed, HoldSpeed) else speed
     return tuple(speed_table(p, profile) for p in paths)
 
 
+def release_columns(paths: tuple, speed: Any) -> np.ndarray:
+    """Per path (K, 2): the station [m] from which the PD-FLC is off (+inf: never) and the pedal mode after it
+    (``RELEASE_MODES``), the two track-metadata columns the compiled step reads."""
+    out = np.zeros((len(paths), 2))
+    out[:, 0] = np.inf
+    if isinstance(speed, EntryThenRelease):
+        out[:, 0] = [speed.release_station_m(p) for p in paths]
+        out[:, 1] = RELEASE_MODES[speed.after_entry]
+    return out
+
+
 def nominal_speed_mps(speed: Any, tables: tuple) -> float:
-    """A representative reference speed [m/s]: the held one, or the profile's first row on the first path."""
+    """A representative reference speed [m/s]: the held one, the entry speed, or the profile's first row on the
+    first path."""
+    if isinstance(speed, EntryThenRelease):
+        return speed.entry_speed_mps
     return speed.target_speed_mps if isinstance(speed, HoldSpeed) else float(tables[0].v_mps[0])

@@ -3,7 +3,8 @@
 All paths in use are concatenated into ``tables`` (M, ``N_ENV_COLS``): the path's own columns
 (``tracks.table``), then the squared reference speed and the half widths left / right (``kernels.C_V2``,
 ``C_WL``, ``C_WR``); ``meta`` (K, ``N_TM``) holds per path its first row, row count, spacing, length, closed flag,
-half width and whether the speed protocol follows a profile (``kernels.TM_*``). Code outside this class reads the
+half width, whether the speed protocol follows a profile, and the station and mode of an ``EntryThenRelease``
+protocol's release (``kernels.TM_*``). Code outside this class reads the
 bank through its named accessors, never by column number.
 """
 
@@ -14,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from vtrack_gym.envs.scenarios import MAX_EPISODE_S
-from vtrack_gym.envs.speed import is_profile, speed_tables
+from vtrack_gym.envs.speed import is_profile, release_columns, speed_tables
 from vtrack_gym.tracks.table import COL_KAPPA, COL_PSI, COL_X, COL_Y
 
 TIME_LIMIT_FACTOR = 1.5
@@ -24,11 +25,11 @@ TIME_LIMIT_MARGIN_S = 30.0
 class TrackBank:
     """The paths a scenario's cars drive on, their speed tables and the packed arrays the kernel reads."""
 
-    def __init__(self, paths: tuple, speed: Any) -> None:
+    def __init__(self, paths: tuple, speed: Any, vehicle: Any = None) -> None:
         from vtrack_gym.envs import kernels as k
 
         self.paths = paths
-        self.speed_tables = speed_tables(paths, speed)
+        self.speed_tables = speed_tables(paths, speed, vehicle)
         self.tables = np.ascontiguousarray(np.concatenate([
             np.column_stack([p.table, t.v_mps ** 2, p.half_widths_rows()]) for p, t in zip(
                 paths, self.speed_tables, strict=True)]))
@@ -42,6 +43,7 @@ class TrackBank:
         meta[:, k.TM_CLOSED] = [1.0 if p.closed else 0.0 for p in paths]
         meta[:, k.TM_HALF_WIDTH] = [p.half_width_m for p in paths]
         meta[:, k.TM_PROFILE] = 1.0 if is_profile(speed) else 0.0
+        meta[:, [k.TM_RELEASE_S, k.TM_RELEASE_HOLD]] = release_columns(paths, speed)
         self.meta = meta
         self.length_m = meta[:, k.TM_LEN].copy()
         """Length of each path [m] (K,)."""

@@ -41,7 +41,7 @@ import gymnasium as gym
 import numpy as np
 
 from vtrack_gym.envs.config import EnvConfig, ResetOptions, Scenario
-from vtrack_gym.envs.scenarios import resolve_scenario
+from vtrack_gym.envs.scenarios import resolve_scenario, with_protocol
 from vtrack_gym.envs.schema import info_dict
 from vtrack_gym.envs.sim import TERMINATION_NAMES, BatchSim
 from vtrack_gym.vehicle import layout as L
@@ -135,9 +135,11 @@ class TrackingEnv(gym.Env):
     def __init__(self, scenario: str | Scenario = "LateralTracking-v0", config: EnvConfig | None = None,
                  render_mode: str | None = None, render_fps: int = 25, render_view: str = "follow",
                  track: Any = None, speed_profile: Any = None, half_width_m: float | None = None,
-                 closed: bool | None = None, smoothing_m: float | None = None, **config_overrides: Any) -> None:
+                 closed: bool | None = None, smoothing_m: float | None = None, entry_speed_kmh: float | None = None,
+                 reference: str | None = None, **config_overrides: Any) -> None:
         scenario = resolve_scenario(scenario, track, speed_profile, half_width_m, closed, smoothing_m)
         config = scenario_config(scenario, config, config_overrides)
+        scenario = with_protocol(scenario, config.vehicle, entry_speed_kmh, reference)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} (got {render_mode!r})")
         self.scenario = scenario

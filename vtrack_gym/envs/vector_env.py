@@ -22,7 +22,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from vtrack_gym.envs.config import EnvConfig, ResetOptions, Scenario
-from vtrack_gym.envs.scenarios import resolve_scenario
+from vtrack_gym.envs.scenarios import resolve_scenario, with_protocol
 from vtrack_gym.envs.sim import TERMINATION_NAMES, BatchSim
 from vtrack_gym.envs.tracking_env import ACTION_SPACE, check_actions, observation_space, scenario_config
 from vtrack_gym.vehicle.params import DesignModel
@@ -49,11 +49,13 @@ class TrackingVectorEnv(VectorEnv):
                  config: EnvConfig | None = None, render_mode: str | None = None, track: Any = None,
                  speed_profile: Any = None, half_width_m: float | None = None, closed: bool | None = None,
                  smoothing_m: float | None = None, max_episode_steps: int | None = None,
+                 entry_speed_kmh: float | None = None, reference: str | None = None,
                  **config_overrides: Any) -> None:
         scenario = resolve_scenario(scenario, track, speed_profile, half_width_m, closed, smoothing_m)
         if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer (got {num_envs!r})")
         config = scenario_config(scenario, config, config_overrides)
+        scenario = with_protocol(scenario, config.vehicle, entry_speed_kmh, reference)
         self.scenario = scenario
         self.config = config
         self.num_envs = int(num_envs)

@@ -6,9 +6,10 @@ drawn deterministically from a fixed list of seeds (the same perturbations for e
 The friction range of each scenario keeps the course physically drivable: the handling course's 20 m
 hairpin needs ~0.63 g at 40 km/h (mu drawn in 0.75-1.0) and the lane change ~0.81 g at 120 km/h (mu drawn
 in 0.9-1.1); below that every policy must fail, which would measure the road, not the controller.
-``maneuvers``: the standard manoeuvres (``vtrack/ISO3888-1-v0``, ``ISO3888-2-v0``, ``ISO4138-Circle-v0``,
-``Slalom-v0``, ``StepCurvature-v0``; ``envs.scenarios.MANEUVER_IDS``), each at its nominal speed profile, seed 0
-(deterministic without noise), judged by its own success criterion.
+``maneuvers``: the standard manoeuvres at their current versions (``vtrack/ISO3888-1-v1``, ``ISO3888-2-v1``,
+``ISO4138-Circle-v0``, ``Slalom-v1``, ``StepCurvature-v0``; ``envs.scenarios.MANEUVER_IDS``), each with its own
+speed protocol (the ISO 3888 ids: entry speed, then the throttle held or released), seed 0 (deterministic without
+noise), judged by its own success criterion.
 ``highway``: highway-env's ``lane-keeping-v0`` through ``vtrack_gym.interop`` (three starts; needs the
 ``highway`` extra).
 """

@@ -9,7 +9,8 @@ tyres' load sensitivity under load transfer and the drive force), never with mu 
   per car.
 - :func:`envelope_profile`: an ``EnvelopeLimited`` speed profile checked against the car's lateral limit.
 - :func:`entry_speed_bound_kmh`: the highest entry speed at which the car, coasting from the entry gate (throttle
-  released, the standard's ISO 3888-2 protocol), can follow the planned line within its lateral limit.
+  released, the standard's ISO 3888-2 protocol) or holding its throttle (ISO 3888-1), can follow the planned line
+  within its lateral limit.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from vtrack_gym.tracks.maneuvers import KMH_TO_MPS, MAX_ENTRY_SPEED_KMH, Maneuver, build_maneuver
+from vtrack_gym.tracks.maneuvers import KMH_TO_MPS, MAX_ENTRY_SPEED_KMH, PLANNED_MARGIN_M, Maneuver, build_maneuver
 from vtrack_gym.tracks.path import Path
 from vtrack_gym.tracks.planned_line import BodyRectangle, curvature_rate_limit_per_m2
 from vtrack_gym.tracks.speed_profiles import EnvelopeLimited
@@ -38,6 +39,23 @@ def body_of(vehicle: VehicleParams) -> BodyRectangle:
     return BodyRectangle(c.body_length_m, c.body_width_m, c.cg_to_front_end_m, vehicle.name)
 
 
+AFTER_ENTRY_PROTOCOLS: tuple[str, ...] = ("coast", "hold_throttle")
+"""What the car does from the entry gate on when its entry-speed bound is computed (``envs.speed.AFTER_ENTRY``)."""
+
+
+def check_width_for(name: str, vehicle: VehicleParams) -> None:
+    """ValueError naming the field, the limit and the car when the body of ``vehicle`` is wider than manoeuvre
+    ``name``'s lanes can be sized for (its parameters' ``vehicle_width_m`` range)."""
+    from vtrack_gym._ranges import range_of
+    from vtrack_gym.tracks.maneuvers import MANEUVERS
+
+    rng = range_of(MANEUVERS[name][1], "vehicle_width_m")
+    width = vehicle.chassis.body_width_m
+    if rng.le is not None and width > float(rng.le):
+        raise ValueError(f"ChassisParams.body_width_m = {width} m of {vehicle.name!r} is too wide for {name}: its "
+                         f"cone lanes are sized for cars up to {float(rng.le):g} m wide")
+
+
 def check_body_fits(path: Path, vehicle: VehicleParams) -> None:
     """ValueError naming the car, its width and the gate's limit if the body of ``vehicle`` is not narrower than
     every gate of ``path``."""
@@ -50,17 +68,21 @@ def check_body_fits(path: Path, vehicle: VehicleParams) -> None:
 
 
 @lru_cache(maxsize=64)
-def planned_maneuver(name: str, vehicle: VehicleParams) -> Maneuver:
+def planned_maneuver(name: str, vehicle: VehicleParams, margin_m: float = PLANNED_MARGIN_M) -> Maneuver:
     """Manoeuvre ``name`` (one of ``GATED_MANEUVERS``) sized for ``vehicle``'s width, with the planned line for its
-    body; |dkappa/ds| is bounded by what its steering actuator follows at the manoeuvre's nominal speed
-    (``planned_line.curvature_rate_limit_per_m2``). Cached per (name, car)."""
+    body, ``margin_m`` [m] clear of every cone line (default: the least-curvature line, 1 cm clear); |dkappa/ds| is
+    bounded by what its steering actuator follows at the manoeuvre's nominal speed
+    (``planned_line.curvature_rate_limit_per_m2``). Cached per (name, car, margin)."""
     if name not in GATED_MANEUVERS:
         raise ValueError(f"no planned line for {name!r}: it has no cone gates (gated: {', '.join(GATED_MANEUVERS)})")
+    check_width_for(name, vehicle)
     nominal = build_maneuver(name, vehicle_width_m=vehicle.chassis.body_width_m).spec.nominal_speed_mps
     rate = curvature_rate_limit_per_m2(vehicle.steering.max_road_wheel_rate_radps, vehicle.chassis.wheelbase_m,
                                        nominal)
-    return build_maneuver(name, vehicle_width_m=vehicle.chassis.body_width_m, reference="planned",
-                          body=body_of(vehicle), max_curvature_rate_per_m2=rate)
+    maneuver = build_maneuver(name, vehicle_width_m=vehicle.chassis.body_width_m, reference="planned",
+                              body=body_of(vehicle), max_curvature_rate_per_m2=rate, planned_margin_m=margin_m)
+    check_body_fits(maneuver.path, vehicle)
+    return maneuver
 
 
 def envelope_profile(vehicle: VehicleParams, max_speed_mps: float, max_lateral_accel_mps2: float,
@@ -101,16 +123,32 @@ def coast_speed_mps(vehicle: VehicleParams, entry_speed_mps: float, distance_m: 
     return np.sqrt(np.maximum(u, 0.0))
 
 
-def coast_check(path: Path, vehicle: VehicleParams, entry_speed_mps: float) -> CoastCheck:
-    """Coast along ``path`` from its first gate's start to its last gate's end at ``entry_speed_mps`` [m/s] and
-    compare v^2 |kappa| with the car's lateral limit at v (``steady_state.lateral_limit_mps2``)."""
+def released_speed_mps(vehicle: VehicleParams, entry_speed_mps: float, distance_m: np.ndarray,
+                       after_entry: str = "coast") -> np.ndarray:
+    """Speed [m/s] ``distance_m`` [m] past the entry gate under ``after_entry`` (``AFTER_ENTRY_PROTOCOLS``):
+    :func:`coast_speed_mps`, or for ``"hold_throttle"`` the entry speed (APPROXIMATION: the throttle that held the
+    entry speed on the level approach balances drag and rolling resistance there, so on the line the car keeps the
+    entry speed; the tyres' cornering drag, left out, would slow it, so the car is credited with at least its true
+    speed and the bound is conservative)."""
+    if after_entry not in AFTER_ENTRY_PROTOCOLS:
+        raise ValueError(f"after_entry must be one of {', '.join(AFTER_ENTRY_PROTOCOLS)} (got {after_entry!r})")
+    if after_entry == "coast":
+        return coast_speed_mps(vehicle, entry_speed_mps, distance_m)
+    return np.full(np.shape(distance_m), float(entry_speed_mps))
+
+
+def coast_check(path: Path, vehicle: VehicleParams, entry_speed_mps: float,
+                after_entry: str = "coast") -> CoastCheck:
+    """Drive ``path`` from its first gate's start to its last gate's end from ``entry_speed_mps`` [m/s] under
+    ``after_entry`` (:func:`released_speed_mps`) and compare v^2 |kappa| with the car's lateral limit at v
+    (``steady_state.lateral_limit_mps2``)."""
     from vtrack_gym.vehicle.steady_state import lateral_limit_mps2
 
     if not path.gates:
         raise ValueError(f"path {path.name!r} has no gates: no entry gate to coast from")
     s0, s1 = path.gates[0].s_start_m, max(g.s_end_m for g in path.gates)
     s = np.linspace(s0, s1, max(2, math.ceil((s1 - s0) / COAST_STEP_M) + 1))
-    v = coast_speed_mps(vehicle, entry_speed_mps, s - s0)
+    v = released_speed_mps(vehicle, entry_speed_mps, s - s0, after_entry)
     usage = v * v * np.abs(path.sample(s).kappa) / np.asarray(lateral_limit_mps2(vehicle, v))
     k = int(np.argmax(usage))
     return CoastCheck(float(entry_speed_mps), float(usage[k]), float(s[k]), float(v[k]))
@@ -123,25 +161,30 @@ def check_entry_speed(entry_speed_kmh: float, vehicle: VehicleParams) -> None:
                          f"for {vehicle.name!r})")
 
 
-def entry_speed_bound_kmh(vehicle: VehicleParams, maneuver: str = "iso3888_2") -> float:
+def entry_speed_bound_kmh(vehicle: VehicleParams, maneuver: str = "iso3888_2", after_entry: str = "coast",
+                          margin_m: float = PLANNED_MARGIN_M) -> float:
     """The car's physical entry-speed bound [km/h] on a cone-lined manoeuvre: the highest entry speed at which,
-    coasting from the entry gate along the planned line for its body (:func:`planned_maneuver`), it never needs
-    more than its own steady-state lateral limit (bisection to ``BOUND_TOL_KMH``, within (0, 200] km/h). A
-    policy passing above it has cut through the physics, not driven better."""
-    path = planned_maneuver(maneuver, vehicle).path
+    from the entry gate on along the planned line for its body (:func:`planned_maneuver`), coasting
+    (``after_entry="coast"``, ISO 3888-2) or holding its throttle (``"hold_throttle"``, ISO 3888-1; see
+    :func:`released_speed_mps` for the approximation), it never needs more than its own steady-state lateral limit
+    (bisection to ``BOUND_TOL_KMH``, within (0, 200] km/h). A policy passing above it has cut through the
+    physics, not driven better. ``margin_m`` [m]: the line's clearance from the cone lines (default: the
+    least-curvature line, the physical bound; a line with a tracking margin, as the envs drive, has a lower one)."""
+    path = planned_maneuver(maneuver, vehicle, margin_m).path
     lo, hi = 1.0, MAX_ENTRY_SPEED_KMH
-    if coast_check(path, vehicle, lo * KMH_TO_MPS).usage > 1.0:
+    if coast_check(path, vehicle, lo * KMH_TO_MPS, after_entry).usage > 1.0:
         raise ValueError(f"{vehicle.name!r} cannot follow the planned {maneuver} line even at {lo:g} km/h")
-    if coast_check(path, vehicle, hi * KMH_TO_MPS).usage <= 1.0:
+    if coast_check(path, vehicle, hi * KMH_TO_MPS, after_entry).usage <= 1.0:
         return hi
     while hi - lo > BOUND_TOL_KMH:
         mid = 0.5 * (lo + hi)
-        if coast_check(path, vehicle, mid * KMH_TO_MPS).usage <= 1.0:
+        if coast_check(path, vehicle, mid * KMH_TO_MPS, after_entry).usage <= 1.0:
             lo = mid
         else:
             hi = mid
     return lo
 
 
-__all__ = ["GATED_MANEUVERS", "CoastCheck", "body_of", "check_body_fits", "check_entry_speed", "coast_check",
-           "coast_speed_mps", "entry_speed_bound_kmh", "envelope_profile", "planned_maneuver"]
+__all__ = ["AFTER_ENTRY_PROTOCOLS", "GATED_MANEUVERS", "CoastCheck", "body_of", "check_body_fits", "check_entry_speed",
+           "check_width_for", "coast_check", "coast_speed_mps", "entry_speed_bound_kmh", "envelope_profile",
+           "planned_maneuver", "released_speed_mps"]

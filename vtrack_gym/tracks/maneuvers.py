@@ -86,6 +86,10 @@ LANE_OFFSET_READINGS: dict[str, str] = {
                  "ISO3888_Helper)",
 }
 """Readings of ISO 3888-1's lateral offset of lane 3 (``DoubleLaneChangeParams.lane_offset_from``)."""
+DEFAULT_LANE_OFFSET_FROM: dict[str, str] = {"planned": "cone_line", "lane_centres": "lane_centre"}
+"""ISO 3888-1's lane-offset reading when none is given, per reference line: the cone-based planned line (the
+standard as its cones pose it) reads ``cone_line``; the lane-centre line keeps the paper's ``lane_centre``."""
+PLANNED_MARGIN_M = 0.01                  # least clearance [m] between the body and a cone line on a planned line
 TIME_FACTOR = 1.25                       # CHOICE: time limit = TIME_FACTOR x nominal travel time + TIME_MARGIN_S
 TIME_MARGIN_S = 5.0
 
@@ -197,9 +201,11 @@ def _body(params: Any) -> BodyRectangle:
 def _planned_path(params: Any, lanes: tuple[LaneSection, ...], gaps_m: tuple[float, ...], *, approach_m: float,
                   run_out_m: float, half_width_m: float, ds_m: float, name: str) -> Path:
     body = _body(params)
+    if params.planned_margin_m != PLANNED_MARGIN_M:
+        name = f"{name}_m{params.planned_margin_m:g}"
     line = plan_line(lanes, gaps_m, body, approach_m=approach_m, run_out_m=run_out_m,
-                     max_curvature_rate_per_m2=params.max_curvature_rate_per_m2, half_width_m=half_width_m,
-                     ds_m=ds_m, name=f"{name}_planned_l{body.length_m:g}", version=VERSION)
+                     max_curvature_rate_per_m2=params.max_curvature_rate_per_m2, margin_m=params.planned_margin_m,
+                     half_width_m=half_width_m, ds_m=ds_m, name=f"{name}_planned_l{body.length_m:g}", version=VERSION)
     return line.path
 
 
@@ -213,19 +219,23 @@ class DoubleLaneChangeParams:
     speed_mps: float = ranged(80.0 * KMH_TO_MPS, gt=0.0, le=100.0, unit="m/s")   # nominal test speed 80 km/h
     approach_m: float = ranged(100.0, ge=0.0, le=10000.0, unit="m")
     overlap_m: float = ranged(7.0, ge=0.0, le=7.5, unit="m")       # CHOICE: transitions reach 7 m into the lanes
-    # ISO's 3.5 m, measured as ``lane_offset_from`` says (a key of LANE_OFFSET_READINGS)
+    # ISO's 3.5 m, measured as ``lane_offset_from`` says (a key of LANE_OFFSET_READINGS; None: the reference
+    # line's default, ``DEFAULT_LANE_OFFSET_FROM``)
     lane_offset_m: float = ranged(3.5, gt=0.5, le=20.0, unit="m")
-    lane_offset_from: str = "lane_centre"
+    lane_offset_from: str | None = None
     reference: str = "lane_centres"                                 # a key of REFERENCES
     body: BodyRectangle | None = None                               # the car a planned line is for
     max_curvature_rate_per_m2: float | None = ranged(None, gt=0.0, le=10.0, unit="1/m^2")   # planned line only
+    planned_margin_m: float = ranged(PLANNED_MARGIN_M, gt=0.0, le=0.5, unit="m")            # planned line only
 
     def __post_init__(self) -> None:
         validate(self)
+        _check_reference(self)
+        if self.lane_offset_from is None:
+            object.__setattr__(self, "lane_offset_from", DEFAULT_LANE_OFFSET_FROM[self.reference])
         if self.lane_offset_from not in LANE_OFFSET_READINGS:
             raise ValueError(f"DoubleLaneChangeParams.lane_offset_from must be one of {sorted(LANE_OFFSET_READINGS)} "
                              f"(got {self.lane_offset_from!r})")
-        _check_reference(self)
 
     def lane3_centre_offset_m(self) -> float:
         """Lane 3's centre left of lane 1's [m]: ``lane_offset_m`` (reading ``lane_centre``) or ``lane_offset_m``
@@ -250,10 +260,11 @@ def iso3888_1_double_lane_change(params: DoubleLaneChangeParams = DoubleLaneChan
     lane 3 25 m, 1.2 w + 0.25 m, offset 3.5 m to the left; section 4 25 m; lane 5 15 m, 1.3 w + 0.25 m, right
     boundary on lane 1's; run-out 15 m. The lengths and widths agree in every source; where the 3.5 m is measured
     from does not, and the standard's figure was not seen. ``lane_offset_from`` picks the reading
-    (``LANE_OFFSET_READINGS``): ``"lane_centre"`` (default) puts lane 3's centre 3.5 m left of lane 1's, the
-    paper's "3.5 m between the two lanes"; ``"cone_line"`` is Project Chrono's ``ISO3888_Helper`` (the only public
-    implementation found that places the cones per the standard): lane 3's right cone line 3.5 m left of lane 1's
-    centre line, so lane 3's centre is at 3.5 + (1.2 w + 0.25) / 2 = 4.775 m for w = 1.916 m.
+    (``LANE_OFFSET_READINGS``; when not given, ``DEFAULT_LANE_OFFSET_FROM``: ``"cone_line"`` for the planned
+    line, ``"lane_centre"`` for the lane-centre line): ``"lane_centre"`` puts lane 3's centre 3.5 m left of lane
+    1's, the paper's "3.5 m between the two lanes"; ``"cone_line"`` is Project Chrono's ``ISO3888_Helper`` (the
+    only public implementation found that places the cones per the standard): lane 3's right cone line 3.5 m left
+    of lane 1's centre line, so lane 3's centre is at 3.5 + (1.2 w + 0.25) / 2 = 4.775 m for w = 1.916 m.
 
     Reference line (``reference``): ``"lane_centres"`` (default) is built by :func:`tracks.dlc.build_double_lane_change`
     with ``length_scale = 1`` and ``overlap_m`` = 7 m (CHOICE: the transitions span 44 m and 39 m of X; peak v^2
@@ -304,6 +315,7 @@ class ObstacleAvoidanceParams:
     reference: str = "lane_centres"                                 # a key of REFERENCES
     body: BodyRectangle | None = None                               # the car a planned line is for
     max_curvature_rate_per_m2: float | None = ranged(None, gt=0.0, le=10.0, unit="1/m^2")   # planned line only
+    planned_margin_m: float = ranged(PLANNED_MARGIN_M, gt=0.0, le=0.5, unit="m")            # planned line only
 
     def __post_init__(self) -> None:
         validate(self)
@@ -452,6 +464,7 @@ class SlalomParams:
     reference: str = "lane_centres"                                 # a key of REFERENCES
     body: BodyRectangle | None = None                               # the car a planned line is for
     max_curvature_rate_per_m2: float | None = ranged(None, gt=0.0, le=10.0, unit="1/m^2")   # planned line only
+    planned_margin_m: float = ranged(PLANNED_MARGIN_M, gt=0.0, le=0.5, unit="m")            # planned line only
 
     def __post_init__(self) -> None:
         validate(self)

@@ -239,3 +239,18 @@ def test_the_board_aggregates_the_search_over_failed_episodes_too() -> None:
     assert entry["success_rate"] == 0.0
     assert entry["max_entry_speed_kmh"] == 58.0 and entry["entry_speed_fraction"] == pytest.approx(58.0 / 67.4)
     assert math.isnan(entry["max_e_y_m"])          # an episode metric: successful episodes only
+
+
+def test_evaluate_on_the_maneuvers_suite_gives_the_benchmarks_entry_speed_metrics() -> None:
+    """``vtrack_gym.evaluate(make, "maneuvers")`` scores like ``vtrack benchmark --suite maneuvers``: the search's
+    metrics on the ISO 3888 rows, none on the others, the row's verdict at the id's default speed."""
+    from vtrack_gym.baselines.resolve import policy_factory
+
+    rows = {r.env_id: r for r in vtrack_gym.evaluate(policy_factory("lqr"), "maneuvers", policy_id="lqr")}
+    for env_id in es.ENTRY_SPEED_ENV_IDS:
+        m = rows[env_id].metrics
+        assert m["entry_speed_bound_kmh"] == pytest.approx(es.entry_speed_bound(env_id), abs=1e-6)
+        assert m["max_entry_speed_kmh"] <= m["entry_speed_bound_kmh"] and m["above_physical_bound"] == 0
+        probes = dict(p.rsplit(":", 1) for p in m["entry_speed_probes"].split(","))
+        assert probes[f"{m['max_entry_speed_kmh']:.2f}"] == "pass"
+    assert all("max_entry_speed_kmh" not in r.metrics for e, r in rows.items() if e not in es.ENTRY_SPEED_ENV_IDS)

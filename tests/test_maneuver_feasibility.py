@@ -118,3 +118,89 @@ def test_bad_input_names_the_field_the_limit_and_the_car() -> None:
     with pytest.raises(ValueError, match="no planned line for 'step_curvature'"):
         planned_maneuver("step_curvature", car)
     assert body_of(car).name == car.name
+
+
+# ------------------------------------------------------------------------------------------ registered ids
+def _maneuver_env_ids() -> list[str]:
+    """Every registered ``vtrack/`` id built on a manoeuvre track (the -v1 ids and the -v0 ids still registered)."""
+    from vtrack_gym.envs.scenarios import SCENARIOS
+    from vtrack_gym.envs.track_sources import MANEUVER_TRACK_NAMES
+
+    return sorted(s.env_id for s in SCENARIOS.values() if s.track.is_builtin and s.track.track in MANEUVER_TRACK_NAMES)
+
+
+def _scenario_speed_mps(scenario, path, vehicle, s: np.ndarray) -> np.ndarray:
+    """The speed [m/s] at stations ``s`` [m] of ``path`` that the scenario's protocol asks of a perfect follower:
+    the profile's, or the entry speed up to the entry gate and the coasting (or held-throttle) speed after it."""
+    from vtrack_gym.envs.speed import EntryThenRelease
+    from vtrack_gym.tracks.feasibility import released_speed_mps
+    from vtrack_gym.tracks.speed_profiles import speed_table
+
+    if not isinstance(scenario.speed, EntryThenRelease):
+        return np.interp(s, path.s_m, speed_table(path, scenario.speed).v_mps)
+    gate = path.gates[0].s_start_m
+    v = np.full(s.size, scenario.speed.entry_speed_mps)
+    after = s >= gate
+    v[after] = released_speed_mps(vehicle, scenario.speed.entry_speed_mps, s[after] - gate, scenario.speed.after_entry)
+    return v
+
+
+def test_the_maneuver_ids_are_the_current_and_the_kept_versions() -> None:
+    assert _maneuver_env_ids() == sorted(["vtrack/ISO3888-1-v0", "vtrack/ISO3888-1-v1", "vtrack/ISO3888-2-v1",
+                                          "vtrack/ISO4138-Circle-v0", "vtrack/Slalom-v0", "vtrack/Slalom-v1",
+                                          "vtrack/StepCurvature-v0"])
+
+
+@pytest.mark.parametrize("car", CARS)
+@pytest.mark.parametrize("env_id", _maneuver_env_ids())
+def test_every_registered_maneuver_is_feasible_for_every_car(env_id: str, car: str) -> None:
+    """A perfect kinematic follower (the body's pose on the env's reference line) clears every gate, and the peak
+    v^2 kappa at the scenario's speed (coasting or held-throttle speed after the entry gate) is below the car's own
+    steady-state limit. The ISO 4138 circle is the exception by design: its ramp starts below the limit and ends
+    above it (it measures the limit)."""
+    import gymnasium as gym
+
+    env = gym.make(env_id, vehicle=car)
+    try:
+        vehicle, scenario = env.unwrapped.config.vehicle, env.unwrapped.scenario
+        (path,) = env.unwrapped.paths
+    finally:
+        env.close()
+    if scenario.success.__class__.__name__ == "ConeGates":
+        assert path.gates and _gates_hit(path, vehicle) == 0
+    s = np.arange(0.0, path.length_m, 0.05)   # the line as the env interpolates it, between its rows too
+    kappa = np.abs(path.sample(s).kappa)
+    v = _scenario_speed_mps(scenario, path, vehicle, s)
+    usage = v * v * kappa / np.asarray(lateral_limit_mps2(vehicle, v))
+    if env_id == "vtrack/ISO4138-Circle-v0":
+        on_circle = kappa > 0.99 / 40.0
+        assert usage[on_circle][0] < 0.5 and usage[on_circle].max() > 1.0
+    else:
+        assert usage.max() < 1.0, f"{env_id} asks {usage.max():.3f} of {car}'s lateral limit"
+
+
+@pytest.mark.parametrize("car", CARS)
+def test_iso3888_1_hold_throttle_bound(car: str) -> None:
+    """Holding the throttle the car keeps its entry speed (the approximation of ``released_speed_mps``), so the
+    bound is where the planned line's peak v^2 kappa meets the car's limit, above the standard's 80 km/h; coasting
+    (slower on the line) never has a lower bound."""
+    vehicle = load_vehicle(car)
+    bound = entry_speed_bound_kmh(vehicle, "iso3888_1", "hold_throttle")
+    m = planned_maneuver("iso3888_1", vehicle)
+    v = bound * KMH
+    assert m.path.gates[1].anchor[1] - 0.5 * m.path.gates[1].width_m == pytest.approx(3.5)  # cone-line reading
+    s = np.arange(m.path.gates[0].s_start_m, m.path.gates[-1].s_end_m, 0.05)
+    peak = v * v * np.max(np.abs(m.path.sample(s).kappa))
+    assert peak == pytest.approx(lateral_limit_mps2(vehicle, v), rel=2e-3)
+    assert 80.0 < bound < 120.0
+    assert entry_speed_bound_kmh(vehicle, "iso3888_1", "coast") >= bound
+    with pytest.raises(ValueError, match="after_entry must be one of coast, hold_throttle"):
+        entry_speed_bound_kmh(vehicle, "iso3888_1", "brake")
+
+
+def test_a_car_too_wide_for_the_lanes_is_refused_naming_the_field_the_limit_and_the_car() -> None:
+    car = load_vehicle("suv")
+    wide = dataclasses.replace(car, name="wide truck", chassis=dataclasses.replace(car.chassis, body_width_m=4.5))
+    with pytest.raises(ValueError, match=r"ChassisParams.body_width_m = 4.5 m of 'wide truck' is too wide for "
+                                         r"iso3888_2: its cone lanes are sized for cars up to 4 m wide"):
+        planned_maneuver("iso3888_2", wide)

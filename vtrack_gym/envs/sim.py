@@ -23,6 +23,7 @@ from vtrack_gym.envs.scenarios import Scenario
 from vtrack_gym.envs.schema import REWARD_TERMS, SIGNAL_ROW
 from vtrack_gym.envs.speed import EntryThenRelease, HoldSpeed
 from vtrack_gym.envs.track_bank import TrackBank
+from vtrack_gym.tracks.speed_limits import check_profile_for_car
 from vtrack_gym.vehicle import layout as L
 from vtrack_gym.vehicle.params import VehicleParams
 from vtrack_gym.vehicle.plant import PARALLEL_THRESHOLD, Plant
@@ -54,6 +55,8 @@ class BatchSim:
             from vtrack_gym.tracks.feasibility import check_entry_speed
 
             check_entry_speed(scenario.speed.entry_speed_kmh, config.vehicle)
+        # a speed profile's lateral limit within this car's own (ValueError above it, a warning near it)
+        check_profile_for_car(scenario.speed, config.vehicle)
         self.tracks = TrackBank(scenario_tracks(scenario, config.vehicle), scenario.speed, config.vehicle)
         self.paths = self.tracks.paths
         if scenario.time_limit_s is None:

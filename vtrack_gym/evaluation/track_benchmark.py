@@ -76,8 +76,8 @@ def benchmark_tracks(dir_or_glob: str | Path, factories: Mapping[str, Any], seed
                      backend: str = "local", show_progress: bool = False) -> dict[str, Any]:
     """Every policy on every track file of ``dir_or_glob`` (``track_files``), one episode per track and seed.
 
-    Each file is registered with ``speed_profile`` (default: what ``vtrack benchmark --track`` drives, curvature
-    limited within 40 km/h and 0.7 g) and read with ``closed`` /
+    Each file is registered with ``speed_profile`` (default: what ``vtrack benchmark --track`` drives, the
+    friction-ellipse ``EnvelopeLimited`` within 40 km/h and 0.7 g, checked against the car) and read with ``closed`` /
     ``smoothing_m`` as ``register_track`` does. Rows go to suite ``track_set_suite(...)``; rank them with
     ``track_set_board``. ``workers`` / ``backend``: see ``vtrack_gym.evaluation.parallel.run_tasks``.
     Returns ``{"rows", "traces", "figures", "suite", "tracks": [files]}``.

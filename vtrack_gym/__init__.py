@@ -12,7 +12,8 @@ from vtrack_gym._version import __version__
 from vtrack_gym.envs.registration import ALL_ENV_IDS, ENV_IDS, register_envs
 from vtrack_gym.interop import register_highway_envs
 
-__all__ = ["ALL_ENV_IDS", "ENV_IDS", "__version__", "evaluate", "leaderboard", "make_policy", "register_envs"]
+__all__ = ["ALL_ENV_IDS", "ENV_IDS", "__version__", "evaluate", "leaderboard", "make_policy", "max_entry_speed_kmh",
+           "register_envs"]
 
 
 def make_policy(spec: str, env: _Any, preset: str | None = None, *, trust_code: bool = False,
@@ -50,6 +51,17 @@ def leaderboard(source: _Any, suite: str | None = None, **kwargs: _Any) -> _Any:
     from vtrack_gym.evaluation.api import leaderboard as _leaderboard
 
     return _leaderboard(source, suite, **kwargs)
+
+
+def max_entry_speed_kmh(policy: _Any, env_id: str = "vtrack/ISO3888-2-v1", **kwargs: _Any) -> _Any:
+    """The highest entry speed [km/h] at which ``policy`` (a name such as ``"mpc"``, a factory ``make(env)`` or an
+    object with ``predict``) passes an ISO 3888 lane change (``vtrack/ISO3888-1-v1``, ``vtrack/ISO3888-2-v1``), with
+    the car's physical bound and the fraction of it. Keywords: ``vehicle``, ``lo_kmh``, ``hi_kmh``, ``tol_kmh``,
+    ``checks``, ``seed``, ``policy_id``, ``on_probe``. See ``vtrack_gym.evaluation.entry_speed``.
+    """
+    from vtrack_gym.evaluation.entry_speed import max_entry_speed_kmh as _search
+
+    return _search(policy, env_id, **kwargs)
 
 
 register_envs()

@@ -7,9 +7,11 @@
     vtrack tune --controller smc --budget paper --space working --out smc_tuned.json
     vtrack video --policy mpc --env DLC120-v0 --out dlc.mp4
     vtrack dataset --policy mpc --suite paper --episodes 2
+    vtrack entry-speed --policy mpc --env vtrack/ISO3888-2-v1
 
-One module per command (``evaluate`` runs ``vtrack eval``): ``register`` adds its subparser, ``run`` runs it,
-``needed_modules`` and ``check_outputs`` say which optional packages and outputs it has. Shared options live in
+One module per command (``evaluate`` runs ``vtrack eval``, ``entry_speed`` ``vtrack entry-speed``): ``register``
+adds its subparser, ``run`` runs it, ``needed_modules`` and ``check_outputs`` say which optional packages and
+outputs it has. Shared options live in
 ``_options``; everything written to the terminal goes through ``_terminal`` (escaped).
 """
 
@@ -26,6 +28,7 @@ from types import ModuleType
 from vtrack_gym.cli import (
     benchmark,
     dataset,
+    entry_speed,
     evaluate,
     export,
     leaderboard,
@@ -42,7 +45,7 @@ from vtrack_gym.evaluation.store import StoreError
 from vtrack_gym.tuning.backends import BackendError
 
 COMMANDS: tuple[ModuleType, ...] = (benchmark, evaluate, leaderboard, train, export, plot, tune, video, reproduce,
-                                    dataset)
+                                    dataset, entry_speed)
 """The command modules, in the order ``vtrack --help`` lists them."""
 EXIT_ERROR = 2
 """Exit code of a refused command (bad input, unusable file, missing package)."""

@@ -14,7 +14,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from vtrack_gym.evaluation.benchmark import score_episode
+from vtrack_gym.evaluation.benchmark import episode_scorer
 from vtrack_gym.evaluation.fingerprint import named_policy_hash, policy_hash
 from vtrack_gym.evaluation.rollout import policy_id_of
 from vtrack_gym.evaluation.store import ResultRow, ResultStore, StoreError
@@ -332,7 +332,7 @@ def _row(make: Callable[[Any], Any], env: gym.Env, ep: Episode, suite: str, poli
     name = policy_id or policy_id_of(policy)
     if digest is None:   # a policy whose state cannot be read completely needs a policy_id naming it
         digest = named_policy_hash(policy, policy_id) if policy_id else policy_hash(policy)
-    row, _ = score_episode(name, policy, env, ep, suite, digest)
+    row, _ = episode_scorer(suite, make)(name, policy, env, ep, suite, digest)
     log.debug("%s on %s seed %s: %s, max |e_y| %.4g m", name, ep.env_id, ep.seed, row.termination,
              row.metrics.get("max_e_y_m", float("nan")))
     return row
@@ -362,7 +362,8 @@ def _parallel_rows(make: Callable[[Any], Any], episodes: Sequence[Episode], suit
             name = policy_id_of(checked(env))
         finally:
             env.close()
-    results = run_tasks([EpisodeTask(name, checked, ep, suite, score_episode) for ep in episodes], workers, backend)
+    score = episode_scorer(suite, checked)
+    results = run_tasks([EpisodeTask(name, checked, ep, suite, score) for ep in episodes], workers, backend)
     rows = [row for row, _ in results]
     return [dataclasses.replace(r, policy_hash=rows[0].policy_hash) for r in rows]
 

@@ -30,9 +30,14 @@ LEADERBOARD_COLUMNS: tuple[str, ...] = (
 """Every suite's leaderboard columns (every table format and the HTML board): the paper's metrics, then the policy's
 own compute per decision (``metrics.compute_metrics``: p50/p95/max [us], real-time factor at the control period)
 and its failed solves."""
+ENTRY_SPEED_COLUMNS: tuple[str, ...] = ("max_entry_speed_kmh", "entry_speed_bound_kmh", "entry_speed_fraction",
+                                         "above_physical_bound")
+"""The ISO 3888-1/-2 rows' entry-speed search (``entry_speed.max_entry_speed_kmh``): the highest passing entry speed
+[km/h], the car's physical bound [km/h], their ratio [-] and whether some speed above the bound passed (0/1)."""
 SUITE_COLUMNS: dict[str, tuple[str, ...]] = {"maneuvers": ("max_steady_a_y_mps2", "grip_limit_a_y_mps2",
-                                                            "mu_g_mps2")}
-"""Extra leaderboard columns of a suite: ISO 4138's lateral acceleration reached on the circle and mu g."""
+                                                            "mu_g_mps2", *ENTRY_SPEED_COLUMNS)}
+"""Extra leaderboard columns of a suite: ISO 4138's lateral acceleration reached on the circle and mu g, the ISO
+3888 entry-speed search (``ENTRY_SPEED_COLUMNS``; missing for the other manoeuvres)."""
 
 
 def suite_columns(suite: str) -> tuple[str, ...]:
@@ -113,6 +118,17 @@ def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str,
     return row, trace
 
 
+def episode_scorer(suite: str, make: Any) -> Any:
+    """What scores one episode of ``suite`` for the policy factory ``make`` (``parallel.EpisodeTask.score``):
+    ``score_episode``, and on the ``maneuvers`` suite ``entry_speed.EntrySpeedScore`` (the same row, plus the
+    entry-speed search on the ISO 3888 episodes, with fresh policies from ``make``)."""
+    if base_suite(suite) != "maneuvers":
+        return score_episode
+    from vtrack_gym.evaluation.entry_speed import EntrySpeedScore
+
+    return EntrySpeedScore(make)
+
+
 def score_policy(name: str, make: Any, episodes: Sequence[Episode], suite: str,
                  progress: Any = None) -> tuple[list[ResultRow], list[Trace]]:
     """Run ``make(env) -> policy`` on every episode; returns the leaderboard rows and the traces."""
@@ -120,7 +136,7 @@ def score_policy(name: str, make: Any, episodes: Sequence[Episode], suite: str,
     for ep in episodes:
         env = gym.make(ep.env_id, **ep.make_kwargs)
         try:
-            row, trace = score_episode(name, make(env), env, ep, suite)
+            row, trace = episode_scorer(suite, make)(name, make(env), env, ep, suite)
         finally:
             env.close()
         log.debug("%s on %s seed %s: %s", name, ep.env_id, ep.seed, row.termination)
@@ -171,7 +187,7 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
     episodes = with_vehicle(suite_episodes(suite, quick=quick, seeds=seeds), vehicle)
     label = suite_label(suite, quick, seeds)
     factories = policy_factories(policies)
-    tasks = [EpisodeTask(name, make, ep, label, score_episode,
+    tasks = [EpisodeTask(name, make, ep, label, episode_scorer(label, make),
                          keep_trace=ep.seed == episodes[0].seed or suite == "paper")
              for name, make in factories.items() for ep in episodes]
     all_rows, traces_by_env, folder = score_tasks(tasks, figures_dir, vehicle, workers, backend,

@@ -7,7 +7,9 @@ Validity first: every episode has a success verdict (its scenario's success crit
 metric columns are aggregated over the *successful* episodes only; failed episodes are counted apart (``failed``,
 ``failure_reasons``, ``failed_progress_m`` and the primary metric over them, ``failed_<primary>``), so a policy
 that crashes early (short episode, small ITAE, few cones passed) cannot look better than one that drives the
-course. Rank within each env, lexicographically: success rate (higher first), the suite's primary metric over
+course. The exception are metrics of the policy rather than of the episode (``POLICY_METRICS``: the ISO 3888
+entry-speed search, whose row's own verdict is judged at the id's default entry speed): they are aggregated over
+every episode. Rank within each env, lexicographically: success rate (higher first), the suite's primary metric over
 successful episodes (lower first), completion rate (higher first), the primary metric over completed but failed
 episodes (e.g. cones hit; lower first), the progress of the uncompleted episodes (further first), then the key.
 
@@ -37,6 +39,10 @@ from typing import Any
 import numpy as np
 
 KEY_COLUMNS: tuple[str, ...] = ("env_id", "policy_id", "preset", "policy_hash")
+POLICY_METRICS: frozenset[str] = frozenset({"max_entry_speed_kmh", "entry_speed_bound_kmh", "entry_speed_fraction",
+                                            "above_physical_bound"})
+"""Columns aggregated over every episode, failed ones too: the entry-speed search's figures, which describe the
+policy on the manoeuvre at every speed, not the one run at the default speed."""
 
 
 def metric_value(value: Any) -> float | None:
@@ -183,7 +189,7 @@ def build_board(records: Iterable[Mapping[str, Any]], columns: Sequence[str],
         entry["success_rate"] = estimate(1.0 if _succeeded(m) else 0.0 for m in members)
         entry["completed"] = aggregate(m["completed"] for m in members)
         for col in dict.fromkeys([*columns, primary]):
-            entry[col] = estimate(m["metrics"].get(col) for m in good)
+            entry[col] = estimate(m["metrics"].get(col) for m in (members if col in POLICY_METRICS else good))
         reasons: dict[str, int] = {}
         for m in bad:
             reason = failure_reason(str(m.get("termination") or ("completed" if m["completed"] else "failed")),

@@ -9,7 +9,8 @@ and the column), so a store edited by hand or by another program cannot rank abs
 * ``seed``: None or an integer in [0, 2^63 - 1]; ``completed`` 0/1 and 1 exactly when ``termination`` is
   ``completed``; ``success`` 0/1; ``wall_time_per_step_s`` a finite number >= 0;
 * ``options_json`` and ``metrics_json``: JSON objects of at most ``MAX_JSON_CHARS`` characters, nested at most
-  ``MAX_JSON_DEPTH`` deep, integers of at most 20 digits; metrics as :func:`checked_metrics` keeps them.
+  ``MAX_JSON_DEPTH`` deep, integers of at most 20 digits; metrics as :func:`checked_metrics` keeps them (within
+  ``METRIC_RANGES`` where a metric has a physical range).
 """
 
 from __future__ import annotations
@@ -35,10 +36,17 @@ UNIT_SUFFIXES = ("_m", "_s", "_deg", "_rad", "_mps", "_mps2", "_n", "_per_s", "_
 """A metric whose name ends in a unit is a number."""
 NON_NEGATIVE_METRICS = frozenset({"itae", "duration_s", "cones_hit", "comfort_a_v_mps2", "steering_reversals_per_s",
                                   "a_y_violation_mps2", "wall_time_per_step_s", "wall_time_s", "episodes",
-                                  "remaining_m", "completed", "success"})
+                                  "remaining_m", "completed", "success", "entry_speed_fraction",
+                                  "above_physical_bound", "entry_speed_monotone", "entry_speed_capped"})
 """Error, count and duration metrics that cannot be negative (also every ``max_*`` and ``rms_*`` metric)."""
-FLAG_METRICS = frozenset({"completed", "success"})
+FLAG_METRICS = frozenset({"completed", "success", "above_physical_bound", "entry_speed_monotone",
+                          "entry_speed_capped"})
 """Metrics that are 0 or 1."""
+METRIC_RANGES: dict[str, tuple[float, float]] = {"max_entry_speed_kmh": (0.0, 200.0),
+                                                 "entry_speed_bound_kmh": (0.0, 200.0),
+                                                 "entry_speed_fraction": (0.0, 200.0)}
+"""Physical ranges [lo, hi] of bounded metrics: an ISO 3888 env's entry speeds lie in (0, 200] km/h (and the bound
+is at least 1 km/h, so the fraction is at most 200)."""
 REQUIRED_TEXT = ("suite", "env_id", "policy_id", "policy_hash", "package_version")
 OPTIONAL_TEXT = ("policy_preset", "termination")
 _UNSAFE_CATEGORIES = frozenset({"Cc", "Cf", "Zl", "Zp", "Cs"})
@@ -100,6 +108,9 @@ def _checked_metric(name: str, raw: Any) -> Any:
             raise ValueError(f"metric {name!r} must be a number >= 0 (an error, count or duration; got {raw!r})")
         if name in FLAG_METRICS and value not in (0, 1):
             raise ValueError(f"metric {name!r} must be 0 or 1 (got {raw!r})")
+        lo, hi = METRIC_RANGES.get(name, (-math.inf, math.inf))
+        if not lo <= value <= hi:
+            raise ValueError(f"metric {name!r} must be in [{lo:g}, {hi:g}] (got {raw!r})")
         return value
     kind = "a number" if _numeric(name) else "a number or text"
     raise ValueError(f"metric {name!r:.80} must be {kind} (NaN/inf or None: missing), got "
@@ -109,7 +120,8 @@ def _checked_metric(name: str, raw: Any) -> Any:
 def checked_metrics(metrics: Any) -> dict[str, Any]:
     """``ResultRow.metrics`` as JSON-safe values; ``ValueError`` naming the metric when a value is of the wrong kind
     or out of range: numeric metrics real numbers (NaN/inf stored as None: missing), ``>= 0`` for error, count and
-    duration metrics, 0/1 for flags, integers within 2^63; other metrics a number or text."""
+    duration metrics, 0/1 for flags, ``METRIC_RANGES`` for bounded ones, integers within 2^63; other metrics a
+    number or text."""
     if not isinstance(metrics, dict):
         raise ValueError(f"metrics must be a dict of name -> value (got {type(metrics).__name__})")
     out: dict[str, Any] = {}

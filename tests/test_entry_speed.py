@@ -254,3 +254,18 @@ def test_evaluate_on_the_maneuvers_suite_gives_the_benchmarks_entry_speed_metric
         probes = dict(p.rsplit(":", 1) for p in m["entry_speed_probes"].split(","))
         assert probes[f"{m['max_entry_speed_kmh']:.2f}"] == "pass"
     assert all("max_entry_speed_kmh" not in r.metrics for e, r in rows.items() if e not in es.ENTRY_SPEED_ENV_IDS)
+
+
+def test_two_entry_speeds_or_reference_lines_never_share_a_leaderboard_row(tmp_path) -> None:
+    """An env made with another entry speed or reference line records it; the default records nothing extra."""
+    import gymnasium as gym
+
+    store = tmp_path / "board.sqlite"
+    settings = ({}, {"entry_speed_kmh": 50.0}, {"entry_speed_kmh": 45.0}, {"reference": "lane_centres"})
+    for kwargs in settings:
+        rows = vtrack_gym.evaluate(lambda env: vtrack_gym.make_policy("lqr", env),
+                                   gym.make("vtrack/ISO3888-2-v1", **kwargs), store=store, policy_id="lqr")
+        recorded = rows[0].options.get("protocol")
+        assert recorded == ({k: v for k, v in kwargs.items() if v != 50.0} or None)
+    board = vtrack_gym.leaderboard(store, suite="custom")
+    assert len(board) == 3   # the default and an explicit 50 km/h are one setting; 45 km/h and lane centres apart

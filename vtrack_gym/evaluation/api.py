@@ -197,7 +197,7 @@ def _tracking_identity(unwrapped: Any, spec: Any, env_id: str,
     import dataclasses
 
     from vtrack_gym.envs.config import EnvConfig
-    from vtrack_gym.envs.scenarios import resolve_scenario
+    from vtrack_gym.envs.scenarios import resolve_scenario, with_protocol
     from vtrack_gym.evaluation.track_benchmark import check_driven
     from vtrack_gym.tracks.sources import source_digest
 
@@ -208,6 +208,13 @@ def _tracking_identity(unwrapped: Any, spec: Any, env_id: str,
                                 spec.kwargs.get("half_width_m"), spec.kwargs.get("closed"),
                                 spec.kwargs.get("smoothing_m"))
     base = resolve_scenario(scenario.name)
+    protocol = {k: spec.kwargs[k] for k in ("entry_speed_kmh", "reference") if spec.kwargs.get(k) is not None}
+    if protocol:   # the standard ids' entry speed / reference line: recorded, so two settings never share a row
+        scenario = with_protocol(scenario, unwrapped.config.vehicle, **protocol)
+        applied = with_protocol(base, unwrapped.config.vehicle, **protocol)
+        if not _equal(applied, base):
+            options["protocol"] = _jsonable(protocol)
+        base = applied
     track_fields = ("track", "speed")   # the parts make kwargs replace (track=, speed_profile=, ...)
     for f in dataclasses.fields(scenario):
         if f.name not in track_fields and not _equal(getattr(scenario, f.name), getattr(base, f.name)):

@@ -157,11 +157,39 @@ def failure_reason(termination: str, metrics: Mapping[str, Any]) -> str:
     return "cones_hit" if cones is not None and cones > 0 else "env_verdict"
 
 
+SETTING_OPTIONS: tuple[str, ...] = ("protocol", "env_config", "max_episode_steps", "wrappers", "env_kwargs",
+                                    "half_width_m")
+"""Keys of a row's ``options`` that say how its env was set up beyond its id (``api.env_identity``: an entry speed or
+reference line, config fields, a time limit, wrappers, make kwargs, a half width): rows differing in any of them
+never share a ranking. (Reset options of a suite's episodes, figure folders and track provenance are not settings:
+the id already encodes a track file's content and profile.)"""
+
+
 def board_env(record: Mapping[str, Any]) -> str:
     """The env a record is ranked in: its ``env_id``, with `` (<vehicle>)`` appended when its ``options`` name a car
-    (``options["vehicle"]``, see ``benchmark.vehicle_label``), so different cars never share a ranking."""
-    vehicle = (record.get("options") or {}).get("vehicle")
-    return str(record["env_id"]) if not vehicle else f"{record['env_id']} ({vehicle})"
+    (``options["vehicle"]``, see ``benchmark.vehicle_label``) and `` [<settings>]`` when they record settings
+    (``SETTING_OPTIONS``), so different cars or set-ups never share a ranking."""
+    options = record.get("options") or {}
+    vehicle = options.get("vehicle")
+    label = str(record["env_id"]) if not vehicle else f"{record['env_id']} ({vehicle})"
+    settings = settings_label(options)
+    return f"{label} [{settings}]" if settings else label
+
+
+def settings_label(options: Mapping[str, Any]) -> str:
+    """``key=value`` of every setting of ``options`` (``SETTING_OPTIONS``; a flat dict's items one by one), or ""."""
+    import json
+
+    parts: list[str] = []
+    for key in SETTING_OPTIONS:
+        value = options.get(key)
+        if value is None or value == {} or value == []:
+            continue
+        if isinstance(value, Mapping) and not any(isinstance(v, (Mapping, list)) for v in value.values()):
+            parts += [f"{k}={v}" for k, v in sorted(value.items())]
+        else:
+            parts.append(f"{key}={json.dumps(value, sort_keys=True, separators=(',', ':'), default=str)}")
+    return ", ".join(parts)
 
 
 def build_board(records: Iterable[Mapping[str, Any]], columns: Sequence[str],

@@ -67,8 +67,15 @@ class Run:
 
 
 def clock_columns() -> frozenset[str]:
-    from vtrack_gym.evaluation.board import clock_measured_columns
+    """The board's clock-measured columns, as the package declares them (an older package, measured for a
+    comparison, declares only ``metrics.CLOCK_MEASURED``: its board columns are derived the same way)."""
+    try:
+        from vtrack_gym.evaluation.board import clock_measured_columns
+    except ImportError:
+        from vtrack_gym.evaluation.metrics import CLOCK_MEASURED
 
+        bounds = ("", "_lo", "_hi")
+        return frozenset({"wall_time_per_step_us", *(f"{m}{b}" for m in CLOCK_MEASURED for b in bounds)})
     return clock_measured_columns()
 
 

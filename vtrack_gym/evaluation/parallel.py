@@ -6,7 +6,10 @@ policy exactly as the serial loop does, so the rows of ``workers=N`` equal those
 measured wall time per step and the creation time).
 
 ``local`` with ``workers > 1`` forks worker processes (the tasks, factories included, are inherited, not pickled:
-any callable works). ``ray`` sends each task to a Ray worker with cloudpickle (factories must be picklable; a
+any callable works) after a warm-up here that loads what each worker would otherwise load again (the env's
+compiled kernels, each policy and the scoring: ``_warm_up``); each worker runs its native libraries with one thread
+(``worker_threads``), and a debug line reports the warm-up's and each worker's CPU time (``usage_line``).
+``ray`` sends each task to a Ray worker with cloudpickle (factories must be picklable; a
 track id registered in this process is registered again in the worker by the task's ``setup``); it connects to
 ``address`` or ``RAY_ADDRESS`` when given, else starts a local Ray instance. Ray is an optional dependency
 (``pip install "vtrack_gym[ray]"``), imported only by the ``ray`` backend.

@@ -3,7 +3,7 @@
 Every episode is one ``EpisodeTask`` (a policy factory, an ``Episode`` and the suite label); ``run_tasks`` returns
 the rows (and the traces asked for) in task order whatever the backend, and each task builds its own env and
 policy exactly as the serial loop does, so the rows of ``workers=N`` equal those of ``workers=1`` (apart from the
-measured wall time per step and the creation time).
+metrics measured from the clock, ``metrics.CLOCK_MEASURED``, and the creation time).
 
 ``local`` with ``workers > 1`` forks worker processes (the tasks, factories included, are inherited, not pickled:
 any callable works) after a warm-up here that loads what each worker would otherwise load again (the env's

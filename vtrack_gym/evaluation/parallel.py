@@ -145,8 +145,6 @@ def _warm_up(tasks: Sequence[EpisodeTask], steps: int = WARM_UP_STEPS) -> float:
     and every distinct factory's policy (its caches, lazy imports and kernels) with the scoring's, on a
     ``steps``-step episode of the first task's env (a fresh env: no task's episode is touched; results discarded).
     Best effort: a policy that fails here is left to its own tasks to report. Returns the CPU time spent [s]."""
-    import warnings
-
     import gymnasium as gym
 
     start = time.process_time()
@@ -159,18 +157,30 @@ def _warm_up(tasks: Sequence[EpisodeTask], steps: int = WARM_UP_STEPS) -> float:
         env.step(env.action_space.sample())  # the env's kernels, even when no policy can be built here
         seen: set[int] = set()
         for task in tasks:
-            if id(task.make) in seen:
-                continue
-            seen.add(id(task.make))
-            try:
-                with warnings.catch_warnings():
-                    warnings.simplefilter("ignore")  # metrics of a short episode: not the user's concern
-                    task.score(task.policy_id, task.make(env), env, first.episode, task.suite)
-            except Exception as exc:  # the task itself raises it where it belongs
-                log.debug("warm-up of %s skipped: %s", task.policy_id, exc)
+            if id(task.make) not in seen:
+                seen.add(id(task.make))
+                _warm_policy(task, env, first.episode)
     finally:
         env.close()
     return time.process_time() - start
+
+
+def _warm_policy(task: EpisodeTask, env: Any, episode: Episode) -> None:
+    """Score ``task``'s policy on ``env`` (a short episode). A factory that returns the same object on every call
+    is built but not driven: the tasks will drive that very object, which must start as it would without a
+    warm-up."""
+    import warnings
+
+    try:
+        built = task.make(env)
+        fresh = task.make(env)
+        if fresh is built:
+            return
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # metrics of a short episode: not the user's concern
+            task.score(task.policy_id, fresh, env, episode, task.suite)
+    except Exception as exc:  # the task itself raises it where it belongs
+        log.debug("warm-up of %s skipped: %s", task.policy_id, exc)
 
 
 def _run_forked(tasks: list[EpisodeTask], n: int, progress: Any) -> list[tuple[Any, Any]]:

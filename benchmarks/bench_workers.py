@@ -17,6 +17,9 @@ an idle-machine estimate of the parallel run's wall time follows: the parent's C
 board, which run alone) plus the busiest worker's episode CPU time. Then the median ratios, the load average
 before and after, and whether every run's JSON board equals the first one's apart from the clock-measured columns
 (``evaluation.board.clock_measured_columns``).
+
+To measure another checkout (e.g. before a change), run from a folder outside both checkouts with ``PYTHONPATH``
+naming it: ``python -m vtrack_gym.cli`` puts the working directory first on the module path.
 """
 
 from __future__ import annotations

@@ -45,6 +45,16 @@ POLICY_METRICS: frozenset[str] = frozenset({"max_entry_speed_kmh", "entry_speed_
 policy on the manoeuvre at every speed, not the one run at the default speed."""
 
 
+def clock_measured_columns() -> frozenset[str]:
+    """The board columns measured from the clock: each of ``metrics.CLOCK_MEASURED`` with its interval bounds, and
+    ``wall_time_per_step_us`` (``wall_time_per_step_s`` in us). The only columns two boards of the same episodes may
+    differ in."""
+    from vtrack_gym.evaluation.metrics import CLOCK_MEASURED
+
+    bounds = ("", "_lo", "_hi")
+    return frozenset({"wall_time_per_step_us", *(f"{m}{b}" for m in CLOCK_MEASURED for b in bounds)})
+
+
 def metric_value(value: Any) -> float | None:
     """``value`` as a finite float, or None when it is missing (None, not a number, NaN or +-inf)."""
     if isinstance(value, bool):

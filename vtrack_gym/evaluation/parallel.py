@@ -3,10 +3,13 @@
 Every episode is one ``EpisodeTask`` (a policy factory, an ``Episode`` and the suite label); ``run_tasks`` returns
 the rows (and the traces asked for) in task order whatever the backend, and each task builds its own env and
 policy exactly as the serial loop does, so the rows of ``workers=N`` equal those of ``workers=1`` (apart from the
-measured wall time per step and the creation time).
+metrics measured from the clock, ``metrics.CLOCK_MEASURED``, and the creation time).
 
 ``local`` with ``workers > 1`` forks worker processes (the tasks, factories included, are inherited, not pickled:
-any callable works). ``ray`` sends each task to a Ray worker with cloudpickle (factories must be picklable; a
+any callable works) after a warm-up here that loads what each worker would otherwise load again (the env's
+compiled kernels, each policy and the scoring: ``_warm_up``); each worker runs its native libraries with one thread
+(``worker_threads``), and a debug line reports the warm-up's and each worker's CPU time (``usage_line``).
+``ray`` sends each task to a Ray worker with cloudpickle (factories must be picklable; a
 track id registered in this process is registered again in the worker by the task's ``setup``); it connects to
 ``address`` or ``RAY_ADDRESS`` when given, else starts a local Ray instance. Ray is an optional dependency
 (``pip install "vtrack_gym[ray]"``), imported only by the ``ray`` backend.
@@ -16,6 +19,7 @@ from __future__ import annotations
 
 import logging
 import os
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -116,43 +120,99 @@ class _Inherited:
     tasks: Sequence[EpisodeTask] = ()
 
 
-def _keep_tasks(tasks: Sequence[EpisodeTask]) -> None:
+def _start_worker(tasks: Sequence[EpisodeTask]) -> None:
+    """A forked worker's start: keep the inherited tasks, run the native libraries single-threaded."""
+    from vtrack_gym.evaluation.worker_threads import limit_native_threads
+
     _Inherited.tasks = tasks
+    limit_native_threads(1)
 
 
-def _run_index(i: int) -> tuple[Any, Any]:
-    return run_task(_Inherited.tasks[i])
+def _run_index(i: int) -> tuple[tuple[Any, Any], int, float]:
+    """Task ``i`` in a worker: its result, the worker's pid and the task's CPU time [s]."""
+    start = time.process_time()
+    result = run_task(_Inherited.tasks[i])
+    return result, os.getpid(), time.process_time() - start
 
 
-def _load_kernels(task: EpisodeTask) -> None:
-    """Drive one step of the first task's env here, so that the compiled kernels are loaded once, before the fork,
-    instead of once per worker (the env is a fresh one: no task's episode is touched)."""
+WARM_UP_STEPS = 300
+"""Steps of the short episodes ``_warm_up`` scores (results discarded): 3 s at the envs' 100 Hz, past the one second
+the comfort metrics need before they filter (and import their filters)."""
+
+
+def _warm_up(tasks: Sequence[EpisodeTask], steps: int = WARM_UP_STEPS) -> float:
+    """Load here, once, before the fork, what each worker would otherwise load again: the env's compiled kernels,
+    and every distinct factory's policy (its caches, lazy imports and kernels) with the scoring's, on a
+    ``steps``-step episode of the first task's env (a fresh env: no task's episode is touched; results discarded).
+    Best effort: a policy that fails here is left to its own tasks to report. Returns the CPU time spent [s]."""
     import gymnasium as gym
 
-    if task.setup is not None:
-        task.setup()
-    env = gym.make(task.episode.env_id, **task.episode.make_kwargs)
+    start = time.process_time()
+    first = tasks[0]
+    if first.setup is not None:
+        first.setup()
+    env = gym.make(first.episode.env_id, **{**first.episode.make_kwargs, "max_episode_steps": steps})
     try:
         env.reset(seed=0)
-        env.step(env.action_space.sample())
+        env.step(env.action_space.sample())  # the env's kernels, even when no policy can be built here
+        seen: set[int] = set()
+        for task in tasks:
+            if id(task.make) not in seen:
+                seen.add(id(task.make))
+                _warm_policy(task, env, first.episode)
     finally:
         env.close()
+    return time.process_time() - start
+
+
+def _warm_policy(task: EpisodeTask, env: Any, episode: Episode) -> None:
+    """Score ``task``'s policy on ``env`` (a short episode). A factory that returns the same object on every call
+    is built but not driven: the tasks will drive that very object, which must start as it would without a
+    warm-up."""
+    import warnings
+
+    try:
+        built = task.make(env)
+        fresh = task.make(env)
+        if fresh is built:
+            return
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # metrics of a short episode: not the user's concern
+            task.score(task.policy_id, fresh, env, episode, task.suite)
+    except Exception as exc:  # the task itself raises it where it belongs
+        log.debug("warm-up of %s skipped: %s", task.policy_id, exc)
 
 
 def _run_forked(tasks: list[EpisodeTask], n: int, progress: Any) -> list[tuple[Any, Any]]:
-    """``tasks`` on ``n`` forked processes; results placed by index."""
+    """``tasks`` on ``n`` forked processes (after ``_warm_up`` here); results placed by index."""
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
-    _load_kernels(tasks[0])
+    warm_cpu_s = _warm_up(tasks)
     context = multiprocessing.get_context("fork")
     results: list[Any] = [None] * len(tasks)
-    with ProcessPoolExecutor(max_workers=n, mp_context=context, initializer=_keep_tasks,
+    cpu_by_worker: dict[int, float] = {}
+    start = time.perf_counter()
+    with ProcessPoolExecutor(max_workers=n, mp_context=context, initializer=_start_worker,
                              initargs=(tasks,)) as pool:
         futures = {pool.submit(_run_index, i): i for i in range(len(tasks))}
         for done in as_completed(futures):
-            results[futures[done]] = _advance(done.result(), progress)
+            result, pid, cpu_s = done.result()
+            cpu_by_worker[pid] = cpu_by_worker.get(pid, 0.0) + cpu_s
+            results[futures[done]] = _advance(result, progress)
+    log.debug(usage_line(len(tasks), warm_cpu_s, list(cpu_by_worker.values()), time.perf_counter() - start))
     return results
+
+
+USAGE_PREFIX = "episodes in worker processes:"
+"""How the ``usage_line`` debug line starts (``vtrack -v benchmark``; ``benchmarks/bench_workers.py`` reads it)."""
+
+
+def usage_line(n_tasks: int, warm_cpu_s: float, cpu_s: Sequence[float], wall_s: float) -> str:
+    """One line on where a forked run's CPU time went: the parent's warm-up, each worker's episodes [s]."""
+    per_worker = ", ".join(f"{c:.2f}" for c in sorted(cpu_s, reverse=True))
+    return (f"{USAGE_PREFIX} {n_tasks} on {len(cpu_s)}; warm-up CPU {warm_cpu_s:.2f} s; episode CPU per worker "
+            f"[{per_worker}] s (sum {sum(cpu_s):.2f} s); pool wall {wall_s:.2f} s")
 
 
 def _import_ray() -> Any:

@@ -123,19 +123,20 @@ def write_circuit_csv(file: Path, segments: list[Segment], spacing_m: float = SP
 
 
 def drive(file: Path, policy_name: str, vehicle: str | None = None, max_speed_kmh: float = 40.0,
-          max_lateral_g: float = 0.7) -> dict[str, float | str | bool]:
-    """One episode of a default baseline on the track file with curvature_limited(``max_speed_kmh`` [km/h],
-    ``max_lateral_g`` [g]); ``vehicle``: a catalogue name or vehicle file (None: the env's default car)."""
+          max_lateral_g: float = 0.7, profile: str = "curvature") -> dict[str, float | str | bool]:
+    """One episode of a default baseline on the track file with the ``profile`` kind of
+    ``tracks.speed_limits.speed_profile_from_limits`` (``max_speed_kmh`` [km/h], ``max_lateral_g`` [g]);
+    ``vehicle``: a catalogue name or vehicle file (None: the env's default car)."""
     import gymnasium as gym
 
     import vtrack_gym
     from vtrack_gym.evaluation.metrics import evaluate_trace
     from vtrack_gym.evaluation.rollout import rollout
-    from vtrack_gym.tracks import CurvatureLimited
+    from vtrack_gym.tracks.speed_limits import speed_profile_from_limits
 
-    profile = CurvatureLimited(max_speed_kmh / 3.6, max_lateral_g * 9.81)
+    speed_profile = speed_profile_from_limits(profile, max_speed_kmh, max_lateral_g)
     extra = {} if vehicle is None else {"vehicle": vehicle}
-    env = gym.make("vtrack/Track-v0", track=str(file), speed_profile=profile, **extra)
+    env = gym.make("vtrack/Track-v0", track=str(file), speed_profile=speed_profile, **extra)
     trace = rollout(vtrack_gym.make_policy(policy_name, env), env, seed=0)
     m = evaluate_trace(trace)
     lock = env.unwrapped.design_model.max_road_wheel_angle_rad

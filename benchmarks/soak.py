@@ -7,7 +7,9 @@
 Every ``--segment`` control steps the next policy takes over (``random`` and the ``make_policy`` baselines in turn)
 and the cars are re-randomised in ``--groups`` groups, each group with its own reset options (friction 0.3-1.2,
 mass x0.7-1.5, target speed 5-40 m/s, sensor noise 0-2, actuator delay 0-80 ms). Finished cars are reset at once
-(partial reset with the same group options, so no autoreset with default options). After every step it checks:
+(partial reset with the same group options, so no autoreset with default options). With ``--full-ranges`` every
+reset option of ``ResetOptions.RANGES`` is drawn over its whole declared range instead (each edge a quarter of the
+draws). After every step it checks:
 
 * ``nonfinite``: NaN/inf in observations, rewards or any ``info`` array
 * ``obs_out_of_box``: an observation outside ``observation_space``
@@ -63,6 +65,22 @@ def random_options(rng: np.random.Generator) -> dict[str, float]:
     }
 
 
+def full_range_options(rng: np.random.Generator, control_period_s: float) -> dict[str, float]:
+    """One group's reset options drawn over every declared range of ``ResetOptions.RANGES`` (``--full-ranges``):
+    each option at its low edge, its high edge (a quarter of the draws each) or uniform inside; the actuator delay
+    a whole number of control periods."""
+    from vtrack_gym.envs.config import ResetOptions
+
+    options = {}
+    for name, (lo, hi) in ResetOptions.RANGES.items():
+        pick = rng.uniform()
+        value = lo if pick < 0.25 else hi if pick < 0.5 else float(rng.uniform(lo, hi))
+        if name == "actuator_delay_s":
+            value = round(value / control_period_s) * control_period_s
+        options[name] = float(value)
+    return options
+
+
 def hash_actions(run_seed: int, car_seeds: np.ndarray, steps: np.ndarray, amplitude: np.ndarray) -> np.ndarray:
     """The ``random`` policy: a deterministic hash of (run seed, car seed, step in episode) -> [-amp, amp]."""
     x = np.sin(12.9898 * steps + 78.233 * (car_seeds % 100003) + 0.618 * (run_seed % 1009)) * 43758.5453
@@ -110,7 +128,9 @@ class Soak:
         self.policy = None if self.policy_name == "random" else make_policy(self.policy_name, self.envs)
         self.state = None
         self.group = np.arange(self.n) % args.groups
-        self.group_opts = [random_options(rng) for _ in range(args.groups)]
+        period = self.envs.unwrapped.config.control_period_s
+        self.group_opts = [full_range_options(rng, period) if args.full_ranges else random_options(rng)
+                           for _ in range(args.groups)]
         self.car_opts = [self.group_opts[g] for g in self.group]
         self.car_seed = self.run_seed * 10_000 + np.arange(self.n)
         self.car_episode = np.zeros(self.n, dtype=np.int64)
@@ -321,6 +341,9 @@ def main(argv: list[str] | None = None) -> int:
                    help="check the first-step wheel loads of every k-th car seed (default 8)")
     p.add_argument("--max-reports", type=int, default=5, help="reproducers printed per check kind (default 5)")
     p.add_argument("--replay", default=None, help="JSON reproducer printed by a previous run")
+    p.add_argument("--full-ranges", action="store_true",
+                   help="draw every reset option over its whole declared range (edges included) instead of the "
+                        "default ranges above")
     args = p.parse_args(argv)
     if args.replay:
         return replay(json.loads(args.replay))

@@ -80,10 +80,16 @@ def test_env_instances_record_their_car_and_track(tmp_path: Path) -> None:
     assert rows["a8"].options["speed_profile"] == {"kind": "ConstantSpeed", "v_mps": 8.0}
     board = ResultStore(store, read_only=True).leaderboard("custom", ["max_e_y_m"])
     assert len(board) == 5 and all(e["episodes"] == 1 for e in board)
-    # the same track file through `vtrack eval --track` lands in the same entry as the env instance
-    assert main(["eval", "--policy", "lqr", "--track", str(a), "--store", str(store)]) == 0
+    # the same track file and profile through `vtrack eval --track` lands in the same entry as the env instance
+    # (Track-v0's registered default is the per-axis profile, the CLI's default the envelope one: another entry)
+    assert main(["eval", "--policy", "lqr", "--track", str(a), "--speed-profile", "curvature",
+                 "--store", str(store)]) == 0
     cli_row = next(r for r in ResultStore(store).rows("custom") if r["policy_id"] == "lqr")
     assert cli_row["env_id"] == rows["a"].env_id and cli_row["options"] == rows["a"].options
+    assert main(["eval", "--policy", "stanley", "--track", str(a), "--store", str(store)]) == 0
+    default_row = next(r for r in ResultStore(store).rows("custom") if r["policy_id"] == "stanley")
+    assert default_row["env_id"] != rows["a"].env_id
+    assert default_row["options"]["speed_profile"]["kind"] == "EnvelopeLimited"
 
 
 def test_env_instance_configuration_never_merges_silently(tmp_path: Path) -> None:

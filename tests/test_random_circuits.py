@@ -52,9 +52,60 @@ def test_the_command_laps_a_random_circuit_and_prints_the_table(tmp_path: Path, 
     assert (tmp_path / "circuit000_2m.csv").is_file()
 
 
+def test_fast_circuits_carry_tight_hairpins_and_fast_sweepers(tmp_path: Path) -> None:
+    rng = np.random.default_rng(3)
+    radii = []
+    for _ in range(4):
+        segments = random_circuits.random_circuit(rng, layout="fast")
+        arcs = [s.radius_m for s in segments if math.isfinite(s.radius_m)]
+        assert min(arcs) >= 6.0 - 1e-9 and max(arcs) <= 250.0 + 1e-9
+        radii += arcs
+        x, y, x_end, y_end, heading = own_tracks.trace_segments(segments, 2.0)
+        assert math.hypot(x_end, y_end) < 1e-6 and math.isclose(heading, 2.0 * math.pi, abs_tol=1e-9)
+        assert random_circuits.roads_apart(x, y, 2.0)
+        straights = [s.length_m for s in segments if not math.isfinite(s.radius_m)]
+        assert max(straights) >= 112.0   # 6 m hairpin (0.75 g) to 80 km/h at 2 m/s^2 takes 112 m
+    assert min(radii) < 15.0 and max(radii) > 60.0
+    with pytest.raises(ValueError, match="layout must be one of kart, fast"):
+        random_circuits.random_circuit(rng, layout="oval")
+
+
+def test_the_lateral_share_is_a_share_of_the_driven_cars_own_limit(tmp_path: Path, capsys) -> None:
+    from vtrack_gym.vehicle.catalog import load_vehicle
+    from vtrack_gym.vehicle.steady_state import lowest_lateral_limit_mps2
+
+    args = random_circuits.parse(["--lateral-share", "0.93", "--max-speed-kmh", "80", "--vehicle", "suv"])
+    expected = 0.93 * lowest_lateral_limit_mps2(load_vehicle("suv"), 80.0 / 3.6) / 9.81
+    assert random_circuits.lateral_limit_g(args) == pytest.approx(expected, rel=1e-12)
+    assert 0.68 < expected < 0.71
+    with pytest.raises(SystemExit):
+        random_circuits.parse(["--lateral-share", "0.9", "--max-lateral-g", "0.7"])
+    assert "not allowed with argument" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("argv", [["--circuits", "0"], ["--spacing", "0"], ["--max-lateral-g", "0"],
-                                  ["--max-speed-kmh", "-5"]])
+                                  ["--max-speed-kmh", "-5"], ["--lateral-share", "1.2"]])
 def test_the_command_refuses_bad_arguments_naming_the_option(argv: list[str], capsys, tmp_path: Path) -> None:
     with pytest.raises(SystemExit) as exc:
         random_circuits.main([*argv, "--out", str(tmp_path)])
     assert exc.value.code == 2 and argv[0] in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_lqr_and_mpc_lap_a_fast_circuit_at_93_percent_of_the_cars_limit(tmp_path: Path) -> None:
+    """Seed 1's 11th fast circuit (a 90 deg R 67.5 m corner taken at 80 km/h, 6-15 m hairpins and S-bends after
+    180 m straights), at 80 km/h and 93 % of the car's own limit on the envelope profile: the MPC spun out here on
+    the per-axis profile."""
+    from vtrack_gym.vehicle.params import VehicleParams
+    from vtrack_gym.vehicle.steady_state import lowest_lateral_limit_mps2
+
+    rng = np.random.default_rng(1)
+    for _ in range(11):
+        segments = random_circuits.random_circuit(rng, layout="fast")
+    file = own_tracks.write_circuit_csv(tmp_path / "circuit010.csv", segments, 2.0)
+    lateral_g = 0.93 * lowest_lateral_limit_mps2(VehicleParams(), 80.0 / 3.6) / 9.81
+    for policy in ("lqr", "mpc"):
+        with pytest.warns(UserWarning, match=r"\(93% of it\)"):
+            r = own_tracks.drive(file, policy, None, 80.0, lateral_g, "envelope")
+        assert r["success"] and r["termination"] == "completed", (policy, r)
+        assert r["max_e_y_m"] < 0.6, (policy, r)

@@ -156,3 +156,74 @@ def test_train_refuses_a_symlinked_logs_folder(tmp_path, capsys):
     assert main(["train", "--algo", "ppo", "--timesteps", "10", "--run-dir", str(run)]) == 2
     assert "logs is a symbolic link" in capsys.readouterr().err
     assert list(elsewhere.iterdir()) == []
+
+
+TRAIN_FAST = ["--algo", "ppo", "--timesteps", "64", "--num-envs", "2", "--no-progress", "--no-final-eval",
+              "--set", "n_steps=32", "--set", "batch_size=64", "--set", "n_epochs=1"]
+"""A smoke-size `vtrack train` (one 64-transition PPO rollout)."""
+
+
+@pytest.mark.parametrize("name", ["progress.csv", "log.txt"])
+@pytest.mark.parametrize("kind", HOSTILE)
+def test_train_refuses_hostile_logger_files_before_training(tmp_path, capsys, name, kind):
+    """SB3's logger opens logs/progress.csv and logs/log.txt by name (a FIFO would block it for ever, a device
+    link swallow the logs): each passes the output gate's check before anything is trained or written."""
+    run = tmp_path / "run"
+    (run / "logs").mkdir(parents=True)
+    _target(run / "logs", kind, name)
+    before = _listing(tmp_path)
+    assert main(["train", *TRAIN_FAST, "--eval-freq", "0", "--run-dir", str(run)]) == 2
+    assert "--run-dir" in capsys.readouterr().err
+    assert _listing(tmp_path) == before
+
+
+@pytest.mark.parametrize("checkpoint", ["best_model.zip", "model.zip"])
+def test_train_checkpoints_on_a_full_disk_say_so_and_leave_no_partial_file(tmp_path, capsys, monkeypatch,
+                                                                          checkpoint):
+    """The best checkpoint (``best_model.zip``, saved at a periodic evaluation) and the final ``model.zip`` are
+    written through the gate: a full disk while SB3 saves them is a one-line error and leaves no partial or
+    temporary checkpoint."""
+    from stable_baselines3.common.base_class import BaseAlgorithm
+
+    def full(self, path, *args, **kwargs):
+        Path(path).write_bytes(b"half a checkpoint")
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    import vtrack_gym.agents.train as train_module
+
+    monkeypatch.setattr(BaseAlgorithm, "save", full)
+    monkeypatch.setattr(train_module, "selection_score", lambda results: 0.1)  # a new best at the evaluation
+    run = tmp_path / "run"
+    freq = "64" if checkpoint == "best_model.zip" else "0"
+    assert main(["train", *TRAIN_FAST, "--eval-freq", freq, "--case1-max-steps", "20", "--run-dir", str(run)]) == 2
+    err = capsys.readouterr().err
+    assert f"--run-dir {run / checkpoint}: could not write the file (the disk is full)" in err
+    assert not (run / checkpoint).exists()
+    assert [p.name for p in run.iterdir() if p.name.endswith(".tmp.zip") or ".tmp" in p.name] == []
+
+
+def test_train_logger_on_a_full_disk_is_a_one_line_error(tmp_path, capsys, monkeypatch):
+    """SB3's logger files grow while training runs (written in place, checked before): a full disk while it
+    writes them ends `vtrack train` with exit 2 naming the run folder, not a traceback."""
+    from stable_baselines3.common.logger import CSVOutputFormat
+
+    def full(self, *args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(CSVOutputFormat, "write", full)
+    run = tmp_path / "run"
+    assert main(["train", *TRAIN_FAST, "--eval-freq", "0", "--run-dir", str(run)]) == 2
+    err = capsys.readouterr().err
+    assert f"--run-dir {run / 'logs'}: could not write (the disk is full)" in err
+
+
+def test_train_evaluations_are_written_whole_through_the_gate(tmp_path):
+    """``evaluations.jsonl`` is rewritten whole through the gate at each evaluation (never appended to in
+    place): after a run it holds one JSON line per evaluation and no temporary file is left."""
+    import json
+
+    run = tmp_path / "run"
+    assert main(["train", *TRAIN_FAST, "--eval-freq", "32", "--case1-max-steps", "20", "--run-dir", str(run)]) == 0
+    lines = (run / "evaluations.jsonl").read_text().splitlines()
+    assert len(lines) >= 1 and all("selection_score" in json.loads(line) for line in lines)
+    assert [p.name for p in run.rglob("*") if ".tmp" in p.name] == []

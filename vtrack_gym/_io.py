@@ -160,6 +160,16 @@ def _write_problem(exc: OSError, folder: Path) -> str:
     return str(exc.strerror or exc)[:300]
 
 
+def output_error(exc: OSError, path: str | os.PathLike[str], option: str = "") -> ValueError:
+    """The ``ValueError`` for an ``OSError`` while writing ``path`` in place (a log that grows while a command runs,
+    checked with :func:`check_output_file` or :func:`check_output_dir` first): names ``option``, the path and the
+    cause (the disk is full, a read-only folder, or the error text)."""
+    folder = Path(os.path.realpath(os.fspath(path)))
+    while not folder.is_dir() and folder != folder.parent:
+        folder = folder.parent
+    return ValueError(f"{_label(option, path)}: could not write ({_write_problem(exc, folder)})")
+
+
 def _missing_folders(folder: Path) -> list[Path]:
     """``folder`` and its missing ancestors that do not exist yet, deepest first."""
     missing = []

@@ -34,6 +34,7 @@ The run folder holds:
 
 from __future__ import annotations
 
+import errno
 import json
 import logging
 import os
@@ -47,7 +48,7 @@ from typing import Any
 
 import numpy as np
 
-from vtrack_gym._io import atomic_output, check_output_dir, write_atomic
+from vtrack_gym._io import atomic_output, check_output_dir, check_output_file, output_error, write_atomic
 from vtrack_gym.agents.recipes import (
     ALGOS,
     DEFAULT_ENV_ID,
@@ -75,6 +76,12 @@ RUN_FILES = ("config.json", "model.zip", "vecnormalize.pkl", "best_model.zip", "
 """Files ``train`` writes at the top of its run folder."""
 LOG_FILE_PATTERNS = ("progress.csv", "log.txt", "events.out.tfevents.*")
 """Files SB3's logger writes into ``<run>/logs`` (CSV, text log, TensorBoard events)."""
+WRITE_ERRNOS = (errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM)
+"""Errors of a write that stopped training are reported as the run folder's (a full or read-only disk)."""
+LOG_FILES = ("progress.csv", "log.txt")
+"""The logger files with fixed names: each must pass the output gate's check (absent or a regular file) before
+training, as they grow while training runs and are written in place, not renamed (TensorBoard's event file gets a
+new unique name in the checked ``logs/`` folder)."""
 
 
 def previous_run_files(run_dir: str | Path) -> list[Path]:
@@ -99,6 +106,8 @@ def check_run_dir(run_dir: str | Path, overwrite: bool = False) -> list[Path]:
         raise ValueError(f"--run-dir {run_dir}: logs is a symbolic link (to {os.readlink(logs)}); training writes "
                          "its logs only into a real folder of the run: remove the link")
     check_output_dir(logs, "--run-dir")
+    for name in LOG_FILES:   # a FIFO here would block SB3's open for ever, a device link swallow the logs
+        check_output_file(logs / name, "--run-dir")
     files = previous_run_files(run_dir)
     if files and not overwrite:
         names = ", ".join(str(f.relative_to(run_dir)) for f in files[:6]) + (", ..." if len(files) > 6 else "")
@@ -209,6 +218,7 @@ def _make_callbacks(run_dir: Path, vecnorm: Any, timesteps: int, eval_freq: int,
             self.next_eval = eval_freq
             self.count = 0
             self.best_score = float("inf")
+            self.lines: list[str] = []   # evaluations.jsonl so far (a new run's file starts empty)
 
         def run(self, final: bool = False) -> None:
             self.count += 1
@@ -229,12 +239,13 @@ def _make_callbacks(run_dir: Path, vecnorm: Any, timesteps: int, eval_freq: int,
                 self.best_score = score
                 export(self.model, vecnorm, run_dir / "best_agent", env_id=env_id, command=command, seed=seed,
                        warm_start=warm_start, env=contract_env)
-                self.model.save(run_dir / "best_model.zip")  # SB3's own format, to check the export against
+                with atomic_output(run_dir / "best_model.zip", "--run-dir") as tmp:
+                    self.model.save(tmp)  # SB3's own format, to check the export against
             self.logger.record("eval/selection_score", score)
-            with (run_dir / "evaluations.jsonl").open("a", encoding="utf-8") as fh:
-                fh.write(json.dumps({"timesteps": int(self.num_timesteps), "final": final,
-                                     "wall_s": round(time.perf_counter() - t0, 2), "selection_score": score,
-                                     "new_best": best, "results": res}) + "\n")
+            self.lines.append(json.dumps({"timesteps": int(self.num_timesteps), "final": final,
+                                          "wall_s": round(time.perf_counter() - t0, 2), "selection_score": score,
+                                          "new_best": best, "results": res}) + "\n")
+            write_atomic(run_dir / "evaluations.jsonl", "".join(self.lines), "--run-dir")  # whole file, renamed
 
         def _on_step(self) -> bool:
             if eval_freq > 0 and self.num_timesteps >= self.next_eval:
@@ -425,6 +436,10 @@ def _learn(setup: _RunSetup, model: Any, venv: Any, vecnorm: Any, callbacks: lis
         log.info("training %s for %d steps%s", type(model).__name__, setup.timesteps_effective, rounding)
         model.learn(total_timesteps=setup.timesteps, callback=callbacks)
         interrupted = ""
+    except OSError as exc:  # SB3's logger files are written in place: a full or read-only disk while training
+        if exc.errno not in WRITE_ERRNOS:
+            raise
+        raise output_error(exc, setup.run_dir / "logs", "--run-dir") from None
     except KeyboardInterrupt:  # Ctrl+C: keep the model as it is (saved and exported after), skip the final eval
         for cb in callbacks:
             if getattr(cb, "bar", None) is not None:

@@ -14,11 +14,22 @@ SPEED_OPTIONS = {"kind": "--speed-profile", "max_speed_kmh": "--max-speed-kmh", 
 
 
 def speed_profile(args: argparse.Namespace) -> Any:
-    """The speed profile of --speed-profile / --max-speed-kmh / --max-lateral-g (errors name the option)."""
-    from vtrack_gym.tracks.speed_limits import speed_profile_from_limits
+    """The speed profile of --speed-profile / --max-speed-kmh / --max-lateral-g, its lateral limit checked against
+    the --vehicle's own (errors name the option; the env warns near the limit)."""
+    import warnings
 
-    return speed_profile_from_limits(args.speed_profile, args.max_speed_kmh, args.max_lateral_g,
-                                     names=SPEED_OPTIONS)
+    from vtrack_gym.tracks.speed_limits import check_profile_for_car, speed_profile_from_limits
+    from vtrack_gym.vehicle.catalog import load_vehicle
+    from vtrack_gym.vehicle.params import VehicleParams
+
+    profile = speed_profile_from_limits(args.speed_profile, args.max_speed_kmh, args.max_lateral_g,
+                                        names=SPEED_OPTIONS)
+    name = getattr(args, "vehicle", None)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # the env warns once, where it meets the car
+        check_profile_for_car(profile, VehicleParams() if name is None else load_vehicle(name),
+                              SPEED_OPTIONS["max_lateral_g"])
+    return profile
 
 
 def track_read(args: argparse.Namespace) -> dict[str, Any]:

@@ -115,7 +115,7 @@ def add_track(p: argparse.ArgumentParser, text: str | None = None, where: Any = 
     from vtrack_gym.tracks.speed_limits import (
         DEFAULT_MAX_LATERAL_G,
         DEFAULT_MAX_SPEED_KMH,
-        MAX_LATERAL_G,
+        DEFAULT_PROFILE_KIND,
         MAX_SPEED_KMH,
         MIN_SPEED_KMH,
         PROFILE_KINDS,
@@ -131,16 +131,20 @@ def add_track(p: argparse.ArgumentParser, text: str | None = None, where: Any = 
                    help="--track: RMS deviation [m] the spline fit may make from the file's points, for noisy "
                    f"coordinates (e.g. GPS; 0 interpolates; at most {MAX_TRACK_SMOOTHING_M:g} m) (default: chosen "
                    "from the coordinates' rounding)")
-    p.add_argument("--speed-profile", choices=PROFILE_KINDS, default="curvature",
-                   help="--track: target speed: constant (--max-speed-kmh), curvature (the fastest profile within "
-                   "--max-speed-kmh and --max-lateral-g, 2 m/s^2 up, 3 m/s^2 down) or file (the v_mps column; "
-                   "takes neither option) (default: curvature)")
+    p.add_argument("--speed-profile", choices=PROFILE_KINDS, default=DEFAULT_PROFILE_KIND,
+                   help="--track: target speed: envelope (the fastest profile within --max-speed-kmh and "
+                   "--max-lateral-g with lateral and longitudinal acceleration combined inside a friction ellipse, "
+                   "2 m/s^2 up, 3 m/s^2 down), curvature (the same limits each axis apart: corner entries may "
+                   "combine full braking with full lateral acceleration), constant (--max-speed-kmh) or file (the "
+                   "v_mps column; takes neither option) (default: envelope)")
     p.add_argument("--max-speed-kmh", type=float, default=None,
-                   help=f"--track with --speed-profile constant or curvature: maximum speed [km/h], "
+                   help=f"--track with --speed-profile envelope, curvature or constant: maximum speed [km/h], "
                    f"{MIN_SPEED_KMH:g} to {MAX_SPEED_KMH:g} (default: {DEFAULT_MAX_SPEED_KMH:g})")
     p.add_argument("--max-lateral-g", type=float, default=None,
-                   help=f"--track with --speed-profile curvature: lateral acceleration limit [g], > 0 and <= "
-                   f"{MAX_LATERAL_G:.2f} (default: {DEFAULT_MAX_LATERAL_G:g})")
+                   help=f"--track with --speed-profile envelope or curvature: lateral acceleration limit [g], at "
+                   "most the car's own steady-state limit up to --max-speed-kmh (0.80 g for the paper's car at "
+                   "80 km/h, below mu g; a warning above 90 %% of it) "
+                   f"(default: {DEFAULT_MAX_LATERAL_G:g})")
 
 
 def policy_list(text: str) -> list[str]:

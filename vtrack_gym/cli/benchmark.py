@@ -15,6 +15,7 @@ from vtrack_gym.cli._envs import announce_kernels, check_vehicle, env_or_track, 
 from vtrack_gym.cli._extras import osqp_for
 from vtrack_gym.cli._policies import policy_factories
 from vtrack_gym.cli._terminal import err, out
+from vtrack_gym.evaluation.suites import SUITES
 
 NAME = "benchmark"
 
@@ -23,7 +24,7 @@ def register(sub: Any) -> None:
     b = sub.add_parser(NAME, help="score every baseline and shipped agent on a suite; print the leaderboard",
                        description="Run every baseline policy (default presets) and every shipped RL agent on the "
                        "suite's episodes, store the results, print the leaderboard and write the figures.")
-    b.add_argument("--suite", choices=("paper", "robust", "highway", "maneuvers"), default=None,
+    b.add_argument("--suite", choices=SUITES, default=None,
                    help="paper: the two nominal scenarios; robust: randomised friction, mass, speed, noise and "
                    "delay over fixed seeds; highway: highway-env's lane-keeping-v0 (needs the 'highway' extra); "
                    "maneuvers: the standard manoeuvres (ISO 3888-1/-2, ISO 4138 circle, slalom, step curvature), "

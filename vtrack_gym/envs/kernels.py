@@ -32,6 +32,7 @@ from vtrack_gym.envs.schema import REWARD_TERMS, SIGNAL_ROW
 from vtrack_gym.tracks import table as track_table
 from vtrack_gym.tracks.kernels import interp_linear as _linear
 from vtrack_gym.tracks.kernels import interp_row, lateral_offset, project_point
+from vtrack_gym.tracks.kernels import wrap_angle as _wrap
 from vtrack_gym.vehicle import layout as L
 from vtrack_gym.vehicle.kernels import step_vehicle
 
@@ -160,14 +161,6 @@ N_TERMS = len(REWARD_TERMS)
 
 # The curvature preview follows the scalar fields (envs.observation).
 O_PREVIEW = N_SCALARS
-
-
-@kernel
-def _wrap(a: float) -> float:
-    """Angle wrapped to (-pi, pi]."""
-    two_pi = 2.0 * math.pi
-    w = a - two_pi * math.floor((a + math.pi) / two_pi)  # in [-pi, pi)
-    return math.pi if w == -math.pi else w
 
 
 @kernel

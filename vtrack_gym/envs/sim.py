@@ -23,6 +23,7 @@ from vtrack_gym.envs.scenarios import Scenario
 from vtrack_gym.envs.schema import REWARD_TERMS, SIGNAL_ROW
 from vtrack_gym.envs.speed import HoldSpeed
 from vtrack_gym.envs.track_bank import TrackBank
+from vtrack_gym.tracks.speed_limits import check_profile_for_car
 from vtrack_gym.vehicle import layout as L
 from vtrack_gym.vehicle.params import VehicleParams
 from vtrack_gym.vehicle.plant import PARALLEL_THRESHOLD, Plant
@@ -49,6 +50,8 @@ class BatchSim:
         k = _kernels()
         self.config = config
         self.n = n
+        # a speed profile's lateral limit within this car's own (ValueError above it, a warning near it)
+        check_profile_for_car(scenario.speed, config.vehicle)
         self.tracks = TrackBank(scenario_tracks(scenario, config.vehicle.chassis.body_width_m), scenario.speed)
         self.paths = self.tracks.paths
         if scenario.time_limit_s is None:
@@ -94,6 +97,8 @@ class BatchSim:
         self.verdicts = self.criterion.start(self.paths, config.vehicle, n)
         """The criterion's per-car state (its own NamedTuple of arrays)."""
         self._cars = self._cars_view(k)
+        self._extras = self.criterion.per_step
+        """Whether a step has more to do than the kernel: a per-step criterion, a delay or noise (see reset_car)."""
 
     def _bundle(self, k, scenario: Scenario, config: EnvConfig):
         """The kernels' ``SimArrays`` of this batch (its arrays are modified in place, never rebound)."""
@@ -165,6 +170,7 @@ class BatchSim:
         self.prev_action[i] = 0.0
         self.noise.set_scale(i, options.sensor_noise)
         self.delay.set_delay(i, options.actuator_delay_s)
+        self._extras = self.criterion.per_step or self.noise.active or self.delay.active
         self.pd_mem[i] = (0.0, 0.0, 1.0)  # fresh: the first derivative of the speed error is 0
         self.term[i] = 0
 
@@ -203,6 +209,18 @@ class BatchSim:
         """Project freshly reset cars (global search) and fill their observation rows."""
         self._observe(idx.astype(np.int64), self.arrays)
 
+    def __getstate__(self) -> dict:
+        """Pickled without the kernel's compiled entry point (a numba closure; looked up again at the next step),
+        with the column views kept views of their blocks (``_array_views``)."""
+        from vtrack_gym._array_views import encode
+
+        return encode({**self.__dict__, "_step_compiled": None})
+
+    def __setstate__(self, state: dict) -> None:
+        from vtrack_gym._array_views import decode
+
+        self.__dict__.update(decode(state))
+
     # ------------------------------------------------------------------ step
     def step(self, actions: np.ndarray, quiet: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Advance every car one control period. ``actions`` (n,) are finite, clipped to [-1, 1]; ``quiet`` (bool
@@ -226,15 +244,16 @@ class BatchSim:
     def step_one(self, action: float) -> tuple[float, int, bool]:
         """Fast path for a single car (n = 1): returns (reward, termination code, truncated)."""
         self.actions[0] = action
-        cmd = self.delay.delayed(self.actions)[0] if self.delay.active else action
+        extras = self._extras
+        cmd = self.delay.delayed(self.actions)[0] if extras and self.delay.active else action
         self.inputs[0, L.U_DELTA] = cmd * self.max_steer_rad
         self._run_kernel()
         steps = int(self.steps[0]) + 1
         self.steps[0] = steps
-        if self.criterion.per_step:
+        if extras and self.criterion.per_step:
             self.criterion.observe_step(self.verdicts, self._cars)
         code = int(self.term[0])
-        if self.noise.active:
+        if extras and self.noise.active:
             self.noise.apply(self.obs, self.rngs)
         return float(self.reward[0]), code, code == 0 and steps >= self.max_steps
 

@@ -26,8 +26,9 @@ class TrackBank:
 
     def __init__(self, paths: tuple, speed: Any) -> None:
         from vtrack_gym.envs import kernels as k
+        from vtrack_gym.tracks.sources import check_observable
 
-        self.paths = paths
+        self.paths = check_observable(paths)   # every route (file, Path, built-in): observations stay in the box
         self.speed_tables = speed_tables(paths, speed)
         self.tables = np.ascontiguousarray(np.concatenate([
             np.column_stack([p.table, t.v_mps ** 2, p.half_widths_rows()]) for p, t in zip(

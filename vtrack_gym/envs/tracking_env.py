@@ -96,10 +96,13 @@ def check_actions(action: Any, n: int) -> np.ndarray:
 
 def check_action(action: Any) -> float:
     """Validate one env's steering action (one element) and clip it to [-1, 1]; returns a float."""
-    arr = _as_float_array(action)
-    if arr.size != 1:
-        raise ValueError(f"action must have 1 element (shape (1,)), got shape {arr.shape}")
-    a = float(arr.reshape(-1)[0])
+    if type(action) is np.ndarray and action.shape == (1,) and action.dtype.kind == "f":
+        a = float(action[0])  # the usual case (a sample of the action space), exactly as the general path reads it
+    else:
+        arr = _as_float_array(action)
+        if arr.size != 1:
+            raise ValueError(f"action must have 1 element (shape (1,)), got shape {arr.shape}")
+        a = float(arr.reshape(-1)[0])
     if not math.isfinite(a):
         raise ValueError(f"action must be finite (got {action!r}); NaN/inf steering commands are refused")
     return -1.0 if a < -1.0 else (1.0 if a > 1.0 else a)
@@ -160,6 +163,15 @@ class TrackingEnv(gym.Env):
             self._renderer = EnvRenderer(render_mode, render_config, config.vehicle.chassis,
                                          config.control_period_s, scenario.name)
         self._needs_reset = True
+        self._bind_rows()
+
+    def _bind_rows(self) -> None:
+        """Views of car 0's rows that ``step`` reads (the sim's arrays are modified in place, never rebound)."""
+        sim = self._sim
+        self._obs_row = sim.obs[0]
+        self._sig_row = sim.sig[0]
+        self._fz_row = sim.outputs[0, -1, L.O_FZFL:L.O_FZRR + 1]
+        self._acc_rows = sim.outputs[0, :, L.O_AX:L.O_AZ + 1]
 
     @property
     def paths(self) -> tuple:
@@ -181,7 +193,7 @@ class TrackingEnv(gym.Env):
         info = self._info(terminated=False)
         if self._renderer is not None:
             self._renderer.on_reset(self.current_path, self._sim)
-        return self._sim.obs[0].copy(), info
+        return self._obs_row.copy(), info
 
     def step(self, action: Any):
         if self._needs_reset:
@@ -192,15 +204,13 @@ class TrackingEnv(gym.Env):
         info = self._info(terminated=term)
         if self._renderer is not None:
             self._renderer.on_step(self.current_path, self._sim)
-        return self._sim.obs[0].copy(), reward, term, trunc, info
+        return self._obs_row.copy(), reward, term, trunc, info
 
     def _info(self, terminated: bool) -> dict[str, Any]:
         """Every ``envs.schema.INFO_KEYS`` entry of the car (numpy scalars and arrays), cheap enough per step."""
         sim = self._sim
-        out = sim.outputs[0]
-        return info_dict(int(sim.steps[0]) * self.control_period_s, sim.sig[0], out[-1, L.O_FZFL:L.O_FZRR + 1].copy(),
-                         out[:, L.O_AX:L.O_AZ + 1].copy(),
-                         TERMINATION_NAMES[int(sim.term[0])] if terminated else "",
+        return info_dict(int(sim.steps[0]) * self.control_period_s, self._sig_row, self._fz_row.copy(),
+                         self._acc_rows.copy(), TERMINATION_NAMES[int(sim.term[0])] if terminated else "",
                          terminated and bool(sim.success()[0]))
 
     def success_metrics(self) -> dict[str, float]:

@@ -198,6 +198,8 @@ def _tracking_identity(unwrapped: Any, spec: Any, env_id: str,
 
     from vtrack_gym.envs.config import EnvConfig
     from vtrack_gym.envs.scenarios import resolve_scenario
+    from vtrack_gym.evaluation.track_benchmark import check_driven
+    from vtrack_gym.tracks.sources import source_digest
 
     scenario_arg = spec.kwargs.get("scenario")
     if not isinstance(scenario_arg, str):  # a Scenario object: not recorded
@@ -214,6 +216,7 @@ def _tracking_identity(unwrapped: Any, spec: Any, env_id: str,
         found = _track_provenance(scenario)
         if found is None:
             return env_id + UNIDENTIFIED, {}
+        check_driven(source_digest(tuple(unwrapped.paths)), found[1])   # the file still holds what the env drives
         env_id = found[0] or env_id
         options.update(found[1])
     config, default = unwrapped.config, EnvConfig()
@@ -282,6 +285,7 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
         raise ValueError(f"suite_or_env must be a suite name ({', '.join(SUITES)}), an env id or a gymnasium.Env "
                          f"(got {type(suite_or_env).__name__})")
     result_store = _open_store(store)  # checked before the first rollout: a bad store loses no results
+    from vtrack_gym.evaluation.track_benchmark import merge_provenance
     rows: list[ResultRow] = []
     if isinstance(suite_or_env, str) and (workers != 1 or backend != "local"):
         rows = _parallel_rows(make, episodes, suite, policy_id, workers, backend)
@@ -299,7 +303,7 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
         for s in seeds if seeds is not None else (0,):
             row = _row(make, suite_or_env, Episode(env_id, int(s)), CUSTOM_SUITE, policy_id,
                        rows[0].policy_hash if rows else None)
-            rows.append(dataclasses.replace(row, options={**row.options, **identity}))
+            rows.append(merge_provenance(row, identity))   # refuses a row that drove other content
     if result_store is not None:
         result_store.add(rows)
     return rows

@@ -18,6 +18,7 @@ from vtrack_gym.evaluation.rollout import rollout
 from vtrack_gym.evaluation.store import ResultRow, ResultStore
 from vtrack_gym.evaluation.suites import Episode, base_suite, primary_metric, suite_episodes, suite_label, with_vehicle
 from vtrack_gym.evaluation.trace import Trace
+from vtrack_gym.tracks.sources import source_digest
 
 log = logging.getLogger(__name__)
 
@@ -88,7 +89,8 @@ def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str,
     judged by completion, ``ResultRow.verdict``) and its metrics carry the success criterion's own figures
     (``success_metrics``).
     The row's ``options`` carry ``ep``'s reset options and the car (``vehicle_label(ep.vehicle)``, when not the
-    default car), so cars never mix on the leaderboard. Its ``policy_hash`` is ``digest`` if given, else the
+    default car), so cars never mix on the leaderboard, and on a track file the SHA-256 of the bytes this env read
+    and drove (``track_sha256``). Its ``policy_hash`` is ``digest`` if given, else the
     policy's fingerprint taken before the rollout (a policy that changes its attributes while driving keeps one
     hash)."""
     digest = digest or policy_hash(policy)
@@ -98,6 +100,9 @@ def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str,
     metrics.update(success_metrics(env))
     label = vehicle_label(ep.vehicle)
     options = dict(ep.options) if label is None else {**ep.options, "vehicle": label}
+    driven = source_digest(tuple(getattr(env.unwrapped, "paths", ())))
+    if driven is not None:   # a track file: the content this env read and drove (never the file's later state)
+        options["track_sha256"] = driven
     row = ResultRow(suite=suite, env_id=ep.env_id, policy_id=name, policy_hash=digest, seed=ep.seed,
                     metrics=metrics, termination=trace.termination,
                     wall_time_per_step_s=trace.wall_time_per_step_s, options=options,

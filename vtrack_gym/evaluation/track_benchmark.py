@@ -27,10 +27,29 @@ MAX_TRACKS = 10_000
 
 def with_provenance(rows: list, provenance: Mapping[str, Any]) -> list:
     """Rows with the track's provenance (file, SHA-256, speed profile, how it was read) merged into their
-    ``options`` (no store schema change); the rows themselves when there is none."""
+    ``options`` (no store schema change; ``merge_provenance``); the rows themselves when there is none."""
     if not provenance:
         return rows
-    return [dataclasses.replace(r, options={**r.options, **provenance}) for r in rows]
+    return [merge_provenance(r, provenance) for r in rows]
+
+
+def merge_provenance(row: Any, provenance: Mapping[str, Any]) -> Any:
+    """``row`` with ``provenance`` merged into its ``options``. ValueError naming the track file when the row drove
+    other content (its ``track_sha256``, the bytes its env read) than the provenance names: the file changed after
+    it was registered or read, and a row never claims a hash of content it did not drive."""
+    check_driven(row.options.get("track_sha256"), provenance)
+    return dataclasses.replace(row, options={**row.options, **provenance})
+
+
+def check_driven(driven: str | None, provenance: Mapping[str, Any]) -> None:
+    """ValueError naming the track file when ``driven`` (the SHA-256 of the bytes an env read and drove, None: not
+    a file) differs from the ``track_sha256`` the provenance would record."""
+    named = provenance.get("track_sha256")
+    if driven is not None and named is not None and driven != named:
+        file = provenance.get("track_file", "the track file")
+        raise ValueError(f"track file {file!r} changed while it was used: an env drove the content with SHA-256 "
+                         f"{driven[:16]}..., the result would record {named[:16]}...; no result is recorded: run "
+                         "again with the file left unchanged (after editing a track file, make a new env)")
 
 
 def track_files(dir_or_glob: str | Path) -> list[Path]:
@@ -76,8 +95,8 @@ def benchmark_tracks(dir_or_glob: str | Path, factories: Mapping[str, Any], seed
                      backend: str = "local", show_progress: bool = False) -> dict[str, Any]:
     """Every policy on every track file of ``dir_or_glob`` (``track_files``), one episode per track and seed.
 
-    Each file is registered with ``speed_profile`` (default: what ``vtrack benchmark --track`` drives, curvature
-    limited within 40 km/h and 0.7 g) and read with ``closed`` /
+    Each file is registered with ``speed_profile`` (default: what ``vtrack benchmark --track`` drives, the
+    friction-ellipse ``EnvelopeLimited`` within 40 km/h and 0.7 g, checked against the car) and read with ``closed`` /
     ``smoothing_m`` as ``register_track`` does. Rows go to suite ``track_set_suite(...)``; rank them with
     ``track_set_board``. ``workers`` / ``backend``: see ``vtrack_gym.evaluation.parallel.run_tasks``.
     Returns ``{"rows", "traces", "figures", "suite", "tracks": [files]}``.
@@ -113,7 +132,7 @@ def _benchmark(tracks: Sequence[tuple[str, Mapping[str, Any], Any]], factories: 
              for name, make in factories.items() for env_id, _, setup in tracks for s in seeds]
     label = f"vtrack benchmark ({suite})" if show_progress else None
     rows, traces, folder = score_tasks(tasks, figures_dir, vehicle, workers, backend, label)
-    rows = [dataclasses.replace(r, options={**r.options, **provenance[r.env_id]}) for r in rows]
+    rows = [merge_provenance(r, provenance[r.env_id]) for r in rows]
     figures = [] if folder is None else write_figures(traces, rows, folder, vehicle=vehicle)
     return {"rows": rows, "traces": traces, "figures": figures, "suite": suite}
 

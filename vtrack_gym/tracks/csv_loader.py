@@ -18,12 +18,14 @@ self-crossing check are bounded.
 
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 import re
 import unicodedata
 import warnings
 from collections.abc import Iterator
+from dataclasses import replace
 from pathlib import Path as FsPath
 
 import numpy as np
@@ -191,11 +193,9 @@ def _header_roles(fs_path: FsPath, lineno: int, fields: list[str]) -> list[str]:
     return [str(r) for r in roles]
 
 
-def read_track_columns(fs_path: FsPath) -> tuple[dict[str, np.ndarray], list[int]]:
-    """Parse a centre-line CSV -> ({role: values}, file line number of every point); roles as in COLUMN_NAMES.
-
-    ValueError naming file, line and problem on any malformed content.
-    """
+def read_track_bytes(fs_path: FsPath) -> bytes:
+    """The bytes of a track file (a regular file of at most ``MAX_FILE_BYTES``), read once; ValueError naming the
+    file when it is a folder, missing, not a regular file or too large."""
     if fs_path.is_dir():
         raise ValueError(f"{fs_path}: is a folder, not a track file (give a CSV file in it)")
     check_regular_input(fs_path, "track file")   # "not found", or "is a FIFO / character device ..."
@@ -203,8 +203,18 @@ def read_track_columns(fs_path: FsPath) -> tuple[dict[str, np.ndarray], list[int
     if size > MAX_FILE_BYTES:
         raise ValueError(f"{fs_path}: the file is {size / 2**20:.1f} MiB; at most {MAX_FILE_BYTES // 2**20} MiB is "
                          "accepted (thin the points, e.g. keep every k-th line)")
-    try:  # regular files only, never more than MAX_FILE_BYTES even if the file grows meanwhile
-        text = read_regular_file(fs_path, MAX_FILE_BYTES, "track file").decode("utf-8-sig")
+    # regular files only, never more than MAX_FILE_BYTES even if the file grows meanwhile
+    return read_regular_file(fs_path, MAX_FILE_BYTES, "track file")
+
+
+def read_track_columns(fs_path: FsPath, data: bytes | None = None) -> tuple[dict[str, np.ndarray], list[int]]:
+    """Parse a centre-line CSV -> ({role: values}, file line number of every point); roles as in COLUMN_NAMES.
+
+    ``data``: the file's bytes when already read (``read_track_bytes``; parsed as given, the file is not read
+    again). ValueError naming file, line and problem on any malformed content.
+    """
+    try:
+        text = (read_track_bytes(fs_path) if data is None else data).decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         raise ValueError(f"{fs_path}: cannot read the track file ({exc})") from exc
     order: list[str] | None = None
@@ -432,19 +442,30 @@ def _check_representable(fs_path: FsPath, path: Path, x: np.ndarray, y: np.ndarr
     """ValueError naming the file line nearest the sharpest bend if the curvature the env can observe (the rows'
     Hermite interpolation) or its rate exceeds what an observation holds (``MAX_CURVATURE_PER_M``,
     ``MAX_CURVATURE_RATE_PER_M2``): a kink, not a road."""
+    excess = unobservable(path)
+    if excess is not None:
+        what, value, limit, unit, peak = excess
+        table = path.table
+        k = int(np.argmin(np.hypot(x - table[peak, COL_X], y - table[peak, COL_Y])))
+        raise ValueError(f"{fs_path}, line {lines[min(k, len(lines) - 1)]}: the fitted centre-line's {what} reaches "
+                         f"{value:.3g} {unit} near this point, beyond the {limit:g} {unit} an observation "
+                         "holds (a kink: a point off the line, a turn back on itself, an end point next to the start); "
+                         "fix: correct the point, or pass smoothing_m (CLI: --track-smoothing-m) or closed")
+
+
+def unobservable(path: Path) -> tuple[str, float, float, str, int] | None:
+    """The first quantity of ``path`` an observation cannot hold, as (name, value, limit, unit, table row), or None:
+    its curvature as the env interpolates it between rows (Hermite peaks) beyond ``MAX_CURVATURE_PER_M`` [1/m] or
+    its curvature rate beyond ``MAX_CURVATURE_RATE_PER_M2`` [1/m^2]."""
     table = path.table
     kappa, rate = table[:, COL_KAPPA], table[:, COL_DKAPPA]
     kappa_peaks = hermite_peaks(kappa[:-1], rate[:-1], kappa[1:], rate[1:], path.ds_m)
     for values, limit, what, unit in ((kappa_peaks, MAX_CURVATURE_PER_M, "curvature", "1/m"),
                                       (np.abs(rate), MAX_CURVATURE_RATE_PER_M2, "curvature rate", "1/m^2")):
         peak = int(np.argmax(values))
-        if values[peak] <= limit:
-            continue
-        k = int(np.argmin(np.hypot(x - table[peak, COL_X], y - table[peak, COL_Y])))
-        raise ValueError(f"{fs_path}, line {lines[min(k, len(lines) - 1)]}: the fitted centre-line's {what} reaches "
-                         f"{values[peak]:.3g} {unit} near this point, beyond the {limit:g} {unit} an observation "
-                         "holds (a kink: a point off the line, a turn back on itself, an end point next to the start); "
-                         "fix: correct the point, or pass smoothing_m (CLI: --track-smoothing-m) or closed")
+        if not values[peak] <= limit:   # NaN counts as beyond
+            return what, float(values[peak]), limit, unit, peak
+    return None
 
 
 def load_track_csv(path: str | os.PathLike[str], closed: bool | None = None, half_width_m: float | None = None, *,
@@ -463,7 +484,8 @@ def load_track_csv(path: str | os.PathLike[str], closed: bool | None = None, hal
     """
     fs_path = FsPath(path)
     smoothing_given = smoothing_m is not None and smoothing_m > 0.0
-    columns, lines = read_track_columns(fs_path)
+    data = read_track_bytes(fs_path)   # read once: the digest names exactly the bytes parsed
+    columns, lines = read_track_columns(fs_path, data)
     x, y, z = columns["x"], columns["y"], columns.get("z")
     try:
         check_points(x, y, z)  # counts, finiteness, duplicates, extent: before any geometry on the points
@@ -516,9 +538,9 @@ def load_track_csv(path: str | os.PathLike[str], closed: bool | None = None, hal
     else:
         widths = None
     try:
-        result = Path.from_points(x, y, z, bool(closed), smoothing_m=smoothing_m, ds_m=ds_m,
-                                  half_width_m=half_width_m, name=name or fs_path.stem, widths_m=widths,
-                                  v_ref_mps=v_ref)
+        result = replace(Path.from_points(x, y, z, bool(closed), smoothing_m=smoothing_m, ds_m=ds_m,
+                                          half_width_m=half_width_m, name=name or fs_path.stem, widths_m=widths,
+                                          v_ref_mps=v_ref), source_sha256=hashlib.sha256(data).hexdigest())
     except ValueError as exc:
         raise ValueError(f"{fs_path}: {exc}") from exc
     if not allow_self_crossing and result.self_intersects():
@@ -551,7 +573,9 @@ __all__ = [
     "load_track_csv",
     "noisy_curvature_hint",
     "point_noise_m",
+    "read_track_bytes",
     "read_track_columns",
     "read_track_csv",
     "rounding_quantum_m",
+    "unobservable",
 ]

@@ -66,8 +66,10 @@ def project(table: np.ndarray, ds: float, length: float, closed: bool, x: np.nda
     return s, e_y, psi
 
 
-def wrap_angle(a: np.ndarray) -> np.ndarray:
-    """Angle(s) wrapped to (-pi, pi] [rad]."""
-    w = np.mod(np.asarray(a, dtype=float) + np.pi, 2.0 * np.pi)
-    w = np.where(w <= 0.0, w + 2.0 * np.pi, w)
-    return w - np.pi
+def wrap_angle(a: np.ndarray | float) -> np.ndarray:
+    """Angle(s) wrapped to (-pi, pi] [rad], float64 of ``a``'s shape: ``kernels.wrap_angle`` (the env's e_phi
+    wrap), so an angle already inside comes back unchanged."""
+    flat = np.array(a, dtype=np.float64).reshape(-1)
+    out = np.empty_like(flat)
+    _kernels().wrap_angle_rows(flat, out)
+    return out.reshape(np.shape(a))

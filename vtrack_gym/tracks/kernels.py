@@ -68,10 +68,10 @@ def _locate(n: int, ds: float, length: float, closed: bool, s: float) -> tuple[i
     return i, (sw - i * ds) / ds
 
 
-@kernel
-def _geom(table: np.ndarray, ds: float, length: float, closed: bool, s: float) -> tuple[float, float, float, float]:
-    """(X [m], Y [m], psi [rad], kappa [1/m]) at s."""
-    i, t = _locate(table.shape[0], ds, length, closed, s)
+@kernel(inline=True)
+def _plane_at(table: np.ndarray, i: int, t: float, ds: float) -> tuple[float, float, float, float]:
+    """(X [m], Y [m], psi [rad], kappa [1/m]) at fraction t of the interval from row i (the one formula of the
+    plane columns, for ``_geom`` and ``interp_row``)."""
     a = table[i]
     b = table[i + 1]
     ca, sa = math.cos(a[C_PSI]), math.sin(a[C_PSI])
@@ -85,18 +85,23 @@ def _geom(table: np.ndarray, ds: float, length: float, closed: bool, s: float) -
 
 
 @kernel
+def _geom(table: np.ndarray, ds: float, length: float, closed: bool, s: float) -> tuple[float, float, float, float]:
+    """(X [m], Y [m], psi [rad], kappa [1/m]) at s."""
+    i, t = _locate(table.shape[0], ds, length, closed, s)
+    return _plane_at(table, i, t, ds)
+
+
+@kernel
 def interp_row(table: np.ndarray, ds: float, length: float, closed: bool, s: float, out_row: np.ndarray) -> None:
     """Write all 8 columns at arc length s [m] into out_row (wrapped for closed, clamped for open paths)."""
     i, t = _locate(table.shape[0], ds, length, closed, s)
+    x, y, psi, kap = _plane_at(table, i, t, ds)
+    out_row[C_X] = x
+    out_row[C_Y] = y
+    out_row[C_PSI] = psi
+    out_row[C_KAPPA] = kap
     a = table[i]
     b = table[i + 1]
-    ca, sa = math.cos(a[C_PSI]), math.sin(a[C_PSI])
-    cb, sb = math.cos(b[C_PSI]), math.sin(b[C_PSI])
-    ka, kb = a[C_KAPPA], b[C_KAPPA]
-    out_row[C_X] = _h5(a[C_X], ca, -ka * sa, b[C_X], cb, -kb * sb, t, ds)
-    out_row[C_Y] = _h5(a[C_Y], sa, ka * ca, b[C_Y], sb, kb * cb, t, ds)
-    out_row[C_PSI] = _h5(a[C_PSI], ka, a[C_DKAPPA], b[C_PSI], kb, b[C_DKAPPA], t, ds)
-    out_row[C_KAPPA] = _h3(ka, a[C_DKAPPA], kb, b[C_DKAPPA], t, ds)
     out_row[C_DKAPPA] = a[C_DKAPPA] + t * (b[C_DKAPPA] - a[C_DKAPPA])
     out_row[C_Z] = _h5(a[C_Z], a[C_GRADE], a[C_ZPP], b[C_Z], b[C_GRADE], b[C_ZPP], t, ds)
     out_row[C_GRADE] = _h3(a[C_GRADE], a[C_ZPP], b[C_GRADE], b[C_ZPP], t, ds)
@@ -205,6 +210,30 @@ def project_point(table: np.ndarray, ds: float, length: float, closed: bool, x: 
         if moved < TOL_M:
             break
     return s
+
+
+@kernel
+def wrap_angle(a: float) -> float:
+    """Angle ``a`` [rad] wrapped to (-pi, pi]: the package's one angle wrap (the env's e_phi, ``tracks.wrap_angle``).
+
+    ``a`` itself (bit for bit) when it is already in (-pi, pi]; else ``a`` minus the nearest multiple of 2 pi, and
+    the two ends corrected: the floor of a rounded quotient can leave ``w`` just outside, e.g. ``nextafter(pi, 0)``
+    gives ``-pi - ulp`` before the correction (``+ 2 pi`` makes it exact again); ``-pi`` itself becomes ``pi``.
+    """
+    two_pi = 2.0 * math.pi
+    w = a - two_pi * math.floor((a + math.pi) / two_pi)
+    if w <= -math.pi:
+        w += two_pi
+    elif w > math.pi:
+        w -= two_pi
+    return w
+
+
+@kernel
+def wrap_angle_rows(a: np.ndarray, out: np.ndarray) -> None:
+    """``out[i] = wrap_angle(a[i])`` for 1-D float64 arrays [rad]."""
+    for i in range(a.shape[0]):
+        out[i] = wrap_angle(a[i])
 
 
 @kernel

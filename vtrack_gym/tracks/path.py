@@ -98,8 +98,10 @@ class Path:
     (off-road termination where no per-station widths are given), ``name``, ``version`` and ``gates`` (cone gates,
     e.g. of the double lane change). Optional per-row data on the same s grid: ``widths_m`` (n, 2) the drivable half
     widths LEFT and RIGHT of the centre-line [m] (query :meth:`half_widths`), ``v_ref_mps`` (n,) a reference speed
-    [m/s] (e.g. a racing line's speed column; used by ``speed_profiles.FileSpeed``). Closed paths repeat the first
-    row's values in the last row. Arrays are copied and made read-only; equality is identity.
+    [m/s] (e.g. a racing line's speed column; used by ``speed_profiles.FileSpeed``). ``source_sha256``: the SHA-256
+    (64 lowercase hex digits) of the file bytes the path was read from (``load_track_csv`` sets it; rows record it
+    as the driven content), None otherwise. Closed paths repeat the first row's values in the last row. Arrays are
+    copied and made read-only; equality is identity.
     """
 
     table: np.ndarray = field(repr=False)
@@ -111,6 +113,7 @@ class Path:
     gates: tuple[Gate, ...] = ()
     widths_m: np.ndarray | None = field(default=None, repr=False)
     v_ref_mps: np.ndarray | None = field(default=None, repr=False)
+    source_sha256: str | None = field(default=None, repr=False)
     length_m: float = field(init=False)
 
     def __post_init__(self) -> None:
@@ -131,6 +134,9 @@ class Path:
             raise ValueError(f"Path.half_width_m must be > 0 (got {hw!r})")
         if not isinstance(self.name, str) or not isinstance(self.version, str):
             raise ValueError("Path.name and Path.version must be str")
+        sha = self.source_sha256
+        if sha is not None and not (isinstance(sha, str) and len(sha) == 64 and set(sha) <= set("0123456789abcdef")):
+            raise ValueError(f"Path.source_sha256 must be None or 64 lowercase hex digits (got {sha!r:.80})")
         length = (table.shape[0] - 1) * float(ds)
         if self.closed:
             gap = math.hypot(table[-1, tb.COL_X] - table[0, tb.COL_X], table[-1, tb.COL_Y] - table[0, tb.COL_Y])

@@ -10,7 +10,7 @@ from pathlib import Path as FsPath
 
 import numpy as np
 
-from vtrack_gym.tracks.csv_loader import load_track_csv
+from vtrack_gym.tracks.csv_loader import load_track_csv, unobservable
 from vtrack_gym.tracks.dlc import double_lane_change
 from vtrack_gym.tracks.handling_course import handling_course
 from vtrack_gym.tracks.path import Path
@@ -59,3 +59,25 @@ def path_digest(path: Path) -> str:
     for extra in (path.widths_m, path.v_ref_mps):
         h.update(b"-" if extra is None else np.ascontiguousarray(extra).tobytes())
     return h.hexdigest()
+
+
+def check_observable(paths: tuple) -> tuple:
+    """``paths`` unchanged if an observation holds every one of them (curvature as the env interpolates it <=
+    ``MAX_CURVATURE_PER_M`` [1/m], curvature rate <= ``MAX_CURVATURE_RATE_PER_M2`` [1/m^2]); else ValueError naming
+    the path, the station [m], the value and the limit. The env calls it on every path it receives (a file, a
+    ``Path``, a built-in or procedural track), so no track puts an observation outside its space."""
+    for path in paths:
+        excess = unobservable(path)
+        if excess is not None:
+            what, value, limit, unit, row = excess
+            raise ValueError(f"track {path.name!r}: its {what} reaches {value:.4g} {unit} at s = "
+                             f"{row * path.ds_m:.1f} m, beyond the {limit:g} {unit} an observation holds (a kink, "
+                             "not a road); fix: smooth the path (Path.from_points with smoothing_m > 0) or remove "
+                             "the kink")
+    return paths
+
+
+def source_digest(paths: tuple) -> str | None:
+    """The SHA-256 of the file bytes a one-path track was read from (``Path.source_sha256``), or None (a built-in,
+    procedural or hand-made track, or a bank): what a result row records as the content it drove."""
+    return paths[0].source_sha256 if len(paths) == 1 and isinstance(paths[0], Path) else None

@@ -1,19 +1,35 @@
-"""A speed profile from user-facing limits: kind, top speed [km/h] and lateral acceleration [g].
+"""A speed profile from user-facing limits: kind, top speed [km/h] and lateral acceleration [g], checked against a car.
 
 What ``vtrack eval --track`` (``--speed-profile``, ``--max-speed-kmh``, ``--max-lateral-g``) and Python users share:
-the defaults, the ranges in the user's units and the refusal of a limit the chosen kind does not use.
+the defaults (``envelope``: the fastest profile inside the friction ellipse, ``EnvelopeLimited``), the ranges in the
+user's units, the refusal of a limit the chosen kind does not use, and :func:`check_profile_for_car`: a lateral
+limit above the driven car's own steady-state limit is refused, above 90 % of it warned (the env runs this check
+where its car meets the profile, so every route gets it).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import Any
 
 from vtrack_gym.tracks.maneuvers import GRAVITY_MPS2, KMH_TO_MPS
 from vtrack_gym.tracks.path import MAX_V_REF_MPS, MIN_V_REF_MPS
-from vtrack_gym.tracks.speed_profiles import MAX_ACCEL_MPS2, ConstantSpeed, CurvatureLimited, FileSpeed, SpeedProfile
+from vtrack_gym.tracks.speed_profiles import (
+    MAX_ACCEL_MPS2,
+    ConstantSpeed,
+    CurvatureLimited,
+    EnvelopeLimited,
+    FileSpeed,
+    SpeedProfile,
+    check_lateral_limit,
+)
 
-PROFILE_KINDS: tuple[str, ...] = ("constant", "curvature", "file")
-"""constant: one speed; curvature: the fastest profile within the limits; file: the track's v_mps column."""
+PROFILE_KINDS: tuple[str, ...] = ("envelope", "curvature", "constant", "file")
+"""envelope: the fastest profile inside the friction ellipse (combined lateral and longitudinal acceleration);
+curvature: the same limits each axis apart (a corner entry may combine full braking with full lateral acceleration);
+constant: one speed; file: the track's v_mps column."""
+DEFAULT_PROFILE_KIND = "envelope"
+"""Kind when none is given."""
 DEFAULT_MAX_SPEED_KMH = 40.0
 """Top speed when none is given [km/h]."""
 DEFAULT_MAX_LATERAL_G = 0.7
@@ -28,15 +44,16 @@ MAX_LATERAL_G = MAX_ACCEL_MPS2 / GRAVITY_MPS2
 _PARAMETERS = ("kind", "max_speed_kmh", "max_lateral_g")
 
 
-def speed_profile_from_limits(kind: str = "curvature", max_speed_kmh: float | None = None,
-                              max_lateral_g: float | None = None, *,
+def speed_profile_from_limits(kind: str = DEFAULT_PROFILE_KIND, max_speed_kmh: float | None = None,
+                              max_lateral_g: float | None = None, *, vehicle: Any = None,
                               names: Mapping[str, str] | None = None) -> SpeedProfile:
-    """The profile of ``kind`` (``PROFILE_KINDS``) within ``max_speed_kmh`` [km/h] and ``max_lateral_g`` [g]
-    (``None``: the defaults, 40 km/h and 0.7 g).
+    """The profile of ``kind`` (``PROFILE_KINDS``, default ``envelope``) within ``max_speed_kmh`` [km/h] and
+    ``max_lateral_g`` [g] (``None``: the defaults, 40 km/h and 0.7 g).
 
     ``ValueError`` for an unknown kind, a limit outside its range (given in km/h and g) or a limit ``kind`` does
-    not use. ``names`` maps a parameter name to how the caller's user spells it (e.g. ``"--max-speed-kmh"``), so
-    the message names what the user typed.
+    not use; with ``vehicle`` (``VehicleParams``) also for a lateral limit above that car's steady-state limit
+    (a ``UserWarning`` above 90 % of it; :func:`check_profile_for_car`). ``names`` maps a parameter name to how
+    the caller's user spells it (e.g. ``"--max-speed-kmh"``), so the message names what the user typed.
     """
     label = {p: p for p in _PARAMETERS} | dict(names or {})
     if kind not in PROFILE_KINDS:
@@ -47,7 +64,7 @@ def speed_profile_from_limits(kind: str = "curvature", max_speed_kmh: float | No
         if given[param] is not None:
             what = "the file's v_mps column sets the speeds" if kind == "file" else "no curves limit it"
             raise ValueError(f"{label[param]} does not apply to {label['kind']} {kind} ({what}); fix: drop "
-                             f"{label[param]}, or use {label['kind']} curvature")
+                             f"{label[param]}, or use {label['kind']} envelope")
     speed_kmh = DEFAULT_MAX_SPEED_KMH if max_speed_kmh is None else max_speed_kmh
     lateral_g = DEFAULT_MAX_LATERAL_G if max_lateral_g is None else max_lateral_g
     if not MIN_SPEED_KMH <= speed_kmh <= MAX_SPEED_KMH:
@@ -59,4 +76,24 @@ def speed_profile_from_limits(kind: str = "curvature", max_speed_kmh: float | No
         return ConstantSpeed(speed_kmh * KMH_TO_MPS)
     if kind == "file":
         return FileSpeed()
-    return CurvatureLimited(speed_kmh * KMH_TO_MPS, lateral_g * GRAVITY_MPS2)
+    cls = EnvelopeLimited if kind == "envelope" else CurvatureLimited
+    profile = cls(speed_kmh * KMH_TO_MPS, lateral_g * GRAVITY_MPS2)
+    if vehicle is not None:
+        check_profile_for_car(profile, vehicle, label["max_lateral_g"])
+    return profile
+
+
+def check_profile_for_car(profile: Any, vehicle: Any, field_name: str | None = None) -> None:
+    """Check the lateral limit of a ``CurvatureLimited`` or ``EnvelopeLimited`` ``profile`` against ``vehicle``'s
+    (``VehicleParams``) least steady-state lateral limit up to the profile's top speed
+    (``vehicle.steady_state.lowest_lateral_limit_mps2``, below mu g): ``ValueError`` above it naming
+    ``field_name`` (default ``<Profile>.max_lateral_accel_mps2``), the car's limit in g and m/s^2 and the car;
+    ``UserWarning`` above 90 % of it. Other profiles (constant, file, ramps) pass unchecked."""
+    if not isinstance(profile, (CurvatureLimited, EnvelopeLimited)):
+        return
+    from vtrack_gym.vehicle.steady_state import lowest_lateral_limit_mps2
+
+    limit = lowest_lateral_limit_mps2(vehicle, profile.max_speed_mps)
+    name = field_name or f"{type(profile).__name__}.max_lateral_accel_mps2"
+    check_lateral_limit(profile.max_lateral_accel_mps2, limit, vehicle.name, name,
+                        f"at speeds up to {profile.max_speed_mps * 3.6:.0f} km/h")

@@ -9,9 +9,10 @@ Between rows v^2 is interpolated linearly, so a ramp of constant acceleration a 
 the maximum speed), then a forward pass (v_{i+1}^2 <= v_i^2 + 2 a_accel ds) and a backward pass
 (v_i^2 <= v_{i+1}^2 + 2 a_decel ds). It limits each axis apart, so a corner entry may combine the full lateral
 with the full braking acceleration: more grip than the car has when the lateral limit is near the car's own.
-``EnvelopeLimited`` runs the same passes inside a friction ellipse (combined acceleration) and checks the lateral
-limit against the car's own steady-state limit (``vehicle.steady_state``; feasibility is judged against that
-limit, which lies below mu g: Pacejka peak factors D < 1, load transfer, drive force). On a closed loop the passes
+``EnvelopeLimited`` runs the same passes inside a friction ellipse (combined acceleration). Either profile's lateral
+limit is checked against the driven car's own steady-state limit (``vehicle.steady_state``; feasibility is judged
+against that limit, which lies below mu g: Pacejka peak factors D < 1, load transfer, drive force) where the env
+meets its car (``speed_limits.check_profile_for_car``). On a closed loop the passes
 start at the slowest point of the lateral limit, which no pass can lower, and run once around, so the profile is
 consistent across the wrap.
 """
@@ -137,7 +138,8 @@ class EnvelopeLimited:
     e.g. ``lowest_lateral_limit_mps2(car, max_speed_mps)``; ``tracks.feasibility.envelope_profile`` fills it in),
     with ``vehicle_name`` the car's name: a ``max_lateral_accel_mps2`` above it is refused (ValueError naming the
     car's limit), above ``NEAR_LIMIT_SHARE`` (90 %) of it a warning (``UserWarning``): near the limit the car has no
-    margin left to correct an error. None: no car check.
+    margin left to correct an error. None: no check here; an env checks every ``EnvelopeLimited`` and
+    ``CurvatureLimited`` profile against the car it drives anyway (``speed_limits.check_profile_for_car``).
 
     Passes (v^2 linear in s between rows, so a_x is constant on a row interval; the interval's |kappa| is its
     largest sampled value): forward, v_{i+1}^2 = v_i^2 + 2 ds A_x sqrt(1 - (v_{i+1}^2 kappa / A_y)^2) solved for
@@ -176,21 +178,24 @@ NEAR_LIMIT_SHARE = 0.9
 
 
 def check_lateral_limit(requested_mps2: float, vehicle_limit_mps2: float | None, vehicle_name: str,
-                        field_name: str = "max_lateral_accel_mps2") -> None:
+                        field_name: str = "max_lateral_accel_mps2", where: str = "") -> None:
     """ValueError if ``requested_mps2`` [m/s^2] exceeds ``vehicle_limit_mps2`` [m/s^2], the car's own
-    steady-state lateral limit, naming ``field_name``, the limit and ``vehicle_name``; a ``UserWarning`` above
-    ``NEAR_LIMIT_SHARE`` of it. Nothing when the car's limit is None."""
+    steady-state lateral limit, naming ``field_name``, the limit (in m/s^2 and g) and ``vehicle_name`` (``where``,
+    e.g. "at speeds up to 80 km/h", follows the car's name); a ``UserWarning`` above ``NEAR_LIMIT_SHARE`` of it.
+    Nothing when the car's limit is None."""
     if vehicle_limit_mps2 is None:
         return
     g = G_FOR_MESSAGES_MPS2
     text = (f"{field_name} = {requested_mps2:.3f} m/s^2 ({requested_mps2 / g:.3f} g) against the steady-state "
-            f"lateral limit {vehicle_limit_mps2:.3f} m/s^2 ({vehicle_limit_mps2 / g:.3f} g) of {vehicle_name!r}")
+            f"lateral limit {vehicle_limit_mps2:.3f} m/s^2 ({vehicle_limit_mps2 / g:.3f} g) of {vehicle_name!r}"
+            + (f" {where}" if where else ""))
     if requested_mps2 > vehicle_limit_mps2:
         raise ValueError(f"{text}: the car cannot corner that hard; ask for at most its limit (better "
                          f"{NEAR_LIMIT_SHARE:.0%} of it or less)")
     if requested_mps2 > NEAR_LIMIT_SHARE * vehicle_limit_mps2:
-        warnings.warn(f"{text}: above {NEAR_LIMIT_SHARE:.0%} of the limit, so the car has almost no margin left to "
-                      "correct a tracking error", UserWarning, stacklevel=3)
+        warnings.warn(f"{text} ({requested_mps2 / vehicle_limit_mps2:.0%} of it): above {NEAR_LIMIT_SHARE:.0%} of "
+                      "the limit, so the car has almost no margin left to correct a tracking error", UserWarning,
+                      stacklevel=3)
 
 
 def _ellipse_step(u_from: float, kappa: float, reach: float, a_lat: float) -> float:
@@ -334,7 +339,7 @@ class SpeedTable:
 def speed_table(path: Path, profile: SpeedProfile) -> SpeedTable:
     """Evaluate ``profile`` on the rows of ``path`` -> :class:`SpeedTable`."""
     if not isinstance(profile, SpeedProfile):
-        raise ValueError("speed profile must be ConstantSpeed, CurvatureLimited, EnvelopeLimited, SpeedRamp or "
+        raise ValueError("speed profile must be ConstantSpeed, EnvelopeLimited, CurvatureLimited, SpeedRamp or "
                          f"FileSpeed (got {type(profile).__name__})")
     v = profile.row_speeds(path)
     if v.shape != (path.n_samples,) or not np.all(np.isfinite(v)) or np.any(v <= 0.0):
@@ -350,8 +355,8 @@ def as_speed_profile(spec: SpeedProfile | float | str) -> SpeedProfile:
         return ConstantSpeed(float(spec))
     if spec == "file":
         return FileSpeed()
-    raise ValueError(f"speed_profile must be ConstantSpeed, CurvatureLimited, FileSpeed, a speed in m/s or 'file' "
-                     f"(got {spec!r})")
+    raise ValueError("speed_profile must be ConstantSpeed, EnvelopeLimited, CurvatureLimited, FileSpeed, a speed in "
+                     f"m/s or 'file' (got {spec!r})")
 
 
 def lateral_accel_mps2(table: SpeedTable, path: Path, s: np.ndarray) -> np.ndarray:

@@ -1,12 +1,12 @@
 """GA tuning cost: the full paper budgets, measured, and the population rollout against its reference path.
 
 For each controller this runs the exact search of the shipped preset (``vtrack_gym/baselines/presets/
-<controller>_tuned.json``: SMC ``steering`` space, 100 generations x 10; MPC ``paper`` space, 200 x 20; both with
-``--also-complete DLC120-v0``, seed 0), prints wall time, episodes/s and car-steps/s, and says whether the best
-parameters equal the shipped preset's (same seed, same result). Then, as a peer measured in the same run, it
-evaluates one population on the first 3000 steps of Case 1 with the compiled whole-episode rollout and with the
-reference path (the same compiled laws called through ``Policy.act``, stepping ``BatchSim.step`` one control
-period at a time) and prints the ratio.
+<controller>_tuned.json``: SMC ``steering`` space, 100 generations x 10; MPC ``paper`` space, 200 x 20; both
+with ``--also-complete DLC120-v0``, the seed its provenance records), prints wall time, episodes/s and
+car-steps/s, and says whether the best parameters equal the shipped preset's (same seed, same result). Then, as
+a peer measured in the same run, it evaluates one population on the first 3000 steps of Case 1 with the compiled
+whole-episode rollout and with the reference path (the same compiled laws called through ``Policy.act``,
+stepping ``BatchSim.step`` one control period at a time) and prints the ratio.
 Run: ``python benchmarks/bench_tuning.py [--controllers smc,mpc] [--generations N]`` (N: a shorter run, which
 then cannot reproduce the shipped preset).
 """
@@ -56,17 +56,18 @@ def main() -> None:
         paper = budget(controller, "paper")
         run_budget = paper if args.generations is None else Budget("short", args.generations, paper.pop_size)
         space = search_space(controller, SHIPPED_SPACE[controller])
+        path = packaged_preset_path(controller)
+        shipped = load_preset(path) if path.is_file() else None
+        seed = int(shipped.get("provenance", {}).get("seed", 0)) if shipped else 0
         start = time.perf_counter()
-        result = tune(space, run_budget, seed=0, also_complete=ALSO_COMPLETE, progress=False)
+        result = tune(space, run_budget, seed=seed, also_complete=ALSO_COMPLETE, progress=False)
         wall = time.perf_counter() - start
         print(f"{controller}: {run_budget.generations} generations x {run_budget.pop_size} ({result.episodes} "
               f"episodes: Case 1 + DLC120-v0 per individual) in {wall:.1f} s = {result.episodes / wall:.2f} "
               f"episodes/s, {result.car_steps / wall:,.0f} car-steps/s; best fitness (Case-1 ITAE) "
-              f"{result.best_fitness:.4g}")
-        path = packaged_preset_path(controller)
-        if path.is_file():
-            shipped = load_preset(path)["config"]
-            print(f"  best parameters equal the shipped {path.name}: {result.best_config == shipped}")
+              f"{result.best_fitness:.4g} (seed {seed})")
+        if shipped is not None:
+            print(f"  best parameters equal the shipped {path.name}: {result.best_config == shipped['config']}")
         print(_peer_ratio(controller, paper.pop_size))
 
 

@@ -63,8 +63,8 @@ def _g(run: Run) -> float:
     return run.metrics["max_a_y_mps2"] / GRAVITY_MPS2
 
 
-REASON_PLANT = ("different plant (our nonlinear two-track model with a roll DOF and a steering actuator, not "
-                "CarSim) and a geometric reference path (no reference-car sideslip in phi_r)")
+REASON_PLANT = ("different plant (our nonlinear single-track model with per-wheel loads, a roll DOF and a steering "
+                "actuator, not CarSim) and a geometric reference path (no reference-car sideslip in phi_r)")
 REASON_TRACK = ("different track geometry (CarSim's course is not public: ours is our own course with its "
                 "statistics)")
 REASON_SMC = {

@@ -203,9 +203,9 @@ def _option_ok(key, value) -> bool:
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
         return False  # only real numbers (issue 20: True, numeric strings and arrays are refused)
     v = float(value)
-    if key == "actuator_delay_s" and abs(v / 0.01 - round(v / 0.01)) > 1e-9:
-        return False  # a whole number of 10 ms control periods (issue 20: never rounded)
-    return math.isfinite(v) and lo <= v <= hi
+    if not (math.isfinite(v) and lo <= v <= hi):
+        return False  # checked first: the period test below overflows on huge values (1.8e306 / 0.01 is inf)
+    return key != "actuator_delay_s" or abs(v / 0.01 - round(v / 0.01)) <= 1e-9  # whole 10 ms periods, never rounded
 
 
 @FUZZ

@@ -175,6 +175,11 @@ class TrackingEnv(gym.Env):
         self._fz_row = sim.outputs[0, -1, L.O_FZFL:L.O_FZRR + 1]
         self._acc_rows = sim.outputs[0, :, L.O_AX:L.O_AZ + 1]
 
+    def __setstate__(self, state: dict) -> None:
+        """Unpickled (or deep-copied) with car 0's row views bound again, to the restored sim's own arrays."""
+        self.__dict__.update(state)
+        self._bind_rows()
+
     @property
     def paths(self) -> tuple:
         """The track(s) this env drives on."""

@@ -192,7 +192,7 @@ def entry_speed_bound(env_id: str, vehicle: Any = None) -> float:
 def _factory(policy: Any) -> tuple[Callable[[Any], Any], str | None]:
     """``make(env) -> policy`` and its id (None: taken from the policy) for a spec, a factory or a policy object."""
     if isinstance(policy, str):
-        from vtrack_gym.evaluation.benchmark import policy_factories
+        from vtrack_gym.evaluation.episode_score import policy_factories
 
         (name, make), = policy_factories([policy]).items()
         return make, name
@@ -210,8 +210,8 @@ def judge_entry_speed(make: Callable[[Any], Any], env_id: str, speed_kmh: float,
     ``vehicle``, a fresh policy from ``make``, scored by ``benchmark.score_episode`` (the leaderboard's verdict)."""
     import gymnasium as gym
 
-    from vtrack_gym.evaluation.benchmark import score_episode
     from vtrack_gym.evaluation.board import failure_reason
+    from vtrack_gym.evaluation.episode_score import score_episode
     from vtrack_gym.evaluation.suites import Episode
 
     episode = Episode(env_id, seed, vehicle=vehicle)
@@ -259,7 +259,7 @@ def max_entry_speed_kmh(policy: Any, env_id: str = "vtrack/ISO3888-2-v1", *, veh
         return judge_entry_speed(make, full_id, speed, vehicle, seed, name)
 
     found = bisect_entry_speed(judge, lo, hi, tol_kmh, checks, on_probe)
-    from vtrack_gym.evaluation.benchmark import vehicle_label
+    from vtrack_gym.evaluation.episode_score import vehicle_label
 
     above = any(p.passed and p.speed_kmh > bound for p in found.probes)
     return EntrySpeedResult(full_id, name, vehicle_label(vehicle), seed, found.max_pass_kmh, bound, above,
@@ -292,7 +292,7 @@ class EntrySpeedScore:
                  digest: str | None = None) -> tuple[Any, Any]:
         import dataclasses
 
-        from vtrack_gym.evaluation.benchmark import score_episode
+        from vtrack_gym.evaluation.episode_score import score_episode
 
         row, trace = score_episode(name, policy, env, ep, suite, digest)
         if not is_entry_speed_env(ep.env_id):

@@ -241,7 +241,8 @@ def test_presets_and_agent_weights_are_distinct_policy_keys(tmp_path: Path) -> N
     from vtrack_gym.baselines.numpy_policy import load_agent, save_agent
     from vtrack_gym.baselines.registry import make_policy
     from vtrack_gym.baselines.shipped import SHIPPED_DIR
-    from vtrack_gym.evaluation.benchmark import policy_hash, policy_preset
+    from vtrack_gym.evaluation.benchmark import policy_preset
+    from vtrack_gym.evaluation.fingerprint import policy_hash
 
     env = gym.make("DLC120-v0")
     default, paper = make_policy("smc", env), make_policy("smc", env, preset="paper")

@@ -77,7 +77,7 @@ def tune_to_preset(controller: str, space: str = "paper", budget: str = "paper",
 def _store_result(store: Path, controller: str, space: str, seed: int, result: TuneResult,
                   budget_info: dict[str, Any], preset_file: Path) -> None:
     """Add the best individual's metrics to ``store`` as one ``tuning`` row."""
-    from vtrack_gym.evaluation.benchmark import policy_hash
+    from vtrack_gym.evaluation.fingerprint import policy_hash
     from vtrack_gym.evaluation.store import ResultRow, ResultStore
 
     class _Cfg:  # policy_hash reads .config

@@ -9,6 +9,7 @@ copy of an object referenced twice, so every view lands on the same block).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -52,27 +53,25 @@ def encode(value: Any, depth: int = 3) -> Any:
             return value
         offset = value.__array_interface__["data"][0] - owner.__array_interface__["data"][0]
         return ArrayView(owner, offset, value.shape, value.strides, value.dtype.str, bool(value.flags.writeable))
-    if depth <= 0:
-        return value
-    if isinstance(value, tuple) and hasattr(value, "_fields"):
-        return type(value)._make(encode(v, depth - 1) for v in value)
-    if type(value) in (tuple, list):
-        return type(value)(encode(v, depth - 1) for v in value)
-    if type(value) is dict:
-        return {k: encode(v, depth - 1) for k, v in value.items()}
-    return value
+    return _map_items(value, depth, encode)
 
 
 def decode(value: Any, depth: int = 3) -> Any:
     """The inverse of :func:`encode`: every ``ArrayView`` made a view of its (unpickled) owner again."""
     if isinstance(value, ArrayView):
         return value.make()
+    return _map_items(value, depth, decode)
+
+
+def _map_items(value: Any, depth: int, fn: Callable[[Any, int], Any]) -> Any:
+    """A named tuple, tuple, list or dict with ``fn(item, depth - 1)`` applied to each item; anything else, or
+    ``depth`` <= 0, as is."""
     if depth <= 0:
         return value
     if isinstance(value, tuple) and hasattr(value, "_fields"):
-        return type(value)._make(decode(v, depth - 1) for v in value)
+        return type(value)._make(fn(v, depth - 1) for v in value)
     if type(value) in (tuple, list):
-        return type(value)(decode(v, depth - 1) for v in value)
+        return type(value)(fn(v, depth - 1) for v in value)
     if type(value) is dict:
-        return {k: decode(v, depth - 1) for k, v in value.items()}
+        return {k: fn(v, depth - 1) for k, v in value.items()}
     return value

@@ -96,6 +96,51 @@ def test_sigint_during_a_run_exits_130_without_traceback(tmp_path: Path) -> None
     assert "Traceback" not in text and text.strip().splitlines()[-1] == "vtrack: interrupted (Ctrl-C)"
 
 
+def test_sigint_during_a_forked_run_drops_the_queued_episodes(tmp_path: Path) -> None:
+    """Ctrl-C in a run on worker processes ends after the episodes already running, not after the whole queue."""
+    argv = [sys.executable, "-m", "vtrack_gym.cli", "-v", "benchmark", "--policies", "lqr", "--no-figures",
+            "--seeds", "0-99", "--workers", "2", "--store", str(tmp_path / "s.sqlite")]
+    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=_env())
+    assert proc.stderr is not None
+    for line in proc.stderr:  # wait until the workers score episodes
+        if b": completed" in line:
+            break
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=300)
+    after = err.decode().count(": completed")
+    assert proc.returncode == 130
+    # 2 running + 3 already handed to the workers' queue at most; the run had 199 episodes left
+    assert after <= 5, f"{after} episodes completed after Ctrl-C"
+
+
+INTERRUPT_IN_EXEC = """\
+from vtrack_gym.cli import leaderboard
+
+
+def _interrupted(args):
+    exec("raise KeyboardInterrupt")  # as when Ctrl-C lands in a Cython module's init: code run by PyRun_String
+
+
+leaderboard.run = _interrupted
+"""
+
+
+@pytest.mark.parametrize("entry", ["module", "script"])
+def test_ctrl_c_inside_extension_code_still_exits_130(tmp_path: Path, entry: str) -> None:
+    """A KeyboardInterrupt that passed through code an extension ran by ``PyRun_String`` leaves CPython's
+    process-wide "unhandled Ctrl-C" flag set; the command still exits 130, under ``python -m`` and as the script."""
+    (tmp_path / "sitecustomize.py").write_text(INTERRUPT_IN_EXEC)
+    env = {**_env(), "PYTHONPATH": os.pathsep.join([str(tmp_path), str(ROOT)])}
+    args = ["leaderboard", "--store", str(_store(tmp_path / "s.sqlite"))]
+    if entry == "module":
+        argv = [sys.executable, "-m", "vtrack_gym.cli", *args]
+    else:
+        argv = [sys.executable, "-c", "import sys; from vtrack_gym.cli import main; sys.exit(main())", *args]
+    proc = subprocess.run(argv, capture_output=True, text=True, env=env, timeout=120)
+    assert proc.returncode == 130, proc.stderr
+    assert proc.stderr.strip().splitlines() == ["vtrack: interrupted (Ctrl-C)"]
+
+
 def test_store_strings_are_escaped_on_stdout_and_stderr(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """A store refuses terminal-unsafe text on write (so none reaches a board); text the user types that is echoed
     back (an unknown suite) is escaped."""

@@ -196,10 +196,14 @@ def _run_forked(tasks: list[EpisodeTask], n: int, progress: Any) -> list[tuple[A
     with ProcessPoolExecutor(max_workers=n, mp_context=context, initializer=_start_worker,
                              initargs=(tasks,)) as pool:
         futures = {pool.submit(_run_index, i): i for i in range(len(tasks))}
-        for done in as_completed(futures):
-            result, pid, cpu_s = done.result()
-            cpu_by_worker[pid] = cpu_by_worker.get(pid, 0.0) + cpu_s
-            results[futures[done]] = _advance(result, progress)
+        try:
+            for done in as_completed(futures):
+                result, pid, cpu_s = done.result()
+                cpu_by_worker[pid] = cpu_by_worker.get(pid, 0.0) + cpu_s
+                results[futures[done]] = _advance(result, progress)
+        except BaseException:  # Ctrl-C or a failed task: drop the queued episodes, let only the running ones end
+            pool.shutdown(wait=True, cancel_futures=True)
+            raise
     log.debug(usage_line(len(tasks), warm_cpu_s, list(cpu_by_worker.values()), time.perf_counter() - start))
     return results
 

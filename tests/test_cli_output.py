@@ -5,6 +5,7 @@ kept apart from the progress bars, figure legends naming why a run failed, agent
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import json
 import os
@@ -18,7 +19,7 @@ import pytest
 from vtrack_gym.cli import main
 from vtrack_gym.evaluation.benchmark import score_policy
 from vtrack_gym.evaluation.board_view import board_view
-from vtrack_gym.evaluation.plots import figure_subtitle, run_label
+from vtrack_gym.evaluation.plots import figure_subtitle, run_label, title_preset
 from vtrack_gym.evaluation.store import ResultRow, ResultStore
 from vtrack_gym.evaluation.suites import Episode
 
@@ -85,6 +86,21 @@ def test_failed_runs_are_named_in_legends_and_agents_in_titles() -> None:
     assert figure_subtitle("DLC120-v0", 0, None, ["ppo"]) == "DLC120-v0 | agent ppo | seed 0"
     assert figure_subtitle("DLC120-v0", 0, None) == "DLC120-v0 | preset default | seed 0"
     assert figure_subtitle("DLC120-v0", 3, "tuned", ["ppo"]) == "DLC120-v0 | preset tuned | seed 3"
+
+
+def test_titles_of_figures_with_several_policies_name_their_presets() -> None:
+    _, traces = score_policy("lqr", _maker("lqr"), [Episode("DLC120-v0", 0)], "custom")
+    [trace] = traces
+
+    def named(*ids: str) -> list:
+        return [dataclasses.replace(trace, policy_id=i) for i in ids]
+
+    assert title_preset(named("smc", "mpc"), None) == "default"
+    assert title_preset(named("smc:paper", "mpc:paper"), None) == "paper"
+    assert title_preset(named("smc:paper", "mpc"), None) == "as in the legend"
+    assert title_preset(named("ppo", "mpc"), None) == "default (baselines)"
+    assert title_preset(named("ppo", "sac"), None) is None
+    assert title_preset(named("smc:paper", "mpc"), "tuned") == "tuned"
 
 
 def _maker(name: str):

@@ -77,8 +77,23 @@ def run_label(trace: Trace) -> str:
     return f"{trace.policy_id} ({trace.termination})"
 
 
+def title_preset(traces: Sequence[Trace], preset: str | None) -> str | None:
+    """The preset a figure's title names: ``preset`` when given; else the one the baselines among ``traces`` share
+    ('default' for a plain id such as ``smc``, 'as in the legend' when they differ), followed by '(baselines)' when
+    RL agents share the figure; None for a figure of agents only."""
+    from vtrack_gym.baselines.registry import available_policies
+
+    ids = list(dict.fromkeys(t.policy_id for t in traces))
+    baselines = [i for i in ids if i.partition(":")[0] in available_policies()]
+    if preset is not None or not baselines:
+        return preset
+    presets = {i.partition(":")[2] or "default" for i in baselines}
+    named = presets.pop() if len(presets) == 1 else "as in the legend"
+    return named if len(baselines) == len(ids) else f"{named} (baselines)"
+
+
 def _title(fig: Any, head: str, traces: Sequence[Trace], preset: str | None) -> None:
-    subtitle = figure_subtitle(traces[0].env_id, traces[0].seed, preset, _agents_only(traces))
+    subtitle = figure_subtitle(traces[0].env_id, traces[0].seed, title_preset(traces, preset), _agents_only(traces))
     fig.suptitle(f"{head}\n{subtitle}", fontsize=10)
 
 

@@ -87,7 +87,6 @@ def run_task(task: EpisodeTask) -> tuple[Any, Any]:
         row, trace = task.score(task.policy_id, task.make(env), env, ep, task.suite)
     finally:
         env.close()
-    log.debug("%s on %s seed %s: %s", task.policy_id, ep.env_id, ep.seed, row.termination)
     return row, (trace if task.keep_trace else None)
 
 
@@ -104,11 +103,15 @@ def run_tasks(tasks: Sequence[EpisodeTask], workers: int | None = 1, backend: st
         return _run_ray(tasks, workers, progress, address)
     n = min(workers or default_workers(), max(1, len(tasks)))
     if n <= 1:
-        return [_advance(run_task(t), progress) for t in tasks]
+        return [_advance(t, run_task(t), progress) for t in tasks]
     return _run_forked(tasks, n, progress)
 
 
-def _advance(result: tuple[Any, Any], progress: Any) -> tuple[Any, Any]:
+def _advance(task: EpisodeTask, result: tuple[Any, Any], progress: Any) -> tuple[Any, Any]:
+    """``task``'s result handed back: its debug line logged and the bar advanced, here in the process that draws
+    the bar (a worker's own line would print through it)."""
+    ep = task.episode
+    log.debug("%s on %s seed %s: %s", task.policy_id, ep.env_id, ep.seed, result[0].termination)
     if progress is not None:
         progress.update(1)
     return result
@@ -200,7 +203,8 @@ def _run_forked(tasks: list[EpisodeTask], n: int, progress: Any) -> list[tuple[A
             for done in as_completed(futures):
                 result, pid, cpu_s = done.result()
                 cpu_by_worker[pid] = cpu_by_worker.get(pid, 0.0) + cpu_s
-                results[futures[done]] = _advance(result, progress)
+                index = futures[done]
+                results[index] = _advance(tasks[index], result, progress)
         except BaseException:  # Ctrl-C or a failed task: drop the queued episodes, let only the running ones end
             pool.shutdown(wait=True, cancel_futures=True)
             raise
@@ -245,5 +249,6 @@ def _run_ray(tasks: list[EpisodeTask], workers: int | None, progress: Any,
             next_task += 1
         done, _ = ray.wait(list(pending), num_returns=1)
         for ref in done:
-            results[pending.pop(ref)] = _advance(ray.get(ref), progress)
+            index = pending.pop(ref)
+            results[index] = _advance(tasks[index], ray.get(ref), progress)
     return results

@@ -202,10 +202,12 @@ def test_agent_files_know_their_env(tmp_path, caplog):
     slow = dict(ppo, env=dict(ppo["env"], control_period_s=0.05))  # the from-scratch recipes' 20 Hz decisions
     (tmp_path / "slow.json").write_text(json.dumps(slow))
     shutil.copy(SHIPPED / "ppo_bc.npz", tmp_path / "slow.npz")
-    with caplog.at_level("INFO"):
+    with caplog.at_level("DEBUG", logger="vtrack_gym"):  # a CLI test in this process may have set it to INFO
         vtrack_gym.make_policy(str(tmp_path / "slow.json"), gym.make("DLC120-v0"))
     assert not [r for r in caplog.records if r.levelno >= logging.WARNING]
     assert "trained deciding every 0.05 s; this env asks every 0.01 s" in caplog.text
+    told = [r for r in caplog.records if "trained deciding" in r.getMessage()]
+    assert [r.levelno for r in told] == [logging.DEBUG]  # by design for the shipped agents: shown with vtrack -v
 
 
 def test_cli_checks_names_and_extras_before_any_work(tmp_path, capsys, monkeypatch):

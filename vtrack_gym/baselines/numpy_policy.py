@@ -361,7 +361,8 @@ class NumpyPolicy:
         Files with the ``env`` record need every recorded name in the env's layout, in the recorded order, and log
         a warning when the road-wheel angle of action 1 differs or the env's control period is longer than the
         trained one (the agent still runs, on a different plant timing or scale, e.g. highway-env; a shorter period
-        is only logged at INFO: the state-feedback law is sampled faster); files without it are taken to have the
+        is only logged at DEBUG, ``vtrack -v``: the state-feedback law is sampled faster, as for every shipped agent
+        on the 100 Hz envs); files without it are taken to have the
         layout without the speed preview and compare the observation size only.
         """
         from vtrack_gym.baselines.base import env_contract
@@ -378,8 +379,8 @@ class NumpyPolicy:
             if key == "control_period_s" and float(value) < record[key]:
                 # an agent that decided every 50 ms in training, asked every 10 ms: a state-feedback law sampled
                 # faster (the from-scratch recipes train at 20 Hz and are scored at the envs' 100 Hz)
-                logging.getLogger(__name__).info("agent %r was trained deciding every %g s; this env asks every %g s",
-                                                 self.name, record[key], float(value))
+                logging.getLogger(__name__).debug("agent %r was trained deciding every %g s; this env asks every %g s",
+                                                  self.name, record[key], float(value))
                 continue
             logging.getLogger(__name__).warning("agent %r was trained with %s = %g, this env has %g",
                                                 self.name, key, record[key], float(value))

@@ -191,9 +191,9 @@ def _progress_bar(timesteps: int) -> Any:
 
     class ProgressBar(BaseCallback):
         def _on_training_start(self) -> None:
-            from tqdm.auto import tqdm
+            from vtrack_gym._progress import progress_bar
 
-            self.bar = tqdm(total=timesteps, unit="step", desc="train", mininterval=2.0)
+            self.bar = progress_bar(total=timesteps, unit="step", desc="train", mininterval=2.0)
 
         def _on_step(self) -> bool:
             self.bar.update(max(min(self.num_timesteps, timesteps) - self.bar.n, 0))  # tqdm throttles redraws

@@ -81,13 +81,12 @@ def run(args: argparse.Namespace) -> int:
 
 def _search(args: argparse.Namespace, name: str, make: Any) -> Any:
     """One policy's search with a progress bar (one tick per run)."""
-    from tqdm.auto import tqdm
-
+    from vtrack_gym._progress import progress_bar
     from vtrack_gym.evaluation.entry_speed import entry_speed_bound, max_entry_speed_kmh, planned_probes, search_range
 
     lo, hi = search_range(entry_speed_bound(args.env, args.vehicle), args.lo_kmh, args.hi_kmh)
     total = planned_probes(lo, hi, args.tol_kmh, args.checks) if lo < hi and args.tol_kmh > 0 else None
-    with tqdm(total=total, desc=f"{name}", unit="run") as bar:
+    with progress_bar(total=total, desc=f"{name}", unit="run") as bar:
         def tick(probe: Any) -> None:
             bar.set_postfix_str(f"{probe.speed_kmh:.2f} km/h {'pass' if probe.passed else probe.reason}")
             bar.update(1)

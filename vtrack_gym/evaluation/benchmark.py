@@ -118,8 +118,7 @@ def score_tasks(tasks: Sequence[Any], figures_dir: str | Path | None, vehicle: s
                 ) -> tuple[list[ResultRow], dict[str, list[Trace]], Path | None]:
     """Run ``tasks`` (``parallel.EpisodeTask``); their rows (tagged with the run's figure folder when
     ``figures_dir`` is given), the kept traces by env, and that folder (None without ``figures_dir``)."""
-    from tqdm.auto import tqdm
-
+    from vtrack_gym._progress import progress_bar
     from vtrack_gym.evaluation.figure_runs import FIGURES_OPTION, run_folder
     from vtrack_gym.evaluation.parallel import run_tasks
 
@@ -127,7 +126,8 @@ def score_tasks(tasks: Sequence[Any], figures_dir: str | Path | None, vehicle: s
     if figures_dir is not None and tasks:
         folder_name = run_folder(tasks[0].suite, [t.policy_id for t in tasks], vehicle_label(vehicle),
                                  [t.episode.env_id for t in tasks])
-    with tqdm(total=len(tasks), desc=progress_label or "", unit="episode", disable=progress_label is None) as bar:
+    with progress_bar(total=len(tasks), desc=progress_label or "", unit="episode",
+                      disable=progress_label is None) as bar:
         results = run_tasks(tasks, workers, backend, progress=bar)
     rows: list[ResultRow] = []
     traces_by_env: dict[str, list[Trace]] = {}

@@ -174,6 +174,6 @@ def _progress(items: list[Episode], label: str, show: bool) -> Any:
     """``items`` with a tqdm bar when ``show``."""
     if not show:
         return items
-    from tqdm.auto import tqdm
+    from vtrack_gym._progress import progress_bar
 
-    return tqdm(items, desc=label, unit="episode")
+    return progress_bar(items, desc=label, unit="episode")

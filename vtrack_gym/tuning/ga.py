@@ -130,9 +130,9 @@ def tune(space: SearchSpace, budget: Budget, seed: int = 0, scenario: str = "Lat
                        mutation=PM(prob=1.0, prob_var=MUTATION_PROB, eta=20), eliminate_duplicates=True)
         algorithm.setup(problem, termination=("n_gen", budget.generations), seed=int(seed), verbose=False)
         if progress:
-            from tqdm.auto import tqdm
+            from vtrack_gym._progress import progress_bar
 
-            bar = tqdm(total=budget.generations, desc=f"tune {space.controller}/{space.name}", unit="gen")
+            bar = progress_bar(total=budget.generations, desc=f"tune {space.controller}/{space.name}", unit="gen")
         best_f, best_x, best_metrics = np.inf, None, {}
         initial_best = np.nan
         history: list[float] = []

@@ -1,0 +1,52 @@
+"""Progress bars write whole lines, not carriage-return redraws, when stderr is a file or a CI log."""
+
+from __future__ import annotations
+
+import io
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from vtrack_gym._progress import LineStream
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+class FakeClock:
+    def __init__(self) -> None:
+        self.now_s = 0.0
+
+    def __call__(self) -> float:
+        return self.now_s
+
+
+def test_line_stream_writes_a_line_per_interval_and_the_last_state() -> None:
+    out, clock = io.StringIO(), FakeClock()
+    stream = LineStream(out, interval_s=30.0, clock=clock)
+    stream.write("\rrun:   0%|   | 0/4")
+    clock.now_s = 10.0
+    stream.write("\rrun:  25%|   | 1/4")  # within 30 s of the last line: held
+    stream.write("\r" + " " * 20 + "\r")  # a log line's clearing of the bar: nothing
+    clock.now_s = 31.0
+    stream.write("\rrun:  50%|   | 2/4")
+    stream.write("\rrun:  50%|   | 2/4")  # the same line again (a refresh after a log line): dropped
+    clock.now_s = 35.0
+    stream.write("\rrun: 100%|   | 4/4")
+    stream.write("\n")  # the bar closed: its last state
+    assert out.getvalue().splitlines() == ["run:   0%|   | 0/4", "run:  50%|   | 2/4", "run: 100%|   | 4/4"]
+
+
+def test_benchmark_progress_in_a_log_file_is_whole_lines(tmp_path: Path) -> None:
+    """What a CI log of the README's main job shows: no carriage returns; the bar's first and last states."""
+    err = tmp_path / "stderr.log"
+    argv = [sys.executable, "-m", "vtrack_gym.cli", "benchmark", "--policies", "lqr", "--no-figures",
+            "--store", str(tmp_path / "s.sqlite")]
+    with err.open("w") as stderr:
+        proc = subprocess.run(argv, stdout=subprocess.PIPE, stderr=stderr, text=True, timeout=600,
+                              env={**os.environ, "PYTHONPATH": str(ROOT)})
+    text = err.read_text()
+    assert proc.returncode == 0, text
+    assert "\r" not in text
+    bars = [line for line in text.splitlines() if line.startswith("vtrack benchmark (paper):")]
+    assert bars[0].split(":", 1)[1].lstrip().startswith("0%") and "100%" in bars[-1], bars

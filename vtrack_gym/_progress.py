@@ -1,0 +1,76 @@
+"""Progress bars of the package's long work: tqdm on a terminal, one plain line per update elsewhere.
+
+On a terminal a bar redraws itself in place. Redirected to a file or a CI log, tqdm's carriage-return redraws
+pile up on one line and cut through log lines; there the bar writes a whole line at most every
+``LOG_INTERVAL_S`` seconds instead, its last state when it closes, and never the same line twice.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from collections.abc import Callable
+from typing import Any, TextIO
+
+LOG_INTERVAL_S = 30.0
+"""Shortest time between two progress lines when stderr is not a terminal [s]."""
+
+
+class LineStream:
+    """A text stream for tqdm that turns its redraws into lines on ``stream``: at most one per ``interval_s``
+    seconds (the latest redraw wins), the last one when the bar closes, never the same line twice.
+
+    ``clock``: a monotonic time source [s] (a test passes its own)."""
+
+    def __init__(self, stream: TextIO, interval_s: float = LOG_INTERVAL_S,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        self._stream = stream
+        self._interval_s = interval_s
+        self._clock = clock
+        self._last = ""
+        self._last_at = -math.inf
+        self._pending = ""
+
+    @property
+    def encoding(self) -> str | None:
+        return getattr(self._stream, "encoding", None)
+
+    def write(self, text: str) -> int:
+        line = text.replace("\r", " ").strip()
+        if line:
+            self._pending = line
+            if self._clock() - self._last_at >= self._interval_s:
+                self._emit()
+        elif "\n" in text:  # the bar closed (tqdm ends a kept bar with a newline): its last state
+            self._emit()
+        return len(text)
+
+    def _emit(self) -> None:
+        if self._pending and self._pending != self._last:
+            self._stream.write(self._pending + "\n")
+            self._last, self._last_at = self._pending, self._clock()
+        self._pending = ""
+
+    def flush(self) -> None:
+        self._stream.flush()
+
+
+def _redraws_in_place(stream: Any) -> bool:
+    """True for a terminal and for a Jupyter kernel's stream (both render carriage returns)."""
+    if type(stream).__module__.startswith("ipykernel"):
+        return True
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError):  # no isatty, or a closed stream
+        return False
+
+
+def progress_bar(iterable: Any = None, **kwargs: Any) -> Any:
+    """A ``tqdm`` bar on stderr with ``kwargs`` (``total``, ``desc``, ``unit``, ``disable``, ...); when stderr is
+    neither a terminal nor a notebook's, it writes plain lines through ``LineStream``."""
+    from tqdm.auto import tqdm
+
+    if not _redraws_in_place(sys.stderr):
+        kwargs["file"] = LineStream(sys.stderr)
+    return tqdm(iterable, **kwargs)

@@ -32,9 +32,13 @@ def test_line_stream_writes_a_line_per_interval_and_the_last_state() -> None:
     stream.write("\rrun:  50%|   | 2/4")
     stream.write("\rrun:  50%|   | 2/4")  # the same line again (a refresh after a log line): dropped
     clock.now_s = 35.0
-    stream.write("\rrun: 100%|   | 4/4")
+    stream.write("\rrun: 100%|   | 4/4 [00:35<00:00, 8.8s/it]")
     stream.write("\n")  # the bar closed: its last state
-    assert out.getvalue().splitlines() == ["run:   0%|   | 0/4", "run:  50%|   | 2/4", "run: 100%|   | 4/4"]
+    clock.now_s = 70.0
+    stream.write("\rrun: 100%|   | 4/4 [01:10<00:00, 17.5s/it]")  # only the timing moved: nothing new
+    stream.write("\n")
+    assert out.getvalue().splitlines() == ["run:   0%|   | 0/4", "run:  50%|   | 2/4",
+                                           "run: 100%|   | 4/4 [00:35<00:00, 8.8s/it]"]
 
 
 def test_benchmark_progress_in_a_log_file_is_whole_lines(tmp_path: Path) -> None:

@@ -2,7 +2,7 @@
 
 On a terminal a bar redraws itself in place. Redirected to a file or a CI log, tqdm's carriage-return redraws
 pile up on one line and cut through log lines; there the bar writes a whole line at most every
-``LOG_INTERVAL_S`` seconds instead, its last state when it closes, and never the same line twice.
+``LOG_INTERVAL_S`` seconds instead, its last state when it closes, and only when the count moved.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ LOG_INTERVAL_S = 30.0
 
 class LineStream:
     """A text stream for tqdm that turns its redraws into lines on ``stream``: at most one per ``interval_s``
-    seconds (the latest redraw wins), the last one when the bar closes, never the same line twice.
+    seconds (the latest redraw wins), the last one when the bar closes, and only when the count moved.
 
     ``clock``: a monotonic time source [s] (a test passes its own)."""
 
@@ -47,13 +47,19 @@ class LineStream:
         return len(text)
 
     def _emit(self) -> None:
-        if self._pending and self._pending != self._last:
+        if self._pending and _counts(self._pending) != _counts(self._last):
             self._stream.write(self._pending + "\n")
             self._last, self._last_at = self._pending, self._clock()
         self._pending = ""
 
     def flush(self) -> None:
         self._stream.flush()
+
+
+def _counts(line: str) -> str:
+    """A bar's line without its timing bracket ('run:  50%| | 2/4 [00:31<00:31, 1.2s/it]' -> 'run:  50%| | 2/4'):
+    two lines that differ only there say nothing new."""
+    return line.rpartition(" [")[0] or line
 
 
 def _redraws_in_place(stream: Any) -> bool:

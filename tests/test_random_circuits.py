@@ -18,17 +18,23 @@ import random_circuits
 import own_tracks
 
 
+def _closed_circuit_arcs(segments: list, max_radius_m: float) -> list[float]:
+    """The arc radii [m] of a random circuit, checked within [6 m, ``max_radius_m``], its trace closed in position
+    and heading, and its roads apart."""
+    arcs = [s.radius_m for s in segments if math.isfinite(s.radius_m)]
+    assert min(arcs) >= 6.0 - 1e-9 and max(arcs) <= max_radius_m + 1e-9
+    x, y, x_end, y_end, heading = own_tracks.trace_segments(segments, 2.0)
+    assert math.hypot(x_end, y_end) < 1e-6 and math.isclose(heading, 2.0 * math.pi, abs_tol=1e-9)
+    assert random_circuits.roads_apart(x, y, 2.0)
+    return arcs
+
+
 def test_random_circuits_are_closed_tracks_with_tight_corners_whose_roads_never_touch(tmp_path: Path) -> None:
     rng = np.random.default_rng(7)
     radii = []
     for c in range(4):
         segments = random_circuits.random_circuit(rng)
-        arcs = [s.radius_m for s in segments if math.isfinite(s.radius_m)]
-        assert min(arcs) >= 6.0 - 1e-9 and max(arcs) <= 30.0 + 1e-9
-        radii += arcs
-        x, y, x_end, y_end, heading = own_tracks.trace_segments(segments, 2.0)
-        assert math.hypot(x_end, y_end) < 1e-6 and math.isclose(heading, 2.0 * math.pi, abs_tol=1e-9)
-        assert random_circuits.roads_apart(x, y, 2.0)
+        radii += _closed_circuit_arcs(segments, max_radius_m=30.0)
         path = load_track(own_tracks.write_circuit_csv(tmp_path / f"c{c}.csv", segments, 2.0))
         assert path.closed and not path.self_intersects(clearance_m=8.5)  # the road width
         assert math.isclose(path.length_m, sum(s.length_m for s in segments), rel_tol=0.01)
@@ -57,12 +63,7 @@ def test_fast_circuits_carry_tight_hairpins_and_fast_sweepers(tmp_path: Path) ->
     radii = []
     for _ in range(4):
         segments = random_circuits.random_circuit(rng, layout="fast")
-        arcs = [s.radius_m for s in segments if math.isfinite(s.radius_m)]
-        assert min(arcs) >= 6.0 - 1e-9 and max(arcs) <= 250.0 + 1e-9
-        radii += arcs
-        x, y, x_end, y_end, heading = own_tracks.trace_segments(segments, 2.0)
-        assert math.hypot(x_end, y_end) < 1e-6 and math.isclose(heading, 2.0 * math.pi, abs_tol=1e-9)
-        assert random_circuits.roads_apart(x, y, 2.0)
+        radii += _closed_circuit_arcs(segments, max_radius_m=250.0)
         straights = [s.length_m for s in segments if not math.isfinite(s.radius_m)]
         assert max(straights) >= 112.0   # 6 m hairpin (0.75 g) to 80 km/h at 2 m/s^2 takes 112 m
     assert min(radii) < 15.0 and max(radii) > 60.0

@@ -59,12 +59,19 @@ def figure_subtitle(env_id: str, seed: int | None, preset: str | None, agents: S
     return f"{env_id} | {who} | seed {seed if seed is not None else '-'}"
 
 
-def _agents_only(traces: Sequence[Trace]) -> list[str]:
-    """The policy ids of ``traces`` when none of them is a scripted baseline (which have presets), else []."""
+def _policy_ids(traces: Sequence[Trace]) -> tuple[list[str], list[str]]:
+    """The distinct policy ids of ``traces`` in order, and those of them that are scripted baselines (which have
+    presets: ``smc``, ``smc:paper``)."""
     from vtrack_gym.baselines.registry import available_policies
 
     ids = list(dict.fromkeys(t.policy_id for t in traces))
-    return [] if any(i.partition(":")[0] in available_policies() for i in ids) else ids
+    return ids, [i for i in ids if i.partition(":")[0] in available_policies()]
+
+
+def _agents_only(traces: Sequence[Trace]) -> list[str]:
+    """The policy ids of ``traces`` when none of them is a scripted baseline, else []."""
+    ids, baselines = _policy_ids(traces)
+    return [] if baselines else ids
 
 
 def run_label(trace: Trace) -> str:
@@ -81,10 +88,7 @@ def title_preset(traces: Sequence[Trace], preset: str | None) -> str | None:
     """The preset a figure's title names: ``preset`` when given; else the one the baselines among ``traces`` share
     ('default' for a plain id such as ``smc``, 'as in the legend' when they differ), followed by '(baselines)' when
     RL agents share the figure; None for a figure of agents only."""
-    from vtrack_gym.baselines.registry import available_policies
-
-    ids = list(dict.fromkeys(t.policy_id for t in traces))
-    baselines = [i for i in ids if i.partition(":")[0] in available_policies()]
+    ids, baselines = _policy_ids(traces)
     if preset is not None or not baselines:
         return preset
     presets = {i.partition(":")[2] or "default" for i in baselines}

@@ -3,9 +3,9 @@
 Each row is a rate of ours and, where there is one, of a peer measured in the same run (highway-env, Gymnasium,
 the numpy reference path). Rates are work per second of the process's CPU time (all its threads), so they hold on
 a loaded machine; ours and the peer alternate (ours first, then the peer first) for ``--rounds`` rounds, so a
-change of load hits both alike, and the
-page gives the range over the rounds with the 1-minute load average read beside each round. Rows whose kernels run
-on several threads (N >= 128 cars) also give the wall-clock rate, marked: that figure needs a free core per thread.
+change of load hits both alike. The page gives the median over the rounds with their range, and the range of the
+1-minute load average read after each measurement. Rows whose kernels run on several threads (N >= 128 cars, the GA
+rollout) also give the wall-clock rate, marked: that figure needs a free core per thread.
 The section on worker processes (``benchmarks/bench_workers.py``) is kept as it is.
 
     PYTHONPATH=. python benchmarks/performance_page.py [--rounds 3] [--seconds 0.5] [--out docs/performance.md]
@@ -189,9 +189,9 @@ def fmt(value: float, unit: str) -> str:
 
 
 def span(values: list[float], show: Callable[[float], str]) -> str:
-    """``lo-hi`` of ``values`` as shown (one figure when both show alike)."""
-    lo, hi = show(min(values)), show(max(values))
-    return lo if lo == hi else f"{lo}-{hi}"
+    """The median of ``values`` and their range, as shown: ``median (lo-hi)`` (one figure when all show alike)."""
+    mid, lo, hi = show(float(np.median(values))), show(min(values)), show(max(values))
+    return mid if lo == hi else f"{mid} ({lo}-{hi})"
 
 
 def table_line(row: Row) -> str:
@@ -201,13 +201,14 @@ def table_line(row: Row) -> str:
     if row.threaded:
         cell += f"; wall {span([r.wall for r in ours], lambda v: fmt(v, row.unit))} (needs free cores)"
     loads = [r.load for r, _ in row.results] + [p.load for _, p in row.results if p is not None]
+    load = f"{min(loads):.1f}-{max(loads):.1f}"
     if row.peer is None:
-        return f"| {row.what} | {cell} | | | {span(loads, lambda v: f'{v:.1f}')} |"
+        return f"| {row.what} | {cell} | | | {load} |"
     peers = [p.cpu for _, p in row.results if p is not None]
     ratios = [(p.cpu / r.cpu if row.lower_is_better else r.cpu / p.cpu) for r, p in row.results if p is not None]
     peer = f"{row.peer_name} {span(peers, lambda v: fmt(v, row.unit))}"
     ratio = span(ratios, lambda v: f"{v:.2g}x")
-    return f"| {row.what} | {cell} | {peer} | {ratio} | {span(loads, lambda v: f'{v:.1f}')} |"
+    return f"| {row.what} | {cell} | {peer} | {ratio} | {load} |"
 
 
 def page(measured: list[Row], rounds: int, seconds: float, kept: str) -> str:
@@ -215,8 +216,9 @@ def page(measured: list[Row], rounds: int, seconds: float, kept: str) -> str:
     lines = [
         "# Performance (benchmarks/, ratios against a peer measured in the same run)", "",
         "Rates are work per second of CPU time (all the process's threads), ours and the peer alternating in one run,",
-        "so they hold on a shared machine; each cell is the range over the rounds, with the 1-minute load average",
-        "read after each measurement. A ratio compares ours with the peer of the same round. Rows whose kernels run",
+        "so they hold on a shared machine; each cell is the median over the rounds with their range in brackets, and",
+        "the last column the range of the 1-minute load average read after each measurement. A ratio compares ours",
+        "with the peer of the same round. Rows whose kernels run",
         "on several threads (N >= 128 cars, the GA rollout) also give their wall-clock rate: that figure needs a free",
         "core per thread and is only as good as the machine was idle.", "",
         "| what | ours, per CPU second | peer, same run | ratio | load average |", "|---|---|---|---|---|",

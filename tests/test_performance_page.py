@@ -20,16 +20,17 @@ def _row(threaded: bool, peer: bool, lower: bool = False, unit: str = "steps/s")
 
 
 def test_a_row_gives_ranges_same_round_ratios_and_the_load() -> None:
-    assert table_line(_row(False, True)) == "| thing | 2k-3k | peer 100 | 20x-30x | 1.0-3.5 |"
+    assert table_line(_row(False, True)) == "| thing | 2.5k (2k-3k) | peer 100 | 25x (20x-30x) | 1.0-3.5 |"
 
 
 def test_a_threaded_row_marks_its_wall_figure() -> None:
-    assert table_line(_row(True, False)) == "| thing | 2k-3k; wall 1k-1.5k (needs free cores) | | | 1.0-3.5 |"
+    assert table_line(_row(True, False)) == ("| thing | 2.5k (2k-3k); wall 1.25k (1k-1.5k) (needs free cores) | | | "
+                                             "1.0-3.5 |")
 
 
 def test_seconds_compare_the_peer_over_ours() -> None:
     line = table_line(_row(False, True, lower=True, unit="s"))
-    assert "2000.00 s-3000.00 s" in line and "0.033x-0.05x" in line
+    assert "2500.00 s (2000.00 s-3000.00 s)" in line and "0.042x (0.033x-0.05x)" in line
 
 
 def test_the_page_keeps_the_worker_section() -> None:

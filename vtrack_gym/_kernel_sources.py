@@ -12,7 +12,7 @@ names. What it depends on:
 
 Names read only by ordinary functions (a policy's ``predict``, a lazy import inside a helper), by a class's methods,
 by annotations or by top-level statements that define nothing compiled code reads (a registration call) do not
-count: editing ``evaluation/plots.py``, a policy class or a registry line leaves the kernels' cache valid. A
+count: editing ``evaluation/plots.py``, ``baselines/mpc.py`` or a registry line leaves the kernels' cache valid. A
 top-level statement that changes a global in place (``TABLE[0] = ...``) is not followed: define globals in one
 assignment.
 """
@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import ast
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
@@ -93,7 +94,7 @@ def _defs(tree: ast.Module) -> dict[str, set[str]]:
     return defs
 
 
-def _imports(tree: ast.Module, package: str, is_module) -> dict[str, tuple[str, str | None]]:
+def _imports(tree: ast.Module, package: str, is_module: Callable[[str], bool]) -> dict[str, tuple[str, str | None]]:
     """Local name -> (module, attribute) for the top-level imports from ``package``."""
     found: dict[str, tuple[str, str | None]] = {}
     for stmt in tree.body:
@@ -108,7 +109,8 @@ def _imports(tree: ast.Module, package: str, is_module) -> dict[str, tuple[str, 
     return found
 
 
-def _parse(path: Path, package: str, is_module) -> _Module:
+def _parse(path: Path, package: str, is_module: Callable[[str], bool]) -> _Module:
+    """The parts of the module at ``path`` the scan needs."""
     tree = ast.parse(path.read_text(encoding="utf-8"))
     compiled = {s.name for s in tree.body if isinstance(s, (ast.FunctionDef, ast.AsyncFunctionDef))
                 and any(_is_kernel_call(d) for d in s.decorator_list)}

@@ -16,7 +16,9 @@ What is pinned, per episode:
   matches when ``|now - pinned| <= rtol * sum|x| + BLOCK_STEPS * (RTOL * scale + ATOL)``, with ``rtol`` =
   ``RTOL`` (1e-9) for float64 signals and ``FLOAT32_RTOL`` (two float32 units in the last place) for the
   observation, ``sum|x|`` the block's sum of absolute values, ``scale`` the largest mean ``|x|`` of a block of that
-  signal in the episode and ``ATOL`` 1e-11 in the signal's SI unit (a signal that is zero up to rounding).
+  signal in the episode and ``ATOL`` 1e-11 in the signal's SI unit (a signal that is zero up to rounding). A pin
+  compares the signals it was written with: an ``info`` signal added to the env later is not part of it, a pinned
+  one that is gone fails it.
 
 Both sides are tested (``tests/test_env_pin_tolerance.py``): a relative 1e-12 error of the plant's output, or
 1e-15 of every state entry at every step, passes; a relative 1e-6 change of any vehicle parameter or speed-loop
@@ -161,23 +163,36 @@ def block_mismatches(now: Episode, pinned_sums: np.ndarray) -> list[str]:
     return [f"{now.signals[j]}: {excess[:, j].max():.3g} x the tolerance" for j in bad]
 
 
+def _pinned_columns(now: Episode, names: list[str]) -> Episode | None:
+    """``now`` restricted to the pinned signals ``names``, in their order (None when one is missing). A signal
+    added to the env later is not part of an old pin."""
+    if not set(names) <= set(now.signals):
+        return None
+    idx = [now.signals.index(name) for name in names]
+    return Episode(now.exact, names, now.float32[idx], now.sums[:, idx], now.abs_sums[:, idx], now.end_metrics)
+
+
+def _episode_mismatches(now: Episode, want: dict[str, Any], pinned_sums: np.ndarray) -> list[str]:
+    """What differs between one recorded episode and its pin."""
+    if now.exact != want["exact"]:
+        return [f"discrete outcome {now.exact} != pinned {want['exact']}"]
+    columns = _pinned_columns(now, want["signals"])
+    if columns is None:
+        return [f"pinned signals missing: {sorted(set(want['signals']) - set(now.signals))}"]
+    found = block_mismatches(columns, pinned_sums)
+    for key, value in want["end_metrics"].items():
+        got = now.end_metrics.get(key, np.nan)
+        if not abs(got - value) <= RTOL * max(abs(value), abs(got)):
+            found.append(f"{key} {got!r} != pinned {value!r}")
+    return found
+
+
 def mismatches(env_id: str, episodes: list[Episode]) -> list[str]:
     """What differs between ``episodes`` and the pin of ``env_id`` (empty: the behaviour is unchanged)."""
     pin = pinned()[env_id]
     blocks = np.load(BLOCK_FILE)
-    found = []
-    for n, (now, want) in enumerate(zip(episodes, pin["episodes"], strict=True)):
-        if now.exact != want["exact"] or now.signals != want["signals"]:
-            found.append(f"episode {n}: discrete outcome {now.exact} != pinned {want['exact']}")
-            continue
-        found += [f"episode {n}: {m}" for m in block_mismatches(now, blocks[want["blocks"]])]
-        for key, value in want["end_metrics"].items():
-            got = now.end_metrics.get(key, np.nan)
-            if not abs(got - value) <= RTOL * max(abs(value), abs(got)):
-                found.append(f"episode {n}: {key} {got!r} != pinned {value!r}")
-        if set(now.end_metrics) != set(want["end_metrics"]):
-            found.append(f"episode {n}: end metrics {sorted(now.end_metrics)} != {sorted(want['end_metrics'])}")
-    return found
+    return [f"episode {n}: {m}" for n, (now, want) in enumerate(zip(episodes, pin["episodes"], strict=True))
+            for m in _episode_mismatches(now, want, blocks[want["blocks"]])]
 
 
 def pinned() -> dict[str, dict[str, Any]]:

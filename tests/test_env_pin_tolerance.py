@@ -95,3 +95,14 @@ def test_a_1e_6_change_of_a_parameter_fails(name: str) -> None:
         assert not caught, f"{name} is exercised now: take it off NOT_EXERCISED"
     else:
         assert caught, f"a relative {CHANGE} change of {name} passes the pins of {CHANGE_IDS}"
+
+
+def test_a_signal_added_later_is_not_pinned_and_a_missing_one_fails() -> None:
+    episodes = record("DLC120-v0")
+    grown = [dataclasses.replace(ep, signals=[*ep.signals, "new_signal"], float32=np.append(ep.float32, False),
+                                 sums=np.column_stack((ep.sums, ep.sums[:, 0])),
+                                 abs_sums=np.column_stack((ep.abs_sums, ep.abs_sums[:, 0]))) for ep in episodes]
+    assert mismatches("DLC120-v0", grown) == []
+    shrunk = [dataclasses.replace(ep, signals=ep.signals[:-1], float32=ep.float32[:-1], sums=ep.sums[:, :-1],
+                                  abs_sums=ep.abs_sums[:, :-1]) for ep in episodes]
+    assert any("pinned signals missing" in m for m in mismatches("DLC120-v0", shrunk))

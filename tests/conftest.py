@@ -29,7 +29,7 @@ SLOW: dict[str, str] = {
     "test_plain_loop.py::test_plain_loop_equals_sb3_loop[nmpc-LateralTracking-v0]": "NMPC lap, 14 s",
     "test_policy_api.py::test_verbose_logs_every_episode": "a whole suite, 11 s",
     "test_regularised_sac.py::test_smoothness_terms_flatten_the_actor": "training",
-    "test_reproduce.py": "the paper reproduction, run twice (30 s)",
+    "test_reproduce.py::test_report_is_deterministic_apart_from_timestamp": "a second paper reproduction, 15 s",
     "test_rl_recipes.py::test_recipe_trains_exports_and_drives": "training",
     "test_rl_recipes.py::test_readme_plain_sb3_recipe_runs_at_smoke_size": "training",
     "test_trust_store.py::test_reads_while_another_process_writes_never_report_corruption": "a soak",

@@ -21,8 +21,11 @@ def test_every_slow_entry_names_a_test_function() -> None:
             assert function in names, f"SLOW lists {entry}: {path} has no {function}"
 
 
-def test_the_gate_matches_a_file_a_function_or_one_case() -> None:
-    assert slow_reason("tests/test_reproduce.py::test_figures_written") is not None
+def test_the_gate_matches_a_file_a_function_or_one_case(monkeypatch) -> None:
+    monkeypatch.setitem(SLOW, "test_made_up.py", "a whole file")
+    assert slow_reason("tests/test_made_up.py::test_any[case]") == "a whole file"
+    assert slow_reason("tests/test_reproduce.py::test_report_is_deterministic_apart_from_timestamp") is not None
+    assert slow_reason("tests/test_reproduce.py::test_figures_written") is None
     assert slow_reason("tests/test_agents.py::test_offpolicy_train_export_agreement[td3]") is not None
     assert slow_reason("tests/test_plain_loop.py::test_plain_loop_equals_sb3_loop[nmpc-LateralTracking-v0]")
     assert slow_reason("tests/test_plain_loop.py::test_plain_loop_equals_sb3_loop[nmpc-DLC120-v0]") is None
@@ -38,5 +41,6 @@ def test_the_readme_names_both_tiers_and_the_fast_one_leaves_the_slow_tests_out(
     done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-m", "not slow", "--collect-only", "-p", "no:xdist",
                            "tests/test_reproduce.py", "tests/test_plain_loop.py"], capture_output=True, text=True,
                           cwd=TESTS.parent, timeout=300)
-    assert "test_reproduce.py" not in done.stdout and "nmpc-LateralTracking-v0" not in done.stdout, done.stdout
+    assert "test_report_is_deterministic_apart_from_timestamp" not in done.stdout, done.stdout
+    assert "nmpc-LateralTracking-v0" not in done.stdout and "test_figures_written" in done.stdout, done.stdout
     assert "test_plain_loop.py::test_plain_loop_equals_sb3_loop[nmpc-DLC120-v0]" in done.stdout, done.stdout

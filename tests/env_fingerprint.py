@@ -1,16 +1,36 @@
-"""Behaviour fingerprint of a registered env id: a fixed action sequence from fixed seeds, hashed.
+"""Behaviour pin of a registered env id: a fixed action sequence from fixed seeds, recorded and compared with a
+tolerance that holds on any machine and still catches any change of behaviour.
 
-The fingerprint covers every observation (float32 bytes), reward (float64), ``terminated`` / ``truncated`` flag,
-``info["termination"]`` and ``info["success"]`` of two episodes: from seed 0, ``STEPS`` control steps of a fixed
-action sequence (a sinusoid plus fixed pseudo-random noise: the car steers off its line and often leaves the road);
-from seed 7, up to ``FOLLOW_STEPS`` steps of a fixed proportional law on e_y and e_phi defined here (so the car
-follows the road far enough to reach its curves, gates and speed changes).
+Two episodes: from seed 0, ``STEPS`` control steps of a fixed action sequence (a sinusoid plus fixed pseudo-random
+noise: the car steers off its line and often leaves the road); from seed 7, up to ``FOLLOW_STEPS`` steps of a fixed
+proportional law on e_y and e_phi defined here (so the car follows the road far enough to reach its curves, gates
+and speed changes).
+
+What is pinned, per episode:
+
+- **exactly**: the step count, the final ``terminated`` / ``truncated`` flags, every step at which
+  ``info["termination"]`` or ``info["success"]`` changes (with the new value), and the success criterion's counts
+  (``cones_hit``);
+- **within a tolerance**: every observation entry (float32), the reward and every numeric ``info`` signal (float64),
+  summed over blocks of ``BLOCK_STEPS`` steps, and the success criterion's figures at the episode's end. A block
+  matches when ``|now - pinned| <= rtol * sum|x| + BLOCK_STEPS * (RTOL * scale + ATOL)``, with ``rtol`` =
+  ``RTOL`` (1e-9) for float64 signals and ``FLOAT32_RTOL`` (two float32 units in the last place) for the
+  observation, ``sum|x|`` the block's sum of absolute values, ``scale`` the largest mean ``|x|`` of a block of that
+  signal in the episode and ``ATOL`` 1e-11 in the signal's SI unit (a signal that is zero up to rounding). A pin
+  compares the signals it was written with: an ``info`` signal added to the env later is not part of it, a pinned
+  one that is gone fails it.
+
+Both sides are tested (``tests/test_env_pin_tolerance.py``): a relative 1e-12 error of the plant's output, or
+1e-15 of every state entry at every step, passes; a relative 1e-6 change of any vehicle parameter or speed-loop
+gain the pinned episodes exercise fails, by 13 to 7,000 times the tolerance. Two pins equal to the bit are a
+stronger guarantee that holds on one machine and one install only (``docs/GUARANTEES.md``).
+
 A registered id's behaviour never changes; a change gets the next version (``-v1``). ``tests/test_env_versions.py``
-compares every registered id against ``tests/data/env_fingerprints.json``; the pin of an id that is no longer
-registered stays in the file, and the test checks that making it raises Gymnasium's ``DeprecatedEnv`` naming the
-id listed for it in ``vtrack_gym.envs.scenarios.DEPRECATED_IDS``.
+compares every registered id against ``tests/data/env_fingerprints.json`` (the exact part) and
+``tests/data/env_fingerprints.npz`` (the block sums); the pin of an id that is no longer registered stays in the
+file, and the test checks that making it raises Gymnasium's ``DeprecatedEnv``.
 
-Writing the file (only for an id that is new, never to change an existing entry)::
+Writing the files (only for an id that is new, never to change an existing entry)::
 
     python tests/env_fingerprint.py --add vtrack/NewScenario-v0
 """
@@ -18,18 +38,31 @@ Writing the file (only for an id that is new, never to change an existing entry)
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import sys
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-FINGERPRINT_FILE = Path(__file__).parent / "data" / "env_fingerprints.json"
+PIN_FILE = Path(__file__).parent / "data" / "env_fingerprints.json"
+BLOCK_FILE = PIN_FILE.with_suffix(".npz")
 SEQUENCE_SEED = 0
 FOLLOW_SEED = 7
 STEPS = 300
 FOLLOW_STEPS = 3000
+BLOCK_STEPS = 50
+"""Steps summed into one compared value."""
+RTOL = 1e-9
+"""Relative tolerance of float64 signals (and the floor of every signal, relative to its scale)."""
+FLOAT32_RTOL = 2.0 ** -22
+"""Relative tolerance of the float32 observation: two units in the last place (a rounding flip is one)."""
+ATOL = 1e-11
+"""Absolute tolerance per step, in the signal's SI unit: a signal that is zero up to rounding (the curvature
+preview on a straight, ~1e-14 1/m) is compared as zero."""
+EXACT_METRICS = ("cones_hit",)
+"""Success-criterion figures that are counts, compared exactly."""
 
 
 def action_sequence(steps: int = STEPS) -> np.ndarray:
@@ -39,56 +72,160 @@ def action_sequence(steps: int = STEPS) -> np.ndarray:
     return (0.08 * np.sin(2.0 * np.pi * k / 150.0) + noise).astype(np.float32)
 
 
-def fingerprint(env_id: str) -> str:
-    """SHA-256 of the behaviour of ``env_id``: ``action_sequence`` from seed 0, the fixed follower from seed 7."""
+@dataclass
+class Episode:
+    """One recorded episode: ``exact`` (JSON-able, compared with ==), ``sums`` / ``abs_sums`` (blocks x signals)."""
+
+    exact: dict[str, Any]
+    signals: list[str]
+    float32: np.ndarray
+    """bool per signal: an observation entry (compared at ``FLOAT32_RTOL``)."""
+    sums: np.ndarray
+    abs_sums: np.ndarray
+    end_metrics: dict[str, float] = field(default_factory=dict)
+
+
+def _signal_row(obs: np.ndarray, reward: float, info: dict[str, Any]) -> tuple[list[str], np.ndarray]:
+    """Names and float64 values of one step's signals: observation entries, reward, numeric info (an array entry
+    is summed over all but its last axis)."""
+    names = [f"obs[{i}]" for i in range(obs.size)] + ["reward"]
+    values = [np.asarray(obs, dtype=np.float64).ravel(), np.array([reward], dtype=np.float64)]
+    for key in sorted(info):
+        value = info[key]
+        if isinstance(value, (bool, np.bool_, str)):
+            continue
+        arr = np.asarray(value, dtype=np.float64)
+        arr = arr.reshape(-1, arr.shape[-1]).sum(axis=0) if arr.ndim > 1 else arr.ravel()
+        names += [key] if arr.ndim == 0 or arr.size == 1 else [f"{key}[{i}]" for i in range(arr.size)]
+        values.append(arr.ravel())
+    return names, np.concatenate(values)
+
+
+def _blocks(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Block sums and block sums of absolute values of ``rows`` (steps x signals), ``BLOCK_STEPS`` per block."""
+    starts = np.arange(0, len(rows), BLOCK_STEPS)
+    return np.add.reduceat(rows, starts, axis=0), np.add.reduceat(np.abs(rows), starts, axis=0)
+
+
+def _episode(env: Any, seed: int, steps: int) -> Episode:
+    """Run one pinned episode of ``env`` (the sequence from ``SEQUENCE_SEED``, the follower otherwise)."""
+    layout = env.unwrapped.observation_layout
+    e_y, e_phi = layout.index("e_y"), layout.index("e_phi")
+    obs, info = env.reset(seed=seed)
+    names, row = _signal_row(obs, 0.0, info)
+    rows, events, last = [row], [], ("", False)
+    sequence = action_sequence()
+    terminated = truncated = False
+    k = 0
+    for k in range(steps):
+        if seed == SEQUENCE_SEED:
+            action = sequence[k]
+        else:  # fixed follower: 0.5 rad of command per metre of e_y, 1.5 per radian of e_phi
+            action = np.clip(-0.5 * obs[e_y] - 1.5 * obs[e_phi], -1.0, 1.0)
+        obs, reward, terminated, truncated, info = env.step(np.array([action], dtype=np.float32))
+        rows.append(_signal_row(obs, reward, info)[1])
+        now = (str(info["termination"]), bool(info["success"]))
+        if now != last:
+            events.append([k + 1, *now])
+            last = now
+        if terminated or truncated:
+            break
+    sums, abs_sums = _blocks(np.array(rows))
+    metrics = {key: float(v) for key, v in env.unwrapped.success_metrics().items()}
+    exact = {"seed": seed, "steps": k + 1, "terminated": bool(terminated), "truncated": bool(truncated),
+             "events": events, "counts": {key: metrics.pop(key) for key in EXACT_METRICS if key in metrics}}
+    float32 = np.array([name.startswith("obs[") for name in names])
+    return Episode(exact, names, float32, sums, abs_sums, metrics)
+
+
+def record(env_id: str, **make_kwargs: Any) -> list[Episode]:
+    """The two pinned episodes of ``gym.make(env_id, **make_kwargs)``."""
     import gymnasium as gym
 
     import vtrack_gym  # noqa: F401  (registers the ids)
 
-    digest = hashlib.sha256()
-    env = gym.make(env_id)
+    env = gym.make(env_id, **make_kwargs)
     try:
-        layout = env.unwrapped.observation_layout
-        e_y, e_phi = layout.index("e_y"), layout.index("e_phi")
-        for seed, steps in ((SEQUENCE_SEED, STEPS), (FOLLOW_SEED, FOLLOW_STEPS)):
-            obs, info = env.reset(seed=seed)
-            digest.update(np.asarray(obs, dtype=np.float32).tobytes())
-            sequence = action_sequence()
-            for k in range(steps):
-                if seed == SEQUENCE_SEED:
-                    action = sequence[k]
-                else:  # fixed follower: 0.5 rad of command per metre of e_y, 1.5 per radian of e_phi
-                    action = np.clip(-0.5 * obs[e_y] - 1.5 * obs[e_phi], -1.0, 1.0)
-                obs, reward, terminated, truncated, info = env.step(np.array([action], dtype=np.float32))
-                digest.update(np.asarray(obs, dtype=np.float32).tobytes())
-                digest.update(np.float64(reward).tobytes())
-                digest.update(bytes([bool(terminated), bool(truncated), bool(info["success"])]))
-                digest.update(str(info["termination"]).encode())
-                if terminated or truncated:
-                    break
+        return [_episode(env, seed, steps) for seed, steps in ((SEQUENCE_SEED, STEPS), (FOLLOW_SEED, FOLLOW_STEPS))]
     finally:
         env.close()
-    return digest.hexdigest()
 
 
-def pinned() -> dict[str, str]:
-    """The pinned fingerprints, id -> hex digest."""
-    return json.loads(FINGERPRINT_FILE.read_text())["fingerprints"]
+def block_mismatches(now: Episode, pinned_sums: np.ndarray) -> list[str]:
+    """The signals of ``now`` whose block sums differ from ``pinned_sums`` beyond the tolerance (empty: a match)."""
+    if pinned_sums.shape != now.sums.shape:
+        return [f"block shape {now.sums.shape} != pinned {pinned_sums.shape}"]
+    scale = now.abs_sums.max(axis=0) / BLOCK_STEPS
+    rtol = np.where(now.float32, FLOAT32_RTOL, RTOL)
+    allowed = rtol * now.abs_sums + BLOCK_STEPS * (RTOL * scale + ATOL)
+    excess = np.abs(now.sums - pinned_sums) / allowed
+    bad = np.flatnonzero((excess > 1.0).any(axis=0))
+    return [f"{now.signals[j]}: {excess[:, j].max():.3g} x the tolerance" for j in bad]
+
+
+def _pinned_columns(now: Episode, names: list[str]) -> Episode | None:
+    """``now`` restricted to the pinned signals ``names``, in their order (None when one is missing). A signal
+    added to the env later is not part of an old pin."""
+    if not set(names) <= set(now.signals):
+        return None
+    idx = [now.signals.index(name) for name in names]
+    return Episode(now.exact, names, now.float32[idx], now.sums[:, idx], now.abs_sums[:, idx], now.end_metrics)
+
+
+def _episode_mismatches(now: Episode, want: dict[str, Any], pinned_sums: np.ndarray) -> list[str]:
+    """What differs between one recorded episode and its pin."""
+    if now.exact != want["exact"]:
+        return [f"discrete outcome {now.exact} != pinned {want['exact']}"]
+    columns = _pinned_columns(now, want["signals"])
+    if columns is None:
+        return [f"pinned signals missing: {sorted(set(want['signals']) - set(now.signals))}"]
+    found = block_mismatches(columns, pinned_sums)
+    for key, value in want["end_metrics"].items():
+        got = now.end_metrics.get(key, np.nan)
+        if not abs(got - value) <= RTOL * max(abs(value), abs(got)):
+            found.append(f"{key} {got!r} != pinned {value!r}")
+    return found
+
+
+def mismatches(env_id: str, episodes: list[Episode]) -> list[str]:
+    """What differs between ``episodes`` and the pin of ``env_id`` (empty: the behaviour is unchanged)."""
+    pin = pinned()[env_id]
+    blocks = np.load(BLOCK_FILE)
+    return [f"episode {n}: {m}" for n, (now, want) in enumerate(zip(episodes, pin["episodes"], strict=True))
+            for m in _episode_mismatches(now, want, blocks[want["blocks"]])]
+
+
+def pinned() -> dict[str, dict[str, Any]]:
+    """The pins, id -> {"episodes": [...]} (a deprecated id's entry may hold only ``legacy_sha256``)."""
+    return json.loads(PIN_FILE.read_text())["pins"]
+
+
+def pin_entries(env_id: str, episodes: list[Episode], arrays: dict[str, np.ndarray]) -> dict[str, Any]:
+    """The JSON entry of ``env_id``; its block sums go into ``arrays`` (an identical array is stored once)."""
+    entry: dict[str, Any] = {"episodes": []}
+    for n, ep in enumerate(episodes):
+        key = next((k for k, a in arrays.items() if np.array_equal(a, ep.sums)), f"{env_id}|{n}")
+        arrays.setdefault(key, ep.sums)
+        entry["episodes"].append({"exact": ep.exact, "signals": ep.signals, "blocks": key,
+                                  "end_metrics": ep.end_metrics})
+    return entry
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description="Pin the behaviour fingerprint of a new env id.")
+    parser = argparse.ArgumentParser(description="Pin the behaviour of a new env id.")
     parser.add_argument("--add", nargs="+", required=True, metavar="ENV_ID", help="new ids to pin")
     args = parser.parse_args(argv)
-    data = json.loads(FINGERPRINT_FILE.read_text()) if FINGERPRINT_FILE.exists() else {"fingerprints": {}}
+    data = json.loads(PIN_FILE.read_text()) if PIN_FILE.exists() else {"pins": {}}
+    arrays = dict(np.load(BLOCK_FILE)) if BLOCK_FILE.exists() else {}
     for env_id in args.add:
-        if env_id in data["fingerprints"]:
+        if env_id in data["pins"]:
             print(f"{env_id} is pinned already; a behaviour change needs a new version, not a new pin",
                   file=sys.stderr)
             return 2
-        data["fingerprints"][env_id] = fingerprint(env_id)
-    data["fingerprints"] = dict(sorted(data["fingerprints"].items()))
-    FINGERPRINT_FILE.write_text(json.dumps(data, indent=1) + "\n")
+        data["pins"][env_id] = pin_entries(env_id, record(env_id), arrays)
+    data["pins"] = dict(sorted(data["pins"].items()))
+    PIN_FILE.write_text(json.dumps(data, indent=1) + "\n")
+    np.savez_compressed(BLOCK_FILE, **arrays)
     return 0
 
 

@@ -1,4 +1,5 @@
-"""A registered id's behaviour never changes: every id's fingerprint matches its pin (``tests/env_fingerprint.py``).
+"""A registered id's behaviour never changes: every id's recorded episodes match its pin within the pin tolerance,
+and its discrete outcomes exactly (``tests/env_fingerprint.py``).
 
 A failure here means a change altered what an existing id does. Do not re-pin: register the changed behaviour as
 the next version (``-v1``) and keep the old id as it was (or make it raise Gymnasium's deprecation error: a pinned
@@ -10,7 +11,7 @@ from __future__ import annotations
 
 import gymnasium as gym
 import pytest
-from env_fingerprint import fingerprint, pinned
+from env_fingerprint import mismatches, pinned, record
 
 import vtrack_gym
 from vtrack_gym.envs.scenarios import DEPRECATED_IDS
@@ -23,8 +24,9 @@ def test_every_registered_id_is_pinned() -> None:
 
 @pytest.mark.parametrize("env_id", sorted(vtrack_gym.ALL_ENV_IDS))
 def test_behaviour_unchanged(env_id: str) -> None:
-    assert fingerprint(env_id) == pinned()[env_id], (
-        f"{env_id} behaves differently from its pinned version: register the change as a new version")
+    found = mismatches(env_id, record(env_id))
+    assert not found, (f"{env_id} behaves differently from its pinned version (register the change as a new "
+                       f"version): {found[:8]}")
 
 
 def test_pinned_ids_no_longer_registered_are_deprecated_and_raise() -> None:

@@ -47,3 +47,23 @@ def test_missing_torch_message_explains_cpu_and_gpu_builds(monkeypatch: pytest.M
     assert 'pip install "vtrack_gym[rl]"' in message
     assert "--index-url https://download.pytorch.org/whl/cpu" in message
     assert "https://pytorch.org/get-started/locally/" in message
+
+
+def test_package_metadata_is_complete() -> None:
+    """What a packager checks: version classifiers from the lowest supported Python, ``Typing :: Typed`` (the
+    package ships ``py.typed``), links to the documentation, source, issues and changelog; an "Unreleased"
+    section in the changelog; build outputs ignored."""
+    tomllib = pytest.importorskip("tomllib")
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    lowest = int(re.fullmatch(r">=3\.(\d+)", project["requires-python"]).group(1))
+    classifiers = set(project["classifiers"])
+    assert {f"Programming Language :: Python :: 3.{minor}" for minor in range(lowest, 13)} <= classifiers
+    assert "Typing :: Typed" in classifiers and (ROOT / "vtrack_gym" / "py.typed").is_file()
+    package_data = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]
+    assert "py.typed" in package_data["vtrack_gym"]
+    urls = project["urls"]
+    assert {"Documentation", "Source", "Issues", "Changelog"} <= set(urls)
+    assert all(url.startswith("https://") for url in urls.values())
+    assert "## [Unreleased]" in (ROOT / "CHANGELOG.md").read_text()
+    ignored = (ROOT / ".gitignore").read_text().split()
+    assert {"site/", "build/", "dist/", "*.egg-info/"} <= set(ignored)

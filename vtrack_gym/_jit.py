@@ -2,10 +2,11 @@
 
 numba's own ``cache=True`` keys a compiled function on its own source file only: after an edit to a function it
 calls in another module (or to a constant it reads from one), the cached machine code still runs the old code.
-Here every kernel's cache lives in a directory named by one hash of the sources of every kernel module of the
-package (the modules that import this one) and of every package module they import, directly or not. Any change
-to any of them selects a new, empty directory, so everything is recompiled once; the same hash is also the
-index stamp numba checks before loading.
+Here every kernel's cache lives in a directory named by one hash of the source files compiled code depends on
+(``_kernel_sources``: the modules that define compiled functions, the modules they take functions and constants
+from, and this one), not of the import graph. A change to any of them selects a new, empty directory, so
+everything is recompiled once; the same hash is also the index stamp numba checks before loading. An edit
+anywhere else (a plot, a registry line, the CLI) leaves the cache valid.
 
 Where the cache lives (the first that is writable):
 
@@ -25,9 +26,8 @@ from __future__ import annotations
 import hashlib
 import logging
 import os
-import re
 import shutil
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from functools import cache
 from pathlib import Path
 from typing import Any, ClassVar
@@ -35,6 +35,8 @@ from typing import Any, ClassVar
 import numba
 from numba import prange
 from numba.core import caching
+
+from vtrack_gym._kernel_sources import kernel_sources
 
 __all__ = ["KEEP_DIRS", "kernel", "kernel_cache_dir", "prange", "source_hash"]
 
@@ -45,58 +47,15 @@ HASH_CHARS = 20
 
 _PACKAGE_DIR = Path(__file__).resolve().parent
 _PACKAGE = _PACKAGE_DIR.name
-_KERNEL_MARK = re.compile(rf"^\s*from {_PACKAGE}\._jit import ", re.MULTILINE)
-_IMPORT = re.compile(rf"^[ \t]*(?:from[ \t]+(?P<base>{_PACKAGE}[\w.]*)[ \t]+import[ \t]+(?P<names>\([^)]*\)|[^\n#]+)"
-                     rf"|import[ \t]+(?P<module>{_PACKAGE}[\w.]*))", re.MULTILINE)
 _log = logging.getLogger(__name__)
-
-
-def _module_file(package_dir: Path, dotted: str) -> Path | None:
-    """Source file of module ``dotted`` (``vtrack_gym.a.b``) under ``package_dir``, or None."""
-    parts = dotted.split(".")[1:]
-    base = package_dir.joinpath(*parts)
-    for candidate in (base.with_suffix(".py"), base / "__init__.py"):
-        if candidate.is_file():
-            return candidate
-    return None
-
-
-def _imported_files(package_dir: Path, path: Path) -> Iterable[Path]:
-    """Package modules a source file imports, at top level or inside functions (``from a import b`` counts ``a``
-    and, when it is a module, ``a.b``). A text scan: fast enough for every first import of a kernel module."""
-    for match in _IMPORT.finditer(path.read_text(encoding="utf-8")):
-        if match.group("module"):
-            modules = [match.group("module")]
-        else:
-            names = match.group("names").strip("()").split(",")
-            base = match.group("base")
-            modules = [base, *(f"{base}.{n.split()[0]}" for n in names if n.split())]
-        for module in modules:
-            found = _module_file(package_dir, module)
-            if found is not None:
-                yield found
-
-
-def kernel_sources(package_dir: Path = _PACKAGE_DIR) -> list[Path]:
-    """Every source file the kernels depend on: the kernel modules (they import ``_jit``), this module, and every
-    package module they import, transitively; sorted."""
-    pending = [p for p in package_dir.rglob("*.py") if _KERNEL_MARK.search(p.read_text(encoding="utf-8"))]
-    pending.append(package_dir / "_jit.py")
-    seen: set[Path] = set()
-    while pending:
-        path = pending.pop()
-        if path in seen:
-            continue
-        seen.add(path)
-        pending.extend(_imported_files(package_dir, path))
-    return sorted(seen)
 
 
 @cache
 def source_hash(package_dir: Path = _PACKAGE_DIR) -> str:
-    """Hex hash of the kernel sources (``kernel_sources``): their package-relative paths and bytes."""
+    """Hex hash of the kernel sources (``_kernel_sources.kernel_sources``, and this module): their package-relative
+    paths and bytes."""
     digest = hashlib.sha256()
-    for path in kernel_sources(package_dir):
+    for path in sorted({*kernel_sources(package_dir), package_dir / "_jit.py"}):
         digest.update(path.relative_to(package_dir).as_posix().encode())
         digest.update(b"\0")
         digest.update(path.read_bytes())

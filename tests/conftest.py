@@ -1,0 +1,54 @@
+"""The test tiers: ``SLOW`` lists the tests that need many seconds (long laps, training, whole-report runs, soaks,
+doc-site builds), marked ``slow`` at collection.
+
+``python -m pytest -m "not slow" -n 2`` is the fast tier for a local loop; ``python -m pytest -n 2`` runs every
+test (CI does). A test is listed by ``file::function`` (every parameter of it) or by its full id with the
+parameters (``file::function[param]``: that case only); ``@pytest.mark.slow`` on the test works as well.
+``tests/test_slow_tier.py`` checks that every entry still names a test.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+SLOW: dict[str, str] = {
+    "test_agents.py::test_offpolicy_train_export_agreement": "trains SAC and TD3",
+    "test_baselines_closed_loop.py::test_default_baseline_completes[LateralTracking-v0-nmpc]": "NMPC lap, 28 s",
+    "test_board_runs.py::test_ray_backend_gives_the_rows_of_one_process": "starts Ray",
+    "test_cli_quiet.py::test_shell_pipe_to_head": "a benchmark through a shell pipe",
+    "test_dataset.py::test_dataset_round_trip": "Minari dataset of whole episodes, 16 s",
+    "test_determinism.py::test_same_seed_bit_identical_in_two_processes[LateralTrackingRandom-v0]": "two laps",
+    "test_docs.py::test_page_examples_run[tutorials/evaluate-your-agent.md]": "scores policies, 10 s",
+    "test_docs.py::test_page_examples_run[maneuvers.md]": "drives every manoeuvre",
+    "test_docs_site.py::test_docs_site_builds_strict": "builds the MkDocs site",
+    "test_entry_speed.py::test_maneuvers_suite_json_rows_carry_the_entry_speed_columns": "a suite run",
+    "test_fingerprint_complete.py::test_nested_lists_a_hundred_thousand_deep_and_cycles": "deep nesting, 45 s",
+    "test_hairpin_circuit.py::test_default_baseline_laps_a_6m_hairpin_circuit[nmpc]": "NMPC lap",
+    "test_kernel_cache.py::test_old_cache_directories_are_pruned": "six interpreters compiling",
+    "test_peers_contracts.py::test_single_equals_batch_over_a_closed_loop[nmpc]": "NMPC closed loop",
+    "test_plain_loop.py::test_plain_loop_equals_sb3_loop[nmpc-LateralTracking-v0]": "NMPC lap, 14 s",
+    "test_policy_api.py::test_verbose_logs_every_episode": "a whole suite, 11 s",
+    "test_regularised_sac.py::test_smoothness_terms_flatten_the_actor": "training",
+    "test_reproduce.py::test_report_is_deterministic_apart_from_timestamp": "a second paper reproduction, 15 s",
+    "test_rl_recipes.py::test_recipe_trains_exports_and_drives": "training",
+    "test_rl_recipes.py::test_readme_plain_sb3_recipe_runs_at_smoke_size": "training",
+    "test_trust_store.py::test_reads_while_another_process_writes_never_report_corruption": "a soak",
+    "test_tuning.py::test_compiled_rollout_equals_numpy_controllers[space1-X1]": "numpy rollouts, 9 s",
+    "test_tuning_protocol.py::test_ga_tunes_a_controller_declared_through_the_protocol": "a GA run, 10 s",
+}
+"""Test (``file::function``, ``file::function[param]`` or a whole ``file``) -> why it is slow."""
+
+
+def slow_reason(nodeid: str) -> str | None:
+    """Why the test ``nodeid`` (``tests/file.py::name[param]``) is in the slow tier, or None."""
+    file, _, rest = nodeid.partition("::")
+    path = file.rsplit("/", 1)[-1]
+    test = f"{path}::{rest}" if rest else path
+    function = test.split("[", 1)[0]
+    return SLOW.get(test) or SLOW.get(function) or SLOW.get(path)
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    for item in items:
+        if slow_reason(item.nodeid) is not None:
+            item.add_marker(pytest.mark.slow)

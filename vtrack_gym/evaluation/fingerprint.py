@@ -35,6 +35,12 @@ import numpy as np
 
 MAX_STATE_BYTES = 256 * 2**20
 """Bytes of state read for one fingerprint (the sum of what is fed to the digest)."""
+MAX_DEPTH = 200_000
+"""Containers open at once (a list in a list in ...): a state nested deeper is refused, not read."""
+MAX_OBJECTS = 1_000_000
+"""Objects (containers, instances, functions; not numbers or strings) read for one fingerprint."""
+MAX_UNORDERED_NESTING = 64
+"""Sets (or dicts with non-text keys) inside sets read: each level is digested on its own."""
 _ATOMS = (type(None), bool, int, float, complex, str, bytes, bytearray)
 
 
@@ -74,141 +80,200 @@ def named_policy_hash(policy: Any, policy_id: str) -> str:
 
 def state_digest(obj: Any, name: str = "value", budget: int = MAX_STATE_BYTES) -> str:
     """Full SHA-256 hex digest of ``obj``'s state (see the module docstring); ``IncompleteFingerprint`` beyond
-    ``budget`` bytes or at an unreadable object (``name``: how the message calls ``obj``)."""
-    walker = _Walker(budget)
+    ``budget`` bytes, ``MAX_DEPTH`` levels, ``MAX_OBJECTS`` objects or at an unreadable object (``name``: how the
+    message calls ``obj``). Time and memory are linear in the size and depth of the state."""
+    walker = _Walker(budget, [0], 0)
     walker.walk(obj, name)
     return walker.hexdigest()
 
 
-class _Walker:
-    """Feeds a value and everything it holds into one SHA-256, iteratively (no recursion limit)."""
+_VALUE, _TOKEN = 0, 1
+Item = tuple[int, Any, Any]
+"""(kind, value or token bytes, location): what the walker reads next."""
+Frame = list[Any]
+"""[values, next index, location, trailer]: an open container on the walker's stack. With a location, ``values``
+are the container's elements (element i is at (location, i)); without, ``values`` are ``Item``s. ``trailer``:
+``Item``s read after the values (a closing token, a subclass's attributes), or None."""
 
-    def __init__(self, budget: int) -> None:
+
+def _where(loc: Any) -> str:
+    """The readable path of a location: a root name, or (parent location, label) pairs; long paths are shortened."""
+    labels: list[str] = []
+    while isinstance(loc, tuple):
+        loc, label = loc
+        labels.append(f"[{label}]" if isinstance(label, int) else label)
+    labels.append(str(loc))
+    labels.reverse()
+    if len(labels) > 12:
+        labels = [*labels[:4], f"...({len(labels) - 10} levels)...", *labels[-6:]]
+    return "".join(labels)
+
+
+def _frame(items: list[Item]) -> Frame | None:
+    return [items, 0, None, None] if items else None
+
+
+class _Walker:
+    """Feeds a value and everything it holds into one SHA-256, iteratively: a stack of frames, one per open
+    container (a container's elements are read in place, never copied), and locations kept as (parent, label)
+    pairs (a path is spelled out only in an error message): time and memory linear in size and depth."""
+
+    def __init__(self, budget: int, objects: list[int], nesting: int) -> None:
         self.budget = budget
         self.fed = 0
         self.digest = hashlib.sha256()
         self.memo: dict[int, int] = {}
         self.alive: list[Any] = []    # keeps memoised temporaries alive, so their ids are never reused
+        self.objects = objects        # objects read, shared with the sub-walkers of unordered containers
+        self.nesting = nesting        # sub-walkers this one sits in
 
     def hexdigest(self) -> str:
         return self.digest.hexdigest()
 
-    def _reserve(self, size: int, where: str) -> None:
+    def _reserve(self, size: int, loc: Any) -> None:
         """Count ``size`` bytes against the budget before reading them."""
         if self.fed + size > self.budget:
-            raise IncompleteFingerprint(f"{where}: the state is larger than {self.budget} bytes; pass policy_id "
-                                        "to name this policy")
+            raise IncompleteFingerprint(f"{_where(loc)}: the state is larger than {self.budget} bytes; pass "
+                                        "policy_id to name this policy")
 
-    def feed(self, data: bytes, where: str) -> None:
-        self._reserve(len(data) + 8, where)
-        self.fed += len(data) + 8
-        self.digest.update(len(data).to_bytes(8, "little"))
+    def feed(self, data: Any, loc: Any) -> None:
+        size = len(data) if isinstance(data, bytes) else data.nbytes
+        self._reserve(size + 8, loc)
+        self.fed += size + 8
+        self.digest.update(size.to_bytes(8, "little"))
         self.digest.update(data)
 
-    def walk(self, root: Any, name: str) -> None:
-        stack: list[tuple[Any, str, bool]] = [(root, name, False)]
+    def walk(self, root: Any, name: Any) -> None:
+        stack: list[Frame] = [[[(_VALUE, root, name)], 0, None, None]]
         while stack:
-            value, where, is_token = stack.pop()
-            if is_token:
-                self.feed(value, where)
+            frame = stack[-1]
+            values, i, loc, trailer = frame
+            if i == len(values):
+                stack.pop()
+                if trailer:
+                    stack.append([trailer, 0, None, None])
+                continue
+            frame[1] = i + 1
+            if loc is None:
+                kind, value, where = values[i]
+                if kind == _TOKEN:
+                    self.feed(value, where)
+                    continue
             else:
-                children = self._visit(value, where)
-                stack.extend(reversed(children))
+                value, where = values[i], (loc, i)
+            child = self._visit(value, where)
+            if child is not None:
+                if len(stack) > MAX_DEPTH:   # the root's frame and MAX_DEPTH open containers
+                    raise IncompleteFingerprint(f"{_where(where)}: the state is nested more than {MAX_DEPTH} "
+                                                "levels deep; pass policy_id to name this policy")
+                stack.append(child)
 
-    def _visit(self, value: Any, where: str) -> list[tuple[Any, str, bool]]:
-        """Feed ``value``'s own bytes; return what it holds (values and tokens) to walk next, in order."""
+    def _visit(self, value: Any, loc: Any) -> Frame | None:
+        """Feed ``value``'s own bytes; return a frame of what it holds (values and tokens), or None."""
         if isinstance(value, _ATOMS) or isinstance(value, np.generic):
-            self.feed(_atom_bytes(value), where)
-            return []
+            self.feed(_atom_bytes(value), loc)
+            return None
         if isinstance(value, np.ndarray) and value.dtype != object:
-            self._reserve(value.nbytes, where)
+            self._reserve(value.nbytes, loc)
             arr = np.ascontiguousarray(value)
-            self.feed(f"ndarray{arr.dtype.str}{arr.shape}".encode(), where)
-            self.feed(arr.tobytes(), where)
-            return []
+            self.feed(f"ndarray{arr.dtype.str}{arr.shape}".encode(), loc)
+            self.feed(arr.reshape(-1).view(np.uint8) if arr.size else b"", loc)
+            return None
         if id(value) in self.memo:
-            self.feed(f"ref{self.memo[id(value)]}".encode(), where)
-            return []
+            self.feed(f"ref{self.memo[id(value)]}".encode(), loc)
+            return None
+        self.objects[0] += 1
+        if self.objects[0] > MAX_OBJECTS:
+            raise IncompleteFingerprint(f"{_where(loc)}: the state holds more than {MAX_OBJECTS} objects; pass "
+                                        "policy_id to name this policy")
         self.memo[id(value)] = len(self.memo)
         self.alive.append(value)
-        return self._children(value, where)
+        return self._children(value, loc)
 
-    def _children(self, value: Any, where: str) -> list[tuple[Any, str, bool]]:
+    def _children(self, value: Any, loc: Any) -> Frame | None:
         tag = _qualname(type(value))
         if isinstance(value, np.ndarray):       # object arrays: their elements
-            self.feed(f"{tag}{value.shape}".encode(), where)
-            return _items(value.ravel().tolist(), where)
-        torch_items = _torch_children(value, where)
+            self.feed(f"{tag}{value.shape}".encode(), loc)
+            return [value.ravel().tolist(), 0, loc, None]
+        torch_items = _torch_children(value, loc)
         if torch_items is not None:
-            self.feed(tag.encode(), where)
-            return torch_items
+            self.feed(tag.encode(), loc)
+            return _frame(torch_items)
         if isinstance(value, (list, tuple)):
-            self.feed(f"{tag}[{len(value)}".encode(), where)
-            return [*_items(value, where), (b"]", where, True)]
+            self.feed(f"{tag}[{len(value)}".encode(), loc)
+            return [value, 0, loc, [(_TOKEN, b"]", loc), *_extra_attributes(value, loc)]]
         if isinstance(value, (dict, types.MappingProxyType)):
-            self.feed(f"{tag}{{{len(value)}".encode(), where)
-            return [*self._mapping_items(value, where), (b"}", where, True)]
+            self.feed(f"{tag}{{{len(value)}".encode(), loc)
+            return [self._mapping_items(value, loc), 0, None, [(_TOKEN, b"}", loc), *_extra_attributes(value, loc)]]
         if isinstance(value, (set, frozenset)):
-            self.feed(f"{tag}{{{len(value)}".encode(), where)
-            subs = sorted(self._sub_digest(v, f"{where} element") for v in value)
-            return [(s.encode(), where, True) for s in subs]
+            self.feed(f"{tag}{{{len(value)}".encode(), loc)
+            subs = sorted(self._sub_digest(v, (loc, " element")) for v in value)
+            return _frame([*((_TOKEN, s.encode(), loc) for s in subs), *_extra_attributes(value, loc)])
         if _is_left_out(value):
-            self.feed(f"<left out {tag}>".encode(), where)
-            return []
+            self.feed(f"<left out {tag}>".encode(), loc)
+            return _frame(_extra_attributes(value, loc))     # a subclass's own attributes still count
         if isinstance(value, type):
-            self.feed(f"class {_qualname(value)}".encode(), where)
-            return []
+            self.feed(f"class {_qualname(value)}".encode(), loc)
+            return None
         if isinstance(value, (types.FunctionType, types.MethodType, types.BuiltinFunctionType,
                               types.CodeType, types.CellType)):
-            return self._callable_children(value, where)
-        self.feed(f"<{tag}>".encode(), where)
-        return _object_state(value, where)
+            return _frame(self._callable_children(value, loc))
+        self.feed(f"<{tag}>".encode(), loc)
+        return _frame(_object_state(value, loc))
 
-    def _mapping_items(self, mapping: Any, where: str) -> list[tuple[Any, str, bool]]:
+    def _mapping_items(self, mapping: Any, loc: Any) -> list[Item]:
         keyed = []
         for key, item in mapping.items():
             kdigest = key.encode("utf-8", "surrogatepass") if isinstance(key, str) else \
-                self._sub_digest(key, f"{where} key").encode()
+                self._sub_digest(key, (loc, " key")).encode()
             keyed.append((kdigest, isinstance(key, str), key, item))
         keyed.sort(key=lambda k: (k[1], k[0]))
-        out: list[tuple[Any, str, bool]] = []
+        out: list[Item] = []
         for kdigest, _, key, item in keyed:
-            label = f"{where}[{key!r}]" if isinstance(key, str) and len(key) < 80 else f"{where}[...]"
-            out += [(b"k" + kdigest, where, True), (item, label, False)]
+            label = f"[{key!r}]" if isinstance(key, str) and len(key) < 80 else "[...]"
+            out += [(_TOKEN, b"k" + kdigest, loc), (_VALUE, item, (loc, label))]
         return out
 
-    def _sub_digest(self, value: Any, where: str) -> str:
+    def _sub_digest(self, value: Any, loc: Any) -> str:
         """Digest of one element of an unordered container (its order comes from these digests)."""
-        sub = _Walker(self.budget - self.fed)
-        sub.walk(value, where)
+        if self.nesting >= MAX_UNORDERED_NESTING:
+            raise IncompleteFingerprint(f"{_where(loc)}: sets or non-text dict keys nested more than "
+                                        f"{MAX_UNORDERED_NESTING} levels deep; pass policy_id to name this policy")
+        sub = _Walker(self.budget - self.fed, self.objects, self.nesting + 1)
+        sub.walk(value, loc)
         self.fed += sub.fed
         return sub.hexdigest()
 
-    def _callable_children(self, value: Any, where: str) -> list[tuple[Any, str, bool]]:
+    def _callable_children(self, value: Any, loc: Any) -> list[Item]:
         if isinstance(value, types.MethodType):
-            self.feed(b"method", where)
-            return [(value.__func__, f"{where}.__func__", False), (value.__self__, f"{where}.__self__", False)]
+            self.feed(b"method", loc)
+            return [(_VALUE, value.__func__, (loc, ".__func__")), (_VALUE, value.__self__, (loc, ".__self__"))]
         if isinstance(value, types.BuiltinFunctionType):
-            self.feed(f"builtin {getattr(value, '__module__', '')}.{value.__qualname__}".encode(), where)
+            self.feed(f"builtin {getattr(value, '__module__', '')}.{value.__qualname__}".encode(), loc)
             owner = getattr(value, "__self__", None)
-            return [] if owner is None or isinstance(owner, types.ModuleType) else [(owner, f"{where}.__self__",
-                                                                                       False)]
+            return [] if owner is None or isinstance(owner, types.ModuleType) else [(_VALUE, owner,
+                                                                                       (loc, ".__self__"))]
         if isinstance(value, types.CellType):
-            self.feed(b"cell", where)
+            self.feed(b"cell", loc)
             try:
-                return [(value.cell_contents, f"{where} (closure)", False)]
+                return [(_VALUE, value.cell_contents, (loc, " (closure)"))]
             except ValueError:       # an empty cell
                 return []
         if isinstance(value, types.CodeType):
-            self.feed(f"code {value.co_name}".encode() + value.co_code, where)
-            return [(value.co_consts, f"{where} constants", False), (value.co_names, where, False)]
-        self.feed(f"function {value.__module__}.{value.__qualname__}".encode(), where)
-        return [(value.__code__, where, False), (value.__defaults__, f"{where} defaults", False),
-                (value.__kwdefaults__, f"{where} defaults", False), (value.__closure__ or (), where, False)]
+            self.feed(f"code {value.co_name}".encode() + value.co_code, loc)
+            return [(_VALUE, value.co_consts, (loc, " constants")), (_VALUE, value.co_names, loc)]
+        self.feed(f"function {value.__module__}.{value.__qualname__}".encode(), loc)
+        return [(_VALUE, value.__code__, loc), (_VALUE, value.__defaults__, (loc, " defaults")),
+                (_VALUE, value.__kwdefaults__, (loc, " defaults")), (_VALUE, value.__closure__ or (), loc)]
 
 
-def _items(values: Any, where: str) -> list[tuple[Any, str, bool]]:
-    return [(v, f"{where}[{i}]", False) for i, v in enumerate(values)]
+def _extra_attributes(value: Any, loc: Any) -> list[Item]:
+    """The instance attributes of a container or left-out subclass (a ``dict`` subclass holding a gain)."""
+    attrs = getattr(value, "__dict__", None)
+    if not isinstance(attrs, dict) or not attrs:
+        return []
+    state = {k: v for k, v in attrs.items() if not (isinstance(value, random.Random) and k == "gauss_next")}
+    return [(_TOKEN, b"|attributes", loc), *_named_state(state, loc)] if state else []
 
 
 def _qualname(cls: type) -> str:
@@ -239,36 +304,41 @@ def _is_left_out(value: Any) -> bool:
             or (hasattr(value, "reset") and hasattr(value, "step") and hasattr(value, "action_space")))
 
 
-def _object_state(value: Any, where: str) -> list[tuple[Any, str, bool]]:
-    """What an object holds: its ``__dict__`` and ``__slots__``, or (for a class with its own pickling, such as an
-    extension type) the parts of ``__reduce_ex__``; ``IncompleteFingerprint`` when neither is available."""
+def _object_state(value: Any, loc: Any) -> list[Item]:
+    """What an object holds: its ``__dict__`` and ``__slots__``, and, for a class with its own pickling (an
+    extension type, or a class whose ``__reduce__`` leaves attributes out), the parts of ``__reduce_ex__`` too;
+    ``IncompleteFingerprint`` when neither can be read."""
     cls = type(value)
     plain = cls.__reduce_ex__ is object.__reduce_ex__ and cls.__reduce__ is object.__reduce__
     state: dict[str, Any] = {}
-    if plain and hasattr(value, "__dict__"):
-        state.update(vars(value))
+    attrs = getattr(value, "__dict__", None)
+    if isinstance(attrs, dict):
+        state.update(attrs)
     slots = [s for klass in cls.__mro__ for s in _slot_names(klass)]
     for name in slots:
         if name not in ("__dict__", "__weakref__") and hasattr(value, name):
             state[f"slot {name}"] = getattr(value, name)
-    if plain and (hasattr(value, "__dict__") or slots):
-        return _named_state(state, where)
+    readable = isinstance(attrs, dict) or bool(slots)
+    if plain and readable:
+        return _named_state(state, loc)
     try:
         reduced = value.__reduce_ex__(4)
     except Exception as exc:  # any refusal of pickle means: unreadable
-        raise IncompleteFingerprint(f"{where} (a {cls.__qualname__}) cannot be read ({type(exc).__name__}: "
+        raise IncompleteFingerprint(f"{_where(loc)} (a {cls.__qualname__}) cannot be read ({type(exc).__name__}: "
                                     f"{str(exc)[:120]}); pass policy_id to name this policy") from None
+    own = _named_state(state, loc) if readable else []   # what its own __reduce__ may leave out
     if isinstance(reduced, str):      # a global singleton
-        return [(reduced, where, False)]
+        return [*own, (_VALUE, reduced, loc)]
     parts = list(reduced[1:3])
     parts += [list(p) if p is not None else None for p in reduced[3:5]]
-    return [(reduced[0], f"{where} constructor", False), *_items(parts, where)]
+    return [*own, (_VALUE, reduced[0], (loc, " constructor")),
+            *((_VALUE, p, (loc, i)) for i, p in enumerate(parts))]
 
 
-def _named_state(state: dict[str, Any], where: str) -> list[tuple[Any, str, bool]]:
-    out: list[tuple[Any, str, bool]] = []
+def _named_state(state: dict[str, Any], loc: Any) -> list[Item]:
+    out: list[Item] = []
     for name in sorted(state):
-        out += [(f"|{name}=".encode(), where, True), (state[name], f"{where}.{name.removeprefix('slot ')}", False)]
+        out += [(_TOKEN, f"|{name}=".encode(), loc), (_VALUE, state[name], (loc, f".{name.removeprefix('slot ')}"))]
     return out
 
 
@@ -282,16 +352,21 @@ def _torch() -> Any:
     return sys.modules.get("torch")
 
 
-def _torch_children(value: Any, where: str) -> list[tuple[Any, str, bool]] | None:
-    """A torch module (architecture text and state dict as arrays) or tensor (its array); None for other values."""
+def _torch_children(value: Any, loc: Any) -> list[Item] | None:
+    """A torch module (architecture text, state dict as arrays and every submodule's plain attributes) or tensor
+    (its array); None for other values."""
     torch = _torch()
     if torch is None:
         return None
     if isinstance(value, torch.Tensor):
-        return [(value.detach().cpu().numpy(), where, False)]
+        return [(_VALUE, value.detach().cpu().numpy(), loc)]
     if isinstance(value, torch.nn.Module):
         arrays = {k: t.detach().cpu().numpy() for k, t in value.state_dict().items()}
-        return [(repr(value), f"{where} architecture", False), (arrays, f"{where} weights", False)]
+        plain = {name: {k: v for k, v in vars(module).items() if not k.startswith("_") and k != "training"}
+                 for name, module in value.named_modules()}
+        plain = {name: attrs for name, attrs in plain.items() if attrs}
+        out = [(_VALUE, repr(value), (loc, " architecture")), (_VALUE, arrays, (loc, " weights"))]
+        return out + ([(_VALUE, plain, (loc, " attributes"))] if plain else [])
     return None
 
 

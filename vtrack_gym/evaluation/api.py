@@ -338,7 +338,7 @@ def _row(make: Callable[[Any], Any], env: gym.Env, ep: Episode, suite: str, poli
         raise ValueError(f"the factory returned {type(policy).__name__}, which has no predict method")
     name = policy_id or policy_id_of(policy)
     if digest is None:   # a policy whose state cannot be read completely needs a policy_id naming it
-        digest = named_policy_hash(policy, policy_id) if policy_id else policy_hash(policy)
+        digest = named_policy_hash(policy, policy_id, env) if policy_id else policy_hash(policy, env)
     row, _ = episode_scorer(suite, make)(name, policy, env, ep, suite, digest)
     log.debug("%s on %s seed %s: %s, max |e_y| %.4g m", name, ep.env_id, ep.seed, row.termination,
              row.metrics.get("max_e_y_m", float("nan")))

@@ -1,23 +1,29 @@
-"""A policy's fingerprint for the leaderboard's ``policy_hash``: a digest of what determines its actions.
+"""A policy's fingerprint for the leaderboard's ``policy_hash``: what can be read of it exactly, and how it acts.
 
-* an exported agent: its ``weights_hash``;
-* a baseline: its class and frozen config dataclass (every preset or tuned config its own);
-* an SB3 algorithm (a ``predict`` method and a torch ``policy`` module): its class, the module's architecture and
-  weights;
-* observations normalised by SB3 ``VecNormalize`` statistics: the inner policy's digest and the statistics;
-* any other object: its class and ALL of its state, at any depth: numbers, strings, bytes, numpy arrays, torch
-  modules and tensors, containers (dict and set order does not matter), nested objects (their ``__dict__`` and
-  ``__slots__``, or what they hand to pickle), functions (code, defaults and closure values) and classes.
-  Environments, random generators, loggers and modules are left out (not parameters). Shared and cyclic references
-  are read once and recorded as back-references.
+``policy_hash(policy, env)`` digests, together (no part decides alone):
+
+* its class and its declared identity: a ``weights_hash`` text (an exported agent's content hash), a frozen
+  ``config`` dataclass (a baseline's preset or tuned config);
+* its state: an SB3 algorithm's torch ``policy`` module (architecture, weights, plain attributes), VecNormalize
+  statistics, or for any other object ALL of its state at any depth: numbers, strings, bytes, numpy arrays, torch
+  modules and tensors, containers (dict and set order does not matter) with a subclass's own attributes, nested
+  objects (their ``__dict__`` and ``__slots__``, and what they hand to pickle when the class pickles itself),
+  functions (code, defaults and closure values) and classes. Environments, random generators, loggers and modules
+  are left out (not parameters; a subclass's own attributes still count). Shared and cyclic references are read
+  once and recorded as back-references;
+* its behaviour (``probes.behaviour_digest``): its deterministic actions on fixed probe sequences of observations
+  recorded from the package's scenarios, in ``env``'s observation layout. Reading an arbitrary object can never be
+  complete (a gain in a global, a file it reads, a class attribute): two policies that act differently on the
+  probes are two policies whatever they declare or hold.
 
 The digest is the same in every process and under every hash seed (no ``id``, ``hash`` or memory address enters
-it). Reading is bounded by bytes (``MAX_STATE_BYTES``), not by depth or length: a policy whose state is larger, or
-holds an object that cannot be read (an open file, a lock, an extension object that pickle refuses), raises
+it). Reading takes time and memory linear in the state's size and depth, and is bounded: ``MAX_STATE_BYTES`` bytes,
+``MAX_DEPTH`` levels of nesting, ``MAX_OBJECTS`` objects, ``MAX_UNORDERED_NESTING`` sets in sets. A policy beyond a
+bound, holding an object that cannot be read (an open file, a lock, an extension object that pickle refuses), or
+that cannot be probed (cannot be copied, fails on the probes, acts differently twice) raises
 :class:`IncompleteFingerprint` naming where; ``evaluate`` then refuses to store it unless it is given a
 ``policy_id`` (see :func:`named_policy_hash`). Two policies whose digests differ are never merged on the
-leaderboard; two objects of one class with the same state are one policy. A policy whose behaviour lives outside
-its state (a global, a file it reads) cannot be told apart from another of its class: pass ``policy_id``.
+leaderboard; two objects of one class with the same state and behaviour are one policy.
 """
 
 from __future__ import annotations
@@ -32,6 +38,8 @@ import types
 from typing import Any
 
 import numpy as np
+
+from vtrack_gym.evaluation.probes import ProbeError
 
 MAX_STATE_BYTES = 256 * 2**20
 """Bytes of state read for one fingerprint (the sum of what is fed to the digest)."""
@@ -48,41 +56,107 @@ class IncompleteFingerprint(ValueError):
     """The policy's state cannot be read completely (too large, or an unreadable object); the message says where."""
 
 
-def policy_hash(policy: Any) -> str:
-    """Short (12 hex digits) digest of what determines ``policy``'s actions (see the module docstring).
+def policy_hash(policy: Any, env: Any = None) -> str:
+    """Short (12 hex digits) digest of what determines ``policy``'s actions (see the module docstring): its class,
+    declared identity (``weights_hash``, ``config``), state and behaviour on the probe sequences in ``env``'s
+    observation layout (the default layout without an env).
 
-    ``IncompleteFingerprint`` if its state cannot be read completely.
+    A policy whose state cannot be read completely needs a declared identity and a probed behaviour; one that
+    cannot be probed (cannot be copied, fails on the probes, acts differently twice) needs a completely read
+    state; otherwise ``IncompleteFingerprint``.
     """
-    weights = getattr(policy, "weights_hash", None)
-    if isinstance(weights, str) and weights:
-        return weights[:12]
-    cfg = getattr(policy, "config", None)
-    if dataclasses.is_dataclass(cfg) and not isinstance(cfg, type):
-        try:   # plain JSON configs keep their historical digest
-            text = type(policy).__name__ + ":" + json.dumps(dataclasses.asdict(cfg), sort_keys=True)
-            return hashlib.sha256(text.encode()).hexdigest()[:12]
-        except (TypeError, ValueError):
-            pass
-    special = sb3_or_normalised_digest(policy)
-    return (special or state_digest(policy, "policy"))[:12]
-
-
-def named_policy_hash(policy: Any, policy_id: str) -> str:
-    """``policy_hash``, or, when the state cannot be read completely, a digest of its class and the user's
-    ``policy_id`` (the name then identifies the policy)."""
+    parts = identity_parts(policy)
+    state = parts["state"]
     try:
-        return policy_hash(policy)
+        parts["behaviour"] = _behaviour(policy, env, None if state == UNREADABLE else state)
+    except ProbeError as exc:
+        if state == UNREADABLE:
+            raise IncompleteFingerprint(f"policy: its state cannot be read completely and {exc}; pass policy_id "
+                                        "to name this policy") from None
+        parts["behaviour"] = "not probed"    # identified by its complete state
+    return _short(parts)
+
+
+UNREADABLE = "unreadable"
+"""The state part of a policy whose state cannot be read completely but that declares its identity."""
+
+
+def identity_parts(policy: Any) -> dict[str, Any]:
+    """What can be read of ``policy`` exactly: its class, its declared identity (a ``weights_hash`` text, a
+    ``config`` dataclass) and the digest of its state (``UNREADABLE`` for a policy with a declared identity);
+    ``IncompleteFingerprint`` if the state cannot be read and nothing is declared."""
+    cfg = getattr(policy, "config", None)
+    config: Any = None
+    if dataclasses.is_dataclass(cfg) and not isinstance(cfg, type):
+        try:
+            config = json.loads(json.dumps(dataclasses.asdict(cfg), sort_keys=True, allow_nan=False))
+        except (TypeError, ValueError):
+            config = state_digest(cfg, "policy.config")
+    weights = getattr(policy, "weights_hash", None)
+    weights = weights if isinstance(weights, str) and weights else None
+    try:
+        state = sb3_or_normalised_digest(policy) or state_digest(policy, "policy", skip=display_attributes(policy))
     except IncompleteFingerprint:
-        cls = type(policy)
-        text = f"named:{cls.__module__}.{cls.__qualname__}:{policy_id}"
-        return hashlib.sha256(text.encode()).hexdigest()[:12]
+        if config is None and weights is None:
+            raise
+        state = UNREADABLE   # a declared identity, checked by the behaviour part
+    return {"class": _qualname(type(policy)), "weights_hash": weights, "config": config, "state": state}
 
 
-def state_digest(obj: Any, name: str = "value", budget: int = MAX_STATE_BYTES) -> str:
+def display_attributes(policy: Any) -> tuple[str, ...]:
+    """Attributes of ``policy`` that name it and never act (its class's ``display_attributes``, e.g. an agent's
+    file stem): left out of its state digest, so one content under two names is one policy. What acts is
+    still read, and the behaviour part would tell a gain hidden there."""
+    names = getattr(type(policy), "display_attributes", ())
+    if not (isinstance(names, tuple) and all(isinstance(n, str) for n in names)):
+        raise ValueError(f"{type(policy).__qualname__}.display_attributes must be a tuple of attribute names "
+                         f"(got {names!r})")
+    return names
+
+
+def _behaviour(policy: Any, env: Any, state: str | None) -> str | None:
+    """The behaviour digest of a policy (None for an object without ``predict``, e.g. a tuned config); ``state``:
+    the policy's state digest, which each probed copy must have too (None: not checked)."""
+    if not callable(getattr(policy, "predict", None)):
+        return None
+    from vtrack_gym.evaluation.probes import behaviour_digest
+
+    def faithful(copied: Any) -> bool:
+        try:
+            return (sb3_or_normalised_digest(copied)
+                    or state_digest(copied, "copy", skip=display_attributes(copied))) == state
+        except IncompleteFingerprint:
+            return False
+
+    return behaviour_digest(policy, env, faithful if state is not None else None)
+
+
+def _short(parts: dict[str, Any]) -> str:
+    text = json.dumps(parts, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
+def named_policy_hash(policy: Any, policy_id: str, env: Any = None) -> str:
+    """``policy_hash``, or, when it is incomplete, a digest of the class, the user's ``policy_id`` (the name then
+    identifies the policy) and the behaviour on the probes where it can be probed (so two policies given one name
+    that act differently are still two rows)."""
+    try:
+        return policy_hash(policy, env)
+    except IncompleteFingerprint:
+        try:
+            behaviour = _behaviour(policy, env, None)
+        except ProbeError:
+            behaviour = "not probed"
+        return _short({"named": policy_id, "class": _qualname(type(policy)), "behaviour": behaviour})
+
+
+def state_digest(obj: Any, name: str = "value", budget: int = MAX_STATE_BYTES,
+                 skip: tuple[str, ...] = ()) -> str:
     """Full SHA-256 hex digest of ``obj``'s state (see the module docstring); ``IncompleteFingerprint`` beyond
     ``budget`` bytes, ``MAX_DEPTH`` levels, ``MAX_OBJECTS`` objects or at an unreadable object (``name``: how the
-    message calls ``obj``). Time and memory are linear in the size and depth of the state."""
-    walker = _Walker(budget, [0], 0)
+    message calls ``obj``; ``skip``: attributes of ``obj`` itself left out). Time and memory are linear in the size
+    and depth of the state."""
+    walker = _Walker(budget, [0], 0, skip)
     walker.walk(obj, name)
     return walker.hexdigest()
 
@@ -118,8 +192,9 @@ class _Walker:
     container (a container's elements are read in place, never copied), and locations kept as (parent, label)
     pairs (a path is spelled out only in an error message): time and memory linear in size and depth."""
 
-    def __init__(self, budget: int, objects: list[int], nesting: int) -> None:
+    def __init__(self, budget: int, objects: list[int], nesting: int, skip: tuple[str, ...] = ()) -> None:
         self.budget = budget
+        self.skip = skip              # attributes of the root object left out
         self.fed = 0
         self.digest = hashlib.sha256()
         self.memo: dict[int, int] = {}
@@ -195,7 +270,7 @@ class _Walker:
         if isinstance(value, np.ndarray):       # object arrays: their elements
             self.feed(f"{tag}{value.shape}".encode(), loc)
             return [value.ravel().tolist(), 0, loc, None]
-        torch_items = _torch_children(value, loc)
+        torch_items = self._torch_children(value, loc)
         if torch_items is not None:
             self.feed(tag.encode(), loc)
             return _frame(torch_items)
@@ -211,15 +286,36 @@ class _Walker:
             return _frame([*((_TOKEN, s.encode(), loc) for s in subs), *_extra_attributes(value, loc)])
         if _is_left_out(value):
             self.feed(f"<left out {tag}>".encode(), loc)
-            return _frame(_extra_attributes(value, loc))     # a subclass's own attributes still count
+            own = isinstance(value, random.Random) and type(value) not in (random.Random, random.SystemRandom)
+            return _frame(_extra_attributes(value, loc)) if own else None   # a subclass's attributes count
         if isinstance(value, type):
             self.feed(f"class {_qualname(value)}".encode(), loc)
             return None
+        if _is_compiled(value):                 # a numba dispatcher: the Python function it compiles
+            self.feed(f"compiled {tag}".encode(), loc)
+            return _frame([(_VALUE, value.py_func, (loc, ".py_func"))])
         if isinstance(value, (types.FunctionType, types.MethodType, types.BuiltinFunctionType,
                               types.CodeType, types.CellType)):
             return _frame(self._callable_children(value, loc))
         self.feed(f"<{tag}>".encode(), loc)
-        return _frame(_object_state(value, loc))
+        return _frame(_object_state(value, loc, self.skip if isinstance(loc, str) else ()))
+
+    def _torch_children(self, value: Any, loc: Any) -> list[Item] | None:
+        """A torch module (architecture text, state dict as arrays, every submodule's plain attributes, each read
+        on its own so that how they share objects does not count) or tensor (its array); None for other values."""
+        torch = _torch()
+        if torch is None:
+            return None
+        if isinstance(value, torch.Tensor):
+            return [(_VALUE, value.detach().cpu().numpy(), loc)]
+        if not isinstance(value, torch.nn.Module):
+            return None
+        arrays = {k: t.detach().cpu().numpy() for k, t in value.state_dict().items()}
+        plain = {name: {k: self._sub_digest(v, (loc, f" attribute {name}.{k}")) for k, v in vars(module).items()
+                        if not k.startswith("_") and k != "training"} for name, module in value.named_modules()}
+        plain = {name: attrs for name, attrs in plain.items() if attrs}
+        out = [(_VALUE, repr(value), (loc, " architecture")), (_VALUE, arrays, (loc, " weights"))]
+        return out + ([(_VALUE, plain, (loc, " attributes"))] if plain else [])
 
     def _mapping_items(self, mapping: Any, loc: Any) -> list[Item]:
         keyed = []
@@ -268,7 +364,8 @@ class _Walker:
 
 
 def _extra_attributes(value: Any, loc: Any) -> list[Item]:
-    """The instance attributes of a container or left-out subclass (a ``dict`` subclass holding a gain)."""
+    """The instance attributes of a container subclass (a ``dict`` subclass holding a gain) or of a
+    ``random.Random`` subclass (its generator state, ``gauss_next``, left out)."""
     attrs = getattr(value, "__dict__", None)
     if not isinstance(attrs, dict) or not attrs:
         return []
@@ -297,14 +394,23 @@ def _atom_bytes(value: Any) -> bytes:
     return type(value).__name__.encode() + bytes(value)
 
 
+def _is_compiled(value: Any) -> bool:
+    """A numba dispatcher (its compiled code follows from its ``py_func`` and the types it is called with)."""
+    return type(value).__module__.startswith("numba.") and isinstance(getattr(value, "py_func", None),
+                                                                       types.FunctionType)
+
+
 def _is_left_out(value: Any) -> bool:
-    """Environments, random generators, loggers and modules: not a policy's parameters."""
+    """Environments, random generators, loggers, modules and torch optimisers: not a policy's parameters (training
+    or run state; what acts is read from the weights and, always, the behaviour)."""
+    torch = _torch()
     return (isinstance(value, (types.ModuleType, np.random.Generator, np.random.RandomState, random.Random,
                                np.random.BitGenerator, logging.Logger))
+            or (torch is not None and isinstance(value, torch.optim.Optimizer))
             or (hasattr(value, "reset") and hasattr(value, "step") and hasattr(value, "action_space")))
 
 
-def _object_state(value: Any, loc: Any) -> list[Item]:
+def _object_state(value: Any, loc: Any, skip: tuple[str, ...] = ()) -> list[Item]:
     """What an object holds: its ``__dict__`` and ``__slots__``, and, for a class with its own pickling (an
     extension type, or a class whose ``__reduce__`` leaves attributes out), the parts of ``__reduce_ex__`` too;
     ``IncompleteFingerprint`` when neither can be read."""
@@ -313,7 +419,7 @@ def _object_state(value: Any, loc: Any) -> list[Item]:
     state: dict[str, Any] = {}
     attrs = getattr(value, "__dict__", None)
     if isinstance(attrs, dict):
-        state.update(attrs)
+        state.update((k, v) for k, v in attrs.items() if k not in skip)
     slots = [s for klass in cls.__mro__ for s in _slot_names(klass)]
     for name in slots:
         if name not in ("__dict__", "__weakref__") and hasattr(value, name):
@@ -352,24 +458,6 @@ def _torch() -> Any:
     return sys.modules.get("torch")
 
 
-def _torch_children(value: Any, loc: Any) -> list[Item] | None:
-    """A torch module (architecture text, state dict as arrays and every submodule's plain attributes) or tensor
-    (its array); None for other values."""
-    torch = _torch()
-    if torch is None:
-        return None
-    if isinstance(value, torch.Tensor):
-        return [(_VALUE, value.detach().cpu().numpy(), loc)]
-    if isinstance(value, torch.nn.Module):
-        arrays = {k: t.detach().cpu().numpy() for k, t in value.state_dict().items()}
-        plain = {name: {k: v for k, v in vars(module).items() if not k.startswith("_") and k != "training"}
-                 for name, module in value.named_modules()}
-        plain = {name: attrs for name, attrs in plain.items() if attrs}
-        out = [(_VALUE, repr(value), (loc, " architecture")), (_VALUE, arrays, (loc, " weights"))]
-        return out + ([(_VALUE, plain, (loc, " attributes"))] if plain else [])
-    return None
-
-
 def sb3_or_normalised_digest(policy: Any) -> str | None:
     """Digest of an SB3 algorithm (its ``policy`` module) or a ``NormalisedPolicy`` (inner policy and statistics);
     None for other policies."""
@@ -381,7 +469,7 @@ def sb3_or_normalised_digest(policy: Any) -> str | None:
     stats = getattr(getattr(policy, "vecnormalize", None), "obs_rms", None)
     if stats is not None and module is not None:
         vn = policy.vecnormalize
-        return state_digest({"class": cls, "inner": policy_hash(module),
+        return state_digest({"class": cls, "inner": _short(identity_parts(module)),
                              "stats": [stats.mean, stats.var, getattr(vn, "clip_obs", None),
                                        getattr(vn, "epsilon", None), getattr(vn, "norm_obs", None)]}, "policy")
     return None

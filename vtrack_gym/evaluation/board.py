@@ -176,13 +176,17 @@ the id already encodes a track file's content and profile.)"""
 
 
 def board_env(record: Mapping[str, Any]) -> str:
-    """The env a record is ranked in: its ``env_id``, with `` (<vehicle>)`` appended when its ``options`` name a car
-    (``options["vehicle"]``, see ``benchmark.vehicle_label``) and `` [<settings>]`` when they record settings
-    (``SETTING_OPTIONS``), so different cars or set-ups never share a ranking."""
+    """The env a record is ranked in: its ``env_id`` (an alias resolved), with `` (<vehicle>)`` appended when its
+    ``options`` name a car (``options["vehicle"]``, see ``benchmark.vehicle_label``) and `` [<settings>]`` when
+    they record settings (``SETTING_OPTIONS``, numbers normalised), so different cars or set-ups never share a
+    ranking and one set-up spelled two ways is one."""
+    from vtrack_gym.evaluation.env_identity import canonical_env_id, normal_numbers
+
     options = record.get("options") or {}
     vehicle = options.get("vehicle")
-    label = str(record["env_id"]) if not vehicle else f"{record['env_id']} ({vehicle})"
-    settings = settings_label(options)
+    env_id = canonical_env_id(str(record["env_id"]))   # rows stored under an alias join their scenario's
+    label = env_id if not vehicle else f"{env_id} ({vehicle})"
+    settings = settings_label(normal_numbers(dict(options)))   # 45 and 45.0: one set-up
     return f"{label} [{settings}]" if settings else label
 
 

@@ -253,8 +253,9 @@ def build_board(records: Iterable[Mapping[str, Any]], columns: Sequence[str],
     for env_id in dict.fromkeys(e["env_id"] for e in board):
         same = [e for e in board if e["env_id"] == env_id]
         labels = _labels(same)
-        for rank, e in enumerate(same, 1):
+        for rank, (e, label) in enumerate(zip(same, labels, strict=True), 1):
             e["rank"] = rank
+            e["name"] = label       # policy_id[:preset], with @policy_hash where two entries would read alike
             e["tied_with"] = ", ".join(lab for o, lab in zip(same, labels, strict=True)
                                        if o is not e and _tied(e, o, primary))
     return board

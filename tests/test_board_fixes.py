@@ -153,7 +153,9 @@ def test_canonical_preset_ids() -> None:
 
     assert canonical_spec("smc:paper") == canonical_spec("smc", "paper") == "smc:paper"
     assert canonical_spec("smc:") == canonical_spec("smc:default") == canonical_spec("smc", "default") == "smc"
-    assert canonical_spec("agent.json") == "agent.json"
+    # an agent file is named by its stem (its identity is its content): every path to it is one id
+    assert canonical_spec("agent.json") == canonical_spec("runs/a/agent.json") == canonical_spec("/x/agent.npz") \
+        == "agent"
 
 
 def test_benchmark_refuses_duplicates_and_accepts_spaces(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

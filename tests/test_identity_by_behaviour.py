@@ -253,3 +253,23 @@ def test_a_policy_acting_differently_twice_on_the_same_probes_needs_a_name() -> 
 
     with pytest.raises(IncompleteFingerprint, match="acts differently on the same probe observations twice"):
         policy_hash(DeclaredNoisy())
+
+
+def test_the_shipped_probes_are_the_default_layout_and_excite_the_errors() -> None:
+    from vtrack_gym.evaluation.probes import PROBE_ENV_IDS, PROBE_STEPS, PROBE_WINDOWS, probe_observations
+
+    probes = probe_observations()
+    assert probes.shape == (len(PROBE_ENV_IDS) * len(PROBE_WINDOWS), PROBE_STEPS, OBS.size)
+    assert probes.dtype == np.float32 and np.isfinite(probes).all()
+    e_y = probes[:, :, OBS.E_Y]
+    assert (np.abs(e_y).max(axis=1) > 1e-3).all() and e_y.min() < 0.0 < e_y.max()   # every sequence steers
+
+
+@pytest.mark.slow
+def test_the_shipped_probes_are_what_the_recorder_writes(tmp_path: Path) -> None:
+    """The probe file is data recorded from the package's scenarios; re-recording gives it back (to float32
+    rounding across machines)."""
+    from vtrack_gym.evaluation.probes import probe_observations, record_probes
+
+    fresh = record_probes(tmp_path / "probes.npz")
+    np.testing.assert_allclose(fresh, probe_observations(), rtol=1e-5, atol=1e-6)

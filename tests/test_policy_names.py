@@ -4,46 +4,18 @@ policy is one row whichever way it was scored, two settings are two named rows."
 
 from __future__ import annotations
 
-import hashlib
 import importlib
-import textwrap
 from pathlib import Path
 
-import pytest
+from test_cli_user_policy import user_module  # noqa: F401  (the fixture: a module of user code, class Gains)
 
 import vtrack_gym
 from vtrack_gym.cli import main
 from vtrack_gym.evaluation.policy_names import class_label, instance_label
 from vtrack_gym.evaluation.store import ResultStore
 
-MODULE = textwrap.dedent('''
-    import numpy as np
-    from vtrack_gym.envs import OBS
 
-
-    class Gains:
-        """Curvature feed-forward and proportional feedback; its settings are constructor arguments."""
-
-        def __init__(self, k_y=0.1, k_phi=0.8, label="plain"):
-            self.k_y, self.k_phi, self.label = k_y, k_phi, label
-
-        def predict(self, observation, state=None, episode_start=None, deterministic=True):
-            obs = np.asarray(observation, dtype=np.float64)
-            delta = 2.91 * obs[..., OBS.CURVATURE] - self.k_y * obs[..., OBS.E_Y] - self.k_phi * obs[..., OBS.E_PHI]
-            return np.clip(delta / 0.6, -1.0, 1.0).astype(np.float32)[..., None], state
-''')
-
-
-@pytest.fixture()
-def user_module(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, request: pytest.FixtureRequest) -> str:
-    name = f"my_named_{hashlib.sha256(request.node.nodeid.encode()).hexdigest()[:12]}"
-    (tmp_path / f"{name}.py").write_text(MODULE, encoding="utf-8")
-    monkeypatch.chdir(tmp_path)
-    monkeypatch.syspath_prepend(str(tmp_path))
-    return name
-
-
-def test_python_and_the_cli_give_one_name_and_one_row(user_module: str, tmp_path: Path, capsys) -> None:
+def test_python_and_the_cli_give_one_name_and_one_row(user_module: str, tmp_path: Path) -> None:  # noqa: F811
     store = tmp_path / "s.sqlite"
     spec = f"{user_module}:Gains"
     for kwargs in ('{"k_y": 0.2}', '{"k_y": 0.3}'):

@@ -98,7 +98,7 @@ def test_an_env_whose_configuration_cannot_be_identified_never_shares_a_row(tmp_
 
 @pytest.mark.parametrize("value", [45, 45.0, [1, 2.0, {"a": 3}], True, 2**60])
 def test_numbers_are_normalised_at_any_depth(value) -> None:
-    from vtrack_gym.evaluation.env_identity import normal_numbers
+    from vtrack_gym.evaluation.env_names import normal_numbers
 
     out = normal_numbers({"x": value})["x"]
     if value is True:

@@ -15,7 +15,8 @@ import gymnasium as gym
 import numpy as np
 
 from vtrack_gym.evaluation.benchmark import episode_scorer
-from vtrack_gym.evaluation.env_identity import UNIDENTIFIED, canonical_env_id, env_identity
+from vtrack_gym.evaluation.env_identity import UNIDENTIFIED, env_identity
+from vtrack_gym.evaluation.env_names import canonical_env_id
 from vtrack_gym.evaluation.fingerprint import named_policy_hash, policy_hash
 from vtrack_gym.evaluation.rollout import policy_id_of
 from vtrack_gym.evaluation.store import ResultRow, ResultStore, StoreError

@@ -180,7 +180,7 @@ def board_env(record: Mapping[str, Any]) -> str:
     ``options`` name a car (``options["vehicle"]``, see ``benchmark.vehicle_label``) and `` [<settings>]`` when
     they record settings (``SETTING_OPTIONS``, numbers normalised), so different cars or set-ups never share a
     ranking and one set-up spelled two ways is one."""
-    from vtrack_gym.evaluation.env_identity import canonical_env_id, normal_numbers
+    from vtrack_gym.evaluation.env_names import canonical_env_id, normal_numbers
 
     options = record.get("options") or {}
     vehicle = options.get("vehicle")

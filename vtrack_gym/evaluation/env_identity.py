@@ -1,59 +1,22 @@
-"""One spelling per env set-up in a row: an id and its alias are one id, ``45`` and ``45.0`` one number, a user
-wrapper's parameters part of the set-up, and an env whose configuration cannot be identified a row of its own.
-
-``api.env_identity`` records an env instance with these helpers; ``board.board_env`` reads stored rows through
-them too, so rows written before (``vtrack/DLC120-v0``, ``entry_speed_kmh=45``) join the rows of the same set-up.
+"""What a row records of an env instance (``env_identity``), one spelling per set-up: an id and its alias are one
+id and ``45`` and ``45.0`` one number (``env_names``), a user wrapper's parameters are part of the set-up, and an
+env whose configuration cannot be identified is a row of its own.
 """
 
 from __future__ import annotations
 
-import math
 import secrets
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 
+from vtrack_gym.evaluation.env_names import canonical_env_id, normal_numbers
+
 UNIDENTIFIED = " [unidentified configuration"
 """Start of the label appended to the env id of an env instance whose configuration cannot be recorded; the label
 ends with a random token of its own (``unidentified``), so such rows never share a leaderboard entry with the
 standard env's or with each other's."""
-
-
-def canonical_env_id(env_id: str) -> str:
-    """The one id of a set-up: a registered alias resolved (``vtrack/DLC120-v0`` -> ``DLC120-v0``, the id the suites
-    and existing stores use for the paper scenarios; ``highway-env:lane-keeping-v0`` -> the adapter's id)."""
-    from vtrack_gym.envs.scenarios import LEGACY_IDS, NAMESPACE
-    from vtrack_gym.interop import ENV_ALIASES
-
-    env_id = ENV_ALIASES.get(env_id, env_id)
-    name = env_id.removeprefix(f"{NAMESPACE}/")
-    return name if name != env_id and name in LEGACY_IDS else env_id
-
-
-def normal_numbers(value: Any) -> Any:
-    """``value`` (JSON data) with every number as a float (booleans kept), in dicts and lists at any depth, so a
-    setting given as ``45`` and as ``45.0`` is one set-up. Integers beyond 2**53 (not exact as floats) are kept."""
-    stack: list[Any] = []
-    out = _normal_one(value, stack)
-    while stack:
-        container = stack.pop()
-        keys = container.keys() if isinstance(container, dict) else range(len(container))
-        for key in keys:
-            container[key] = _normal_one(container[key], stack)
-    return out
-
-
-def _normal_one(value: Any, stack: list[Any]) -> Any:
-    if isinstance(value, bool) or not isinstance(value, (int, float, dict, list, tuple)):
-        return value
-    if isinstance(value, int):
-        return float(value) if abs(value) <= 2**53 else value
-    if isinstance(value, float):
-        return value if math.isfinite(value) else repr(value)
-    copied: Any = dict(value) if isinstance(value, dict) else list(value)
-    stack.append(copied)
-    return copied
 
 
 def unidentified(env_id: str) -> str:
@@ -66,8 +29,6 @@ def wrapper_records(env: Any, spec: Any) -> list[dict[str, Any]] | None:
     wrapper that records its constructor arguments by name and arguments; one that does not (a plain
     ``gymnasium.Wrapper`` subclass) by name, entry point and the digest of its own attributes (its parameters),
     read from the wrapper instance. None when a wrapper cannot be identified (its attributes cannot be read)."""
-    import gymnasium as gym
-
     from vtrack_gym.evaluation.fingerprint import IncompleteFingerprint, state_digest
 
     added = list(spec.additional_wrappers or ())

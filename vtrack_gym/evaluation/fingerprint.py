@@ -65,9 +65,11 @@ def policy_hash(policy: Any, env: Any = None) -> str:
     cannot be probed (cannot be copied, fails on the probes, acts differently twice) needs a completely read
     state; otherwise ``IncompleteFingerprint``.
     """
-    parts = identity_parts(policy)
+    parts, depth = _parts_and_depth(policy)
     state = parts["state"]
     try:
+        if depth > MAX_PROBED_DEPTH:
+            raise ProbeError(f"it is nested more than {MAX_PROBED_DEPTH} levels deep, too deep to copy safely")
         parts["behaviour"] = _behaviour(policy, env, None if state == UNREADABLE else state)
     except ProbeError as exc:
         if state == UNREADABLE:
@@ -79,12 +81,19 @@ def policy_hash(policy: Any, env: Any = None) -> str:
 
 UNREADABLE = "unreadable"
 """The state part of a policy whose state cannot be read completely but that declares its identity."""
+MAX_PROBED_DEPTH = 200
+"""A policy whose state is nested deeper is not probed (copying it would recurse that deep)."""
 
 
 def identity_parts(policy: Any) -> dict[str, Any]:
     """What can be read of ``policy`` exactly: its class, its declared identity (a ``weights_hash`` text, a
     ``config`` dataclass) and the digest of its state (``UNREADABLE`` for a policy with a declared identity);
     ``IncompleteFingerprint`` if the state cannot be read and nothing is declared."""
+    return _parts_and_depth(policy)[0]
+
+
+def _parts_and_depth(policy: Any) -> tuple[dict[str, Any], int]:
+    """``identity_parts`` and the depth of the state read (0 when it could not be read)."""
     cfg = getattr(policy, "config", None)
     config: Any = None
     if dataclasses.is_dataclass(cfg) and not isinstance(cfg, type):
@@ -94,13 +103,18 @@ def identity_parts(policy: Any) -> dict[str, Any]:
             config = state_digest(cfg, "policy.config")
     weights = getattr(policy, "weights_hash", None)
     weights = weights if isinstance(weights, str) and weights else None
+    depth = 0
     try:
-        state = sb3_or_normalised_digest(policy) or state_digest(policy, "policy", skip=display_attributes(policy))
+        state = sb3_or_normalised_digest(policy)
+        if state is None:
+            walker = _Walker(MAX_STATE_BYTES, [0], 0, display_attributes(policy))
+            walker.walk(policy, "policy")
+            state, depth = walker.hexdigest(), walker.deepest
     except IncompleteFingerprint:
         if config is None and weights is None:
             raise
         state = UNREADABLE   # a declared identity, checked by the behaviour part
-    return {"class": _qualname(type(policy)), "weights_hash": weights, "config": config, "state": state}
+    return {"class": _qualname(type(policy)), "weights_hash": weights, "config": config, "state": state}, depth
 
 
 def display_attributes(policy: Any) -> tuple[str, ...]:
@@ -201,6 +215,7 @@ class _Walker:
         self.alive: list[Any] = []    # keeps memoised temporaries alive, so their ids are never reused
         self.objects = objects        # objects read, shared with the sub-walkers of unordered containers
         self.nesting = nesting        # sub-walkers this one sits in
+        self.deepest = 0              # the most containers open at once
 
     def hexdigest(self) -> str:
         return self.digest.hexdigest()
@@ -242,6 +257,7 @@ class _Walker:
                     raise IncompleteFingerprint(f"{_where(where)}: the state is nested more than {MAX_DEPTH} "
                                                 "levels deep; pass policy_id to name this policy")
                 stack.append(child)
+                self.deepest = max(self.deepest, len(stack) - 1)
 
     def _visit(self, value: Any, loc: Any) -> Frame | None:
         """Feed ``value``'s own bytes; return a frame of what it holds (values and tokens), or None."""

@@ -125,8 +125,8 @@ def test_benchmark_and_plot_take_user_code(user_module: str, tmp_path: Path,
     assert main(["benchmark", "--policies", f"{spec},lqr", "--trust-code", "--policy-kwargs", '{"k_phi": 1.0}',
                  "--no-figures", "--store", str(store)]) == 0
     out = capsys.readouterr().out
-    assert f"| DLC120-v0 | {spec} |" in out  # intraword underscores stay unescaped in Markdown
-    assert {r["policy_id"] for r in ResultStore(store).rows("paper")} == {spec, "lqr"}
+    assert "| DLC120-v0 | Gains(k_phi=1) |" in out  # named by its class and arguments, as from Python
+    assert {r["policy_id"] for r in ResultStore(store).rows("paper")} == {"Gains(k_phi=1)", "lqr"}
     figures = tmp_path / "plots"
     assert main(["plot", "--policies", spec, "--trust-code", "--env", "DLC120-v0", "--out", str(figures)]) == 0
     assert (figures / "dlc120_v0_trajectories.png").is_file()

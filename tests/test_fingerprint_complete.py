@@ -150,3 +150,33 @@ def test_an_agent_file_by_relative_and_absolute_path_is_one_row(tmp_path, monkey
                      "--store", str(store)]) == 0
     rows = ResultStore(store).rows()
     assert {(r["policy_id"], r["policy_hash"]) for r in rows} == {(agent.stem, rows[0]["policy_hash"])}
+
+
+def test_reading_is_bounded_by_depth_and_object_count_with_a_clear_error(monkeypatch):
+    """Beyond ``MAX_DEPTH`` levels or ``MAX_OBJECTS`` objects the fingerprint refuses (naming the bound and where),
+    instead of reading on until the machine's memory runs out; at the bounds it still reads (the object bound
+    lowered here: a million objects take seconds to build)."""
+    from vtrack_gym.evaluation import fingerprint
+
+    deep: list = []
+    for _ in range(fingerprint.MAX_DEPTH - 1):   # MAX_DEPTH lists, each in the next
+        deep = [deep]
+    assert len(state_digest(deep)) == 64
+    with pytest.raises(IncompleteFingerprint, match=f"nested more than {fingerprint.MAX_DEPTH} levels"):
+        state_digest([deep])
+    monkeypatch.setattr(fingerprint, "MAX_OBJECTS", 10_000)
+    wide = [Box(i) for i in range(fingerprint.MAX_OBJECTS)]   # with the list: one object past the bound
+    with pytest.raises(IncompleteFingerprint, match=f"more than {fingerprint.MAX_OBJECTS} objects"):
+        state_digest(wide)
+    assert len(state_digest(wide[:-1])) == 64
+
+
+def test_sets_nested_in_sets_are_bounded_too():
+    from vtrack_gym.evaluation import fingerprint
+
+    nested: frozenset = frozenset()
+    for _ in range(fingerprint.MAX_UNORDERED_NESTING):
+        nested = frozenset({nested})
+    assert len(state_digest(nested)) == 64
+    with pytest.raises(IncompleteFingerprint, match="sets or non-text dict keys nested"):
+        state_digest(frozenset({nested}))

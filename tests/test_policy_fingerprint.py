@@ -3,6 +3,7 @@ attributes, an SB3 model by its weights and normalisation statistics), and keeps
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -83,14 +84,33 @@ def test_sb3_models_are_told_apart_by_their_weights_and_statistics(tmp_path: Pat
 
 @pytest.mark.parametrize("name", ["lqr", "ppo"])
 def test_baselines_and_shipped_agents_keep_their_hash_rules(name: str) -> None:
+    """One preset or agent file is one hash (in every instance); its declared identity (the agent's weights hash,
+    the baseline's config) is part of it, never all of it: another declaration is another hash."""
+    import copy
+    import dataclasses
+
     import gymnasium as gym
+
+    from vtrack_gym.evaluation.fingerprint import identity_parts
 
     env = gym.make("DLC120-v0")
     policy = vtrack_gym.make_policy(name, env)
-    digest = policy_hash(policy)
-    assert digest == policy_hash(vtrack_gym.make_policy(name, env))
+    digest = policy_hash(policy, env)
+    assert digest == policy_hash(vtrack_gym.make_policy(name, env), env)
+    parts = identity_parts(policy)
     if name == "ppo":
-        assert digest == policy.weights_hash[:12]
+        assert parts["weights_hash"] == policy.weights_hash
+        relabelled = copy.deepcopy(policy)
+        relabelled._weights_hash = "0" * 64
+    else:
+        assert parts["config"] == json.loads(json.dumps(dataclasses.asdict(policy.config)))
+        relabelled = copy.deepcopy(policy)
+        object.__setattr__(relabelled, "config", dataclasses.replace(policy.config))
+        assert policy_hash(relabelled, env) == digest          # an equal config: the same policy
+        object.__setattr__(relabelled, "config", dataclasses.replace(policy.config, **{
+            f.name: getattr(policy.config, f.name) * 1.5 for f in dataclasses.fields(policy.config)
+            if type(getattr(policy.config, f.name)) is float and getattr(policy.config, f.name) > 0}))
+    assert policy_hash(relabelled, env) != digest
 
 
 def test_the_wall_time_per_step_leaves_out_a_one_off_stall(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -231,6 +231,20 @@ class OSQPMPC(Policy):
         self._solver, self._solve = self._setup_solver()
         self._v_p = SETUP_SPEED_MPS
 
+    def __deepcopy__(self, memo: dict[int, Any]) -> OSQPMPC:
+        """A copy with a solver of its own, set up afresh (an OSQP workspace cannot be copied; every solve
+        warm-starts from the policy's ``state`` and resets rho, so a fresh solver acts the same)."""
+        import copy
+
+        clone = self.__class__.__new__(self.__class__)
+        memo[id(self)] = clone
+        for key, value in vars(self).items():
+            if key not in ("_solver", "_solve"):
+                setattr(clone, key, copy.deepcopy(value, memo))
+        clone._solver, clone._solve = clone._setup_solver()
+        clone._v_p = SETUP_SPEED_MPS
+        return clone
+
     # ------------------------------------------------------------------------------------------ solver
     def _setup_solver(self) -> tuple[Any, Any]:
         import osqp

@@ -107,8 +107,12 @@ def is_user_spec(spec: str) -> bool:
 def canonical_spec(spec: str, preset: str | None = None) -> str:
     """The one policy id of a spec (what rows record): a baseline with its default preset is its bare name
     (``smc``, ``smc:``, ``smc:default`` and ``smc`` with ``preset="default"`` are all ``smc``), another preset is
-    ``name:preset`` (``smc:paper`` and ``smc`` with ``preset="paper"``); any other spec is returned stripped."""
+    ``name:preset`` (``smc:paper`` and ``smc`` with ``preset="paper"``); an agent file is its stem (a relative or
+    absolute path, a symlink or a copy elsewhere: one name, and one row, since the row's policy hash is read from
+    the content); any other spec is returned stripped."""
     text = spec.strip()
+    if Path(text).suffix in AGENT_SUFFIXES and Path(text).stem:
+        return Path(text).stem    # an agent file: shown by its stem, identified by its content (weights hash)
     name, sep, spec_preset = text.partition(":")
     if name not in available_policies():
         return text
@@ -119,10 +123,7 @@ def canonical_spec(spec: str, preset: str | None = None) -> str:
 def recorded_policy_id(spec: str, preset: str | None = None) -> str:
     """The policy id ``vtrack evaluate`` records: an agent file's stem (the file is identified by its weights hash,
     so a relative and an absolute path to one file are one policy), else ``canonical_spec``."""
-    text = spec.strip()
-    if Path(text).suffix in AGENT_SUFFIXES and Path(text).stem:
-        return Path(text).stem
-    return canonical_spec(text, preset)
+    return canonical_spec(spec, preset)
 
 
 def canonical_ids(specs: Sequence[str]) -> dict[str, str]:
@@ -131,11 +132,28 @@ def canonical_ids(specs: Sequence[str]) -> dict[str, str]:
     ids: dict[str, str] = {}
     for spec in specs:
         key = canonical_spec(spec)
+        if key in ids and _agent_content(ids[key]) != _agent_content(spec):
+            raise ValueError(f"--policies names two different agents {key!r} ({ids[key]!r} and {spec!r}): score "
+                             "them in two runs (each is its own row, shown as NAME@HASH on the board) or rename "
+                             "one file")
         if key in ids:
             raise ValueError(f"--policies names {key!r} twice ({ids[key]!r} and {spec!r} are the same policy); "
                              "list each policy once")
         ids[key] = spec
     return ids
+
+
+def _agent_content(spec: str) -> str | None:
+    """The weights hash of an agent file spec (None for other specs or a file that does not load)."""
+    path = Path(spec.strip())
+    if path.suffix not in AGENT_SUFFIXES or not path.exists():
+        return None
+    from vtrack_gym.baselines.numpy_policy import load_agent
+
+    try:
+        return load_agent(path).weights_hash
+    except (ValueError, OSError):
+        return None
 
 
 def _presets(name: str) -> tuple[str, ...]:

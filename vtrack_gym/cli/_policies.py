@@ -78,9 +78,18 @@ def policy_makers(names: Sequence[str], preset: str = "default", trust_code: boo
 def policy_factories(names: Sequence[str], preset: str = "default", trust_code: bool = False,
                      kwargs_text: str | None = None) -> dict[str, Any]:
     """``{policy id: make(env)}`` for ``--policies`` names (``policy_makers``); ids are canonical (``lqr:default``
-    is ``lqr``), a policy given twice is refused (it is never ranked against itself)."""
-    from vtrack_gym.baselines.resolve import canonical_ids
+    is ``lqr``; a class of your own is named by its class and arguments, ``policy_names.class_label``, as from
+    Python), a policy given twice is refused (it is never ranked against itself)."""
+    from vtrack_gym.baselines.resolve import canonical_ids, is_user_spec
+    from vtrack_gym.evaluation.policy_names import user_spec_label
 
     ids = canonical_ids(names)
     makers = policy_makers(list(ids.values()), preset, trust_code, kwargs_text)
-    return {key: make for key, (_, make) in zip(ids, makers, strict=True)}
+    kwargs = parse_policy_kwargs(kwargs_text)
+    named: dict[str, Any] = {}
+    for (key, spec), (_, make) in zip(ids.items(), makers, strict=True):
+        label = user_spec_label(spec, kwargs) if is_user_spec(spec) else key
+        if label in named:
+            raise ValueError(f"--policies names two policies {label!r}; list each policy once")
+        named[label] = make
+    return named

@@ -47,6 +47,7 @@ def check_outputs(args: argparse.Namespace) -> None:
 def run(args: argparse.Namespace) -> int:
     from vtrack_gym.baselines.resolve import recorded_policy_id
     from vtrack_gym.evaluation.api import evaluate
+    from vtrack_gym.evaluation.policy_names import user_spec_label
     from vtrack_gym.evaluation.report_formats import to_markdown
     from vtrack_gym.evaluation.store import ResultStore
     from vtrack_gym.evaluation.track_benchmark import with_provenance
@@ -57,7 +58,8 @@ def run(args: argparse.Namespace) -> int:
     check_vehicle(args)
     store = ResultStore(args.store)  # verified before the rollouts; written after the table is printed
     announce_kernels()
-    policy_id = args.policy if args.trust_code else recorded_policy_id(args.policy, args.preset)
+    policy_id = user_spec_label(args.policy, parse_policy_kwargs(args.policy_kwargs)) if args.trust_code \
+        else recorded_policy_id(args.policy, args.preset)   # a class of yours: its class and arguments
     rows = with_provenance(evaluate(make, env_id, seeds, policy_id=policy_id, vehicle=args.vehicle), provenance)
     table = [{"seed": r.seed, "termination": r.termination, "success": int(r.verdict()),
               **{k: v for k, v in r.metrics.items() if isinstance(v, float)}} for r in rows]

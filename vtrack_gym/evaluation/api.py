@@ -15,6 +15,8 @@ import gymnasium as gym
 import numpy as np
 
 from vtrack_gym.evaluation.benchmark import episode_scorer
+from vtrack_gym.evaluation.env_identity import UNIDENTIFIED, env_identity
+from vtrack_gym.evaluation.env_names import canonical_env_id
 from vtrack_gym.evaluation.fingerprint import named_policy_hash, policy_hash
 from vtrack_gym.evaluation.rollout import policy_id_of
 from vtrack_gym.evaluation.store import ResultRow, ResultStore, StoreError
@@ -56,6 +58,7 @@ def _episodes(suite_or_env: str, seeds: Sequence[int] | None) -> tuple[list[Epis
 
         raise ValueError(f"unknown suite or env {suite_or_env!r}; suites: {', '.join(SUITES)}; vtrack envs: "
                          f"{', '.join(reg.ENV_IDS)}, highway-env:lane-keeping-v0")
+    env_id = canonical_env_id(env_id)   # an alias is one scenario with its id: one row
     return [Episode(env_id, int(s)) for s in (seeds if seeds is not None else (0,))], CUSTOM_SUITE
 
 
@@ -66,182 +69,6 @@ def _check_seeds(seeds: Sequence[int] | None) -> None:
         raise ValueError(f"seeds must be a sequence of ints, e.g. seeds=[{seeds}] (got {seeds!r})")
     if not seeds or not all(isinstance(s, (int, np.integer)) and not isinstance(s, bool) and s >= 0 for s in seeds):
         raise ValueError(f"seeds must be a non-empty sequence of ints >= 0 (got {seeds!r})")
-
-
-UNIDENTIFIED = " [unidentified configuration]"
-"""Appended to the env id of an env instance whose configuration cannot be recorded: its rows never share a
-leaderboard entry with the standard env's."""
-_RENDER_KWARGS = frozenset({"render_mode", "render_fps", "render_view"})
-"""Make arguments that change how an env is shown, not how it drives."""
-
-
-def _equal(a: Any, b: Any) -> bool:
-    """``a == b`` as one bool (False when the comparison is ambiguous, e.g. two arrays)."""
-    try:
-        return bool(a == b)
-    except (TypeError, ValueError):
-        return False
-
-
-def _jsonable(value: Any) -> Any:
-    """``value`` as JSON data (dataclasses as dicts, tuples as lists); ``TypeError`` when it cannot be written."""
-    import dataclasses
-    import json
-
-    if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        value = dataclasses.asdict(value)
-    return json.loads(json.dumps(value, allow_nan=False, default=_no_json))
-
-
-def _no_json(value: Any) -> Any:
-    raise TypeError(f"{type(value).__name__} is not JSON data")
-
-
-def _vehicle_of(config: Any, make_vehicle: Any) -> str | None:
-    """What a row records of an env's car (``benchmark.vehicle_label``): from the make argument when it is a name or
-    a file, else from the parameters (a shipped car's name, or ``params-<sha256[:10]>`` of them)."""
-    import hashlib
-    import json
-    import os
-
-    from vtrack_gym.evaluation.benchmark import vehicle_label
-    from vtrack_gym.vehicle.catalog import list_vehicles, load_vehicle
-    from vtrack_gym.vehicle.params import VehicleParams
-
-    if isinstance(make_vehicle, (str, os.PathLike)):
-        return vehicle_label(str(make_vehicle))
-    params = config.vehicle
-    if params == VehicleParams():
-        return None
-    for name in list_vehicles():
-        if load_vehicle(name) == params:
-            return name
-    text = json.dumps(_jsonable(params), sort_keys=True)
-    return f"params-{hashlib.sha256(text.encode()).hexdigest()[:10]}"
-
-
-def _track_provenance(scenario: Any) -> tuple[str | None, dict[str, Any]] | None:
-    """(env id or None, options) recording a scenario's own track, speed profile and half width, as
-    ``vtrack eval --track`` does for a track file; None when the track cannot be identified."""
-    import dataclasses
-    import os
-
-    from vtrack_gym.tracks import Path as TrackPath
-    from vtrack_gym.tracks.sources import path_digest
-
-    options: dict[str, Any] = {}
-    env_id = None
-    source = scenario.track
-    track = source.track
-    profile = scenario.speed_profile
-    params = None if profile is None else {"kind": type(profile).__name__, **dataclasses.asdict(profile)}
-    if isinstance(track, (str, os.PathLike)) and Path(track).is_file():
-        from vtrack_gym.envs.registration import register_track
-
-        env_id, options = register_track(track, profile, source.closed, source.smoothing_m)
-    elif isinstance(track, str):
-        options = {"track": track, "speed_profile": params}
-    elif isinstance(track, TrackPath):
-        options = {"track_path_sha256": path_digest(track), "speed_profile": params}
-    else:
-        return None
-    if source.half_width_m is not None:
-        options["half_width_m"] = float(source.half_width_m)
-    return env_id, options
-
-
-def env_identity(env: gym.Env) -> tuple[str, dict[str, Any]]:
-    """The env id and options a row of ``env`` (an instance) records, so different cars, tracks, speed profiles
-    and configurations never share a leaderboard entry.
-
-    Read from ``env.spec`` (id, make arguments, time limit, wrappers) and, for this package's envs, the resolved
-    scenario and config: the car as ``options["vehicle"]`` (``benchmark.vehicle_label``), a track file as
-    ``vtrack eval --track`` records it (its registered id, SHA-256 and speed profile), another track by name or
-    path digest, config fields that differ from the defaults as ``options["env_config"]``, a changed time limit,
-    added wrappers. An env whose configuration cannot be recorded gets ``<id> [unidentified configuration]``.
-    """
-    from gymnasium.envs.registration import registry
-
-    spec = getattr(env, "spec", None)
-    unwrapped = env.unwrapped
-    if spec is None or spec.id not in registry:
-        return (spec.id if spec is not None else type(unwrapped).__name__) + UNIDENTIFIED, {}
-    registered = registry[spec.id]
-    env_id = spec.id
-    options: dict[str, Any] = {}
-    if spec.max_episode_steps != registered.max_episode_steps:
-        options["max_episode_steps"] = spec.max_episode_steps
-    try:
-        if spec.additional_wrappers:
-            options["wrappers"] = [{"name": w.name, "kwargs": _jsonable(w.kwargs or {})}
-                                   for w in spec.additional_wrappers]
-    except TypeError:
-        return env_id + UNIDENTIFIED, {}
-    from vtrack_gym.envs.tracking_env import TrackingEnv
-
-    if not isinstance(unwrapped, TrackingEnv):
-        extra = {k: v for k, v in spec.kwargs.items()
-                 if k not in _RENDER_KWARGS and not (k in registered.kwargs and _equal(registered.kwargs[k], v))}
-        try:
-            if extra:
-                options["env_kwargs"] = _jsonable(extra)
-        except TypeError:
-            return env_id + UNIDENTIFIED, {}
-        return env_id, options
-    return _tracking_identity(unwrapped, spec, env_id, options)
-
-
-def _tracking_identity(unwrapped: Any, spec: Any, env_id: str,
-                       options: dict[str, Any]) -> tuple[str, dict[str, Any]]:
-    """``env_identity`` of this package's ``TrackingEnv``: scenario, track, car and config against the defaults."""
-    import dataclasses
-
-    from vtrack_gym.envs.config import EnvConfig
-    from vtrack_gym.envs.scenarios import resolve_scenario, with_protocol
-    from vtrack_gym.evaluation.track_benchmark import check_driven
-    from vtrack_gym.tracks.sources import source_digest
-
-    scenario_arg = spec.kwargs.get("scenario")
-    if not isinstance(scenario_arg, str):  # a Scenario object: not recorded
-        return env_id + UNIDENTIFIED, {}
-    scenario = resolve_scenario(scenario_arg, spec.kwargs.get("track"), spec.kwargs.get("speed_profile"),
-                                spec.kwargs.get("half_width_m"), spec.kwargs.get("closed"),
-                                spec.kwargs.get("smoothing_m"))
-    base = resolve_scenario(scenario.name)
-    protocol = {k: spec.kwargs[k] for k in ("entry_speed_kmh", "reference") if spec.kwargs.get(k) is not None}
-    if protocol:   # the standard ids' entry speed / reference line: recorded, so two settings never share a row
-        scenario = with_protocol(scenario, unwrapped.config.vehicle, **protocol)
-        applied = with_protocol(base, unwrapped.config.vehicle, **protocol)
-        if not _equal(applied, base):
-            options["protocol"] = _jsonable(protocol)
-        base = applied
-    track_fields = ("track", "speed")   # the parts make kwargs replace (track=, speed_profile=, ...)
-    for f in dataclasses.fields(scenario):
-        if f.name not in track_fields and not _equal(getattr(scenario, f.name), getattr(base, f.name)):
-            return env_id + UNIDENTIFIED, {}
-    if not all(_equal(getattr(scenario, f), getattr(base, f)) for f in track_fields):
-        found = _track_provenance(scenario)
-        if found is None:
-            return env_id + UNIDENTIFIED, {}
-        check_driven(source_digest(tuple(unwrapped.paths)), found[1])   # the file still holds what the env drives
-        env_id = found[0] or env_id
-        options.update(found[1])
-    config, default = unwrapped.config, EnvConfig()
-    label = _vehicle_of(config, spec.kwargs.get("vehicle", getattr(config, "vehicle", None)))
-    changed: dict[str, Any] = {}
-    for f in dataclasses.fields(config):
-        value = getattr(config, f.name)
-        if f.name == "vehicle" or _equal(value, getattr(default, f.name)):
-            continue
-        try:
-            changed[f.name] = _jsonable(value)
-        except TypeError:
-            return env_id + UNIDENTIFIED, {}
-    if changed:
-        options["env_config"] = changed
-    if label is not None:
-        options["vehicle"] = label
-    return env_id, options
 
 
 def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seeds: Sequence[int] | None = None,
@@ -338,7 +165,7 @@ def _row(make: Callable[[Any], Any], env: gym.Env, ep: Episode, suite: str, poli
         raise ValueError(f"the factory returned {type(policy).__name__}, which has no predict method")
     name = policy_id or policy_id_of(policy)
     if digest is None:   # a policy whose state cannot be read completely needs a policy_id naming it
-        digest = named_policy_hash(policy, policy_id) if policy_id else policy_hash(policy)
+        digest = named_policy_hash(policy, policy_id, env) if policy_id else policy_hash(policy, env)
     row, _ = episode_scorer(suite, make)(name, policy, env, ep, suite, digest)
     log.debug("%s on %s seed %s: %s, max |e_y| %.4g m", name, ep.env_id, ep.seed, row.termination,
              row.metrics.get("max_e_y_m", float("nan")))

@@ -176,13 +176,17 @@ the id already encodes a track file's content and profile.)"""
 
 
 def board_env(record: Mapping[str, Any]) -> str:
-    """The env a record is ranked in: its ``env_id``, with `` (<vehicle>)`` appended when its ``options`` name a car
-    (``options["vehicle"]``, see ``benchmark.vehicle_label``) and `` [<settings>]`` when they record settings
-    (``SETTING_OPTIONS``), so different cars or set-ups never share a ranking."""
+    """The env a record is ranked in: its ``env_id`` (an alias resolved), with `` (<vehicle>)`` appended when its
+    ``options`` name a car (``options["vehicle"]``, see ``benchmark.vehicle_label``) and `` [<settings>]`` when
+    they record settings (``SETTING_OPTIONS``, numbers normalised), so different cars or set-ups never share a
+    ranking and one set-up spelled two ways is one."""
+    from vtrack_gym.evaluation.env_names import canonical_env_id, normal_numbers
+
     options = record.get("options") or {}
     vehicle = options.get("vehicle")
-    label = str(record["env_id"]) if not vehicle else f"{record['env_id']} ({vehicle})"
-    settings = settings_label(options)
+    env_id = canonical_env_id(str(record["env_id"]))   # rows stored under an alias join their scenario's
+    label = env_id if not vehicle else f"{env_id} ({vehicle})"
+    settings = settings_label(normal_numbers(dict(options)))   # 45 and 45.0: one set-up
     return f"{label} [{settings}]" if settings else label
 
 
@@ -249,8 +253,9 @@ def build_board(records: Iterable[Mapping[str, Any]], columns: Sequence[str],
     for env_id in dict.fromkeys(e["env_id"] for e in board):
         same = [e for e in board if e["env_id"] == env_id]
         labels = _labels(same)
-        for rank, e in enumerate(same, 1):
+        for rank, (e, label) in enumerate(zip(same, labels, strict=True), 1):
             e["rank"] = rank
+            e["name"] = label       # policy_id[:preset], with @policy_hash where two entries would read alike
             e["tied_with"] = ", ".join(lab for o, lab in zip(same, labels, strict=True)
                                        if o is not e and _tied(e, o, primary))
     return board

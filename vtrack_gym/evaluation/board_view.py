@@ -20,9 +20,18 @@ COLUMN_SETS: tuple[str, ...] = ("key", "all")
 def key_view(board: Sequence[dict[str, Any]], primary: str, suite_columns: Sequence[str] = ()) -> list[dict[str, Any]]:
     """``board`` with only its key columns: ``KEY_COLUMNS``, the suite's ``primary`` metric (with its interval) when
     it is not one of them, the columns only this suite has (``suite_columns``, e.g. the ISO 4138 circle's lateral
-    acceleration) and ``EXPLAIN_COLUMNS``; columns a board lacks are left out."""
+    acceleration) and ``EXPLAIN_COLUMNS``; columns a board lacks are left out. Two entries of one env with one
+    policy id are shown by their ``name`` (``policy_id@policy_hash``)."""
     wanted = list(dict.fromkeys([*KEY_COLUMNS, primary, *suite_columns, *EXPLAIN_COLUMNS]))
-    return [{c: entry[c] for c in wanted if c in entry} for entry in board]
+    return [{c: (_shown_id(entry) if c == "policy_id" else entry[c]) for c in wanted if c in entry}
+            for entry in board]
+
+
+def _shown_id(entry: dict[str, Any]) -> Any:
+    """The policy as a reader tells it apart: ``name`` (``policy_id@policy_hash``) where two entries of an env
+    share a policy id (two agent files with one stem, one class with two settings), else ``policy_id``."""
+    name = entry.get("name")
+    return name if isinstance(name, str) and name.endswith(f"@{entry.get('policy_hash')}") else entry["policy_id"]
 
 
 def board_view(board: Sequence[dict[str, Any]], primary: str, columns: str = "key",

@@ -74,10 +74,11 @@ def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str,
     (``success_metrics``).
     The row's ``options`` carry ``ep``'s reset options and the car (``vehicle_label(ep.vehicle)``, when not the
     default car), so cars never mix on the leaderboard, and on a track file the SHA-256 of the bytes this env read
-    and drove (``track_sha256``). Its ``policy_hash`` is ``digest`` if given, else the
-    policy's fingerprint taken before the rollout (a policy that changes its attributes while driving keeps one
+    and drove (``track_sha256``). Its ``policy_hash`` is ``digest`` if given, else the policy's fingerprint
+    (``fingerprint.policy_hash`` in this env's observation layout) taken before the rollout (a policy that
+    changes its attributes while driving keeps one
     hash)."""
-    digest = digest or policy_hash(policy)
+    digest = digest or policy_hash(policy, env)
     trace = rollout(policy, env, seed=ep.seed, options=ep.options)
     trace.policy_id = name
     metrics = evaluate_trace(trace)

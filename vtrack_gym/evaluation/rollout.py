@@ -19,8 +19,13 @@ class PolicyLike(Protocol):
 
 
 def policy_id_of(policy: PolicyLike) -> str:
-    """A readable id for provenance (``policy.policy_id`` if present, else the class name)."""
-    return str(getattr(policy, "policy_id", type(policy).__name__))
+    """A readable id for provenance: ``policy.policy_id`` if present, else its class and the constructor arguments
+    it holds (``policy_names.instance_label``: ``Gains(k_y=0.2)``)."""
+    if hasattr(policy, "policy_id"):
+        return str(policy.policy_id)
+    from vtrack_gym.evaluation.policy_names import instance_label
+
+    return instance_label(policy)
 
 
 def solver_failure_count(policy: PolicyLike) -> int | None:

@@ -55,10 +55,12 @@ def run(args: argparse.Namespace) -> int:
     make = policy_factory(args.policy, args.preset, args.trust_code, parse_policy_kwargs(args.policy_kwargs))
     env_id, provenance = env_or_track(args)
     check_vehicle(args)
-    store = ResultStore(args.store)  # verified before the rollouts; written after the table is printed
+    store = ResultStore(args.store)  # verified before the rollouts; written before anything is printed
     announce_kernels()
     policy_id = args.policy if args.trust_code else recorded_policy_id(args.policy, args.preset)
     rows = with_provenance(evaluate(make, env_id, seeds, policy_id=policy_id, vehicle=args.vehicle), provenance)
+    store.add(rows)  # before printing: a closed stdout or a full disk cannot lose the run
+    err(f"results stored in {args.store} (suite 'custom': vtrack leaderboard --suite custom)")
     table = [{"seed": r.seed, "termination": r.termination, "success": int(r.verdict()),
               **{k: v for k, v in r.metrics.items() if isinstance(v, float)}} for r in rows]
     out(to_markdown(table), flush=True)
@@ -66,6 +68,4 @@ def run(args: argparse.Namespace) -> int:
         from vtrack_gym.evaluation.benchmark import LEADERBOARD_COLUMNS, summarise
 
         out("\n" + to_markdown(summarise(rows, LEADERBOARD_COLUMNS)), flush=True)
-    store.add(rows)
-    err(f"results stored in {args.store} (suite 'custom': vtrack leaderboard --suite custom)")
     return 0

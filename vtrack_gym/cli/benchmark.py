@@ -14,6 +14,7 @@ from vtrack_gym.cli._envs import announce_kernels, check_vehicle, env_or_track, 
 from vtrack_gym.cli._extras import osqp_for
 from vtrack_gym.cli._policies import policy_factories
 from vtrack_gym.cli._terminal import err, out
+from vtrack_gym.evaluation.store import StoreError
 from vtrack_gym.evaluation.suites import SUITES
 
 NAME = "benchmark"
@@ -127,11 +128,15 @@ def run(args: argparse.Namespace) -> int:
             f"{args.suite!r} board (vtrack leaderboard --suite '{suite}')")
     if args.tracks is not None:
         err(f"{len(result['tracks'])} track files of --tracks {args.tracks}: suite {suite!r}")
-    err(f"{len(result['rows'])} results stored in {args.store} (suite {suite!r})")
+    if result["store_error"] is None:
+        err(f"{len(result['rows'])} results stored in {args.store} (suite {suite!r})")
     if result["rows"]:
         board = board_of(result["rows"], suite).entries
         out(render_board(shown_columns(board, args.format, args.columns, suite), args.format))
         err(ranking_note(suite))
     for f in result["figures"]:
         err(f"figure: {f}")
-    return report_lost(result["lost"])
+    code = report_lost(result["lost"])
+    if result["store_error"] is not None:
+        raise StoreError(result["store_error"])
+    return code

@@ -48,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
     from vtrack_gym.baselines.resolve import recorded_policy_id
     from vtrack_gym.evaluation.api import evaluate
     from vtrack_gym.evaluation.report_formats import to_markdown
-    from vtrack_gym.evaluation.store import ResultStore
+    from vtrack_gym.evaluation.store import ResultStore, StoreError
     from vtrack_gym.evaluation.track_benchmark import with_provenance
 
     seeds = opt.parse_seeds(args.seeds)
@@ -59,8 +59,12 @@ def run(args: argparse.Namespace) -> int:
     announce_kernels()
     policy_id = args.policy if args.trust_code else recorded_policy_id(args.policy, args.preset)
     rows = with_provenance(evaluate(make, env_id, seeds, policy_id=policy_id, vehicle=args.vehicle), provenance)
-    store.add(rows)  # before printing: a closed stdout or a full disk cannot lose the run
-    err(f"results stored in {args.store} (suite 'custom': vtrack leaderboard --suite custom)")
+    store_error = None
+    try:   # before printing: a closed stdout cannot lose the run; a store that fails still lets the table show
+        store.add(rows)
+        err(f"results stored in {args.store} (suite 'custom': vtrack leaderboard --suite custom)")
+    except StoreError as exc:
+        store_error = exc
     table = [{"seed": r.seed, "termination": r.termination, "success": int(r.verdict()),
               **{k: v for k, v in r.metrics.items() if isinstance(v, float)}} for r in rows]
     out(to_markdown(table), flush=True)
@@ -68,4 +72,6 @@ def run(args: argparse.Namespace) -> int:
         from vtrack_gym.evaluation.benchmark import LEADERBOARD_COLUMNS, summarise
 
         out("\n" + to_markdown(summarise(rows, LEADERBOARD_COLUMNS)), flush=True)
+    if store_error is not None:
+        raise store_error
     return 0

@@ -18,7 +18,7 @@ from vtrack_gym.evaluation.episode_score import (  # noqa: F401  (re-exported: b
     success_metrics,
     vehicle_label,
 )
-from vtrack_gym.evaluation.store import ResultRow, ResultStore
+from vtrack_gym.evaluation.store import ResultRow, ResultStore, StoreError
 from vtrack_gym.evaluation.suites import Episode, base_suite, primary_metric, suite_episodes, suite_label, with_vehicle
 from vtrack_gym.evaluation.trace import Trace
 
@@ -96,7 +96,9 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
     (``figure_runs.run_folder``: suite, policy set, car and envs), recorded in every row's ``options["figures"]``.
 
     Returns ``{"rows": [...], "traces": {env_id: [Trace, ...]}, "figures": [paths], "suite": label, "lost":
-    [lines]}``; ``lost`` names each episode whose worker died (``parallel.run_tasks``), the others are all there.
+    [lines], "store_error": text or None}``; ``lost`` names each episode whose worker died
+    (``parallel.run_tasks``), the others are all there; ``store_error``: why the store stopped taking rows (a full
+    disk; logged as an error), None when every row was stored.
     """
     from vtrack_gym.evaluation.parallel import EpisodeTask
 
@@ -111,7 +113,7 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
     figures = (write_figures(scored.traces_by_env, scored.rows, scored.folder, vehicle=vehicle,
                              maneuvers=suite == "maneuvers") if scored.folder is not None else [])
     return {"rows": scored.rows, "traces": scored.traces_by_env, "figures": figures, "suite": label,
-            "lost": scored.lost}
+            "lost": scored.lost, "store_error": scored.store_error}
 
 
 RowFinish = Callable[[ResultRow], ResultRow]
@@ -134,14 +136,19 @@ def score_tasks(tasks: Sequence[Any], figures_dir: str | Path | None, vehicle: s
         folder_name = run_folder(tasks[0].suite, [t.policy_id for t in tasks], vehicle_label(vehicle),
                                  [t.episode.env_id for t in tasks])
     rows: dict[int, ResultRow] = {}
+    store_error: list[str] = []
 
     def keep(index: int, result: tuple[Any, Any]) -> None:
         row = result[0]
         if folder_name is not None:
             row = dataclasses.replace(row, options={**row.options, FIGURES_OPTION: folder_name})
         rows[index] = row if finish is None else finish(row)
-        if store is not None:
-            store.add([rows[index]])
+        if store is not None and not store_error:
+            try:
+                store.add([rows[index]])
+            except StoreError as exc:  # a full disk: the run goes on, its table is still shown
+                log.error("%s; the remaining rows are not stored", exc)
+                store_error.append(str(exc))
 
     with progress_bar(total=len(tasks), desc=progress_label or "", unit="episode",
                       disable=progress_label is None) as bar:
@@ -154,18 +161,20 @@ def score_tasks(tasks: Sequence[Any], figures_dir: str | Path | None, vehicle: s
         elif result[1] is not None:
             traces_by_env.setdefault(result[1].env_id, []).append(result[1])
     return ScoredTasks([rows[i] for i in sorted(rows)], traces_by_env,
-                       None if folder_name is None else Path(figures_dir) / folder_name, lost)
+                       None if folder_name is None else Path(figures_dir) / folder_name, lost,
+                       store_error[0] if store_error else None)
 
 
 @dataclasses.dataclass(frozen=True)
 class ScoredTasks:
     """What ``score_tasks`` returns: the rows in task order, the kept traces by env, the run's figure folder (or
-    None) and one line per lost episode (``parallel.lost_line``)."""
+    None), one line per lost episode (``parallel.lost_line``) and the store's error (None: every row stored)."""
 
     rows: list[ResultRow]
     traces_by_env: dict[str, list[Trace]]
     folder: Path | None
     lost: list[str]
+    store_error: str | None = None
 
 
 def write_figures(traces_by_env: dict[str, list[Trace]], rows: Sequence[ResultRow], figures_dir: str | Path,

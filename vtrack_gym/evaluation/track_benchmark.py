@@ -140,7 +140,7 @@ def _benchmark(tracks: Sequence[tuple[str, Mapping[str, Any], Any]], factories: 
     figures = [] if scored.folder is None else write_figures(scored.traces_by_env, scored.rows, scored.folder,
                                                              vehicle=vehicle)
     return {"rows": scored.rows, "traces": scored.traces_by_env, "figures": figures, "suite": suite,
-            "lost": scored.lost}
+            "lost": scored.lost, "store_error": scored.store_error}
 
 
 def is_track_set(suite: str) -> bool:

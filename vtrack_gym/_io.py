@@ -180,7 +180,7 @@ def _missing_folders(folder: Path) -> list[Path]:
     return missing
 
 
-def _new_file_mode(target: Path) -> int:
+def new_file_mode(target: Path) -> int:
     """The permission bits of the file being replaced, else ``0o666`` minus the umask."""
     try:
         return stat.S_IMODE(os.stat(target).st_mode)
@@ -206,7 +206,7 @@ def _publish(tmp: str, target: Path, label: str) -> None:
         os.fsync(fd)
     finally:
         os.close(fd)
-    os.chmod(tmp, _new_file_mode(target))
+    os.chmod(tmp, new_file_mode(target))
     try:
         st = os.lstat(target)
     except FileNotFoundError:

@@ -48,9 +48,10 @@ def register(sub: Any) -> None:
                    help="score the policies on every track file of this folder (*.csv) or glob pattern (quote it, "
                    "e.g. 'tracks/*.csv'), read with the --track options; suite tracks[<name>-<digest>], whose board "
                    "ranks across all tracks first and keeps the per-track rows (not with --suite, --quick or --track)")
-    b.add_argument("--workers", type=int, default=None, metavar="N",
-                   help="run the episodes in N local processes (default: the cores of this machine; 1 runs them in "
-                   "this process); the rows do not depend on N. With --backend ray: the most episodes in flight")
+    b.add_argument("--workers", type=opt.int_in(1, opt.MAX_WORKERS), default=None, metavar="N",
+                   help=f"run the episodes in at most N local processes, 1 to {opt.MAX_WORKERS} (default: the cores of "
+                   "this machine; 1 runs them in this process; never more processes than episodes); the rows do not "
+                   "depend on N. With --backend ray: the most episodes in flight")
     b.add_argument("--backend", choices=("local", "ray"), default="local",
                    help="local: processes on this machine; ray: tasks on the Ray cluster of RAY_ADDRESS, or a "
                    "local Ray instance (needs the 'ray' extra) (default: local)")
@@ -74,8 +75,6 @@ def check_outputs(args: argparse.Namespace) -> None:
 
 
 def _check_track_options(args: argparse.Namespace) -> None:
-    if args.workers is not None and args.workers < 1:
-        raise ValueError(f"--workers must be an integer >= 1 (got {args.workers})")
     if args.track is not None and args.tracks is not None:
         raise ValueError("give --track FILE or --tracks DIR_OR_GLOB, not both")
     for option, value, suite in (("--track", args.track, "'custom'"), ("--tracks", args.tracks, "tracks[...]")):

@@ -28,19 +28,23 @@ def register(sub: Any) -> None:
     vd.add_argument("--out", type=Path, required=True, help="output file ending in .mp4 or .gif")
     vd.add_argument("--preset", default="default", help="baseline preset for every policy (default: default)")
     opt.add_vehicle(vd)
-    vd.add_argument("--seed", type=int, default=0, help="episode seed (default: 0)")
-    vd.add_argument("--speedup", type=float, default=1.0,
+    vd.add_argument("--seed", type=opt.int_in(0, opt.MAX_SEED), default=0, help="episode seed (default: 0)")
+    vd.add_argument("--speedup", type=opt.float_in(0.05, 100.0), default=1.0,
                     help="seconds of driving per second of video, in [0.05, 100] (default: 1 = real time)")
-    vd.add_argument("--fps", type=int, default=25, help="frames per second of video, 1-120 (default: 25)")
-    vd.add_argument("--seconds", type=float, default=None, help="stop after this much driving [s] (default: "
-                    "the whole episode)")
+    vd.add_argument("--fps", type=opt.int_in(1, 120), default=25,
+                    help="frames per second of video, 1-120 (default: 25)")
+    vd.add_argument("--seconds", type=opt.float_in(0.01, 86_400.0), default=None,
+                    help="stop after this much driving [s], 0.01 to 86400 (default: the whole episode)")
     vd.add_argument("--arrangement", choices=("side", "overlay"), default="side",
                     help="several policies: side by side or overlaid in one frame (default: side)")
     vd.add_argument("--view", choices=("follow", "track"), default="follow",
                     help="follow: camera on the (first) car; track: the whole track (default: follow)")
-    vd.add_argument("--view-width", type=float, default=60.0, help="follow view: metres across (default: 60)")
-    vd.add_argument("--width", type=int, default=640, help="panel width in pixels, even (default: 640)")
-    vd.add_argument("--height", type=int, default=384, help="panel height in pixels, even (default: 384)")
+    vd.add_argument("--view-width", type=opt.float_in(5.0, 2000.0), default=60.0,
+                    help="follow view: metres across, 5 to 2000 (default: 60)")
+    vd.add_argument("--width", type=opt.int_in(64, 4096), default=640,
+                    help="panel width in pixels, even, 64 to 4096 (default: 640)")
+    vd.add_argument("--height", type=opt.int_in(64, 4096), default=384,
+                    help="panel height in pixels, even, 64 to 4096 (default: 384)")
 
 
 def _video_config(args: argparse.Namespace) -> Any:

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import glob
 import hashlib
 import json
 from collections.abc import Mapping, Sequence
@@ -53,13 +52,19 @@ def check_driven(driven: str | None, provenance: Mapping[str, Any]) -> None:
 
 
 def track_files(dir_or_glob: str | Path) -> list[Path]:
-    """The CSV files of a folder (``*.csv``, sorted), or the files a glob pattern matches (sorted);
-    ``ValueError`` when there is none (or more than ``MAX_TRACKS``)."""
+    """The CSV files of a folder (``*.csv``, sorted), or the files a glob pattern matches (sorted; ``**`` for any
+    depth, each real folder entered once: ``_io.glob_files``); ``ValueError`` when there is none (or more than
+    ``MAX_TRACKS``)."""
+    from vtrack_gym._io import glob_files
+
     text = str(dir_or_glob)
     if Path(text).is_dir():
         files = sorted(p for p in Path(text).glob("*.csv") if p.is_file())
-    else:
-        files = sorted(Path(p) for p in glob.glob(text, recursive=True) if Path(p).is_file())
+    else:   # each real folder entered once: a symlink loop under ** ends
+        try:
+            files = glob_files(text, MAX_TRACKS)
+        except ValueError:
+            raise ValueError(f"--tracks {text}: more than {MAX_TRACKS} files") from None
     if not files:
         raise ValueError(f"--tracks {text}: no track file found (give a folder of .csv files or a glob pattern "
                          "such as 'tracks/*.csv')")

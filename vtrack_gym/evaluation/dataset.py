@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from vtrack_gym.evaluation.rollout import step_action
 from vtrack_gym.evaluation.suites import Episode, suite_episodes, with_vehicle
 
 log = logging.getLogger(__name__)
@@ -83,7 +84,7 @@ def record_episode(env: Any, policy: Any, episode: Episode) -> Any:
     terminated = truncated = False
     while not (terminated or truncated):
         action, _ = policy.predict(obs, deterministic=True)
-        action = np.asarray(action, dtype=np.float32).reshape(env.action_space.shape)
+        action = step_action(action, env.action_space.shape)
         obs, reward, terminated, truncated, _ = env.step(action)
         observations.append(obs)
         actions.append(action)

@@ -53,8 +53,8 @@ def run(args: argparse.Namespace) -> int:
 
     seeds = opt.parse_seeds(args.seeds)
     make = policy_factory(args.policy, args.preset, args.trust_code, parse_policy_kwargs(args.policy_kwargs))
+    check_vehicle(args)   # read once: the speed-profile check, the envs and the rows use the same bytes
     env_id, provenance = env_or_track(args)
-    check_vehicle(args)
     store = ResultStore(args.store)  # verified before the rollouts; written before anything is printed
     announce_kernels()
     policy_id = args.policy if args.trust_code else recorded_policy_id(args.policy, args.preset)

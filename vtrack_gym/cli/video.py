@@ -78,13 +78,13 @@ def run(args: argparse.Namespace) -> int:
     if args.seed < 0:
         raise ValueError(f"--seed must be >= 0 (got {args.seed})")
     config = _video_config(args)
+    check_vehicle(args)   # read once: every env of the video drives the same bytes
     env_id = _drawable_env(args)
     names = [args.policy] if args.policy is not None else opt.policy_list(args.policies)
     if not names:
         raise ValueError("--policies needs at least one policy name, e.g. --policies mpc,smc")
     policies = [(Path(n).stem if Path(n).suffix else n, make)
                 for n, make in policy_makers(names, args.preset, args.trust_code, args.policy_kwargs)]
-    check_vehicle(args)
     result = record_video(env_id, policies, out_file, config, seed=args.seed,
                           progress=lambda msg: err(f"recording: {msg}"), vehicle=args.vehicle)
     out(f"video: {result['path']} ({result['frames']} frames, {result['video_s']:.1f} s of video for "

@@ -105,9 +105,11 @@ def _vehicle_of(config: Any, make_vehicle: Any) -> str | None:
     import os
 
     from vtrack_gym.evaluation.benchmark import vehicle_label
-    from vtrack_gym.vehicle.catalog import list_vehicles, load_vehicle
+    from vtrack_gym.vehicle.catalog import VehicleFile, list_vehicles, load_vehicle
     from vtrack_gym.vehicle.params import VehicleParams
 
+    if isinstance(make_vehicle, VehicleFile):
+        return vehicle_label(make_vehicle)
     if isinstance(make_vehicle, (str, os.PathLike)):
         return vehicle_label(str(make_vehicle))
     params = config.vehicle
@@ -280,8 +282,10 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
         make = lambda env: NormalisedPolicy(inner(env), vecnormalize)  # noqa: E731
     episodes: list[Episode] = []      # what to run, all checked before the store is opened or created
     if isinstance(suite_or_env, str):
+        from vtrack_gym.vehicle.catalog import read_vehicle_once
+
         found, suite = _episodes(suite_or_env, seeds)
-        episodes = list(with_vehicle(found, vehicle))
+        episodes = list(with_vehicle(found, read_vehicle_once(vehicle)))   # a file: read once for every episode
     elif isinstance(suite_or_env, gym.Env):
         if vehicle is not None:
             raise ValueError("vehicle applies to a suite name or an env id; an env instance drives its own car")

@@ -101,7 +101,9 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
     disk; logged as an error), None when every row was stored.
     """
     from vtrack_gym.evaluation.parallel import EpisodeTask
+    from vtrack_gym.vehicle.catalog import read_vehicle_once
 
+    vehicle = read_vehicle_once(vehicle)   # a vehicle file: its envs and rows use the bytes read here
     episodes = with_vehicle(suite_episodes(suite, quick=quick, seeds=seeds), vehicle)
     label = suite_label(suite, quick, seeds)
     factories = policy_factories(policies)

@@ -133,8 +133,10 @@ def _benchmark(tracks: Sequence[tuple[str, Mapping[str, Any], Any]], factories: 
     from vtrack_gym.evaluation.benchmark import score_episode, score_tasks, write_figures
     from vtrack_gym.evaluation.parallel import EpisodeTask
     from vtrack_gym.evaluation.suites import Episode
+    from vtrack_gym.vehicle.catalog import read_vehicle_once
 
     seeds = [int(s) for s in seeds]
+    vehicle = read_vehicle_once(vehicle)   # a vehicle file: its envs and rows use the bytes read here
     provenance = {env_id: prov for env_id, prov, _ in tracks}
     tasks = [EpisodeTask(name, make, Episode(env_id, s, vehicle=vehicle), suite, score_episode,
                          keep_trace=s == seeds[0], setup=setup)

@@ -9,6 +9,8 @@ metrics measured from the clock, ``metrics.CLOCK_MEASURED``, and the creation ti
 any callable works) after a warm-up here that loads what each worker would otherwise load again (the env's
 compiled kernels, each policy and the scoring: ``_warm_up``); each worker runs its native libraries with one thread
 (``worker_threads``), and a debug line reports the warm-up's and each worker's CPU time (``usage_line``).
+Each result reaches the caller (``on_result``) as its episode ends, so finished work can be stored before anything
+else can fail; a worker that dies costs only its own episode (a ``worker_pool.LostTask`` in its place).
 ``ray`` sends each task to a Ray worker with cloudpickle (factories must be picklable; a
 track id registered in this process is registered again in the worker by the task's ``setup``); it connects to
 ``address`` or ``RAY_ADDRESS`` when given, else starts a local Ray instance. Ray is an optional dependency

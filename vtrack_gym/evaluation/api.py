@@ -258,7 +258,8 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
     envs at ``seeds``), an env id (``seeds``, default ``[0]``) or a Gymnasium env instance (driven as given).
     ``vecnormalize``: SB3 ``VecNormalize`` statistics the policy was trained with (observations are normalised
     with them before ``predict``). ``store``: a leaderboard file (or ``ResultStore``) the rows are added to, each as its
-    episode ends.
+    episode ends (with ``workers``/``backend``: once every episode is done, as they share the first one's
+    fingerprint).
     ``policy_id``: the name in the rows (default: ``policy.policy_id`` or the class name). ``vehicle``: the car of
     a suite's or an env id's episodes (a name of ``vehicle.list_vehicles()`` or a vehicle file; default the paper's
     car), recorded in the rows' ``options`` (an env instance is driven with its own car, track and config, recorded

@@ -99,3 +99,33 @@ def test_vtrack_dataset_command(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
     assert minari.load_dataset("vtrack/DLC120/cli-v0").total_episodes == 1
     assert main(["dataset", "--policy", "lqr", "--env", "CartPole-v1", "--root", str(tmp_path)]) == 2
     assert "registered vtrack env id" in capsys.readouterr().err
+
+
+def test_dataset_root_is_checked_and_a_half_written_dataset_never_blocks_a_rerun(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    """``--root`` that is a file is refused before any episode; a write that dies midway leaves no dataset under
+    its id (only a hidden staging folder), so the same command run again writes it."""
+    from vtrack_gym.cli import main
+
+    a_file = tmp_path / "not_a_folder"
+    a_file.write_text("x")
+    argv = ["dataset", "--policy", "lqr", "--env", "DLC120-v0", "--name", "retry", "--no-progress"]
+    assert main([*argv, "--root", str(a_file / "sub")]) == 2
+    assert "--root" in capsys.readouterr().err
+
+    real = minari.create_dataset_from_buffers
+
+    def dies_midway(dataset_id: str, *args: object, **kwargs: object) -> None:
+        from minari.storage.datasets_root_dir import get_dataset_path
+
+        (get_dataset_path(dataset_id) / "data").mkdir(parents=True)   # what a killed writer leaves
+        raise KeyboardInterrupt
+
+    root = tmp_path / "datasets"
+    monkeypatch.setattr(minari, "create_dataset_from_buffers", dies_midway)
+    assert main([*argv, "--root", str(root)]) == 130
+    monkeypatch.setattr(minari, "create_dataset_from_buffers", real)
+    assert main([*argv, "--root", str(root)]) == 0
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(root))
+    assert minari.load_dataset("vtrack/DLC120/retry-v0").total_episodes == 1
+    assert not [p for p in root.iterdir() if p.name.startswith(".vtrack-writing-")]

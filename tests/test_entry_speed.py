@@ -81,7 +81,8 @@ def test_a_fail_at_the_lowest_speed_does_not_hide_a_pass_further_up() -> None:
     ({"lo_kmh": 80.0, "hi_kmh": 40.0}, "lo_kmh must be below hi_kmh"),
     ({"lo_kmh": 40.0, "hi_kmh": 250.0}, "hi_kmh must be a number in (0, 200]"),
     ({"lo_kmh": 0.0, "hi_kmh": 40.0}, "lo_kmh must be a number in (0, 200]"),
-    ({"lo_kmh": 40.0, "hi_kmh": 80.0, "tol_kmh": 0.0}, "tol_kmh must be in (0, hi_kmh - lo_kmh"),
+    ({"lo_kmh": 40.0, "hi_kmh": 80.0, "tol_kmh": 0.0}, "tol_kmh must be in [0.01, hi_kmh - lo_kmh"),
+    ({"lo_kmh": 40.0, "hi_kmh": 80.0, "tol_kmh": 1e-300}, "tol_kmh must be in [0.01, hi_kmh - lo_kmh"),
     ({"lo_kmh": 40.0, "hi_kmh": 80.0, "checks": 11}, "checks must be an integer in [0, 10]"),
 ])
 def test_bisection_refuses_bad_bounds(kwargs: dict, field: str) -> None:

@@ -187,7 +187,9 @@ def test_cli_track_option_records_provenance(circuit_csv: Path, tmp_path: Path, 
         with pytest.raises(SystemExit) as exc:
             main(["eval", "--policy", "lqr", *argv])
         assert exc.value.code == 2 and "--track" in capsys.readouterr().err
-    assert main(["eval", "--policy", "lqr", "--track", str(circuit_csv), "--max-lateral-g", "0"]) == 2
+    with pytest.raises(SystemExit) as exc:   # out of its range: refused while parsing
+        main(["eval", "--policy", "lqr", "--track", str(circuit_csv), "--max-lateral-g", "0"])
+    assert exc.value.code == 2 and "--max-lateral-g: must be a number" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("name", own_tracks.POLICIES)

@@ -182,16 +182,30 @@ def test_train_checkpoints_on_a_full_disk_say_so_and_leave_no_partial_file(tmp_p
                                                                           checkpoint):
     """The best checkpoint (``best_model.zip``, saved at a periodic evaluation) and the final ``model.zip`` are
     written through the gate: a full disk while SB3 saves them is a one-line error and leaves no partial or
-    temporary checkpoint."""
+    temporary checkpoint. (The final ``model.zip`` is serialised in memory and signed before it is written: the
+    disk fills while its bytes are written.)"""
     from stable_baselines3.common.base_class import BaseAlgorithm
+
+    import vtrack_gym._io as io_module
 
     def full(self, path, *args, **kwargs):
         Path(path).write_bytes(b"half a checkpoint")
         raise OSError(errno.ENOSPC, "No space left on device")
 
+    publish = io_module._publish
+
+    def full_at_model_zip(tmp, target, label):
+        if Path(target).name != "model.zip":
+            return publish(tmp, target, label)
+        Path(tmp).write_bytes(b"half a checkpoint")
+        raise OSError(errno.ENOSPC, "No space left on device")
+
     import vtrack_gym.agents.train as train_module
 
-    monkeypatch.setattr(BaseAlgorithm, "save", full)
+    if checkpoint == "best_model.zip":
+        monkeypatch.setattr(BaseAlgorithm, "save", full)
+    else:
+        monkeypatch.setattr(io_module, "_publish", full_at_model_zip)
     monkeypatch.setattr(train_module, "selection_score", lambda results: 0.1)  # a new best at the evaluation
     run = tmp_path / "run"
     freq = "64" if checkpoint == "best_model.zip" else "0"

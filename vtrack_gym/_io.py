@@ -28,6 +28,7 @@ import stat
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 _KINDS = ((stat.S_ISREG, "a regular file"), (stat.S_ISDIR, "a directory"),
           (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
@@ -180,7 +181,7 @@ def _missing_folders(folder: Path) -> list[Path]:
     return missing
 
 
-def _new_file_mode(target: Path) -> int:
+def new_file_mode(target: Path) -> int:
     """The permission bits of the file being replaced, else ``0o666`` minus the umask."""
     try:
         return stat.S_IMODE(os.stat(target).st_mode)
@@ -206,7 +207,7 @@ def _publish(tmp: str, target: Path, label: str) -> None:
         os.fsync(fd)
     finally:
         os.close(fd)
-    os.chmod(tmp, _new_file_mode(target))
+    os.chmod(tmp, new_file_mode(target))
     try:
         st = os.lstat(target)
     except FileNotFoundError:
@@ -311,3 +312,82 @@ def check_regular_input(path: str | os.PathLike[str], what: str = "file") -> Pat
     if not stat.S_ISREG(st.st_mode):
         raise ValueError(f"{name}: the {what} is {_kind(st.st_mode)}, not a regular file")
     return Path(name)
+
+
+_MAGIC = frozenset("*?[")
+
+
+def _subdirs(folder: Path) -> Iterator[os.DirEntry[str]]:
+    """The entries of ``folder`` (sorted by name); an unreadable folder has none."""
+    try:
+        with os.scandir(folder) as it:
+            entries = sorted(it, key=lambda e: e.name)
+    except OSError:
+        return iter(())
+    return iter(entries)
+
+
+def _visible(name: str, part: str) -> bool:
+    """``glob``'s rule: a wildcard never matches a name starting with a dot unless the pattern part does."""
+    return not name.startswith(".") or part.startswith(".")
+
+
+def _first_visit(entry: os.DirEntry[str] | Path, visited: set[tuple[int, int]]) -> bool:
+    """True the first time the real folder behind ``entry`` (symlinks followed) is seen; False after, or when it is
+    not a folder."""
+    try:
+        st = os.stat(entry)
+    except OSError:
+        return False
+    if not stat.S_ISDIR(st.st_mode) or (st.st_dev, st.st_ino) in visited:
+        return False
+    visited.add((st.st_dev, st.st_ino))
+    return True
+
+
+def _matches(folder: Path, parts: tuple[str, ...], visited: set[tuple[int, int]]) -> Iterator[Path]:
+    """Paths under ``folder`` matching the pattern ``parts`` (``**``: zero or more folders, each real folder
+    entered once however many symlinks lead to it)."""
+    import fnmatch
+
+    head, rest = parts[0], parts[1:]
+    if head == "**":
+        if rest:
+            yield from _matches(folder, rest, visited)
+        else:   # a last ``**`` matches everything below
+            yield from (Path(e.path) for e in _subdirs(folder) if _visible(e.name, ""))
+        for entry in _subdirs(folder):
+            if _visible(entry.name, "") and _first_visit(entry, visited):
+                yield from _matches(Path(entry.path), parts, visited)
+        return
+    if not _MAGIC & set(head):
+        candidates: Iterator[Any] = iter([folder / head])
+    else:
+        candidates = (Path(e.path) for e in _subdirs(folder)
+                      if fnmatch.fnmatchcase(e.name, head) and _visible(e.name, head))
+    for candidate in candidates:
+        if not rest:
+            if os.path.lexists(candidate):
+                yield candidate
+        elif os.path.isdir(candidate):
+            yield from _matches(candidate, rest, visited)
+
+
+def glob_files(pattern: str, limit: int) -> list[Path]:
+    """The regular files ``pattern`` matches, sorted (``*``, ``?``, ``[...]`` in a name, ``**`` for any folder
+    depth, as ``glob.glob(recursive=True)``), found without ever entering a real folder twice: a symlink loop
+    under ``**`` is walked once. ``ValueError`` when more than ``limit`` files match."""
+    parts = Path(pattern).parts
+    first_magic = next((i for i, p in enumerate(parts) if _MAGIC & set(p)), len(parts))
+    base = Path(*parts[:first_magic]) if first_magic else Path(".")
+    if first_magic == len(parts):
+        return [base] if base.is_file() else []
+    visited: set[tuple[int, int]] = set()
+    _first_visit(base, visited)
+    found: set[Path] = set()
+    for match in _matches(base, parts[first_magic:], visited):
+        if match.is_file():
+            found.add(match)
+            if len(found) > limit:
+                raise ValueError(f"{pattern}: more than {limit} files match")
+    return sorted(found)

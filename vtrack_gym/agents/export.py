@@ -5,12 +5,25 @@ See ``vtrack_gym.baselines.numpy_policy`` for the format. Imports torch/SB3 only
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from vtrack_gym.agents.run_signature import (
+    MAX_RUN_FILE_BYTES,
+    TRUST_MARKER,
+    read_run_files,
+    run_is_trusted,
+    sign_run,
+    signature,
+    verified_run_files,
+)
 from vtrack_gym.baselines.numpy_policy import FORMAT, FORMAT_VERSION, env_record, save_agent
+
+__all__ = ["TRUST_MARKER", "export", "export_bytes", "export_model", "export_run", "policy_layers", "run_is_trusted",
+           "sign_run", "zip_algo"]
 
 
 def _linear_stack(modules: Any) -> tuple[list[tuple[np.ndarray, np.ndarray]], list[str]]:
@@ -171,14 +184,15 @@ _POLICY_MODULES = {"stable_baselines3.common.policies": "ppo", "stable_baselines
 """Module of an SB3 zip's ``policy_class`` -> the algorithm that saved it."""
 
 
-def zip_algo(model_zip: str | Path) -> str | None:
-    """The algorithm (ppo/sac/td3) whose policy an SB3 ``model.zip`` holds, read from its JSON ``data`` member
-    (no unpickling); None if the file does not say."""
+def zip_algo(model_zip: str | Path | bytes) -> str | None:
+    """The algorithm (ppo/sac/td3) whose policy an SB3 ``model.zip`` (a path or its bytes) holds, read from its
+    JSON ``data`` member (no unpickling); None if the file does not say."""
+    import io
     import json
     import zipfile
 
     try:
-        with zipfile.ZipFile(model_zip) as zf:
+        with zipfile.ZipFile(io.BytesIO(model_zip) if isinstance(model_zip, bytes) else model_zip) as zf:
             info = zf.getinfo("data")
             if info.file_size > 16 << 20:
                 return None
@@ -206,62 +220,91 @@ def export_model(model_zip: str | Path, out: str | Path, algo: str, vecnormalize
     """Export an SB3 ``model.zip`` (``algo`` ppo/sac/td3) and optionally its ``VecNormalize`` pickle to
     ``<out>.json`` + ``<out>.npz``, recording the contract (observation layout, control period, action scaling) of
     ``env_id`` made with ``env_kwargs`` (e.g. the training ``control_period_s``). SB3's files are pickle-based:
-    only export models you produced or trust.
+    only export models you produced or trust. Each file is read once and loaded from those bytes.
 
     Without ``vecnormalize_pkl`` the agent takes raw observations. ``raw_observations`` None: that is refused
     (``ValueError``) when a ``vecnormalize.pkl`` lies next to the model or the model's observation space looks
     normalised; True: the caller vouches the model was trained on raw observations. A model of another
     algorithm than ``algo`` and a ``vecnormalize_pkl`` that is not a VecNormalize pickle are ``ValueError``.
     """
-    import pickle
+    from vtrack_gym._io import read_regular_file
 
-    from stable_baselines3 import PPO, SAC, TD3
-    from stable_baselines3.common.vec_env import VecNormalize
-
-    from vtrack_gym.agents.sb3_vec_env import TrackingSB3VecEnv
-
-    classes = {"ppo": PPO, "sac": SAC, "td3": TD3}
-    if algo not in classes:
-        raise ValueError(f"unknown algo {algo!r}; valid: {', '.join(classes)}")
+    if algo not in SB3_CLASSES:
+        raise ValueError(f"unknown algo {algo!r}; valid: {', '.join(SB3_CLASSES)}")
     model_zip = Path(model_zip)
-    if not model_zip.is_file():
-        raise ValueError(f"{model_zip}: SB3 model file not found")
-    saved_by = zip_algo(model_zip)
-    if saved_by is not None and saved_by != algo:
-        raise ValueError(f"--model {model_zip} holds a {saved_by.upper()} model, not --algo {algo}: pass --algo "
-                         f"{saved_by}")
+    model_bytes = read_regular_file(model_zip, MAX_RUN_FILE_BYTES, "SB3 model file")
     if vecnormalize_pkl is None and not raw_observations and (model_zip.parent / "vecnormalize.pkl").is_file():
         raise ValueError(f"--model {model_zip} has a vecnormalize.pkl next to it: the model was probably trained "
                          f"on normalised observations. Pass --vecnormalize {model_zip.parent / 'vecnormalize.pkl'} "
                          "(or --raw-observations if it really takes raw observations)")
+    vec_bytes = None if vecnormalize_pkl is None else \
+        read_regular_file(vecnormalize_pkl, MAX_RUN_FILE_BYTES, "VecNormalize file")
+    sources = Sources(model=f"--model {model_zip}", vecnorm=f"--vecnormalize {vecnormalize_pkl}")
+    return export_bytes(model_bytes, vec_bytes, out, algo, sources, env_id=env_id, command=command, seed=seed,
+                        env_kwargs=env_kwargs, raw_observations=raw_observations)
+
+
+@dataclass(frozen=True)
+class Sources:
+    """Where the model and VecNormalize bytes came from (named in messages)."""
+
+    model: str
+    vecnorm: str
+
+
+def _load_model(model_bytes: bytes, algo: str, source: str) -> Any:
+    """The SB3 model of ``algo`` loaded from ``model_bytes`` (never from a path); ``ValueError`` if not one."""
+    import io
+
+    from stable_baselines3 import PPO, SAC, TD3
+
+    saved_by = zip_algo(model_bytes)
+    if saved_by is not None and saved_by != algo:
+        raise ValueError(f"{source} holds a {saved_by.upper()} model, not --algo {algo}: pass --algo {saved_by}")
     try:
-        model = classes[algo].load(model_zip, device="cpu")
+        return {"ppo": PPO, "sac": SAC, "td3": TD3}[algo].load(io.BytesIO(model_bytes), device="cpu")
     except (KeyboardInterrupt, MemoryError):
         raise
     except Exception as exc:  # SB3 fails with whatever the mismatch trips over (AttributeError, TypeError, ...)
-        raise ValueError(f"--model {model_zip}: not a loadable SB3 {algo.upper()} model (--algo {algo}): "
+        raise ValueError(f"{source}: not a loadable SB3 {algo.upper()} model (--algo {algo}): "
                          f"{type(exc).__name__}: {exc}"[:600]) from None
-    vecnorm = None
-    if vecnormalize_pkl is not None:
-        if not Path(vecnormalize_pkl).is_file():
-            raise ValueError(f"{vecnormalize_pkl}: VecNormalize file not found")
-        try:
-            vecnorm = VecNormalize.load(str(vecnormalize_pkl), TrackingSB3VecEnv(env_id or "DLC120-v0", 1))
-        except (KeyboardInterrupt, MemoryError):
-            raise
-        except (pickle.UnpicklingError, EOFError, AttributeError, TypeError, ValueError, ImportError,
-                IndexError, KeyError, AssertionError) as exc:
-            raise ValueError(f"--vecnormalize {vecnormalize_pkl} is not a VecNormalize pickle (vecnormalize.pkl "
-                             f"of the training run) for {env_id or 'DLC120-v0'}: {type(exc).__name__}: "
-                             f"{exc}"[:600]) from None
-        if not isinstance(vecnorm, VecNormalize):
-            raise ValueError(f"--vecnormalize {vecnormalize_pkl} is not a VecNormalize pickle")
-        vecnorm.training = False
-    elif not raw_observations and env_id:
+
+
+def _load_vecnormalize(vec_bytes: bytes, env_id: str, source: str) -> Any:
+    """The ``VecNormalize`` unpickled from ``vec_bytes`` (what ``VecNormalize.load`` does, from bytes), frozen."""
+    import pickle
+
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from vtrack_gym.agents.sb3_vec_env import TrackingSB3VecEnv
+
+    try:
+        vecnorm = pickle.loads(vec_bytes)  # the caller vouches for these bytes (signature or --trust)
+    except (KeyboardInterrupt, MemoryError):
+        raise
+    except (pickle.UnpicklingError, EOFError, AttributeError, TypeError, ValueError, ImportError,
+            IndexError, KeyError, AssertionError) as exc:
+        raise ValueError(f"{source} is not a VecNormalize pickle (vecnormalize.pkl of the training run) for "
+                         f"{env_id or 'DLC120-v0'}: {type(exc).__name__}: {exc}"[:600]) from None
+    if not isinstance(vecnorm, VecNormalize):
+        raise ValueError(f"{source} is not a VecNormalize pickle")
+    vecnorm.set_venv(TrackingSB3VecEnv(env_id or "DLC120-v0", 1))
+    vecnorm.training = False
+    return vecnorm
+
+
+def export_bytes(model_bytes: bytes, vec_bytes: bytes | None, out: str | Path, algo: str, sources: Sources, *,
+                 env_id: str, command: str, seed: int | None, env_kwargs: dict[str, Any] | None,
+                 raw_observations: bool | None) -> tuple[Path, Path]:
+    """``export_model`` on bytes already read (and, for a run folder, verified): the model and its
+    ``VecNormalize`` are loaded from exactly these bytes."""
+    model = _load_model(model_bytes, algo, sources.model)
+    vecnorm = None if vec_bytes is None else _load_vecnormalize(vec_bytes, env_id, sources.vecnorm)
+    if vecnorm is None and not raw_observations and env_id:
         import gymnasium as gym
 
         if _looks_normalised(model.observation_space, gym.make(env_id).observation_space):
-            raise ValueError(f"--model {model_zip} takes observations in a symmetric box unlike {env_id}'s raw "
+            raise ValueError(f"{sources.model} takes observations in a symmetric box unlike {env_id}'s raw "
                              "ones: it was probably trained on normalised observations. Pass --vecnormalize "
                              "V.pkl (or --raw-observations if it really takes raw observations)")
     contract = None
@@ -272,81 +315,28 @@ def export_model(model_zip: str | Path, out: str | Path, algo: str, vecnormalize
     return export(model, vecnorm, out, env_id=env_id, command=command, seed=seed, env=contract)
 
 
-TRUST_MARKER = "vtrack-train.sig"
-"""File of a ``vtrack train`` run folder: an HMAC-SHA256, with this user's key, of the folder's resolved path and
-the SHA-256 of its ``config.json``, ``model.zip`` and ``vecnormalize.pkl``."""
-_SIGNED_FILES = ("config.json", "model.zip", "vecnormalize.pkl")
-
-
-def _trust_key(create: bool) -> bytes | None:
-    """This user's run-signing key (``vtrack_gym.agents.trust_key``: a key that breaks the key rule is refused)."""
-    from vtrack_gym.agents.trust_key import load_trust_key
-
-    return load_trust_key(create)
-
-
 def _run_signature(run: Path, key: bytes) -> str:
-    import hashlib
-    import hmac
-
-    mac = hmac.new(key, str(run.resolve()).encode(), hashlib.sha256)
-    for name in _SIGNED_FILES:
-        file = run / name
-        digest = hashlib.sha256()
-        if file.is_file():
-            with file.open("rb") as fh:
-                for chunk in iter(lambda: fh.read(1 << 20), b""):
-                    digest.update(chunk)
-        mac.update(f"{name}:{digest.hexdigest() if file.is_file() else '-'};".encode())
-    return mac.hexdigest()
-
-
-def sign_run(run_dir: str | Path) -> Path:
-    """Write ``run_dir``/``TRUST_MARKER`` (``vtrack train`` calls this after saving the model); returns its path."""
-    from vtrack_gym._io import write_atomic
-
-    run = Path(run_dir)
-    key = _trust_key(create=True)
-    assert key is not None
-    return write_atomic(run / TRUST_MARKER, _run_signature(run, key) + "\n")
-
-
-def run_is_trusted(run_dir: str | Path) -> bool:
-    """True if ``run_dir`` holds a valid signature by this user's key over its current path and SB3 files.
-
-    ``TrustKeyError`` (a ``ValueError``) if this user's key breaks the key rule: such a key is never used."""
-    import hmac
-
-    run = Path(run_dir)
-    key = _trust_key(create=False)
-    marker = run / TRUST_MARKER
-    if key is None or not marker.is_file() or marker.stat().st_size > 200:
-        return False
-    return hmac.compare_digest(marker.read_text(encoding="ascii", errors="replace").strip(),
-                               _run_signature(run, key))
+    """The signature of ``run``'s files as they are now (each read once), with ``key``."""
+    return signature(run, key, read_run_files(run))
 
 
 def export_run(run_dir: str | Path, out: str | Path, *, trust: bool = False) -> tuple[Path, Path]:
     """Export the SB3 model of a ``vtrack train`` run folder to ``<out>.json`` + ``<out>.npz``.
 
-    Reads ``config.json`` (algo, env, seed, command), ``model.zip`` and ``vecnormalize.pkl``. Those two are
-    SB3's own pickle-based formats (loading them runs any code they contain): unless ``trust`` is true, the folder
-    must carry the signature ``vtrack train`` wrote with this user's key (``run_is_trusted``), else ``ValueError``.
+    Reads ``config.json`` (algo, env, seed, command), ``model.zip`` and ``vecnormalize.pkl`` once each. Those two
+    are SB3's own pickle-based formats (loading them runs any code they contain): unless ``trust`` is true, the
+    bytes read must carry the signature ``vtrack train`` wrote with this user's key, else ``ValueError``; the model
+    is then loaded from those same bytes (a file swapped after the check is never loaded).
     """
     import json
-
-    from vtrack_gym._io import read_regular_file
 
     run = Path(run_dir)
     config_file = run / "config.json"
     if not config_file.is_file():
         raise ValueError(f"{run} is not a `vtrack train` run folder (no config.json)")
-    if not trust and not run_is_trusted(run):
-        raise ValueError(f"{run} was not written by `vtrack train` as this user on this machine, or its files "
-                         "changed since (no valid vtrack-train.sig). Its model.zip and vecnormalize.pkl are "
-                         "pickles that can run code when loaded: pass --trust only if you trust where they came from")
+    files = verified_run_files(run, trust=trust)
     try:
-        config = json.loads(read_regular_file(config_file, 1 << 20, "run config"))
+        config = json.loads(files["config.json"] or b"")
     except (ValueError, RecursionError) as exc:
         raise ValueError(f"{config_file}: not a JSON run config ({exc})"[:400]) from None
     if not isinstance(config, dict):
@@ -354,11 +344,15 @@ def export_run(run_dir: str | Path, out: str | Path, *, trust: bool = False) -> 
     algo = config.get("algo")
     if algo not in SB3_CLASSES:
         raise ValueError(f"{config_file}: unknown algo {algo!r}; valid: {', '.join(SB3_CLASSES)}")
+    model_bytes = files["model.zip"]
+    if model_bytes is None:
+        raise ValueError(f"{run / 'model.zip'}: SB3 model file not found")
     env_id = str(config.get("env_id", config.get("env", "")))
     seed = config.get("seed")
-    vecnorm = run / "vecnormalize.pkl"
     hyper = config.get("hyperparams")
     env_kwargs = hyper.get("env_kwargs") if isinstance(hyper, dict) else None
-    return export_model(run / "model.zip", out, algo, vecnorm if vecnorm.is_file() else None, env_id=env_id,
+    sources = Sources(model=f"--run-dir {run}: model.zip", vecnorm=f"--run-dir {run}: vecnormalize.pkl")
+    return export_bytes(model_bytes, files["vecnormalize.pkl"], out, algo, sources, env_id=env_id,
                         command=str(config.get("command", "")), seed=seed if isinstance(seed, int) else None,
-                        env_kwargs=training_env_kwargs(env_kwargs if isinstance(env_kwargs, dict) else None))
+                        env_kwargs=training_env_kwargs(env_kwargs if isinstance(env_kwargs, dict) else None),
+                        raw_observations=None)

@@ -452,19 +452,26 @@ def _learn(setup: _RunSetup, model: Any, venv: Any, vecnorm: Any, callbacks: lis
 def _save_and_export(setup: _RunSetup, model: Any, venv: Any, vecnorm: Any, interrupted: str) -> Path:
     """Export phase: ``config.json`` completed, SB3's files saved and signed, the weights-only agent written.
     Returns the agent's JSON path."""
-    from vtrack_gym.agents.export import export, sign_run
+    import io
+    import pickle
+
+    from vtrack_gym.agents.export import export
+    from vtrack_gym.agents.run_signature import TRUST_MARKER, sign_bytes
 
     run_dir = setup.run_dir
     vecnorm.training = False
     setup.config.update(timesteps_done=int(model.num_timesteps), interrupted=bool(interrupted))
     if interrupted:
         setup.config["interrupted_during"] = interrupted
-    write_atomic(run_dir / "config.json", json.dumps(setup.config, indent=2, sort_keys=True) + "\n")
-    with atomic_output(run_dir / "model.zip", "--run-dir") as tmp:
-        model.save(tmp)
-    with atomic_output(run_dir / "vecnormalize.pkl", "--run-dir") as tmp:
-        vecnorm.save(str(tmp))
-    sign_run(run_dir)  # lets `vtrack export --run-dir` unpickle this run's files without --trust
+    buffer = io.BytesIO()
+    model.save(buffer)
+    files = {"config.json": (json.dumps(setup.config, indent=2, sort_keys=True) + "\n").encode(),
+             "model.zip": buffer.getvalue(), "vecnormalize.pkl": pickle.dumps(vecnorm)}  # VecNormalize.save's bytes
+    # signed before any file is written: the signature covers the bytes serialised here, never a file on disk
+    # that someone could swap between saving and signing (lets `vtrack export --run-dir` load them without --trust)
+    files[TRUST_MARKER] = sign_bytes(run_dir, files).encode()
+    for name, data in files.items():
+        write_atomic(run_dir / name, data, "--run-dir")
     agent_json, _ = export(model, vecnorm, run_dir / "agent", env_id=setup.env_id, command=setup.command,
                            seed=setup.seed, warm_start=_warm_start_text(setup), env=venv.venv)
     return agent_json

@@ -18,14 +18,19 @@ outputs it has. Shared options live in
 from __future__ import annotations
 
 import argparse
+import contextlib
 import logging
 import os
+import signal
 import sqlite3
 import sys
-from collections.abc import Sequence
+import threading
+from collections.abc import Iterator, Sequence
 from types import ModuleType
+from typing import Any
 
 from vtrack_gym.cli import (
+    _board,
     benchmark,
     dataset,
     entry_speed,
@@ -53,6 +58,33 @@ EXIT_INTERRUPTED = 130
 """Exit code after Ctrl-C (128 + SIGINT)."""
 EXIT_BROKEN_PIPE = 141
 """Exit code when the reader of stdout went away, e.g. ``vtrack leaderboard | head -1`` (128 + SIGPIPE)."""
+EXIT_TERMINATED = 143
+"""Exit code after SIGTERM (128 + SIGTERM): the command stopped its workers and kept what it had stored."""
+EXIT_LOST = _board.EXIT_LOST
+"""Exit code of a run that lost episodes (their worker process died) and stored every other one."""
+
+
+class _Terminated(BaseException):
+    """SIGTERM, raised where the command is so that its ``finally`` blocks stop its workers (not an ``Exception``:
+    no handler of the command swallows it)."""
+
+
+def _on_sigterm(signum: int, frame: Any) -> None:
+    raise _Terminated()
+
+
+@contextlib.contextmanager
+def _sigterm_ends_the_command() -> Iterator[None]:
+    """While a command runs in the main thread, SIGTERM unwinds it (workers stopped, stores closed) instead of
+    killing the process on the spot."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 _EXPECTED = (ValueError, FileNotFoundError, ImportError, StoreError, sqlite3.Error, BackendError)
 """Errors a command reports in one line (anything else is a bug and keeps its traceback)."""
 
@@ -119,13 +151,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         import vtrack_gym  # noqa: F401  (registers the env ids)
 
         commands = {c.NAME: c for c in COMMANDS}
-        with safe_warnings():
+        with safe_warnings(), _sigterm_ends_the_command():
             code = _run(commands[args.command], args)
         sys.stdout.flush()
         return code
     except KeyboardInterrupt:
         err("vtrack: interrupted (Ctrl-C)")
         return EXIT_INTERRUPTED
+    except _Terminated:
+        err("vtrack: terminated (SIGTERM); the finished episodes are stored")
+        return EXIT_TERMINATED
     except BrokenPipeError:
         _silence_stdout()
         return EXIT_BROKEN_PIPE

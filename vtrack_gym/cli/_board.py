@@ -38,3 +38,21 @@ def ranking_note(suite: str) -> str:
     from vtrack_gym.evaluation.suites import primary_metric
 
     return note(primary_metric(suite))
+
+
+EXIT_LOST = 3
+"""Exit code of a run that stored every finished episode but lost some: their worker process died."""
+
+
+def report_lost(lost: Sequence[str]) -> int:
+    """Say under the table which episodes were lost (their worker died: nothing stored for them) and return the
+    exit code: 0, or ``EXIT_LOST`` when some were."""
+    from vtrack_gym.cli._terminal import err, out
+
+    if not lost:
+        return 0
+    out(f"\nlost episodes: {len(lost)} (not stored; run them again)")
+    for line in lost:
+        out(f"- {line}")
+    err(f"vtrack: {len(lost)} episodes lost (their worker process died); every finished episode was stored")
+    return EXIT_LOST

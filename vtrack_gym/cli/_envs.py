@@ -19,15 +19,14 @@ def speed_profile(args: argparse.Namespace) -> Any:
     import warnings
 
     from vtrack_gym.tracks.speed_limits import check_profile_for_car, speed_profile_from_limits
-    from vtrack_gym.vehicle.catalog import load_vehicle
-    from vtrack_gym.vehicle.params import VehicleParams
+    from vtrack_gym.vehicle.catalog import resolve_vehicle
 
     profile = speed_profile_from_limits(args.speed_profile, args.max_speed_kmh, args.max_lateral_g,
                                         names=SPEED_OPTIONS)
     name = getattr(args, "vehicle", None)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)  # the env warns once, where it meets the car
-        check_profile_for_car(profile, VehicleParams() if name is None else load_vehicle(name),
+        check_profile_for_car(profile, resolve_vehicle(name),
                               SPEED_OPTIONS["max_lateral_g"])
     return profile
 
@@ -60,11 +59,12 @@ def describe_track(file: Path, read: dict[str, Any]) -> str:
 
 
 def check_vehicle(args: argparse.Namespace) -> None:
-    """Load ``--vehicle`` once before any work (a clear error for an unknown name or a bad file)."""
+    """Read ``--vehicle`` once before any work (a clear error for an unknown name or a bad file): a vehicle file
+    becomes the ``VehicleFile`` of the bytes read, which the command's envs and rows then use."""
     if getattr(args, "vehicle", None) is not None:
-        from vtrack_gym.vehicle.catalog import load_vehicle
+        from vtrack_gym.vehicle.catalog import read_vehicle_once
 
-        load_vehicle(args.vehicle)
+        args.vehicle = read_vehicle_once(args.vehicle)
 
 
 def known_env(env_id: str) -> str:

@@ -10,12 +10,19 @@ from typing import Any
 
 from vtrack_gym.cli._terminal import write_safe
 from vtrack_gym.evaluation.store import DEFAULT_STORE_PATH
+from vtrack_gym.evaluation.store import MAX_SEED as MAX_STORED_SEED
 
 DEFAULT_RESULTS_DIR = Path("vtrack_results")
 DEFAULT_FIGURES_DIR = DEFAULT_RESULTS_DIR / "figures"
 DEFAULT_PLOTS_DIR = DEFAULT_RESULTS_DIR / "plots"
 MAX_RNG_SEED = 2**32 - 1
 """Largest ``--seed`` of ``train`` and ``tune`` (numpy's legacy seeding, used by SB3 and pymoo, takes 32 bits)."""
+MAX_WORKERS = 4096
+"""Largest ``--workers`` (local processes or Ray tasks in flight); a pool starts no more than it has episodes."""
+MIN_LATERAL_G = 0.01
+"""Smallest ``--max-lateral-g`` the CLI takes [g] (the library takes any positive limit)."""
+MAX_SEED = MAX_STORED_SEED
+"""Largest episode ``--seed`` (the largest seed a store row holds)."""
 
 _INTEGER = re.compile(r"[+-]?[0-9]+")
 
@@ -116,6 +123,7 @@ def add_track(p: argparse.ArgumentParser, text: str | None = None, where: Any = 
         DEFAULT_MAX_LATERAL_G,
         DEFAULT_MAX_SPEED_KMH,
         DEFAULT_PROFILE_KIND,
+        MAX_LATERAL_G,
         MAX_SPEED_KMH,
         MIN_SPEED_KMH,
         PROFILE_KINDS,
@@ -127,7 +135,7 @@ def add_track(p: argparse.ArgumentParser, text: str | None = None, where: Any = 
     p.add_argument("--track-closed", choices=("auto", "yes", "no"), default="auto",
                    help="--track: read the file as a closed loop (yes), an open road (no) or decide from the end gap "
                    "against the point spacing (auto; the decision is printed) (default: auto)")
-    p.add_argument("--track-smoothing-m", type=float, default=None, metavar="M",
+    p.add_argument("--track-smoothing-m", type=float_in(0.0, MAX_TRACK_SMOOTHING_M), default=None, metavar="M",
                    help="--track: RMS deviation [m] the spline fit may make from the file's points, for noisy "
                    f"coordinates (e.g. GPS; 0 interpolates; at most {MAX_TRACK_SMOOTHING_M:g} m) (default: chosen "
                    "from the coordinates' rounding)")
@@ -137,12 +145,13 @@ def add_track(p: argparse.ArgumentParser, text: str | None = None, where: Any = 
                    "2 m/s^2 up, 3 m/s^2 down), curvature (the same limits each axis apart: corner entries may "
                    "combine full braking with full lateral acceleration), constant (--max-speed-kmh) or file (the "
                    "v_mps column; takes neither option) (default: envelope)")
-    p.add_argument("--max-speed-kmh", type=float, default=None,
+    p.add_argument("--max-speed-kmh", type=float_in(MIN_SPEED_KMH, MAX_SPEED_KMH), default=None,
                    help=f"--track with --speed-profile envelope, curvature or constant: maximum speed [km/h], "
                    f"{MIN_SPEED_KMH:g} to {MAX_SPEED_KMH:g} (default: {DEFAULT_MAX_SPEED_KMH:g})")
-    p.add_argument("--max-lateral-g", type=float, default=None,
-                   help=f"--track with --speed-profile envelope or curvature: lateral acceleration limit [g], at "
-                   "most the car's own steady-state limit up to --max-speed-kmh (0.80 g for the paper's car at "
+    p.add_argument("--max-lateral-g", type=float_in(MIN_LATERAL_G, MAX_LATERAL_G), default=None,
+                   help=f"--track with --speed-profile envelope or curvature: lateral acceleration limit [g], "
+                   f"{MIN_LATERAL_G:g} to {MAX_LATERAL_G:.2f}, at most the car's own steady-state limit up to "
+                   "--max-speed-kmh (0.80 g for the paper's car at "
                    "80 km/h, below mu g; a warning above 90 %% of it) "
                    f"(default: {DEFAULT_MAX_LATERAL_G:g})")
 

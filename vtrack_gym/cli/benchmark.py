@@ -4,17 +4,17 @@ files, in local processes or on Ray."""
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 from typing import Any
 
 from vtrack_gym._io import check_output_dir, check_output_file
 from vtrack_gym.cli import _options as opt
-from vtrack_gym.cli._board import ranking_note, render_board, shown_columns
+from vtrack_gym.cli._board import ranking_note, render_board, report_lost, shown_columns
 from vtrack_gym.cli._envs import announce_kernels, check_vehicle, env_or_track, speed_profile, track_read
 from vtrack_gym.cli._extras import osqp_for
 from vtrack_gym.cli._policies import policy_factories
 from vtrack_gym.cli._terminal import err, out
+from vtrack_gym.evaluation.store import StoreError
 from vtrack_gym.evaluation.suites import SUITES
 
 NAME = "benchmark"
@@ -48,9 +48,10 @@ def register(sub: Any) -> None:
                    help="score the policies on every track file of this folder (*.csv) or glob pattern (quote it, "
                    "e.g. 'tracks/*.csv'), read with the --track options; suite tracks[<name>-<digest>], whose board "
                    "ranks across all tracks first and keeps the per-track rows (not with --suite, --quick or --track)")
-    b.add_argument("--workers", type=int, default=None, metavar="N",
-                   help="run the episodes in N local processes (default: the cores of this machine; 1 runs them in "
-                   "this process); the rows do not depend on N. With --backend ray: the most episodes in flight")
+    b.add_argument("--workers", type=opt.int_in(1, opt.MAX_WORKERS), default=None, metavar="N",
+                   help=f"run the episodes in at most N local processes, 1 to {opt.MAX_WORKERS} (default: the cores of "
+                   "this machine; 1 runs them in this process; never more processes than episodes); the rows do not "
+                   "depend on N. With --backend ray: the most episodes in flight")
     b.add_argument("--backend", choices=("local", "ray"), default="local",
                    help="local: processes on this machine; ray: tasks on the Ray cluster of RAY_ADDRESS, or a "
                    "local Ray instance (needs the 'ray' extra) (default: local)")
@@ -74,8 +75,6 @@ def check_outputs(args: argparse.Namespace) -> None:
 
 
 def _check_track_options(args: argparse.Namespace) -> None:
-    if args.workers is not None and args.workers < 1:
-        raise ValueError(f"--workers must be an integer >= 1 (got {args.workers})")
     if args.track is not None and args.tracks is not None:
         raise ValueError("give --track FILE or --tracks DIR_OR_GLOB, not both")
     for option, value, suite in (("--track", args.track, "'custom'"), ("--tracks", args.tracks, "tracks[...]")):
@@ -85,14 +84,16 @@ def _check_track_options(args: argparse.Namespace) -> None:
                              f"combined with {given} (--seeds may be given: one episode per seed)")
 
 
-def _score(args: argparse.Namespace, factories: dict[str, Any] | None, seeds: list[int] | None) -> dict[str, Any]:
-    """Run the benchmark on the track file(s) or the suite (the library does the work)."""
+def _score(args: argparse.Namespace, factories: dict[str, Any] | None, seeds: list[int] | None,
+           store: Any) -> dict[str, Any]:
+    """Run the benchmark on the track file(s) or the suite (the library does the work; each row is committed to
+    ``store`` as its episode ends)."""
     from vtrack_gym.evaluation.benchmark import policy_factories as all_policies
     from vtrack_gym.evaluation.benchmark import run_benchmark
     from vtrack_gym.evaluation.track_benchmark import benchmark_track, benchmark_tracks
 
     figures = None if args.no_figures else args.figures
-    where = {"workers": args.workers, "backend": args.backend}
+    where = {"workers": args.workers, "backend": args.backend, "store": store}
     if args.tracks is not None:
         read = track_read(args)
         return benchmark_tracks(args.tracks, factories or all_policies(), seeds or [0], speed_profile(args),
@@ -102,7 +103,7 @@ def _score(args: argparse.Namespace, factories: dict[str, Any] | None, seeds: li
         env_id, provenance = env_or_track(args)
         return benchmark_track(env_id, provenance, factories or all_policies(), seeds or [0], vehicle=args.vehicle,
                                figures_dir=figures, show_progress=True, **where)
-    return run_benchmark(args.suite, store=None, policies=factories, figures_dir=figures, quick=args.quick,
+    return run_benchmark(args.suite, policies=factories, figures_dir=figures, quick=args.quick,
                          seeds=seeds, vehicle=args.vehicle, **where)
 
 
@@ -117,21 +118,24 @@ def run(args: argparse.Namespace) -> int:
     factories = policy_factories(names, trust_code=args.trust_code, kwargs_text=args.policy_kwargs) \
         if names or args.trust_code or args.policy_kwargs is not None else None  # checked before any work
     check_vehicle(args)
-    store = ResultStore(args.store)  # verified before any rollout; written after the table is printed
+    store = ResultStore(args.store)  # verified before any rollout; each row committed as its episode ends
     announce_kernels()
-    result = _score(args, factories, seeds)
+    result = _score(args, factories, seeds, store)
     suite = result["suite"]
     if suite != args.suite and args.track is None and args.tracks is None:
         err(f"suite {suite!r}: not the standard {args.suite} episodes, so stored and ranked apart from the "
             f"{args.suite!r} board (vtrack leaderboard --suite '{suite}')")
     if args.tracks is not None:
         err(f"{len(result['tracks'])} track files of --tracks {args.tracks}: suite {suite!r}")
-    board = board_of(result["rows"], suite).entries
-    out(render_board(shown_columns(board, args.format, args.columns, suite), args.format))
-    err(ranking_note(suite))
+    if result["store_error"] is None:
+        err(f"{len(result['rows'])} results stored in {args.store} (suite {suite!r})")
+    if result["rows"]:
+        board = board_of(result["rows"], suite).entries
+        out(render_board(shown_columns(board, args.format, args.columns, suite), args.format))
+        err(ranking_note(suite))
     for f in result["figures"]:
         err(f"figure: {f}")
-    sys.stdout.flush()
-    store.add(result["rows"])
-    err(f"\nresults stored in {args.store} (suite {suite!r})")
-    return 0
+    code = report_lost(result["lost"])
+    if result["store_error"] is not None:
+        raise StoreError(result["store_error"])
+    return code

@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from vtrack_gym._io import check_output_dir
 from vtrack_gym.cli import _options as opt
 from vtrack_gym.cli._envs import check_vehicle
 from vtrack_gym.cli._terminal import err, out
@@ -40,6 +41,11 @@ def register(sub: Any) -> None:
 
 def needed_modules(args: argparse.Namespace) -> list[str]:
     return ["minari", "h5py"]
+
+
+def check_outputs(args: argparse.Namespace) -> None:
+    if args.root is not None:
+        check_output_dir(args.root, "--root")
 
 
 def run(args: argparse.Namespace) -> int:

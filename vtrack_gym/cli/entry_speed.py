@@ -18,7 +18,13 @@ DEFAULT_ENV = "vtrack/ISO3888-2-v1"
 
 
 def register(sub: Any) -> None:
-    from vtrack_gym.evaluation.entry_speed import DEFAULT_CHECKS, DEFAULT_TOL_KMH, ENTRY_SPEED_ENV_IDS, MAX_CHECKS
+    from vtrack_gym.evaluation.entry_speed import (
+        DEFAULT_CHECKS,
+        DEFAULT_TOL_KMH,
+        ENTRY_SPEED_ENV_IDS,
+        MAX_CHECKS,
+        MIN_TOL_KMH,
+    )
 
     e = sub.add_parser(NAME, help="search the highest entry speed each policy passes an ISO 3888 lane change at",
                        description="Bisect on pass/fail (the leaderboard's success verdict: no cone gate left, the "
@@ -35,8 +41,8 @@ def register(sub: Any) -> None:
                    help="lowest entry speed probed, in (0, 200] km/h (default: half the car's bound)")
     e.add_argument("--hi-kmh", type=opt.float_in(0.01, 200.0), default=None, metavar="KMH",
                    help="highest entry speed probed, in (0, 200] km/h (default: 1.15 x the bound, at most 200)")
-    e.add_argument("--tol-kmh", type=opt.float_in(0.01, 200.0), default=DEFAULT_TOL_KMH, metavar="KMH",
-                   help=f"bisection resolution [km/h] (default: {DEFAULT_TOL_KMH:g})")
+    e.add_argument("--tol-kmh", type=opt.float_in(MIN_TOL_KMH, 200.0), default=DEFAULT_TOL_KMH, metavar="KMH",
+                   help=f"bisection resolution [km/h], {MIN_TOL_KMH:g} to 200 (default: {DEFAULT_TOL_KMH:g})")
     e.add_argument("--checks", type=opt.int_in(0, MAX_CHECKS), default=DEFAULT_CHECKS, metavar="N",
                    help=f"probes below the speed found that must pass too (monotonicity check; default: "
                    f"{DEFAULT_CHECKS})")

@@ -11,11 +11,10 @@ from vtrack_gym._io import check_output_file, check_regular_input, write_atomic
 from vtrack_gym.cli import _options as opt
 from vtrack_gym.cli._board import ranking_note, render_board, shown_columns
 from vtrack_gym.cli._terminal import err, out
+from vtrack_gym.evaluation.html_report import MAX_FIGURE_BYTES
 from vtrack_gym.evaluation.store import DEFAULT_STORE_PATH
 
 NAME = "leaderboard"
-MAX_FIGURE_BYTES = 32 * 2**20
-"""Largest PNG ``leaderboard --format html`` embeds [bytes] (larger ones and non-regular files are skipped)."""
 SQLITE_HEADER = b"SQLite format 3\x00"
 """The first 16 bytes of every SQLite database file."""
 STORE_COMPANIONS = ("", "-wal", "-shm", "-journal")

@@ -53,7 +53,7 @@ def register(sub: Any) -> None:
     t.add_argument("--ray-address", default=None, metavar="ADDR",
                    help="Ray cluster to connect to with --backend ray, e.g. 10.0.0.5:6379 (default: $RAY_ADDRESS "
                    "if set, else a local Ray instance started and stopped by this command)")
-    t.add_argument("--workers", type=opt.int_in(1, 4096), default=None, metavar="N",
+    t.add_argument("--workers", type=opt.int_in(1, opt.MAX_WORKERS), default=None, metavar="N",
                    help="Ray workers with --backend ray (default: the cluster's CPU count, at most the population "
                    "size)")
     t.add_argument("--no-progress", action="store_true", help="no progress bar")

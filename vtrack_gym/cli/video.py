@@ -28,19 +28,23 @@ def register(sub: Any) -> None:
     vd.add_argument("--out", type=Path, required=True, help="output file ending in .mp4 or .gif")
     vd.add_argument("--preset", default="default", help="baseline preset for every policy (default: default)")
     opt.add_vehicle(vd)
-    vd.add_argument("--seed", type=int, default=0, help="episode seed (default: 0)")
-    vd.add_argument("--speedup", type=float, default=1.0,
+    vd.add_argument("--seed", type=opt.int_in(0, opt.MAX_SEED), default=0, help="episode seed (default: 0)")
+    vd.add_argument("--speedup", type=opt.float_in(0.05, 100.0), default=1.0,
                     help="seconds of driving per second of video, in [0.05, 100] (default: 1 = real time)")
-    vd.add_argument("--fps", type=int, default=25, help="frames per second of video, 1-120 (default: 25)")
-    vd.add_argument("--seconds", type=float, default=None, help="stop after this much driving [s] (default: "
-                    "the whole episode)")
+    vd.add_argument("--fps", type=opt.int_in(1, 120), default=25,
+                    help="frames per second of video, 1-120 (default: 25)")
+    vd.add_argument("--seconds", type=opt.float_in(0.01, 86_400.0), default=None,
+                    help="stop after this much driving [s], 0.01 to 86400 (default: the whole episode)")
     vd.add_argument("--arrangement", choices=("side", "overlay"), default="side",
                     help="several policies: side by side or overlaid in one frame (default: side)")
     vd.add_argument("--view", choices=("follow", "track"), default="follow",
                     help="follow: camera on the (first) car; track: the whole track (default: follow)")
-    vd.add_argument("--view-width", type=float, default=60.0, help="follow view: metres across (default: 60)")
-    vd.add_argument("--width", type=int, default=640, help="panel width in pixels, even (default: 640)")
-    vd.add_argument("--height", type=int, default=384, help="panel height in pixels, even (default: 384)")
+    vd.add_argument("--view-width", type=opt.float_in(5.0, 2000.0), default=60.0,
+                    help="follow view: metres across, 5 to 2000 (default: 60)")
+    vd.add_argument("--width", type=opt.int_in(64, 4096), default=640,
+                    help="panel width in pixels, even, 64 to 4096 (default: 640)")
+    vd.add_argument("--height", type=opt.int_in(64, 4096), default=384,
+                    help="panel height in pixels, even, 64 to 4096 (default: 384)")
 
 
 def _video_config(args: argparse.Namespace) -> Any:
@@ -74,13 +78,13 @@ def run(args: argparse.Namespace) -> int:
     if args.seed < 0:
         raise ValueError(f"--seed must be >= 0 (got {args.seed})")
     config = _video_config(args)
+    check_vehicle(args)   # read once: every env of the video drives the same bytes
     env_id = _drawable_env(args)
     names = [args.policy] if args.policy is not None else opt.policy_list(args.policies)
     if not names:
         raise ValueError("--policies needs at least one policy name, e.g. --policies mpc,smc")
     policies = [(Path(n).stem if Path(n).suffix else n, make)
                 for n, make in policy_makers(names, args.preset, args.trust_code, args.policy_kwargs)]
-    check_vehicle(args)
     result = record_video(env_id, policies, out_file, config, seed=args.seed,
                           progress=lambda msg: err(f"recording: {msg}"), vehicle=args.vehicle)
     out(f"video: {result['path']} ({result['frames']} frames, {result['video_s']:.1f} s of video for "

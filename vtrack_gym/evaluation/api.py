@@ -82,7 +82,9 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
     episode. ``suite_or_env``: a suite name (``paper``, ``robust``, ``highway``: its episodes, or the suite's
     envs at ``seeds``), an env id (``seeds``, default ``[0]``) or a Gymnasium env instance (driven as given).
     ``vecnormalize``: SB3 ``VecNormalize`` statistics the policy was trained with (observations are normalised
-    with them before ``predict``). ``store``: a leaderboard file (or ``ResultStore``) the rows are added to.
+    with them before ``predict``). ``store``: a leaderboard file (or ``ResultStore``) the rows are added to, each as its
+    episode ends (with ``workers``/``backend``: once every episode is done, as they share the first one's
+    fingerprint).
     ``policy_id``: the name in the rows (default: ``policy.policy_id`` or the class name). ``vehicle``: the car of
     a suite's or an env id's episodes (a name of ``vehicle.list_vehicles()`` or a vehicle file; default the paper's
     car), recorded in the rows' ``options`` (an env instance is driven with its own car, track and config, recorded
@@ -106,8 +108,10 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
         make = lambda env: NormalisedPolicy(inner(env), vecnormalize)  # noqa: E731
     episodes: list[Episode] = []      # what to run, all checked before the store is opened or created
     if isinstance(suite_or_env, str):
+        from vtrack_gym.vehicle.catalog import read_vehicle_once
+
         found, suite = _episodes(suite_or_env, seeds)
-        episodes = list(with_vehicle(found, vehicle))
+        episodes = list(with_vehicle(found, read_vehicle_once(vehicle)))   # a file: read once for every episode
     elif isinstance(suite_or_env, gym.Env):
         if vehicle is not None:
             raise ValueError("vehicle applies to a suite name or an env id; an env instance drives its own car")
@@ -121,13 +125,20 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
     result_store = _open_store(store)  # checked before the first rollout: a bad store loses no results
     from vtrack_gym.evaluation.track_benchmark import merge_provenance
     rows: list[ResultRow] = []
+
+    def keep(row: ResultRow) -> None:  # committed as its episode ends: a later failure cannot lose it
+        if result_store is not None:
+            result_store.add([row])
+        rows.append(row)
+
     if isinstance(suite_or_env, str) and (workers != 1 or backend != "local"):
-        rows = _parallel_rows(make, episodes, suite, policy_id, workers, backend)
+        for row in _parallel_rows(make, episodes, suite, policy_id, workers, backend):
+            keep(row)
     elif isinstance(suite_or_env, str):
         for ep in episodes:
             env = gym.make(ep.env_id, **ep.make_kwargs)
             try:   # one policy per call: every row gets the first episode's fingerprint
-                rows.append(_row(make, env, ep, suite, policy_id, rows[0].policy_hash if rows else None))
+                keep(_row(make, env, ep, suite, policy_id, rows[0].policy_hash if rows else None))
             finally:
                 env.close()
     else:
@@ -137,9 +148,7 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
         for s in seeds if seeds is not None else (0,):
             row = _row(make, suite_or_env, Episode(env_id, int(s)), CUSTOM_SUITE, policy_id,
                        rows[0].policy_hash if rows else None)
-            rows.append(merge_provenance(row, identity))   # refuses a row that drove other content
-    if result_store is not None:
-        result_store.add(rows)
+            keep(merge_provenance(row, identity))   # refuses a row that drove other content
     return rows
 
 
@@ -198,7 +207,9 @@ def _parallel_rows(make: Callable[[Any], Any], episodes: Sequence[Episode], suit
             env.close()
     score = episode_scorer(suite, checked)
     results = run_tasks([EpisodeTask(name, checked, ep, suite, score) for ep in episodes], workers, backend)
-    rows = [row for row, _ in results]
+    rows = [result[0] for result in results if isinstance(result, tuple)]  # a lost episode was logged
+    if not rows:
+        raise ValueError(f"every episode of {name} was lost: its worker processes died (see the log)")
     return [dataclasses.replace(r, policy_hash=rows[0].policy_hash) for r in rows]
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -18,7 +18,7 @@ from vtrack_gym.evaluation.episode_score import (  # noqa: F401  (re-exported: b
     success_metrics,
     vehicle_label,
 )
-from vtrack_gym.evaluation.store import ResultRow, ResultStore
+from vtrack_gym.evaluation.store import ResultRow, ResultStore, StoreError
 from vtrack_gym.evaluation.suites import Episode, base_suite, primary_metric, suite_episodes, suite_label, with_vehicle
 from vtrack_gym.evaluation.trace import Trace
 
@@ -80,7 +80,8 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
                   figures_dir: str | Path | None = None, quick: bool = False,
                   show_progress: bool = True, seeds: Sequence[int] | None = None,
                   vehicle: str | None = None, workers: int | None = 1, backend: str = "local") -> dict[str, Any]:
-    """Score every policy on ``suite``; write rows to ``store`` and figures under ``figures_dir``.
+    """Score every policy on ``suite``; write rows to ``store`` (each committed as its episode ends) and figures
+    under ``figures_dir``.
 
     ``vehicle``: the car (a name of ``vehicle.list_vehicles()`` or a vehicle file; default the paper's car).
 
@@ -94,50 +95,88 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
     the same for any number of workers). The figures go to this run's own folder under ``figures_dir``
     (``figure_runs.run_folder``: suite, policy set, car and envs), recorded in every row's ``options["figures"]``.
 
-    Returns ``{"rows": [...], "traces": {env_id: [Trace, ...]}, "figures": [paths], "suite": label}``.
+    Returns ``{"rows": [...], "traces": {env_id: [Trace, ...]}, "figures": [paths], "suite": label, "lost":
+    [lines], "store_error": text or None}``; ``lost`` names each episode whose worker died
+    (``parallel.run_tasks``), the others are all there; ``store_error``: why the store stopped taking rows (a full
+    disk; logged as an error), None when every row was stored.
     """
     from vtrack_gym.evaluation.parallel import EpisodeTask
+    from vtrack_gym.vehicle.catalog import read_vehicle_once
 
+    vehicle = read_vehicle_once(vehicle)   # a vehicle file: its envs and rows use the bytes read here
     episodes = with_vehicle(suite_episodes(suite, quick=quick, seeds=seeds), vehicle)
     label = suite_label(suite, quick, seeds)
     factories = policy_factories(policies)
     tasks = [EpisodeTask(name, make, ep, label, episode_scorer(label, make),
                          keep_trace=ep.seed == episodes[0].seed or suite == "paper")
              for name, make in factories.items() for ep in episodes]
-    all_rows, traces_by_env, folder = score_tasks(tasks, figures_dir, vehicle, workers, backend,
-                                                  f"vtrack benchmark ({suite})" if show_progress else None)
-    if store is not None:
-        store.add(all_rows)
-    figures = (write_figures(traces_by_env, all_rows, folder, vehicle=vehicle,
-                             maneuvers=suite == "maneuvers") if folder is not None else [])
-    return {"rows": all_rows, "traces": traces_by_env, "figures": figures, "suite": label}
+    scored = score_tasks(tasks, figures_dir, vehicle, workers, backend,
+                         f"vtrack benchmark ({suite})" if show_progress else None, store=store)
+    figures = (write_figures(scored.traces_by_env, scored.rows, scored.folder, vehicle=vehicle,
+                             maneuvers=suite == "maneuvers") if scored.folder is not None else [])
+    return {"rows": scored.rows, "traces": scored.traces_by_env, "figures": figures, "suite": label,
+            "lost": scored.lost, "store_error": scored.store_error}
+
+
+RowFinish = Callable[[ResultRow], ResultRow]
+"""What a caller adds to each row before it is stored (e.g. a track's provenance)."""
 
 
 def score_tasks(tasks: Sequence[Any], figures_dir: str | Path | None, vehicle: str | None, workers: int | None,
-                backend: str, progress_label: str | None,
-                ) -> tuple[list[ResultRow], dict[str, list[Trace]], Path | None]:
+                backend: str, progress_label: str | None, store: ResultStore | None = None,
+                finish: RowFinish | None = None) -> ScoredTasks:
     """Run ``tasks`` (``parallel.EpisodeTask``); their rows (tagged with the run's figure folder when
-    ``figures_dir`` is given), the kept traces by env, and that folder (None without ``figures_dir``)."""
+    ``figures_dir`` is given, then passed through ``finish``), the kept traces by env, that folder (None without
+    ``figures_dir``) and the lost episodes. With ``store``, each row is committed as its episode ends, before the
+    next result is waited for: an episode that finished is stored whatever happens later."""
     from vtrack_gym._progress import progress_bar
     from vtrack_gym.evaluation.figure_runs import FIGURES_OPTION, run_folder
-    from vtrack_gym.evaluation.parallel import run_tasks
+    from vtrack_gym.evaluation.parallel import lost_line, run_tasks
 
     folder_name = None
     if figures_dir is not None and tasks:
         folder_name = run_folder(tasks[0].suite, [t.policy_id for t in tasks], vehicle_label(vehicle),
                                  [t.episode.env_id for t in tasks])
-    with progress_bar(total=len(tasks), desc=progress_label or "", unit="episode",
-                      disable=progress_label is None) as bar:
-        results = run_tasks(tasks, workers, backend, progress=bar)
-    rows: list[ResultRow] = []
-    traces_by_env: dict[str, list[Trace]] = {}
-    for row, trace in results:
+    rows: dict[int, ResultRow] = {}
+    store_error: list[str] = []
+
+    def keep(index: int, result: tuple[Any, Any]) -> None:
+        row = result[0]
         if folder_name is not None:
             row = dataclasses.replace(row, options={**row.options, FIGURES_OPTION: folder_name})
-        rows.append(row)
-        if trace is not None:
-            traces_by_env.setdefault(trace.env_id, []).append(trace)
-    return rows, traces_by_env, None if folder_name is None else Path(figures_dir) / folder_name
+        rows[index] = row if finish is None else finish(row)
+        if store is not None and not store_error:
+            try:
+                store.add([rows[index]])
+            except StoreError as exc:  # a full disk: the run goes on, its table is still shown
+                log.error("%s; the remaining rows are not stored", exc)
+                store_error.append(str(exc))
+
+    with progress_bar(total=len(tasks), desc=progress_label or "", unit="episode",
+                      disable=progress_label is None) as bar:
+        results = run_tasks(tasks, workers, backend, progress=bar, on_result=keep)
+    traces_by_env: dict[str, list[Trace]] = {}
+    lost = []
+    for index, result in enumerate(results):
+        if index not in rows:
+            lost.append(lost_line(tasks[index], result))
+        elif result[1] is not None:
+            traces_by_env.setdefault(result[1].env_id, []).append(result[1])
+    return ScoredTasks([rows[i] for i in sorted(rows)], traces_by_env,
+                       None if folder_name is None else Path(figures_dir) / folder_name, lost,
+                       store_error[0] if store_error else None)
+
+
+@dataclasses.dataclass(frozen=True)
+class ScoredTasks:
+    """What ``score_tasks`` returns: the rows in task order, the kept traces by env, the run's figure folder (or
+    None), one line per lost episode (``parallel.lost_line``) and the store's error (None: every row stored)."""
+
+    rows: list[ResultRow]
+    traces_by_env: dict[str, list[Trace]]
+    folder: Path | None
+    lost: list[str]
+    store_error: str | None = None
 
 
 def write_figures(traces_by_env: dict[str, list[Trace]], rows: Sequence[ResultRow], figures_dir: str | Path,

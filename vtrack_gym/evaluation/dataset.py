@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from vtrack_gym.evaluation.rollout import step_action
 from vtrack_gym.evaluation.suites import Episode, suite_episodes, with_vehicle
 
 log = logging.getLogger(__name__)
@@ -83,7 +84,7 @@ def record_episode(env: Any, policy: Any, episode: Episode) -> Any:
     terminated = truncated = False
     while not (terminated or truncated):
         action, _ = policy.predict(obs, deterministic=True)
-        action = np.asarray(action, dtype=np.float32).reshape(env.action_space.shape)
+        action = step_action(action, env.action_space.shape)
         obs, reward, terminated, truncated, _ = env.step(action)
         observations.append(obs)
         actions.append(action)
@@ -113,17 +114,32 @@ def _datasets_root(root: str | Path | None) -> Iterator[None]:
 
 
 def _write(ds_id: str, buffers: Sequence[Any], env: Any, policy: str, description: str) -> None:
-    """Create the Minari dataset ``ds_id`` from ``buffers`` with ``env``'s spec."""
+    """Create the Minari dataset ``ds_id`` from ``buffers`` with ``env``'s spec: written in a private temporary
+    datasets folder next to its place, then renamed into place complete (a write that fails or is killed midway
+    leaves only a hidden ``.vtrack-writing-*`` folder, which never blocks a rerun)."""
+    import shutil
+    import tempfile
+
     import minari
+    from minari.storage.datasets_root_dir import get_dataset_path
 
     from vtrack_gym._version import __version__
 
-    with warnings.catch_warnings():  # no e-mail to give; the package is the code permalink
-        warnings.filterwarnings("ignore", message=".*author_email.*", category=UserWarning)
-        minari.create_dataset_from_buffers(
-            ds_id, list(buffers), env=env.spec, algorithm_name=policy, author="vtrack_gym",
-            code_permalink="https://github.com/vtrack-gym/vtrack_gym", description=description,
-            requirements=[f"vtrack_gym=={__version__}"], eval_env=env.spec)
+    final = get_dataset_path(ds_id)
+    root = get_dataset_path()
+    staging = Path(tempfile.mkdtemp(dir=root, prefix=".vtrack-writing-"))
+    try:
+        with _datasets_root(staging), warnings.catch_warnings():  # no e-mail: the package is the code permalink
+            warnings.filterwarnings("ignore", message=".*author_email.*", category=UserWarning)
+            minari.create_dataset_from_buffers(
+                ds_id, list(buffers), env=env.spec, algorithm_name=policy, author="vtrack_gym",
+                code_permalink="https://github.com/vtrack-gym/vtrack_gym", description=description,
+                requirements=[f"vtrack_gym=={__version__}"], eval_env=env.spec)
+            written = get_dataset_path(ds_id)
+        final.parent.mkdir(parents=True, exist_ok=True)
+        os.rename(written, final)   # fails if another process wrote this id meanwhile (never overwritten)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
 
 
 def _check_new(ds_ids: Sequence[str]) -> None:
@@ -147,6 +163,10 @@ def write_dataset(policy: str, *, suite: str | None = None, env: str | None = No
     from vtrack_gym._version import __version__
     from vtrack_gym.baselines.resolve import resolve_policy
 
+    if root is not None:
+        from vtrack_gym._io import check_output_dir
+
+        check_output_dir(root, "root")
     grouped = dataset_episodes(suite, env, episodes, seed, vehicle)
     name = name if name is not None else f"{policy}-{suite or 'env'}"
     ids = {env_id: dataset_id(env_id, name) for env_id in grouped}

@@ -37,6 +37,7 @@ MAX_SPEED_KMH = 200.0          # highest entry speed an ISO 3888 env accepts [km
 LO_FRACTION = 0.5              # default lowest probe: this fraction of the bound
 HI_FRACTION = 1.15             # default highest probe: this fraction of the bound (at most MAX_SPEED_KMH)
 DEFAULT_TOL_KMH = 0.5          # default bisection tolerance [km/h]
+MIN_TOL_KMH = 0.01             # finest bisection tolerance [km/h]: a finer one would only probe float steps
 DEFAULT_CHECKS = 2             # default monotonicity probes below the speed found
 MAX_CHECKS = 10
 SCAN_POINTS = 4                # probes evenly inside (lo, hi) after a fail at lo (then hi too)
@@ -72,8 +73,10 @@ def check_search(lo_kmh: float, hi_kmh: float, tol_kmh: float, checks: int) -> N
             raise ValueError(f"{name} must be a number in (0, {MAX_SPEED_KMH:g}] km/h (got {value!r})")
     if not lo_kmh < hi_kmh:
         raise ValueError(f"lo_kmh must be below hi_kmh (got lo_kmh={lo_kmh:g}, hi_kmh={hi_kmh:g} km/h)")
-    if isinstance(tol_kmh, bool) or not isinstance(tol_kmh, (int, float)) or not 0.0 < tol_kmh <= hi_kmh - lo_kmh:
-        raise ValueError(f"tol_kmh must be in (0, hi_kmh - lo_kmh = {hi_kmh - lo_kmh:g}] km/h (got {tol_kmh!r})")
+    if isinstance(tol_kmh, bool) or not isinstance(tol_kmh, (int, float)) or \
+            not MIN_TOL_KMH <= tol_kmh <= hi_kmh - lo_kmh:
+        raise ValueError(f"tol_kmh must be in [{MIN_TOL_KMH:g}, hi_kmh - lo_kmh = {hi_kmh - lo_kmh:g}] km/h (got "
+                         f"{tol_kmh!r})")
     if isinstance(checks, bool) or not isinstance(checks, int) or not 0 <= checks <= MAX_CHECKS:
         raise ValueError(f"checks must be an integer in [0, {MAX_CHECKS}] (got {checks!r})")
 
@@ -114,6 +117,8 @@ def bisect_entry_speed(judge: Callable[[float], tuple[bool, str]], lo_kmh: float
         bad = min((v for v in scan if v > good), default=hi_kmh)
     while bad - good > tol_kmh:
         mid = 0.5 * (good + bad)
+        if not good < mid < bad:   # no float between them: the search cannot get finer
+            break
         if probe(mid, "bisect"):
             good = mid
         else:
@@ -242,9 +247,9 @@ def max_entry_speed_kmh(policy: Any, env_id: str = "vtrack/ISO3888-2-v1", *, veh
     ``policy``: a policy name (``"mpc"``, ``"lqr:paper"``, ``"ppo"``), a callable ``make(env) -> policy`` (a fresh
     policy per run) or an object with ``predict`` (driven in every run). ``vehicle``: a name of
     ``vehicle.list_vehicles()`` or a vehicle file (default: the default car). ``lo_kmh``/``hi_kmh``: the range
-    (default: half the bound and ``min(200, 1.15 x bound)``), in (0, 200] km/h; ``tol_kmh`` > 0: the bisection's
-    resolution; ``checks``: monotonicity probes (0-10); ``seed``: every run's reset seed; ``on_probe``: called after
-    each run. ValueError naming the field and its range for bad input."""
+    (default: half the bound and ``min(200, 1.15 x bound)``), in (0, 200] km/h; ``tol_kmh``: the bisection's
+    resolution, at least ``MIN_TOL_KMH`` (0.01 km/h); ``checks``: monotonicity probes (0-10); ``seed``: every
+    run's reset seed; ``on_probe``: called after each run. ValueError naming the field and its range for bad input."""
     maneuver_of(env_id)
     full_id = env_id if "/" in env_id else f"vtrack/{env_id}"
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:

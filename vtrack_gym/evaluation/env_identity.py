@@ -93,9 +93,11 @@ def _vehicle_of(config: Any, make_vehicle: Any) -> str | None:
     import os
 
     from vtrack_gym.evaluation.benchmark import vehicle_label
-    from vtrack_gym.vehicle.catalog import list_vehicles, load_vehicle
+    from vtrack_gym.vehicle.catalog import VehicleFile, list_vehicles, load_vehicle
     from vtrack_gym.vehicle.params import VehicleParams
 
+    if isinstance(make_vehicle, VehicleFile):
+        return vehicle_label(make_vehicle)
     if isinstance(make_vehicle, (str, os.PathLike)):
         return vehicle_label(str(make_vehicle))
     params = config.vehicle

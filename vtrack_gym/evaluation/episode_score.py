@@ -49,14 +49,17 @@ def success_metrics(env: gym.Env) -> dict[str, float]:
     return dict(figures()) if callable(figures) else {}
 
 
-def vehicle_label(vehicle: str | None) -> str | None:
+def vehicle_label(vehicle: Any) -> str | None:
     """What a row records of the car in ``options["vehicle"]``: ``None`` for the default car (or a vehicle equal to
-    it), a shipped vehicle's name, or ``<file stem>-<sha256[:10]>`` of a vehicle file (two files never mix)."""
+    it), a shipped vehicle's name, or ``<file stem>-<sha256[:10]>`` of a vehicle file (two files never mix; a
+    ``vehicle.catalog.VehicleFile`` is labelled from the bytes it was read from, the file is not read again)."""
     if vehicle is None:
         return None
-    from vtrack_gym.vehicle.catalog import list_vehicles, load_vehicle
+    from vtrack_gym.vehicle.catalog import VehicleFile, list_vehicles, load_vehicle
     from vtrack_gym.vehicle.params import VehicleParams
 
+    if isinstance(vehicle, VehicleFile):
+        return None if vehicle.params == VehicleParams() else vehicle.label
     if load_vehicle(vehicle) == VehicleParams():
         return None
     if str(vehicle) in list_vehicles():

@@ -17,7 +17,8 @@ from typing import Any
 from vtrack_gym.evaluation.report_formats import format_estimate, visible_controls
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-MAX_FIGURE_BYTES = 20_000_000
+MAX_FIGURE_BYTES = 32 * 2**20
+"""Largest PNG a report embeds [bytes] (32 MiB; larger ones and non-regular files are skipped)."""
 
 _CSP = ("default-src 'none'; img-src data:; style-src 'unsafe-inline'; script-src 'unsafe-inline'; "
         "base-uri 'none'; form-action 'none'")
@@ -81,7 +82,7 @@ def _cell(value: Any, digits: int) -> str:
 
 
 def figure_data_uri(path: str | Path) -> str | None:
-    """``data:image/png;base64,...`` of a PNG file, or None if it is not a PNG or larger than 20 MB."""
+    """``data:image/png;base64,...`` of a PNG file, or None if it is not a PNG or larger than ``MAX_FIGURE_BYTES``."""
     p = Path(path)
     try:
         if not p.is_file() or p.stat().st_size > MAX_FIGURE_BYTES:

@@ -9,6 +9,8 @@ metrics measured from the clock, ``metrics.CLOCK_MEASURED``, and the creation ti
 any callable works) after a warm-up here that loads what each worker would otherwise load again (the env's
 compiled kernels, each policy and the scoring: ``_warm_up``); each worker runs its native libraries with one thread
 (``worker_threads``), and a debug line reports the warm-up's and each worker's CPU time (``usage_line``).
+Each result reaches the caller (``on_result``) as its episode ends, so finished work can be stored before anything
+else can fail; a worker that dies costs only its own episode (a ``worker_pool.LostTask`` in its place).
 ``ray`` sends each task to a Ray worker with cloudpickle (factories must be picklable; a
 track id registered in this process is registered again in the worker by the task's ``setup``); it connects to
 ``address`` or ``RAY_ADDRESS`` when given, else starts a local Ray instance. Ray is an optional dependency
@@ -17,6 +19,7 @@ track id registered in this process is registered again in the worker by the tas
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import time
@@ -25,6 +28,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from vtrack_gym.evaluation.suites import Episode
+from vtrack_gym.evaluation.worker_pool import LostTask, run_pool
 
 log = logging.getLogger(__name__)
 
@@ -90,21 +94,47 @@ def run_task(task: EpisodeTask) -> tuple[Any, Any]:
     return row, (trace if task.keep_trace else None)
 
 
+ResultSink = Callable[[int, tuple[Any, Any]], None]
+"""Called in the calling process as each task ends: ``(task index, (row, trace or None))``."""
+
+
 def run_tasks(tasks: Sequence[EpisodeTask], workers: int | None = 1, backend: str = "local",
-              progress: Any = None, address: str | None = None) -> list[tuple[Any, Any]]:
+              progress: Any = None, address: str | None = None,
+              on_result: ResultSink | None = None) -> list[tuple[Any, Any] | LostTask]:
     """Every task's (row, trace or None), in task order; ``progress`` (a tqdm bar) advances once per episode.
 
     ``workers``: local processes (default: the cores; 1 runs in this process) or, with ``backend="ray"``, the most
     tasks in flight at once (default: one per cluster CPU). ``address``: the Ray cluster to join.
+    ``on_result(i, result)`` is called here as each task ends, before the next result is waited for (store the
+    row there: a later failure cannot lose it). A task whose worker died (``kill -9``, the OOM killer, a crashed
+    Ray worker) is a ``worker_pool.LostTask`` in its place; every other task still runs.
     """
     workers = check_workers(workers, backend)
     tasks = list(tasks)
+    results: list[Any] = [None] * len(tasks)
+
+    def deliver(index: int, result: tuple[Any, Any]) -> None:
+        results[index] = _advance(tasks[index], result, progress)
+        if on_result is not None:
+            on_result(index, results[index])
+
     if backend == "ray":
-        return _run_ray(tasks, workers, progress, address)
-    n = min(workers or default_workers(), max(1, len(tasks)))
-    if n <= 1:
-        return [_advance(t, run_task(t), progress) for t in tasks]
-    return _run_forked(tasks, n, progress)
+        lost = _run_ray(tasks, workers, deliver, address)
+    else:
+        n = min(workers or default_workers(), max(1, len(tasks)))
+        lost = _run_forked(tasks, n, deliver) if n > 1 else []
+        for index in range(len(tasks)) if n <= 1 else ():
+            deliver(index, run_task(tasks[index]))
+    for task in lost:
+        log.warning("episode lost: %s", lost_line(tasks[task.index], task))
+        results[task.index] = task
+    return results
+
+
+def lost_line(task: EpisodeTask, lost: LostTask) -> str:
+    """``lqr on DLC120-v0 seed 0: its worker was killed by SIGKILL`` (what a lost episode's report says)."""
+    ep = task.episode
+    return f"{task.policy_id} on {ep.env_id} seed {ep.seed}: its worker {lost.reason}"
 
 
 def _advance(task: EpisodeTask, result: tuple[Any, Any], progress: Any) -> tuple[Any, Any]:
@@ -186,30 +216,21 @@ def _warm_policy(task: EpisodeTask, env: Any, episode: Episode) -> None:
         log.debug("warm-up of %s skipped: %s", task.policy_id, exc)
 
 
-def _run_forked(tasks: list[EpisodeTask], n: int, progress: Any) -> list[tuple[Any, Any]]:
-    """``tasks`` on ``n`` forked processes (after ``_warm_up`` here); results placed by index."""
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-
+def _run_forked(tasks: list[EpisodeTask], n: int, deliver: ResultSink) -> list[LostTask]:
+    """``tasks`` on at most ``n`` forked processes (after ``_warm_up`` here), each result delivered as it
+    arrives (``worker_pool.run_pool``); returns the tasks whose worker died."""
     warm_cpu_s = _warm_up(tasks)
-    context = multiprocessing.get_context("fork")
-    results: list[Any] = [None] * len(tasks)
     cpu_by_worker: dict[int, float] = {}
     start = time.perf_counter()
-    with ProcessPoolExecutor(max_workers=n, mp_context=context, initializer=_start_worker,
-                             initargs=(tasks,)) as pool:
-        futures = {pool.submit(_run_index, i): i for i in range(len(tasks))}
-        try:
-            for done in as_completed(futures):
-                result, pid, cpu_s = done.result()
-                cpu_by_worker[pid] = cpu_by_worker.get(pid, 0.0) + cpu_s
-                index = futures[done]
-                results[index] = _advance(tasks[index], result, progress)
-        except BaseException:  # Ctrl-C or a failed task: drop the queued episodes, let only the running ones end
-            pool.shutdown(wait=True, cancel_futures=True)
-            raise
+
+    def done(index: int, payload: tuple[tuple[Any, Any], int, float]) -> None:
+        result, pid, cpu_s = payload
+        cpu_by_worker[pid] = cpu_by_worker.get(pid, 0.0) + cpu_s
+        deliver(index, result)
+
+    lost = run_pool(len(tasks), n, _run_index, done, init=lambda: _start_worker(tasks))
     log.debug(usage_line(len(tasks), warm_cpu_s, list(cpu_by_worker.values()), time.perf_counter() - start))
-    return results
+    return lost
 
 
 USAGE_PREFIX = "episodes in worker processes:"
@@ -231,24 +252,40 @@ def _import_ray() -> Any:
     return ray
 
 
-def _run_ray(tasks: list[EpisodeTask], workers: int | None, progress: Any,
-             address: str | None) -> list[tuple[Any, Any]]:
-    """``tasks`` as Ray tasks (at most ``workers`` in flight); results placed by index."""
+RAY_CRASHES = ("WorkerCrashedError", "NodeDiedError", "ObjectLostError", "OutOfMemoryError",
+               "ActorDiedError", "LocalRayletDiedError")
+"""Ray exceptions that mean the process running a task died (the task is lost, the others go on)."""
+
+
+def _run_ray(tasks: list[EpisodeTask], workers: int | None, deliver: ResultSink,
+             address: str | None) -> list[LostTask]:
+    """``tasks`` as Ray tasks (at most ``workers`` in flight), each delivered as it ends; the lost ones."""
     ray = _import_ray()
     if not ray.is_initialized():
         target = address or os.environ.get("RAY_ADDRESS") or None
         ray.init(address=target) if target else ray.init(include_dashboard=False)
-    remote = ray.remote(num_cpus=1)(run_task)
+    crashes = tuple(getattr(ray.exceptions, name) for name in RAY_CRASHES if hasattr(ray.exceptions, name))
+    remote = ray.remote(num_cpus=1, max_retries=0)(run_task)
     limit = workers or max(1, int(ray.cluster_resources().get("CPU", 1)))
-    results: list[Any] = [None] * len(tasks)
     pending: dict[Any, int] = {}
+    lost: list[LostTask] = []
     next_task = 0
-    while next_task < len(tasks) or pending:
-        while next_task < len(tasks) and len(pending) < limit:
-            pending[remote.remote(tasks[next_task])] = next_task
-            next_task += 1
-        done, _ = ray.wait(list(pending), num_returns=1)
-        for ref in done:
-            index = pending.pop(ref)
-            results[index] = _advance(tasks[index], ray.get(ref), progress)
-    return results
+    try:
+        while next_task < len(tasks) or pending:
+            while next_task < len(tasks) and len(pending) < limit:
+                pending[remote.remote(tasks[next_task])] = next_task
+                next_task += 1
+            done, _ = ray.wait(list(pending), num_returns=1)
+            for ref in done:
+                index = pending.pop(ref)
+                try:
+                    result = ray.get(ref)
+                except crashes as exc:
+                    lost.append(LostTask(index, f"died ({type(exc).__name__})"))
+                    continue
+                deliver(index, result)
+    finally:
+        for ref in pending:  # Ctrl-C or a failed task: stop what still runs
+            with contextlib.suppress(Exception):
+                ray.cancel(ref, force=True)
+    return lost

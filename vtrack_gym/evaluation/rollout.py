@@ -28,6 +28,16 @@ def policy_id_of(policy: PolicyLike) -> str:
     return instance_label(policy)
 
 
+def step_action(action: Any, shape: tuple[int, ...]) -> np.ndarray:
+    """A policy's action as the float32 array ``env.step`` takes: finite values are clipped to the action box
+    [-1, 1] before the cast (a finite 1e39 would otherwise become inf in float32 and be refused as non-finite),
+    NaN and inf are passed on for the env to refuse."""
+    a = np.asarray(action, dtype=np.float64)
+    with np.errstate(invalid="ignore"):
+        a = np.where(np.isfinite(a), np.clip(a, -1.0, 1.0), a)
+    return a.astype(np.float32).reshape(shape)
+
+
 def solver_failure_count(policy: PolicyLike) -> int | None:
     """The policy's running count of failed solves (``policy.solver_failures``; 0 for the package's closed-form
     baselines and agents), None when the policy does not report one."""
@@ -68,7 +78,7 @@ def rollout(policy: PolicyLike, env_id_or_env: str | gym.Env, seed: int | None =
         action, state = policy.predict(obs, state=state, episode_start=episode_start, deterministic=deterministic)
         policy_s.append(time.perf_counter() - start)
         episode_start = np.zeros(1, dtype=bool)
-        obs, _, terminated, truncated, info = env.step(np.asarray(action, dtype=np.float32).reshape(1))
+        obs, _, terminated, truncated, info = env.step(step_action(action, (1,)))
         step_s.append(time.perf_counter() - start)
         infos.append(info)
         steps += 1
@@ -114,7 +124,7 @@ def rollout_batch(policy: PolicyLike, env_id: str, seeds: list[int], options: di
         action, state = policy.predict(obs, state=state, episode_start=episode_start, deterministic=deterministic)
         policy_s.append((time.perf_counter() - tick) / n)
         episode_start = np.zeros(n, dtype=bool)
-        obs, _, terminated, truncated, info = envs.step(np.asarray(action, dtype=np.float32).reshape(n, 1))
+        obs, _, terminated, truncated, info = envs.step(step_action(action, (n, 1)))
         steps += 1
         sig = info
         for i in np.flatnonzero(active):

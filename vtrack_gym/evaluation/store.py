@@ -18,8 +18,12 @@ A store file may come from someone else, so it is data, never code:
   would write whatever it holds into the store);
 * every row read is checked by the same rule as every row written (``vtrack_gym.evaluation.row_validation``);
 * a store reached through a symlink is used with the journal files next to the file the link reaches;
-* a read that fails while a writer changes the file is retried, so a healthy store being written is not
-  reported as corrupted;
+* every read is one snapshot (one read transaction with a busy timeout); a lock-free ``immutable`` read that fails
+  while a writer changed the file is repeated under SQLite's shared lock, and only such a locked snapshot (or a
+  read of a file nobody changed) may call the store corrupted, so a healthy store being written is never accused
+  (a 100,000-row store read while another process adds a row every 0.3 s: ``tests/test_store_under_writer.py``);
+* a new store is created in a private temporary file next to it and linked into place complete: a creator killed
+  midway leaves no half-made store;
 * a full disk (also when SQLite reports it as an I/O error) or a read-only file system is a ``StoreError`` that
   says so.
 
@@ -90,6 +94,18 @@ _META_KEYS = frozenset({"schema_version", "row_count", "rows_digest"})
 
 class StoreError(RuntimeError):
     """The store file cannot be used (not a vtrack store, corrupted, a newer schema, disk full, read-only)."""
+
+
+class _Busy(StoreError):
+    """A read that did not get SQLite's lock within the busy timeout (the store is healthy, a writer holds it)."""
+
+
+def _is_busy(exc: sqlite3.Error) -> bool:
+    """SQLITE_BUSY or SQLITE_LOCKED: another connection holds the lock."""
+    code = getattr(exc, "sqlite_errorcode", None)
+    if code is not None:
+        return code & 0xFF in (sqlite3.SQLITE_BUSY, sqlite3.SQLITE_LOCKED)
+    return "locked" in str(exc) or "busy" in str(exc)
 
 
 @dataclass(frozen=True)
@@ -193,6 +209,21 @@ def _stored_values(r: ResultRow, package_version: str) -> list[Any]:
     return values
 
 
+def _link_new(tmp: Path, target: Path) -> None:
+    """Give ``tmp`` the name ``target`` unless ``target`` exists (another creator won: keep theirs). A hard link
+    never replaces; on a file system without hard links, a rename when ``target`` is still missing."""
+    import errno
+
+    try:
+        os.link(tmp, target)
+    except FileExistsError:
+        return
+    except OSError as exc:
+        if exc.errno not in (errno.EPERM, errno.ENOTSUP, errno.EOPNOTSUPP, errno.EXDEV) or os.path.lexists(target):
+            raise
+        os.rename(tmp, target)
+
+
 class ResultStore:
     """Open (or, unless ``read_only``, create) the store at ``path`` (default ``vtrack_results/leaderboard.sqlite``).
 
@@ -267,21 +298,31 @@ class ResultStore:
         return self._file.as_uri() + ("?mode=ro&immutable=1" if immutable else "?mode=ro")
 
     def _read(self, fn: Callable[[sqlite3.Connection], T]) -> T:
-        """``fn(con)`` on a read-only connection that creates and modifies no file (see the module docstring).
+        """``fn(con)`` in one read transaction on a read-only connection (see the module docstring).
 
-        Without a ``-wal`` file the database is opened ``immutable`` (no locks). A read that fails while the file
-        or its ``-wal`` changed underneath (a writer started, committed or checkpointed meanwhile) is retried, up
-        to ``READ_ATTEMPTS`` times with growing pauses; a failure on an unchanged file is reported at once.
+        Without a ``-wal`` file the first read opens the database ``immutable`` (no lock, no file created). Its
+        failure is believed only if the store did not change meanwhile; otherwise (a writer started, committed or
+        checkpointed during the read) the read is repeated as a locked snapshot: a read transaction that holds
+        SQLite's shared lock (WAL read mark) with a busy timeout, so no writer changes what it reads. A store is
+        called corrupted only by such a snapshot, whose integrity check and row checks say so, or by a read of a
+        file nobody changed. A snapshot that cannot get its lock in ``timeout_s`` is "busy", never "corrupted".
         """
         import time
 
-        for attempt in range(READ_ATTEMPTS):
-            before = self._file_state()
+        immutable = not self._companion("-wal").exists()
+        before = self._file_state()
+        try:
+            return self._read_once(fn, immutable)
+        except StoreError:
+            if not immutable or self._file_state() == before:
+                raise
+        for attempt in range(READ_ATTEMPTS):   # a writer was active: read under its lock
             try:
-                return self._read_once(fn, immutable=not self._companion("-wal").exists())
-            except StoreError:
-                if attempt == READ_ATTEMPTS - 1 or self._file_state() == before:
-                    raise
+                return self._read_once(fn, immutable=False)
+            except _Busy:
+                if attempt == READ_ATTEMPTS - 1:
+                    raise StoreError(f"{self.path} is busy: a writer held it for more than {self.timeout_s:g} s; "
+                                     "nothing was read, try again") from None
             time.sleep(0.02 * 2**attempt)
         raise AssertionError("unreachable")
 
@@ -297,12 +338,28 @@ class ResultStore:
         return tuple(state)
 
     def _read_once(self, fn: Callable[[sqlite3.Connection], T], immutable: bool) -> T:
+        """``fn(con)`` inside one read transaction (``BEGIN`` ... ``COMMIT``): every query sees one snapshot."""
         with closing(self._connect_ro(immutable)) as con:
             try:
-                return fn(con)
+                con.execute("BEGIN")
+                result = fn(con)
+                con.execute("COMMIT")
+                return result
+            except sqlite3.OperationalError as exc:
+                if _is_busy(exc):
+                    raise _Busy(str(exc)) from exc
+                raise self._unreadable(exc) from exc
             except (sqlite3.Error, UnicodeError, TypeError, ValueError, KeyError) as exc:  # e.g. non-UTF-8
                 raise StoreError(f"{self.path} is corrupted ({type(exc).__name__}: {exc}); it was left "
                                  "untouched") from exc
+
+    def _unreadable(self, exc: sqlite3.Error) -> StoreError:
+        """The error for a read that SQLite refused: a full disk or read-only folder said as such, else
+        corruption."""
+        problem = _storage_problem(exc, self._file.parent)
+        if problem != str(exc):
+            return StoreError(f"{self.path} cannot be read now: {problem}; the store was left untouched")
+        return StoreError(f"{self.path} is corrupted ({type(exc).__name__}: {exc}); it was left untouched")
 
     def _connect_ro(self, immutable: bool) -> sqlite3.Connection:
         try:
@@ -311,7 +368,8 @@ class ResultStore:
             con.execute("PRAGMA query_only = ON")
             con.execute(f"PRAGMA busy_timeout = {int(self.timeout_s * 1000)}")
         except sqlite3.Error as exc:
-            raise StoreError(f"cannot open the store {self.path}: {exc}") from exc
+            raise StoreError(f"cannot open the store {self.path}: {_storage_problem(exc, self._file.parent)}") \
+                from exc
         return con
 
     def _connect_rw(self) -> sqlite3.Connection:
@@ -329,6 +387,11 @@ class ResultStore:
         try:
             objects = set(con.execute("SELECT type, name, tbl_name, sql FROM sqlite_master"))
         except sqlite3.DatabaseError as exc:
+            if _is_busy(exc):
+                raise
+            problem = _storage_problem(exc, self._file.parent)
+            if problem != str(exc):   # a full disk or a read-only folder: the file itself may be fine
+                raise StoreError(f"{self.path} cannot be read now: {problem}; the store was left untouched") from exc
             raise StoreError(f"{self.path} is not a readable SQLite file ({exc}); it was left untouched. "
                              "Move it away or pass another --store path.") from exc
         if not objects:
@@ -373,9 +436,22 @@ class ResultStore:
             raise StoreError(f"{self.path} is corrupted (meta keys {sorted(meta)}, expected {sorted(_META_KEYS)})")
 
     def _initialise(self) -> None:
-        """Create the schema in a missing or empty file (concurrent initialisers: the first one wins)."""
-        with closing(self._connect_rw()) as con:
+        """Create the schema: a missing store is built in a private temporary file in the same folder and linked
+        into place complete (a creator killed midway leaves no half-made store, only its temporary file, which is
+        never a store's name); an existing empty file is initialised in place. Concurrent creators: the first one
+        wins and the others use its store."""
+        if os.path.lexists(self._file):
+            self._create_schema(self._file)
+        else:
+            self._create_and_link()
+        self._read(self._verify)  # a concurrent initialiser may have written something else
+
+    def _create_schema(self, file: Path) -> None:
+        """WAL mode and the empty tables in ``file`` (missing or empty), in one transaction."""
+        with closing(sqlite3.connect(file, timeout=self.timeout_s, isolation_level=None)) as con:
             try:
+                con.execute("PRAGMA trusted_schema = OFF")
+                con.execute(f"PRAGMA busy_timeout = {int(self.timeout_s * 1000)}")
                 con.execute("PRAGMA journal_mode = WAL")
                 with _write_transaction(con):
                     if not con.execute("SELECT count(*) FROM sqlite_master").fetchone()[0]:
@@ -384,10 +460,35 @@ class ResultStore:
                         con.executemany("INSERT INTO vtrack_meta VALUES (?, ?)",
                                         [("schema_version", str(SCHEMA_VERSION)), ("row_count", "0"),
                                          ("rows_digest", "0" * 64)])
-            except sqlite3.DatabaseError as exc:
+            except sqlite3.Error as exc:
                 raise StoreError(f"cannot create the store {self.path}: "
                                  f"{_storage_problem(exc, self._file.parent)}") from exc
-        self._read(self._verify)  # a concurrent initialiser may have written something else
+
+    def _create_and_link(self) -> None:
+        """Build the store in a temporary file next to it, then link it to the store's name (never replacing a
+        store another process created meanwhile); the temporary file and its journals are removed."""
+        import tempfile
+
+        from vtrack_gym._io import new_file_mode
+
+        try:
+            fd, name = tempfile.mkstemp(dir=self._file.parent, prefix=f".{self._file.name}.", suffix=".creating")
+            os.close(fd)
+        except OSError as exc:
+            raise StoreError(f"cannot create the store {self.path}: {_storage_problem(exc, self._file.parent)}") \
+                from exc
+        tmp = Path(name)
+        try:
+            self._create_schema(tmp)
+            os.chmod(tmp, new_file_mode(self._file))
+            _link_new(tmp, self._file)
+        except OSError as exc:
+            raise StoreError(f"cannot create the store {self.path}: {_storage_problem(exc, self._file.parent)}") \
+                from exc
+        finally:
+            for leftover in (tmp, *(tmp.with_name(tmp.name + suffix) for suffix in ("-wal", "-shm", "-journal"))):
+                with contextlib.suppress(OSError):
+                    leftover.unlink()
 
     # ------------------------------------------------------------------------------------------ writing
     def add(self, rows: Iterable[ResultRow]) -> int:
@@ -471,14 +572,9 @@ class ResultStore:
         return out
 
     def _snapshot(self, con: sqlite3.Connection) -> tuple[dict[str, str], list[tuple[Any, ...]]]:
-        """The meta table and every results row (with its hash) in one read transaction."""
-        try:
-            con.execute("BEGIN")
-            meta = dict(con.execute("SELECT key, value FROM vtrack_meta"))
-            raw = con.execute(f"SELECT {', '.join(_COLUMNS)}, row_sha256 FROM results ORDER BY id").fetchall()
-            con.execute("COMMIT")
-        except sqlite3.Error as exc:
-            raise StoreError(f"{self.path} could not be read ({exc})") from exc
+        """The meta table and every results row (with its hash), inside ``_read``'s one read transaction."""
+        meta = dict(con.execute("SELECT key, value FROM vtrack_meta"))
+        raw = con.execute(f"SELECT {', '.join(_COLUMNS)}, row_sha256 FROM results ORDER BY id").fetchall()
         return meta, raw
 
     def older_versions(self, suite: str) -> tuple[str, int]:

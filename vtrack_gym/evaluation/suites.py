@@ -31,12 +31,13 @@ ROBUST_SEEDS: tuple[int, ...] = (101, 202, 303, 404, 505)
 @dataclass(frozen=True)
 class Episode:
     """One scored episode of a suite: reset with ``seed`` and ``options``, on the env made with ``vehicle`` (a name
-    of ``vehicle.list_vehicles()`` or a vehicle file path; ``None``: the default car)."""
+    of ``vehicle.list_vehicles()``, a vehicle file path or a ``vehicle.catalog.VehicleFile`` read once; ``None``:
+    the default car)."""
 
     env_id: str
     seed: int
     options: dict[str, Any] = field(default_factory=dict)
-    vehicle: str | None = None
+    vehicle: Any = None
 
     @property
     def make_kwargs(self) -> dict[str, Any]:
@@ -44,11 +45,17 @@ class Episode:
         return {} if self.vehicle is None else {"vehicle": self.vehicle}
 
 
-def with_vehicle(episodes: Sequence[Episode], vehicle: str | None) -> list[Episode]:
-    """``episodes`` driven with ``vehicle`` (``None``: unchanged)."""
+def with_vehicle(episodes: Sequence[Episode], vehicle: Any) -> list[Episode]:
+    """``episodes`` driven with ``vehicle`` (a name, a path, a ``vehicle.catalog.VehicleFile``; ``None``:
+    unchanged)."""
     from dataclasses import replace
 
-    return list(episodes) if vehicle is None else [replace(ep, vehicle=str(vehicle)) for ep in episodes]
+    if vehicle is None:
+        return list(episodes)
+    from vtrack_gym.vehicle.catalog import VehicleFile
+
+    chosen = vehicle if isinstance(vehicle, VehicleFile) else str(vehicle)   # a file read once stays as read
+    return [replace(ep, vehicle=chosen) for ep in episodes]
 
 
 MANEUVER_ENV_IDS: tuple[str, ...] = tuple(sc.env_id for sc in MANEUVER_SCENARIOS)

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import glob
 import hashlib
 import json
 from collections.abc import Mapping, Sequence
@@ -53,13 +52,19 @@ def check_driven(driven: str | None, provenance: Mapping[str, Any]) -> None:
 
 
 def track_files(dir_or_glob: str | Path) -> list[Path]:
-    """The CSV files of a folder (``*.csv``, sorted), or the files a glob pattern matches (sorted);
-    ``ValueError`` when there is none (or more than ``MAX_TRACKS``)."""
+    """The CSV files of a folder (``*.csv``, sorted), or the files a glob pattern matches (sorted; ``**`` for any
+    depth, each real folder entered once: ``_io.glob_files``); ``ValueError`` when there is none (or more than
+    ``MAX_TRACKS``)."""
+    from vtrack_gym._io import glob_files
+
     text = str(dir_or_glob)
     if Path(text).is_dir():
         files = sorted(p for p in Path(text).glob("*.csv") if p.is_file())
-    else:
-        files = sorted(Path(p) for p in glob.glob(text, recursive=True) if Path(p).is_file())
+    else:   # each real folder entered once: a symlink loop under ** ends
+        try:
+            files = glob_files(text, MAX_TRACKS)
+        except ValueError:
+            raise ValueError(f"--tracks {text}: more than {MAX_TRACKS} files") from None
     if not files:
         raise ValueError(f"--tracks {text}: no track file found (give a folder of .csv files or a glob pattern "
                          "such as 'tracks/*.csv')")
@@ -79,27 +84,29 @@ def track_set_suite(name: str, provenances: Sequence[Mapping[str, Any]], seeds: 
 
 def benchmark_track(env_id: str, provenance: Mapping[str, Any], factories: Mapping[str, Any], seeds: Sequence[int],
                     vehicle: str | None = None, figures_dir: str | Path | None = None, workers: int | None = 1,
-                    backend: str = "local", show_progress: bool = False) -> dict[str, Any]:
+                    backend: str = "local", show_progress: bool = False, store: Any = None) -> dict[str, Any]:
     """Every policy of ``factories`` (``{id: make(env)}``) on the track env ``env_id``, one episode per seed.
 
-    Returns ``{"rows", "traces": {env_id: [...]}, "figures", "suite": "custom"}``, like ``run_benchmark``; the
-    figures (written in the run's folder under ``figures_dir`` when it is given) show the first seed's episodes.
+    Returns ``{"rows", "traces": {env_id: [...]}, "figures", "suite": "custom", "lost"}``, like ``run_benchmark``
+    (``store``: each row committed as its episode ends); the figures (written in the run's folder under
+    ``figures_dir`` when it is given) show the first seed's episodes.
     """
     return _benchmark([(env_id, provenance, None)], factories, seeds, TRACK_SUITE, vehicle, figures_dir, workers,
-                      backend, show_progress)
+                      backend, show_progress, store)
 
 
 def benchmark_tracks(dir_or_glob: str | Path, factories: Mapping[str, Any], seeds: Sequence[int] = (0,),
                      speed_profile: Any = None, closed: bool | None = None, smoothing_m: float | None = None,
                      vehicle: str | None = None, figures_dir: str | Path | None = None, workers: int | None = 1,
-                     backend: str = "local", show_progress: bool = False) -> dict[str, Any]:
+                     backend: str = "local", show_progress: bool = False, store: Any = None) -> dict[str, Any]:
     """Every policy on every track file of ``dir_or_glob`` (``track_files``), one episode per track and seed.
 
     Each file is registered with ``speed_profile`` (default: what ``vtrack benchmark --track`` drives, the
     friction-ellipse ``EnvelopeLimited`` within 40 km/h and 0.7 g, checked against the car) and read with ``closed`` /
     ``smoothing_m`` as ``register_track`` does. Rows go to suite ``track_set_suite(...)``; rank them with
-    ``track_set_board``. ``workers`` / ``backend``: see ``vtrack_gym.evaluation.parallel.run_tasks``.
-    Returns ``{"rows", "traces", "figures", "suite", "tracks": [files]}``.
+    ``track_set_board``. ``workers`` / ``backend``: see ``vtrack_gym.evaluation.parallel.run_tasks``; ``store``:
+    each row committed as its episode ends. Returns ``{"rows", "traces", "figures", "suite", "lost", "tracks":
+    [files]}``.
     """
     from vtrack_gym.envs.registration import register_track
     from vtrack_gym.tracks.speed_limits import speed_profile_from_limits
@@ -113,28 +120,34 @@ def benchmark_tracks(dir_or_glob: str | Path, factories: Mapping[str, Any], seed
         tracks.append((env_id, provenance, setup))
     name = Path(str(dir_or_glob)).name if Path(str(dir_or_glob)).is_dir() else Path(str(dir_or_glob)).parent.name
     suite = track_set_suite(name, [p for _, p, _ in tracks], seeds)
-    result = _benchmark(tracks, factories, seeds, suite, vehicle, figures_dir, workers, backend, show_progress)
+    result = _benchmark(tracks, factories, seeds, suite, vehicle, figures_dir, workers, backend, show_progress,
+                        store)
     return {**result, "tracks": files}
 
 
 def _benchmark(tracks: Sequence[tuple[str, Mapping[str, Any], Any]], factories: Mapping[str, Any],
                seeds: Sequence[int], suite: str, vehicle: str | None, figures_dir: str | Path | None,
-               workers: int | None, backend: str, show_progress: bool) -> dict[str, Any]:
-    """Score every (policy, track, seed) task; rows with their track's provenance, figures per track."""
+               workers: int | None, backend: str, show_progress: bool, store: Any = None) -> dict[str, Any]:
+    """Score every (policy, track, seed) task; rows with their track's provenance (stored in ``store`` as each
+    episode ends), figures per track."""
     from vtrack_gym.evaluation.benchmark import score_episode, score_tasks, write_figures
     from vtrack_gym.evaluation.parallel import EpisodeTask
     from vtrack_gym.evaluation.suites import Episode
+    from vtrack_gym.vehicle.catalog import read_vehicle_once
 
     seeds = [int(s) for s in seeds]
+    vehicle = read_vehicle_once(vehicle)   # a vehicle file: its envs and rows use the bytes read here
     provenance = {env_id: prov for env_id, prov, _ in tracks}
     tasks = [EpisodeTask(name, make, Episode(env_id, s, vehicle=vehicle), suite, score_episode,
                          keep_trace=s == seeds[0], setup=setup)
              for name, make in factories.items() for env_id, _, setup in tracks for s in seeds]
     label = f"vtrack benchmark ({suite})" if show_progress else None
-    rows, traces, folder = score_tasks(tasks, figures_dir, vehicle, workers, backend, label)
-    rows = [merge_provenance(r, provenance[r.env_id]) for r in rows]
-    figures = [] if folder is None else write_figures(traces, rows, folder, vehicle=vehicle)
-    return {"rows": rows, "traces": traces, "figures": figures, "suite": suite}
+    scored = score_tasks(tasks, figures_dir, vehicle, workers, backend, label, store=store,
+                         finish=lambda r: merge_provenance(r, provenance[r.env_id]))
+    figures = [] if scored.folder is None else write_figures(scored.traces_by_env, scored.rows, scored.folder,
+                                                             vehicle=vehicle)
+    return {"rows": scored.rows, "traces": scored.traces_by_env, "figures": figures, "suite": suite,
+            "lost": scored.lost, "store_error": scored.store_error}
 
 
 def is_track_set(suite: str) -> bool:

@@ -20,6 +20,7 @@ import numpy as np
 from vtrack_gym.envs import render as R
 from vtrack_gym.envs.palette import FALLBACK_COLOURS, KNOWN_POLICY_COLOURS, hex_to_rgb, policy_colour
 from vtrack_gym.envs.render import CarView, FrameClock, RenderConfig, TopDownRenderer
+from vtrack_gym.evaluation.rollout import step_action
 
 VIDEO_SUFFIXES: tuple[str, ...] = (".mp4", ".gif")
 ARRANGEMENTS: tuple[str, ...] = ("side", "overlay")
@@ -104,7 +105,7 @@ class _Driver:
         action, self._state = self.policy.predict(self.obs, state=self._state, episode_start=self._start,
                                                   deterministic=True)
         self._start = np.zeros(1, dtype=bool)
-        self.obs, _, term, trunc, self.info = self.env.step(np.asarray(action, dtype=np.float32).reshape(1))
+        self.obs, _, term, trunc, self.info = self.env.step(step_action(action, (1,)))
         if term or trunc:
             self.done = True
             self.status = f"[{self.info['termination'] or 'time limit'}]"

@@ -85,6 +85,8 @@ _HEADER_HELP = ("header must name the columns x, y and optionally z, the half wi
 _NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 _NON_FINITE = frozenset({"nan", "+nan", "-nan", "inf", "+inf", "-inf", "infinity", "+infinity", "-infinity"})
 _LINE_END = re.compile(r"\r\n|\r|\n")
+_BLANK_RUN = re.compile(r"[ \t\r\n]+")   # blank lines and a line's leading blanks, skipped in one step
+_ASCII_UNSAFE = re.compile(r"[\x00-\x08\x0a-\x1f\x7f]")  # the ASCII characters of _UNSAFE_CATEGORIES
 _UNSAFE_CATEGORIES = frozenset({"Cc", "Cf", "Zl", "Zp", "Cs"})
 
 
@@ -105,11 +107,24 @@ def _decimal_comma_hint(line: str) -> str:
     return "; decimal commas? write 1.5, not 1,5" if decimal_commas else ""
 
 
+def _line_breaks(text: str, start: int, end: int) -> int:
+    """Number of line breaks (\\n, \\r\\n, lone \\r) in ``text[start:end]``, counted in C."""
+    return text.count("\n", start, end) + text.count("\r", start, end) - text.count("\r\n", start, end)
+
+
 def _line_spans(text: str) -> Iterator[tuple[int, int, int]]:
-    """(line number, start, end) of every line; lines end at \\n, \\r\\n or \\r only (a U+2028 or \\v inside a
-    line is no line break); nothing is copied."""
+    """(line number, start, end) of every line that is not blank, from its first character that is not a space or
+    tab; lines end at \\n, \\r\\n or \\r only (a U+2028 or \\v inside a line is no line break); nothing is copied.
+    A run of blank lines (spaces and tabs only) is skipped in one regular-expression step, so the cost is linear
+    in the file with a small constant."""
     pos, lineno = 0, 0
     while pos < len(text):
+        blank = _BLANK_RUN.match(text, pos)
+        if blank is not None:
+            lineno += _line_breaks(text, pos, blank.end())
+            pos = blank.end()
+            if pos >= len(text):
+                return
         m = _LINE_END.search(text, pos)
         end = m.start() if m else len(text)
         lineno += 1
@@ -124,7 +139,11 @@ def _checked_line(fs_path: FsPath, text: str, lineno: int, start: int, end: int)
         raise ValueError(f"{fs_path}, line {lineno}: the line is {end - start} characters long (at most "
                          f"{MAX_LINE_CHARS}); is this a CSV of points, one per line?")
     line = text[start:end]
-    bad = next((c for c in line if c != "\t" and unicodedata.category(c) in _UNSAFE_CATEGORIES), None)
+    if line.isascii():   # the common case, checked in C
+        found = _ASCII_UNSAFE.search(line)
+        bad = None if found is None else found.group()
+    else:
+        bad = next((c for c in line if c != "\t" and unicodedata.category(c) in _UNSAFE_CATEGORIES), None)
     if bad is not None:
         raise ValueError(f"{fs_path}, line {lineno}: the character U+{ord(bad):04X} "
                          f"({unicodedata.name(bad, 'a control character')}) is not allowed in a track file; "

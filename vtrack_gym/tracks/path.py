@@ -183,9 +183,10 @@ class Path:
         return arr
 
     def __reduce__(self) -> tuple[Any, ...]:
-        """Pickle through the constructor (re-validates; the restored arrays are read-only again)."""
+        """Pickle through the constructor (re-validates; the restored arrays are read-only again), every field
+        included: a copy keeps the ``source_sha256`` of the bytes it was built from."""
         return (type(self), (self.table, self.ds_m, self.closed, self.half_width_m, self.name, self.version,
-                             self.gates, self.widths_m, self.v_ref_mps))
+                             self.gates, self.widths_m, self.v_ref_mps, self.source_sha256))
 
     # ----------------------------------------------------------------------------------------------- constructors
     @classmethod

@@ -33,6 +33,7 @@ only if they are regular files of at most ``MAX_VEHICLE_FILE_BYTES``.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import numbers
@@ -233,6 +234,14 @@ def list_vehicles() -> tuple[str, ...]:
 def _read_capped(path: Path) -> str:
     """Text of ``path`` if it is a regular file of at most ``MAX_VEHICLE_FILE_BYTES``."""
     try:
+        return _read_capped_bytes(path).decode("utf-8")
+    except UnicodeDecodeError:
+        raise VehicleFileError(f"{path}: not UTF-8 text") from None
+
+
+def _read_capped_bytes(path: Path) -> bytes:
+    """Bytes of ``path`` if it is a regular file of at most ``MAX_VEHICLE_FILE_BYTES`` (read once)."""
+    try:
         fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
     except OSError as exc:
         raise VehicleFileError(f"{path}: cannot open ({exc.strerror})") from None
@@ -247,10 +256,7 @@ def _read_capped(path: Path) -> str:
         os.close(fd)
     if len(data) > MAX_VEHICLE_FILE_BYTES:
         raise VehicleFileError(f"{path}: exceeds the limit of {MAX_VEHICLE_FILE_BYTES} bytes")
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError:
-        raise VehicleFileError(f"{path}: not UTF-8 text") from None
+    return data
 
 
 def _resolve(name_or_path: str | os.PathLike[str]) -> Path:
@@ -278,12 +284,57 @@ def load_vehicle(name_or_path: str | os.PathLike[str]) -> VehicleParams:
     return load_vehicle_record(name_or_path).params
 
 
-def resolve_vehicle(vehicle: VehicleParams | str | os.PathLike[str] | None) -> VehicleParams:
-    """``VehicleParams`` as given, loaded by name/path, or the default car for ``None``."""
+@dataclass(frozen=True)
+class VehicleFile:
+    """A vehicle file read once: its ``path`` (as given), the SHA-256 of the bytes read and the parameters parsed
+    from those same bytes. A run reads a ``--vehicle FILE`` once into this and hands it to every env it makes and
+    to every row it records, so a file saved during the run changes neither (``str()`` is the path)."""
+
+    path: str
+    sha256: str
+    params: VehicleParams
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.params, VehicleParams):
+            raise TypeError(f"params must be VehicleParams (got {type(self.params).__name__})")
+        if len(self.sha256) != 64:
+            raise ValueError(f"sha256 must be 64 hex digits (got {self.sha256!r:.80})")
+
+    def __str__(self) -> str:
+        return self.path
+
+    @property
+    def label(self) -> str:
+        """``<file stem>-<sha256[:10]>``: what a row records of this car (two contents never mix)."""
+        return f"{Path(self.path).stem}-{self.sha256[:10]}"
+
+
+def read_vehicle_once(vehicle: str | os.PathLike[str] | VehicleFile | None) -> str | VehicleFile | None:
+    """``vehicle`` as a run uses it: ``None`` and shipped names as given, a vehicle file read once into a
+    ``VehicleFile`` (``VehicleFileError`` for a bad file)."""
+    if vehicle is None or isinstance(vehicle, VehicleFile) or (isinstance(vehicle, str) and vehicle in list_vehicles()):
+        return vehicle
+    path = _resolve(vehicle)
+    data = _read_capped_bytes(path)
+    try:
+        record = parse_vehicle(data.decode("utf-8"))
+    except UnicodeDecodeError:
+        raise VehicleFileError(f"{path}: not UTF-8 text") from None
+    except VehicleFileError as exc:
+        msg = str(exc)
+        raise VehicleFileError(msg if msg.startswith(str(path)) else f"{path}: {msg}") from None
+    return VehicleFile(os.fspath(vehicle), hashlib.sha256(data).hexdigest(), record.params)
+
+
+def resolve_vehicle(vehicle: VehicleParams | VehicleFile | str | os.PathLike[str] | None) -> VehicleParams:
+    """``VehicleParams`` as given (or of a ``VehicleFile``), loaded by name/path, or the default car for
+    ``None``."""
     if vehicle is None:
         return VehicleParams()
     if isinstance(vehicle, VehicleParams):
         return vehicle
+    if isinstance(vehicle, VehicleFile):
+        return vehicle.params
     if isinstance(vehicle, (str, os.PathLike)):
         return load_vehicle(vehicle)
     raise TypeError(f"vehicle must be VehicleParams, a vehicle name or a file path (got {type(vehicle).__name__})")
@@ -303,12 +354,14 @@ __all__ = [
     "MAX_VEHICLE_FILE_BYTES",
     "ROLL_CG_FIELD",
     "SOURCE_TAGS",
+    "VehicleFile",
     "VehicleFileError",
     "VehicleRecord",
     "list_vehicles",
     "load_vehicle",
     "load_vehicle_record",
     "parse_vehicle",
+    "read_vehicle_once",
     "record_from_params",
     "resolve_vehicle",
     "roll_axis_inertia_kgm2",

@@ -1,0 +1,111 @@
+"""Smaller trust findings: a copied track keeps the hash of the bytes it was built from, a finite but huge action
+is clipped (not turned into inf) in the scoring rollout, and one figure-size limit for the HTML report and the CLI."""
+
+from __future__ import annotations
+
+import copy
+import pickle
+from pathlib import Path
+
+import numpy as np
+
+import vtrack_gym
+from vtrack_gym.tracks import load_track
+
+
+def _road(file: Path) -> Path:
+    s = np.arange(0.0, 120.0, 2.0)
+    file.write_text("x_m,y_m\n" + "\n".join(f"{v:.3f},{0.001 * v * v:.4f}" for v in s) + "\n")
+    return file
+
+
+def test_a_pickled_or_copied_track_keeps_its_source_hash(tmp_path: Path) -> None:
+    path = load_track(_road(tmp_path / "road.csv"))
+    assert path.source_sha256 is not None
+    for clone in (pickle.loads(pickle.dumps(path)), copy.deepcopy(path)):
+        assert clone.source_sha256 == path.source_sha256
+        assert np.array_equal(clone.table, path.table)
+
+
+class _Huge:
+    """Steers with a finite float64 far beyond float32's range."""
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        return np.array([1e39 if np.asarray(observation).reshape(-1)[0] >= 0.0 else -1e39]), state
+
+
+def test_a_finite_huge_action_is_clipped_in_the_scoring_rollout() -> None:
+    rows = vtrack_gym.evaluate(_Huge(), "DLC120-v0", seeds=[0], policy_id="huge")
+    assert len(rows) == 1 and rows[0].termination != ""   # scored, not refused as an infinite action
+
+
+def test_step_action_keeps_refusing_nan_and_inf() -> None:
+    from vtrack_gym.evaluation.rollout import step_action
+
+    assert step_action(np.array([1e39]), (1,)).tolist() == [1.0]
+    assert step_action(np.array([-1e300]), (1,)).tolist() == [-1.0]
+    assert step_action(np.array([0.3]), (1,))[0] == np.float32(0.3)
+    assert np.isnan(step_action(np.array([np.nan]), (1,))[0])
+    assert np.isinf(step_action(np.array([np.inf]), (1,))[0])
+
+
+def test_one_figure_size_limit_for_the_report_and_the_cli() -> None:
+    from vtrack_gym.cli import leaderboard
+    from vtrack_gym.evaluation import html_report
+
+    assert html_report.MAX_FIGURE_BYTES == leaderboard.MAX_FIGURE_BYTES == 32 * 2**20
+    guarantees = (Path(__file__).resolve().parents[1] / "docs" / "GUARANTEES.md").read_text()
+    assert "32 MiB" in guarantees
+
+
+VEHICLE_SWAPPER = '''
+import os
+from pathlib import Path
+
+import numpy as np
+from vtrack_gym.envs import OBS
+
+
+class SwapsTheCar:
+    """Steers on e_y and e_phi; the first time it is built it overwrites the run's vehicle file with another car."""
+
+    @classmethod
+    def from_env(cls, env):
+        target = Path(os.environ["VTRACK_TEST_VEHICLE"])
+        replacement = Path(os.environ["VTRACK_TEST_REPLACEMENT"])
+        if replacement.exists():
+            target.write_bytes(replacement.read_bytes())
+            replacement.unlink()
+        return cls()
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        obs = np.asarray(observation, dtype=np.float64)
+        a = -(0.08 * obs[..., OBS.E_Y] + 0.9 * obs[..., OBS.E_PHI])
+        return np.clip(a, -1.0, 1.0).astype(np.float32)[..., None], state
+'''
+
+
+def test_a_vehicle_file_saved_during_eval_changes_no_row(tmp_path: Path, monkeypatch) -> None:
+    """``vtrack eval --vehicle FILE`` reads the file once: a save during the run (here by the policy of the first
+    episode) changes neither the car of the later episodes nor what their rows record."""
+    import hashlib
+
+    from vtrack_gym.cli import main
+    from vtrack_gym.evaluation.store import ResultStore
+    from vtrack_gym.vehicle.catalog import _data_dir
+
+    car = tmp_path / "my_car.json"
+    car.write_bytes((_data_dir() / "suv.json").read_bytes())
+    (tmp_path / "replacement.json").write_bytes((_data_dir() / "sports.json").read_bytes())
+    original = hashlib.sha256(car.read_bytes()).hexdigest()[:10]
+    (tmp_path / "swapper.py").write_text(VEHICLE_SWAPPER)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("VTRACK_TEST_VEHICLE", str(car))
+    monkeypatch.setenv("VTRACK_TEST_REPLACEMENT", str(tmp_path / "replacement.json"))
+    store = tmp_path / "s.sqlite"
+    assert main(["eval", "--policy", "swapper:SwapsTheCar", "--trust-code", "--env", "DLC120-v0", "--seeds", "0-2",
+                 "--vehicle", str(car), "--store", str(store)]) == 0
+    assert not (tmp_path / "replacement.json").exists()          # the file was saved during the run
+    labels = {r["options"].get("vehicle") for r in ResultStore(store, read_only=True).rows()}
+    assert labels == {f"my_car-{original}"}

@@ -1,0 +1,87 @@
+"""Readers never accuse a healthy store: a 100,000-row store read while another process adds a row every 0.3 s is
+never called corrupted (each read is one snapshot; a torn lock-free read is repeated under SQLite's lock), and a
+store creator killed midway leaves no file that later commands refuse."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import pytest
+
+from vtrack_gym.cli import main
+from vtrack_gym.evaluation.store import ResultRow, ResultStore
+
+ROOT = Path(__file__).resolve().parents[1]
+
+WRITER = textwrap.dedent('''
+    import sys, time
+    from vtrack_gym.evaluation.store import ResultRow, ResultStore
+
+    store = ResultStore(sys.argv[1])
+    i = 0
+    while True:
+        store.add([ResultRow("bulk", "DLC120-v0", "writer", "h", 10**6 + i, {"rms_e_y_m": 0.1}, "completed", 1e-4)])
+        i += 1
+        time.sleep(0.3)
+''')
+
+
+def _rows(n: int, start: int = 0) -> list[ResultRow]:
+    return [ResultRow("bulk", "DLC120-v0", "lqr", "h", start + i, {"rms_e_y_m": 0.1, "max_e_y_m": 0.2},
+                      "completed", 1e-4) for i in range(n)]
+
+
+@pytest.mark.slow
+def test_100k_row_store_under_a_writer_is_never_called_corrupted(tmp_path: Path,
+                                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / "big.sqlite"
+    ResultStore(path).add(_rows(100_000))
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    writer = subprocess.Popen([sys.executable, "-c", WRITER, str(path)], env=env, stderr=subprocess.PIPE)
+    try:
+        time.sleep(1.0)
+        counts = []
+        for _ in range(2):
+            counts.append(len(ResultStore(path, read_only=True).rows()))   # raises StoreError if "corrupted"
+        assert main(["leaderboard", "--suite", "bulk", "--store", str(path), "--format", "csv"]) == 0
+        assert "corrupted" not in capsys.readouterr().err
+        assert writer.poll() is None, writer.stderr.read().decode()[-2000:]
+    finally:
+        writer.kill()
+        writer.wait()
+    assert 100_000 < counts[0] <= counts[1]   # the writer's rows were there, in order of the reads
+    assert len(ResultStore(path, read_only=True).rows()) >= counts[1]
+
+
+CREATOR = textwrap.dedent('''
+    import os, sqlite3, sys
+    from vtrack_gym.evaluation import store as store_module
+
+    real = store_module.ResultStore._create_schema
+
+    def killed_midway(self, file):
+        with sqlite3.connect(file) as con:   # the schema half made, then the creator is killed
+            con.execute("PRAGMA journal_mode = WAL")
+            con.execute(store_module._META_SQL)
+        os.kill(os.getpid(), 9)
+
+    store_module.ResultStore._create_schema = killed_midway
+    store_module.ResultStore(sys.argv[1])
+''')
+
+
+def test_a_creator_killed_midway_leaves_no_store_that_later_commands_refuse(tmp_path: Path) -> None:
+    path = tmp_path / "results" / "s.sqlite"
+    path.parent.mkdir()
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    done = subprocess.run([sys.executable, "-c", CREATOR, str(path)], env=env, capture_output=True, timeout=120)
+    assert done.returncode == -9
+    assert not path.exists()                 # only a temporary file, never the store's name
+    store = ResultStore(path)                # the next command creates the store normally
+    store.add(_rows(2))
+    assert len(ResultStore(path, read_only=True).rows()) == 2

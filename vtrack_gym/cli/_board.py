@@ -24,12 +24,11 @@ def render_board(board: list[dict[str, Any]], fmt: str, title: str = "vtrack lea
 
 def shown_columns(board: list[dict[str, Any]], fmt: str, columns: str, suite: str) -> list[dict[str, Any]]:
     """The board a format shows: the key columns in md and latex unless ``columns`` is ``all``."""
-    from vtrack_gym.evaluation.benchmark import SUITE_COLUMNS
     from vtrack_gym.evaluation.board_view import board_view
-    from vtrack_gym.evaluation.suites import base_suite, primary_metric
+    from vtrack_gym.evaluation.suites import extra_columns, primary_metric
 
     return board_view(board, primary_metric(suite), columns if fmt in TRIMMED_FORMATS else "all",
-                      SUITE_COLUMNS.get(base_suite(suite), ()))
+                      extra_columns(suite))
 
 
 def ranking_note(suite: str) -> str:

@@ -14,7 +14,7 @@ NAME = "dataset"
 
 
 def register(sub: Any) -> None:
-    from vtrack_gym.evaluation.dataset import DATASET_SUITES, MAX_EPISODES
+    from vtrack_gym.evaluation.dataset import MAX_EPISODES, dataset_suites
 
     ds = sub.add_parser(NAME, help="write a Minari dataset of a policy's episodes (extra 'dataset')",
                         description="Drive a policy deterministically through a suite's scenarios or one env and "
@@ -24,7 +24,7 @@ def register(sub: Any) -> None:
     ds.add_argument("--policy", required=True,
                     help="a baseline (mpc, smc, lqr, ...), NAME:PRESET, a shipped agent (ppo, sac) or an agent file")
     where = ds.add_mutually_exclusive_group(required=True)
-    where.add_argument("--suite", choices=DATASET_SUITES,
+    where.add_argument("--suite", choices=dataset_suites(),
                        help="every scenario of the suite, its perturbations drawn from each seed")
     where.add_argument("--env", default=None, help="one registered env id, e.g. DLC120-v0")
     ds.add_argument("--episodes", type=opt.int_in(1, MAX_EPISODES), default=1,

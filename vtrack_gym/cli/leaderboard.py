@@ -30,8 +30,8 @@ def register(sub: Any) -> None:
                         "bootstrap intervals (a metric missing in any episode is shown as a dash). Opens the store "
                         "read-only: it never creates or changes a file.")
     lb.add_argument("--suite", default="paper",
-                    help="suite to show: one present in the store, e.g. paper, robust, highway, custom (what "
-                    "`vtrack eval` adds) or tuning; the command lists the store's suites (default: paper)")
+                    help="suite to show: one present in the store, a registered suite, custom (what `vtrack eval` "
+                    "adds), tuning or tracks[...]; the command lists the store's suites (default: paper)")
     lb.add_argument("--store", type=Path, default=DEFAULT_STORE_PATH,
                     help=f"SQLite leaderboard file, opened read-only (default: {DEFAULT_STORE_PATH})")
     opt.add_format(lb, ("md", "csv", "json", "latex", "html"))

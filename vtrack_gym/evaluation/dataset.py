@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from vtrack_gym.evaluation.suites import Episode, suite_episodes, with_vehicle
+from vtrack_gym.evaluation.suites import Episode, get_suite, suite_names, with_vehicle
 
 log = logging.getLogger(__name__)
 
@@ -35,8 +35,12 @@ NAMESPACE = "vtrack"
 """Minari namespace of the datasets this module writes."""
 MAX_EPISODES = 10_000
 """Most episodes per env of one ``write_dataset`` call."""
-DATASET_SUITES = ("paper", "robust", "maneuvers")
-"""Suites whose episodes drive this package's own envs (``highway`` drives highway-env's)."""
+
+
+def dataset_suites() -> tuple[str, ...]:
+    """The registered suites ``write_dataset`` records (``Suite.dataset``: their episodes drive this package's own
+    envs; ``highway`` drives highway-env's)."""
+    return tuple(n for n in suite_names() if get_suite(n).dataset)
 
 
 def dataset_episodes(suite: str | None = None, env: str | None = None, episodes: int = 1, seed: int = 0,
@@ -51,9 +55,9 @@ def dataset_episodes(suite: str | None = None, env: str | None = None, episodes:
         raise ValueError(f"seed must be an integer >= 0 (got {seed!r})")
     seeds = range(seed, seed + episodes)
     if suite is not None:
-        if suite not in DATASET_SUITES:
-            raise ValueError(f"suite must be one of {', '.join(DATASET_SUITES)} (got {suite!r})")
-        chosen = suite_episodes(suite, seeds=seeds)
+        if suite not in dataset_suites():
+            raise ValueError(f"suite must be one of {', '.join(dataset_suites())} (got {suite!r})")
+        chosen = get_suite(suite).episodes_for(seeds=seeds)
     else:
         from vtrack_gym.envs.registration import ALL_ENV_IDS
 

@@ -24,7 +24,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from vtrack_gym.evaluation.suites import Episode
+from vtrack_gym.evaluation.episodes import Episode
 
 log = logging.getLogger(__name__)
 

@@ -122,8 +122,8 @@ def _benchmark(tracks: Sequence[tuple[str, Mapping[str, Any], Any]], factories: 
                workers: int | None, backend: str, show_progress: bool) -> dict[str, Any]:
     """Score every (policy, track, seed) task; rows with their track's provenance, figures per track."""
     from vtrack_gym.evaluation.benchmark import score_episode, score_tasks, write_figures
+    from vtrack_gym.evaluation.episodes import Episode
     from vtrack_gym.evaluation.parallel import EpisodeTask
-    from vtrack_gym.evaluation.suites import Episode
 
     seeds = [int(s) for s in seeds]
     provenance = {env_id: prov for env_id, prov, _ in tracks}

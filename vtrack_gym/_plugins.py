@@ -1,0 +1,28 @@
+"""Entry points of installed packages: how a suite or a policy written outside the package reaches every command.
+
+A registry calls ``load_group(group, register, seen)`` before it lists its names: each entry point of ``group`` not
+in ``seen`` is loaded once per process and handed to ``register`` (which checks its type and returns the name it
+was registered under); ``seen`` maps ``"name=value"`` of each loaded entry point to that name.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+
+def load_group(group: str, register: Callable[[Any, str], str], seen: dict[str, str]) -> None:
+    """Load every entry point of ``group`` not in ``seen`` and register it (``register(obj, where)``, ``where``
+    naming the entry point for error messages)."""
+    from importlib.metadata import entry_points
+
+    for ep in entry_points(group=group):
+        key = f"{ep.name}={ep.value}"
+        if key not in seen:
+            seen[key] = register(ep.load(), f"entry point {ep.name} = {ep.value} of group {group}")
+
+
+def forget(seen: dict[str, str], name: str) -> None:
+    """Drop the entry points that registered ``name`` from ``seen`` (they load again while still installed)."""
+    for key in [k for k, v in seen.items() if v == name]:
+        del seen[key]

@@ -344,7 +344,8 @@ def export_run(run_dir: str | Path, out: str | Path, *, trust: bool = False) -> 
     if not trust and not run_is_trusted(run):
         raise ValueError(f"{run} was not written by `vtrack train` as this user on this machine, or its files "
                          "changed since (no valid vtrack-train.sig). Its model.zip and vecnormalize.pkl are "
-                         "pickles that can run code when loaded: pass --trust only if you trust where they came from")
+                         "pickles that can run code when loaded: pass --trust-code only if you trust where they came "
+                         "from")
     try:
         config = json.loads(read_regular_file(config_file, 1 << 20, "run config"))
     except (ValueError, RecursionError) as exc:

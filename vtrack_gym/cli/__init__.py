@@ -61,13 +61,20 @@ def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``vtrack`` (every option explained in --help)."""
     parser = Parser(prog="vtrack", description="Benchmark steering controllers and RL agents on "
                     "the paper's trajectory-tracking scenarios.")
-    parser.add_argument("-v", "--verbose", action="store_true",
-                        help="log details to stderr: every episode's result, the kernel cache (the long phases "
-                        "are always announced)")
+    for where in (parser, *_command_parsers(parser)):  # global options: before or after the command
+        where.add_argument("-v", "--verbose", action="store_true",
+                           default=False if where is parser else argparse.SUPPRESS,
+                           help="log details to stderr: every episode's result, the kernel cache (the long phases "
+                           "are always announced)")
+    return parser
+
+
+def _command_parsers(parser: argparse.ArgumentParser) -> list[argparse.ArgumentParser]:
+    """The subparser of every command (registered on ``parser``)."""
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for command in COMMANDS:
         command.register(sub)
-    return parser
+    return list(sub.choices.values())
 
 
 def _setup_logging(verbose: bool) -> None:

@@ -34,7 +34,7 @@ def register(sub: Any) -> None:
                     "adds), tuning or tracks[...]; the command lists the store's suites (default: paper)")
     lb.add_argument("--store", type=Path, default=DEFAULT_STORE_PATH,
                     help=f"SQLite leaderboard file, opened read-only (default: {DEFAULT_STORE_PATH})")
-    opt.add_format(lb, ("md", "csv", "json", "latex", "html"))
+    opt.add_format(lb, reports=True)
     opt.add_columns(lb)
     lb.add_argument("--out", type=Path, default=None,
                     help="write the leaderboard to this file (default: stdout); never the store, its -wal/-shm/"
@@ -87,8 +87,9 @@ def _figures(args: argparse.Namespace, board: Any) -> tuple[list[Path], str]:
     """The PNGs ``--format html`` embeds (those of the runs whose every row the board shows:
     ``evaluation.figure_runs``; regular files of at most ``MAX_FIGURE_BYTES``) and a note saying which."""
     from vtrack_gym.evaluation.figure_runs import figure_runs, run_figures
+    from vtrack_gym.evaluation.output_formats import get_format
 
-    if args.format != "html":
+    if not get_format(args.format).figures:
         return [], ""
     runs = figure_runs(board.rows, board.suite_rows)
     if not runs:

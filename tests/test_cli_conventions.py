@@ -80,3 +80,18 @@ def test_export_of_a_model_file_never_guesses_its_decision_period(tmp_path: Path
     err = capsys.readouterr().err
     assert "does not record the decision period it was trained at" in err and "--control-period-s" in err
     assert not (tmp_path / "agent.json").exists()
+
+
+def test_the_cli_reference_page_lists_every_command_and_option() -> None:
+    """The docs' CLI reference is generated from the parser (``docs/gen_cli_page.py``, listed in ``mkdocs.yml``)."""
+    from vtrack_gym.cli._reference import cli_reference
+
+    page = cli_reference()
+    for name, sub in _commands().items():
+        assert f"## vtrack {name}\n" in page
+        section = page.split(f"## vtrack {name}\n", 1)[1].split("\n## ", 1)[0]
+        for action in sub._actions:
+            for option in action.option_strings:
+                assert f"`{option}`" in section or option in ("-h", "--help"), (name, option)
+    mkdocs = (Path(__file__).resolve().parents[1] / "mkdocs.yml").read_text()
+    assert "docs/gen_cli_page.py" in mkdocs and "CLI reference: cli.md" in mkdocs

@@ -95,3 +95,30 @@ def test_the_cli_reference_page_lists_every_command_and_option() -> None:
                 assert f"`{option}`" in section or option in ("-h", "--help"), (name, option)
     mkdocs = (Path(__file__).resolve().parents[1] / "mkdocs.yml").read_text()
     assert "docs/gen_cli_page.py" in mkdocs and "CLI reference: cli.md" in mkdocs
+
+
+def test_nothing_but_the_result_on_stdout(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                          capsys: pytest.CaptureFixture[str]) -> None:
+    """What a library prints to stdout while a command runs (Ray forwards its workers' logs there) goes to stderr:
+    ``--format json`` on stdout stays one JSON document."""
+    import json
+
+    import vtrack_gym.evaluation.api as api
+    from vtrack_gym.evaluation.rows import ResultRow
+    from vtrack_gym.evaluation.store import ResultStore
+
+    store = tmp_path / "s.sqlite"
+    ResultStore(store).add([ResultRow(suite="paper", env_id="DLC120-v0", policy_id="lqr", policy_hash="h", seed=0,
+                                      metrics={"max_e_y_m": 0.2}, termination="completed",
+                                      wall_time_per_step_s=1e-5)])
+    board_of = api.board_of
+
+    def noisy(*args, **kwargs):
+        print("(run_task pid=4242) INFO worker log line")
+        return board_of(*args, **kwargs)
+
+    monkeypatch.setattr(api, "board_of", noisy)
+    assert main(["leaderboard", "--store", str(store), "--format", "json"]) == 0
+    captured = capsys.readouterr()
+    assert [e["policy_id"] for e in json.loads(captured.out)] == ["lqr"]
+    assert "(run_task pid=4242) INFO worker log line" in captured.err

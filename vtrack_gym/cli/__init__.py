@@ -40,7 +40,7 @@ from vtrack_gym.cli import (
 )
 from vtrack_gym.cli._extras import missing_packages
 from vtrack_gym.cli._options import Parser
-from vtrack_gym.cli._terminal import SafeFormatter, err, safe_warnings
+from vtrack_gym.cli._terminal import SafeFormatter, err, results_only_on_stdout, safe_warnings
 from vtrack_gym.evaluation.store import StoreError
 from vtrack_gym.tuning.backends import BackendError
 
@@ -126,7 +126,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         import vtrack_gym  # noqa: F401  (registers the env ids)
 
         commands = {c.NAME: c for c in COMMANDS}
-        with safe_warnings():
+        with safe_warnings(), results_only_on_stdout():
             code = _run(commands[args.command], args)
         sys.stdout.flush()
         return code

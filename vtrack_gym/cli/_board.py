@@ -16,13 +16,15 @@ def render_board(board: list[dict[str, Any]], fmt: str, title: str = "vtrack lea
 
 
 def shown_columns(board: list[dict[str, Any]], fmt: str, columns: str, suite: str) -> list[dict[str, Any]]:
-    """The board a format shows: the key columns in md and latex unless ``columns`` is ``all``."""
+    """The board a format shows: the key columns in a trimmed format (``OutputFormat.trimmed``) unless ``columns``
+    is ``all``, else every column (those explaining a verdict first in a ``key_first`` format)."""
     from vtrack_gym.evaluation.board_view import board_view
     from vtrack_gym.evaluation.output_formats import get_format
     from vtrack_gym.evaluation.suites import extra_columns, primary_metric
 
-    return board_view(board, primary_metric(suite), columns if get_format(fmt).trimmed else "all",
-                      extra_columns(suite))
+    chosen = get_format(fmt)
+    return board_view(board, primary_metric(suite), columns if chosen.trimmed else "all", extra_columns(suite),
+                      ordered=chosen.key_first)
 
 
 def ranking_note(suite: str) -> str:

@@ -4,7 +4,6 @@ files, in local processes or on Ray."""
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -124,11 +123,10 @@ def run(args: argparse.Namespace) -> int:
     if args.tracks is not None:
         err(f"{len(result['tracks'])} track files of --tracks {args.tracks}: suite {suite!r}")
     board = board_of(result["rows"], suite).entries
-    out(render_board(shown_columns(board, args.format, args.columns, suite), args.format))
+    out(render_board(shown_columns(board, args.format, args.columns, suite), args.format), flush=True)
     err(ranking_note(suite))
     for f in result["figures"]:
         err(f"figure: {f}")
-    sys.stdout.flush()
     store.add(result["rows"])
     err(f"\nresults stored in {args.store} (suite {suite!r})")
     return 0

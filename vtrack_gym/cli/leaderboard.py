@@ -86,20 +86,21 @@ def check_outputs(args: argparse.Namespace) -> None:
 def _figures(args: argparse.Namespace, board: Any) -> tuple[list[Path], str]:
     """The PNGs ``--format html`` embeds (those of the runs whose every row the board shows:
     ``evaluation.figure_runs``; regular files of at most ``MAX_FIGURE_BYTES``) and a note saying which."""
-    from vtrack_gym.evaluation.figure_runs import figure_runs, run_figures
+    from vtrack_gym.evaluation.figure_runs import figure_runs, policy_figure_notes, run_figures
     from vtrack_gym.evaluation.output_formats import get_format
 
     if not get_format(args.format).figures:
         return [], ""
     runs = figure_runs(board.rows, board.suite_rows)
+    files, missing = run_figures(args.figures, runs, MAX_FIGURE_BYTES)
+    by_policy = " ".join(policy_figure_notes(board.rows, runs, missing))
     if not runs:
         return [], ("No figures: no benchmark run with figures has all of its rows on this board (figures belong to "
-                    "the run that wrote them).")
-    files, missing = run_figures(args.figures, runs, MAX_FIGURE_BYTES)
+                    f"the run that wrote them). {by_policy}")
     note = f"Figures of {len(runs) - len(missing)} run(s) under {args.figures}: {', '.join(runs)}."
     if missing:
         note += f" Not found under --figures {args.figures}: {', '.join(missing)}."
-    return files, note
+    return files, f"{note} {by_policy}"
 
 
 def run(args: argparse.Namespace) -> int:

@@ -20,7 +20,8 @@ Renderer = Callable[[list[dict[str, Any]], str, Sequence[Path], Sequence[str]], 
 class OutputFormat:
     """One leaderboard output format: ``render(board, title, figures, notes)``; ``trimmed``: shows the key columns
     unless ``--columns all`` (else every column); ``report``: a document for ``vtrack leaderboard`` only (not
-    streamed by ``vtrack benchmark``); ``figures``: embeds the figures of the runs on the board."""
+    streamed by ``vtrack benchmark``); ``figures``: embeds the figures of the runs on the board; ``key_first``:
+    every column, those that rank and explain a verdict (``board_view.key_view``) first."""
 
     name: str
     description: str
@@ -28,6 +29,7 @@ class OutputFormat:
     trimmed: bool = False
     report: bool = False
     figures: bool = False
+    key_first: bool = False
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.isidentifier():
@@ -57,7 +59,7 @@ _FORMATS: dict[str, OutputFormat] = {f.name: f for f in (
     OutputFormat("json", "JSON", _table("json")),
     OutputFormat("latex", "LaTeX booktabs tabular", _table("latex"), trimmed=True, report=True),
     OutputFormat("html", "self-contained HTML report (sortable table, figures embedded, no network)", _html,
-                 report=True, figures=True),
+                 report=True, figures=True, key_first=True),
 )}
 
 

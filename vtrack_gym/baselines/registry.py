@@ -1,9 +1,9 @@
 """Name -> steering baseline registry: ``make_policy(name, env, preset="default", **overrides)``.
 
-Names: ``smc`` (paper SMC), ``mpc`` (paper MPC, precomputed gains), ``lqr``, ``stanley``, ``pure_pursuit``,
-``mpc_osqp`` (constrained MPC, needs the ``osqp`` package), ``nmpc`` (nonlinear MPC, needs ``casadi``: the
-``nmpc`` extra). Controller modules are imported on first use, so ``import vtrack_gym.baselines.registry`` is
-cheap and works without osqp or casadi.
+Names: ``available_policies()`` (the keys of ``_POLICIES``, then those registered from outside with
+``register_policy`` or the ``vtrack_gym.policies`` entry point); each policy's page in ``docs/baselines/`` says
+what it is and which extra it needs (``mpc_osqp``: osqp; ``nmpc``: casadi). Controller modules are imported on first
+use, so ``import vtrack_gym.baselines.registry`` is cheap and works without osqp or casadi.
 """
 
 from __future__ import annotations

@@ -84,8 +84,19 @@ def add_format(p: argparse.ArgumentParser, reports: bool = False) -> None:
                    help=f"how to print the leaderboard: {formats_help(choices)} (default: md)")
 
 
+def policy_help() -> str:
+    """What a ``--policy`` value may be, the names read from the policy registry and the shipped agents' folder."""
+    from vtrack_gym.baselines.registry import available_policies
+    from vtrack_gym.baselines.shipped import shipped_agents
+
+    return (f"a baseline name ({', '.join(available_policies())}), NAME:PRESET (smc:paper), a shipped agent name "
+            f"({', '.join(shipped_agents())}), a weights-only agent file (agent.json / agent.npz), or, with "
+            "--trust-code, MODULE:NAME of your own policy (a class: NAME.from_env(env) if it defines from_env, else "
+            "NAME(); keyword arguments from --policy-kwargs)")
+
+
 def add_columns(p: argparse.ArgumentParser) -> None:
-    """``--columns key|all``: the columns of the md and latex tables (csv, json and html carry them all)."""
+    """``--columns key|all``: the columns of the trimmed formats (the others carry them all)."""
     from vtrack_gym.evaluation.board_view import COLUMN_SETS
     from vtrack_gym.evaluation.output_formats import format_names, get_format
 

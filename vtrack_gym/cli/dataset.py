@@ -23,8 +23,7 @@ def register(sub: Any) -> None:
                         "env's spec, so "
                         "minari.load_dataset(ID).recover_environment() makes the same env.")
     ds.add_argument("--policy", required=True,
-                    help="any policy `vtrack eval --policy` takes: a baseline, NAME:PRESET, a shipped agent, an agent "
-                    "file or MODULE:NAME of your own code (with --trust-code)")
+                    help=opt.policy_help())
     opt.add_user_code(ds)
     where = ds.add_mutually_exclusive_group(required=True)
     where.add_argument("--suite", choices=dataset_suites(),

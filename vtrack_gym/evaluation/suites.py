@@ -1,10 +1,10 @@
 """Leaderboard suites: one registry of ``Suite`` objects (``suite_parts.Suite``), read by every command, help text
 and error message.
 
-The built-in suites live in ``evaluation.suite_defs`` (one file each): ``paper``, ``robust``, ``highway``,
-``maneuvers``. A suite of your own is one ``Suite`` and one ``register_suite`` call; an installed package can also
-name it in the ``vtrack_gym.suites`` entry-point group (the entry point is a ``Suite``), and every ``vtrack``
-command then lists it.
+The built-in suites live in ``evaluation.suite_defs`` (one file each, in ``_REGISTRY``; ``suite_names()`` lists
+every registered one). A suite of your own is one ``Suite`` and one ``register_suite`` call; an installed package
+can also name it in the ``vtrack_gym.suites`` entry-point group (the entry point is a ``Suite``), and every
+``vtrack`` command then lists it.
 """
 
 from __future__ import annotations

@@ -43,3 +43,25 @@ def test_the_html_board_explains_its_verdicts_and_its_figures(tmp_path: Path,
     assert "No figures for stanley: their rows were scored without figures" in text
     assert "No figures for smc: their run&#x27;s figure folder is not under --figures." in text
     assert text.count("data:image/png;base64") == 1
+
+
+def test_an_output_format_of_your_own_is_one_registration(tmp_path: Path,
+                                                          capsys: pytest.CaptureFixture[str]) -> None:
+    """An ``OutputFormat`` registered from outside is a ``--format`` choice of ``vtrack leaderboard`` and
+    ``vtrack benchmark`` and renders the board."""
+    from vtrack_gym.evaluation.output_formats import OutputFormat, register_format, unregister_format
+
+    def tsv(board, title, figures, notes):
+        cols = list(board[0])
+        return "\n".join(["\t".join(cols), *("\t".join(str(e[c]) for c in cols) for e in board)])
+
+    store = tmp_path / "s.sqlite"
+    ResultStore(store).add([_row("lqr")])
+    register_format(OutputFormat("tsv", "tab-separated values", tsv, trimmed=True))
+    try:
+        assert main(["leaderboard", "--store", str(store), "--format", "tsv"]) == 0
+        lines = capsys.readouterr().out.splitlines()
+        assert lines[0].split("\t")[:3] == ["env_id", "policy_id", "rank"] and lines[1].startswith("DLC120-v0\tlqr")
+        assert "failure_reasons" in lines[0] and len(lines[0].split("\t")) == 7  # trimmed: the key columns
+    finally:
+        unregister_format("tsv")

@@ -22,6 +22,18 @@ def load_group(group: str, register: Callable[[Any, str], str], seen: dict[str, 
             seen[key] = register(ep.load(), f"entry point {ep.name} = {ep.value} of group {group}")
 
 
+def add_named(table: dict[str, Any], name: str, item: Any, kind: type, what: str, replace: bool = False) -> Any:
+    """Put ``item`` (an instance of ``kind``) into the registry ``table`` under ``name``; ``ValueError`` for another
+    type, or for a name taken by another item unless ``replace``. ``what`` names the item in errors (``suite``).
+    Returns ``item``."""
+    if not isinstance(item, kind):
+        raise ValueError(f"register a {kind.__name__} as a {what} (got {type(item).__name__})")
+    if name in table and not replace and table[name] is not item:
+        raise ValueError(f"a {what} named {name!r} is registered already; pass replace=True to replace it")
+    table[name] = item
+    return item
+
+
 def forget(seen: dict[str, str], name: str) -> None:
     """Drop the entry points that registered ``name`` from ``seen`` (they load again while still installed)."""
     for key in [k for k, v in seen.items() if v == name]:

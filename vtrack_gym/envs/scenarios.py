@@ -29,7 +29,7 @@ from typing import Any
 from vtrack_gym._ranges import documented, ranged, validate
 from vtrack_gym.envs.criteria import CRITERIA, Auto, SuccessCriterion
 from vtrack_gym.envs.randomisation import Randomisation, Start
-from vtrack_gym.envs.speed import EntryThenRelease, HoldSpeed, check_speed, is_profile
+from vtrack_gym.envs.speed import EntryThenRelease, HoldSpeed, check_speed, is_profile, speed_part
 from vtrack_gym.envs.track_sources import MANEUVER_TRACK_NAMES, TrackSource
 
 KMH = 1.0 / 3.6
@@ -352,8 +352,8 @@ def with_protocol(scenario: Scenario, vehicle: Any, entry_speed_kmh: float | Non
     if entry_speed_kmh is not None:
         from vtrack_gym.tracks.feasibility import check_entry_speed
 
-        if not isinstance(scenario.speed, EntryThenRelease):
-            ids = ", ".join(s.env_id for s in SCENARIOS.values() if isinstance(s.speed, EntryThenRelease))
+        if not speed_part(scenario.speed).takes_entry_speed:
+            ids = ", ".join(s.env_id for s in SCENARIOS.values() if speed_part(s.speed).takes_entry_speed)
             raise ValueError(f"entry_speed_kmh applies to the ids with an entry-speed protocol ({ids}); "
                              f"{scenario.env_id} has {type(scenario.speed).__name__}")
         if isinstance(entry_speed_kmh, bool) or not isinstance(entry_speed_kmh, (int, float)):

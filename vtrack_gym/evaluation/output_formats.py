@@ -65,12 +65,9 @@ _FORMATS: dict[str, OutputFormat] = {f.name: f for f in (
 
 def register_format(fmt: OutputFormat, replace: bool = False) -> OutputFormat:
     """Add ``fmt`` to the registry (``replace``: over a format of the same name); returns it."""
-    if not isinstance(fmt, OutputFormat):
-        raise ValueError(f"register_format takes an OutputFormat (got {type(fmt).__name__})")
-    if fmt.name in _FORMATS and not replace and _FORMATS[fmt.name] is not fmt:
-        raise ValueError(f"an output format named {fmt.name!r} is registered already; pass replace=True")
-    _FORMATS[fmt.name] = fmt
-    return fmt
+    from vtrack_gym._plugins import add_named
+
+    return add_named(_FORMATS, getattr(fmt, "name", ""), fmt, OutputFormat, "output format", replace)
 
 
 def unregister_format(name: str) -> None:

@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from vtrack_gym._plugins import forget, load_group
+from vtrack_gym._plugins import add_named, forget, load_group
 from vtrack_gym.evaluation.episodes import Episode, with_vehicle  # noqa: F401  (re-exported)
 from vtrack_gym.evaluation.suite_defs.highway import HIGHWAY
 from vtrack_gym.evaluation.suite_defs.maneuvers import MANEUVER_ENV_IDS, MANEUVERS  # noqa: F401  (re-exported)
@@ -47,12 +47,7 @@ def _load_entry_points() -> None:
 
 def register_suite(suite: Suite, replace: bool = False) -> Suite:
     """Add ``suite`` to the registry (``replace``: over a suite of the same name); returns it."""
-    if not isinstance(suite, Suite):
-        raise ValueError(f"register_suite takes a Suite (got {type(suite).__name__})")
-    if suite.name in _REGISTRY and not replace and _REGISTRY[suite.name] is not suite:
-        raise ValueError(f"a suite named {suite.name!r} is registered already; pass replace=True to replace it")
-    _REGISTRY[suite.name] = suite
-    return suite
+    return add_named(_REGISTRY, getattr(suite, "name", ""), suite, Suite, "suite", replace)
 
 
 def unregister_suite(name: str) -> None:

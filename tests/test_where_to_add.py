@@ -1,8 +1,8 @@
 """The rows of the "where to add things" table of ``docs/architecture.md`` that no other test demonstrates.
 
 A speed profile and a vehicle file need no edit of the package; a shipped vehicle is one JSON file; a CLI command
-is its module plus its entry in ``cli.COMMANDS``; a suite's name is known everywhere the CLI and the suite
-tables list it.
+is its module plus its entry in ``cli.COMMANDS``; a suite is one registry entry the CLI reads (a suite from outside
+the package: ``tests/test_suite_registry.py``).
 """
 
 from __future__ import annotations

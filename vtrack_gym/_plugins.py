@@ -2,7 +2,8 @@
 
 A registry calls ``load_group(group, register, seen)`` before it lists its names: each entry point of ``group`` not
 in ``seen`` is loaded once per process and handed to ``register`` (which checks its type and returns the name it
-was registered under); ``seen`` maps ``"name=value"`` of each loaded entry point to that name.
+was registered under); ``seen`` maps ``"name=value"`` of each loaded entry point to that name, and remembers the
+import path it last scanned (a registry's lookups cost nothing until ``sys.path`` changes).
 """
 
 from __future__ import annotations
@@ -10,16 +11,24 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+_SCANNED = "\0import path scanned"
+"""Key of ``seen`` holding the import path the group was last scanned on."""
+
 
 def load_group(group: str, register: Callable[[Any, str], str], seen: dict[str, str]) -> None:
     """Load every entry point of ``group`` not in ``seen`` and register it (``register(obj, where)``, ``where``
     naming the entry point for error messages)."""
+    import sys
     from importlib.metadata import entry_points
 
+    where = repr(sys.path)  # installed packages are found on the import path: scanned again only when it changes
+    if seen.get(_SCANNED) == where:
+        return
     for ep in entry_points(group=group):
         key = f"{ep.name}={ep.value}"
         if key not in seen:
             seen[key] = register(ep.load(), f"entry point {ep.name} = {ep.value} of group {group}")
+    seen[_SCANNED] = where
 
 
 def add_named(table: dict[str, Any], name: str, item: Any, kind: type, what: str, replace: bool = False) -> Any:
@@ -38,3 +47,4 @@ def forget(seen: dict[str, str], name: str) -> None:
     """Drop the entry points that registered ``name`` from ``seen`` (they load again while still installed)."""
     for key in [k for k, v in seen.items() if v == name]:
         del seen[key]
+    seen.pop(_SCANNED, None)

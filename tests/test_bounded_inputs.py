@@ -133,7 +133,7 @@ def test_cli_outputs_are_checked_before_any_work(tmp_path, capsys, kind):
         ["tune", "--controller", "smc", "--budget", "quick", "--out", str(tmp_path / "ok.json"), "--store", bad],
         ["eval", "--policy", "lqr", "--env", "DLC120-v0", "--store", bad],
         ["benchmark", "--store", bad, "--no-figures"],
-        ["export", "--trust", "--model", str(tmp_path / "m.zip"), "--algo", "ppo", "--out",
+        ["export", "--trust-code", "--model", str(tmp_path / "m.zip"), "--algo", "ppo", "--out",
          bad.removesuffix(".json") if kind == "under_file" else str(_special(tmp_path, "dir") / "x")],
     ]
     if kind != "dir":  # folder outputs: a FIFO, a device or a path under a file

@@ -13,7 +13,7 @@ pytest.importorskip("h5py")
 
 import minari
 
-from vtrack_gym.evaluation.dataset import dataset_episodes, dataset_id, write_dataset
+from vtrack_gym.evaluation.dataset import dataset_episodes, dataset_id, start_options, write_dataset
 from vtrack_gym.evaluation.suites import ROBUST_FRICTION, robust_options
 
 
@@ -47,6 +47,10 @@ def test_dataset_round_trip(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> 
     assert first.observations.shape == (len(first.actions) + 1, 43) and first.actions.shape[1] == 1
     assert first.terminations[-1] or first.truncations[-1]
     assert np.all(np.abs(first.actions) <= 1.0)
+    assert not np.array_equal(first.observations[0], dataset[1].observations[0])  # two seeds, two episodes
+    assert first.infos["e_y_m"].shape == (len(first.actions) + 1,)
+    np.testing.assert_allclose(first.infos["e_y_m"][0], start_options(3)["initial_lateral_offset_m"], atol=1e-9)
+    assert first.infos["success"].dtype == bool and "termination" not in first.infos
     _replay(dataset, 1)
     with pytest.raises(ValueError, match="already exist"):  # Minari never overwrites: refused before driving
         write_dataset("lqr", env="DLC120-v0", episodes=1, root=tmp_path)
@@ -57,7 +61,7 @@ def test_suite_episodes_keep_their_options(tmp_path: Path, monkeypatch: pytest.M
     assert list(grouped) == ["LateralTracking-v0", "DLC120-v0"]
     dlc = grouped["DLC120-v0"]
     assert [ep.seed for ep in dlc] == [5, 6]
-    assert dlc[0].options == robust_options(5, dlc_speed(), ROBUST_FRICTION["DLC120-v0"])
+    assert dlc[0].options == {**robust_options(5, dlc_speed(), ROBUST_FRICTION["DLC120-v0"]), **start_options(5)}
     monkeypatch.setattr("vtrack_gym.evaluation.dataset.dataset_episodes",
                         lambda *a, **k: {"DLC120-v0": dlc[:1]})  # drive only the short scenario
     ids = write_dataset("lqr", suite="robust", episodes=1, root=tmp_path)
@@ -129,3 +133,26 @@ def test_dataset_root_is_checked_and_a_half_written_dataset_never_blocks_a_rerun
     monkeypatch.setenv("MINARI_DATASETS_PATH", str(root))
     assert minari.load_dataset("vtrack/DLC120/retry-v0").total_episodes == 1
     assert not [p for p in root.iterdir() if p.name.startswith(".vtrack-writing-")]
+
+
+def test_vtrack_dataset_records_a_class_of_your_own(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    from vtrack_gym.cli import main
+
+    (tmp_path / "my_steer.py").write_text(
+        "import numpy as np\n\n"
+        "class Steer:\n"
+        "    def __init__(self, k_y=0.1):\n"
+        "        self.k_y = k_y\n\n"
+        "    def predict(self, obs, state=None, episode_start=None, deterministic=True):\n"
+        "        return np.array([-self.k_y * obs[0]], dtype=np.float32), None\n")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("MINARI_DATASETS_PATH", raising=False)
+    args = ["dataset", "--policy", "my_steer:Steer", "--policy-kwargs", '{"k_y": 0.2}', "--env", "DLC120-v0",
+            "--episodes", "2", "--root", str(tmp_path / "ds"), "--no-progress"]
+    assert main(args) == 2 and "--trust-code" in capsys.readouterr().err
+    assert main([*args, "--trust-code"]) == 0
+    assert capsys.readouterr().out.split() == ["vtrack/DLC120/my_steer_Steer-env-v0"]
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path / "ds"))
+    dataset = minari.load_dataset("vtrack/DLC120/my_steer_Steer-env-v0")
+    assert dataset.total_episodes == 2 and dataset.storage.metadata["algorithm_name"] == "my_steer:Steer"

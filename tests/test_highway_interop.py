@@ -20,7 +20,7 @@ from vtrack_gym.baselines.linear_models import error_model
 from vtrack_gym.baselines.registry import available_policies, make_policy
 from vtrack_gym.envs.observation import OBS
 from vtrack_gym.evaluation.rollout import rollout
-from vtrack_gym.evaluation.suites import highway_episodes
+from vtrack_gym.evaluation.suite_defs.highway import highway_episodes
 from vtrack_gym.interop import (
     HIGHWAY_ENV_ID,
     register_highway_envs,
@@ -279,7 +279,7 @@ def test_registered_id_rollout_and_suite() -> None:
     assert resolve_env_id("highway-env:lane-keeping-v0") == HIGHWAY_ENV_ID
     assert resolve_env_id("DLC120-v0") == "DLC120-v0"
     episodes = highway_episodes()
-    assert [ep.seed for ep in episodes] == [0, 1, 2] and len(highway_episodes(quick=True)) == 1
+    assert [ep.seed for ep in episodes] == [0, 1, 2] and len(highway_episodes((0,))) == 1
     env = gym.make(HIGHWAY_ENV_ID)  # through Gymnasium's passive env checker
     from vtrack_gym.evaluation.metrics import evaluate_trace
 

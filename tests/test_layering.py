@@ -18,6 +18,7 @@ PACKAGE_DIR = Path(__file__).resolve().parents[1] / "vtrack_gym"
 
 LAYER: dict[str, int] = {
     "_version": 0, "_ranges": 0, "_io": 0, "_jit": 0, "_kernel_sources": 0, "_array_views": 0, "_progress": 0,
+    "_plugins": 0,
     "vehicle": 1, "tracks": 1,
     "envs": 2,
     "interop": 3,

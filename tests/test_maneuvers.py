@@ -70,7 +70,7 @@ def test_iso3888_1_gates_match_the_standard() -> None:
     g1, _, g5 = (_lane(g) for g in m.path.gates)
     assert g5[2] - 0.5 * g5[3] == pytest.approx(g1[2] - 0.5 * g1[3], abs=1e-12)     # right boundaries aligned
     assert m.spec.nominal_speed_mps == pytest.approx(V80)
-    assert m.spec.standard.startswith("ISO 3888-1") and m.spec.success_criterion == "no_cones_hit"
+    assert m.spec.standard.startswith("ISO 3888-1") and m.spec.success_criterion == "gates"
     # Chrono (ISO3888_Helper, ISO3888_1): lane 3's right boundary 3.5 m left of lane 1's centre line (y = 0)
     chrono = build_maneuver("iso3888_1", lane_offset_m=DoubleLaneChangeParams.chrono_lane_offset_m(w))
     x0, x1, y3, w3 = _lane(chrono.path.gates[1])
@@ -97,7 +97,7 @@ def test_iso3888_2_gates_match_the_standard(w: float) -> None:
     assert l1[2] == 0.0
     assert l3[2] - 0.5 * l3[3] == pytest.approx(l1[2] + 0.5 * l1[3] + 1.0)         # 1 m lateral offset
     assert l5[2] - 0.5 * l5[3] == pytest.approx(l1[2] - 0.5 * l1[3])
-    assert m.spec.nominal_speed_mps == pytest.approx(V80) and m.spec.success_criterion == "no_cones_hit"
+    assert m.spec.nominal_speed_mps == pytest.approx(V80) and m.spec.success_criterion == "gates"
 
 
 def test_exit_lane_width_floor() -> None:
@@ -147,7 +147,7 @@ def test_circle_radius_ramp_and_grip_limit() -> None:
     ramp_end = start + ramp.ramp_length_m
     assert m.path.length_m - ramp_end >= 2.0 * math.pi * 40.0                    # a lap after the ramp
     assert m.spec.time_limit_s >= start / 5.0 + ramp.ramp_duration_s
-    assert m.spec.success_criterion == "stays_on_circle" and m.spec.lateral_tolerance_m == 0.5
+    assert m.spec.success_criterion == "circle" and m.spec.lateral_tolerance_m == 0.5
 
 
 def test_step_curvature_geometry() -> None:
@@ -157,7 +157,7 @@ def test_step_curvature_geometry() -> None:
     assert np.all(kap[s <= 60.0] == 0.0)
     assert np.allclose(kap[s >= 61.0], 1.0 / 50.0, atol=1e-12)
     assert m.path.table[-1, COL_PSI] == pytest.approx(math.pi + 0.5 * 1.0 / 50.0, abs=1e-9)  # + half the blend
-    assert m.spec.success_criterion == "completes" and m.spec.nominal_speed_mps == 15.0
+    assert m.spec.success_criterion == "end" and m.spec.nominal_speed_mps == 15.0
 
 
 # ------------------------------------------------------------------------------------- smoothness and feasibility
@@ -250,9 +250,9 @@ def test_spec_and_params_validation() -> None:
     with pytest.raises(ValueError, match="success_criterion must be one of"):
         ManeuverSpec(**base, success_criterion="fast")
     with pytest.raises(ValueError, match="lateral_tolerance_m must be > 0"):
-        ManeuverSpec(**base, success_criterion="stays_on_circle")
+        ManeuverSpec(**base, success_criterion="circle")
     with pytest.raises(ValueError, match="speed_profile must be a tracks speed profile"):
-        ManeuverSpec(**{**base, "speed_profile": 10.0}, success_criterion="completes")
+        ManeuverSpec(**{**base, "speed_profile": 10.0}, success_criterion="end")
     with pytest.raises(ValueError, match="unknown manoeuvre"):
         build_maneuver("moose")
     with pytest.raises(ValueError, match=r"SlalomParams\.cone_spacing_m"):

@@ -143,8 +143,9 @@ def test_sb3_model_with_vecnormalize_scores_like_its_export(tmp_path, capsys):
     model = PPO("MlpPolicy", vn, seed=0, device="cpu", policy_kwargs={"net_arch": [16]})
     model.save(tmp_path / "model.zip")
     vn.save(str(tmp_path / "vecnormalize.pkl"))
-    assert main(["export", "--trust", "--model", str(tmp_path / "model.zip"), "--algo", "ppo", "--vecnormalize",
-                 str(tmp_path / "vecnormalize.pkl"), "--out", str(tmp_path / "agent")]) == 0
+    assert main(["export", "--trust-code", "--model", str(tmp_path / "model.zip"), "--algo", "ppo", "--env",
+                 "LateralTrackingRandom-v0", "--vecnormalize", str(tmp_path / "vecnormalize.pkl"), "--out",
+                 str(tmp_path / "agent")]) == 0
     capsys.readouterr()
     spec = json.loads((tmp_path / "agent.json").read_text())
     assert spec["env"]["observation_names"] == list(OBS.names)

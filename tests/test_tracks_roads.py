@@ -10,7 +10,15 @@ import pathlib
 import numpy as np
 import pytest
 
-from vtrack_gym.tracks import BUILTIN_TRACKS, Path, csv_loader, handling_course, load_track, load_track_csv, path_digest
+from vtrack_gym.tracks import (
+    Path,
+    csv_loader,
+    handling_course,
+    load_track,
+    load_track_csv,
+    path_digest,
+    track_names,
+)
 from vtrack_gym.tracks.geometry import TooDenseError, segment_intersections
 
 HAIRPIN_R_M = 7.0
@@ -245,8 +253,9 @@ def test_load_track_resolves_names_files_and_paths(tmp_path: pathlib.Path) -> No
     hc = handling_course()
     assert np.array_equal(load_track("handling_course").table, hc.table)
     assert load_track(hc) is hc
-    assert set(BUILTIN_TRACKS) == {"handling_course", "double_lane_change"}
-    with pytest.raises(ValueError, match=r"nurburgring: track file not found \(built-in tracks: double_lane_change"):
+    assert track_names()[:2] == ("handling_course", "double_lane_change") and "iso3888_1" in track_names()
+    assert load_track("iso3888_1").length_m > 0  # one registry: a manoeuvre is a built-in track too
+    with pytest.raises(ValueError, match=r"nurburgring: track file not found \(built-in tracks: handling_course, "):
         load_track("nurburgring")
     with pytest.raises(ValueError, match="track must be a CSV file path"):
         load_track(3.0)  # type: ignore[arg-type]

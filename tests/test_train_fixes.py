@@ -216,7 +216,7 @@ def test_export_model_checks_normalisation_algo_and_period(tmp_path: Path,
     run = tmp_path / "run"
     assert main(["train", "--algo", "ppo", "--timesteps", "64", "--run-dir", str(run), *FAST, *PPO_SMALL]) == 0
     model = str(run / "model.zip")
-    base = ["export", "--trust", "--env", "vtrack/TrainingMix-v0"]
+    base = ["export", "--trust-code", "--env", "vtrack/TrainingMix-v0"]
     capsys.readouterr()
     assert main([*base, "--model", model, "--algo", "ppo", "--out", str(tmp_path / "a")]) == 2
     assert "vecnormalize.pkl next to it" in capsys.readouterr().err and not (tmp_path / "a.json").exists()

@@ -1,8 +1,8 @@
 """The rows of the "where to add things" table of ``docs/architecture.md`` that no other test demonstrates.
 
 A speed profile and a vehicle file need no edit of the package; a shipped vehicle is one JSON file; a CLI command
-is its module plus its entry in ``cli.COMMANDS``; a suite's name is known everywhere the CLI and the suite
-tables list it.
+is its module plus its entry in ``cli.COMMANDS``; a suite is one registry entry the CLI reads (a suite from outside
+the package: ``tests/test_suite_registry.py``).
 """
 
 from __future__ import annotations
@@ -79,17 +79,23 @@ def _choices(parser, command: str, option: str) -> tuple[str, ...]:
     return tuple(next(a for a in sub._actions if option in a.option_strings).choices)
 
 
-def test_a_suite_is_listed_everywhere_it_is_named() -> None:
-    """A suite's name stands in ``evaluation.suites`` (``SUITES``, ``suite_episodes``, ``PRIMARY_METRICS``,
-    ``STANDARD_SEEDS``) and in ``vtrack benchmark --suite``; each place knows every suite."""
+def test_a_suite_is_one_registry_entry_read_by_the_cli() -> None:
+    """Every suite is one ``Suite`` in ``evaluation.suites``; ``vtrack benchmark --suite`` and ``vtrack dataset
+    --suite`` list the registry (a suite registered later is listed too)."""
     from vtrack_gym.cli import build_parser
     from vtrack_gym.evaluation import suites
+    from vtrack_gym.evaluation.suite_defs.paper import paper_episodes
 
-    assert set(_choices(build_parser(), "benchmark", "--suite")) == set(suites.SUITES)
-    assert set(suites.PRIMARY_METRICS) == set(suites.SUITES) == set(suites.STANDARD_SEEDS)
-    assert suites.QUICK_SUITES <= set(suites.SUITES)
-    for name in suites.SUITES:
-        if name != "highway":  # needs the highway extra
+    assert _choices(build_parser(), "benchmark", "--suite") == suites.suite_names()
+    for name in suites.suite_names():
+        if "highway_env" not in suites.get_suite(name).needs:
             assert suites.suite_episodes(name, quick=True)
-    with pytest.raises(ValueError, match="unknown suite"):
+    with pytest.raises(ValueError, match="unknown suite 'throwaway'; valid: paper, robust"):
         suites.suite_episodes("throwaway")
+    suites.register_suite(suites.Suite("throwaway", "one paper seed", paper_episodes))
+    try:
+        parser = build_parser()
+        assert "throwaway" in _choices(parser, "benchmark", "--suite")
+        assert "throwaway" in _choices(parser, "dataset", "--suite")
+    finally:
+        suites.unregister_suite("throwaway")

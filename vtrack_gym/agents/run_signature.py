@@ -109,5 +109,6 @@ def verified_run_files(run_dir: str | Path, *, trust: bool = False) -> dict[str,
     if not trust and not files_are_trusted(run, files):
         raise ValueError(f"{run} was not written by `vtrack train` as this user on this machine, or its files "
                          "changed since (no valid vtrack-train.sig). Its model.zip and vecnormalize.pkl are "
-                         "pickles that can run code when loaded: pass --trust only if you trust where they came from")
+                         "pickles that can run code when loaded: pass --trust-code only if you trust where "
+                         "they came from")
     return files

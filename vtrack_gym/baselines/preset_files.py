@@ -55,16 +55,34 @@ def _check_json_value(value: Any, where: str, depth: int = 0) -> None:
             _check_json_value(v, f"{where}[{j}]", depth + 1)
 
 
-def _config_type(controller: str) -> type:
-    if controller == "smc":
-        from vtrack_gym.baselines.configs import SMCConfig
+SAVABLE_TYPES = (bool, int, float, str, tuple)
+"""Types of the config fields a preset file holds (tuples of numbers)."""
 
-        return SMCConfig
-    if controller == "mpc":
-        from vtrack_gym.baselines.configs import MPCConfig
 
-        return MPCConfig
-    raise PresetError(f"controller must be 'smc' or 'mpc' (got {controller!r})")
+def preset_config_type(controller: Any) -> type:
+    """The config class a preset of ``controller`` holds: the ``config_type`` of a GA-tunable registered policy
+    (``registry.tunable_policies()``), a frozen dataclass whose fields all have defaults of ``SAVABLE_TYPES``.
+    ``PresetError`` otherwise, naming the tunable controllers or the field that cannot be saved."""
+    from vtrack_gym.baselines.registry import policy_class, tunable_policies
+
+    tunable = tunable_policies()
+    if not isinstance(controller, str) or controller not in tunable:
+        raise PresetError(f"controller must be a GA-tunable registered policy: {', '.join(tunable)} "
+                          f"(got {controller!r})")
+    cfg_type = policy_class(controller).config_type
+    if not dataclasses.is_dataclass(cfg_type):
+        raise PresetError(f"{controller}: config_type {cfg_type.__name__} is not a dataclass; a preset holds "
+                          "dataclass fields")
+    try:
+        defaults = cfg_type()
+    except TypeError as exc:
+        raise PresetError(f"{controller}: {cfg_type.__name__}() needs a default for every field ({exc})") from None
+    for f in dataclasses.fields(cfg_type):
+        if not isinstance(getattr(defaults, f.name), SAVABLE_TYPES):
+            raise PresetError(f"{controller}: {cfg_type.__name__}.{f.name} is a "
+                              f"{type(getattr(defaults, f.name)).__name__}; a preset holds bool, int, float, str "
+                              "and tuples of numbers")
+    return cfg_type
 
 
 def _number(value: Any, where: str) -> float:
@@ -103,7 +121,7 @@ def parse_preset(text: str | bytes) -> dict[str, Any]:
     if data.get("format") != FORMAT or data.get("format_version") != FORMAT_VERSION:
         raise PresetError(f"preset must have format {FORMAT!r} and format_version {FORMAT_VERSION}")
     controller = data.get("controller")
-    cfg_type = _config_type(controller)
+    cfg_type = preset_config_type(controller)
     raw = data.get("config")
     if not isinstance(raw, dict):
         raise PresetError("preset 'config' must be an object")
@@ -212,9 +230,11 @@ def packaged_preset_path(controller: str) -> Path:
 
 def tuned_config(controller: str) -> Any:
     """The config of the packaged tuned preset of ``controller`` (``ValueError`` if there is none)."""
+    from vtrack_gym.baselines.registry import tunable_policies
+
     path = packaged_preset_path(controller)
-    if controller not in ("smc", "mpc"):
-        raise ValueError(f"no 'tuned' preset for {controller!r}: only smc and mpc can be GA-tuned")
+    if controller not in tunable_policies():
+        raise ValueError(f"no 'tuned' preset for {controller!r}: GA-tunable: {', '.join(tunable_policies())}")
     if not path.is_file():
         raise ValueError(f"no tuned {controller} preset is packaged ({path} missing); run `vtrack tune "
                          f"--controller {controller} --out FILE` and install FILE there to use preset='tuned'")

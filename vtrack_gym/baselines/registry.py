@@ -1,9 +1,9 @@
 """Name -> steering baseline registry: ``make_policy(name, env, preset="default", **overrides)``.
 
-Names: ``smc`` (paper SMC), ``mpc`` (paper MPC, precomputed gains), ``lqr``, ``stanley``, ``pure_pursuit``,
-``mpc_osqp`` (constrained MPC, needs the ``osqp`` package), ``nmpc`` (nonlinear MPC, needs ``casadi``: the
-``nmpc`` extra). Controller modules are imported on first use, so ``import vtrack_gym.baselines.registry`` is
-cheap and works without osqp or casadi.
+Names: ``available_policies()`` (the keys of ``_POLICIES``, then those registered from outside with
+``register_policy`` or the ``vtrack_gym.policies`` entry point); each policy's page in ``docs/baselines/`` says
+what it is and which extra it needs (``mpc_osqp``: osqp; ``nmpc``: casadi). Controller modules are imported on first
+use, so ``import vtrack_gym.baselines.registry`` is cheap and works without osqp or casadi.
 """
 
 from __future__ import annotations
@@ -31,28 +31,78 @@ _TUNING: dict[str, tuple[str, str]] = {
 """GA-tunable policies: name -> their tuning declaration (``baselines.tunable.ControllerTuning``)."""
 
 
+ENTRY_POINT_GROUP = "vtrack_gym.policies"
+"""Entry-point group of policies from installed packages (each entry point loads a ``Policy`` subclass, registered
+under its ``name``)."""
+_ADDED: dict[str, type[Policy]] = {}
+"""Policies registered from outside the package (``register_policy``, entry points)."""
+_LOADED_ENTRY_POINTS: dict[str, str] = {}
+
+
+def register_policy(cls: type[Policy], replace: bool = False) -> type[Policy]:
+    """Register the ``Policy`` subclass ``cls`` under ``cls.name`` (a lowercase identifier, not a built-in name);
+    a ``tuning()`` classmethod returning a ``baselines.tunable.ControllerTuning`` makes it GA-tunable
+    (``vtrack tune --controller NAME``). Returns ``cls``."""
+    if not (isinstance(cls, type) and issubclass(cls, Policy)):
+        raise ValueError(f"register_policy takes a Policy subclass (got {cls!r})")
+    name = cls.name
+    if not isinstance(name, str) or not name.isidentifier() or name != name.lower():
+        raise ValueError(f"{cls.__name__}.name must be a lowercase identifier such as my_law (got {name!r})")
+    if name in _POLICIES or (name in _ADDED and not replace and _ADDED[name] is not cls):
+        raise ValueError(f"a policy named {name!r} is registered already; choose another {cls.__name__}.name")
+    _ADDED[name] = cls
+    return cls
+
+
+def unregister_policy(name: str) -> None:
+    """Remove a policy registered with ``register_policy`` (a no-op for other names)."""
+    from vtrack_gym._plugins import forget
+
+    _ADDED.pop(name, None)
+    forget(_LOADED_ENTRY_POINTS, name)
+
+
+def _register_entry_point(cls: Any, where: str) -> str:
+    if not (isinstance(cls, type) and issubclass(cls, Policy)):
+        raise ValueError(f"{where} must be a vtrack_gym Policy subclass (got {cls!r})")
+    return register_policy(cls, replace=True).name
+
+
+def _added() -> dict[str, type[Policy]]:
+    """The policies registered from outside, entry points of installed packages loaded first."""
+    from vtrack_gym._plugins import load_group
+
+    load_group(ENTRY_POINT_GROUP, _register_entry_point, _LOADED_ENTRY_POINTS)
+    return _ADDED
+
+
 def tunable_policies() -> tuple[str, ...]:
-    """Registered policy names with a GA tuning declaration."""
-    return tuple(_TUNING)
+    """Registered policy names with a GA tuning declaration (built-in ones first)."""
+    return (*_TUNING, *(n for n, cls in _added().items() if callable(getattr(cls, "tuning", None))))
 
 
 def policy_tuning(name: str) -> Any:
     """The ``ControllerTuning`` of the registered policy ``name`` (``ValueError`` if it has none)."""
-    if name not in _TUNING:
-        raise ValueError(f"{name!r} is not GA-tunable; tunable: {', '.join(_TUNING)}")
-    module, attr = _TUNING[name]
-    return getattr(importlib.import_module(module), attr)
+    if name not in tunable_policies():
+        raise ValueError(f"{name!r} is not GA-tunable; tunable: {', '.join(tunable_policies())}")
+    if name in _TUNING:
+        module, attr = _TUNING[name]
+        return getattr(importlib.import_module(module), attr)
+    return _ADDED[name].tuning()  # type: ignore[attr-defined]
 
 
 def available_policies() -> tuple[str, ...]:
-    """Registered policy names."""
-    return tuple(_POLICIES)
+    """Registered policy names (built-in ones first)."""
+    return (*_POLICIES, *_added())
 
 
 def policy_class(name: str) -> type[Policy]:
     """The controller class registered as ``name`` (``ValueError`` listing the valid names if unknown)."""
+    added = _added()
+    if name in added:
+        return added[name]
     if name not in _POLICIES:
-        raise ValueError(f"unknown policy {name!r}; valid: {', '.join(_POLICIES)}")
+        raise ValueError(f"unknown policy {name!r}; valid: {', '.join(available_policies())}")
     module, attr = _POLICIES[name]
     return getattr(importlib.import_module(module), attr)
 

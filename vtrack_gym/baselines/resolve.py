@@ -3,9 +3,9 @@
 A spec is, in this order (names always win over files, so a file or directory in the working directory named
 like a policy never shadows it):
 
-* a baseline name (``smc``, ``mpc``, ``lqr``, ``stanley``, ``pure_pursuit``, ``mpc_osqp``), default preset;
+* a baseline name (``registry.available_policies()``), default preset;
 * ``name:preset`` for a baseline (``smc:paper``, ``mpc:hand``);
-* a shipped agent name (``ppo``, ``sac``: ``vtrack_gym/baselines/shipped``);
+* a shipped agent name (``shipped.shipped_agents()``: the agent files in ``vtrack_gym/baselines/shipped``);
 * a weights-only agent file path (``agent.json`` or ``agent.npz``; JSON + ``np.load(allow_pickle=False)``,
   no code runs);
 * with ``trust_code=True`` only, ``module:Name`` of your own code (``vtrack_gym.baselines.user_code``): a class is

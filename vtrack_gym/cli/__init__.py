@@ -45,7 +45,7 @@ from vtrack_gym.cli import (
 )
 from vtrack_gym.cli._extras import missing_packages
 from vtrack_gym.cli._options import Parser
-from vtrack_gym.cli._terminal import SafeFormatter, err, safe_warnings
+from vtrack_gym.cli._terminal import SafeFormatter, err, results_only_on_stdout, safe_warnings
 from vtrack_gym.evaluation.store import StoreError
 from vtrack_gym.tuning.backends import BackendError
 
@@ -93,13 +93,20 @@ def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``vtrack`` (every option explained in --help)."""
     parser = Parser(prog="vtrack", description="Benchmark steering controllers and RL agents on "
                     "the paper's trajectory-tracking scenarios.")
-    parser.add_argument("-v", "--verbose", action="store_true",
-                        help="log details to stderr: every episode's result, the kernel cache (the long phases "
-                        "are always announced)")
+    for where in (parser, *_command_parsers(parser)):  # global options: before or after the command
+        where.add_argument("-v", "--verbose", action="store_true",
+                           default=False if where is parser else argparse.SUPPRESS,
+                           help="log details to stderr: every episode's result, the kernel cache (the long phases "
+                           "are always announced)")
+    return parser
+
+
+def _command_parsers(parser: argparse.ArgumentParser) -> list[argparse.ArgumentParser]:
+    """The subparser of every command (registered on ``parser``)."""
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for command in COMMANDS:
         command.register(sub)
-    return parser
+    return list(sub.choices.values())
 
 
 def _setup_logging(verbose: bool) -> None:
@@ -151,7 +158,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         import vtrack_gym  # noqa: F401  (registers the env ids)
 
         commands = {c.NAME: c for c in COMMANDS}
-        with safe_warnings(), _sigterm_ends_the_command():
+        with safe_warnings(), _sigterm_ends_the_command(), results_only_on_stdout():
             code = _run(commands[args.command], args)
         sys.stdout.flush()
         return code

@@ -6,30 +6,25 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-TRIMMED_FORMATS = ("md", "latex")
-"""Formats whose table shows the key columns unless ``--columns all`` (csv, json and html carry all)."""
-
 
 def render_board(board: list[dict[str, Any]], fmt: str, title: str = "vtrack leaderboard",
                  figures: Sequence[Path] = (), notes: Sequence[str] = ()) -> str:
-    """``board`` in format ``fmt`` (md, csv, json, latex, html), without a trailing newline (html as is)."""
-    from vtrack_gym.evaluation import report_formats as rf
+    """``board`` in the registered output format ``fmt`` (``evaluation.output_formats``)."""
+    from vtrack_gym.evaluation.output_formats import get_format
 
-    if fmt == "html":
-        from vtrack_gym.evaluation.html_report import to_html
-
-        return to_html(board, title=title, figures=figures, notes=notes)
-    return {"md": rf.to_markdown, "csv": rf.to_csv, "json": rf.to_json, "latex": rf.to_latex}[fmt](board).rstrip()
+    return get_format(fmt).render(board, title, figures, notes)
 
 
 def shown_columns(board: list[dict[str, Any]], fmt: str, columns: str, suite: str) -> list[dict[str, Any]]:
-    """The board a format shows: the key columns in md and latex unless ``columns`` is ``all``."""
-    from vtrack_gym.evaluation.benchmark import SUITE_COLUMNS
+    """The board a format shows: the key columns in a trimmed format (``OutputFormat.trimmed``) unless ``columns``
+    is ``all``, else every column (those explaining a verdict first in a ``key_first`` format)."""
     from vtrack_gym.evaluation.board_view import board_view
-    from vtrack_gym.evaluation.suites import base_suite, primary_metric
+    from vtrack_gym.evaluation.output_formats import get_format
+    from vtrack_gym.evaluation.suites import extra_columns, primary_metric
 
-    return board_view(board, primary_metric(suite), columns if fmt in TRIMMED_FORMATS else "all",
-                      SUITE_COLUMNS.get(base_suite(suite), ()))
+    chosen = get_format(fmt)
+    return board_view(board, primary_metric(suite), columns if chosen.trimmed else "all", extra_columns(suite),
+                      ordered=chosen.key_first)
 
 
 def ranking_note(suite: str) -> str:

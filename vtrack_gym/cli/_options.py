@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import re
-from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -30,7 +29,12 @@ _INTEGER = re.compile(r"[+-]?[0-9]+")
 class Parser(argparse.ArgumentParser):
     """``argparse.ArgumentParser`` that refuses ``--opt=--`` (argparse drops the ``--`` and hands the option an
     empty list instead of a value: ``vtrack tune --generations=--`` gave ``generations = []``) and escapes what it
-    prints (an option value echoed in an error may hold terminal control characters)."""
+    prints (an option value echoed in an error may hold terminal control characters). Options are never
+    abbreviated (``--policy`` is not ``--policy-kwargs``): ``allow_abbrev`` is off for every command."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs["allow_abbrev"] = False
+        super().__init__(*args, **kwargs)
 
     def _get_values(self, action: argparse.Action, arg_strings: list[str]) -> Any:
         if action.option_strings and action.nargs is None and arg_strings == ["--"]:
@@ -77,21 +81,37 @@ def add_store(p: argparse.ArgumentParser) -> None:
                    help=f"SQLite leaderboard file (created if missing; default: {DEFAULT_STORE_PATH})")
 
 
-def add_format(p: argparse.ArgumentParser, choices: Sequence[str] = ("md", "csv", "json")) -> None:
-    names = {"md": "Markdown table", "csv": "CSV", "json": "JSON", "latex": "LaTeX booktabs tabular",
-             "html": "self-contained HTML report (sortable table, figures embedded, no network)"}
+def add_format(p: argparse.ArgumentParser, reports: bool = False) -> None:
+    """``--format``: the registered output formats (``evaluation.output_formats``; ``reports``: with the report-only
+    ones, latex and html)."""
+    from vtrack_gym.evaluation.output_formats import format_names, formats_help
+
+    choices = format_names(reports)
     p.add_argument("--format", choices=choices, default="md",
-                   help="how to print the leaderboard: " + ", ".join(f"{c} ({names[c]})" for c in choices)
-                   + " (default: md)")
+                   help=f"how to print the leaderboard: {formats_help(choices)} (default: md)")
+
+
+def policy_help() -> str:
+    """What a ``--policy`` value may be, the names read from the policy registry and the shipped agents' folder."""
+    from vtrack_gym.baselines.registry import available_policies
+    from vtrack_gym.baselines.shipped import shipped_agents
+
+    return (f"a baseline name ({', '.join(available_policies())}), NAME:PRESET (smc:paper), a shipped agent name "
+            f"({', '.join(shipped_agents())}), a weights-only agent file (agent.json / agent.npz), or, with "
+            "--trust-code, MODULE:NAME of your own policy (a class: NAME.from_env(env) if it defines from_env, else "
+            "NAME(); keyword arguments from --policy-kwargs)")
 
 
 def add_columns(p: argparse.ArgumentParser) -> None:
-    """``--columns key|all``: the columns of the md and latex tables (csv, json and html carry them all)."""
+    """``--columns key|all``: the columns of the trimmed formats (the others carry them all)."""
     from vtrack_gym.evaluation.board_view import COLUMN_SETS
+    from vtrack_gym.evaluation.output_formats import format_names, get_format
 
+    trimmed = [n for n in format_names() if get_format(n).trimmed]
+    others = [n for n in format_names() if not get_format(n).trimmed]
     p.add_argument("--columns", choices=COLUMN_SETS, default="key",
-                   help="md and latex tables: key (env, policy, rank, success rate, max and RMS e_y, the suite's "
-                   "primary metric with its interval, failure reasons) or all (every column); csv, json and html "
+                   help=f"{', '.join(trimmed)}: key (env, policy, rank, success rate, max and RMS e_y, the suite's "
+                   f"primary metric with its interval, failure reasons) or all (every column); {', '.join(others)} "
                    "always carry all columns (default: key)")
 
 

@@ -14,6 +14,7 @@ import sys
 import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
+from contextvars import ContextVar
 from typing import Any, TextIO
 
 _UNSAFE = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\u061c\u200b-\u200f\u202a-\u202e\u2028\u2029\u2060-\u2069"
@@ -25,9 +26,28 @@ def terminal_safe(text: object) -> str:
     return _UNSAFE.sub(lambda m: m.group().encode("unicode_escape").decode("ascii"), str(text))
 
 
+_RESULTS: ContextVar[TextIO | None] = ContextVar("vtrack_results_stream", default=None)
+"""Where ``out`` writes while ``results_only_on_stdout`` is active (the real stdout)."""
+
+
 def out(text: object = "", flush: bool = False) -> None:
     """Print ``text`` (escaped) to stdout: what the command produces (tables, JSON, result lines)."""
-    print(terminal_safe(text), flush=flush)
+    print(terminal_safe(text), file=_RESULTS.get() or sys.stdout, flush=flush)
+
+
+@contextmanager
+def results_only_on_stdout() -> Iterator[None]:
+    """Within the block only ``out`` writes to stdout: anything else printed there (Ray's worker logs, a library's
+    progress prints) goes to stderr, so ``vtrack ... --format json > file`` holds the result alone."""
+    stdout = sys.stdout
+    token = _RESULTS.set(stdout)
+    sys.stdout = sys.stderr
+    try:
+        yield
+    finally:
+        sys.stdout = stdout
+        _RESULTS.reset(token)
+        stdout.flush()
 
 
 def err(text: object = "") -> None:

@@ -15,7 +15,7 @@ from vtrack_gym.cli._extras import osqp_for
 from vtrack_gym.cli._policies import policy_factories
 from vtrack_gym.cli._terminal import err, out
 from vtrack_gym.evaluation.store import StoreError
-from vtrack_gym.evaluation.suites import SUITES
+from vtrack_gym.evaluation.suites import get_suite, quick_suites, seeds_help, suite_help, suite_names
 
 NAME = "benchmark"
 
@@ -24,11 +24,8 @@ def register(sub: Any) -> None:
     b = sub.add_parser(NAME, help="score every baseline and shipped agent on a suite; print the leaderboard",
                        description="Run every baseline policy (default presets) and every shipped RL agent on the "
                        "suite's episodes, store the results, print the leaderboard and write the figures.")
-    b.add_argument("--suite", choices=SUITES, default=None,
-                   help="paper: the two nominal scenarios; robust: randomised friction, mass, speed, noise and "
-                   "delay over fixed seeds; highway: highway-env's lane-keeping-v0 (needs the 'highway' extra); "
-                   "maneuvers: the standard manoeuvres (ISO 3888-1/-2, ISO 4138 circle, slalom, step curvature), "
-                   "one figure each (default: paper; not with --track)")
+    b.add_argument("--suite", choices=suite_names(), default=None,
+                   help=f"{suite_help()} (default: paper; not with --track)")
     b.add_argument("--policies", default="",
                    help="comma-separated policy names to score (default: all; see `vtrack eval --help`)")
     opt.add_user_code(b)
@@ -36,12 +33,12 @@ def register(sub: Any) -> None:
                    help=f"root folder of the PNG figures: each run writes its own folder <suite>/<policies>-<digest> "
                    f"below it, recorded in its rows (default: {opt.DEFAULT_FIGURES_DIR})")
     b.add_argument("--no-figures", action="store_true", help="skip the figures")
-    b.add_argument("--quick", action="store_true", help="robust/highway suites: one seed only (stored as suite "
-                   "'robust[quick]' / 'highway[quick]', apart from the standard board)")
+    b.add_argument("--quick", action="store_true", help=f"suites with a quick variant ({', '.join(quick_suites())}): "
+                   "fewer seeds (stored as suite NAME[quick], apart from the standard board)")
     b.add_argument("--seeds", default=None,
-                   help="seeds to score, e.g. 0-9 or 0,3,5 (default: the suite's: paper 0, deterministic without "
-                   "noise; robust five fixed seeds; highway 0-2); the table shows 95 %% bootstrap intervals; other "
-                   "seeds are stored as suite NAME[seeds=...], apart from the standard board")
+                   help=f"seeds to score, e.g. 0-9 or 0,3,5 (default: the suite's: {seeds_help()}); the table shows "
+                   "95 %% bootstrap intervals; other seeds are stored as suite NAME[seeds=...], apart from the "
+                   "standard board")
     opt.add_track(b, "score the policies on this CSV track file (suite 'custom', seed 0 or --seeds) instead of "
                   "--suite (not with --suite or --quick)")
     b.add_argument("--tracks", default=None, metavar="DIR_OR_GLOB",
@@ -63,7 +60,7 @@ def register(sub: Any) -> None:
 
 def needed_modules(args: argparse.Namespace) -> list[str]:
     needed = [] if args.no_figures else ["matplotlib"]
-    needed += ["highway_env"] if args.suite == "highway" and args.track is None else []
+    needed += list(get_suite(args.suite or "paper").needs) if args.track is None and args.tracks is None else []
     needed += ["ray"] if args.backend == "ray" else []
     return needed + osqp_for(opt.policy_list(args.policies) or ["mpc_osqp", "nmpc"])
 
@@ -131,7 +128,7 @@ def run(args: argparse.Namespace) -> int:
         err(f"{len(result['rows'])} results stored in {args.store} (suite {suite!r})")
     if result["rows"]:
         board = board_of(result["rows"], suite).entries
-        out(render_board(shown_columns(board, args.format, args.columns, suite), args.format))
+        out(render_board(shown_columns(board, args.format, args.columns, suite), args.format), flush=True)
         err(ranking_note(suite))
     for f in result["figures"]:
         err(f"figure: {f}")

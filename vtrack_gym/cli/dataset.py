@@ -15,21 +15,24 @@ NAME = "dataset"
 
 
 def register(sub: Any) -> None:
-    from vtrack_gym.evaluation.dataset import DATASET_SUITES, MAX_EPISODES
+    from vtrack_gym.evaluation.dataset import MAX_EPISODES, dataset_suites
 
     ds = sub.add_parser(NAME, help="write a Minari dataset of a policy's episodes (extra 'dataset')",
                         description="Drive a policy deterministically through a suite's scenarios or one env and "
                         "write one Minari dataset per env id, locally (nothing is downloaded): observations, "
-                        "actions, rewards, flags, each episode's seed and reset options, and the env's spec, so "
+                        "actions, rewards, flags, the numeric infos, each episode's seed and reset options, and the "
+                        "env's spec, so "
                         "minari.load_dataset(ID).recover_environment() makes the same env.")
     ds.add_argument("--policy", required=True,
-                    help="a baseline (mpc, smc, lqr, ...), NAME:PRESET, a shipped agent (ppo, sac) or an agent file")
+                    help=opt.policy_help())
+    opt.add_user_code(ds)
     where = ds.add_mutually_exclusive_group(required=True)
-    where.add_argument("--suite", choices=DATASET_SUITES,
+    where.add_argument("--suite", choices=dataset_suites(),
                        help="every scenario of the suite, its perturbations drawn from each seed")
     where.add_argument("--env", default=None, help="one registered env id, e.g. DLC120-v0")
     ds.add_argument("--episodes", type=opt.int_in(1, MAX_EPISODES), default=1,
-                    help="episodes per env, seeds --seed, --seed + 1, ... (default: 1)")
+                    help="episodes per env, seeds --seed, --seed + 1, ...; each starts from its seed's draw of "
+                    "offset and heading error, so the episodes differ (default: 1)")
     ds.add_argument("--seed", type=opt.int_in(0, opt.MAX_RNG_SEED), default=0, help="first seed (default: 0)")
     ds.add_argument("--name", default=None,
                     help="dataset name; ids are vtrack/<env>/<name>-v0 (default: <policy>-<suite or env>)")
@@ -49,11 +52,15 @@ def check_outputs(args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from vtrack_gym.cli._policies import parse_policy_kwargs, policy_factory
     from vtrack_gym.evaluation.dataset import write_dataset
 
     check_vehicle(args)
+    kwargs = parse_policy_kwargs(args.policy_kwargs)
+    policy_factory(args.policy, trust_code=args.trust_code, kwargs=kwargs)  # checked before any episode
     ids = write_dataset(args.policy, suite=args.suite, env=args.env, episodes=args.episodes, seed=args.seed,
-                        name=args.name, root=args.root, vehicle=args.vehicle, progress=not args.no_progress)
+                        name=args.name, root=args.root, vehicle=args.vehicle, progress=not args.no_progress,
+                        trust_code=args.trust_code, policy_kwargs=kwargs or None)
     for dataset_id in ids:
         out(dataset_id)
     where = f"MINARI_DATASETS_PATH={args.root} " if args.root is not None else ""

@@ -31,8 +31,7 @@ def register(sub: Any) -> None:
                        "end reached, no spin-out) between --lo-kmh and --hi-kmh and compare the highest passing "
                        "entry speed with the car's physical bound (its planned line within its own grip).")
     e.add_argument("--policy", required=True,
-                   help="policy name(s), comma-separated: baselines (nmpc, mpc, lqr, smc, stanley, pure_pursuit, "
-                   "NAME:PRESET), shipped agents (ppo, sac), agent files, or with --trust-code MODULE:NAME")
+                   help=f"policy name(s), comma-separated, each {opt.policy_help()}")
     opt.add_user_code(e)
     e.add_argument("--env", default=DEFAULT_ENV, choices=ENTRY_SPEED_ENV_IDS,
                    help=f"the manoeuvre (default: {DEFAULT_ENV})")

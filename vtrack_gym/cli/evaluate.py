@@ -19,10 +19,7 @@ def register(sub: Any) -> None:
     e = sub.add_parser(NAME, help="score one policy on one env", description="Run one policy on one env for one "
                        "or more seeds, print its metrics and add them to the store (suite 'custom').")
     e.add_argument("--policy", required=True,
-                   help="a baseline name (smc, mpc, lqr, stanley, pure_pursuit, mpc_osqp), NAME:PRESET (smc:paper), "
-                   "a shipped agent name (ppo, sac), a weights-only agent file (agent.json / agent.npz), or, with "
-                   "--trust-code, MODULE:NAME of your own policy (a class: NAME.from_env(env) if it defines "
-                   "from_env, else NAME(); keyword arguments from --policy-kwargs)")
+                   help=opt.policy_help())
     opt.add_user_code(e)
     where = e.add_mutually_exclusive_group(required=True)
     where.add_argument("--env", default=None,

@@ -29,11 +29,11 @@ def register(sub: Any) -> None:
                         "bootstrap intervals (a metric missing in any episode is shown as a dash). Opens the store "
                         "read-only: it never creates or changes a file.")
     lb.add_argument("--suite", default="paper",
-                    help="suite to show: one present in the store, e.g. paper, robust, highway, custom (what "
-                    "`vtrack eval` adds) or tuning; the command lists the store's suites (default: paper)")
+                    help="suite to show: one present in the store, a registered suite, custom (what `vtrack eval` "
+                    "adds), tuning or tracks[...]; the command lists the store's suites (default: paper)")
     lb.add_argument("--store", type=Path, default=DEFAULT_STORE_PATH,
                     help=f"SQLite leaderboard file, opened read-only (default: {DEFAULT_STORE_PATH})")
-    opt.add_format(lb, ("md", "csv", "json", "latex", "html"))
+    opt.add_format(lb, reports=True)
     opt.add_columns(lb)
     lb.add_argument("--out", type=Path, default=None,
                     help="write the leaderboard to this file (default: stdout); never the store, its -wal/-shm/"
@@ -85,19 +85,21 @@ def check_outputs(args: argparse.Namespace) -> None:
 def _figures(args: argparse.Namespace, board: Any) -> tuple[list[Path], str]:
     """The PNGs ``--format html`` embeds (those of the runs whose every row the board shows:
     ``evaluation.figure_runs``; regular files of at most ``MAX_FIGURE_BYTES``) and a note saying which."""
-    from vtrack_gym.evaluation.figure_runs import figure_runs, run_figures
+    from vtrack_gym.evaluation.figure_runs import figure_runs, policy_figure_notes, run_figures
+    from vtrack_gym.evaluation.output_formats import get_format
 
-    if args.format != "html":
+    if not get_format(args.format).figures:
         return [], ""
     runs = figure_runs(board.rows, board.suite_rows)
+    files, missing = run_figures(args.figures, runs, MAX_FIGURE_BYTES)
+    by_policy = " ".join(policy_figure_notes(board.rows, runs, missing))
     if not runs:
         return [], ("No figures: no benchmark run with figures has all of its rows on this board (figures belong to "
-                    "the run that wrote them).")
-    files, missing = run_figures(args.figures, runs, MAX_FIGURE_BYTES)
+                    f"the run that wrote them). {by_policy}")
     note = f"Figures of {len(runs) - len(missing)} run(s) under {args.figures}: {', '.join(runs)}."
     if missing:
         note += f" Not found under --figures {args.figures}: {', '.join(missing)}."
-    return files, note
+    return files, f"{note} {by_policy}"
 
 
 def run(args: argparse.Namespace) -> int:

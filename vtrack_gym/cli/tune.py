@@ -1,4 +1,4 @@
-"""``vtrack tune``: GA-tune the SMC or MPC and write a tuned preset (JSON)."""
+"""``vtrack tune``: GA-tune a tunable controller (its own spaces and budgets) and write a tuned preset (JSON)."""
 
 from __future__ import annotations
 
@@ -17,18 +17,21 @@ NAME = "tune"
 
 
 def register(sub: Any) -> None:
-    t = sub.add_parser(NAME, help="GA-tune the SMC or MPC on Case 1 and write a tuned preset (JSON)",
+    from vtrack_gym.tuning.spaces import declared_help, declared_names
+
+    t = sub.add_parser(NAME, help=f"GA-tune a controller ({', '.join(tunable_policies())}) on Case 1 and write a "
+                       "tuned preset (JSON)",
                        description="Genetic algorithm (pymoo: rank selection, SBX 0.8, polynomial mutation 0.1) "
                        "minimising ITAE + constraint penalties on LateralTracking-v0. Each generation runs as one "
                        "batched rollout, in this process or (--backend ray) split over a Ray cluster's workers, with a "
                        "bit-identical result. Writes a JSON preset with provenance.")
     t.add_argument("--controller", choices=tunable_policies(), required=True, help="controller to tune")
-    t.add_argument("--budget", choices=("paper", "quick"), default="paper",
-                   help="paper: Table 2 (SMC 100 generations x 10, MPC 200 x 20); quick: 3 x 4 (default: paper)")
-    t.add_argument("--space", choices=("paper", "working", "steering"), default="paper",
-                   help="search space: paper (Table 2 bounds), working (SMC: p in [1, 15], eta in [1, 50], "
-                   "Delta in [0.02, 1], the paper's G1..G4) or steering (SMC: the working p, eta, Delta with the "
-                   "env's PD-FLC gains) (default: paper)")
+    t.add_argument("--budget", choices=declared_names("budgets"), default=None,
+                   help=f"GA budget (generations x population) the controller declares: {declared_help('budgets')} "
+                   "(default: the controller's first; paper is Table 2)")
+    t.add_argument("--space", choices=declared_names("spaces"), default=None,
+                   help=f"search space the controller declares: {declared_help('spaces')} (default: the "
+                   "controller's first; paper is Table 2's bounds)")
     t.add_argument("--generations", type=opt.int_in(1, 10_000), default=None,
                    help="override the budget's generations (1-10000)")
     t.add_argument("--pop-size", type=opt.int_in(2, 10_000), default=None,

@@ -84,8 +84,10 @@ class EnvConfig:
         if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
             raise ValueError("EnvConfig.control_period_s must be an integer multiple of physics_dt_s "
                              f"(got {self.control_period_s} / {self.physics_dt_s} = {ratio})")
-        if self.model not in ("nonlinear", "linear"):
-            raise ValueError(f"EnvConfig.model must be 'nonlinear' or 'linear' (got {self.model!r})")
+        from vtrack_gym.vehicle.layout import MODEL_IDS
+
+        if self.model not in MODEL_IDS:
+            raise ValueError(f"EnvConfig.model must be one of {', '.join(MODEL_IDS)} (got {self.model!r})")
         if len(self.noise_std) != len(NOISY_FIELDS) or any(
                 isinstance(s, (bool, np.bool_)) or not isinstance(s, numbers.Real) or not (0.0 <= s <= MAX_NOISE_STD)
                 for s in self.noise_std):

@@ -58,6 +58,12 @@ class SuccessCriterion:
         """The concrete criterion on these paths (``Auto`` chooses; every other criterion is itself)."""
         return self
 
+    @classmethod
+    def from_maneuver(cls, spec: Any) -> SuccessCriterion:
+        """This criterion as a manoeuvre's ``ManeuverSpec`` names it (``spec.success_criterion == cls.name``; the
+        spec's own parameters where the criterion has some)."""
+        return cls()
+
     def start(self, paths: tuple, vehicle: Any, n: int) -> Any:
         """The per-batch state of ``n`` cars on ``paths`` driving ``vehicle`` (``VehicleParams``)."""
         return None
@@ -196,6 +202,11 @@ class CircleAtLimit(SuccessCriterion):
 
     def __post_init__(self) -> None:
         validate(self)
+
+    @classmethod
+    def from_maneuver(cls, spec: Any) -> SuccessCriterion:
+        """The circle of an ISO 4138 spec: its lateral tolerance [m] and grip-limit speed [m/s]."""
+        return cls(lateral_tolerance_m=spec.lateral_tolerance_m, grip_limit_speed_mps=spec.grip_limit_speed_mps)
 
     def start(self, paths: tuple, vehicle: Any, n: int) -> CircleState:
         from vtrack_gym.tracks.table import COL_KAPPA

@@ -27,10 +27,10 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from vtrack_gym._ranges import documented, ranged, validate
-from vtrack_gym.envs.criteria import Auto, CircleAtLimit, ConeGates, EndReached, SuccessCriterion
+from vtrack_gym.envs.criteria import CRITERIA, Auto, SuccessCriterion
 from vtrack_gym.envs.randomisation import Randomisation, Start
-from vtrack_gym.envs.speed import EntryThenRelease, HoldSpeed, check_speed, is_profile
-from vtrack_gym.envs.track_sources import MANEUVER_TRACK_NAMES, TRACKS, TrackSource
+from vtrack_gym.envs.speed import EntryThenRelease, HoldSpeed, check_speed, is_profile, speed_part
+from vtrack_gym.envs.track_sources import MANEUVER_TRACK_NAMES, TrackSource
 
 KMH = 1.0 / 3.6
 """One km/h in m/s."""
@@ -220,13 +220,9 @@ others)."""
 
 
 def maneuver_criterion(spec: Any) -> SuccessCriterion:
-    """The success criterion of a ``ManeuverSpec`` (``no_cones_hit``, ``stays_on_circle``, ``completes``)."""
-    if spec.success_criterion == "no_cones_hit":
-        return ConeGates()
-    if spec.success_criterion == "stays_on_circle":
-        return CircleAtLimit(lateral_tolerance_m=spec.lateral_tolerance_m,
-                             grip_limit_speed_mps=spec.grip_limit_speed_mps)
-    return EndReached()
+    """The success criterion a ``ManeuverSpec`` names (``spec.success_criterion``, a name of ``criteria.CRITERIA``:
+    one vocabulary), built from the spec (``SuccessCriterion.from_maneuver``)."""
+    return CRITERIA[spec.success_criterion].from_maneuver(spec)
 
 
 def maneuver_scenario(name: str, scenario_name: str | None = None) -> Scenario:
@@ -276,8 +272,6 @@ SCENARIOS: dict[str, Scenario] = {s.name: s for s in (LATERAL_TRACKING, DLC120, 
 adds one)."""
 LEGACY_IDS: tuple[str, ...] = ("LateralTracking-v0", "DLC120-v0", "LateralTrackingRandom-v0")
 """The historical un-namespaced ids, registered as aliases of ``vtrack/<id>``."""
-BUILTIN_TRACK_NAMES: tuple[str, ...] = tuple(TRACKS)
-"""Track names a scenario may give as a string (besides a CSV file path): the keys of ``TRACKS``."""
 
 
 def scenario_named(name: str) -> Scenario:
@@ -358,8 +352,8 @@ def with_protocol(scenario: Scenario, vehicle: Any, entry_speed_kmh: float | Non
     if entry_speed_kmh is not None:
         from vtrack_gym.tracks.feasibility import check_entry_speed
 
-        if not isinstance(scenario.speed, EntryThenRelease):
-            ids = ", ".join(s.env_id for s in SCENARIOS.values() if isinstance(s.speed, EntryThenRelease))
+        if not speed_part(scenario.speed).takes_entry_speed:
+            ids = ", ".join(s.env_id for s in SCENARIOS.values() if speed_part(s.speed).takes_entry_speed)
             raise ValueError(f"entry_speed_kmh applies to the ids with an entry-speed protocol ({ids}); "
                              f"{scenario.env_id} has {type(scenario.speed).__name__}")
         if isinstance(entry_speed_kmh, bool) or not isinstance(entry_speed_kmh, (int, float)):

@@ -21,9 +21,8 @@ from vtrack_gym.envs.observation import NOISY_INDICES
 from vtrack_gym.envs.pdflc import PDFLCConfig
 from vtrack_gym.envs.scenarios import Scenario
 from vtrack_gym.envs.schema import REWARD_TERMS, SIGNAL_ROW
-from vtrack_gym.envs.speed import EntryThenRelease, HoldSpeed
+from vtrack_gym.envs.speed import speed_part
 from vtrack_gym.envs.track_bank import TrackBank
-from vtrack_gym.tracks.speed_limits import check_profile_for_car
 from vtrack_gym.vehicle import layout as L
 from vtrack_gym.vehicle.params import VehicleParams
 from vtrack_gym.vehicle.plant import PARALLEL_THRESHOLD, Plant
@@ -53,11 +52,7 @@ class BatchSim:
         self.n = n
         # a speed profile's lateral limit within this car's own (ValueError above it, a warning near it); an entry
         # speed within (0, 200] km/h (ValueError naming the car)
-        check_profile_for_car(scenario.speed, config.vehicle)
-        if isinstance(scenario.speed, EntryThenRelease):
-            from vtrack_gym.tracks.feasibility import check_entry_speed
-
-            check_entry_speed(scenario.speed.entry_speed_kmh, config.vehicle)
+        speed_part(scenario.speed).check_for_car(config.vehicle)
         self.tracks = TrackBank(scenario_tracks(scenario, config.vehicle), scenario.speed, config.vehicle)
         self.paths = self.tracks.paths
         if scenario.time_limit_s is None:
@@ -182,14 +177,11 @@ class BatchSim:
 
     def _reference_speed(self, track: int, options: ResetOptions, rng: np.random.Generator) -> tuple[float, bool]:
         """The episode's reference speed at the start [m/s] and whether it follows the track's profile."""
-        speed = self.scenario.speed
         if options.target_speed_mps is not None:
             return options.target_speed_mps, False
-        if isinstance(speed, HoldSpeed):
-            return speed.set_speed_mps(self.tracks.peak_curvature(track), rng), False
-        if isinstance(speed, EntryThenRelease):  # held up to the entry gate, then the kernel lets go
-            return speed.entry_speed_mps, False
-        return float(self.tracks.speed_tables[track].v_mps[0]), True  # updated from the profile every step
+        part = speed_part(self.scenario.speed)
+        v = part.start_speed_mps(self.tracks.peak_curvature(track), self.tracks.speed_tables[track], rng)
+        return v, bool(part.follows_profile)
 
     def _car_params(self, options: ResetOptions) -> VehicleParams:
         """The env's car with the episode's mass, friction and steering-rate knobs."""

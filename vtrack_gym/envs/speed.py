@@ -9,7 +9,7 @@ approach, then lets go of the pedals at the entry gate) or any ``tracks`` speed 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -48,6 +48,30 @@ class HoldSpeed:
         if peak_curvature_per_m > 0.0:
             hi = max(lo, min(hi, float(np.sqrt(FEASIBLE_LATERAL_ACC_MPS2 / peak_curvature_per_m))))
         return float(rng.uniform(lo, hi))
+
+    follows_profile: ClassVar[bool] = False
+    takes_entry_speed: ClassVar[bool] = False
+
+    def tables(self, paths: tuple, vehicle: Any = None) -> tuple:
+        """The held speed everywhere, one ``tracks.SpeedTable`` per path."""
+        from vtrack_gym.tracks.speed_profiles import ConstantSpeed, speed_table
+
+        return tuple(speed_table(p, ConstantSpeed(self.target_speed_mps)) for p in paths)
+
+    def release_columns(self, paths: tuple) -> np.ndarray:
+        """The PD-FLC never lets go: (K, 2) of (+inf, 0)."""
+        return _never_released(paths)
+
+    def nominal_speed_mps(self, tables: tuple) -> float:
+        """The held speed [m/s]."""
+        return self.target_speed_mps
+
+    def start_speed_mps(self, peak_curvature_per_m: float, table: Any, rng: np.random.Generator) -> float:
+        """The episode's set speed [m/s] (``set_speed_mps``)."""
+        return self.set_speed_mps(peak_curvature_per_m, rng)
+
+    def check_for_car(self, vehicle: Any) -> None:
+        """A held speed fits any car (its feasibility cap is applied per track when drawn)."""
 
 
 AFTER_ENTRY: dict[str, str] = {
@@ -112,46 +136,115 @@ class EntryThenRelease:
         return SpeedTable(np.maximum(v, MIN_TIME_LIMIT_SPEED_MPS), path.ds_m, path.closed,
                           ConstantSpeed(self.entry_speed_mps))
 
+    follows_profile: ClassVar[bool] = False
+    takes_entry_speed: ClassVar[bool] = True
+
+    def tables(self, paths: tuple, vehicle: Any = None) -> tuple:
+        """The predicted speed for ``vehicle`` per path (``time_limit_table``)."""
+        return tuple(self.time_limit_table(p, vehicle) for p in paths)
+
+    def release_columns(self, paths: tuple) -> np.ndarray:
+        """(K, 2): the entry gate's station [m] and the pedal mode after it (``RELEASE_MODES``)."""
+        out = _never_released(paths)
+        out[:, 0] = [self.release_station_m(p) for p in paths]
+        out[:, 1] = RELEASE_MODES[self.after_entry]
+        return out
+
+    def nominal_speed_mps(self, tables: tuple) -> float:
+        """The entry speed [m/s]."""
+        return self.entry_speed_mps
+
+    def start_speed_mps(self, peak_curvature_per_m: float, table: Any, rng: np.random.Generator) -> float:
+        """The entry speed [m/s], held up to the entry gate (then the kernel lets go)."""
+        return self.entry_speed_mps
+
+    def check_for_car(self, vehicle: Any) -> None:
+        """``ValueError`` naming the car unless the entry speed is in its range (``feasibility.check_entry_speed``)."""
+        from vtrack_gym.tracks.feasibility import check_entry_speed
+
+        check_entry_speed(self.entry_speed_kmh, vehicle)
+
+
+@dataclass(frozen=True)
+class FollowProfile:
+    """A ``tracks`` speed profile as a speed part: the PD-FLC follows its v_ref(s) at the car's station."""
+
+    profile: Any
+    follows_profile: ClassVar[bool] = True
+    takes_entry_speed: ClassVar[bool] = False
+
+    def tables(self, paths: tuple, vehicle: Any = None) -> tuple:
+        """The profile's table per path."""
+        from vtrack_gym.tracks.speed_profiles import speed_table
+
+        return tuple(speed_table(p, self.profile) for p in paths)
+
+    def release_columns(self, paths: tuple) -> np.ndarray:
+        """The PD-FLC never lets go: (K, 2) of (+inf, 0)."""
+        return _never_released(paths)
+
+    def nominal_speed_mps(self, tables: tuple) -> float:
+        """The profile's first row on the first path [m/s]."""
+        return float(tables[0].v_mps[0])
+
+    def start_speed_mps(self, peak_curvature_per_m: float, table: Any, rng: np.random.Generator) -> float:
+        """The profile's speed at the start [m/s] (updated from the profile every step)."""
+        return float(table.v_mps[0])
+
+    def check_for_car(self, vehicle: Any) -> None:
+        """The profile's lateral limit within the car's own (``speed_limits.check_profile_for_car``)."""
+        from vtrack_gym.tracks.speed_limits import check_profile_for_car
+
+        check_profile_for_car(self.profile, vehicle)
+
+
+def _never_released(paths: tuple) -> np.ndarray:
+    """(K, 2) release columns of a protocol whose PD-FLC never lets go: station +inf, mode 0."""
+    out = np.zeros((len(paths), 2))
+    out[:, 0] = np.inf
+    return out
+
+
+SPEED_PART_METHODS: tuple[str, ...] = ("tables", "release_columns", "nominal_speed_mps", "start_speed_mps",
+                                       "check_for_car")
+"""The speed-part protocol (with the class attributes ``follows_profile`` and ``takes_entry_speed``): what the
+env asks of a scenario's speed part; ``HoldSpeed``, ``EntryThenRelease`` and ``FollowProfile`` implement it."""
+
+
+def speed_part(speed: Any) -> Any:
+    """``speed`` as a speed part: itself when it implements the protocol (``SPEED_PART_METHODS``), a ``tracks``
+    speed profile (a ``row_speeds(path)`` method) wrapped in ``FollowProfile``; ``ValueError`` otherwise."""
+    if all(callable(getattr(speed, m, None)) for m in SPEED_PART_METHODS):
+        return speed
+    if callable(getattr(speed, "row_speeds", None)):
+        return FollowProfile(speed)
+    raise ValueError("Scenario.speed must be a HoldSpeed, an EntryThenRelease, a tracks speed profile "
+                     "(ConstantSpeed, CurvatureLimited, FileSpeed, ...) or a part with the speed-part methods "
+                     f"({', '.join(SPEED_PART_METHODS)}) (got {type(speed).__name__})")
+
 
 def is_profile(speed: Any) -> bool:
-    """True when ``speed`` is a speed profile followed along the path (not a ``HoldSpeed`` or ``EntryThenRelease``)."""
-    return not isinstance(speed, (HoldSpeed, EntryThenRelease))
+    """True when ``speed`` is followed along the path as a profile (``follows_profile``)."""
+    return bool(speed_part(speed).follows_profile)
 
 
 def check_speed(speed: Any) -> None:
-    """``ValueError`` unless ``speed`` is a ``HoldSpeed``, an ``EntryThenRelease`` or a tracks speed profile."""
-    from vtrack_gym.tracks.speed_profiles import SpeedProfile
-
-    if not isinstance(speed, (HoldSpeed, EntryThenRelease, SpeedProfile)):
-        raise ValueError("Scenario.speed must be a HoldSpeed, an EntryThenRelease or a tracks speed profile "
-                         f"(ConstantSpeed, CurvatureLimited, FileSpeed) (got {type(speed).__name__})")
+    """``ValueError`` unless ``speed`` is a speed part or a tracks speed profile (``speed_part``)."""
+    speed_part(speed)
 
 
 def speed_tables(paths: tuple, speed: Any, vehicle: Any = None) -> tuple:
-    """One ``tracks.SpeedTable`` per path: the profile, the held speed everywhere, or an ``EntryThenRelease``'s
-    predicted speed for ``vehicle`` (``EntryThenRelease.time_limit_table``)."""
-    from vtrack_gym.tracks.speed_profiles import ConstantSpeed, speed_table
-
-    if isinstance(speed, EntryThenRelease):
-        return tuple(speed.time_limit_table(p, vehicle) for p in paths)
-    profile = ConstantSpeed(speed.target_speed_mps) if isinstance(speed, HoldSpeed) else speed
-    return tuple(speed_table(p, profile) for p in paths)
+    """One ``tracks.SpeedTable`` per path (``speed_part(speed).tables``)."""
+    return speed_part(speed).tables(paths, vehicle)
 
 
 def release_columns(paths: tuple, speed: Any) -> np.ndarray:
     """Per path (K, 2): the station [m] from which the PD-FLC is off (+inf: never) and the pedal mode after it
     (``RELEASE_MODES``), the two track-metadata columns the compiled step reads."""
-    out = np.zeros((len(paths), 2))
-    out[:, 0] = np.inf
-    if isinstance(speed, EntryThenRelease):
-        out[:, 0] = [speed.release_station_m(p) for p in paths]
-        out[:, 1] = RELEASE_MODES[speed.after_entry]
-    return out
+    return speed_part(speed).release_columns(paths)
 
 
 def nominal_speed_mps(speed: Any, tables: tuple) -> float:
     """A representative reference speed [m/s]: the held one, the entry speed, or the profile's first row on the
     first path."""
-    if isinstance(speed, EntryThenRelease):
-        return speed.entry_speed_mps
-    return speed.target_speed_mps if isinstance(speed, HoldSpeed) else float(tables[0].v_mps[0])
+    return speed_part(speed).nominal_speed_mps(tables)

@@ -1,22 +1,23 @@
-"""The track source of a scenario (a scenario part) and the one registry of built-in track names.
+"""The track source of a scenario (a scenario part).
 
 ``TRACKS`` maps every name a scenario may give as its track to a builder ``(source, vehicle_width_m) -> paths``:
-the paper's handling course and double lane change, the standard manoeuvres (``tracks.maneuvers``; a gated one is
-sized for the driven car's body width, as ISO 3888 sizes its lanes), the procedural bank and the RL training mix.
-Anything else is a CSV file path or a ``tracks.Path``. Imports only the manoeuvre table (numpy); builders import
-the rest of ``tracks`` lazily.
+the built-in tracks of the one track registry (``tracks.track_registry``: the paper's handling course and double
+lane change, the standard manoeuvres, a gated one sized for the driven car's body width, as ISO 3888 sizes its
+lanes) and the two banks, the procedural bank and the RL training mix. Anything else is a CSV file path or a
+``tracks.Path``. Imports only the manoeuvre table (numpy); builders import the rest of ``tracks`` lazily.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, replace
 from functools import lru_cache
 from typing import Any
 
 from vtrack_gym._ranges import documented, ranged, validate
 from vtrack_gym.tracks.maneuvers import MANEUVERS
+from vtrack_gym.tracks.track_registry import build_track, track_names
 
 MAX_TRACK_SMOOTHING_M = 50.0
 """Largest ``smoothing_m`` [m] (RMS deviation of the fit from a CSV file's points) a track source accepts."""
@@ -116,18 +117,6 @@ class TrackSource:
         return path
 
 
-def _handling_course(source: TrackSource, vehicle_width_m: float) -> tuple:
-    from vtrack_gym.tracks import handling_course
-
-    return (handling_course(),)
-
-
-def _double_lane_change(source: TrackSource, vehicle_width_m: float) -> tuple:
-    from vtrack_gym.tracks import double_lane_change
-
-    return (double_lane_change(vehicle_width_m=vehicle_width_m),)
-
-
 def _procedural(source: TrackSource, vehicle_width_m: float) -> tuple:
     """Half the bank twisty (radii down to 18 m), half highway-like (down to 120 m), so that every target speed
     of a randomised range has drivable tracks."""
@@ -147,27 +136,38 @@ def _training_mix(source: TrackSource, vehicle_width_m: float) -> tuple:
     return training_bank(source.bank_seed, source.bank_size, vehicle_width_m)
 
 
-def _maneuver(name: str) -> Callable[[TrackSource, float], tuple]:
-    def build(source: TrackSource, vehicle_width_m: float) -> tuple:
-        return (maneuver_path(name, vehicle_width_m),)
-
-    return build
+BANKS: dict[str, Callable[[TrackSource, float], tuple]] = {"procedural": _procedural, "training_mix": _training_mix}
+"""Track banks (several paths, drawn per episode) by name; sized by a source's ``bank_*`` fields."""
 
 
 def maneuver_path(name: str, vehicle_width_m: float) -> Any:
     """The reference path of manoeuvre ``name``; gated manoeuvres are sized for ``vehicle_width_m`` [m]."""
-    from dataclasses import fields
-
-    from vtrack_gym.tracks.maneuvers import build_maneuver
-
-    has_width = any(f.name == "vehicle_width_m" for f in fields(MANEUVERS[name][1]))
-    return build_maneuver(name, **({"vehicle_width_m": float(vehicle_width_m)} if has_width else {})).path
+    return build_track(name, vehicle_width_m)
 
 
-TRACKS: dict[str, Callable[[TrackSource, float], tuple]] = {
-    "handling_course": _handling_course, "double_lane_change": _double_lane_change, "procedural": _procedural,
-    "training_mix": _training_mix, **{name: _maneuver(name) for name in MANEUVER_TRACK_NAMES}}
-"""Built-in track name -> builder ``(source, vehicle_width_m) -> paths``: the one registry of track names."""
+class _EnvTracks(Mapping[str, Callable[[TrackSource, float], tuple]]):
+    """Every track name a scenario may give: the built-in tracks of ``tracks.track_registry`` (read at each
+    lookup, so a track registered later is known) and the ``BANKS``; name -> builder ``(source, width) -> paths``."""
+
+    def _names(self) -> tuple[str, ...]:
+        return (*track_names(), *BANKS)
+
+    def __getitem__(self, name: str) -> Callable[[TrackSource, float], tuple]:
+        if name in BANKS:
+            return BANKS[name]
+        if name not in track_names():
+            raise KeyError(name)
+        return lambda source, vehicle_width_m: (build_track(name, vehicle_width_m),)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._names())
+
+    def __len__(self) -> int:
+        return len(self._names())
+
+
+TRACKS: Mapping[str, Callable[[TrackSource, float], tuple]] = _EnvTracks()
+"""Built-in track name -> builder ``(source, vehicle_width_m) -> paths``: the tracks registry and the banks."""
 
 
 @lru_cache(maxsize=8)

@@ -19,8 +19,9 @@ from vtrack_gym.evaluation.env_identity import UNIDENTIFIED, env_identity
 from vtrack_gym.evaluation.env_names import canonical_env_id
 from vtrack_gym.evaluation.fingerprint import named_policy_hash, policy_hash
 from vtrack_gym.evaluation.rollout import policy_id_of
-from vtrack_gym.evaluation.store import ResultRow, ResultStore, StoreError
-from vtrack_gym.evaluation.suites import SUITES, Episode, suite_episodes, suite_label, with_vehicle
+from vtrack_gym.evaluation.rows import ResultRow
+from vtrack_gym.evaluation.store import ResultStore, StoreError
+from vtrack_gym.evaluation.suites import Episode, suite_episodes, suite_label, suite_names, with_vehicle
 
 log = logging.getLogger(__name__)
 
@@ -46,7 +47,7 @@ class NormalisedPolicy:
 
 
 def _episodes(suite_or_env: str, seeds: Sequence[int] | None) -> tuple[list[Episode], str]:
-    if suite_or_env in SUITES:
+    if suite_or_env in suite_names():
         return suite_episodes(suite_or_env, seeds=seeds), suite_label(suite_or_env, seeds=seeds)
     from gymnasium.envs.registration import registry
 
@@ -56,7 +57,7 @@ def _episodes(suite_or_env: str, seeds: Sequence[int] | None) -> tuple[list[Epis
     if env_id not in registry:
         import vtrack_gym.envs.registration as reg
 
-        raise ValueError(f"unknown suite or env {suite_or_env!r}; suites: {', '.join(SUITES)}; vtrack envs: "
+        raise ValueError(f"unknown suite or env {suite_or_env!r}; suites: {', '.join(suite_names())}; vtrack envs: "
                          f"{', '.join(reg.ENV_IDS)}, highway-env:lane-keeping-v0")
     env_id = canonical_env_id(env_id)   # an alias is one scenario with its id: one row
     return [Episode(env_id, int(s)) for s in (seeds if seeds is not None else (0,))], CUSTOM_SUITE
@@ -79,8 +80,8 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
 
     ``policy_or_factory``: an object with ``predict(obs, state=None, episode_start=None, deterministic=True)``
     (any vtrack policy, an SB3 model, your own class), or a callable ``make(env) -> policy`` called once per
-    episode. ``suite_or_env``: a suite name (``paper``, ``robust``, ``highway``: its episodes, or the suite's
-    envs at ``seeds``), an env id (``seeds``, default ``[0]``) or a Gymnasium env instance (driven as given).
+    episode. ``suite_or_env``: a registered suite's name (``suites.suite_names()``: its episodes, or its episodes at
+    ``seeds``), an env id (``seeds``, default ``[0]``) or a Gymnasium env instance (driven as given).
     ``vecnormalize``: SB3 ``VecNormalize`` statistics the policy was trained with (observations are normalised
     with them before ``predict``). ``store``: a leaderboard file (or ``ResultStore``) the rows are added to, each as its
     episode ends (with ``workers``/``backend``: once every episode is done, as they share the first one's
@@ -120,8 +121,8 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
             log.warning("the configuration of this env instance cannot be recorded; its rows are stored as %r, "
                         "apart from the standard env's", env_id)
     else:
-        raise ValueError(f"suite_or_env must be a suite name ({', '.join(SUITES)}), an env id or a gymnasium.Env "
-                         f"(got {type(suite_or_env).__name__})")
+        raise ValueError(f"suite_or_env must be a suite name ({', '.join(suite_names())}), an env id or a "
+                         f"gymnasium.Env (got {type(suite_or_env).__name__})")
     result_store = _open_store(store)  # checked before the first rollout: a bad store loses no results
     from vtrack_gym.evaluation.track_benchmark import merge_provenance
     rows: list[ResultRow] = []

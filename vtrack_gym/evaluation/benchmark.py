@@ -18,8 +18,17 @@ from vtrack_gym.evaluation.episode_score import (  # noqa: F401  (re-exported: b
     success_metrics,
     vehicle_label,
 )
-from vtrack_gym.evaluation.store import ResultRow, ResultStore, StoreError
-from vtrack_gym.evaluation.suites import Episode, base_suite, primary_metric, suite_episodes, suite_label, with_vehicle
+from vtrack_gym.evaluation.rows import ResultRow
+from vtrack_gym.evaluation.store import ResultStore, StoreError
+from vtrack_gym.evaluation.suites import (
+    Episode,
+    extra_columns,
+    find_suite,
+    get_suite,
+    primary_metric,
+    suite_label,
+    with_vehicle,
+)
 from vtrack_gym.evaluation.trace import Trace
 
 log = logging.getLogger(__name__)
@@ -32,30 +41,18 @@ LEADERBOARD_COLUMNS: tuple[str, ...] = (
 """Every suite's leaderboard columns (every table format and the HTML board): the paper's metrics, then the policy's
 own compute per decision (``metrics.compute_metrics``: p50/p95/max [us], real-time factor at the control period)
 and its failed solves."""
-ENTRY_SPEED_COLUMNS: tuple[str, ...] = ("max_entry_speed_kmh", "entry_speed_bound_kmh", "entry_speed_fraction",
-                                         "above_physical_bound")
-"""The ISO 3888-1/-2 rows' entry-speed search (``entry_speed.max_entry_speed_kmh``): the highest passing entry speed
-[km/h], the car's physical bound [km/h], their ratio [-] and whether some speed above the bound passed (0/1)."""
-SUITE_COLUMNS: dict[str, tuple[str, ...]] = {"maneuvers": ("max_steady_a_y_mps2", "grip_limit_a_y_mps2",
-                                                            "mu_g_mps2", *ENTRY_SPEED_COLUMNS)}
-"""Extra leaderboard columns of a suite: ISO 4138's lateral acceleration reached on the circle and mu g, the ISO
-3888 entry-speed search (``ENTRY_SPEED_COLUMNS``; missing for the other manoeuvres)."""
 
 
 def suite_columns(suite: str) -> tuple[str, ...]:
-    """The leaderboard columns of ``suite``: ``LEADERBOARD_COLUMNS`` plus its ``SUITE_COLUMNS``."""
-    return LEADERBOARD_COLUMNS + SUITE_COLUMNS.get(base_suite(suite), ())
+    """The leaderboard columns of ``suite``: ``LEADERBOARD_COLUMNS`` plus its own (``Suite.columns``)."""
+    return LEADERBOARD_COLUMNS + extra_columns(suite)
 
 
 def episode_scorer(suite: str, make: Any) -> Any:
-    """What scores one episode of ``suite`` for the policy factory ``make`` (``parallel.EpisodeTask.score``):
-    ``score_episode``, and on the ``maneuvers`` suite ``entry_speed.EntrySpeedScore`` (the same row, plus the
-    entry-speed search on the ISO 3888 episodes, with fresh policies from ``make``)."""
-    if base_suite(suite) != "maneuvers":
-        return score_episode
-    from vtrack_gym.evaluation.entry_speed import EntrySpeedScore
-
-    return EntrySpeedScore(make)
+    """What scores one episode of ``suite`` for the policy factory ``make`` (``parallel.EpisodeTask.score``): the
+    registered suite's ``Suite.score(make)``, else ``score_episode``."""
+    found = find_suite(suite)
+    return score_episode if found is None else found.score(make)
 
 
 def score_policy(name: str, make: Any, episodes: Sequence[Episode], suite: str,
@@ -85,8 +82,8 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
 
     ``vehicle``: the car (a name of ``vehicle.list_vehicles()`` or a vehicle file; default the paper's car).
 
-    ``seeds`` replaces the suite's seeds (``suite_episodes``; default: seed 0 for ``paper``, which is deterministic
-    without sensor noise, five fixed seeds for ``robust``).
+    ``suite``: a registered suite (``suites.suite_names()``); ``seeds`` replaces its seeds (default: its own,
+    ``Suite.seeds``; ``quick``: ``Suite.quick_seeds``).
 
     Rows are stored under ``suite_label(suite, quick, seeds)``: the suite's name for its standard episodes, else
     e.g. ``robust[seeds=7]`` or ``robust[quick]`` (``result["suite"]``), never ranked with the standard board.
@@ -103,17 +100,18 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
     from vtrack_gym.evaluation.parallel import EpisodeTask
     from vtrack_gym.vehicle.catalog import read_vehicle_once
 
+    chosen = get_suite(suite)
     vehicle = read_vehicle_once(vehicle)   # a vehicle file: its envs and rows use the bytes read here
-    episodes = with_vehicle(suite_episodes(suite, quick=quick, seeds=seeds), vehicle)
+    episodes = with_vehicle(chosen.episodes_for(quick, seeds), vehicle)
     label = suite_label(suite, quick, seeds)
     factories = policy_factories(policies)
-    tasks = [EpisodeTask(name, make, ep, label, episode_scorer(label, make),
-                         keep_trace=ep.seed == episodes[0].seed or suite == "paper")
+    tasks = [EpisodeTask(name, make, ep, label, chosen.score(make),
+                         keep_trace=ep.seed == episodes[0].seed or chosen.trace_every_seed)
              for name, make in factories.items() for ep in episodes]
     scored = score_tasks(tasks, figures_dir, vehicle, workers, backend,
                          f"vtrack benchmark ({suite})" if show_progress else None, store=store)
     figures = (write_figures(scored.traces_by_env, scored.rows, scored.folder, vehicle=vehicle,
-                             maneuvers=suite == "maneuvers") if scored.folder is not None else [])
+                             maneuvers=chosen.figures == "maneuver") if scored.folder is not None else [])
     return {"rows": scored.rows, "traces": scored.traces_by_env, "figures": figures, "suite": label,
             "lost": scored.lost, "store_error": scored.store_error}
 

@@ -34,10 +34,19 @@ def _shown_id(entry: dict[str, Any]) -> Any:
     return name if isinstance(name, str) and name.endswith(f"@{entry.get('policy_hash')}") else entry["policy_id"]
 
 
+def key_first(board: Sequence[dict[str, Any]], primary: str, suite_columns: Sequence[str] = ()) -> list[dict[str, Any]]:
+    """Every column of ``board``, the ``key_view`` ones (which rank and explain a verdict: the success rate, the
+    primary metric, ``failure_reasons``) first."""
+    keys = key_view(board, primary, suite_columns)
+    return [{**k, **{c: v for c, v in entry.items() if c not in k}} for k, entry in zip(keys, board, strict=True)]
+
+
 def board_view(board: Sequence[dict[str, Any]], primary: str, columns: str = "key",
-               suite_columns: Sequence[str] = ()) -> list[dict[str, Any]]:
-    """The columns of ``board`` named by ``columns`` (``COLUMN_SETS``; ``key``: ``key_view``); ``ValueError`` for
-    another value."""
+               suite_columns: Sequence[str] = (), ordered: bool = False) -> list[dict[str, Any]]:
+    """The columns of ``board`` named by ``columns`` (``COLUMN_SETS``; ``key``: ``key_view``; ``all`` with
+    ``ordered``: ``key_first``); ``ValueError`` for another value."""
     if columns not in COLUMN_SETS:
         raise ValueError(f"columns must be one of {', '.join(COLUMN_SETS)} (got {columns!r})")
-    return list(board) if columns == "all" else key_view(board, primary, suite_columns)
+    if columns == "all":
+        return key_first(board, primary, suite_columns) if ordered else list(board)
+    return key_view(board, primary, suite_columns)

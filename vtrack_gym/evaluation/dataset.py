@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from vtrack_gym.evaluation.rollout import step_action
-from vtrack_gym.evaluation.suites import Episode, suite_episodes, with_vehicle
+from vtrack_gym.evaluation.suites import Episode, get_suite, suite_names, with_vehicle
 
 log = logging.getLogger(__name__)
 
@@ -36,14 +36,38 @@ NAMESPACE = "vtrack"
 """Minari namespace of the datasets this module writes."""
 MAX_EPISODES = 10_000
 """Most episodes per env of one ``write_dataset`` call."""
-DATASET_SUITES = ("paper", "robust", "maneuvers")
-"""Suites whose episodes drive this package's own envs (``highway`` drives highway-env's)."""
+
+
+def dataset_suites() -> tuple[str, ...]:
+    """The registered suites ``write_dataset`` records (``Suite.dataset``: their episodes drive this package's own
+    envs; ``highway`` drives highway-env's)."""
+    return tuple(n for n in suite_names() if get_suite(n).dataset)
+
+
+START_SPREAD: dict[str, float] = {"initial_lateral_offset_m": 0.2, "initial_heading_error_rad": 0.01}
+"""Half-widths of the start each dataset episode draws from its seed (uniform): offset from the path [m], heading
+error [rad]. The nominal scenarios are deterministic, so without it every seed would record the same episode."""
+
+
+def start_options(seed: int) -> dict[str, float]:
+    """The start of a dataset episode drawn from ``seed`` (``START_SPREAD``), as reset options."""
+    rng = np.random.default_rng([seed, 0x5EED])
+    return {k: round(float(rng.uniform(-half, half)), 4) for k, half in START_SPREAD.items()}
+
+
+def _with_start(episode: Episode) -> Episode:
+    """``episode`` with its seed's start, unless its options already set one (a suite's own perturbation wins)."""
+    from dataclasses import replace
+
+    drawn = {k: v for k, v in start_options(episode.seed).items() if k not in episode.options}
+    return replace(episode, options={**episode.options, **drawn})
 
 
 def dataset_episodes(suite: str | None = None, env: str | None = None, episodes: int = 1, seed: int = 0,
                      vehicle: str | None = None) -> dict[str, list[Episode]]:
     """The episodes to record, grouped by env id: ``episodes`` seeds from ``seed`` on, of every scenario of
-    ``suite`` (its perturbations drawn from each seed, as ``suite_episodes(suite, seeds=...)``) or on ``env``."""
+    ``suite`` (its perturbations drawn from each seed, as ``suite_episodes(suite, seeds=...)``) or on ``env``; every
+    episode starts from its seed's draw (``start_options``), so distinct seeds are distinct episodes."""
     if (suite is None) == (env is None):
         raise ValueError("give exactly one of suite= (a suite name) or env= (an env id)")
     if isinstance(episodes, bool) or not isinstance(episodes, int) or not 1 <= episodes <= MAX_EPISODES:
@@ -52,9 +76,9 @@ def dataset_episodes(suite: str | None = None, env: str | None = None, episodes:
         raise ValueError(f"seed must be an integer >= 0 (got {seed!r})")
     seeds = range(seed, seed + episodes)
     if suite is not None:
-        if suite not in DATASET_SUITES:
-            raise ValueError(f"suite must be one of {', '.join(DATASET_SUITES)} (got {suite!r})")
-        chosen = suite_episodes(suite, seeds=seeds)
+        if suite not in dataset_suites():
+            raise ValueError(f"suite must be one of {', '.join(dataset_suites())} (got {suite!r})")
+        chosen = get_suite(suite).episodes_for(seeds=seeds)
     else:
         from vtrack_gym.envs.registration import ALL_ENV_IDS
 
@@ -62,7 +86,7 @@ def dataset_episodes(suite: str | None = None, env: str | None = None, episodes:
             raise ValueError(f"env must be a registered vtrack env id: {', '.join(ALL_ENV_IDS)} (got {env!r})")
         chosen = [Episode(str(env), s) for s in seeds]
     grouped: dict[str, list[Episode]] = {}
-    for ep in with_vehicle(chosen, vehicle):
+    for ep in with_vehicle([_with_start(ep) for ep in chosen], vehicle):
         grouped.setdefault(ep.env_id, []).append(ep)
     return grouped
 
@@ -75,25 +99,39 @@ def dataset_id(env_id: str, name: str) -> str:
     return f"{NAMESPACE}/{re.sub(r'[^A-Za-z0-9_-]', '_', env_name)}/{clean}-v0"
 
 
+def numeric_infos(infos: Sequence[dict[str, Any]]) -> dict[str, np.ndarray]:
+    """The ``info`` keys present in every step with a number, a bool or a fixed-shape numeric array, stacked over
+    the steps (text such as ``termination`` is left out: the flags and ``success`` carry the outcome)."""
+    keys = set(infos[0]).intersection(*infos[1:])
+    stacked: dict[str, np.ndarray] = {}
+    for key in sorted(keys):
+        values = [np.asarray(info[key]) for info in infos]
+        if all(v.dtype.kind in "biuf" and v.shape == values[0].shape for v in values):
+            stacked[key] = np.stack(values)
+    return stacked
+
+
 def record_episode(env: Any, policy: Any, episode: Episode) -> Any:
-    """One deterministic episode of ``policy`` on ``env`` as a Minari ``EpisodeBuffer`` (seed and options kept)."""
+    """One deterministic episode of ``policy`` on ``env`` as a Minari ``EpisodeBuffer`` (seed, options and the
+    numeric ``info`` of the reset and of every step kept, ``numeric_infos``)."""
     from minari.data_collector import EpisodeBuffer
 
-    obs, _ = env.reset(seed=episode.seed, options=episode.options or None)
-    observations, actions, rewards, terminations, truncations = [obs], [], [], [], []
+    obs, info = env.reset(seed=episode.seed, options=episode.options or None)
+    observations, actions, rewards, terminations, truncations, infos = [obs], [], [], [], [], [info]
     terminated = truncated = False
     while not (terminated or truncated):
         action, _ = policy.predict(obs, deterministic=True)
         action = step_action(action, env.action_space.shape)
-        obs, reward, terminated, truncated, _ = env.step(action)
+        obs, reward, terminated, truncated, info = env.step(action)
         observations.append(obs)
         actions.append(action)
         rewards.append(float(reward))
         terminations.append(bool(terminated))
         truncations.append(bool(truncated))
+        infos.append(info)
     return EpisodeBuffer(seed=episode.seed, options=dict(episode.options) or None,
                          observations=np.stack(observations), actions=np.stack(actions), rewards=rewards,
-                         terminations=terminations, truncations=truncations)
+                         terminations=terminations, truncations=truncations, infos=numeric_infos(infos))
 
 
 @contextlib.contextmanager
@@ -154,20 +192,24 @@ def _check_new(ds_ids: Sequence[str]) -> None:
 
 def write_dataset(policy: str, *, suite: str | None = None, env: str | None = None, episodes: int = 1,
                   seed: int = 0, name: str | None = None, root: str | Path | None = None,
-                  vehicle: str | None = None, progress: bool = False) -> list[str]:
+                  vehicle: str | None = None, progress: bool = False, trust_code: bool = False,
+                  policy_kwargs: dict[str, Any] | None = None) -> list[str]:
     """Record ``policy``'s episodes on ``suite`` or ``env`` (``dataset_episodes``) and write one Minari dataset
     per env id (``dataset_id(env_id, name)``; ``name`` default ``<policy>-<suite or 'env'>``) under ``root``.
-    Returns the dataset ids. Every dataset id is checked to be new before the first episode is driven."""
+    ``policy``: any spec ``make_policy`` takes; ``trust_code``/``policy_kwargs``: a ``MODULE:NAME`` policy of your
+    own code and its keyword arguments. Returns the dataset ids. The policy and every dataset id are checked before
+    the first episode is driven."""
     import gymnasium as gym
 
     from vtrack_gym._version import __version__
-    from vtrack_gym.baselines.resolve import resolve_policy
+    from vtrack_gym.baselines.resolve import policy_factory
 
     if root is not None:
         from vtrack_gym._io import check_output_dir
 
         check_output_dir(root, "root")
     grouped = dataset_episodes(suite, env, episodes, seed, vehicle)
+    make = policy_factory(policy, trust_code=trust_code, policy_kwargs=policy_kwargs)
     name = name if name is not None else f"{policy}-{suite or 'env'}"
     ids = {env_id: dataset_id(env_id, name) for env_id in grouped}
     written = []
@@ -176,7 +218,7 @@ def write_dataset(policy: str, *, suite: str | None = None, env: str | None = No
         for env_id, eps in grouped.items():
             made = gym.make(env_id, **eps[0].make_kwargs)
             try:
-                agent = resolve_policy(policy, made)
+                agent = make(made)
                 buffers = [record_episode(made, agent, ep) for ep in _progress(eps, env_id, progress)]
                 description = (f"{policy} (deterministic) on {env_id}: {len(eps)} episodes, seeds {eps[0].seed}-"
                                f"{eps[-1].seed}{f', suite {suite}' if suite else ''}; vtrack_gym {__version__}. "

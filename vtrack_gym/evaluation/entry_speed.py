@@ -217,7 +217,7 @@ def judge_entry_speed(make: Callable[[Any], Any], env_id: str, speed_kmh: float,
 
     from vtrack_gym.evaluation.board import failure_reason
     from vtrack_gym.evaluation.episode_score import score_episode
-    from vtrack_gym.evaluation.suites import Episode
+    from vtrack_gym.evaluation.episodes import Episode
 
     episode = Episode(env_id, seed, vehicle=vehicle)
     env = gym.make(env_id, entry_speed_kmh=speed_kmh, **episode.make_kwargs)

@@ -15,11 +15,11 @@ from typing import Any
 import gymnasium as gym
 
 from vtrack_gym.evaluation.board import failure_reason
+from vtrack_gym.evaluation.episodes import Episode
 from vtrack_gym.evaluation.fingerprint import policy_hash
 from vtrack_gym.evaluation.metrics import evaluate_trace
 from vtrack_gym.evaluation.rollout import rollout
-from vtrack_gym.evaluation.store import ResultRow
-from vtrack_gym.evaluation.suites import Episode
+from vtrack_gym.evaluation.rows import ResultRow
 from vtrack_gym.evaluation.trace import Trace
 from vtrack_gym.tracks.sources import source_digest
 

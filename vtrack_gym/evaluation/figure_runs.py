@@ -77,3 +77,28 @@ def run_figures(root: Path, folders: Sequence[str], max_bytes: int) -> tuple[lis
             continue
         files += sorted(f for f in path.glob("*.png") if f.is_file() and f.stat().st_size <= max_bytes)
     return files, missing
+
+
+def policy_figure_notes(shown_rows: Sequence[Mapping[str, Any]], complete_runs: Sequence[str],
+                        missing_runs: Sequence[str] = ()) -> list[str]:
+    """One sentence per reason, naming the board's policies it applies to: whose figures are embedded, whose rows
+    were scored without figures (``--no-figures``, ``vtrack eval``, Python), whose run also holds rows this board
+    does not show (replaced by a newer run, or policies of another board) and whose run folder is missing."""
+    complete, missing = set(complete_runs) - set(missing_runs), set(missing_runs)
+    status: dict[str, str] = {}
+    order = ("embedded", "missing", "partial", "none")
+    for r in shown_rows:
+        folder = (r.get("options") or {}).get(FIGURES_OPTION)
+        state = ("embedded" if folder in complete else "missing" if folder in missing else "partial"
+                 if isinstance(folder, str) and folder else "none")
+        policy = str(r["policy_id"])
+        if order.index(state) < order.index(status.get(policy, "none")) or policy not in status:
+            status[policy] = state
+    text = {"embedded": "Figures shown for: {}.",
+            "none": "No figures for {}: their rows were scored without figures (vtrack benchmark --no-figures, "
+                    "vtrack eval or Python).",
+            "partial": "No figures for {}: the benchmark run that drew them also scored rows this board does not "
+                       "show (a newer run replaced some, or it scored other policies or suites).",
+            "missing": "No figures for {}: their run's figure folder is not under --figures."}
+    return [text[state].format(", ".join(sorted(p for p, s in status.items() if s == state)))
+            for state in order if any(s == state for s in status.values())]

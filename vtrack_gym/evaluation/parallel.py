@@ -27,7 +27,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from vtrack_gym.evaluation.suites import Episode
+from vtrack_gym.evaluation.episodes import Episode
 from vtrack_gym.evaluation.worker_pool import LostTask, run_pool
 
 log = logging.getLogger(__name__)

@@ -67,11 +67,15 @@ def _non_negative(name: str) -> bool:
 
 
 def _numeric(name: str) -> bool:
-    """A metric that must be a number (or missing): every ranked metric, error, count and duration, and every name
-    with a unit suffix; others (``termination``, ``comfort_band``, notes) may also be text."""
-    from vtrack_gym.evaluation.suites import PRIMARY_METRICS
+    """A metric that must be a number (or missing): every error, count and duration, and every name with a unit
+    suffix (every metric a suite ranks on is one: ``suite_parts.Suite`` checks it); others (``termination``,
+    ``comfort_band``, notes) may also be text."""
+    return _non_negative(name) or name.endswith(UNIT_SUFFIXES)
 
-    return _non_negative(name) or name.endswith(UNIT_SUFFIXES) or name in PRIMARY_METRICS.values()
+
+def is_numeric_metric(name: str) -> bool:
+    """``name`` is a metric every stored row holds as a number (or missing): what a board can rank on."""
+    return _numeric(name)
 
 
 def checked_success(value: Any) -> bool | None:

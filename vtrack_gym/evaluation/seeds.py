@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from vtrack_gym.evaluation.store import MAX_SEED
+from vtrack_gym.evaluation.row_validation import MAX_SEED
 
 MAX_SEEDS = 10_000
 """Most seeds one seed set holds."""

@@ -44,7 +44,6 @@ import re
 import sqlite3
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import closing
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -59,6 +58,7 @@ from vtrack_gym.evaluation.row_validation import (  # noqa: F401  (MAX_SEED re-e
     checked_success,
     clean_scalar,
 )
+from vtrack_gym.evaluation.rows import ResultRow
 
 SCHEMA_VERSION = 3  # 3: the per-episode success verdict (column ``success``)
 DEFAULT_STORE_PATH = Path("vtrack_results") / "leaderboard.sqlite"
@@ -106,35 +106,6 @@ def _is_busy(exc: sqlite3.Error) -> bool:
     if code is not None:
         return code & 0xFF in (sqlite3.SQLITE_BUSY, sqlite3.SQLITE_LOCKED)
     return "locked" in str(exc) or "busy" in str(exc)
-
-
-@dataclass(frozen=True)
-class ResultRow:
-    """One evaluated episode and where it came from (``policy_preset``: preset name, empty for agents).
-
-    ``success``: the episode's success verdict (the scenario's success criterion, ``info["success"]``, which the
-    benchmark records); a row given without one (None: the GA's tuning rows, rows written by other code) is judged
-    by completion alone (``termination == "completed"``).
-    """
-
-    suite: str
-    env_id: str
-    policy_id: str
-    policy_hash: str
-    seed: int | None
-    metrics: dict[str, Any]
-    termination: str
-    wall_time_per_step_s: float
-    options: dict[str, Any] = field(default_factory=dict)
-    env_version: str = "v0"
-    package_version: str = ""
-    created_utc: str = ""
-    policy_preset: str = ""
-    success: bool | None = None
-
-    def verdict(self) -> bool:
-        """``success``, or the episode's completion when the row has no verdict."""
-        return bool(self.success) if self.success is not None else self.termination == "completed"
 
 
 def _now() -> str:

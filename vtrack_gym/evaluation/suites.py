@@ -1,154 +1,120 @@
-"""Leaderboard suites: which (env, seed, reset options) episodes a policy is scored on.
+"""Leaderboard suites: one registry of ``Suite`` objects (``suite_parts.Suite``), read by every command, help text
+and error message.
 
-``paper``: the paper's two nominal scenarios, one episode each (seed 0).
-``robust``: both scenarios under randomised friction, mass, target speed, sensor noise and actuator delay,
-drawn deterministically from a fixed list of seeds (the same perturbations for every policy and release).
-The friction range of each scenario keeps the course physically drivable: the handling course's 20 m
-hairpin needs ~0.63 g at 40 km/h (mu drawn in 0.75-1.0) and the lane change ~0.81 g at 120 km/h (mu drawn
-in 0.9-1.1); below that every policy must fail, which would measure the road, not the controller.
-``maneuvers``: the standard manoeuvres at their current versions (``vtrack/ISO3888-1-v1``, ``ISO3888-2-v1``,
-``ISO4138-Circle-v0``, ``Slalom-v1``, ``StepCurvature-v0``; ``envs.scenarios.MANEUVER_IDS``), each with its own
-speed protocol (the ISO 3888 ids: entry speed, then the throttle held or released), seed 0 (deterministic without
-noise), judged by its own success criterion.
-``highway``: highway-env's ``lane-keeping-v0`` through ``vtrack_gym.interop`` (three starts; needs the
-``highway`` extra).
+The built-in suites live in ``evaluation.suite_defs`` (one file each, in ``_REGISTRY``; ``suite_names()`` lists
+every registered one). A suite of your own is one ``Suite`` and one ``register_suite`` call; an installed package
+can also name it in the ``vtrack_gym.suites`` entry-point group (the entry point is a ``Suite``), and every
+``vtrack`` command then lists it.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
+from vtrack_gym._plugins import add_named, forget, load_group
+from vtrack_gym.evaluation.episodes import Episode, with_vehicle  # noqa: F401  (re-exported)
+from vtrack_gym.evaluation.suite_defs.highway import HIGHWAY
+from vtrack_gym.evaluation.suite_defs.maneuvers import MANEUVER_ENV_IDS, MANEUVERS  # noqa: F401  (re-exported)
+from vtrack_gym.evaluation.suite_defs.paper import PAPER
+from vtrack_gym.evaluation.suite_defs.robust import (  # noqa: F401  (re-exported)
+    ROBUST,
+    ROBUST_FRICTION,
+    ROBUST_SEEDS,
+    robust_options,
+)
+from vtrack_gym.evaluation.suite_parts import Suite
 
-from vtrack_gym.envs.config import DLC120, LATERAL_TRACKING
-from vtrack_gym.envs.scenarios import MANEUVER_SCENARIOS
+ENTRY_POINT_GROUP = "vtrack_gym.suites"
+"""Entry-point group of suites from installed packages (each entry point loads a ``Suite``)."""
+DEFAULT_METRIC = "max_e_y_m"
+"""What a board of rows outside any registered suite (``custom``, ``tuning``, ``tracks[...]``) ranks on."""
 
-ROBUST_SEEDS: tuple[int, ...] = (101, 202, 303, 404, 505)
-
-
-@dataclass(frozen=True)
-class Episode:
-    """One scored episode of a suite: reset with ``seed`` and ``options``, on the env made with ``vehicle`` (a name
-    of ``vehicle.list_vehicles()``, a vehicle file path or a ``vehicle.catalog.VehicleFile`` read once; ``None``:
-    the default car)."""
-
-    env_id: str
-    seed: int
-    options: dict[str, Any] = field(default_factory=dict)
-    vehicle: Any = None
-
-    @property
-    def make_kwargs(self) -> dict[str, Any]:
-        """Keyword arguments of ``gym.make`` for this episode (the vehicle, if one is chosen)."""
-        return {} if self.vehicle is None else {"vehicle": self.vehicle}
+_REGISTRY: dict[str, Suite] = {s.name: s for s in (PAPER, ROBUST, HIGHWAY, MANEUVERS)}
+_LOADED_ENTRY_POINTS: dict[str, str] = {}  # "name=value" of a loaded entry point -> the suite it registered
 
 
-def with_vehicle(episodes: Sequence[Episode], vehicle: Any) -> list[Episode]:
-    """``episodes`` driven with ``vehicle`` (a name, a path, a ``vehicle.catalog.VehicleFile``; ``None``:
-    unchanged)."""
-    from dataclasses import replace
-
-    if vehicle is None:
-        return list(episodes)
-    from vtrack_gym.vehicle.catalog import VehicleFile
-
-    chosen = vehicle if isinstance(vehicle, VehicleFile) else str(vehicle)   # a file read once stays as read
-    return [replace(ep, vehicle=chosen) for ep in episodes]
+def _register_entry_point(suite: Any, where: str) -> str:
+    if not isinstance(suite, Suite):
+        raise ValueError(f"{where} must be a vtrack_gym.evaluation.suites.Suite (got {type(suite).__name__})")
+    return register_suite(suite, replace=True).name
 
 
-MANEUVER_ENV_IDS: tuple[str, ...] = tuple(sc.env_id for sc in MANEUVER_SCENARIOS)
-"""Env ids of the ``maneuvers`` suite, in library order."""
+def _load_entry_points() -> None:
+    """Register the suites of the ``vtrack_gym.suites`` entry points not loaded yet (once each per process)."""
+    load_group(ENTRY_POINT_GROUP, _register_entry_point, _LOADED_ENTRY_POINTS)
 
 
-ROBUST_FRICTION: dict[str, tuple[float, float]] = {"LateralTracking-v0": (0.75, 1.0), "DLC120-v0": (0.9, 1.1)}
+def register_suite(suite: Suite, replace: bool = False) -> Suite:
+    """Add ``suite`` to the registry (``replace``: over a suite of the same name); returns it."""
+    return add_named(_REGISTRY, getattr(suite, "name", ""), suite, Suite, "suite", replace)
 
 
-def robust_options(seed: int, nominal_speed_mps: float, friction_range: tuple[float, float] = (0.75, 1.0),
-                   ) -> dict[str, float]:
-    """Perturbations of the ``robust`` suite for one seed (friction in ``friction_range``, mass x0.8-1.25,
-    speed +-10 %, sensor noise 0-1 x nominal, actuator delay 0-50 ms)."""
-    rng = np.random.default_rng(seed)
-    return {
-        "friction_mu": round(float(rng.uniform(*friction_range)), 3),
-        "mass_scale": round(float(rng.uniform(0.8, 1.25)), 3),
-        "target_speed_mps": round(float(nominal_speed_mps * rng.uniform(0.9, 1.1)), 3),
-        "sensor_noise": round(float(rng.uniform(0.0, 1.0)), 3),
-        "actuator_delay_s": round(float(rng.choice([0.0, 0.01, 0.02, 0.03, 0.05])), 3),
-    }
+def unregister_suite(name: str) -> None:
+    """Remove the suite ``name`` (a no-op for an unknown name); an entry point that registered it is loaded again
+    when it is still installed."""
+    _REGISTRY.pop(name, None)
+    forget(_LOADED_ENTRY_POINTS, name)
+
+
+def suite_names() -> tuple[str, ...]:
+    """Every registered suite's name, built-in ones first."""
+    _load_entry_points()
+    return tuple(_REGISTRY)
+
+
+def get_suite(name: str) -> Suite:
+    """The registered suite ``name`` (``ValueError`` listing the registered ones otherwise)."""
+    _load_entry_points()
+    try:
+        return _REGISTRY[name]
+    except (KeyError, TypeError):
+        raise ValueError(f"unknown suite {name!r}; valid: {', '.join(_REGISTRY)}") from None
+
+
+def find_suite(label: str) -> Suite | None:
+    """The registered suite a stored suite label belongs to (``base_suite``), or None (``custom``, ``tuning``)."""
+    _load_entry_points()
+    return _REGISTRY.get(base_suite(label))
+
+
+def suite_help() -> str:
+    """One ``NAME: description`` clause per registered suite, for ``--help`` texts."""
+    return "; ".join(f"{s.name}: {s.description}" for s in (get_suite(n) for n in suite_names()))
+
+
+def quick_suites() -> tuple[str, ...]:
+    """The registered suites with a quick variant (``Suite.quick_seeds``)."""
+    return tuple(n for n in suite_names() if get_suite(n).quick_seeds is not None)
+
+
+def seeds_help() -> str:
+    """``NAME SEEDS`` per registered suite (``paper 0; robust 101,202,...``), for ``--help`` texts."""
+    return "; ".join(f"{n} {_seed_text(get_suite(n).seeds)}" for n in suite_names())
 
 
 def suite_episodes(name: str, quick: bool = False, seeds: Sequence[int] | None = None) -> list[Episode]:
-    """The episodes of suite ``name`` (``quick`` keeps one robust seed, for smoke tests).
-
-    ``seeds`` replaces the suite's seeds (paper, maneuvers: every scenario at each seed; robust: the perturbations
-    drawn from each seed; highway: seeds 0-2 only, one initial condition each).
-    """
-    if name == "paper":
-        return [Episode(env_id, s) for s in (seeds or (0,)) for env_id in ("LateralTracking-v0", "DLC120-v0")]
-    if name == "robust":
-        chosen = tuple(seeds) if seeds else (ROBUST_SEEDS[:1] if quick else ROBUST_SEEDS)
-        return [Episode(sc.name, s, robust_options(s, sc.speed.target_speed_mps, ROBUST_FRICTION[sc.name]))
-                for sc in (LATERAL_TRACKING, DLC120) for s in chosen]
-    if name == "maneuvers":
-        return [Episode(env_id, s) for s in (seeds or (0,)) for env_id in MANEUVER_ENV_IDS]
-    if name == "highway":
-        return highway_episodes(quick=quick, seeds=seeds)
-    raise ValueError(f"unknown suite {name!r}; valid: {', '.join(SUITES)}")
-
-
-HIGHWAY_SEEDS: tuple[int, ...] = (0, 1, 2)
-"""Seeds of the ``highway`` leaderboard suite (one initial condition each, see ``highway_episodes``)."""
-
-HIGHWAY_STARTS: dict[int, dict[str, float]] = {
-    0: {"initial_lateral_offset_m": -4.0},  # highway-env's own offset (4 m to the right), lane start
-    1: {"initial_lateral_offset_m": 4.0, "start_station_m": 25.0},  # mirrored, a quarter period further
-    2: {"initial_lateral_offset_m": 0.0, "initial_heading_error_rad": 0.2, "start_station_m": 50.0},
-}
-"""Reset options of the ``highway`` suite's episodes, by seed."""
-
-
-def highway_episodes(quick: bool = False, seeds: Sequence[int] | None = None) -> list[Episode]:
-    """Episodes of the ``highway`` leaderboard suite: the adapter from three initial conditions (seed -> options).
-
-    Seed 0 is highway-env's own initial offset (4 m right of the sine lane's centre line at its start); seed 1
-    the mirrored offset a quarter period further; seed 2 on the centre line with a 0.2 rad heading error. Every
-    episode drives to the end of the sine lane (~500 m at 8.3 m/s). ``quick`` keeps seed 0 only.
-    """
-    from vtrack_gym.interop import HIGHWAY_ENV_ID, register_highway_envs
-
-    register_highway_envs()
-    if seeds and not set(seeds) <= set(HIGHWAY_STARTS):
-        raise ValueError(f"highway suite seeds must be among {sorted(HIGHWAY_STARTS)} (got {list(seeds)})")
-    chosen = tuple(seeds) if seeds else (HIGHWAY_SEEDS[:1] if quick else HIGHWAY_SEEDS)
-    return [Episode(HIGHWAY_ENV_ID, s, dict(HIGHWAY_STARTS[s])) for s in chosen]
-
-
-SUITES: tuple[str, ...] = ("paper", "robust", "highway", "maneuvers")
-
-PRIMARY_METRICS: dict[str, str] = {"paper": "max_e_y_m", "robust": "max_e_y_m", "highway": "itae",
-                                   "maneuvers": "max_e_y_m"}
-"""The metric each suite ranks on after the success rate (lower is better; over successful episodes only).
-
-paper/robust/maneuvers: the largest lateral error |e_y| [m], the worst case that decides whether the car stays in
-its lane or clears the cones, independent of the course length and of when the error occurs. highway: ITAE [m s^2],
-because every policy starts 4 m off the lane centre there, so the maximum is the initial offset for all of them;
-ITAE weights the error by time and measures how fast and how well the offset is removed. Other suites (custom,
-tuning) rank on ``max_e_y_m``."""
+    """The episodes of suite ``name`` (``quick``: its quick variant's seeds, for smoke tests; ``seeds`` replaces the
+    suite's seeds)."""
+    return get_suite(name).episodes_for(quick, seeds)
 
 
 def primary_metric(suite: str) -> str:
-    """The metric ``suite``'s leaderboard ranks on after the success rate (see ``PRIMARY_METRICS``; a label of a
-    non-standard seed set, ``robust[seeds=7]``, ranks like its suite)."""
-    return PRIMARY_METRICS.get(base_suite(suite), "max_e_y_m")
+    """The metric ``suite``'s leaderboard ranks on after the success rate (``Suite.primary_metric``; a label of a
+    non-standard seed set, ``robust[seeds=7]``, ranks like its suite; other labels on ``DEFAULT_METRIC``)."""
+    found = find_suite(suite)
+    return DEFAULT_METRIC if found is None else found.primary_metric
 
 
-STANDARD_SEEDS: dict[str, tuple[int, ...]] = {"paper": (0,), "robust": ROBUST_SEEDS, "highway": HIGHWAY_SEEDS,
-                                              "maneuvers": (0,)}
-"""The seeds of each suite's standard episodes (what its leaderboard ranks)."""
-QUICK_SUITES: frozenset[str] = frozenset({"robust", "highway"})
-"""Suites whose ``quick`` variant drops seeds."""
+def primary_metrics() -> frozenset[str]:
+    """Every metric some registered suite ranks on (and ``DEFAULT_METRIC``)."""
+    return frozenset({DEFAULT_METRIC, *(get_suite(n).primary_metric for n in suite_names())})
+
+
+def extra_columns(suite: str) -> tuple[str, ...]:
+    """The board columns of ``suite`` beyond the common ones (``Suite.columns``; none for unregistered labels)."""
+    found = find_suite(suite)
+    return () if found is None else found.columns
 
 
 def base_suite(label: str) -> str:
@@ -175,11 +141,11 @@ def suite_label(name: str, quick: bool = False, seeds: Sequence[int] | None = No
     """The suite name rows of ``suite_episodes(name, quick, seeds)`` are stored under: ``name`` for the standard
     episodes, else ``name[seeds=...]`` (another seed set; ``seeds`` wins over ``quick``) or ``name[quick]``, so a
     subset or another set of seeds is never ranked with the suite's standard board."""
-    standard = STANDARD_SEEDS.get(name)
+    found = find_suite(name)
     if seeds:
-        if standard is not None and sorted(set(int(s) for s in seeds)) == sorted(standard):
+        if found is not None and sorted(set(int(s) for s in seeds)) == sorted(found.seeds):
             return name
         return f"{name}[seeds={_seed_text(seeds)}]"
-    if quick and name in QUICK_SUITES:
+    if quick and found is not None and found.quick_seeds is not None:
         return f"{name}[quick]"
     return name

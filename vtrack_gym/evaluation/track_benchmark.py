@@ -131,8 +131,8 @@ def _benchmark(tracks: Sequence[tuple[str, Mapping[str, Any], Any]], factories: 
     """Score every (policy, track, seed) task; rows with their track's provenance (stored in ``store`` as each
     episode ends), figures per track."""
     from vtrack_gym.evaluation.benchmark import score_episode, score_tasks, write_figures
+    from vtrack_gym.evaluation.episodes import Episode
     from vtrack_gym.evaluation.parallel import EpisodeTask
-    from vtrack_gym.evaluation.suites import Episode
     from vtrack_gym.vehicle.catalog import read_vehicle_once
 
     seeds = [int(s) for s in seeds]

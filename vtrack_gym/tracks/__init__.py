@@ -28,7 +28,7 @@ from vtrack_gym.tracks.maneuvers import (
 from vtrack_gym.tracks.path import Gate, Path, PathSample, Projection, wrap_angle
 from vtrack_gym.tracks.procedural import ProceduralTrackConfig, procedural_track, procedural_track_from_config
 from vtrack_gym.tracks.profiles import CurvatureProfile, SineElevation
-from vtrack_gym.tracks.sources import BUILTIN_TRACKS, file_digest, load_track, path_digest
+from vtrack_gym.tracks.sources import file_digest, load_track, path_digest
 from vtrack_gym.tracks.speed_profiles import (
     ConstantSpeed,
     CurvatureLimited,
@@ -52,9 +52,9 @@ from vtrack_gym.tracks.table import (
     COLUMN_NAMES,
     N_COLS,
 )
+from vtrack_gym.tracks.track_registry import build_track, register_track, track_names, unregister_track
 
 __all__ = [
-    "BUILTIN_TRACKS",
     "COLUMN_NAMES",
     "COL_DKAPPA",
     "COL_GRADE",
@@ -88,6 +88,7 @@ __all__ = [
     "as_speed_profile",
     "build_double_lane_change",
     "build_maneuver",
+    "build_track",
     "double_lane_change",
     "file_digest",
     "gate_boundaries",
@@ -100,6 +101,9 @@ __all__ = [
     "path_digest",
     "procedural_track",
     "procedural_track_from_config",
+    "register_track",
     "speed_table",
+    "track_names",
+    "unregister_track",
     "wrap_angle",
 ]

@@ -19,12 +19,12 @@ name                   test                                       speed      key
 
 Success criteria (``ManeuverSpec.success_criterion`` is one of ``SUCCESS_CRITERIA``):
 
-- ``no_cones_hit``: the car reaches the end of the path and ``gate_violations`` (the body outline against every
+- ``gates``: the car reaches the end of the path and ``gate_violations`` (the body outline against every
   gate) is 0 -- the ISO 3888 pass/fail (a run with a displaced cone is invalid).
-- ``stays_on_circle``: |e_y| <= ``ManeuverSpec.lateral_tolerance_m`` on the circle while the reference speed is
+- ``circle``: |e_y| <= ``ManeuverSpec.lateral_tolerance_m`` on the circle while the reference speed is
   below the analytic grip-limit speed ``ManeuverSpec.grip_limit_speed_mps`` (sqrt(mu g R)), i.e. until the ramp
   ends or the grip limit is reached; report the peak lateral acceleration reached.
-- ``completes``: the car reaches the end of the path without leaving the road; report the e_y overshoot after the
+- ``end``: the car reaches the end of the path without leaving the road; report the e_y overshoot after the
   curvature step.
 
 Reference lines (``reference``, see ``REFERENCES``). ``"lane_centres"`` (the default; ``tracks.lanes``): straight
@@ -94,12 +94,13 @@ TIME_FACTOR = 1.25                       # CHOICE: time limit = TIME_FACTOR x no
 TIME_MARGIN_S = 5.0
 
 SUCCESS_CRITERIA: dict[str, str] = {
-    "no_cones_hit": "reaches the end of the path with gate_violations == 0 (ISO 3888 pass/fail)",
-    "stays_on_circle": "|e_y| <= lateral_tolerance_m while the reference speed is below grip_limit_speed_mps "
+    "gates": "reaches the end of the path with gate_violations == 0 (ISO 3888 pass/fail)",
+    "circle": "|e_y| <= lateral_tolerance_m while the reference speed is below grip_limit_speed_mps "
                        "(until the ramp ends or the grip limit is reached); report the peak lateral acceleration",
-    "completes": "reaches the end of the path without leaving the road; report the e_y overshoot after the step",
+    "end": "reaches the end of the path without leaving the road; report the e_y overshoot after the step",
 }
-"""Documented success criteria, name -> meaning (see the module docstring)."""
+"""Documented success criteria, name -> meaning (see the module docstring). The names are those of the envs'
+criterion classes (``envs.criteria.CRITERIA``: ``ConeGates``, ``CircleAtLimit``, ``EndReached``), one vocabulary."""
 
 
 def grip_limit_speed_mps(friction_mu: float, radius_m: float, gravity_mps2: float = GRAVITY_MPS2) -> float:
@@ -120,7 +121,7 @@ class ManeuverSpec:
     [m/s] (the standard's test speed, or the ramp's end speed for the circle), the ``speed_profile`` to drive
     (a tracks speed profile), ``time_limit_s`` [s], ``success_criterion`` (a key of ``SUCCESS_CRITERIA``),
     ``source`` (where the numbers come from), ``lateral_tolerance_m`` [m] and ``grip_limit_speed_mps`` [m/s] for
-    ``stays_on_circle`` (None otherwise), and ``vehicle_width_m`` [m], the width the gates were sized for."""
+    ``circle`` (None otherwise), and ``vehicle_width_m`` [m], the width the gates were sized for."""
 
     name: str
     standard: str
@@ -144,11 +145,11 @@ class ManeuverSpec:
         if not isinstance(self.speed_profile, SpeedProfile):
             raise ValueError(f"ManeuverSpec.speed_profile must be a tracks speed profile "
                              f"(got {type(self.speed_profile).__name__})")
-        circle = self.success_criterion == "stays_on_circle"
+        circle = self.success_criterion == "circle"
         for name in ("lateral_tolerance_m", "grip_limit_speed_mps"):
             value = getattr(self, name)
             if circle and not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0.0):
-                raise ValueError(f"ManeuverSpec.{name} must be > 0 for 'stays_on_circle' (got {value!r})")
+                raise ValueError(f"ManeuverSpec.{name} must be > 0 for 'circle' (got {value!r})")
 
 
 @dataclass(frozen=True, eq=False)
@@ -285,7 +286,7 @@ def iso3888_1_double_lane_change(params: DoubleLaneChangeParams = DoubleLaneChan
                              name=f"iso3888-1_w{params.vehicle_width_m:g}_y{spec.lane_offset_m:g}")
     else:
         path = build_double_lane_change(spec)
-    return _at_constant_speed(path, "iso3888_1", "ISO 3888-1:2018", params.speed_mps, "no_cones_hit",
+    return _at_constant_speed(path, "iso3888_1", "ISO 3888-1:2018", params.speed_mps, "gates",
                               params.vehicle_width_m,
                               "ISO 3888-1 section table (reference-data.md section 3; Project Chrono ISO3888_Helper)")
 
@@ -375,7 +376,7 @@ def iso3888_2_obstacle_avoidance(params: ObstacleAvoidanceParams = ObstacleAvoid
                                   ramp_fraction=p.ramp_fraction, half_width_m=p.half_width_m, ds_m=p.ds_m,
                                   name=f"iso3888-2_w{p.vehicle_width_m:g}_o{p.overlap_m:g}", version=VERSION,
                                   overlap_m=p.overlap_m)
-    return _at_constant_speed(path, "iso3888_2", "ISO 3888-2:2011", p.speed_mps, "no_cones_hit",
+    return _at_constant_speed(path, "iso3888_2", "ISO 3888-2:2011", p.speed_mps, "gates",
                               p.vehicle_width_m,
                               "ISO 3888-2:2011 clause 4.1 / Table 1 as in Project Chrono ISO3888_Helper (ISO3888_2)")
 
@@ -438,7 +439,7 @@ def iso4138_steady_state_circle(params: SteadyStateCircleParams = SteadyStateCir
     return Maneuver(path, ManeuverSpec(
         name="iso4138_circle", standard="ISO 4138:2021 (method 1, constant radius)",
         nominal_speed_mps=ramp.v_end_mps, speed_profile=ramp,
-        time_limit_s=float(math.ceil(TIME_FACTOR * travel_s + TIME_MARGIN_S)), success_criterion="stays_on_circle",
+        time_limit_s=float(math.ceil(TIME_FACTOR * travel_s + TIME_MARGIN_S)), success_criterion="circle",
         vehicle_width_m=PAPER_CAR_WIDTH_M, lateral_tolerance_m=p.lateral_tolerance_m,
         grip_limit_speed_mps=p.grip_limit_speed_mps(),
         source="ISO 4138:2021 clause 8 (public excerpt); radius, ramp rate and tolerance are CHOICES"))
@@ -514,7 +515,7 @@ def slalom(params: SlalomParams = SlalomParams()) -> Maneuver:
         path = Path.from_curvature(CurvatureProfile.from_segments(0.0, segs), ds_m=p.ds_m, closed=False, y0_m=a,
                                    half_width_m=p.half_width_m, name=f"slalom_{p.cone_spacing_m:g}m_{p.n_cones}",
                                    version=VERSION, gates=tuple(gates))
-    return _at_constant_speed(path, "slalom", "none (CHOICE)", p.speed_mps, "no_cones_hit",
+    return _at_constant_speed(path, "slalom", "none (CHOICE)", p.speed_mps, "gates",
                               p.vehicle_width_m,
                               "CHOICE: 18 m cone spacing, 10 cones, 40 km/h, 0.5 m clearance")
 
@@ -569,7 +570,7 @@ def step_curvature(params: StepCurvatureParams = StepCurvatureParams()) -> Maneu
     segs = [(p.approach_m, 0.0), (p.step_length_m, k), (arc_m, k)]
     path = Path.from_curvature(CurvatureProfile.from_segments(0.0, segs), ds_m=p.ds_m, closed=False,
                                half_width_m=p.half_width_m, name=f"step_curvature_r{p.radius_m:g}", version=VERSION)
-    return _at_constant_speed(path, "step_curvature", "none (CHOICE)", p.speed_mps, "completes",
+    return _at_constant_speed(path, "step_curvature", "none (CHOICE)", p.speed_mps, "end",
                               PAPER_CAR_WIDTH_M,
                               "CHOICE: R = 50 m, 15 m/s, 60 m straight, 1 m curvature blend")
 

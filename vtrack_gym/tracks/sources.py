@@ -5,40 +5,33 @@ from __future__ import annotations
 
 import hashlib
 import os
-from collections.abc import Callable
 from pathlib import Path as FsPath
 
 import numpy as np
 
 from vtrack_gym.tracks.csv_loader import load_track_csv, unobservable
-from vtrack_gym.tracks.dlc import double_lane_change
-from vtrack_gym.tracks.handling_course import handling_course
 from vtrack_gym.tracks.path import Path
-
-BUILTIN_TRACKS: dict[str, Callable[[], Path]] = {
-    "handling_course": handling_course,
-    "double_lane_change": double_lane_change,
-}
-"""Built-in track name -> builder (default arguments)."""
+from vtrack_gym.tracks.track_registry import build_track, track_names
 
 TrackSource = str | os.PathLike[str] | Path
 
 
 def load_track(track: TrackSource, *, closed: bool | None = None, half_width_m: float | None = None,
                smoothing_m: float | None = None, allow_self_crossing: bool = False) -> Path:
-    """The ``Path`` of ``track``: a ``Path`` (returned as is), a built-in name (``BUILTIN_TRACKS``) or a CSV file
-    (see ``csv_loader``; the keyword options apply to files only). ValueError naming the choices otherwise."""
+    """The ``Path`` of ``track``: a ``Path`` (returned as is), a built-in name (``track_registry.track_names()``,
+    gated ones sized for the paper's car) or a CSV file (see ``csv_loader``; the keyword options apply to files
+    only). ValueError naming the choices otherwise."""
     if isinstance(track, Path):
         return track
-    if isinstance(track, str) and track in BUILTIN_TRACKS:
-        return BUILTIN_TRACKS[track]()
+    if isinstance(track, str) and track in track_names():
+        return build_track(track)
     if not isinstance(track, (str, os.PathLike)):
-        raise ValueError(f"track must be a CSV file path, a tracks.Path or one of {sorted(BUILTIN_TRACKS)} "
+        raise ValueError(f"track must be a CSV file path, a tracks.Path or one of {', '.join(track_names())} "
                          f"(got {type(track).__name__})")
     if FsPath(track).is_dir():
         raise ValueError(f"{track}: is a folder, not a track file (give a CSV file in it)")
     if not FsPath(track).is_file():
-        raise ValueError(f"{track}: track file not found (built-in tracks: {', '.join(sorted(BUILTIN_TRACKS))})")
+        raise ValueError(f"{track}: track file not found (built-in tracks: {', '.join(track_names())})")
     return load_track_csv(track, closed=closed, half_width_m=half_width_m, smoothing_m=smoothing_m,
                           allow_self_crossing=allow_self_crossing)
 

@@ -29,26 +29,29 @@ class TuneOutcome:
         return self.result.episodes / max(self.result.wall_s, 1e-9)
 
 
-def tune_to_preset(controller: str, space: str = "paper", budget: str = "paper", *, seed: int = 0,
+def tune_to_preset(controller: str, space: str | None = None, budget: str | None = None, *, seed: int = 0,
                    generations: int | None = None, pop_size: int | None = None, comfort_weight: float = 0.0,
                    max_steps: int | None = None, also_complete: tuple[str, ...] = (), backend: str = "local",
                    ray_address: str | None = None, num_workers: int | None = None, out: Path | None = None,
                    store: Path | None = None, command: str = "", progress: bool = True) -> TuneOutcome:
-    """GA-tune ``controller`` (``"smc"``/``"mpc"``) in search space ``space`` with the named ``budget``.
+    """GA-tune ``controller`` (a GA-tunable registered policy, ``registry.tunable_policies()``) in its search space
+    ``space`` with its named ``budget`` (default: the first ones it declares; ``paper`` for smc and mpc).
 
     ``generations`` / ``pop_size`` override the budget (then named ``custom``); ``out`` defaults to
     ``vtrack_results/<controller>_tuned.json``; ``command`` is recorded as the preset's provenance; ``store``: also
     add a row to that result store (suite ``tuning``). The other arguments are :func:`vtrack_gym.tuning.ga.tune`'s.
     """
     from vtrack_gym._io import check_output_file
-    from vtrack_gym.baselines.preset_files import save_preset
+    from vtrack_gym.baselines.preset_files import preset_config_type, save_preset
     from vtrack_gym.tuning.ga import check_tune_args, tune
     from vtrack_gym.tuning.population import FitnessConfig
     from vtrack_gym.tuning.spaces import budget as named_budget
-    from vtrack_gym.tuning.spaces import search_space
+    from vtrack_gym.tuning.spaces import search_space, tuning_of
 
-    search = search_space(controller, space)
-    b = named_budget(controller, budget)
+    preset_config_type(controller)  # a controller whose preset cannot be saved is refused before the GA
+    declared = tuning_of(controller)
+    search = search_space(controller, space if space is not None else next(iter(declared.spaces)))
+    b = named_budget(controller, budget if budget is not None else next(iter(declared.budgets)))
     if generations is not None or pop_size is not None:  # 0 is an error (check_tune_args), not the default
         b = dataclasses.replace(b, name="custom", generations=b.generations if generations is None else generations,
                                 pop_size=b.pop_size if pop_size is None else pop_size)
@@ -70,7 +73,7 @@ def tune_to_preset(controller: str, space: str = "paper", budget: str = "paper",
         provenance["note"] = f"episodes cut after {max_steps} steps (smoke test, not a tuning result)"
     save_preset(preset_file, controller, result.best_config, result.best_speed_config, provenance)
     if store is not None:
-        _store_result(store, controller, space, seed, result, budget_info, preset_file)
+        _store_result(store, controller, search.name, seed, result, budget_info, preset_file)
     return TuneOutcome(result, preset_file, provenance)
 
 
@@ -78,7 +81,8 @@ def _store_result(store: Path, controller: str, space: str, seed: int, result: T
                   budget_info: dict[str, Any], preset_file: Path) -> None:
     """Add the best individual's metrics to ``store`` as one ``tuning`` row."""
     from vtrack_gym.evaluation.fingerprint import policy_hash
-    from vtrack_gym.evaluation.store import ResultRow, ResultStore
+    from vtrack_gym.evaluation.rows import ResultRow
+    from vtrack_gym.evaluation.store import ResultStore
 
     class _Cfg:  # policy_hash reads .config
         config = result.best_config

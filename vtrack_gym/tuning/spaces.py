@@ -20,7 +20,8 @@ from vtrack_gym.baselines.tunable import (
 )
 
 __all__ = ["CROSSOVER_PROB", "MUTATION_PROB", "Budget", "Parameter", "SearchSpace", "budget",
-           "configs_from_vector", "search_space", "tunable_controllers", "tuning_of"]
+           "configs_from_vector", "declared_help", "declared_names", "search_space", "tunable_controllers",
+           "tuning_of"]
 
 CROSSOVER_PROB = 0.8
 """SBX crossover probability per mating (Table 2)."""
@@ -70,6 +71,21 @@ def budget(controller: str, name: str) -> Budget:
 def _all(kind: str) -> dict[tuple[str, str], Any]:
     """(controller, name) -> declared space or budget of every tunable registered controller."""
     return {(c, key): value for c in tunable_controllers() for key, value in getattr(tuning_of(c), kind).items()}
+
+
+def declared_names(kind: str) -> tuple[str, ...]:
+    """Every space (``kind="spaces"``) or budget (``"budgets"``) name some tunable controller declares, in order."""
+    return tuple(dict.fromkeys(key for _, key in _all(kind)))
+
+
+def declared_help(kind: str) -> str:
+    """``smc: paper, working; mpc: ...`` (budgets with their generations x population), for ``--help`` texts."""
+    parts = []
+    for c in tunable_controllers():
+        declared = getattr(tuning_of(c), kind)
+        names = [f"{k} ({v.generations} x {v.pop_size})" if kind == "budgets" else k for k, v in declared.items()]
+        parts.append(f"{c}: {', '.join(names)}")
+    return "; ".join(parts)
 
 
 def __getattr__(name: str) -> Any:

@@ -47,6 +47,13 @@ def track_read(args: argparse.Namespace) -> dict[str, Any]:
     return read
 
 
+def track_limits(args: argparse.Namespace) -> str:
+    """The track-limit rule of --track-limits (``_options.DEFAULT_TRACK_LIMITS`` when not given)."""
+    from vtrack_gym.cli._options import DEFAULT_TRACK_LIMITS
+
+    return args.track_limits or DEFAULT_TRACK_LIMITS
+
+
 def describe_track(file: Path, read: dict[str, Any]) -> str:
     """One line saying how --track was read: closed loop or open road, its length and point count."""
     from vtrack_gym.tracks import load_track
@@ -91,7 +98,10 @@ def env_or_track(args: argparse.Namespace, default: str | None = None) -> tuple[
 
         profile, read = speed_profile(args), track_read(args)
         err(describe_track(args.track, read))
-        return register_track(args.track, profile, **read)
+        return register_track(args.track, profile, **read, track_limits=track_limits(args))
+    if getattr(args, "track_limits", None) is not None:
+        raise ValueError("--track-limits applies to --track FILE (with --env ID, make the env with "
+                         "track_limits= in Python)")
     env = args.env if args.env is not None else default
     if env is None:
         raise ValueError("give --env ID (e.g. DLC120-v0) or --track FILE")

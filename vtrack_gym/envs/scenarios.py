@@ -27,7 +27,15 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from vtrack_gym._ranges import documented, ranged, validate
-from vtrack_gym.envs.criteria import Auto, CircleAtLimit, ConeGates, EndReached, SuccessCriterion
+from vtrack_gym.envs.criteria import (
+    TRACK_LIMIT_RULES,
+    Auto,
+    CircleAtLimit,
+    ConeGates,
+    EndReached,
+    SuccessCriterion,
+    TrackLimits,
+)
 from vtrack_gym.envs.randomisation import Randomisation, Start
 from vtrack_gym.envs.speed import EntryThenRelease, HoldSpeed, check_speed, is_profile
 from vtrack_gym.envs.track_sources import MANEUVER_TRACK_NAMES, TRACKS, TrackSource
@@ -196,6 +204,11 @@ TRACK = Scenario(name="Track-v0", track=TrackSource(track="handling_course"), sp
 handling course, default profile ``curvature_limited(40 km/h, 0.7 g)`` (``default_track_profile``); time limit
 derived from the track."""
 
+TRACK_V1 = replace(TRACK, name="Track-v1", success=TrackLimits(rule="wheels"))
+"""``Track-v0`` judged by motorsport's track limits (``track_limits="wheels"``: a lap fails when all four wheel
+contact points are beyond an edge; ``"body"`` and ``"centre"`` by make kwarg); the episode ends ``off_road`` only
+once the whole car is off (``criteria.TrackLimits``)."""
+
 MANEUVER_IDS: dict[str, str] = {"iso3888_1": "ISO3888-1-v1", "iso3888_2": "ISO3888-2-v1",
                                  "iso4138_circle": "ISO4138-Circle-v0", "slalom": "Slalom-v1",
                                  "step_curvature": "StepCurvature-v0"}
@@ -271,7 +284,8 @@ LEGACY_MANEUVER_SCENARIOS: tuple[Scenario, ...] = tuple(
 """``vtrack/ISO3888-1-v0`` and ``vtrack/Slalom-v0``, registered unchanged."""
 
 SCENARIOS: dict[str, Scenario] = {s.name: s for s in (LATERAL_TRACKING, DLC120, RANDOM_TRACKS, TRAINING_MIX,
-                                                      TRACK, *LEGACY_MANEUVER_SCENARIOS, *MANEUVER_SCENARIOS)}
+                                                      TRACK, TRACK_V1, *LEGACY_MANEUVER_SCENARIOS,
+                                                      *MANEUVER_SCENARIOS)}
 """Scenario name -> scenario; one registered id ``vtrack/<name>`` per entry (``registration.register_scenario``
 adds one)."""
 LEGACY_IDS: tuple[str, ...] = ("LateralTracking-v0", "DLC120-v0", "LateralTrackingRandom-v0")
@@ -349,11 +363,14 @@ def _registered_track(env_id: str) -> dict[str, Any] | None:
 
 
 def with_protocol(scenario: Scenario, vehicle: Any, entry_speed_kmh: float | None = None,
-                  reference: str | None = None) -> Scenario:
+                  reference: str | None = None, track_limits: str | None = None) -> Scenario:
     """``scenario`` with the make kwargs of the standard ids: ``entry_speed_kmh`` [km/h] (an ``EntryThenRelease``
-    scenario only; refused outside (0, 200] km/h naming the car, ``feasibility.check_entry_speed``) and
-    ``reference`` (``"planned"`` or ``"lane_centres"``, ``REFERENCE_LINES``; a cone-lined manoeuvre only).
+    scenario only; refused outside (0, 200] km/h naming the car, ``feasibility.check_entry_speed``),
+    ``reference`` (``"planned"`` or ``"lane_centres"``, ``REFERENCE_LINES``; a cone-lined manoeuvre only) and
+    ``track_limits`` (``"wheels"``, ``"body"`` or ``"centre"``: ``with_track_limits``).
     ``vehicle`` is the driven car (``VehicleParams``); ``None`` keeps a part."""
+    if track_limits is not None:
+        scenario = with_track_limits(scenario, track_limits)
     changes: dict[str, Any] = {}
     if entry_speed_kmh is not None:
         from vtrack_gym.tracks.feasibility import check_entry_speed
@@ -376,3 +393,17 @@ def with_protocol(scenario: Scenario, vehicle: Any, entry_speed_kmh: float | Non
                              f"{scenario.env_id} drives {scenario.track.track!r}")
         changes["reference"] = REFERENCE_LINES[reference]
     return replace(scenario, **changes) if changes else scenario
+
+
+def with_track_limits(scenario: Scenario, rule: str) -> Scenario:
+    """``scenario`` judged by the track-limit ``rule`` (``criteria.TRACK_LIMIT_RULES``: its success part becomes
+    ``TrackLimits(rule=rule)``). Refused (ValueError naming the id) for a scenario judged by its cone gates or its
+    circle, whose rule is not the road's edges; a track with cone gates is refused when the env builds it)."""
+    if isinstance(rule, str) and rule in TRACK_LIMIT_RULES and isinstance(scenario.success, TrackLimits) and \
+            scenario.success.rule == rule:
+        return scenario
+    criterion = TrackLimits(rule=rule)      # ValueError naming the allowed rules
+    if not isinstance(scenario.success, (Auto, EndReached, TrackLimits)):
+        raise ValueError(f"track_limits applies to the ids that drive a road between edges; {scenario.env_id} is "
+                         f"judged by {type(scenario.success).__name__} on {scenario.track.track!r}")
+    return replace(scenario, success=criterion)

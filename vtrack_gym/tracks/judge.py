@@ -267,3 +267,43 @@ def edge_polylines(path: object) -> np.ndarray:
     out[:, 2] = t[:, COL_X] - w[:, 1] * nx
     out[:, 3] = t[:, COL_Y] - w[:, 1] * ny
     return out
+
+
+@kernel
+def _window(s0: float, s1: float, pad: float, ds: float, n: int, closed: bool) -> tuple[int, int]:
+    """Rows (i0, i1) of the edge polylines within ``pad`` [m] of stations s0..s1 [m] (clamped on an open path,
+    unwrapped on a closed one: ``_vertex`` wraps them; at most one lap)."""
+    lo = min(s0, s1)
+    hi = max(s0, s1)
+    if closed and hi - lo > 0.5 * (n - 1) * ds:   # the step crossed the start line: s1 wrapped past it
+        lo, hi = hi, lo + (n - 1) * ds
+    i0 = math.floor((lo - pad) / ds)
+    i1 = math.ceil((hi + pad) / ds)
+    if closed:
+        return i0, min(i1, i0 + n - 1)
+    return max(i0, 0), min(max(i1, 1), n - 1)
+
+
+@kernel
+def judge_edges(mode: int, edges: np.ndarray, ds: float, closed: bool, body: np.ndarray, idx: np.ndarray,
+                prev: np.ndarray, x: np.ndarray, y: np.ndarray, psi: np.ndarray, s: np.ndarray, tol: float,
+                rule_min: np.ndarray, rule_end: np.ndarray, body_min: np.ndarray) -> None:
+    """For each car i in ``idx``, moving over the last step from ``prev[i]`` (x, y [m], psi [rad], station [m])
+    to (x[i], y[i], psi[i]) at station s[i]: ``rule_min[i]`` / ``rule_end[i]`` the least / final ``mode``
+    measure and ``body_min[i]`` the body's least clearance to the edges (n, 4) [m] along the step (``sweep_min``)."""
+    n = edges.shape[0]
+    pad = 2.0 * reach_m(body) + 2.0
+    none = np.zeros((0, 3))
+    pose0 = np.empty(3)
+    pose1 = np.empty(3)
+    for i in idx:
+        pose0[0], pose0[1], pose0[2] = prev[i, 0], prev[i, 1], prev[i, 2]
+        pose1[0], pose1[1], pose1[2] = x[i], y[i], psi[i]
+        pad_i = pad + math.hypot(pose1[0] - pose0[0], pose1[1] - pose0[1])
+        i0, i1 = _window(prev[i, 3], s[i], pad_i, ds, n, closed)
+        least, last = sweep_min(MEASURE_BODY, pose0, pose1, body, edges, i0, i1, closed, none, tol)
+        body_min[i] = least
+        if mode != MEASURE_BODY:
+            least, last = sweep_min(mode, pose0, pose1, body, edges, i0, i1, closed, none, tol)
+        rule_min[i] = least
+        rule_end[i] = last

@@ -76,12 +76,12 @@ def register_track(track_file: str | os.PathLike[str], speed_profile: Any, close
     """Register ``vtrack/Track-<stem>-<key>-v0`` driving a CSV track file with a speed profile (idempotent).
 
     ``key`` hashes the file's content and the profile's parameters (and ``closed`` / ``smoothing_m`` [m], how the
-    file is read, where given), so two tracks with the same file name (or one track with two profiles) get two ids
+    file is read, where given, and ``track_limits``), so two tracks with the same file name (or one track with two profiles) get two ids
     and never mix on a leaderboard. Returns the id and the provenance to record with results: ``{"track_file",
     "track_sha256", "speed_profile": {"kind", parameters...}}`` plus ``"track_read": {"closed", "smoothing_m"}``
     where either is given. ``track_limits``: the track-limit rule the env judges by (``"wheels"``, ``"body"`` or
-    ``"centre"``; None: Track-v0's, the centre), in the key and the make kwargs (rows record it as their
-    ``protocol``). The id is registered in this process only (``make_vec`` in other processes needs
+    ``"centre"``; None: Track-v0's, the centre), in the key and the make kwargs; the provenance records it as
+    ``"protocol": {"track_limits": rule}``. The id is registered in this process only (``make_vec`` in other processes needs
     ``Track-v0`` with ``track=``).
     """
     import hashlib
@@ -118,7 +118,11 @@ def register_track(track_file: str | os.PathLike[str], speed_profile: Any, close
                          **rule},
                  max_episode_steps=None, disable_env_checker=False)
     provenance = {"track_file": file.name, "track_sha256": file_sha, "speed_profile": params}
-    return env_id, {**provenance, "track_read": read} if read else provenance
+    if read:
+        provenance["track_read"] = read
+    if rule:
+        provenance["protocol"] = rule     # as api.env_identity records a make kwarg of the protocol
+    return env_id, provenance
 
 
 TRACK_ID_PREFIX = "vtrack/Track-"

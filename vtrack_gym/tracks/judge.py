@@ -11,7 +11,8 @@ how far it reaches into it. Exact closed forms:
 - point to rectangle: the Euclidean distance outside, minus the distance to the nearest side inside;
 - rectangle to disc (a cone of radius r): point-to-rectangle of the cone's centre minus r;
 - point to polyline (a track edge, ``side`` +1 when the track lies left of the edge's direction, -1 right): the
-  distance to the nearest segment, signed by the side (at a vertex by the bisector of its two segments);
+  distance to the nearest segment, signed by the side (at a vertex by the bisector of its two segments); an open
+  road's edges go on straight before its first row and after its last (its approach and run-out);
 - rectangle to polyline: the least of the corners' signed distances and of the polyline vertices' signed
   distances to the rectangle (the gap between two polygonal chains is attained at a vertex of one of them; a
   crossing puts a corner beyond the edge or a vertex inside the body).
@@ -98,14 +99,16 @@ def rect_disc(x: float, y: float, psi: float, front: float, rear: float, half: f
 
 @kernel
 def _segment(px: float, py: float, ax: float, ay: float, bx: float, by: float) -> tuple[float, float, float]:
-    """(distance, cross, t) of point p to segment a-b: cross = (b - a) x (p - a), t the foot's fraction."""
+    """(distance, cross, t) of point p to segment a-b: cross = (b - a) x (p - a), t the fraction of the foot of
+    the perpendicular on the line a-b (outside [0, 1]: the nearest point is an end)."""
     ux = bx - ax
     uy = by - ay
     vx = px - ax
     vy = py - ay
     uu = ux * ux + uy * uy
-    t = 0.0 if uu <= 0.0 else min(1.0, max(0.0, (ux * vx + uy * vy) / uu))
-    return math.hypot(vx - t * ux, vy - t * uy), ux * vy - uy * vx, t
+    t = 0.0 if uu <= 0.0 else (ux * vx + uy * vy) / uu
+    tc = min(1.0, max(0.0, t))
+    return math.hypot(vx - tc * ux, vy - tc * uy), ux * vy - uy * vx, t
 
 
 @kernel
@@ -133,7 +136,11 @@ def point_polyline(px: float, py: float, ex: np.ndarray, ey: np.ndarray, i0: int
         d, cross, t = _segment(px, py, ex[a], ey[a], ex[b], ey[b])
         if d < best:
             best, best_k, best_t, best_cross = d, k, t, cross
-    if 0.0 < best_t < 1.0:
+    ray = not closed and (best_k == 0 and best_t < 0.0 or best_k == n - 2 and best_t > 1.0)
+    if ray:   # beyond an open road's first or last row: the edge goes on straight (an approach, a run-out)
+        a = _vertex(best_k, n, closed)
+        best = abs(best_cross) / math.hypot(ex[a + 1] - ex[a], ey[a + 1] - ey[a])
+    if 0.0 < best_t < 1.0 or ray:
         sign = 1.0 if best_cross >= 0.0 else -1.0
     else:  # the nearest point is a vertex: the side of the line through its two neighbours (its bisector)
         v = _vertex(best_k + (1 if best_t >= 1.0 else 0), n, closed)

@@ -76,13 +76,13 @@ def register_track(track_file: str | os.PathLike[str], speed_profile: Any, close
     """Register ``vtrack/Track-<stem>-<key>-v0`` driving a CSV track file with a speed profile (idempotent).
 
     ``key`` hashes the file's content and the profile's parameters (and ``closed`` / ``smoothing_m`` [m], how the
-    file is read, where given, and ``track_limits``), so two tracks with the same file name (or one track with two profiles) get two ids
-    and never mix on a leaderboard. Returns the id and the provenance to record with results: ``{"track_file",
-    "track_sha256", "speed_profile": {"kind", parameters...}}`` plus ``"track_read": {"closed", "smoothing_m"}``
-    where either is given. ``track_limits``: the track-limit rule the env judges by (``"wheels"``, ``"body"`` or
-    ``"centre"``; None: Track-v0's, the centre), in the key and the make kwargs; the provenance records it as
-    ``"protocol": {"track_limits": rule}``. The id is registered in this process only (``make_vec`` in other processes needs
-    ``Track-v0`` with ``track=``).
+    file is read, and ``track_limits``, where given), so two tracks with the same file name (or one track with two
+    profiles or rules) get two ids and never mix on a leaderboard. Returns the id and the provenance to record with
+    results: ``{"track_file", "track_sha256", "speed_profile": {"kind", parameters...}}`` plus ``"track_read":
+    {"closed", "smoothing_m"}`` where either is given. ``track_limits``: the track-limit rule the env judges by
+    (``"wheels"``, ``"body"`` or ``"centre"``; None: Track-v0's, the centre), in the key and the make kwargs; the
+    provenance records it as ``"protocol": {"track_limits": rule}``. The id is registered in this process only
+    (``make_vec`` in other processes needs ``Track-v0`` with ``track=``).
     """
     import hashlib
     import json

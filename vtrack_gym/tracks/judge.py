@@ -136,7 +136,7 @@ def point_polyline(px: float, py: float, ex: np.ndarray, ey: np.ndarray, i0: int
         d, cross, t = _segment(px, py, ex[a], ey[a], ex[b], ey[b])
         if d < best:
             best, best_k, best_t, best_cross = d, k, t, cross
-    ray = not closed and (best_k == 0 and best_t < 0.0 or best_k == n - 2 and best_t > 1.0)
+    ray = not closed and ((best_k == 0 and best_t < 0.0) or (best_k == n - 2 and best_t > 1.0))
     if ray:   # beyond an open road's first or last row: the edge goes on straight (an approach, a run-out)
         a = _vertex(best_k, n, closed)
         best = abs(best_cross) / math.hypot(ex[a + 1] - ex[a], ey[a + 1] - ey[a])

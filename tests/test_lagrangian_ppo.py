@@ -8,9 +8,9 @@ import pytest
 
 pytest.importorskip("stable_baselines3")
 
-from vtrack_gym.agents.lagrangian import CostPenalisedVecEnv, LagrangianConfig, train_lagrangian_ppo  # noqa: E402
-from vtrack_gym.agents.sb3_vec_env import TrackingSB3VecEnv  # noqa: E402
-from vtrack_gym.tracks import Path as TrackPath  # noqa: E402
+from vtrack_gym.agents.lagrangian import CostPenalisedVecEnv, LagrangianConfig, train_lagrangian_ppo
+from vtrack_gym.agents.sb3_vec_env import TrackingSB3VecEnv
+from vtrack_gym.tracks import Path as TrackPath
 
 
 def _narrow_road() -> TrackPath:

@@ -20,9 +20,9 @@ def _narrow_road() -> TrackPath:
 
 
 def test_penalised_reward_is_the_env_reward_minus_multiplier_times_cost() -> None:
-    inner = TrackingSB3VecEnv("vtrack/Track-v1", num_envs=2, track=_narrow_road(), speed_profile=8.0,
+    inner = TrackingSB3VecEnv("vtrack/Track-v0", num_envs=2, track=_narrow_road(), speed_profile=8.0,
                               track_limits="body")
-    twin = TrackingSB3VecEnv("vtrack/Track-v1", num_envs=2, track=_narrow_road(), speed_profile=8.0,
+    twin = TrackingSB3VecEnv("vtrack/Track-v0", num_envs=2, track=_narrow_road(), speed_profile=8.0,
                              track_limits="body")
     env = CostPenalisedVecEnv(inner, LagrangianConfig(initial_multiplier=2.5))
     for e in (env, twin):
@@ -43,7 +43,7 @@ def test_penalised_reward_is_the_env_reward_minus_multiplier_times_cost() -> Non
 
 def test_lagrangian_ppo_updates_the_multiplier_from_the_rollouts_costs() -> None:
     config = LagrangianConfig(cost_limit=0.01, multiplier_lr=5.0)
-    model, env = train_lagrangian_ppo("vtrack/Track-v1", 512, config=config, num_envs=2, seed=0,
+    model, env = train_lagrangian_ppo("vtrack/Track-v0", 512, config=config, num_envs=2, seed=0,
                                       ppo_kwargs={"n_steps": 128, "batch_size": 64, "n_epochs": 1},
                                       track=_narrow_road(), speed_profile=8.0, track_limits="body")
     assert len(env.history) == 2                       # one update per rollout of 2 x 128 steps

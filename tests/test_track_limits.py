@@ -1,6 +1,7 @@
 """Track limits as a declared rule (``track_limits="wheels" | "body" | "centre"``), through the ways a user reaches
-them: ``gym.make("vtrack/Track-v1", ...)``, the make kwarg on other ids, ``info["cost"]`` / ``info["edge_margin_m"]``,
-the leaderboard row's metrics and identity, and ``vtrack eval --track FILE --track-limits RULE``."""
+them: the make kwarg (``gym.make("vtrack/Track-v0", track=..., track_limits=...)``), ``info["cost"]`` and
+``info["edge_margin_m"]``, the leaderboard row's metrics and identity, and ``vtrack eval --track FILE --track-limits
+RULE``."""
 
 from __future__ import annotations
 
@@ -45,7 +46,7 @@ def test_rules_on_a_straight_road_driven_off_centre() -> None:
     chassis = load_vehicle("hatchback").chassis
     body_out = 0.8 + chassis.body_width_m / 2 - HALF_WIDTH_M
     for rule, passes in (("wheels", True), ("centre", True), ("body", False)):
-        info, metrics, infos = _drive_straight("vtrack/Track-v1", 0.8, track_limits=rule)
+        info, metrics, infos = _drive_straight("vtrack/Track-v0", 0.8, track_limits=rule)
         assert info["termination"] == "completed", rule
         assert info["success"] is passes, rule
         assert metrics["track_limit_violations"] == (0.0 if passes else 1.0), rule
@@ -58,9 +59,9 @@ def test_rules_on_a_straight_road_driven_off_centre() -> None:
 
 def test_all_four_wheels_off_is_an_excursion_and_the_episode_goes_on() -> None:
     """1.9 m left of centre: the right wheels (0.8375 m right of the CG) are 0.06 m beyond the edge too, so all
-    four are off: one excursion; the whole car is not off, so the lap goes on to the end (Track-v1), where
-    Track-v0 (the centre rule) ends it off_road at the first step."""
-    info, metrics, _ = _drive_straight("vtrack/Track-v1", 1.9)
+    four are off: one excursion; the whole car is not off, so the lap goes on to the end, where Track-v0's own
+    rule (the centre) ends it off_road at the first step."""
+    info, metrics, _ = _drive_straight("vtrack/Track-v0", 1.9, track_limits="wheels")
     assert info["termination"] == "completed" and info["success"] is False
     assert metrics["track_limit_violations"] == 1.0
     info_v0, _, infos_v0 = _drive_straight("vtrack/Track-v0", 1.9)
@@ -69,7 +70,7 @@ def test_all_four_wheels_off_is_an_excursion_and_the_episode_goes_on() -> None:
 
 def test_each_excursion_is_counted() -> None:
     """Weaving across the left edge line twice: two excursions of all four wheels."""
-    env = gym.make("vtrack/Track-v1", track=_road(), speed_profile=SPEED_MPS)
+    env = gym.make("vtrack/Track-v0", track=_road(), speed_profile=SPEED_MPS, track_limits="wheels")
     env.reset(seed=0, options={"initial_lateral_offset_m": 0.0})
     layout = env.unwrapped.observation_layout
     targets = [0.0, 1.95, 0.0, 1.95, 0.0]        # e_y targets [m], 24 m of road each
@@ -90,7 +91,7 @@ def test_each_excursion_is_counted() -> None:
 
 def test_track_limits_is_refused_where_the_rule_is_not_the_road() -> None:
     with pytest.raises(ValueError, match="track_limits must be one of wheels, body, centre"):
-        gym.make("vtrack/Track-v1", track=_road(), track_limits="kerbs")
+        gym.make("vtrack/Track-v0", track=_road(), track_limits="kerbs")
     with pytest.raises(ValueError, match="track_limits applies to the ids that drive a road"):
         gym.make("vtrack/ISO4138-Circle-v0", track_limits="body")
     with pytest.raises(ValueError, match="cone gates"):
@@ -111,16 +112,17 @@ def test_cli_track_limits_is_recorded_with_the_row(tmp_path: Path) -> None:
     file = tmp_path / "road.csv"
     file.write_text("x_m,y_m,w_tr_right_m,w_tr_left_m\n" + "".join(f"{a:.1f},0.0,2.0,2.0\n" for a in x))
     store = tmp_path / "s.db"
-    for rule in ("body", None):
+    for rule in ("body", "wheels", None):
         argv = ["eval", "--policy", "stanley", "--track", str(file), "--store", str(store)]
         assert main(argv + (["--track-limits", rule] if rule else [])) == 0
     from vtrack_gym.evaluation.store import ResultStore
 
-    body, default = ResultStore(store, read_only=True).rows()
+    body, wheels, default = ResultStore(store, read_only=True).rows()
     assert body["options"]["protocol"] == {"track_limits": "body"}
-    assert default["options"]["protocol"] == {"track_limits": "wheels"}
-    assert body["env_id"] != default["env_id"]
-    for row in (body, default):
+    assert wheels["options"]["protocol"] == {"track_limits": "wheels"}
+    assert "protocol" not in default["options"] and "track_limit_violations" not in default["metrics"]
+    assert len({body["env_id"], wheels["env_id"], default["env_id"]}) == 3
+    for row in (body, wheels):
         assert row["metrics"]["track_limit_violations"] == 0.0 and row["success"]
         assert row["metrics"]["min_edge_margin_m"] == pytest.approx(2.0 - 0.958, abs=0.02)   # on the centre line
     with pytest.raises(SystemExit):

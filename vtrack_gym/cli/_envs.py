@@ -47,11 +47,9 @@ def track_read(args: argparse.Namespace) -> dict[str, Any]:
     return read
 
 
-def track_limits(args: argparse.Namespace) -> str:
-    """The track-limit rule of --track-limits (``_options.DEFAULT_TRACK_LIMITS`` when not given)."""
-    from vtrack_gym.cli._options import DEFAULT_TRACK_LIMITS
-
-    return args.track_limits or DEFAULT_TRACK_LIMITS
+def track_limits(args: argparse.Namespace) -> str | None:
+    """The track-limit rule of --track-limits (None when not given: vtrack/Track-v0's own rule)."""
+    return getattr(args, "track_limits", None)
 
 
 def describe_track(file: Path, read: dict[str, Any]) -> str:

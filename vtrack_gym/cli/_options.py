@@ -108,10 +108,6 @@ def add_user_code(p: argparse.ArgumentParser) -> None:
                    "(default: none)")
 
 
-DEFAULT_TRACK_LIMITS = "wheels"
-"""The track-limit rule of ``--track`` / ``--tracks`` when ``--track-limits`` is not given (motorsport's)."""
-
-
 def add_track(p: argparse.ArgumentParser, text: str | None = None, where: Any = None) -> None:
     """``--track FILE`` (in the group ``where`` if given, e.g. exclusive with --env), how it is read and its
     speed-profile options."""
@@ -139,8 +135,8 @@ def add_track(p: argparse.ArgumentParser, text: str | None = None, where: Any = 
     p.add_argument("--track-limits", choices=TRACK_LIMIT_RULES, default=None,
                    help="--track: the track-limit rule a run is judged by: wheels (off the track when all four wheel "
                    "contact points are beyond an edge; each excursion counted), body (no part of the body beyond an "
-                   "edge) or centre (the CG; vtrack/Track-v0's rule); recorded with every row "
-                   f"(default: {DEFAULT_TRACK_LIMITS})")
+                   "edge) or centre (the CG, judged exactly); recorded with every row (default: none given, "
+                   "vtrack/Track-v0's own rule: the episode ends off_road when the CG passes an edge)")
     p.add_argument("--speed-profile", choices=PROFILE_KINDS, default=DEFAULT_PROFILE_KIND,
                    help="--track: target speed: envelope (the fastest profile within --max-speed-kmh and "
                    "--max-lateral-g with lateral and longitudinal acceleration combined inside a friction ellipse, "

@@ -201,7 +201,8 @@ class EdgeState(NamedTuple):
     cost: np.ndarray           # (n,) float 1.0 where the last step broke the rule
     margin: np.ndarray         # (n,) the body's least clearance to an edge over the last step [m]
     rule_min: np.ndarray       # (n,) scratch: the rule's least measure over the step [m]
-    rule_end: np.ndarray       # (n,) scratch: the rule's measure at the end of the step [m]
+    rule_end: np.ndarray       # (n,) the rule's measure at the end of the last step [m]
+    body_end: np.ndarray       # (n,) the body's edge clearance at the end of the last step [m]
 
 
 @documented
@@ -220,7 +221,7 @@ class TrackLimits(SuccessCriterion):
 
     name: ClassVar[str] = "track_limits"
     per_step: ClassVar[bool] = True
-    rule: str = "wheels"
+    rule: str = "wheels"   # CHOICE: motorsport's rule when a TrackLimits part is composed without one
 
     def __post_init__(self) -> None:
         if self.rule not in TRACK_LIMIT_RULES:
@@ -246,7 +247,7 @@ class TrackLimits(SuccessCriterion):
         z = np.zeros(n)
         return EdgeState(edges, body_row(vehicle.chassis), np.zeros((n, 4)), np.ones(n, dtype=bool),
                          np.zeros(n, dtype=bool), np.zeros(n, dtype=np.int64), np.full(n, np.inf), z.copy(),
-                         np.full(n, np.nan), z.copy(), z.copy())
+                         np.full(n, np.nan), z.copy(), z.copy(), z.copy())
 
     def reset_car(self, state: EdgeState, i: int, vehicle: Any) -> None:
         state.fresh[i] = True
@@ -267,7 +268,7 @@ class TrackLimits(SuccessCriterion):
             if idx.size:
                 judge_edges(_RULE_MEASURES[self.rule], edges, ds, closed, state.body, idx, state.prev, cars.x_m,
                             cars.y_m, cars.psi_rad, cars.station_m, SWEEP_TOL_M, state.rule_min, state.rule_end,
-                            state.margin)
+                            state.margin, state.body_end, ~first)
         broke = on & (state.rule_min < 0.0)
         state.violations[:] += broke & ~state.outside
         state.outside[:] = np.where(on, state.rule_end < 0.0, state.outside)

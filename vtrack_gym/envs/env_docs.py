@@ -31,13 +31,6 @@ DESCRIPTIONS: dict[str, str] = {
     "Track-v0": "Any track: `track=` a CSV file (x, y and optional elevation, speed and per-station widths), a "
                 "`tracks.Path` or a built-in name, with `speed_profile=` (default curvature-limited at 40 km/h "
                 "and 0.7 g). From standstill; the time limit is derived from the track and the profile.",
-    "Track-v1": "Any track, as `vtrack/Track-v0`, judged by motorsport's track limits: the lap (or the end of an "
-                "open road) counts when no excursion put all four wheel contact points beyond an edge line "
-                "(`track_limits=\"wheels\"`, the default; `\"body\"`: no part of the body beyond an edge; "
-                "`\"centre\"`: the CG). The exact geometry judge measures the car's own body and wheel points "
-                "against the edges as polylines, exact to 1 mm between control steps; an excursion is counted, "
-                "and the episode ends `off_road` only once the whole car is off. `info[\"cost\"]` is 1.0 on a "
-                "step that breaks the rule, `info[\"edge_margin_m\"]` the body's least clearance to an edge.",
     "ISO3888-1-v0": "ISO 3888-1 double lane change (severe lane change) with cone gates sized for the car's width, "
                     "driven at a constant speed; success: every gate passed with the body inside it.",
     "ISO3888-2-v0": "ISO 3888-2 obstacle avoidance with cone gates sized for the car's width, driven at a "
@@ -90,12 +83,6 @@ _ISO2 = (_V0_PINNED + " The lane-centre line at a constant 80 km/h: it asks 1.75
 _SLALOM = (_V0_PINNED + " The lane-centre line, 0.5 m clear of each cone.",
            "v1: the planned line for the driven car's body past the cones, same 40 km/h. v0 stays registered "
            "unchanged.")
-_TRACK = (_V0_PINNED + " Judged at the car's centre: the episode ends `off_road` when the CG passes an edge.",
-          "v1: judged by a declared track-limit rule (make kwarg `track_limits=`, default `\"wheels\"`) with "
-          "the exact geometry judge; the episode goes on through an excursion and ends `off_road` only once the "
-          "CG is a body reach beyond an edge. `vtrack/Track-v0` stays registered unchanged (its rule: "
-          "`\"centre\"`).")
-VERSION_HISTORY.update({"Track-v0": _TRACK, "Track-v1": _TRACK})
 VERSION_HISTORY.update({"ISO3888-1-v0": _ISO1, "ISO3888-1-v1": _ISO1, "ISO3888-2-v1": _ISO2, "Slalom-v0": _SLALOM,
                         "Slalom-v1": _SLALOM})
 DEPRECATED_PAGES: dict[str, tuple[str, ...]] = {"ISO3888-2-v0": _ISO2}

@@ -204,11 +204,6 @@ TRACK = Scenario(name="Track-v0", track=TrackSource(track="handling_course"), sp
 handling course, default profile ``curvature_limited(40 km/h, 0.7 g)`` (``default_track_profile``); time limit
 derived from the track."""
 
-TRACK_V1 = replace(TRACK, name="Track-v1", success=TrackLimits(rule="wheels"))
-"""``Track-v0`` judged by motorsport's track limits (``track_limits="wheels"``: a lap fails when all four wheel
-contact points are beyond an edge; ``"body"`` and ``"centre"`` by make kwarg); the episode ends ``off_road`` only
-once the whole car is off (``criteria.TrackLimits``)."""
-
 MANEUVER_IDS: dict[str, str] = {"iso3888_1": "ISO3888-1-v1", "iso3888_2": "ISO3888-2-v1",
                                  "iso4138_circle": "ISO4138-Circle-v0", "slalom": "Slalom-v1",
                                  "step_curvature": "StepCurvature-v0"}
@@ -284,8 +279,7 @@ LEGACY_MANEUVER_SCENARIOS: tuple[Scenario, ...] = tuple(
 """``vtrack/ISO3888-1-v0`` and ``vtrack/Slalom-v0``, registered unchanged."""
 
 SCENARIOS: dict[str, Scenario] = {s.name: s for s in (LATERAL_TRACKING, DLC120, RANDOM_TRACKS, TRAINING_MIX,
-                                                      TRACK, TRACK_V1, *LEGACY_MANEUVER_SCENARIOS,
-                                                      *MANEUVER_SCENARIOS)}
+                                                      TRACK, *LEGACY_MANEUVER_SCENARIOS, *MANEUVER_SCENARIOS)}
 """Scenario name -> scenario; one registered id ``vtrack/<name>`` per entry (``registration.register_scenario``
 adds one)."""
 LEGACY_IDS: tuple[str, ...] = ("LateralTracking-v0", "DLC120-v0", "LateralTrackingRandom-v0")

@@ -24,8 +24,9 @@ sub-interval [a, b] with end values fa, fb no value lies below (fa + fb - L (b -
 could still beat the best value found by more than ``tol`` (1 mm) are halved. The result is a clearance that
 was reached at a sampled pose and lies within ``tol`` of the true minimum along the interpolated motion: sub-stepped
 adaptively, exact to 1 mm (a search may stop earlier once nothing below a ``floor`` can be missed: a rule needs only
-the sign of its clearance, a margin only its values near an edge, ``EXACT_BELOW_M``). The interpolated pose leaves the simulated one by at most the chord's sagitta,
-(v dt)^2 / (8 R): 0.1 mm at 120 km/h on a 110 m radius, 0.7 mm at 54 km/h on a 4 m hairpin (10 ms steps).
+the sign of its clearance, a margin only its values near an edge, ``EXACT_BELOW_M``). The interpolated pose leaves
+the simulated one by at most the chord's sagitta, (v dt)^2 / (8 R): 0.1 mm at 120 km/h on a 110 m radius, 0.7 mm
+at 54 km/h on a 4 m hairpin (10 ms steps).
 """
 
 from __future__ import annotations

@@ -56,8 +56,12 @@ def describe_track(file: Path, read: dict[str, Any]) -> str:
     """One line saying how --track was read: closed loop or open road, its length and point count."""
     from vtrack_gym.tracks import load_track
     from vtrack_gym.tracks.csv_loader import read_track_columns
+    from vtrack_gym.tracks.sources import is_cone_file
 
     path = load_track(file, **read)
+    if is_cone_file(file):
+        kind = "a closed loop" if path.closed else "an open road"
+        return f"--track {file}: cones read as {kind} between the cone lines, {path.length_m:.1f} m"
     n_points = len(read_track_columns(Path(file))[1])
     how = "forced by --track-closed" if "closed" in read else "detected; --track-closed yes/no forces it"
     kind = "a closed loop" if path.closed else "an open road"

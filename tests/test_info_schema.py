@@ -12,7 +12,7 @@ import pytest
 import vtrack_gym  # noqa: F401  (registers the ids)
 from vtrack_gym.envs.config import DLC120, EnvConfig
 from vtrack_gym.envs.observation import OBS
-from vtrack_gym.envs.schema import ARRAY_SIGNALS, INFO_KEYS, REWARD_TERMS, SCALAR_SIGNALS, SIGNAL_ROW
+from vtrack_gym.envs.schema import ARRAY_SIGNALS, INFO_KEYS, REWARD_TERMS, SAFETY_SIGNALS, SCALAR_SIGNALS, SIGNAL_ROW
 from vtrack_gym.evaluation.trace import STEP_SIGNALS, Trace
 
 
@@ -24,6 +24,8 @@ def _check_single_info(info: dict, n_sub: int) -> None:
     assert info["acc_substeps_mps2"].dtype == np.float64 and info["acc_substeps_mps2"].shape == (n_sub, 3)
     assert type(info["termination"]) is str
     assert type(info["success"]) is bool and (info["success"] is False or info["termination"] != "")
+    assert type(info["cost"]) is np.float64 and info["cost"] in (0.0, 1.0)
+    assert type(info["edge_margin_m"]) is np.float64
 
 
 def _check_vector_info(info: dict, n: int, n_sub: int) -> None:
@@ -35,11 +37,14 @@ def _check_vector_info(info: dict, n: int, n_sub: int) -> None:
     assert info["acc_substeps_mps2"].dtype == np.float64 and info["acc_substeps_mps2"].shape == (n, n_sub, 3)
     assert info["termination"].shape == (n,) and all(type(t) is str for t in info["termination"])
     assert info["success"].dtype == bool and info["success"].shape == (n,)
+    for key in SAFETY_SIGNALS:
+        assert info[key].dtype == np.float64 and info[key].shape == (n,), key
 
 
 def test_schema_tuples_partition_the_keys() -> None:
     assert len(set(INFO_KEYS)) == len(INFO_KEYS)
-    assert set(INFO_KEYS) == {*SCALAR_SIGNALS, *REWARD_TERMS, *ARRAY_SIGNALS, "termination", "success"}
+    assert set(INFO_KEYS) == {*SCALAR_SIGNALS, *REWARD_TERMS, *ARRAY_SIGNALS, "termination", "success",
+                              *SAFETY_SIGNALS}
     assert SIGNAL_ROW == SCALAR_SIGNALS[1:] + REWARD_TERMS
     assert STEP_SIGNALS == SCALAR_SIGNALS
 
@@ -85,7 +90,7 @@ def test_vector_env_same_keys_at_reset_and_step_and_matches_single_env() -> None
         _, _, _, _, s_info = single.step(actions[1])
         _check_vector_info(info, n, n_sub)
     for key in INFO_KEYS:
-        assert np.array_equal(np.asarray(info[key][1]), np.asarray(s_info[key])), key
+        assert np.array_equal(np.asarray(info[key][1]), np.asarray(s_info[key]), equal_nan=key == "edge_margin_m"), key
     envs.close()
     single.close()
 

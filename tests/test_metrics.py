@@ -83,3 +83,27 @@ def test_reversal_count_gap_and_ramps() -> None:
     assert reversal_count(np.linspace(0.0, 90.0, 1000), 2.0) == 0           # a steady turn-in never reverses
     assert reversal_count(np.array([5.0]), 2.0) == 0
     assert math.isnan(smoothness_metrics(synthetic_trace(duration_s=0.0))["steering_reversals_per_s"])
+
+
+def test_control_metrics_of_sines_and_ramps() -> None:
+    """Hand-wheel 20 deg sine at 0.5 Hz: rate 20 w, acceleration 20 w^2 (max; RMS / sqrt 2); a_y ramp 3 m/s^3;
+    e_phi ramp 0.01 rad/s: a yaw-rate error of 0.573 deg/s. Through ``evaluate_trace`` (every row has them)."""
+    from vtrack_gym.evaluation.metrics import control_metrics, evaluate_trace
+
+    w = 2.0 * math.pi * 0.5
+    trace = synthetic_trace(duration_s=20.0, dt=0.001,
+                            hand_wheel_angle_rad=lambda t: math.radians(20.0) * np.sin(w * t),
+                            a_y_mps2=lambda t: 3.0 * t, e_phi_rad=lambda t: 0.01 * t)
+    m = control_metrics(trace)
+    assert m["max_steering_rate_degps"] == pytest.approx(20.0 * w, rel=1e-4)
+    assert m["rms_steering_rate_degps"] == pytest.approx(20.0 * w / math.sqrt(2.0), rel=1e-3)
+    assert m["max_steering_acc_degps2"] == pytest.approx(20.0 * w * w, rel=1e-3)
+    assert m["rms_steering_acc_degps2"] == pytest.approx(20.0 * w * w / math.sqrt(2.0), rel=1e-3)
+    assert m["max_lateral_jerk_mps3"] == pytest.approx(3.0, rel=1e-9)
+    assert m["rms_lateral_jerk_mps3"] == pytest.approx(3.0, rel=1e-9)
+    assert m["max_yaw_rate_error_degps"] == pytest.approx(math.degrees(0.01), rel=1e-9)
+    import dataclasses
+
+    assert set(m) <= set(evaluate_trace(dataclasses.replace(trace, success=True)))
+    one = control_metrics(synthetic_trace(duration_s=0.01, dt=0.01))
+    assert all(math.isnan(v) for v in one.values())

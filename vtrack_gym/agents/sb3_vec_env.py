@@ -1,5 +1,6 @@
 """Adapter from the batched simulation to stable-baselines3's ``VecEnv`` (SB3 does not take Gymnasium vector envs).
 
+Each step's ``infos[i]["cost"]`` is the env's ``info["cost"]`` (1.0 on a step that broke the scenario's rule).
 SB3 semantics: a finished sub-env is reset inside the same ``step_wait``; its last observation is in
 ``infos[i]["terminal_observation"]`` and ``infos[i]["TimeLimit.truncated"]`` says whether the time limit
 ended it. Seeding: ``seed(s)`` then ``reset()`` seeds sub-env i with ``s + i`` (like SB3's DummyVecEnv).
@@ -64,11 +65,12 @@ class TrackingSB3VecEnv(VecEnv):
         reward, terminated, truncated = sim.step(check_actions(self._actions, self.num_envs))
         obs = sim.obs.copy()
         done = terminated | truncated
-        infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
+        cost = sim.safety()[0]    # info["cost"] of every car (envs.schema.SAFETY_SIGNALS), before any reset
+        infos: list[dict[str, Any]] = [{"cost": float(c)} for c in cost]
         if done.any():
             idx = np.flatnonzero(done)
             for i in idx:
-                infos[i] = {
+                infos[i] |= {
                     "terminal_observation": obs[i].copy(),
                     "TimeLimit.truncated": bool(truncated[i] and not terminated[i]),
                     "termination": TERMINATION_NAMES[int(sim.term[i])] if terminated[i] else "time_limit",

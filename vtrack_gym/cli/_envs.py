@@ -46,12 +46,21 @@ def track_read(args: argparse.Namespace) -> dict[str, Any]:
     return read
 
 
+def track_limits(args: argparse.Namespace) -> str | None:
+    """The track-limit rule of --track-limits (None when not given: vtrack/Track-v0's own rule)."""
+    return getattr(args, "track_limits", None)
+
+
 def describe_track(file: Path, read: dict[str, Any]) -> str:
     """One line saying how --track was read: closed loop or open road, its length and point count."""
     from vtrack_gym.tracks import load_track
     from vtrack_gym.tracks.csv_loader import read_track_columns
+    from vtrack_gym.tracks.sources import is_cone_file
 
     path = load_track(file, **read)
+    if is_cone_file(file):
+        kind = "a closed loop" if path.closed else "an open road"
+        return f"--track {file}: cones read as {kind} between the cone lines, {path.length_m:.1f} m"
     n_points = len(read_track_columns(Path(file))[1])
     how = "forced by --track-closed" if "closed" in read else "detected; --track-closed yes/no forces it"
     kind = "a closed loop" if path.closed else "an open road"
@@ -91,7 +100,10 @@ def env_or_track(args: argparse.Namespace, default: str | None = None) -> tuple[
 
         profile, read = speed_profile(args), track_read(args)
         err(describe_track(args.track, read))
-        return register_track(args.track, profile, **read)
+        return register_track(args.track, profile, **read, track_limits=track_limits(args))
+    if getattr(args, "track_limits", None) is not None:
+        raise ValueError("--track-limits applies to --track FILE (with --env ID, make the env with "
+                         "track_limits= in Python)")
     env = args.env if args.env is not None else default
     if env is None:
         raise ValueError("give --env ID (e.g. DLC120-v0) or --track FILE")

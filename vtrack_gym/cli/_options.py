@@ -138,6 +138,7 @@ def add_user_code(p: argparse.ArgumentParser) -> None:
 def add_track(p: argparse.ArgumentParser, text: str | None = None, where: Any = None) -> None:
     """``--track FILE`` (in the group ``where`` if given, e.g. exclusive with --env), how it is read and its
     speed-profile options."""
+    from vtrack_gym.envs.criteria import TRACK_LIMIT_RULES
     from vtrack_gym.envs.track_sources import MAX_TRACK_SMOOTHING_M
     from vtrack_gym.tracks.speed_limits import (
         DEFAULT_MAX_LATERAL_G,
@@ -159,6 +160,11 @@ def add_track(p: argparse.ArgumentParser, text: str | None = None, where: Any = 
                    help="--track: RMS deviation [m] the spline fit may make from the file's points, for noisy "
                    f"coordinates (e.g. GPS; 0 interpolates; at most {MAX_TRACK_SMOOTHING_M:g} m) (default: chosen "
                    "from the coordinates' rounding)")
+    p.add_argument("--track-limits", choices=TRACK_LIMIT_RULES, default=None,
+                   help="--track: the track-limit rule a run is judged by: wheels (off the track when all four wheel "
+                   "contact points are beyond an edge; each excursion counted), body (no part of the body beyond an "
+                   "edge) or centre (the CG, judged exactly); recorded with every row (default: none given, "
+                   "vtrack/Track-v0's own rule: the episode ends off_road when the CG passes an edge)")
     p.add_argument("--speed-profile", choices=PROFILE_KINDS, default=DEFAULT_PROFILE_KIND,
                    help="--track: target speed: envelope (the fastest profile within --max-speed-kmh and "
                    "--max-lateral-g with lateral and longitudinal acceleration combined inside a friction ellipse, "

@@ -10,7 +10,14 @@ from typing import Any
 from vtrack_gym._io import check_output_dir, check_output_file
 from vtrack_gym.cli import _options as opt
 from vtrack_gym.cli._board import ranking_note, render_board, report_lost, shown_columns
-from vtrack_gym.cli._envs import announce_kernels, check_vehicle, env_or_track, speed_profile, track_read
+from vtrack_gym.cli._envs import (
+    announce_kernels,
+    check_vehicle,
+    env_or_track,
+    speed_profile,
+    track_limits,
+    track_read,
+)
 from vtrack_gym.cli._extras import osqp_for
 from vtrack_gym.cli._policies import policy_factories
 from vtrack_gym.cli._terminal import err, out
@@ -72,6 +79,8 @@ def check_outputs(args: argparse.Namespace) -> None:
 
 
 def _check_track_options(args: argparse.Namespace) -> None:
+    if args.track_limits is not None and args.track is None and args.tracks is None:
+        raise ValueError("--track-limits applies to --track FILE or --tracks DIR_OR_GLOB")
     if args.track is not None and args.tracks is not None:
         raise ValueError("give --track FILE or --tracks DIR_OR_GLOB, not both")
     for option, value, suite in (("--track", args.track, "'custom'"), ("--tracks", args.tracks, "tracks[...]")):
@@ -94,7 +103,8 @@ def _score(args: argparse.Namespace, factories: dict[str, Any] | None, seeds: li
     if args.tracks is not None:
         read = track_read(args)
         return benchmark_tracks(args.tracks, factories or all_policies(), seeds or [0], speed_profile(args),
-                                read.get("closed"), read.get("smoothing_m"), vehicle=args.vehicle,
+                                read.get("closed"), read.get("smoothing_m"), track_limits=track_limits(args),
+                                vehicle=args.vehicle,
                                 figures_dir=figures, show_progress=True, **where)
     if args.track is not None:
         env_id, provenance = env_or_track(args)

@@ -8,6 +8,8 @@ when ``per_step`` is True), ``verdict`` gives each car's verdict if its episode 
 - ``Lap``: one lap of a closed course within the road (the episode terminated ``completed``).
 - ``EndReached``: the end of an open track reached within the road.
 - ``ConeGates``: the course completed and every cone gate passed with the body inside it (ISO 3888).
+- ``TrackLimits``: the lap or the end reached with a declared track-limit rule held (``wheels``, ``body``,
+  ``centre``), judged by ``tracks.judge``.
 - ``CircleAtLimit``: ISO 4138 steady-state circle held until the car's own grip limit.
 - ``Auto``: ``ConeGates`` if a path has gates, else ``Lap`` (closed paths) / ``EndReached`` (open ones).
 
@@ -40,6 +42,7 @@ class CarsView(NamedTuple):
     y_m: np.ndarray
     psi_rad: np.ndarray            # heading [rad]
     completed_code: int            # the termination code of a completed course
+    off_road_code: int             # the termination code of a car off the road
 
     @property
     def completed(self) -> np.ndarray:
@@ -82,6 +85,17 @@ class SuccessCriterion:
         """The leaderboard figures of car ``i``'s episode on path ``track`` (none by default)."""
         return {}
 
+    def off_road_margin_m(self, vehicle: Any) -> float:
+        """How far [m] the CG may pass a road edge before the env ends the episode ``off_road`` (0: at the edge)."""
+        return 0.0
+
+    def safety(self, state: Any, cars: CarsView) -> tuple[np.ndarray, np.ndarray]:
+        """Each car's ``info["cost"]`` (1.0 on a step that broke the scenario's rule, else 0.0) and
+        ``info["edge_margin_m"]`` (the body's least clearance to a road edge over the step [m]; NaN where the
+        criterion does not measure it). By default the rule is the road at the CG: cost 1.0 on the step that ends
+        the episode ``off_road``."""
+        return (cars.termination == cars.off_road_code).astype(np.float64), np.full(cars.steps.shape, np.nan)
+
 
 @dataclass(frozen=True)
 class Lap(SuccessCriterion):
@@ -113,6 +127,7 @@ class GateState(NamedTuple):
     outline_lat: np.ndarray
     reach_m: float             # a Frenet gate is checked while the car's station is this close to it [m]
     row: np.ndarray            # scratch track row
+    fresh: np.ndarray          # (n,) bool: the last step left a gate not left before
 
 
 @dataclass(frozen=True)
@@ -136,15 +151,17 @@ class ConeGates(SuccessCriterion):
                      max(g.s_end_m for g in p.gates) + c.body_length_m) for t, p in enumerate(paths) if p.gates}
         most = max((len(p.gates) for p in paths), default=0)
         return GateState(gated, np.zeros((n, max(most, 1)), dtype=bool), lon.ravel(), lat.ravel(), c.body_length_m,
-                         np.zeros(N_COLS))
+                         np.zeros(N_COLS), np.zeros(n, dtype=bool))
 
     def reset_car(self, state: GateState, i: int, vehicle: Any) -> None:
         state.hit[i] = False
+        state.fresh[i] = False
 
     def observe_step(self, state: GateState, cars: CarsView) -> None:
         from vtrack_gym.tracks.kernels import body_outside_gates
 
         s = cars.station_m
+        before = np.count_nonzero(state.hit, axis=1)
         for track, (path, gates, lo, hi) in state.gated.items():
             sel = np.flatnonzero((cars.track == track) & (s >= lo) & (s <= hi))
             if sel.size == 0:
@@ -154,6 +171,12 @@ class ConeGates(SuccessCriterion):
                                cars.y_m[sel], cars.psi_rad[sel], s[sel], state.outline_lon, state.outline_lat,
                                state.reach_m, hit, state.row)
             state.hit[sel, :gates.shape[0]] = hit
+        state.fresh[:] = np.count_nonzero(state.hit, axis=1) > before
+
+    def safety(self, state: GateState, cars: CarsView) -> tuple[np.ndarray, np.ndarray]:
+        """Cost 1.0 on a step whose body left a gate it had not left before (or ended the episode off the road)."""
+        cost, margin = super().safety(state, cars)
+        return np.maximum(cost, state.fresh.astype(np.float64)), margin
 
     def verdict(self, state: GateState, cars: CarsView) -> np.ndarray:
         return cars.completed & ~state.hit.any(axis=1)
@@ -162,6 +185,113 @@ class ConeGates(SuccessCriterion):
         if track not in state.gated:
             return {}
         return {"cones_hit": float(np.count_nonzero(state.hit[i]))}
+
+
+TRACK_LIMIT_RULES: tuple[str, ...] = ("wheels", "body", "centre")
+"""The track-limit rules (``TrackLimits.rule``): motorsport's (a car is off the track when all four wheel contact
+points are beyond an edge line), the strict tracking rule (no part of the body beyond an edge) and the car's centre
+(the CG beyond an edge: the rule the ids registered before track limits keep)."""
+_RULE_MEASURES: dict[str, int] = {"centre": 0, "wheels": 1, "body": 2}   # tracks.judge.MEASURE_*
+
+
+class EdgeState(NamedTuple):
+    """``TrackLimits`` state: per track its edge polylines; per car its last pose and its record so far."""
+
+    edges: dict[int, tuple[np.ndarray, float, bool]]   # track -> (edges (m, 4) [m], ds [m], closed)
+    body: np.ndarray           # tracks.judge.body_row of the car
+    prev: np.ndarray           # (n, 4) x, y [m], psi [rad], station [m] after the last step
+    fresh: np.ndarray          # (n,) bool: no step since the reset (``prev`` not yet set)
+    outside: np.ndarray        # (n,) bool: the rule was broken at the end of the last step
+    violations: np.ndarray     # (n,) int64 excursions so far (a step breaking the rule after one keeping it)
+    min_margin: np.ndarray     # (n,) the body's least clearance to an edge so far [m]
+    cost: np.ndarray           # (n,) float 1.0 where the last step broke the rule
+    margin: np.ndarray         # (n,) the body's least clearance to an edge over the last step [m]
+    rule_min: np.ndarray       # (n,) scratch: the rule's least measure over the step [m]
+    rule_end: np.ndarray       # (n,) the rule's measure at the end of the last step [m]
+    body_end: np.ndarray       # (n,) the body's edge clearance at the end of the last step [m]
+
+
+@documented
+@dataclass(frozen=True, kw_only=True)
+class TrackLimits(SuccessCriterion):
+    """Track limits as a declared rule: the lap (closed track) or the end (open one) reached, and ``rule`` held.
+
+    ``rule`` (``TRACK_LIMIT_RULES``): ``"wheels"``, off the track when all four wheel contact points are beyond an
+    edge; ``"body"``, any part of the body rectangle beyond an edge; ``"centre"``, the CG beyond an edge. Each
+    excursion (a step that breaks the rule after one that kept it) is counted; success means none. Judged by the
+    exact geometry judge (``tracks.judge``: edges as polylines, the car's own body and wheel points, exact to 1 mm
+    between control steps). With ``"wheels"`` and ``"body"`` an excursion does not end the episode: the env ends it
+    ``off_road`` only once the CG is a body reach (the farthest corner from the CG) beyond an edge, the whole car
+    off. Metrics: ``track_limit_violations`` and ``min_edge_margin_m`` (the body's least clearance to an edge,
+    negative when the body crossed one). Not for courses with cone gates (their rule is the gates)."""
+
+    name: ClassVar[str] = "track_limits"
+    per_step: ClassVar[bool] = True
+    rule: str = "wheels"   # CHOICE: motorsport's rule when a TrackLimits part is composed without one
+
+    def __post_init__(self) -> None:
+        if self.rule not in TRACK_LIMIT_RULES:
+            raise ValueError(f"track_limits must be one of {', '.join(TRACK_LIMIT_RULES)} (got {self.rule!r})")
+
+    def resolve(self, paths: tuple) -> SuccessCriterion:
+        if any(p.gates for p in paths):
+            raise ValueError("track_limits applies to tracks without cone gates; this course is judged by its "
+                             "gates (ConeGates)")
+        return self
+
+    def off_road_margin_m(self, vehicle: Any) -> float:
+        if self.rule == "centre":
+            return 0.0
+        from vtrack_gym.tracks.judge import body_row, reach_m
+
+        return float(reach_m(body_row(vehicle.chassis)))
+
+    def start(self, paths: tuple, vehicle: Any, n: int) -> EdgeState:
+        from vtrack_gym.tracks.judge import body_row, edge_polylines
+
+        edges = {t: (edge_polylines(p), p.ds_m, p.closed) for t, p in enumerate(paths)}
+        z = np.zeros(n)
+        return EdgeState(edges, body_row(vehicle.chassis), np.zeros((n, 4)), np.ones(n, dtype=bool),
+                         np.zeros(n, dtype=bool), np.zeros(n, dtype=np.int64), np.full(n, np.inf), z.copy(),
+                         np.full(n, np.nan), z.copy(), z.copy(), z.copy())
+
+    def reset_car(self, state: EdgeState, i: int, vehicle: Any) -> None:
+        state.fresh[i] = True
+        state.outside[i] = False
+        state.violations[i] = 0
+        state.min_margin[i] = np.inf
+        state.cost[i] = 0.0
+        state.margin[i] = np.nan
+
+    def observe_step(self, state: EdgeState, cars: CarsView) -> None:
+        from vtrack_gym.tracks.judge import SWEEP_TOL_M, judge_edges
+
+        on = cars.steps > 0
+        first = on & state.fresh    # no pose before this step: judged at its end
+        state.prev[first] = np.column_stack((cars.x_m, cars.y_m, cars.psi_rad, cars.station_m))[first]
+        for track, (edges, ds, closed) in state.edges.items():
+            idx = np.flatnonzero(on & (cars.track == track))
+            if idx.size:
+                judge_edges(_RULE_MEASURES[self.rule], edges, ds, closed, state.body, idx, state.prev, cars.x_m,
+                            cars.y_m, cars.psi_rad, cars.station_m, SWEEP_TOL_M, state.rule_min, state.rule_end,
+                            state.margin, state.body_end, ~first)
+        broke = on & (state.rule_min < 0.0)
+        state.violations[:] += broke & ~state.outside
+        state.outside[:] = np.where(on, state.rule_end < 0.0, state.outside)
+        state.cost[:] = np.where(on, broke.astype(np.float64), 0.0)
+        state.min_margin[:] = np.where(on, np.minimum(state.min_margin, state.margin), state.min_margin)
+        state.prev[on] = np.column_stack((cars.x_m, cars.y_m, cars.psi_rad, cars.station_m))[on]
+        state.fresh[on] = False
+
+    def verdict(self, state: EdgeState, cars: CarsView) -> np.ndarray:
+        return cars.completed & (state.violations == 0)
+
+    def metrics(self, state: EdgeState, i: int, track: int) -> dict[str, float]:
+        return {"track_limit_violations": float(state.violations[i]), "min_edge_margin_m": float(state.min_margin[i])}
+
+    def safety(self, state: EdgeState, cars: CarsView) -> tuple[np.ndarray, np.ndarray]:
+        """Cost 1.0 on a step that broke the rule (an excursion's every step), the body's least edge clearance."""
+        return state.cost.copy(), state.margin.copy()
 
 
 class CircleState(NamedTuple):
@@ -260,5 +390,6 @@ class Auto(SuccessCriterion):
         return EndReached() if closed == {False} else Completed()
 
 
-CRITERIA: dict[str, type[SuccessCriterion]] = {c.name: c for c in (Auto, Lap, EndReached, ConeGates, CircleAtLimit)}
+CRITERIA: dict[str, type[SuccessCriterion]] = {c.name: c for c in (Auto, Lap, EndReached, ConeGates, CircleAtLimit,
+                                                                   TrackLimits)}
 """Criterion name -> class (the names ``info`` docs and the CLI use)."""

@@ -200,7 +200,9 @@ def _arguments() -> str:
             "[s]; `vtrack/Track-v0` also takes `track=`, `speed_profile=`, `half_width_m=`, `closed=` and "
             "`smoothing_m=`; the cone-lined standard ids (`vtrack/ISO3888-1-v1`, `vtrack/ISO3888-2-v1`, "
             "`vtrack/Slalom-v1`) take `reference=\"planned\"` (default) or `\"lane_centres\"`, and the two ISO 3888 "
-            "ids `entry_speed_kmh=` (in (0, 200] km/h). Reset options: see [Getting started](../getting-started.md).")
+            "ids `entry_speed_kmh=` (in (0, 200] km/h); every id driving a road between edges (not the cone-lined "
+            "manoeuvres, not the circle) takes `track_limits=\"wheels\"`, `\"body\"` or `\"centre\"`. "
+            "Reset options: see [Getting started](../getting-started.md).")
 
 
 def _history(name: str) -> str:

@@ -63,13 +63,14 @@ class StepConstants:
     kink_aligned: bool           # PD-FLC surface interpolated along the Mamdani kinks
     max_steer_rad: float         # road-wheel angle of action 1 [rad]
     steering_ratio: float        # hand-wheel / road-wheel angle
+    off_road_margin_m: float     # off_road once e_y passes a half width by more than this [m] (the criterion's)
 
     @classmethod
     def of(cls, scenario: Scenario, config: EnvConfig) -> StepConstants:
         """The constants of an env with this scenario and config."""
         return cls(config.physics_dt_s, config.n_substeps, scenario.track.end_margin_m,
                    config.speed_controller.method == "mamdani", config.vehicle.steering.max_road_wheel_angle_rad,
-                   config.vehicle.steering.steering_ratio)
+                   config.vehicle.steering.steering_ratio, scenario.success.off_road_margin_m(config.vehicle))
 
 
 def _offsets(cls: type, start: int) -> dict[str, int]:
@@ -89,6 +90,7 @@ CFG_END_MARGIN = _STEP["end_margin_m"]
 CFG_KINKS = _STEP["kink_aligned"]
 CFG_STEER_MAX = _STEP["max_steer_rad"]
 CFG_STEER_RATIO = _STEP["steering_ratio"]
+CFG_OFF_ROAD = _STEP["off_road_margin_m"]
 CFG_NPREV = _LAYOUT["n_preview"]
 CFG_PREV_DT = _LAYOUT["preview_dt_s"]
 CFG_PREV_VMIN = _LAYOUT["preview_min_speed_mps"]
@@ -304,7 +306,8 @@ def termination_one(i: int, a: SimArrays) -> int:
     if vx > 3.0 and abs(math.atan2(state[L.S_VY], vx)) > SPIN_SIDESLIP_RAD and \
             abs(math.atan2(state[L.S_VY] - a.params[i, L.P_A2] * state[L.S_R], vx)) > SPIN_SIDESLIP_RAD:
         return T_SPIN_OUT
-    if err[i, E_EY] > err[i, E_WL] or -err[i, E_EY] > err[i, E_WR]:  # per-station widths, each side
+    margin = a.cfg[CFG_OFF_ROAD]
+    if err[i, E_EY] > err[i, E_WL] + margin or -err[i, E_EY] > err[i, E_WR] + margin:  # per-station, each side
         return T_OFF_ROAD
     if tmeta[k, TM_CLOSED] != 0.0:
         if car[i, CAR_PROGRESS] >= tmeta[k, TM_LEN]:

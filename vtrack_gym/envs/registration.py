@@ -72,15 +72,17 @@ def register_scenario(scenario: Scenario) -> str:
 
 
 def register_track(track_file: str | os.PathLike[str], speed_profile: Any, closed: bool | None = None,
-                   smoothing_m: float | None = None) -> tuple[str, dict[str, Any]]:
+                   smoothing_m: float | None = None, track_limits: str | None = None) -> tuple[str, dict[str, Any]]:
     """Register ``vtrack/Track-<stem>-<key>-v0`` driving a CSV track file with a speed profile (idempotent).
 
     ``key`` hashes the file's content and the profile's parameters (and ``closed`` / ``smoothing_m`` [m], how the
-    file is read, where given), so two tracks with the same file name (or one track with two profiles) get two ids
-    and never mix on a leaderboard. Returns the id and the provenance to record with results: ``{"track_file",
-    "track_sha256", "speed_profile": {"kind", parameters...}}`` plus ``"track_read": {"closed", "smoothing_m"}``
-    where either is given. The id is registered in this process only (``make_vec`` in other processes needs
-    ``Track-v0`` with ``track=``).
+    file is read, and ``track_limits``, where given), so two tracks with the same file name (or one track with two
+    profiles or rules) get two ids and never mix on a leaderboard. Returns the id and the provenance to record with
+    results: ``{"track_file", "track_sha256", "speed_profile": {"kind", parameters...}}`` plus ``"track_read":
+    {"closed", "smoothing_m"}`` where either is given. ``track_limits``: the track-limit rule the env judges by
+    (``"wheels"``, ``"body"`` or ``"centre"``; None: Track-v0's, the centre), in the key and the make kwargs; the
+    provenance records it as ``"protocol": {"track_limits": rule}``. The id is registered in this process only
+    (``make_vec`` in other processes needs ``Track-v0`` with ``track=``).
     """
     import hashlib
     import json
@@ -100,17 +102,27 @@ def register_track(track_file: str | os.PathLike[str], speed_profile: Any, close
     params = {"kind": type(profile).__name__, **asdict(profile)}
     file_sha = file_digest(file)
     read = {k: v for k, v in (("closed", closed), ("smoothing_m", smoothing_m)) if v is not None}
-    key = hashlib.sha256(json.dumps([file_sha, params] + ([read] if read else []),
+    rule = {} if track_limits is None else {"track_limits": track_limits}
+    if rule:
+        from vtrack_gym.envs.criteria import TrackLimits
+
+        TrackLimits(rule=track_limits)   # ValueError naming the rules
+    key = hashlib.sha256(json.dumps([file_sha, params] + ([read] if read else []) + ([rule] if rule else []),
                                     sort_keys=True).encode()).hexdigest()[:10]
     stem = re.sub(r"[^A-Za-z0-9_.]", "_", file.stem)[:40] or "track"
     env_id = f"{TRACK_ID_PREFIX}{stem}-{key}-v0"
     if env_id not in registry:
         register(id=env_id, entry_point="vtrack_gym.envs.tracking_env:TrackingEnv",
                  vector_entry_point="vtrack_gym.envs.vector_env:TrackingVectorEnv",
-                 kwargs={"scenario": "Track-v0", "track": str(file.resolve()), "speed_profile": profile, **read},
+                 kwargs={"scenario": "Track-v0", "track": str(file.resolve()), "speed_profile": profile, **read,
+                         **rule},
                  max_episode_steps=None, disable_env_checker=False)
     provenance = {"track_file": file.name, "track_sha256": file_sha, "speed_profile": params}
-    return env_id, {**provenance, "track_read": read} if read else provenance
+    if read:
+        provenance["track_read"] = read
+    if rule:
+        provenance["protocol"] = rule     # as api.env_identity records a make kwarg of the protocol
+    return env_id, provenance
 
 
 TRACK_ID_PREFIX = "vtrack/Track-"

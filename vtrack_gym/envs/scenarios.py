@@ -27,7 +27,14 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from vtrack_gym._ranges import documented, ranged, validate
-from vtrack_gym.envs.criteria import CRITERIA, Auto, SuccessCriterion
+from vtrack_gym.envs.criteria import (
+    CRITERIA,
+    TRACK_LIMIT_RULES,
+    Auto,
+    EndReached,
+    SuccessCriterion,
+    TrackLimits,
+)
 from vtrack_gym.envs.randomisation import Randomisation, Start
 from vtrack_gym.envs.speed import EntryThenRelease, HoldSpeed, check_speed, is_profile, speed_part
 from vtrack_gym.envs.track_sources import MANEUVER_TRACK_NAMES, TrackSource
@@ -343,11 +350,14 @@ def _registered_track(env_id: str) -> dict[str, Any] | None:
 
 
 def with_protocol(scenario: Scenario, vehicle: Any, entry_speed_kmh: float | None = None,
-                  reference: str | None = None) -> Scenario:
+                  reference: str | None = None, track_limits: str | None = None) -> Scenario:
     """``scenario`` with the make kwargs of the standard ids: ``entry_speed_kmh`` [km/h] (an ``EntryThenRelease``
-    scenario only; refused outside (0, 200] km/h naming the car, ``feasibility.check_entry_speed``) and
-    ``reference`` (``"planned"`` or ``"lane_centres"``, ``REFERENCE_LINES``; a cone-lined manoeuvre only).
+    scenario only; refused outside (0, 200] km/h naming the car, ``feasibility.check_entry_speed``),
+    ``reference`` (``"planned"`` or ``"lane_centres"``, ``REFERENCE_LINES``; a cone-lined manoeuvre only) and
+    ``track_limits`` (``"wheels"``, ``"body"`` or ``"centre"``: ``with_track_limits``).
     ``vehicle`` is the driven car (``VehicleParams``); ``None`` keeps a part."""
+    if track_limits is not None:
+        scenario = with_track_limits(scenario, track_limits)
     changes: dict[str, Any] = {}
     if entry_speed_kmh is not None:
         from vtrack_gym.tracks.feasibility import check_entry_speed
@@ -370,3 +380,17 @@ def with_protocol(scenario: Scenario, vehicle: Any, entry_speed_kmh: float | Non
                              f"{scenario.env_id} drives {scenario.track.track!r}")
         changes["reference"] = REFERENCE_LINES[reference]
     return replace(scenario, **changes) if changes else scenario
+
+
+def with_track_limits(scenario: Scenario, rule: str) -> Scenario:
+    """``scenario`` judged by the track-limit ``rule`` (``criteria.TRACK_LIMIT_RULES``: its success part becomes
+    ``TrackLimits(rule=rule)``). Refused (ValueError naming the id) for a scenario judged by its cone gates or its
+    circle, whose rule is not the road's edges; a track with cone gates is refused when the env builds it)."""
+    if isinstance(rule, str) and rule in TRACK_LIMIT_RULES and isinstance(scenario.success, TrackLimits) and \
+            scenario.success.rule == rule:
+        return scenario
+    criterion = TrackLimits(rule=rule)      # ValueError naming the allowed rules
+    if not isinstance(scenario.success, (Auto, EndReached, TrackLimits)):
+        raise ValueError(f"track_limits applies to the ids that drive a road between edges; {scenario.env_id} is "
+                         f"judged by {type(scenario.success).__name__} on {scenario.track.track!r}")
+    return replace(scenario, success=criterion)

@@ -38,21 +38,34 @@ SCALAR_SIGNALS: tuple[str, ...] = ("time_s", *ROW_SIGNALS)
 ARRAY_SIGNALS: tuple[str, ...] = ("fz_n", "acc_substeps_mps2")
 """Per-step arrays: wheel loads FL, FR, RL, RR [N] (4,); a_x, a_y, a_z at the physics rate (n_sub, 3)."""
 
-INFO_KEYS: tuple[str, ...] = (*SCALAR_SIGNALS, *REWARD_TERMS, *ARRAY_SIGNALS, "termination", "success")
+SAFETY_SIGNALS: tuple[str, ...] = ("cost", "edge_margin_m")
+"""The per-step safety signal (Safety-Gymnasium's convention): ``cost`` 1.0 on a step that broke the scenario's
+rule, else 0.0 (its success criterion's ``safety``: the road at the CG by default, a gate newly left on a gated
+course, the declared track-limit rule with ``track_limits=``); ``edge_margin_m`` the body's least clearance to a
+road edge over the step [m] (negative: the body crossed it), NaN where the scenario does not judge the body
+against the edges (``track_limits=`` judges it). Both 0.0 / NaN at reset."""
+
+INFO_KEYS: tuple[str, ...] = (*SCALAR_SIGNALS, *REWARD_TERMS, *ARRAY_SIGNALS, "termination", "success",
+                              *SAFETY_SIGNALS)
 """Every key of ``info``, in order, at reset and at every step. ``success`` (``bool``; vector env: a bool array)
 is the scenario's verdict on the episode (its success criterion, ``envs.criteria``): False until the step that ends
-it, then True if the criterion holds (``termination`` stays the end reason)."""
+it, then True if the criterion holds (``termination`` stays the end reason). ``cost`` and ``edge_margin_m``:
+``SAFETY_SIGNALS`` (``numpy.float64``)."""
 
 
 def info_dict(time_s: float, row: np.ndarray, fz_n: np.ndarray, acc_substeps_mps2: np.ndarray,
-              termination: str, success: bool = False) -> dict[str, Any]:
-    """One car's ``info`` from its signal row (``SIGNAL_ROW`` order, float64) and arrays (copied by the caller)."""
+              termination: str, success: bool = False, cost: float = 0.0,
+              edge_margin_m: float = float("nan")) -> dict[str, Any]:
+    """One car's ``info`` from its signal row (``SIGNAL_ROW`` order, float64) and arrays (copied by the caller);
+    ``cost`` and ``edge_margin_m`` [m]: ``SAFETY_SIGNALS``."""
     info: dict[str, Any] = {"time_s": np.float64(time_s)}
     info.update(zip(SIGNAL_ROW, row, strict=True))
     info["fz_n"] = fz_n
     info["acc_substeps_mps2"] = acc_substeps_mps2
     info["termination"] = termination
     info["success"] = bool(success)
+    info["cost"] = np.float64(cost)
+    info["edge_margin_m"] = np.float64(edge_margin_m)
     return info
 
 

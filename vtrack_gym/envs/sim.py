@@ -11,6 +11,7 @@ batch seeded with ``seed`` reproduces a single env seeded with ``seed + i`` bit 
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 
@@ -124,7 +125,7 @@ class BatchSim:
         st = self.plant.state
         return CarsView(self.veh_track, self.steps, self.term, self.station_m, self.lateral_error_m, st[:, L.S_VX],
                         self.v_ref, self.sig[:, k.SIG_AY], st[:, L.S_X], st[:, L.S_Y], st[:, L.S_PSI],
-                        k.T_COMPLETED)
+                        k.T_COMPLETED, k.T_OFF_ROAD)
 
     # ------------------------------------------------------------------ reset
     def set_speed_controller(self, index: int | np.ndarray | slice, config: PDFLCConfig) -> None:
@@ -278,6 +279,15 @@ class BatchSim:
     def success(self) -> np.ndarray:
         """Each car's verdict if its episode ended now (bool (n,)), by the scenario's success criterion."""
         return self.criterion.verdict(self.verdicts, self._cars)
+
+    def safety(self, i: int | None = None) -> tuple[Any, Any]:
+        """``info["cost"]`` and ``info["edge_margin_m"]`` [m] of the last step (``envs.schema.SAFETY_SIGNALS``) of
+        every car ((n,) float64 each), or floats of car ``i``; 0.0 and NaN right after a reset."""
+        cost, margin = self.criterion.safety(self.verdicts, self._cars)
+        fresh = self.steps == 0
+        cost = np.where(fresh, 0.0, cost)
+        margin = np.where(fresh, np.nan, margin)
+        return (cost, margin) if i is None else (float(cost[i]), float(margin[i]))
 
     def success_metrics(self, i: int) -> dict[str, float]:
         """The success criterion's leaderboard figures of car ``i``'s episode so far (e.g. ``cones_hit``)."""

@@ -139,10 +139,10 @@ class TrackingEnv(gym.Env):
                  render_mode: str | None = None, render_fps: int = 25, render_view: str = "follow",
                  track: Any = None, speed_profile: Any = None, half_width_m: float | None = None,
                  closed: bool | None = None, smoothing_m: float | None = None, entry_speed_kmh: float | None = None,
-                 reference: str | None = None, **config_overrides: Any) -> None:
+                 reference: str | None = None, track_limits: str | None = None, **config_overrides: Any) -> None:
         scenario = resolve_scenario(scenario, track, speed_profile, half_width_m, closed, smoothing_m)
         config = scenario_config(scenario, config, config_overrides)
-        scenario = with_protocol(scenario, config.vehicle, entry_speed_kmh, reference)
+        scenario = with_protocol(scenario, config.vehicle, entry_speed_kmh, reference, track_limits)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} (got {render_mode!r})")
         self.scenario = scenario
@@ -216,9 +216,10 @@ class TrackingEnv(gym.Env):
     def _info(self, terminated: bool) -> dict[str, Any]:
         """Every ``envs.schema.INFO_KEYS`` entry of the car (numpy scalars and arrays), cheap enough per step."""
         sim = self._sim
+        cost, margin = sim.safety(0)
         return info_dict(int(sim.steps[0]) * self.control_period_s, self._sig_row, self._fz_row.copy(),
                          self._acc_rows.copy(), TERMINATION_NAMES[int(sim.term[0])] if terminated else "",
-                         terminated and bool(sim.success()[0]))
+                         terminated and bool(sim.success()[0]), cost, margin)
 
     def success_metrics(self) -> dict[str, float]:
         """The scenario's success criterion's leaderboard figures of the current (or last) episode, e.g.

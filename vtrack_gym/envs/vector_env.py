@@ -50,12 +50,12 @@ class TrackingVectorEnv(VectorEnv):
                  speed_profile: Any = None, half_width_m: float | None = None, closed: bool | None = None,
                  smoothing_m: float | None = None, max_episode_steps: int | None = None,
                  entry_speed_kmh: float | None = None, reference: str | None = None,
-                 **config_overrides: Any) -> None:
+                 track_limits: str | None = None, **config_overrides: Any) -> None:
         scenario = resolve_scenario(scenario, track, speed_profile, half_width_m, closed, smoothing_m)
         if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer (got {num_envs!r})")
         config = scenario_config(scenario, config, config_overrides)
-        scenario = with_protocol(scenario, config.vehicle, entry_speed_kmh, reference)
+        scenario = with_protocol(scenario, config.vehicle, entry_speed_kmh, reference, track_limits)
         self.scenario = scenario
         self.config = config
         self.num_envs = int(num_envs)
@@ -137,6 +137,7 @@ class TrackingVectorEnv(VectorEnv):
         names = np.array(TERMINATION_NAMES, dtype=object)[self.sim.term]
         infos["termination"] = np.where(terminated, names, "")
         infos["success"] = terminated & self.sim.success()
+        infos["cost"], infos["edge_margin_m"] = self.sim.safety()
         for key in list(infos):
             infos["_" + key] = self._all
         return infos

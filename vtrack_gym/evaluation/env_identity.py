@@ -198,8 +198,9 @@ def _tracking_identity(unwrapped: Any, spec: Any, env_id: str,
                                 spec.kwargs.get("half_width_m"), spec.kwargs.get("closed"),
                                 spec.kwargs.get("smoothing_m"))
     base = resolve_scenario(scenario.name)
-    protocol = {k: spec.kwargs[k] for k in ("entry_speed_kmh", "reference") if spec.kwargs.get(k) is not None}
-    if protocol:   # the standard ids' entry speed / reference line: recorded, so two settings never share a row
+    protocol = {k: spec.kwargs[k] for k in ("entry_speed_kmh", "reference", "track_limits")
+                if spec.kwargs.get(k) is not None}
+    if protocol:   # entry speed / reference line / track-limit rule: recorded, so two settings never share a row
         scenario = with_protocol(scenario, unwrapped.config.vehicle, **protocol)
         applied = with_protocol(base, unwrapped.config.vehicle, **protocol)
         if not _equal(applied, base):

@@ -139,6 +139,34 @@ def speed_metrics(trace: Trace) -> dict[str, float]:
     return {"rms_speed_error_mps": rms(err, trace["time_s"]), "max_speed_error_mps": max_abs(err)}
 
 
+def _rate(values: np.ndarray, time_s: np.ndarray) -> np.ndarray:
+    """Time derivative of a sampled signal (central differences, one-sided at the ends; empty below 2 samples)."""
+    x = np.asarray(values, dtype=np.float64)
+    t = np.asarray(time_s, dtype=np.float64)
+    if x.size < 2 or not np.all(np.diff(t) > 0.0):
+        return np.zeros(0)
+    return np.gradient(x, t)
+
+
+def control_metrics(trace: Trace) -> dict[str, float]:
+    """The figures controllers are compared by (Autoware's control evaluator reports the same quantities), from the
+    control-rate samples, by central differences: the hand-wheel angle's rate [deg/s] and acceleration [deg/s^2],
+    the lateral jerk d(a_y)/dt [m/s^3] and the yaw-rate error d(e_phi)/dt [deg/s] (the car's yaw rate minus the
+    path's at the projection, kappa ds/dt), each as its largest magnitude and its time-weighted RMS (NaN below
+    two samples)."""
+    t = trace["time_s"]
+    steer = np.degrees(trace["hand_wheel_angle_rad"])
+    rate = _rate(steer, t)
+    series = {"steering_rate_degps": rate, "steering_acc_degps2": _rate(rate, t) if rate.size else rate,
+              "lateral_jerk_mps3": _rate(trace["a_y_mps2"], t),
+              "yaw_rate_error_degps": _rate(np.degrees(np.unwrap(trace["e_phi_rad"])), t)}
+    out: dict[str, float] = {}
+    for name, x in series.items():
+        out[f"max_{name}"] = max_abs(x)
+        out[f"rms_{name}"] = rms(x, t) if x.size else math.nan
+    return out
+
+
 def compute_metrics(trace: Trace) -> dict[str, float]:
     """The policy's own compute per decision (its ``predict`` call, not the env's step): median, 95th percentile
     and maximum [us], the real-time factor ``control period / p95`` (> 1: the policy decides faster than real
@@ -170,6 +198,7 @@ def evaluate_trace(trace: Trace, cones_hit: int | None = None) -> dict[str, Any]
     out.update(paper_metrics(trace))
     out.update(speed_metrics(trace))
     out.update(smoothness_metrics(trace))
+    out.update(control_metrics(trace))
     out.update(constraint_metrics(trace))
     out.update(comfort_metrics(trace))
     out.update(compute_metrics(trace))

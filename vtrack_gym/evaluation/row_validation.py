@@ -32,12 +32,14 @@ MAX_JSON_DEPTH = 64
 """Deepest nesting of objects and arrays in ``options_json`` / ``metrics_json``."""
 MAX_METRIC_INT = 2**63
 """Largest magnitude of an integer metric (beyond it a float conversion loses or overflows)."""
-UNIT_SUFFIXES = ("_m", "_s", "_deg", "_rad", "_mps", "_mps2", "_n", "_per_s", "_us", "_g", "_kmh")
+UNIT_SUFFIXES = ("_m", "_s", "_deg", "_rad", "_mps", "_mps2", "_n", "_per_s", "_us", "_g", "_kmh", "_degps",
+                 "_degps2", "_mps3")
 """A metric whose name ends in a unit is a number."""
 NON_NEGATIVE_METRICS = frozenset({"itae", "duration_s", "cones_hit", "comfort_a_v_mps2", "steering_reversals_per_s",
                                   "a_y_violation_mps2", "wall_time_per_step_s", "wall_time_s", "episodes",
                                   "remaining_m", "completed", "success", "entry_speed_fraction",
-                                  "above_physical_bound", "entry_speed_monotone", "entry_speed_capped"})
+                                  "above_physical_bound", "entry_speed_monotone", "entry_speed_capped",
+                                  "track_limit_violations"})
 """Error, count and duration metrics that cannot be negative (also every ``max_*`` and ``rms_*`` metric)."""
 FLAG_METRICS = frozenset({"completed", "success", "above_physical_bound", "entry_speed_monotone",
                           "entry_speed_capped"})

@@ -97,13 +97,15 @@ def benchmark_track(env_id: str, provenance: Mapping[str, Any], factories: Mappi
 
 def benchmark_tracks(dir_or_glob: str | Path, factories: Mapping[str, Any], seeds: Sequence[int] = (0,),
                      speed_profile: Any = None, closed: bool | None = None, smoothing_m: float | None = None,
-                     vehicle: str | None = None, figures_dir: str | Path | None = None, workers: int | None = 1,
-                     backend: str = "local", show_progress: bool = False, store: Any = None) -> dict[str, Any]:
+                     track_limits: str | None = None, vehicle: str | None = None,
+                     figures_dir: str | Path | None = None, workers: int | None = 1, backend: str = "local",
+                     show_progress: bool = False, store: Any = None) -> dict[str, Any]:
     """Every policy on every track file of ``dir_or_glob`` (``track_files``), one episode per track and seed.
 
     Each file is registered with ``speed_profile`` (default: what ``vtrack benchmark --track`` drives, the
     friction-ellipse ``EnvelopeLimited`` within 40 km/h and 0.7 g, checked against the car) and read with ``closed`` /
-    ``smoothing_m`` as ``register_track`` does. Rows go to suite ``track_set_suite(...)``; rank them with
+    ``smoothing_m`` and judged by the ``track_limits`` rule (``"wheels"``, ``"body"``, ``"centre"``; None: the
+    centre) as ``register_track`` does. Rows go to suite ``track_set_suite(...)``; rank them with
     ``track_set_board``. ``workers`` / ``backend``: see ``vtrack_gym.evaluation.parallel.run_tasks``; ``store``:
     each row committed as its episode ends. Returns ``{"rows", "traces", "figures", "suite", "lost", "tracks":
     [files]}``.
@@ -115,8 +117,8 @@ def benchmark_tracks(dir_or_glob: str | Path, factories: Mapping[str, Any], seed
     speed_profile = speed_profile_from_limits() if speed_profile is None else speed_profile
     tracks = []
     for file in files:
-        env_id, provenance = register_track(file, speed_profile, closed, smoothing_m)
-        setup = functools.partial(register_track, file, speed_profile, closed, smoothing_m)
+        env_id, provenance = register_track(file, speed_profile, closed, smoothing_m, track_limits)
+        setup = functools.partial(register_track, file, speed_profile, closed, smoothing_m, track_limits)
         tracks.append((env_id, provenance, setup))
     name = Path(str(dir_or_glob)).name if Path(str(dir_or_glob)).is_dir() else Path(str(dir_or_glob)).parent.name
     suite = track_set_suite(name, [p for _, p, _ in tracks], seeds)

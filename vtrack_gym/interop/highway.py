@@ -334,6 +334,7 @@ class HighwayLaneKeeping(gym.Env):
         truncated = not terminated and self._steps * self.control_period_s >= self.config.max_episode_s - 1e-9
         info["termination"] = termination
         info["success"] = termination == "completed"  # the adapter's course has no gates
+        info["cost"] = np.float64(termination == "off_road")   # the road at the CG, as the native envs' default
         self._needs_reset = terminated or truncated
         if self.render_mode == "human":
             self.render()

@@ -20,7 +20,8 @@ def load_track(track: TrackSource, *, closed: bool | None = None, half_width_m: 
                smoothing_m: float | None = None, allow_self_crossing: bool = False) -> Path:
     """The ``Path`` of ``track``: a ``Path`` (returned as is), a built-in name (``track_registry.track_names()``,
     gated ones sized for the paper's car) or a CSV file (see ``csv_loader``; the keyword options apply to files
-    only). ValueError naming the choices otherwise."""
+    only), a cone-lined one (``is_cone_file``) read by ``tracks.cones.load_cone_track`` (``closed`` applies).
+    ValueError naming the choices otherwise."""
     if isinstance(track, Path):
         return track
     if isinstance(track, str) and track in track_names():
@@ -32,8 +33,22 @@ def load_track(track: TrackSource, *, closed: bool | None = None, half_width_m: 
         raise ValueError(f"{track}: is a folder, not a track file (give a CSV file in it)")
     if not FsPath(track).is_file():
         raise ValueError(f"{track}: track file not found (built-in tracks: {', '.join(track_names())})")
+    if is_cone_file(track):
+        from vtrack_gym.tracks.cones import load_cone_track
+
+        return load_cone_track(track, closed=closed)
     return load_track_csv(track, closed=closed, half_width_m=half_width_m, smoothing_m=smoothing_m,
                           allow_self_crossing=allow_self_crossing)
+
+
+def is_cone_file(track: str | os.PathLike[str]) -> bool:
+    """A cone-lined track file (``tracks.cones``): named ``*.cones.csv``, or a CSV whose header has a ``tag``
+    column."""
+    if str(track).lower().endswith(".cones.csv"):
+        return True
+    with open(track, "rb") as f:
+        head = f.readline(4096).decode("utf-8-sig", errors="replace")
+    return "tag" in [h.strip().lower() for h in head.lstrip("#").split(",")]
 
 
 def file_digest(file: str | os.PathLike[str]) -> str:

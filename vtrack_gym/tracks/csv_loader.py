@@ -27,6 +27,7 @@ import warnings
 from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path as FsPath
+from typing import Any
 
 import numpy as np
 
@@ -579,3 +580,14 @@ __all__ = [
     "rounding_quantum_m",
     "unobservable",
 ]
+
+
+def load(file: FsPath, read: Any) -> Path:
+    """The track format registry's entry (``tracks.formats``): ``load_track_csv`` with a ``TrackRead``'s options
+    (a route, lane or road width does not apply to a CSV file: ValueError naming them)."""
+    extra = {k: v for k, v in read.identity().items() if k in ("route", "lane", "road_width_m")}
+    if extra:
+        raise ValueError(f"{file}: {', '.join(extra)} appl{'ies' if len(extra) == 1 else 'y'} to map files, not to "
+                         "a CSV of points")
+    return load_track_csv(file, closed=read.closed, smoothing_m=read.smoothing_m,
+                          allow_self_crossing=read.allow_self_crossing)

@@ -234,7 +234,7 @@ def commonroad_text(lanelets: list[tuple[np.ndarray, np.ndarray]], start_xy: tup
     """A CommonRoad 2020a scenario: lanelets 1001, ... each the successor of the one before (a closed chain links
     the last to the first), and a planning problem from ``start_xy`` to ``goal_lanelet`` when given."""
     def bound(tag: str, pts: np.ndarray) -> str:
-        return (f"<{tag}>" + "".join(f"<point><x>{p[0]!r}</x><y>{p[1]!r}</y></point>" for p in pts)
+        return (f"<{tag}>" + "".join(f"<point><x>{float(p[0])!r}</x><y>{float(p[1])!r}</y></point>" for p in pts)
                 + f"<lineMarking>solid</lineMarking></{tag}>")
 
     n = len(lanelets)

@@ -84,15 +84,10 @@ def load(file: FsPath, read: Any) -> Any:
     """The track format registry's entry: a GPX file as a ``tracks.Path`` (``read``: a ``tracks.formats.TrackRead``;
     route and lane do not apply)."""
     from vtrack_gym.tracks.csv_loader import read_track_bytes
-    from vtrack_gym.tracks.track_noise import NOISE_HINT_FACTOR, point_noise_m
-
     if read.route or read.lane is not None:
         raise ValueError(f"{file}: route and lane apply to road maps; a GPX track is one recorded line")
     data = read_track_bytes(file)
     width = DEFAULT_ROAD_WIDTH_M if read.road_width_m is None else read.road_width_m
     line = gpx_line(file, read_xml(file, data, "GPX"), width)
-    smoothing = read.smoothing_m
-    if smoothing is None:
-        smoothing = NOISE_HINT_FACTOR * point_noise_m(line.x, line.y)
-    return map_path(file, data, line, closed=read.closed, smoothing_m=smoothing,
+    return map_path(file, data, line, closed=read.closed, smoothing_m=read.smoothing_m,
                     allow_self_crossing=read.allow_self_crossing)

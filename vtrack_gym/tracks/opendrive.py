@@ -293,5 +293,6 @@ def load(file: FsPath, read: Any) -> Any:
     data = read_track_bytes(file)
     roads = parse_roads(file, read_xml(file, data, "OpenDRIVE"))
     line = route_line(file, roads, read.route, read.lane)
-    return map_path(file, data, line, closed=read.closed, smoothing_m=read.smoothing_m,
+    smoothing = 0.0 if read.smoothing_m is None else read.smoothing_m   # exact geometry: interpolated
+    return map_path(file, data, line, closed=read.closed, smoothing_m=smoothing,
                     allow_self_crossing=read.allow_self_crossing)

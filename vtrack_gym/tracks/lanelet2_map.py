@@ -1,0 +1,86 @@
+"""A Lanelet2 map (``.osm``) as a track, through the ``lanelet2`` package (the ``lanelet2`` extra): a lanelet
+sequence's centre lines, with the distances to its left and right bounds as half widths.
+
+The route is ``route``: lanelet ids in driving order; two consecutive ids that do not follow each other are joined
+by the shortest route of Lanelet2's routing graph (German traffic rules for a vehicle), so ``route='1001,1004'``
+drives from lanelet 1001 to lanelet 1004. A map of one lanelet needs none. Latitude and longitude are projected by
+Lanelet2's ``LocalCartesianProjector`` at the file's first node (a local east-north tangent plane).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path as FsPath
+from typing import Any
+
+import numpy as np
+
+from vtrack_gym.tracks.map_path import centre_of_bounds, expand_route, lanelet_line, map_path, no_route_error
+from vtrack_gym.tracks.xml_reader import Element, number, read_xml
+
+
+def _origin(file: FsPath, root: Element) -> tuple[float, float]:
+    """Latitude, longitude [deg] of the first ``<node>``."""
+    if root.tag != "osm":
+        raise ValueError(f"{file}, line {root.line}: the root element is <{root.tag}>; expected <osm>")
+    node = root.find("node")
+    if node is None:
+        raise ValueError(f"{file}, line {root.line}: no <node>; expected a Lanelet2 map")
+    return number(node, "lat", file), number(node, "lon", file)
+
+
+def _lanelet2() -> Any:
+    try:
+        import lanelet2
+        import lanelet2.io
+        import lanelet2.projection
+        import lanelet2.routing
+        import lanelet2.traffic_rules
+    except ImportError as exc:
+        raise ImportError("reading a Lanelet2 map (.osm) needs the lanelet2 package: pip install "
+                          f"'vtrack_gym[lanelet2]' ({exc})") from exc
+    return lanelet2
+
+
+def _xy(line: Any) -> np.ndarray:
+    return np.array([[p.x, p.y] for p in line], dtype=float)
+
+
+def load(file: FsPath, read: Any) -> Any:
+    """The track format registry's entry: a Lanelet2 map as a ``tracks.Path`` (``read``: a
+    ``tracks.formats.TrackRead``; lane and road width do not apply)."""
+    from vtrack_gym.tracks.csv_loader import read_track_bytes
+
+    if read.lane is not None or read.road_width_m is not None:
+        raise ValueError(f"{file}: lane and road_width_m do not apply to a Lanelet2 map (its lanelets have bounds)")
+    data = read_track_bytes(file)
+    lat0, lon0 = _origin(file, read_xml(file, data, "Lanelet2 OSM"))
+    ll2 = _lanelet2()
+    projector = ll2.projection.LocalCartesianProjector(ll2.io.Origin(lat0, lon0))
+    lmap, errors = ll2.io.loadRobust(str(file), projector)
+    layer = lmap.laneletLayer
+    ids = sorted(str(ll.id) for ll in layer)
+    if not ids:
+        raise ValueError(f"{file}: no lanelet in the map" + (f" ({'; '.join(errors[:3])})" if errors else ""))
+    if not read.route and len(ids) > 1:
+        raise no_route_error(file, ids, "by the shortest route of the routing graph")
+    route = read.route or (ids[0],)
+    for rid in route:
+        if not rid.lstrip("-").isdigit() or int(rid) not in layer:
+            raise ValueError(f"{file}: route: no lanelet with id {rid!r:.30} in the map (lanelets: "
+                             f"{', '.join(ids[:12])}{', ...' if len(ids) > 12 else ''})")
+    rules = ll2.traffic_rules.create(ll2.traffic_rules.Locations.Germany, ll2.traffic_rules.Participants.Vehicle)
+    graph = ll2.routing.RoutingGraph(lmap, rules)
+
+    def between(a: str, b: str) -> list[str] | None:
+        first, last = layer[int(a)], layer[int(b)]
+        if any(f.id == last.id for f in graph.following(first)):
+            return [a, b]
+        found = graph.getRoute(first, last)
+        return None if found is None else [str(ll.id) for ll in found.shortestPath()]
+
+    parts = []
+    for rid in expand_route(file, route, between):
+        left, right = _xy(layer[int(rid)].leftBound), _xy(layer[int(rid)].rightBound)
+        parts.append((rid, centre_of_bounds(left, right), left, right))
+    return map_path(file, data, lanelet_line(parts), closed=read.closed, smoothing_m=read.smoothing_m,
+                    allow_self_crossing=read.allow_self_crossing)

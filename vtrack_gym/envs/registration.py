@@ -72,11 +72,13 @@ def register_scenario(scenario: Scenario) -> str:
 
 
 def register_track(track_file: str | os.PathLike[str], speed_profile: Any, closed: bool | None = None,
-                   smoothing_m: float | None = None) -> tuple[str, dict[str, Any]]:
-    """Register ``vtrack/Track-<stem>-<key>-v0`` driving a CSV track file with a speed profile (idempotent).
+                   smoothing_m: float | None = None, allow_self_crossing: bool = False,
+                   track_options: dict[str, Any] | None = None) -> tuple[str, dict[str, Any]]:
+    """Register ``vtrack/Track-<stem>-<key>-v0`` driving a track file with a speed profile (idempotent).
 
-    ``key`` hashes the file's content and the profile's parameters (and ``closed`` / ``smoothing_m`` [m], how the
-    file is read, where given), so two tracks with the same file name (or one track with two profiles) get two ids
+    ``key`` hashes the file's content and the profile's parameters (and ``closed`` / ``smoothing_m`` [m] /
+    ``allow_self_crossing`` / ``track_options`` (format, route, lane, road_width_m), how the file is read, where
+    given), so two tracks with the same file name (or one track with two profiles) get two ids
     and never mix on a leaderboard. Returns the id and the provenance to record with results: ``{"track_file",
     "track_sha256", "speed_profile": {"kind", parameters...}}`` plus ``"track_read": {"closed", "smoothing_m"}``
     where either is given. The id is registered in this process only (``make_vec`` in other processes needs
@@ -90,6 +92,7 @@ def register_track(track_file: str | os.PathLike[str], speed_profile: Any, close
 
     from gymnasium.envs.registration import register, registry
 
+    from vtrack_gym.tracks.formats import TrackRead
     from vtrack_gym.tracks.sources import file_digest
     from vtrack_gym.tracks.speed_profiles import as_speed_profile
 
@@ -99,7 +102,10 @@ def register_track(track_file: str | os.PathLike[str], speed_profile: Any, close
     profile = as_speed_profile(speed_profile)
     params = {"kind": type(profile).__name__, **asdict(profile)}
     file_sha = file_digest(file)
-    read = {k: v for k, v in (("closed", closed), ("smoothing_m", smoothing_m)) if v is not None}
+    options = TrackRead.of(track_options).identity() or None    # checked and normalised ("1,2" -> ["1", "2"])
+    read = {k: v for k, v in (("closed", closed), ("smoothing_m", smoothing_m),
+                              ("allow_self_crossing", allow_self_crossing or None), ("track_options", options))
+            if v is not None}
     key = hashlib.sha256(json.dumps([file_sha, params] + ([read] if read else []),
                                     sort_keys=True).encode()).hexdigest()[:10]
     stem = re.sub(r"[^A-Za-z0-9_.]", "_", file.stem)[:40] or "track"

@@ -85,9 +85,9 @@ def read_xml(file: str | os.PathLike[str], data: bytes, what: str) -> Element:
         parser.Parse(data, True)
     except expat.ExpatError as exc:
         raise ValueError(f"{FsPath(file)}, line {exc.lineno}, column {exc.offset + 1}: malformed XML "
-                         f"({expat.ErrorString(exc.code)}); expected a {what} file") from None
+                         f"({expat.ErrorString(exc.code)}); expected {what} XML") from None
     if not root:
-        raise ValueError(f"{file}: no XML element; expected a {what} file")
+        raise ValueError(f"{file}: no XML element; expected {what} XML")
     return root[0]
 
 

@@ -74,6 +74,9 @@ def map_path(file: FsPath, data: bytes, line: MapLine, *, closed: bool | None, s
                                 half_width_m=float(widths.min()), name=name or file.stem, widths_m=widths)
     except ValueError as exc:
         raise ValueError(f"{file}: {exc}") from None
+    if not allow_self_crossing and path.self_intersects():
+        raise ValueError(f"{file}: the fitted centre line crosses itself (a route that touches itself?); if the road "
+                         "really crosses itself, pass allow_self_crossing=True (CLI: --allow-self-crossing)")
     _check_observable(file, path, x, y, line.where)
     return replace(path, source_sha256=hashlib.sha256(data).hexdigest())
 

@@ -24,7 +24,7 @@ from vtrack_gym.tracks.map_path import MapLine, map_path
 from vtrack_gym.tracks.opendrive_geometry import GEOMETRY_KINDS, Geometry
 from vtrack_gym.tracks.xml_reader import Element, number, read_xml
 
-SAMPLE_M = 0.5
+SAMPLE_M = 1.0
 """Spacing [m] of the centre points taken from the exact geometry."""
 CONNECT_TOL_M = 0.1
 """Consecutive roads of a route must meet within this [m]."""

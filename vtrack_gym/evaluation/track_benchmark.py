@@ -103,7 +103,8 @@ def check_track_files(files: Sequence[Path], speed_profile: Any, read: Mapping[s
             line = describe_path(path, format_of(file, (read.get("track_options") or {}).get("format")))
         except (ValueError, ImportError, OSError) as exc:
             why = str(exc)
-            refused.append((file, why[len(str(file)) + 2:] if why.startswith(f"{file}: ") else why))
+            named = why.startswith((f"{file}: ", f"{file}, "))     # the file is named once, by the caller
+            refused.append((file, why[len(str(file)) + 2:] if named else why))
             continue
         kept.append(file)
         tracks.append((env_id, provenance, functools.partial(register_track, file, speed_profile, **read)))

@@ -95,6 +95,12 @@ def _road(rid: str, x0: float, length: float = 50.0, body: str = "<line/>") -> s
     ("<OpenDRIVE>" + _road("1", 0) + _road("2", 50) + "</OpenDRIVE>", "1,9", "route: no road with id '9'"),
     ('<!DOCTYPE x [<!ENTITY a "aaaa">]><OpenDRIVE/>', None, "document type or entity declaration"),
     ("<osm/>", None, "the root element is <osm>; expected <OpenDRIVE>"),
+    ("<OpenDRIVE>" + _road("1", 0).replace('length="50.0">', 'length="60.0">', 1) + "</OpenDRIVE>", None,
+     "road 1: its <geometry> records end at s = 50 m; expected its length 60 m"),
+    ("<OpenDRIVE>" + _road("1", 0).replace('road id="1" length="50.0"', 'road id="1" length="1e9"')
+     .replace('length="50.0">', 'length="1e9">') + "</OpenDRIVE>", None, "road 1 has length 1e[+]09 m; at most"),
+    ("<OpenDRIVE>" + "".join(_road(str(k), 0, length=40_000.0) for k in range(6)) + "</OpenDRIVE>", "0,1,2,3,4,5",
+     "the route is 240 km long; at most 200 km"),
 ])
 def test_bad_opendrive_names_the_element_and_what_was_expected(tmp_path: Path, text: str, route: str | None,
                                                               message: str) -> None:
@@ -102,6 +108,16 @@ def test_bad_opendrive_names_the_element_and_what_was_expected(tmp_path: Path, t
     file.write_text(text, encoding="utf-8")
     with pytest.raises(ValueError, match=message):
         load_track(file, route=route)
+
+
+def test_a_huge_document_is_refused_by_its_element_count(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from vtrack_gym.tracks import xml_reader
+
+    monkeypatch.setattr(xml_reader, "MAX_ELEMENTS", 50)
+    file = tmp_path / "big.gpx"
+    file.write_text("<gpx>\n" + "\n".join('<trkpt lat="48" lon="11"/>' for _ in range(60)) + "\n</gpx>")
+    with pytest.raises(ValueError, match="line 51: more than 50 XML elements"):
+        load_track(file)
 
 
 def test_a_lane_missing_from_a_section_is_named(tmp_path: Path) -> None:

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from vtrack_gym.tracks.fitting import MAX_LENGTH_M
 from vtrack_gym.tracks.map_path import MapLine, map_path
 from vtrack_gym.tracks.opendrive_geometry import GEOMETRY_KINDS, Geometry
 from vtrack_gym.tracks.xml_reader import Element, number, read_xml
@@ -33,6 +34,8 @@ DRIVABLE_TYPES = frozenset({"driving", "entry", "exit", "onRamp", "offRamp", "co
 """Lane types that make the carriageway."""
 MAX_ROADS = 100_000
 """Most roads one map may hold."""
+GAP_TOL_M = 0.01
+"""A road's geometry records must follow each other, and end at its length, within this [m]."""
 _ROUTE_HINT = "give the roads to drive: route='1,2,3' (CLI --track-route 1,2,3)"
 
 
@@ -133,7 +136,11 @@ def parse_roads(file: FsPath, root: Element) -> dict[str, Road]:
         if plan is None or not plan.find_all("geometry") or lanes is None:
             raise ValueError(f"{file}, line {node.line}: road {rid}: expected a <planView> with <geometry> records "
                              "and <lanes>")
+        if length > MAX_LENGTH_M:
+            raise ValueError(f"{file}, line {node.line}: road {rid} has length {length:g} m; at most "
+                             f"{MAX_LENGTH_M:g} m")
         geometry = tuple(sorted((_geometry(file, g, rid) for g in plan.find_all("geometry")), key=lambda g: g.s0))
+        _check_coverage(file, node, rid, length, geometry)
         roads[rid] = Road(rid, length, geometry, _polys(file, lanes.find_all("laneOffset"), "s", rid),
                           _sections(file, lanes, rid))
     if len(roads) > MAX_ROADS:
@@ -141,6 +148,19 @@ def parse_roads(file: FsPath, root: Element) -> dict[str, Road]:
     if not roads:
         raise ValueError(f"{file}, line {root.line}: no <road>; expected at least one")
     return roads
+
+
+def _check_coverage(file: FsPath, node: Element, rid: str, length: float, geometry: tuple[Geometry, ...]) -> None:
+    """ValueError naming the road when its geometry records leave a gap or end before its length."""
+    end = 0.0
+    for g in geometry:
+        if abs(g.s0 - end) > GAP_TOL_M:
+            raise ValueError(f"{file}, line {node.line}: road {rid}: a <geometry> starts at s = {g.s0:g} m where the "
+                             f"records before end at s = {end:g} m; expected contiguous records from s = 0")
+        end = g.s0 + g.length
+    if abs(end - length) > GAP_TOL_M:
+        raise ValueError(f"{file}, line {node.line}: road {rid}: its <geometry> records end at s = {end:g} m; expected "
+                         f"its length {length:g} m")
 
 
 def _poly_at(polys: tuple[Poly, ...] | list[Poly], s: np.ndarray) -> np.ndarray:
@@ -267,6 +287,9 @@ def route_line(file: FsPath, roads: dict[str, Road], route: tuple[str, ...], lan
     if missing:
         shown = ", ".join(list(roads)[:12]) + (", ..." if len(roads) > 12 else "")
         raise ValueError(f"{file}: route: no road with id {missing[0]!r:.30} in the map (roads: {shown})")
+    total = sum(roads[r].length for r in route)
+    if total > MAX_LENGTH_M:   # checked before any road is sampled: bounded memory
+        raise ValueError(f"{file}: the route is {total / 1000:.0f} km long; at most {MAX_LENGTH_M / 1000:.0f} km")
     parts = []
     for k, (rid, rev) in enumerate(zip(route, _directions(file, roads, route), strict=True)):
         try:

@@ -261,6 +261,17 @@ def commonroad_text(lanelets: list[tuple[np.ndarray, np.ndarray]], start_xy: tup
             + "\n".join(items) + "\n</commonRoad>\n")
 
 
+def figure_eight(radius_m: float = 30.0) -> tuple[list[Geometry], list[Geometry]]:
+    """A closed figure eight as two roads: two 270 deg loops of radius ``radius_m`` whose straights cross near
+    (not at) the origin, as a road over a bridge does."""
+    r, a, b = radius_m, -15.5 / math.sqrt(2.0), -15.0 / math.sqrt(2.0)
+    first = _chain((a, a, math.pi / 4), [("line", r + 15.5, ()), ("arc", 1.5 * math.pi * r, (1 / r,)),
+                                         ("line", r - 15.0, ())])
+    second = _chain((b, -b, -math.pi / 4), [("line", r + 15.0, ()), ("arc", 1.5 * math.pi * r, (-1 / r,)),
+                                            ("line", r - 15.5, ())])
+    return first, second
+
+
 def write_examples(folder: Path) -> list[Path]:
     """Write the ring in every format into ``folder``; returns the files."""
     folder.mkdir(parents=True, exist_ok=True)

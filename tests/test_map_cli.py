@@ -3,7 +3,6 @@ survives one bad file, the way a user types them."""
 
 from __future__ import annotations
 
-import math
 import sqlite3
 import sys
 from pathlib import Path
@@ -21,11 +20,7 @@ import map_files
 
 def figure_eight_csv(file: Path) -> Path:
     """A closed figure eight (two 270 deg loops of radius 30 m whose straights cross): a road over a bridge."""
-    r, a, b = 30.0, -15.5 / math.sqrt(2.0), -15.0 / math.sqrt(2.0)
-    first = map_files._chain((a, a, math.pi / 4),
-                             [("line", 45.5, ()), ("arc", 1.5 * math.pi * r, (1 / r,)), ("line", 15.0, ())])
-    second = map_files._chain((b, -b, -math.pi / 4),
-                              [("line", 45.0, ()), ("arc", 1.5 * math.pi * r, (-1 / r,)), ("line", 14.5, ())])
+    first, second = map_files.figure_eight()
     x, y, _ = map_files.sample(first + second, 2.0)
     rows = "\n".join(f"{u:.6f},{v:.6f}" for u, v in zip(x[:-1], y[:-1], strict=True))
     file.write_text("x_m,y_m\n" + rows + "\n", encoding="utf-8")

@@ -130,11 +130,7 @@ def test_a_lane_missing_from_a_section_is_named(tmp_path: Path) -> None:
 
 def test_a_self_crossing_route_is_refused_unless_allowed(tmp_path: Path) -> None:
     """A figure eight of two roads: two 270 deg loops of radius 30 m whose straights cross at the origin."""
-    r, a, b = 30.0, -15.5 / math.sqrt(2.0), -15.0 / math.sqrt(2.0)
-    first = map_files._chain((a, a, math.pi / 4),
-                             [("line", 45.5, ()), ("arc", 1.5 * math.pi * r, (1 / r,)), ("line", 15.0, ())])
-    second = map_files._chain((b, -b, -math.pi / 4),
-                              [("line", 45.0, ()), ("arc", 1.5 * math.pi * r, (-1 / r,)), ("line", 14.5, ())])
+    first, second = map_files.figure_eight()
     file = tmp_path / "eight.xodr"
     file.write_text(map_files.xodr_text([map_files.road_xml("1", first), map_files.road_xml("2", second)]))
     with pytest.raises(ValueError, match=r"the route crosses itself \(road 1 at s = [\d.]+ m meets road \d at s = "):

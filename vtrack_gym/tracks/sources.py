@@ -39,8 +39,8 @@ def load_track(track: TrackSource, *, closed: bool | None = None, half_width_m: 
     if isinstance(track, str) and track in BUILTIN_TRACKS:
         return BUILTIN_TRACKS[track]()
     if not isinstance(track, (str, os.PathLike)):
-        raise ValueError(f"track must be a track file path, a tracks.Path or one of {sorted(BUILTIN_TRACKS)} "
-                         f"(got {type(track).__name__})")
+        raise ValueError(f"track must be a CSV file path or a map file path, a tracks.Path or one of "
+                         f"{sorted(BUILTIN_TRACKS)} (got {type(track).__name__})")
     if FsPath(track).is_dir():
         raise ValueError(f"{track}: is a folder, not a track file (give a track file in it)")
     if not FsPath(track).is_file():

@@ -33,6 +33,7 @@ import numpy as np
 
 from vtrack_gym._io import check_regular_input, read_regular_file
 from vtrack_gym.tracks.fitting import MAX_COORDINATE_M, MAX_LENGTH_M, check_points
+from vtrack_gym.tracks.geometry import first_crossing
 from vtrack_gym.tracks.path import (
     DEFAULT_DS_M,
     MAX_CURVATURE_PER_M,
@@ -405,8 +406,6 @@ def _check_near_duplicates(fs_path: FsPath, x: np.ndarray, y: np.ndarray, closed
 
 def _check_crossing(fs_path: FsPath, px: np.ndarray, py: np.ndarray, closed: bool, lines: list[int]) -> None:
     """ValueError naming the lines of the first pair of crossing segments (or of a cluster too dense to check)."""
-    from vtrack_gym.tracks.map_path import first_crossing
-
     def line(k: int) -> int:
         return lines[k] if k < len(lines) else lines[0]
 

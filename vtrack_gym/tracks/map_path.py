@@ -92,20 +92,10 @@ def _check_widths(file: FsPath, widths: np.ndarray, where: Callable[[int], str])
                          "width, or a driven line outside the road?)")
 
 
-def first_crossing(x: np.ndarray, y: np.ndarray, closed: bool) -> tuple[str | None, int, int] | None:
-    """The first self-crossing of the polyline x, y [m] as (None, i, j): segment i meets segment j; or (why, i, j)
-    when the points i..j are too dense to check (``geometry.TooDenseError``); None when it does not cross."""
-    from vtrack_gym.tracks.geometry import TooDenseError, segment_intersections
-
-    try:
-        hits = segment_intersections(np.column_stack((x, y)), closed).pairs
-    except TooDenseError as exc:
-        return str(exc), int(exc.points[0]), int(exc.points[1])
-    return (None, int(hits[0][0]), int(hits[0][1])) if hits.shape[0] else None
-
-
 def _check_crossing(file: FsPath, x: np.ndarray, y: np.ndarray, closed: bool, where: Callable[[int], str]) -> None:
     """ValueError naming both elements where the centre line first crosses itself."""
+    from vtrack_gym.tracks.geometry import first_crossing
+
     found = first_crossing(x, y, closed)
     if found is not None:
         why, i, j = found

@@ -228,3 +228,30 @@ def test_map_options_travel_with_the_track_into_the_rows_identity(maps: Path) ->
         gym.make("vtrack/Track-v0", track=str(maps / "ring.xodr"), track_options={"roads": "1"})
     with pytest.raises(ValueError, match="apply to a track file only"):
         gym.make("vtrack/Track-v0", track="handling_course", allow_self_crossing=True)
+
+
+# ------------------------------------------------------------------------------------------------- hostile input
+@pytest.mark.parametrize("name", ["ring.xodr", "ring.gpx"])
+def test_mangled_maps_give_a_valueerror_or_a_path(maps: Path, tmp_path: Path, name: str) -> None:
+    """Truncated files, numbers replaced by nan / huge / negative values, deleted attributes and random bytes:
+    a ValueError or a valid Path, never another exception."""
+    from vtrack_gym.tracks import Path as TrackPath
+
+    rng = np.random.default_rng(7)
+    text = (maps / name).read_text(encoding="utf-8")
+    route = "1,2,3,4" if name.endswith("xodr") else None
+    numbers = [m.span() for m in __import__("re").finditer(r'"-?[0-9][0-9.e+-]*"', text)]
+    cases = [text[: int(rng.integers(0, len(text)))] for _ in range(8)]
+    for _ in range(16):
+        a, b = numbers[int(rng.integers(len(numbers)))]
+        value = rng.choice(['"nan"', '"1e308"', '"-5"', '"0"', '""', '"x"'])
+        cases.append(text[:a] + value + text[b:])
+    cases += [rng.bytes(int(rng.integers(1, 400))).decode("latin-1") for _ in range(4)]
+    file = tmp_path / name
+    for case in cases:
+        file.write_text(case, encoding="utf-8")
+        try:
+            path = load_track(file, route=route)
+        except ValueError:
+            continue
+        assert isinstance(path, TrackPath) and np.isfinite(path.table).all() and path.length_m > 0.0

@@ -86,3 +86,32 @@ def test_a_track_set_survives_one_bad_file(tmp_path: Path, capsys: pytest.Captur
     with sqlite3.connect(store) as db:
         rows = db.execute("SELECT env_id, options_json FROM results").fetchall()
     assert len(rows) == 1 and '"track_file": "ring.gpx"' in rows[0][1]
+
+
+def test_every_command_taking_a_track_takes_the_read_options() -> None:
+    from vtrack_gym.cli import build_parser
+
+    parser = build_parser()
+    commands = parser._subparsers._group_actions[0].choices    # argparse keeps the subparsers here
+    taking = [name for name, sub in commands.items() if "--track" in sub._option_string_actions]
+    assert {"benchmark", "eval", "plot", "video", "tune"} <= set(taking)
+    for name in taking:
+        options = commands[name]._option_string_actions
+        for option in ("--allow-self-crossing", "--track-format", "--track-route", "--track-lane", "--road-width-m"):
+            assert option in options, (name, option)
+
+
+def test_a_track_set_with_allow_self_crossing_runs_the_bridge(tmp_path: Path) -> None:
+    from vtrack_gym.baselines.registry import make_policy
+    from vtrack_gym.evaluation.track_benchmark import benchmark_tracks
+
+    folder = tmp_path / "set"
+    folder.mkdir()
+    figure_eight_csv(folder / "eight.csv")
+    (folder / "broken.gpx").write_text("<gpx>", encoding="utf-8")
+    result = benchmark_tracks(folder, {"stanley": lambda env: make_policy("stanley", env)},
+                              allow_self_crossing=True)
+    assert [f.name for f in result["tracks"]] == ["eight.csv"]
+    assert [(f.name, why[:31]) for f, why in result["refused"]] == [("broken.gpx", "line 1, column 6: malformed XML")]
+    row, = result["rows"]
+    assert row.options["track_read"] == {"allow_self_crossing": True}

@@ -95,6 +95,8 @@ def _road(rid: str, x0: float, length: float = 50.0, body: str = "<line/>") -> s
     ("<OpenDRIVE>" + _road("1", 0) + _road("2", 50) + "</OpenDRIVE>", "1,9", "route: no road with id '9'"),
     ('<!DOCTYPE x [<!ENTITY a "aaaa">]><OpenDRIVE/>', None, "document type or entity declaration"),
     ("<osm/>", None, "the root element is <osm>; expected <OpenDRIVE>"),
+    ("<OpenDRIVE>" + _road("1", 0).replace('lane id="-1"', 'lane id="-2"') + "</OpenDRIVE>", None,
+     r"road 1: the right lanes have ids \[-2\]; expected -1, -2, ... from the centre"),
     ("<OpenDRIVE>" + _road("1", 0).replace('length="50.0">', 'length="60.0">', 1) + "</OpenDRIVE>", None,
      "road 1: its <geometry> records end at s = 50 m; expected its length 60 m"),
     ("<OpenDRIVE>" + _road("1", 0).replace('road id="1" length="50.0"', 'road id="1" length="1e9"')

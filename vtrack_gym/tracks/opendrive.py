@@ -114,6 +114,11 @@ def _sections(file: FsPath, lanes: Element, road: str) -> tuple[tuple[float, dic
                                      "not read; expected <width> records")
                 table[lane_id] = (lane.attrib.get("type", "none"), list(_polys(file, lane.find_all("width"),
                                                                                "sOffset", road)))
+        for sign, side in ((1, "left"), (-1, "right")):
+            ids = sorted(abs(i) for i in table if i * sign > 0)
+            if ids != list(range(1, len(ids) + 1)):
+                raise ValueError(f"{file}, line {sec.line}: road {road}: the {side} lanes have ids "
+                                 f"{[sign * i for i in ids]}; expected {sign}, {2 * sign}, ... from the centre")
         out.append((number(sec, "s", file), table))
     if not out:
         raise ValueError(f"{file}, line {lanes.line}: road {road}: <lanes> has no <laneSection>")
@@ -207,9 +212,8 @@ def lateral(road: Road, s: np.ndarray, lane: int | None) -> tuple[np.ndarray, np
         for sign in (1, -1):
             for lane_id in sorted((i for i in table if i * sign > 0), key=abs):
                 kind, widths = table[lane_id]
-                inner = edges.get(lane_id - sign, edges[0])
-                edges[lane_id] = inner + sign * _poly_at(widths, ds)
-                if drivable[sign] and kind in DRIVABLE_TYPES and abs(lane_id - sign) == abs(lane_id) - 1:
+                edges[lane_id] = edges[lane_id - sign] + sign * _poly_at(widths, ds)
+                if drivable[sign] and kind in DRIVABLE_TYPES:
                     edge_of[sign] = edges[lane_id]
                 else:
                     drivable[sign] = False
@@ -217,7 +221,7 @@ def lateral(road: Road, s: np.ndarray, lane: int | None) -> tuple[np.ndarray, np
         if lane is None:
             t[mask] = 0.5 * (left[mask] + right[mask])
         elif lane in edges and lane in table:
-            t[mask] = offset[mask] + 0.5 * (edges[lane] + edges.get(lane - (1 if lane > 0 else -1), edges[0]))
+            t[mask] = offset[mask] + 0.5 * (edges[lane] + edges[lane - (1 if lane > 0 else -1)])
         else:
             raise ValueError(f"road {road.id}, lane section at s = {s_sec:g} m: no lane {lane} (lanes "
                              f"{sorted(table)})")

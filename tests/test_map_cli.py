@@ -115,3 +115,18 @@ def test_a_track_set_with_allow_self_crossing_runs_the_bridge(tmp_path: Path) ->
     assert [(f.name, why[:31]) for f, why in result["refused"]] == [("broken.gpx", "line 1, column 6: malformed XML")]
     row, = result["rows"]
     assert row.options["track_read"] == {"allow_self_crossing": True}
+
+
+def test_a_track_set_of_bad_files_only_is_refused_before_any_episode(tmp_path: Path,
+                                                                    capsys: pytest.CaptureFixture) -> None:
+    folder = tmp_path / "bad"
+    folder.mkdir()
+    (folder / "a.xodr").write_text("<OpenDRIVE/>", encoding="utf-8")
+    (folder / "b.gpx").write_text("<gpx></gpx>", encoding="utf-8")
+    code = main(["benchmark", "--tracks", str(folder), "--policies", "stanley", "--no-figures",
+                 "--store", str(tmp_path / "runs.db")])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert ("every track file was refused: a.xodr: line 1: no <road>; expected at least one; b.gpx: 0 track "
+            "points") in err
+    assert "episode" not in err

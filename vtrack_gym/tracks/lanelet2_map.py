@@ -56,7 +56,10 @@ def load(file: FsPath, read: Any) -> Any:
     lat0, lon0 = _origin(file, read_xml(file, data, "Lanelet2 OSM"))
     ll2 = _lanelet2()
     projector = ll2.projection.LocalCartesianProjector(ll2.io.Origin(lat0, lon0))
-    lmap, errors = ll2.io.loadRobust(str(file), projector)
+    try:
+        lmap, errors = ll2.io.loadRobust(str(file), projector)
+    except Exception as exc:  # lanelet2's C++ layer raises its own kinds on bad content
+        raise ValueError(f"{file}: lanelet2 cannot read the map ({type(exc).__name__}: {exc})") from None
     layer = lmap.laneletLayer
     ids = sorted(str(ll.id) for ll in layer)
     if not ids:

@@ -257,3 +257,41 @@ def test_mangled_maps_give_a_valueerror_or_a_path(maps: Path, tmp_path: Path, na
         except ValueError:
             continue
         assert isinstance(path, TrackPath) and np.isfinite(path.table).all() and path.length_m > 0.0
+
+
+_MANGLE_OSM = """
+import re, sys
+import numpy as np
+from pathlib import Path
+from vtrack_gym.tracks import load_track
+from vtrack_gym.tracks.example_maps import example_map
+
+rng = np.random.default_rng(int(sys.argv[1]))
+text = example_map("ring.osm").read_text(encoding="utf-8")
+numbers = [m.span() for m in re.finditer(r'"-?[0-9][0-9.e+-]*"', text)]
+cases = [text[: int(rng.integers(0, len(text)))] for _ in range(4)]
+for _ in range(24):
+    a, b = numbers[int(rng.integers(len(numbers)))]
+    cases.append(text[:a] + str(rng.choice(['"nan"', '"1e308"', '"-5"', '"0"', '""', '"x"', '"999999"'])) + text[b:])
+file = Path(sys.argv[2])
+for case in cases:
+    file.write_text(case, encoding="utf-8")
+    try:
+        path = load_track(file, route="1001,1002,1003,1004")
+    except ValueError:
+        continue
+    assert np.isfinite(path.table).all() and path.length_m > 0.0
+print("done")
+"""
+
+
+@pytest.mark.parametrize("seed", [7, 8])
+def test_mangled_lanelet2_maps_never_crash_the_process(tmp_path: Path, seed: int) -> None:
+    """lanelet2's C++ reader may crash on bad ids or references: the file is checked first (in a subprocess here,
+    so that a crash fails this test instead of ending the session)."""
+    import subprocess
+
+    pytest.importorskip("lanelet2")
+    done = subprocess.run([sys.executable, "-c", _MANGLE_OSM, str(seed), str(tmp_path / "m.osm")],
+                          capture_output=True, text=True, timeout=300, check=False)
+    assert done.returncode == 0 and done.stdout.strip() == "done", done.stderr[-2000:]

@@ -19,13 +19,46 @@ from vtrack_gym.tracks.xml_reader import Element, number, read_xml
 
 
 def _origin(file: FsPath, root: Element) -> tuple[float, float]:
-    """Latitude, longitude [deg] of the first ``<node>``."""
+    """Latitude, longitude [deg] of the first ``<node>``, after ``check_osm``."""
     if root.tag != "osm":
         raise ValueError(f"{file}, line {root.line}: the root element is <{root.tag}>; expected <osm>")
     node = root.find("node")
     if node is None:
         raise ValueError(f"{file}, line {root.line}: no <node>; expected a Lanelet2 map")
+    check_osm(file, root)
     return number(node, "lat", file), number(node, "lon", file)
+
+
+def _ids(file: FsPath, nodes: list[Element], what: str) -> set[int]:
+    """The integer ids of ``nodes``; ValueError naming the line of one that is not an integer or repeats."""
+    ids: set[int] = set()
+    for n in nodes:
+        text = n.attrib.get("id", "")
+        if not text.lstrip("-").isdigit() or len(text) > 19 or int(text) in ids:
+            raise ValueError(f"{file}, line {n.line}: a <{what}> id {text[:20]!r}; expected a unique integer")
+        ids.add(int(text))
+    return ids
+
+
+def check_osm(file: FsPath, root: Element) -> None:
+    """What lanelet2's C++ reader assumes, checked first (it may crash on less): integer unique ids, latitudes in
+    [-90, 90] and longitudes in [-180, 180], and every reference naming an element of the file. ValueError naming
+    the line otherwise."""
+    nodes = root.find_all("node")
+    layers = {"node": _ids(file, nodes, "node"), "way": _ids(file, root.find_all("way"), "way"),
+              "relation": _ids(file, root.find_all("relation"), "relation")}
+    for n in nodes:
+        lat, lon = number(n, "lat", file), number(n, "lon", file)
+        if abs(lat) > 90.0 or abs(lon) > 180.0:
+            raise ValueError(f"{file}, line {n.line}: node lat={lat:g}, lon={lon:g}; expected latitude in [-90, 90] "
+                             "and longitude in [-180, 180] degrees")
+    refs = [("node", r) for w in root.find_all("way") for r in w.find_all("nd")]
+    refs += [(m.attrib.get("type", ""), m) for rel in root.find_all("relation") for m in rel.find_all("member")]
+    for kind, ref in refs:
+        text = ref.attrib.get("ref", "")
+        if kind not in layers or not text.lstrip("-").isdigit() or len(text) > 19 or int(text) not in layers[kind]:
+            raise ValueError(f"{file}, line {ref.line}: a reference to {kind or 'an element'} {text[:20]!r}; "
+                             f"expected the id of a {kind or 'node, way or relation'} of the file")
 
 
 def _lanelet2() -> Any:

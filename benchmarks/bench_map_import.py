@@ -70,8 +70,12 @@ def main(length_m: float) -> None:
             path = load_track(file, route=route)
             wall.append(time.perf_counter() - start)
             cpu.append(time.process_time() - start_cpu)
+        import resource
+
+        peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024   # KiB on Linux
         print(f"{file.stat().st_size / 2**20:.1f} MiB, {len(route.split(','))} roads, route {path.length_m:.0f} m: "
-              f"imported in {min(cpu):.2f} s of CPU time, {min(wall):.2f} s wall time (best of 3)")
+              f"imported in {min(cpu):.2f} s of CPU time, {min(wall):.2f} s wall time (best of 3); peak RSS of "
+              f"the process {peak:.0f} MiB")
 
 
 if __name__ == "__main__":

@@ -166,6 +166,14 @@ def test_gpx_is_projected_on_the_local_plane_with_the_given_width(maps: Path) ->
     assert load_track(maps / "ring.gpx").half_width_m == 3.5
 
 
+def test_a_given_format_reads_a_file_of_another_suffix(maps: Path, tmp_path: Path) -> None:
+    logged = tmp_path / "ride.log"
+    logged.write_bytes((maps / "ring.gpx").read_bytes())
+    with pytest.raises(ValueError, match="line 1"):          # read as a CSV of points by default
+        load_track(logged)
+    assert load_track(logged, format="gpx").length_m == pytest.approx(load_track(maps / "ring.gpx").length_m)
+
+
 def test_gpx_errors_name_the_line(tmp_path: Path) -> None:
     file = tmp_path / "bad.gpx"
     points = "\n".join(f'<trkpt lat="48.1" lon="{11.5 + k * 1e-4}"/>' for k in range(5))

@@ -184,9 +184,10 @@ def ring_lanelets(step_m: float = 2.0) -> list[tuple[np.ndarray, np.ndarray]]:
     return out
 
 
-def osm_text(lanelets: list[tuple[np.ndarray, np.ndarray]]) -> str:
+def osm_text(lanelets: list[tuple[np.ndarray, np.ndarray]], local_xy: bool = False) -> str:
     """A Lanelet2 OSM map: one lanelet (ids 1001, ...) per (left, right) bound pair; consecutive lanelets share
-    the bounds' end nodes so the routing graph links them; a closed chain closes on the first lanelet's nodes."""
+    the bounds' end nodes so the routing graph links them; a closed chain closes on the first lanelet's nodes.
+    ``local_xy``: Autoware's layout, metric ``local_x`` / ``local_y`` tags and placeholder latitude/longitude 0."""
     nodes: list[str] = []
     ways: list[str] = []
     rels: list[str] = []
@@ -199,16 +200,14 @@ def osm_text(lanelets: list[tuple[np.ndarray, np.ndarray]]) -> str:
             return joint[key]
         nid = ids["next"]
         ids["next"] += 1
-        lat, lon = geodetic(np.array([p[0]]), np.array([p[1]]))
-        nodes.append(f'  <node id="{nid}" version="1" lat="{lat[0]:.10f}" lon="{lon[0]:.10f}"/>')
-        if len(joint) < 10**9:
-            joint[key] = nid
+        nodes.append(_node_xml(nid, p, local_xy))
+        joint[key] = nid
         return nid
 
     for k, (left, right) in enumerate(lanelets):
         bounds = []
         for side, pts in (("left", left), ("right", right)):
-            refs = [node(pts[0])] + [_fresh(nodes, ids, p) for p in pts[1:-1]] + [node(pts[-1])]
+            refs = [node(pts[0])] + [_fresh(nodes, ids, p, local_xy) for p in pts[1:-1]] + [node(pts[-1])]
             wid = 100_000 + 2 * k + (side == "right")
             ways.append(f'  <way id="{wid}" version="1">' + "".join(f'<nd ref="{r}"/>' for r in refs)
                         + '<tag k="type" v="line_thin"/><tag k="subtype" v="solid"/></way>')
@@ -221,12 +220,20 @@ def osm_text(lanelets: list[tuple[np.ndarray, np.ndarray]]) -> str:
             + "\n".join(nodes + ways + rels) + "\n</osm>\n")
 
 
-def _fresh(nodes: list[str], ids: dict[str, int], p: np.ndarray) -> int:
+def _fresh(nodes: list[str], ids: dict[str, int], p: np.ndarray, local_xy: bool) -> int:
     nid = ids["next"]
     ids["next"] += 1
-    lat, lon = geodetic(np.array([p[0]]), np.array([p[1]]))
-    nodes.append(f'  <node id="{nid}" version="1" lat="{lat[0]:.10f}" lon="{lon[0]:.10f}"/>')
+    nodes.append(_node_xml(nid, p, local_xy))
     return nid
+
+
+def _node_xml(nid: int, p: np.ndarray, local_xy: bool) -> str:
+    """One ``<node>``: at the latitude/longitude of x, y [m], or (Autoware) at 0, 0 with local_x / local_y tags."""
+    if local_xy:
+        return (f'  <node id="{nid}" version="1" lat="0" lon="0"><tag k="local_x" v="{float(p[0])!r}"/>'
+                f'<tag k="local_y" v="{float(p[1])!r}"/></node>')
+    lat, lon = geodetic(np.array([p[0]]), np.array([p[1]]))
+    return f'  <node id="{nid}" version="1" lat="{lat[0]:.10f}" lon="{lon[0]:.10f}"/>'
 
 
 def commonroad_text(lanelets: list[tuple[np.ndarray, np.ndarray]], start_xy: tuple[float, float] | None = None,

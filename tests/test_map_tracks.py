@@ -201,6 +201,20 @@ def test_lanelet2_routes_given_ids_and_through_the_routing_graph(maps: Path) -> 
         load_track(maps / "ring.osm", route="1001,77")
 
 
+def test_lanelet2_reads_autowares_local_coordinates(maps: Path, tmp_path: Path) -> None:
+    pytest.importorskip("lanelet2")
+    file = tmp_path / "autoware.osm"
+    file.write_text(map_files.osm_text(map_files.ring_lanelets(), local_xy=True))   # lat = lon = 0 everywhere
+    local = load_track(file, route="1001,1002,1003,1004")
+    projected = load_track(maps / "ring.osm", route="1001,1002,1003,1004")
+    assert local.closed and local.length_m == pytest.approx(projected.length_m, abs=1e-3)
+    start = (0.0, -map_files.LANE_M / 2)      # the first lanelet's start, in the file's own metres (smoothed fit)
+    np.testing.assert_allclose(local.table[0, :2], start, atol=0.01)
+    file.write_text(file.read_text().replace('k="local_x" v="0.0"', 'k="local_x" v="east"', 1))
+    with pytest.raises(ValueError, match=r"line \d+: node \d+: local_x / local_y must be finite numbers"):
+        load_track(file, route="1001")
+
+
 def test_lanelet2_names_lanelets_that_do_not_connect(tmp_path: Path) -> None:
     pytest.importorskip("lanelet2")
     lanes = map_files.ring_lanelets()

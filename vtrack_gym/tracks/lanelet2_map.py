@@ -4,11 +4,13 @@ sequence's centre lines, with the distances to its left and right bounds as half
 The route is ``route``: lanelet ids in driving order; two consecutive ids that do not follow each other are joined
 by the shortest route of Lanelet2's routing graph (German traffic rules for a vehicle), so ``route='1001,1004'``
 drives from lanelet 1001 to lanelet 1004. A map of one lanelet needs none. Latitude and longitude are projected by
-Lanelet2's ``LocalCartesianProjector`` at the file's first node (a local east-north tangent plane).
+Lanelet2's ``LocalCartesianProjector`` at the file's first node (a local east-north tangent plane), unless every
+node carries Autoware's metric ``local_x`` / ``local_y`` tags, which are then its coordinates.
 """
 
 from __future__ import annotations
 
+import math
 from pathlib import Path as FsPath
 from typing import Any
 
@@ -64,6 +66,7 @@ def check_osm(file: FsPath, root: Element) -> None:
 def _lanelet2() -> Any:
     try:
         import lanelet2
+        import lanelet2.core
         import lanelet2.io
         import lanelet2.projection
         import lanelet2.routing
@@ -72,6 +75,66 @@ def _lanelet2() -> Any:
         raise ImportError("reading a Lanelet2 map (.osm) needs the lanelet2 package: pip install "
                           f"'vtrack_gym[lanelet2]' ({exc})") from exc
     return lanelet2
+
+
+def _tags(node: Element) -> dict[str, str]:
+    return {t.attrib.get("k", ""): t.attrib.get("v", "") for t in node.find_all("tag")}
+
+
+def _xml(node: Element) -> str:
+    """``node`` and its children as XML text (attributes quoted)."""
+    from xml.sax.saxutils import quoteattr
+
+    attrs = "".join(f" {k}={quoteattr(v)}" for k, v in node.attrib.items())
+    inner = "".join(_xml(c) for c in node.children)
+    return f"<{node.tag}{attrs}>{inner}</{node.tag}>"
+
+
+def autoware_osm(file: FsPath, root: Element, ll2: Any) -> str | None:
+    """Autoware's layout, where every node carries metric ``local_x`` / ``local_y`` tags [m] (its latitude and
+    longitude may be placeholders): the document with each node's latitude, longitude and ``ele`` set to the
+    point that lanelet2's ``LocalCartesianProjector`` at (0, 0) maps back to exactly those x, y; None for any
+    other map. ValueError naming the line of a tag that is not a finite number."""
+    nodes = root.find_all("node")
+    tags = [_tags(n) for n in nodes]
+    if not nodes or not all("local_x" in t and "local_y" in t for t in tags):
+        return None
+    projector = ll2.projection.LocalCartesianProjector(ll2.io.Origin(0.0, 0.0))
+    parts = []
+    for node, t in zip(nodes, tags, strict=True):
+        try:
+            x, y = float(t["local_x"]), float(t["local_y"])
+        except ValueError:
+            x = math.nan
+        if not (math.isfinite(x) and math.isfinite(y) and max(abs(x), abs(y)) <= 1e6):
+            raise ValueError(f"{file}, line {node.line}: node {node.attrib.get('id')}: local_x / local_y must be "
+                             "finite numbers within 1000 km [m]")
+        gps = projector.reverse(ll2.core.BasicPoint3d(x, y, 0.0))
+        kept = "".join(_xml(c) for c in node.children if c.attrib.get("k") != "ele")
+        parts.append(f'<node id="{node.attrib["id"]}" lat="{gps.lat!r}" lon="{gps.lon!r}"><tag k="ele" '
+                     f'v="{gps.alt!r}"/>{kept}</node>')
+    parts += [_xml(c) for c in root.children if c.tag != "node"]
+    return '<?xml version="1.0" encoding="UTF-8"?><osm version="0.6">' + "".join(parts) + "</osm>"
+
+
+def _load_map(file: FsPath, root: Element, ll2: Any) -> Any:
+    """The lanelet2 map of ``file`` (projected at its first node, or Autoware's local coordinates)."""
+    import tempfile
+
+    local = autoware_osm(file, root, ll2)
+    with tempfile.TemporaryDirectory() as folder:
+        if local is not None:
+            source = FsPath(folder) / "local.osm"
+            source.write_text(local, encoding="utf-8")
+            origin = (0.0, 0.0)
+        else:
+            source, origin = file, _origin(file, root)
+        projector = ll2.projection.LocalCartesianProjector(ll2.io.Origin(*origin))
+        try:
+            lmap, errors = ll2.io.loadRobust(str(source), projector)
+        except Exception as exc:  # lanelet2's C++ layer raises its own kinds on bad content
+            raise ValueError(f"{file}: lanelet2 cannot read the map ({type(exc).__name__}: {exc})") from None
+    return lmap, errors
 
 
 def _xy(line: Any) -> np.ndarray:
@@ -86,13 +149,10 @@ def load(file: FsPath, read: Any) -> Any:
     if read.lane is not None or read.road_width_m is not None:
         raise ValueError(f"{file}: lane and road_width_m do not apply to a Lanelet2 map (its lanelets have bounds)")
     data = read_track_bytes(file)
-    lat0, lon0 = _origin(file, read_xml(file, data, "Lanelet2 OSM"))
+    root = read_xml(file, data, "Lanelet2 OSM")
+    _origin(file, root)   # checks the document before lanelet2's reader sees it
     ll2 = _lanelet2()
-    projector = ll2.projection.LocalCartesianProjector(ll2.io.Origin(lat0, lon0))
-    try:
-        lmap, errors = ll2.io.loadRobust(str(file), projector)
-    except Exception as exc:  # lanelet2's C++ layer raises its own kinds on bad content
-        raise ValueError(f"{file}: lanelet2 cannot read the map ({type(exc).__name__}: {exc})") from None
+    lmap, errors = _load_map(file, root, ll2)
     layer = lmap.laneletLayer
     ids = sorted(str(ll.id) for ll in layer)
     if not ids:

@@ -32,7 +32,9 @@ def speed_profile(args: argparse.Namespace) -> Any:
 
 
 def track_read(args: argparse.Namespace) -> dict[str, Any]:
-    """``load_track`` options of --track-closed / --track-smoothing-m (only those given)."""
+    """``register_track`` options of --track-closed / --track-smoothing-m / --allow-self-crossing and the map
+    options --track-format / --track-route / --track-lane / --road-width-m (as ``track_options``; only those
+    given). Errors name the option."""
     from vtrack_gym.envs.track_sources import MAX_TRACK_SMOOTHING_M
 
     read: dict[str, Any] = {}
@@ -43,6 +45,22 @@ def track_read(args: argparse.Namespace) -> dict[str, Any]:
         if not 0.0 <= m <= MAX_TRACK_SMOOTHING_M:
             raise ValueError(f"--track-smoothing-m must be in [0, {MAX_TRACK_SMOOTHING_M:g}] m (got {m})")
         read["smoothing_m"] = float(m)
+    if args.allow_self_crossing:
+        read["allow_self_crossing"] = True
+    options = {k: v for k, v in (("format", args.track_format), ("route", args.track_route),
+                                 ("lane", args.track_lane), ("road_width_m", args.road_width_m)) if v is not None}
+    if options:
+        from vtrack_gym.tracks.formats import TrackRead
+
+        spelt = {"format": "--track-format", "route": "--track-route", "lane": "--track-lane",
+                 "road_width_m": "--road-width-m"}
+        try:
+            read["track_options"] = TrackRead.of(options).identity()
+        except ValueError as exc:
+            text = str(exc)
+            for field, option in spelt.items():
+                text = text.replace(f"TrackRead.{field}", option)
+            raise ValueError(text) from None
     return read
 
 
@@ -52,15 +70,17 @@ def track_limits(args: argparse.Namespace) -> str | None:
 
 
 def describe_track(file: Path, read: dict[str, Any]) -> str:
-    """One line saying how --track was read: closed loop or open road, its length and point count."""
+    """One line saying how --track was read: closed loop or open road, its length and point count (a map: its
+    format, closure, length, minimum radius and half-width range)."""
     from vtrack_gym.tracks import load_track
     from vtrack_gym.tracks.csv_loader import read_track_columns
-    from vtrack_gym.tracks.sources import is_cone_file
+    from vtrack_gym.tracks.formats import describe_path, format_of
 
-    path = load_track(file, **read)
-    if is_cone_file(file):
-        kind = "a closed loop" if path.closed else "an open road"
-        return f"--track {file}: cones read as {kind} between the cone lines, {path.length_m:.1f} m"
+    options = dict(read.get("track_options") or {})
+    path = load_track(file, **{k: v for k, v in read.items() if k != "track_options"}, **options)
+    fmt = format_of(file, options.get("format"))
+    if fmt != "csv":
+        return f"--track {file}: {describe_path(path, fmt)}"
     n_points = len(read_track_columns(Path(file))[1])
     how = "forced by --track-closed" if "closed" in read else "detected; --track-closed yes/no forces it"
     kind = "a closed loop" if path.closed else "an open road"

@@ -151,20 +151,22 @@ def add_track(p: argparse.ArgumentParser, text: str | None = None, where: Any = 
     )
 
     (where if where is not None else p).add_argument("--track", type=Path, default=None, metavar="FILE",
-                   help=text or "drive on this CSV track file instead of --env (columns by header: x_m, y_m, optional "
-                   "z_m, w_tr_right_m, w_tr_left_m, v_mps; vtrack/Track-v0)")
+                   help=text or "drive on this track file instead of --env: a CSV of points (columns by header: "
+                   "x_m, y_m, optional z_m, w_tr_right_m, w_tr_left_m, v_mps) or a map (.xodr OpenDRIVE, .osm "
+                   "Lanelet2, .xml CommonRoad, .gpx GPX; vtrack/Track-v0)")
     p.add_argument("--track-closed", choices=("auto", "yes", "no"), default="auto",
                    help="--track: read the file as a closed loop (yes), an open road (no) or decide from the end gap "
                    "against the point spacing (auto; the decision is printed) (default: auto)")
     p.add_argument("--track-smoothing-m", type=float_in(0.0, MAX_TRACK_SMOOTHING_M), default=None, metavar="M",
                    help="--track: RMS deviation [m] the spline fit may make from the file's points, for noisy "
                    f"coordinates (e.g. GPS; 0 interpolates; at most {MAX_TRACK_SMOOTHING_M:g} m) (default: chosen "
-                   "from the coordinates' rounding)")
+                   "from the coordinates' rounding; a map's noise estimate; 0 for OpenDRIVE's exact geometry)")
     p.add_argument("--track-limits", choices=TRACK_LIMIT_RULES, default=None,
                    help="--track: the track-limit rule a run is judged by: wheels (off the track when all four wheel "
                    "contact points are beyond an edge; each excursion counted), body (no part of the body beyond an "
                    "edge) or centre (the CG, judged exactly); recorded with every row (default: none given, "
                    "vtrack/Track-v0's own rule: the episode ends off_road when the CG passes an edge)")
+    add_track_reading(p)
     p.add_argument("--speed-profile", choices=PROFILE_KINDS, default=DEFAULT_PROFILE_KIND,
                    help="--track: target speed: envelope (the fastest profile within --max-speed-kmh and "
                    "--max-lateral-g with lateral and longitudinal acceleration combined inside a friction ellipse, "
@@ -180,6 +182,28 @@ def add_track(p: argparse.ArgumentParser, text: str | None = None, where: Any = 
                    "--max-speed-kmh (0.80 g for the paper's car at "
                    "80 km/h, below mu g; a warning above 90 %% of it) "
                    f"(default: {DEFAULT_MAX_LATERAL_G:g})")
+
+
+def add_track_reading(p: argparse.ArgumentParser) -> None:
+    """How a --track / --tracks file is read besides closure and smoothing: self-crossing, format and a map's route,
+    lane and road width (``tracks.formats.TrackRead``)."""
+    from vtrack_gym.tracks.formats import FORMATS, MAX_ROAD_WIDTH_M
+
+    p.add_argument("--allow-self-crossing", action="store_true",
+                   help="--track: accept a centre line that crosses itself (a road over a bridge, a figure eight); "
+                   "recorded with the results")
+    p.add_argument("--track-format", choices=tuple(FORMATS), default=None,
+                   help="--track: the file's format (default: from its suffix: "
+                   + ", ".join(f"{'/'.join(f.suffixes)} {n}" for n, f in FORMATS.items()) + "; any other suffix: csv)")
+    p.add_argument("--track-route", default=None, metavar="IDS",
+                   help="--track map: the road ids (OpenDRIVE) or lanelet ids (Lanelet2, CommonRoad) to drive, in "
+                   "order, comma-separated, e.g. 1,2,3; lanelets that do not follow each other are joined by the "
+                   "map's routing (default: the map's only road or lanelet; CommonRoad: the planning problem's route)")
+    p.add_argument("--track-lane", type=int, default=None, metavar="ID",
+                   help="--track OpenDRIVE map: drive the middle of this lane (-1: the first lane right of the "
+                   "reference line in the direction of travel) (default: the middle of the drivable carriageway)")
+    p.add_argument("--road-width-m", type=float, default=None, metavar="M",
+                   help=f"--track GPX file: the road's full width [m], up to {MAX_ROAD_WIDTH_M:g} (default: 7)")
 
 
 def policy_list(text: str) -> list[str]:

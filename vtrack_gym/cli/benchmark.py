@@ -25,6 +25,8 @@ from vtrack_gym.evaluation.store import StoreError
 from vtrack_gym.evaluation.suites import get_suite, quick_suites, seeds_help, suite_help, suite_names
 
 NAME = "benchmark"
+EXIT_TRACKS_REFUSED = 3
+"""Exit status of ``--tracks`` when some files were refused (the rest ran and were stored)."""
 
 
 def register(sub: Any) -> None:
@@ -49,9 +51,12 @@ def register(sub: Any) -> None:
     opt.add_track(b, "score the policies on this CSV track file (suite 'custom', seed 0 or --seeds) instead of "
                   "--suite (not with --suite or --quick)")
     b.add_argument("--tracks", default=None, metavar="DIR_OR_GLOB",
-                   help="score the policies on every track file of this folder (*.csv) or glob pattern (quote it, "
-                   "e.g. 'tracks/*.csv'), read with the --track options; suite tracks[<name>-<digest>], whose board "
-                   "ranks across all tracks first and keeps the per-track rows (not with --suite, --quick or --track)")
+                   help="score the policies on every track file of this folder (*.csv, *.xodr, *.osm, *.xml, *.gpx) "
+                   "or glob pattern (quote it, e.g. 'tracks/*.csv'), read with the --track options; every file is "
+                   "read and checked first: refused files are listed with their reasons, the rest run and are "
+                   "stored, and the exit status is 3 when some were refused (-v: one line per track); suite "
+                   "tracks[<name>-<digest>], whose board ranks across all tracks first and keeps the per-track rows "
+                   "(not with --suite, --quick or --track)")
     b.add_argument("--workers", type=opt.int_in(1, opt.MAX_WORKERS), default=None, metavar="N",
                    help=f"run the episodes in at most N local processes, 1 to {opt.MAX_WORKERS} (default: the cores of "
                    "this machine; 1 runs them in this process; never more processes than episodes); the rows do not "
@@ -104,8 +109,10 @@ def _score(args: argparse.Namespace, factories: dict[str, Any] | None, seeds: li
         read = track_read(args)
         return benchmark_tracks(args.tracks, factories or all_policies(), seeds or [0], speed_profile(args),
                                 read.get("closed"), read.get("smoothing_m"), track_limits=track_limits(args),
-                                vehicle=args.vehicle,
-                                figures_dir=figures, show_progress=True, **where)
+                                vehicle=args.vehicle, figures_dir=figures, show_progress=True,
+                                allow_self_crossing=read.get("allow_self_crossing", False),
+                                track_options=read.get("track_options"),
+                                on_checked=lambda checked: _report_checked(args, checked), **where)
     if args.track is not None:
         env_id, provenance = env_or_track(args)
         return benchmark_track(env_id, provenance, factories or all_policies(), seeds or [0], vehicle=args.vehicle,
@@ -133,7 +140,7 @@ def run(args: argparse.Namespace) -> int:
         err(f"suite {suite!r}: not the standard {args.suite} episodes, so stored and ranked apart from the "
             f"{args.suite!r} board (vtrack leaderboard --suite '{suite}')")
     if args.tracks is not None:
-        err(f"{len(result['tracks'])} track files of --tracks {args.tracks}: suite {suite!r}")
+        _report_track_set(args, result)
     if result["store_error"] is None:
         err(f"{len(result['rows'])} results stored in {args.store} (suite {suite!r})")
     if result["rows"]:
@@ -145,4 +152,23 @@ def run(args: argparse.Namespace) -> int:
     code = report_lost(result["lost"])
     if result["store_error"] is not None:
         raise StoreError(result["store_error"])
+    if result.get("refused"):
+        err(f"{len(result['refused'])} track file(s) of --tracks refused (listed above); exit status "
+            f"{EXIT_TRACKS_REFUSED}")
+        return code or EXIT_TRACKS_REFUSED
     return code
+
+
+def _report_checked(args: argparse.Namespace, checked: Any) -> None:
+    """Before any episode: the refused files with their reasons, and one line per track with -v."""
+    for file, why in checked.refused:
+        err(f"refused: {file}: {why}")
+    if getattr(args, "verbose", False):
+        for file, line in checked.described:
+            err(f"track {file}: {line}")
+
+
+def _report_track_set(args: argparse.Namespace, result: dict[str, Any]) -> None:
+    """The number of track files run and refused, and the suite."""
+    err(f"{len(result['tracks'])} track files of --tracks {args.tracks} run ({len(result['refused'])} refused): "
+        f"suite {result['suite']!r}")

@@ -197,8 +197,10 @@ def _start_and_end(env: Any) -> str:
 def _arguments() -> str:
     return ("## Arguments\n\n`gymnasium.make(id, vehicle=\"suv\")` drives another car (a name of "
             "`vtrack_gym.vehicle.list_vehicles()` or a vehicle file); `control_period_s=` sets the decision period "
-            "[s]; `vtrack/Track-v0` also takes `track=`, `speed_profile=`, `half_width_m=`, `closed=` and "
-            "`smoothing_m=`; the cone-lined standard ids (`vtrack/ISO3888-1-v1`, `vtrack/ISO3888-2-v1`, "
+            "[s]; `vtrack/Track-v0` also takes `track=` (a CSV file, an OpenDRIVE, Lanelet2, CommonRoad or GPX map: "
+            "[Drive a map](../tutorials/drive-a-map.md)), `speed_profile=`, `half_width_m=`, `closed=`, "
+            "`smoothing_m=`, `allow_self_crossing=` and `track_options=` (format, route, lane, road_width_m); the "
+            "cone-lined standard ids (`vtrack/ISO3888-1-v1`, `vtrack/ISO3888-2-v1`, "
             "`vtrack/Slalom-v1`) take `reference=\"planned\"` (default) or `\"lane_centres\"`, and the two ISO 3888 "
             "ids `entry_speed_kmh=` (in (0, 200] km/h); every id driving a road between edges (not the cone-lined "
             "manoeuvres, not the circle) takes `track_limits=\"wheels\"`, `\"body\"` or `\"centre\"`. "

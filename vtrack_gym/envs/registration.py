@@ -72,17 +72,20 @@ def register_scenario(scenario: Scenario) -> str:
 
 
 def register_track(track_file: str | os.PathLike[str], speed_profile: Any, closed: bool | None = None,
-                   smoothing_m: float | None = None, track_limits: str | None = None) -> tuple[str, dict[str, Any]]:
-    """Register ``vtrack/Track-<stem>-<key>-v0`` driving a CSV track file with a speed profile (idempotent).
+                   smoothing_m: float | None = None, *, track_limits: str | None = None,
+                   allow_self_crossing: bool = False,
+                   track_options: dict[str, Any] | None = None) -> tuple[str, dict[str, Any]]:
+    """Register ``vtrack/Track-<stem>-<key>-v0`` driving a track file with a speed profile (idempotent).
 
-    ``key`` hashes the file's content and the profile's parameters (and ``closed`` / ``smoothing_m`` [m], how the
-    file is read, and ``track_limits``, where given), so two tracks with the same file name (or one track with two
-    profiles or rules) get two ids and never mix on a leaderboard. Returns the id and the provenance to record with
-    results: ``{"track_file", "track_sha256", "speed_profile": {"kind", parameters...}}`` plus ``"track_read":
-    {"closed", "smoothing_m"}`` where either is given. ``track_limits``: the track-limit rule the env judges by
-    (``"wheels"``, ``"body"`` or ``"centre"``; None: Track-v0's, the centre), in the key and the make kwargs; the
-    provenance records it as ``"protocol": {"track_limits": rule}``. The id is registered in this process only
-    (``make_vec`` in other processes needs ``Track-v0`` with ``track=``).
+    ``key`` hashes the file's content and the profile's parameters (and ``closed`` / ``smoothing_m`` [m] /
+    ``allow_self_crossing`` / ``track_options`` (format, route, lane, road_width_m), how the file is read, and
+    ``track_limits``, where given), so two tracks with the same file name (or one track with two profiles or rules)
+    get two ids and never mix on a leaderboard. Returns the id and the provenance to record with results:
+    ``{"track_file", "track_sha256", "speed_profile": {"kind", parameters...}}`` plus ``"track_read": {"closed",
+    "smoothing_m", ...}`` where any is given. ``track_limits``: the track-limit rule the env judges by (``"wheels"``,
+    ``"body"`` or ``"centre"``; None: Track-v0's, the centre), in the key and the make kwargs; the provenance records
+    it as ``"protocol": {"track_limits": rule}``. The id is registered in this process only (``make_vec`` in other
+    processes needs ``Track-v0`` with ``track=``).
     """
     import hashlib
     import json
@@ -92,6 +95,7 @@ def register_track(track_file: str | os.PathLike[str], speed_profile: Any, close
 
     from gymnasium.envs.registration import register, registry
 
+    from vtrack_gym.tracks.formats import TrackRead
     from vtrack_gym.tracks.sources import file_digest
     from vtrack_gym.tracks.speed_profiles import as_speed_profile
 
@@ -101,7 +105,10 @@ def register_track(track_file: str | os.PathLike[str], speed_profile: Any, close
     profile = as_speed_profile(speed_profile)
     params = {"kind": type(profile).__name__, **asdict(profile)}
     file_sha = file_digest(file)
-    read = {k: v for k, v in (("closed", closed), ("smoothing_m", smoothing_m)) if v is not None}
+    options = TrackRead.of(track_options).identity() or None    # checked and normalised ("1,2" -> ["1", "2"])
+    read = {k: v for k, v in (("closed", closed), ("smoothing_m", smoothing_m),
+                              ("allow_self_crossing", allow_self_crossing or None), ("track_options", options))
+            if v is not None}
     rule = {} if track_limits is None else {"track_limits": track_limits}
     if rule:
         from vtrack_gym.envs.criteria import TrackLimits

@@ -23,6 +23,7 @@ Imports nothing heavy (``vtrack_gym.tracks``, numpy only, is imported for the ma
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -37,7 +38,7 @@ from vtrack_gym.envs.criteria import (
 )
 from vtrack_gym.envs.randomisation import Randomisation, Start
 from vtrack_gym.envs.speed import EntryThenRelease, HoldSpeed, check_speed, is_profile, speed_part
-from vtrack_gym.envs.track_sources import MANEUVER_TRACK_NAMES, TrackSource
+from vtrack_gym.envs.track_sources import MANEUVER_TRACK_NAMES, READ_KWARGS, TrackSource
 
 KMH = 1.0 / 3.6
 """One km/h in m/s."""
@@ -292,13 +293,14 @@ def scenario_named(name: str) -> Scenario:
 
 def with_track(scenario: Scenario, track: Any = None, speed_profile: Any = None,
                half_width_m: float | None = None, closed: bool | None = None,
-               smoothing_m: float | None = None) -> Scenario:
+               smoothing_m: float | None = None, read: Mapping[str, Any] | None = None) -> Scenario:
     """``scenario`` with another track source / speed profile / constant half width (``None`` keeps the part).
 
     ``speed_profile``: a tracks speed profile, a number (constant speed [m/s]) or ``"file"`` (the track's speed
     column). ``closed`` (bool) and ``smoothing_m`` [m] say how a CSV track file is read (see ``load_track``;
-    ValueError for any other track). A scenario driven on another track with no profile given keeps its speed
-    protocol (Track-v0's: ``default_track_profile()``).
+    ValueError for any other track). ``read``: the other read options of a track file, ``allow_self_crossing``
+    and ``track_options`` (None values ignored). A scenario driven on another track with no profile given keeps its
+    speed protocol (Track-v0's: ``default_track_profile()``).
     """
     source: dict[str, Any] = {}
     if track is not None:
@@ -311,6 +313,7 @@ def with_track(scenario: Scenario, track: Any = None, speed_profile: Any = None,
         if isinstance(smoothing_m, bool) or not isinstance(smoothing_m, (int, float)):
             raise ValueError(f"smoothing_m must be a number of metres (got {smoothing_m!r})")
         source["smoothing_m"] = float(smoothing_m)
+    source.update({k: v for k, v in (read or {}).items() if v is not None})
     changes: dict[str, Any] = {"track": replace(scenario.track, **source)} if source else {}
     if speed_profile is not None:
         from vtrack_gym.tracks.speed_profiles import as_speed_profile
@@ -321,7 +324,7 @@ def with_track(scenario: Scenario, track: Any = None, speed_profile: Any = None,
 
 def resolve_scenario(scenario: str | Scenario, track: Any = None, speed_profile: Any = None,
                      half_width_m: float | None = None, closed: bool | None = None,
-                     smoothing_m: float | None = None) -> Scenario:
+                     smoothing_m: float | None = None, read: Mapping[str, Any] | None = None) -> Scenario:
     """The scenario an env is made with: a registered name or id, or a ``Scenario``, then ``with_track``."""
     if isinstance(scenario, str) and _registered_track(scenario) is not None:  # an id of registration.register_track
         kwargs = _registered_track(scenario)
@@ -330,10 +333,11 @@ def resolve_scenario(scenario: str | Scenario, track: Any = None, speed_profile:
         speed_profile = kwargs.get("speed_profile") if speed_profile is None else speed_profile
         closed = kwargs.get("closed") if closed is None else closed
         smoothing_m = kwargs.get("smoothing_m") if smoothing_m is None else smoothing_m
+        read = {**{k: kwargs.get(k) for k in READ_KWARGS}, **{k: v for k, v in (read or {}).items() if v is not None}}
     sc = scenario_named(scenario) if isinstance(scenario, str) else scenario
     if not isinstance(sc, Scenario):
         raise ValueError(f"scenario must be a scenario id or a Scenario (got {type(scenario).__name__})")
-    return with_track(sc, track, speed_profile, half_width_m, closed, smoothing_m)
+    return with_track(sc, track, speed_profile, half_width_m, closed, smoothing_m, read)
 
 
 def _registered_track(env_id: str) -> dict[str, Any] | None:

@@ -30,6 +30,9 @@ evaluation courses need (handling course: R >= 20 m; DLC120-v0: R >= 140 m), so 
 never meets a curvature it has not seen."""
 PROCEDURAL_MAX_DKAPPA: tuple[float, float] = (0.008, 0.004)
 """Curvature-rate bounds [1/m^2] of the two halves (handling course: 0.0063; DLC120-v0: 0.0020)."""
+READ_KWARGS: tuple[str, ...] = ("allow_self_crossing", "track_options")
+"""Make kwargs (and ``TrackSource`` fields) saying how a track file is read, besides ``closed`` and ``smoothing_m``:
+they travel with the track source into a row's identity."""
 MANEUVER_TRACK_NAMES: tuple[str, ...] = tuple(MANEUVERS)
 """The standard manoeuvres as track names: the keys of ``tracks.maneuvers.MANEUVERS``, in its order."""
 
@@ -37,12 +40,14 @@ MANEUVER_TRACK_NAMES: tuple[str, ...] = tuple(MANEUVERS)
 @documented
 @dataclass(frozen=True, kw_only=True)
 class TrackSource:
-    """Where a scenario's paths come from: ``track`` is a name of ``TRACKS``, a CSV file path or a ``tracks.Path``.
+    """Where a scenario's paths come from: ``track`` is a name of ``TRACKS``, a track file path (any format of
+    ``tracks.formats.FORMATS``) or a ``tracks.Path``.
 
     ``half_width_m``: a constant drivable half width either side [m] replacing the path's own (per-station)
-    widths, ``None`` keeps them. ``closed`` / ``smoothing_m`` [m]: how a CSV file is read (``tracks.load_track``;
-    a CSV file only). ``end_margin_m``: an open path counts as completed this far before its end [m]. The bank
-    fields size the ``procedural`` and ``training_mix`` banks (paths drawn per episode).
+    widths, ``None`` keeps them. ``closed`` / ``smoothing_m`` [m] / ``allow_self_crossing`` / ``track_options``
+    (format, route, lane, road_width_m): how a track file is read (``tracks.load_track``; a file only).
+    ``end_margin_m``: an open path counts as completed this far before its end [m]. The bank fields size the
+    ``procedural`` and ``training_mix`` banks (paths drawn per episode).
     """
 
     track: Any = "handling_course"           # str | os.PathLike | tracks.Path
@@ -53,6 +58,8 @@ class TrackSource:
     bank_size: int = ranged(16, ge=1, integer=True)
     bank_seed: int = 12345
     bank_length_m: float = ranged(800.0, gt=0.0, unit="m")
+    allow_self_crossing: bool = False
+    track_options: Any = None                # Mapping: format, route, lane, road_width_m (tracks.formats.TrackRead)
 
     def __post_init__(self) -> None:
         track = self.track
@@ -71,7 +78,31 @@ class TrackSource:
             raise ValueError("closed= and smoothing_m= apply to a CSV track file only (got track "
                              f"{track if isinstance(track, str) else type(track).__name__!r}); a tracks.Path or a "
                              "built-in track is used as it is")
+        self._check_read_options()
         validate(self)
+
+    def _check_read_options(self) -> None:
+        """``allow_self_crossing`` and ``track_options`` checked (``tracks.formats.TrackRead``), for a file only."""
+        if not isinstance(self.allow_self_crossing, bool):
+            raise ValueError("TrackSource.allow_self_crossing must be True or False (got "
+                             f"{self.allow_self_crossing!r})")
+        options = self.track_options
+        if options is None and not self.allow_self_crossing:
+            return
+        if options is not None and not isinstance(options, Mapping):
+            raise ValueError(f"track_options must be a dict of format, route, lane, road_width_m (got "
+                             f"{type(options).__name__})")
+        if not isinstance(self.track, (str, os.PathLike)) or self.is_builtin:
+            raise ValueError("allow_self_crossing= and track_options= apply to a track file only (got track "
+                             f"{self.track if isinstance(self.track, str) else type(self.track).__name__!r})")
+        from vtrack_gym.tracks.formats import TrackRead
+
+        given = dict(options or {})
+        shared = sorted(set(given) & {"closed", "smoothing_m", "allow_self_crossing"})
+        if shared:
+            raise ValueError(f"track_options: give {', '.join(shared)} as their own keyword, not in track_options")
+        read = TrackRead.of(given)   # names an unknown key or a value out of range
+        object.__setattr__(self, "track_options", read.identity() or None)
 
     @property
     def is_builtin(self) -> bool:
@@ -108,7 +139,8 @@ class TrackSource:
     def _user_path(self) -> Any:
         from vtrack_gym.tracks import load_track
 
-        path = load_track(self.track, closed=self.closed, smoothing_m=self.smoothing_m)
+        path = load_track(self.track, closed=self.closed, smoothing_m=self.smoothing_m,
+                          allow_self_crossing=self.allow_self_crossing, **(self.track_options or {}))
         min_length_m = MIN_TRACK_LENGTH_FACTOR * self.end_margin_m
         if path.length_m < min_length_m:
             raise ValueError(f"track {path.name!r} is {path.length_m:.3g} m long: a track needs at least "

@@ -1,12 +1,15 @@
 """``TrackingEnv``: the single Gymnasium env behind every registered id.
 
 Scenario: a registered id or name (``envs.scenarios.SCENARIOS``) or a ``Scenario`` (its vehicle and control period
-are the config's defaults; ``vehicle=`` and ``control_period_s=`` replace them); ``track=`` (a CSV file,
-a ``tracks.Path`` or a built-in name), ``speed_profile=`` (a tracks speed profile, a speed in m/s or ``"file"``)
-and ``half_width_m=`` (a constant road half width [m]) replace the scenario's; ``closed=`` (True/False, default
-detected) and ``smoothing_m=`` (the fit's RMS deviation from a CSV file's points [m]) say how a CSV file is read, e.g.
-``gym.make("vtrack/Track-v0", track="my_track.csv")`` (default profile: curvature-limited, 40 km/h, 0.7 g). With a
-speed profile the PD-FLC holds v_ref(s) at the car's station (``target_speed`` in the observation and in
+are the config's defaults; ``vehicle=`` and ``control_period_s=`` replace them); ``track=`` (a track file: a CSV
+of points, an OpenDRIVE, Lanelet2, CommonRoad or GPX map; a ``tracks.Path`` or a built-in name),
+``speed_profile=`` (a tracks speed profile, a speed in m/s or ``"file"``) and ``half_width_m=`` (a constant road
+half width [m]) replace the scenario's; ``closed=`` (True/False, default detected), ``smoothing_m=`` (the fit's
+RMS deviation from a file's points [m]), ``allow_self_crossing=True`` (a road over a bridge) and
+``track_options=`` (``format``, ``route``, ``lane``, ``road_width_m``: see ``tracks.formats.TrackRead``) say how
+a track file is read, e.g. ``gym.make("vtrack/Track-v0", track="my_track.csv")`` (default profile:
+curvature-limited, 40 km/h, 0.7 g). With a speed profile the PD-FLC holds v_ref(s) at the car's station
+(``target_speed`` in the observation and in
 ``info["target_speed_mps"]``, a preview of it at the end of the observation).
 
 Observation: ``Box(float32)`` laid out by ``env.unwrapped.observation_layout`` (see ``envs.observation``).
@@ -138,9 +141,12 @@ class TrackingEnv(gym.Env):
     def __init__(self, scenario: str | Scenario = "LateralTracking-v0", config: EnvConfig | None = None,
                  render_mode: str | None = None, render_fps: int = 25, render_view: str = "follow",
                  track: Any = None, speed_profile: Any = None, half_width_m: float | None = None,
-                 closed: bool | None = None, smoothing_m: float | None = None, entry_speed_kmh: float | None = None,
-                 reference: str | None = None, track_limits: str | None = None, **config_overrides: Any) -> None:
-        scenario = resolve_scenario(scenario, track, speed_profile, half_width_m, closed, smoothing_m)
+                 closed: bool | None = None, smoothing_m: float | None = None, allow_self_crossing: bool | None = None,
+                 track_options: dict[str, Any] | None = None, entry_speed_kmh: float | None = None,
+                 reference: str | None = None, track_limits: str | None = None,
+                 **config_overrides: Any) -> None:
+        scenario = resolve_scenario(scenario, track, speed_profile, half_width_m, closed, smoothing_m,
+                                    {"allow_self_crossing": allow_self_crossing, "track_options": track_options})
         config = scenario_config(scenario, config, config_overrides)
         scenario = with_protocol(scenario, config.vehicle, entry_speed_kmh, reference, track_limits)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:

@@ -48,10 +48,12 @@ class TrackingVectorEnv(VectorEnv):
     def __init__(self, scenario: str | Scenario = "LateralTracking-v0", num_envs: int = 1,
                  config: EnvConfig | None = None, render_mode: str | None = None, track: Any = None,
                  speed_profile: Any = None, half_width_m: float | None = None, closed: bool | None = None,
-                 smoothing_m: float | None = None, max_episode_steps: int | None = None,
+                 smoothing_m: float | None = None, allow_self_crossing: bool | None = None,
+                 track_options: dict[str, Any] | None = None, max_episode_steps: int | None = None,
                  entry_speed_kmh: float | None = None, reference: str | None = None,
                  track_limits: str | None = None, **config_overrides: Any) -> None:
-        scenario = resolve_scenario(scenario, track, speed_profile, half_width_m, closed, smoothing_m)
+        scenario = resolve_scenario(scenario, track, speed_profile, half_width_m, closed, smoothing_m,
+                                    {"allow_self_crossing": allow_self_crossing, "track_options": track_options})
         if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer (got {num_envs!r})")
         config = scenario_config(scenario, config, config_overrides)

@@ -128,7 +128,9 @@ def _track_provenance(scenario: Any) -> tuple[str | None, dict[str, Any]] | None
     if isinstance(track, (str, os.PathLike)) and Path(track).is_file():
         from vtrack_gym.envs.registration import register_track
 
-        env_id, options = register_track(track, profile, source.closed, source.smoothing_m)
+        env_id, options = register_track(track, profile, source.closed, source.smoothing_m,
+                                         allow_self_crossing=source.allow_self_crossing,
+                                         track_options=source.track_options)
     elif isinstance(track, str):
         options = {"track": track, "speed_profile": params}
     elif isinstance(track, TrackPath):
@@ -188,6 +190,7 @@ def _tracking_identity(unwrapped: Any, spec: Any, env_id: str,
 
     from vtrack_gym.envs.config import EnvConfig
     from vtrack_gym.envs.scenarios import resolve_scenario, with_protocol
+    from vtrack_gym.envs.track_sources import READ_KWARGS
     from vtrack_gym.evaluation.track_benchmark import check_driven
     from vtrack_gym.tracks.sources import source_digest
 
@@ -196,7 +199,7 @@ def _tracking_identity(unwrapped: Any, spec: Any, env_id: str,
         return unidentified(env_id), {}
     scenario = resolve_scenario(scenario_arg, spec.kwargs.get("track"), spec.kwargs.get("speed_profile"),
                                 spec.kwargs.get("half_width_m"), spec.kwargs.get("closed"),
-                                spec.kwargs.get("smoothing_m"))
+                                spec.kwargs.get("smoothing_m"), {k: spec.kwargs.get(k) for k in READ_KWARGS})
     base = resolve_scenario(scenario.name)
     protocol = {k: spec.kwargs[k] for k in ("entry_speed_kmh", "reference", "track_limits")
                 if spec.kwargs.get(k) is not None}

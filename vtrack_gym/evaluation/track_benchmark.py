@@ -12,7 +12,7 @@ import dataclasses
 import functools
 import hashlib
 import json
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -52,25 +52,69 @@ def check_driven(driven: str | None, provenance: Mapping[str, Any]) -> None:
 
 
 def track_files(dir_or_glob: str | Path) -> list[Path]:
-    """The CSV files of a folder (``*.csv``, sorted), or the files a glob pattern matches (sorted; ``**`` for any
-    depth, each real folder entered once: ``_io.glob_files``); ``ValueError`` when there is none (or more than
-    ``MAX_TRACKS``)."""
+    """The track files of a folder (every suffix of ``tracks.formats.FORMATS``: ``*.csv``, ``*.xodr``, ``*.osm``,
+    ``*.xml``, ``*.gpx``; sorted), or the files a glob pattern matches (sorted; ``**`` for any depth, each real
+    folder entered once: ``_io.glob_files``); ``ValueError`` when there is none (or more than ``MAX_TRACKS``)."""
     from vtrack_gym._io import glob_files
+    from vtrack_gym.tracks.formats import FORMATS
 
     text = str(dir_or_glob)
     if Path(text).is_dir():
-        files = sorted(p for p in Path(text).glob("*.csv") if p.is_file())
+        suffixes = {s for f in FORMATS.values() for s in f.suffixes}
+        files = sorted(p for p in Path(text).iterdir() if p.suffix.lower() in suffixes and p.is_file())
     else:   # each real folder entered once: a symlink loop under ** ends
         try:
             files = glob_files(text, MAX_TRACKS)
         except ValueError:
             raise ValueError(f"--tracks {text}: more than {MAX_TRACKS} files") from None
     if not files:
-        raise ValueError(f"--tracks {text}: no track file found (give a folder of .csv files or a glob pattern "
-                         "such as 'tracks/*.csv')")
+        raise ValueError(f"--tracks {text}: no track file found (give a folder of track files (.csv, .xodr, .osm, "
+                         ".xml, .gpx) or a glob pattern such as 'tracks/*.csv')")
     if len(files) > MAX_TRACKS:
         raise ValueError(f"--tracks {text}: {len(files)} files, more than {MAX_TRACKS}")
     return files
+
+
+@dataclasses.dataclass(frozen=True)
+class CheckedTracks:
+    """A track set after every file was read and checked: ``tracks`` (env id, provenance, setup) to run, one
+    ``described`` line per accepted file (format, closure, length, minimum radius, widths) and the ``refused``
+    files with their reasons."""
+
+    files: list[Path]
+    tracks: list[tuple[str, Mapping[str, Any], Any]]
+    described: list[tuple[Path, str]]
+    refused: list[tuple[Path, str]]
+
+
+def check_track_files(files: Sequence[Path], speed_profile: Any, read: Mapping[str, Any]) -> CheckedTracks:
+    """Read, register and build the env of every file (``register_track`` with ``read``: closed, smoothing_m,
+    allow_self_crossing, track_options, track_limits), before any episode: a file that fails is refused with its
+    reason, the others are kept. ValueError listing the reasons when every file is refused."""
+    import gymnasium as gym
+
+    from vtrack_gym.envs.registration import register_track
+    from vtrack_gym.tracks.formats import describe_path, format_of
+
+    tracks, described, refused, kept = [], [], [], []
+    for file in files:
+        try:
+            env_id, provenance = register_track(file, speed_profile, **read)
+            env = gym.make(env_id)
+            path = env.unwrapped.paths[0]
+            env.close()
+            line = describe_path(path, format_of(file, (read.get("track_options") or {}).get("format")))
+        except (ValueError, ImportError, OSError) as exc:
+            why = str(exc)
+            named = why.startswith((f"{file}: ", f"{file}, "))     # the file is named once, by the caller
+            refused.append((file, why[len(str(file)) + 2:] if named else why))
+            continue
+        kept.append(file)
+        tracks.append((env_id, provenance, functools.partial(register_track, file, speed_profile, **read)))
+        described.append((file, line))
+    if not tracks:
+        raise ValueError("every track file was refused: " + "; ".join(f"{f.name}: {why}" for f, why in refused))
+    return CheckedTracks(kept, tracks, described, refused)
 
 
 def track_set_suite(name: str, provenances: Sequence[Mapping[str, Any]], seeds: Sequence[int]) -> str:
@@ -99,32 +143,37 @@ def benchmark_tracks(dir_or_glob: str | Path, factories: Mapping[str, Any], seed
                      speed_profile: Any = None, closed: bool | None = None, smoothing_m: float | None = None,
                      track_limits: str | None = None, vehicle: str | None = None,
                      figures_dir: str | Path | None = None, workers: int | None = 1, backend: str = "local",
-                     show_progress: bool = False, store: Any = None) -> dict[str, Any]:
+                     show_progress: bool = False, store: Any = None, allow_self_crossing: bool = False,
+                     track_options: Mapping[str, Any] | None = None,
+                     on_checked: Callable[[CheckedTracks], None] | None = None) -> dict[str, Any]:
     """Every policy on every track file of ``dir_or_glob`` (``track_files``), one episode per track and seed.
 
-    Each file is registered with ``speed_profile`` (default: what ``vtrack benchmark --track`` drives, the
-    friction-ellipse ``EnvelopeLimited`` within 40 km/h and 0.7 g, checked against the car) and read with ``closed`` /
-    ``smoothing_m`` and judged by the ``track_limits`` rule (``"wheels"``, ``"body"``, ``"centre"``; None: the
-    centre) as ``register_track`` does. Rows go to suite ``track_set_suite(...)``; rank them with
-    ``track_set_board``. ``workers`` / ``backend``: see ``vtrack_gym.evaluation.parallel.run_tasks``; ``store``:
-    each row committed as its episode ends. Returns ``{"rows", "traces", "figures", "suite", "lost", "tracks":
-    [files]}``.
+    Every file is first read and checked (``check_track_files``): each is registered with ``speed_profile``
+    (default: what ``vtrack benchmark --track`` drives, the friction-ellipse ``EnvelopeLimited`` within 40 km/h and
+    0.7 g, checked against the car), read with ``closed`` / ``smoothing_m`` / ``allow_self_crossing`` /
+    ``track_options`` and judged by the ``track_limits`` rule (``"wheels"``, ``"body"``, ``"centre"``; None: the
+    centre) as ``register_track`` does; a file that cannot be read or driven is refused and the rest run. Rows go to
+    suite ``track_set_suite(...)`` of the tracks run; rank them with ``track_set_board``. ``on_checked``: called with
+    the ``CheckedTracks`` before any episode (to list the refused files). ``workers`` / ``backend``: see
+    ``vtrack_gym.evaluation.parallel.run_tasks``; ``store``: each row committed as its episode ends. Returns
+    ``{"rows", "traces", "figures", "suite", "lost", "tracks": [files run], "refused": [(file, reason)],
+    "described": [(file, line)]}``.
     """
-    from vtrack_gym.envs.registration import register_track
     from vtrack_gym.tracks.speed_limits import speed_profile_from_limits
 
-    files = track_files(dir_or_glob)
     speed_profile = speed_profile_from_limits() if speed_profile is None else speed_profile
-    tracks = []
-    for file in files:
-        env_id, provenance = register_track(file, speed_profile, closed, smoothing_m, track_limits)
-        setup = functools.partial(register_track, file, speed_profile, closed, smoothing_m, track_limits)
-        tracks.append((env_id, provenance, setup))
+    read = {k: v for k, v in (("closed", closed), ("smoothing_m", smoothing_m),
+                              ("allow_self_crossing", allow_self_crossing or None),
+                              ("track_options", dict(track_options) if track_options else None),
+                              ("track_limits", track_limits)) if v is not None}
+    checked = check_track_files(track_files(dir_or_glob), speed_profile, read)
+    if on_checked is not None:
+        on_checked(checked)
     name = Path(str(dir_or_glob)).name if Path(str(dir_or_glob)).is_dir() else Path(str(dir_or_glob)).parent.name
-    suite = track_set_suite(name, [p for _, p, _ in tracks], seeds)
-    result = _benchmark(tracks, factories, seeds, suite, vehicle, figures_dir, workers, backend, show_progress,
-                        store)
-    return {**result, "tracks": files}
+    suite = track_set_suite(name, [p for _, p, _ in checked.tracks], seeds)
+    result = _benchmark(checked.tracks, factories, seeds, suite, vehicle, figures_dir, workers, backend,
+                        show_progress, store)
+    return {**result, "tracks": checked.files, "refused": checked.refused, "described": checked.described}
 
 
 def _benchmark(tracks: Sequence[tuple[str, Mapping[str, Any], Any]], factories: Mapping[str, Any],

@@ -1,7 +1,8 @@
 """Reference paths: an arc-length parameterised centre-line (``Path``), the paper's two scenarios (the Case-1
 handling course and the Case-2 ISO 3888-1 double lane change with cone gates), standard manoeuvres as data
-(``tracks.maneuvers``: ISO 3888-1/-2, ISO 4138, slalom, step curvature), procedural training tracks, a CSV
-loader (``load_track`` resolves a built-in name, a CSV file or a Path) and speed profiles (``speed_table``).
+(``tracks.maneuvers``: ISO 3888-1/-2, ISO 4138, slalom, step curvature), procedural training tracks, track files
+(``load_track`` resolves a built-in name, a Path or a file of any format of ``FORMATS``: a CSV of points, an
+OpenDRIVE, Lanelet2, CommonRoad or GPX map, read as a ``TrackRead`` says) and speed profiles (``speed_table``).
 
 ``import vtrack_gym.tracks`` imports numpy only (no numba, no scipy); the numba kernels used by the env's compiled
 step live in ``vtrack_gym.tracks.kernels`` and are imported on demand.
@@ -15,6 +16,7 @@ from vtrack_gym.tracks.dlc import (
     gate_boundaries,
     gate_violations,
 )
+from vtrack_gym.tracks.formats import FORMATS, TrackRead
 from vtrack_gym.tracks.handling_course import handling_course
 from vtrack_gym.tracks.lanes import LaneSection, lane_sequence_path
 from vtrack_gym.tracks.maneuvers import (
@@ -64,6 +66,7 @@ __all__ = [
     "COL_Y",
     "COL_Z",
     "COL_ZPP",
+    "FORMATS",
     "MANEUVERS",
     "N_COLS",
     "SUCCESS_CRITERIA",
@@ -85,6 +88,7 @@ __all__ = [
     "SpeedProfile",
     "SpeedRamp",
     "SpeedTable",
+    "TrackRead",
     "as_speed_profile",
     "build_double_lane_change",
     "build_maneuver",

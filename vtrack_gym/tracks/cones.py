@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path as FsPath
+from typing import Any
 
 import numpy as np
 
@@ -151,3 +152,15 @@ def load_cone_track(file: str | os.PathLike[str], *, closed: bool | None = None,
     widths = np.column_stack((_polyline_distance(centre, loop_l), _polyline_distance(centre, loop_r)))
     return Path.from_points(centre[:, 0], centre[:, 1], closed=closed, smoothing_m=CENTRE_SMOOTHING_M, ds_m=ds_m,
                             half_width_m=float(np.median(widths)), name=file.name.split(".")[0], widths_m=widths)
+
+
+def sniff(head: bytes) -> bool:
+    """True when a CSV's first line (``head``: the file's first bytes) has a ``tag`` column: a cone map, not a
+    centre line (``tracks.formats`` asks it for ``.csv`` files)."""
+    first = head.decode("utf-8-sig", errors="replace").splitlines()[0] if head else ""
+    return "tag" in [h.strip().lower() for h in first.lstrip("#").split(",")]
+
+
+def load(file: FsPath, read: Any) -> Path:
+    """The track-format entry (``tracks.formats``): ``load_cone_track`` with ``read.closed``."""
+    return load_cone_track(file, closed=read.closed)

@@ -27,12 +27,13 @@ import warnings
 from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path as FsPath
+from typing import Any
 
 import numpy as np
 
 from vtrack_gym._io import check_regular_input, read_regular_file
 from vtrack_gym.tracks.fitting import MAX_COORDINATE_M, MAX_LENGTH_M, check_points
-from vtrack_gym.tracks.geometry import TooDenseError, segment_intersections
+from vtrack_gym.tracks.geometry import first_crossing
 from vtrack_gym.tracks.path import (
     DEFAULT_DS_M,
     MAX_CURVATURE_PER_M,
@@ -427,16 +428,15 @@ def _check_crossing(fs_path: FsPath, px: np.ndarray, py: np.ndarray, closed: boo
     def line(k: int) -> int:
         return lines[k] if k < len(lines) else lines[0]
 
-    try:
-        hits = segment_intersections(np.column_stack((px, py)), closed).pairs
-    except TooDenseError as exc:
-        i, j = exc.points
-        raise ValueError(f"{fs_path}, lines {line(i)}-{line(j)}: {exc}; fix: thin or remove those points") from None
-    if hits.shape[0]:
-        i, j = (int(v) for v in hits[0])
-        raise ValueError(f"{fs_path}: the centre-line crosses itself (segment lines {line(i)}-{line(i + 1)} meets "
-                         f"segment lines {line(j)}-{line(j + 1)}); fix: if the road really crosses itself (a bridge), "
-                         "pass allow_self_crossing=True, else correct those points")
+    found = first_crossing(px, py, closed)
+    if found is None:
+        return
+    why, i, j = found
+    if why is not None:
+        raise ValueError(f"{fs_path}, lines {line(i)}-{line(j)}: {why}; fix: thin or remove those points")
+    raise ValueError(f"{fs_path}: the centre-line crosses itself (segment lines {line(i)}-{line(i + 1)} meets "
+                     f"segment lines {line(j)}-{line(j + 1)}); fix: if the road really crosses itself (a bridge), "
+                     "pass allow_self_crossing=True (CLI: --allow-self-crossing), else correct those points")
 
 
 def hermite_peaks(p0: np.ndarray, d0: np.ndarray, p1: np.ndarray, d1: np.ndarray, h: float) -> np.ndarray:
@@ -598,3 +598,14 @@ __all__ = [
     "rounding_quantum_m",
     "unobservable",
 ]
+
+
+def load(file: FsPath, read: Any) -> Path:
+    """The track format registry's entry (``tracks.formats``): ``load_track_csv`` with a ``TrackRead``'s options
+    (a route, lane or road width does not apply to a CSV file: ValueError naming them)."""
+    extra = {k: v for k, v in read.identity().items() if k in ("route", "lane", "road_width_m")}
+    if extra:
+        raise ValueError(f"{file}: {', '.join(extra)} appl{'ies' if len(extra) == 1 else 'y'} to map files, not to "
+                         "a CSV of points")
+    return load_track_csv(file, closed=read.closed, smoothing_m=read.smoothing_m,
+                          allow_self_crossing=read.allow_self_crossing)

@@ -132,6 +132,16 @@ def segment_intersections(xy: np.ndarray, closed: bool, max_candidates_per_segme
     return Intersections(np.column_stack((i[hit], j[hit])).astype(np.int64), int(i.size))
 
 
+def first_crossing(x: np.ndarray, y: np.ndarray, closed: bool) -> tuple[str | None, int, int] | None:
+    """The first self-crossing of the polyline x, y [m] as (None, i, j): segment i meets segment j; or (why, i, j)
+    when the points i..j are too dense to check (``TooDenseError``); None when it does not cross."""
+    try:
+        hits = segment_intersections(np.column_stack((x, y)), closed).pairs
+    except TooDenseError as exc:
+        return str(exc), int(exc.points[0]), int(exc.points[1])
+    return (None, int(hits[0][0]), int(hits[0][1])) if hits.shape[0] else None
+
+
 def self_intersection_pairs(xy: np.ndarray, closed: bool) -> np.ndarray:
     """Index pairs (i, j), i < j, of non-adjacent segments xy[i]-xy[i+1] and xy[j]-xy[j+1] that meet.
 

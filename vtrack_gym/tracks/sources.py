@@ -1,15 +1,18 @@
-"""One entry point from "a track" as a user names it (a built-in name, a CSV file, or a Path) to a ``Path``, and a
-content digest for provenance (two files with the same name but different points never mix)."""
+"""One entry point from "a track" as a user names it (a built-in name, a track file of any format, or a Path) to
+a ``Path``, and a content digest for provenance (two files with the same name but different points never mix)."""
 
 from __future__ import annotations
 
 import hashlib
 import os
+from dataclasses import replace
 from pathlib import Path as FsPath
+from typing import Any
 
 import numpy as np
 
 from vtrack_gym.tracks.csv_loader import load_track_csv, unobservable
+from vtrack_gym.tracks.formats import TrackRead, format_of, read_track_file
 from vtrack_gym.tracks.path import Path
 from vtrack_gym.tracks.track_registry import build_track, track_names
 
@@ -17,38 +20,35 @@ TrackSource = str | os.PathLike[str] | Path
 
 
 def load_track(track: TrackSource, *, closed: bool | None = None, half_width_m: float | None = None,
-               smoothing_m: float | None = None, allow_self_crossing: bool = False) -> Path:
+               smoothing_m: float | None = None, allow_self_crossing: bool = False, **map_options: Any) -> Path:
     """The ``Path`` of ``track``: a ``Path`` (returned as is), a built-in name (``track_registry.track_names()``,
-    gated ones sized for the paper's car) or a CSV file (see ``csv_loader``; the keyword options apply to files
-    only), a cone-lined one (``is_cone_file``) read by ``tracks.cones.load_cone_track`` (``closed`` applies).
-    ValueError naming the choices otherwise."""
+    gated ones sized for the paper's car) or a track file of any format of ``tracks.formats.FORMATS`` (a CSV of
+    points, a cone map, OpenDRIVE, Lanelet2, CommonRoad, GPX; the keyword options apply to files only).
+    ``map_options``: the other ``tracks.formats.TrackRead`` fields (``format``, ``route``, ``lane``,
+    ``road_width_m``). ``half_width_m`` [m] replaces the file's widths. ValueError naming the
+    choices otherwise."""
     if isinstance(track, Path):
         return track
     if isinstance(track, str) and track in track_names():
         return build_track(track)
     if not isinstance(track, (str, os.PathLike)):
-        raise ValueError(f"track must be a CSV file path, a tracks.Path or one of {', '.join(track_names())} "
-                         f"(got {type(track).__name__})")
+        raise ValueError(f"track must be a CSV file path or a map file path, a tracks.Path or one of "
+                         f"{', '.join(track_names())} (got {type(track).__name__})")
     if FsPath(track).is_dir():
-        raise ValueError(f"{track}: is a folder, not a track file (give a CSV file in it)")
+        raise ValueError(f"{track}: is a folder, not a track file (give a track file in it)")
     if not FsPath(track).is_file():
         raise ValueError(f"{track}: track file not found (built-in tracks: {', '.join(track_names())})")
-    if is_cone_file(track):
-        from vtrack_gym.tracks.cones import load_cone_track
-
-        return load_cone_track(track, closed=closed)
-    return load_track_csv(track, closed=closed, half_width_m=half_width_m, smoothing_m=smoothing_m,
-                          allow_self_crossing=allow_self_crossing)
+    read = TrackRead.of(map_options, closed=closed, smoothing_m=smoothing_m, allow_self_crossing=allow_self_crossing)
+    if format_of(track, read.format) == "csv" and half_width_m is not None:
+        return load_track_csv(track, closed=closed, half_width_m=half_width_m, smoothing_m=smoothing_m,
+                              allow_self_crossing=allow_self_crossing)
+    path = read_track_file(track, read)
+    return path if half_width_m is None else replace(path, half_width_m=float(half_width_m), widths_m=None)
 
 
 def is_cone_file(track: str | os.PathLike[str]) -> bool:
-    """A cone-lined track file (``tracks.cones``): named ``*.cones.csv``, or a CSV whose header has a ``tag``
-    column."""
-    if str(track).lower().endswith(".cones.csv"):
-        return True
-    with open(track, "rb") as f:
-        head = f.readline(4096).decode("utf-8-sig", errors="replace")
-    return "tag" in [h.strip().lower() for h in head.lstrip("#").split(",")]
+    """A cone-lined track file (``tracks.cones``): the format ``tracks.formats.format_of`` finds for it."""
+    return format_of(track) == "cones"
 
 
 def file_digest(file: str | os.PathLike[str]) -> str:

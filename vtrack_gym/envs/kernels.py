@@ -49,8 +49,9 @@ N_ENV_COLS = N_COLS + 3
 TM_START, TM_N, TM_DS, TM_LEN, TM_CLOSED, TM_HALF_WIDTH, TM_PROFILE, TM_RELEASE_S, TM_RELEASE_HOLD = range(9)
 N_TM = 9    # TM_RELEASE_S: station [m] from which the PD-FLC is off (+inf: never); TM_RELEASE_HOLD: 1 = the
             # throttle stays at its last value there, 0 = throttle 0 (coast); the brake is 0 either way
-CAR_S_PREV, CAR_PROGRESS, CAR_V_REF, CAR_PREV_ACTION, CAR_REWARD, CAR_MIN_FZ, CAR_FOLLOW = range(7)
-N_CAR = 7   # CAR_FOLLOW: 1 = the car follows its track's speed profile (CAR_V_REF updated from it every step)
+CAR_S_PREV, CAR_PROGRESS, CAR_V_REF, CAR_PREV_ACTION, CAR_REWARD, CAR_MIN_FZ, CAR_FOLLOW, CAR_SCHEDULED = range(8)
+N_CAR = 8   # CAR_FOLLOW: 1 = the car follows its track's speed profile (CAR_V_REF updated from it every step);
+            # CAR_SCHEDULED: 1 = this step's steering command changes within the period (SimArrays.cmds)
 
 
 @dataclass(frozen=True)
@@ -139,6 +140,7 @@ class SimArrays(NamedTuple):
     pd_mem: np.ndarray       # (n, 3) PD-FLC memory
     pd_gains: np.ndarray     # (n, 7) PD-FLC gains per car
     pd_surface: np.ndarray   # (r, r) PD-FLC control surface (shared)
+    cmds: np.ndarray         # (n, n_sub) steering command [rad] per physics step (read when CAR_SCHEDULED is 1)
 
 
 # Termination codes (names in ``TERMINATION_NAMES`` of envs.sim).
@@ -386,7 +388,13 @@ def step_car(i: int, a: SimArrays) -> None:
                                      a.pd_surface, cfg[CFG_KINKS] != 0.0)
         inputs[i, L.U_THROTTLE] = throttle
         inputs[i, L.U_BRAKE] = brake
-    step_vehicle(states[i], inputs[i], a.road[i], a.params[i], a.models[i], dt, n_sub, outputs[i], a.work[i])
+    if car[i, CAR_SCHEDULED] != 0.0:  # a late command takes over within the period (envs.latency)
+        for j in range(n_sub):
+            inputs[i, L.U_DELTA] = a.cmds[i, j]
+            step_vehicle(states[i], inputs[i], a.road[i], a.params[i], a.models[i], dt, 1, outputs[i, j:j + 1],
+                         a.work[i])
+    else:
+        step_vehicle(states[i], inputs[i], a.road[i], a.params[i], a.models[i], dt, n_sub, outputs[i], a.work[i])
     if released:  # no set point: the target speed shown is the car's own speed
         car[i, CAR_V_REF] = states[i, L.S_VX]
     travel = abs(states[i, L.S_VX]) * dt * n_sub

@@ -18,6 +18,7 @@ import numpy as np
 from vtrack_gym.envs.config import EnvConfig, ResetOptions
 from vtrack_gym.envs.criteria import CarsView
 from vtrack_gym.envs.disturbances import ActuatorDelay, SensorNoise
+from vtrack_gym.envs.latency import CommandSchedule
 from vtrack_gym.envs.observation import NOISY_INDICES
 from vtrack_gym.envs.pdflc import PDFLCConfig
 from vtrack_gym.envs.scenarios import Scenario
@@ -90,6 +91,8 @@ class BatchSim:
         low, high = self.layout.bounds()
         self.noise = SensorNoise(n, config.noise_std, NOISY_INDICES, low, high)
         self.delay = ActuatorDelay(n, config.control_period_s)
+        self.latency = CommandSchedule(n, self.n_sub, config.physics_dt_s, self.car[:, k.CAR_SCHEDULED])
+        """Compute latency: each car's commands take effect after their decision's delay (``envs.latency``)."""
         self.max_steer_rad = config.vehicle.steering.max_road_wheel_angle_rad  # road-wheel angle of action 1 [rad]
         self.arrays = self._bundle(k, scenario, config)
         self._step_kernel = k.step_parallel if n >= PARALLEL_THRESHOLD else k.step_serial
@@ -118,7 +121,8 @@ class BatchSim:
             tmeta=self.tracks.meta, veh_track=self.veh_track, car=self.car, cfg=cfg, obs=self.obs, err=self.err,
             term=self.term, rows=np.zeros((self.n, k.N_ENV_COLS)), actions=self.actions, sig=self.sig,
             pd_mem=self.pd_mem, pd_gains=self.pd_gains,
-            pd_surface=np.ascontiguousarray(control_surface(pd.method, pd.surface_resolution)))
+            pd_surface=np.ascontiguousarray(control_surface(pd.method, pd.surface_resolution)),
+            cmds=self.latency.cmds)
 
     def _cars_view(self, k) -> CarsView:
         """The named views a success criterion reads (live: the arrays are updated in place)."""
@@ -172,6 +176,7 @@ class BatchSim:
         self.prev_action[i] = 0.0
         self.noise.set_scale(i, options.sensor_noise)
         self.delay.set_delay(i, options.actuator_delay_s)
+        self.latency.reset_car(i)
         self._extras = self.criterion.per_step or self.noise.active or self.delay.active
         self.pd_mem[i] = (0.0, 0.0, 1.0)  # fresh: the first derivative of the speed error is 0
         self.term[i] = 0
@@ -242,12 +247,17 @@ class BatchSim:
             self.noise.apply(self.obs, self.rngs, quiet)
         return self.reward.copy(), terminated, truncated
 
-    def step_one(self, action: float) -> tuple[float, int, bool]:
-        """Fast path for a single car (n = 1): returns (reward, termination code, truncated)."""
+    def step_one(self, action: float, latency_s: float | None = None) -> tuple[float, int, bool]:
+        """Fast path for a single car (n = 1): returns (reward, termination code, truncated). ``latency_s`` [s]:
+        the decision's compute, delaying its command (``envs.latency``; ``None``: latency off)."""
         self.actions[0] = action
         extras = self._extras
         cmd = self.delay.delayed(self.actions)[0] if extras and self.delay.active else action
-        self.inputs[0, L.U_DELTA] = cmd * self.max_steer_rad
+        if latency_s is None:
+            self.inputs[0, L.U_DELTA] = cmd * self.max_steer_rad
+        else:
+            self.inputs[0, L.U_DELTA] = self.latency.schedule(0, int(self.steps[0]), cmd * self.max_steer_rad,
+                                                              latency_s)
         self._run_kernel()
         steps = int(self.steps[0]) + 1
         self.steps[0] = steps

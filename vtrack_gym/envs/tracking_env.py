@@ -44,6 +44,7 @@ import gymnasium as gym
 import numpy as np
 
 from vtrack_gym.envs.config import EnvConfig, ResetOptions, Scenario
+from vtrack_gym.envs.latency import Clock, DecisionTimer, Latency
 from vtrack_gym.envs.scenarios import resolve_scenario, with_protocol
 from vtrack_gym.envs.schema import info_dict
 from vtrack_gym.envs.sim import TERMINATION_NAMES, BatchSim
@@ -144,7 +145,8 @@ class TrackingEnv(gym.Env):
                  closed: bool | None = None, smoothing_m: float | None = None, allow_self_crossing: bool | None = None,
                  track_options: dict[str, Any] | None = None, entry_speed_kmh: float | None = None,
                  reference: str | None = None, track_limits: str | None = None,
-                 **config_overrides: Any) -> None:
+                 latency: str | float | None = None, latency_s: float | None = None,
+                 latency_clock: Clock | None = None, **config_overrides: Any) -> None:
         scenario = resolve_scenario(scenario, track, speed_profile, half_width_m, closed, smoothing_m,
                                     {"allow_self_crossing": allow_self_crossing, "track_options": track_options})
         config = scenario_config(scenario, config, config_overrides)
@@ -171,6 +173,9 @@ class TrackingEnv(gym.Env):
             self._renderer = EnvRenderer(render_mode, render_config, config.vehicle.chassis,
                                          config.control_period_s, scenario.name)
         self._needs_reset = True
+        self.latency = self._default_latency = Latency.parse(latency, latency_s)
+        """This episode's compute latency (``envs.latency``; make kwargs, or the reset options of the same names)."""
+        self._timer = DecisionTimer(latency_clock)
         self._bind_rows()
 
     def _bind_rows(self) -> None:
@@ -198,7 +203,10 @@ class TrackingEnv(gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
+        options = dict(options or {})
+        latency = Latency.parse(options.pop("latency", None), options.pop("latency_s", None))
         opts = ResetOptions.from_dict(options)
+        self.latency = latency if latency.on else self._default_latency
         self._sim.rngs[0] = self.np_random
         self._sim.reset_car(0, opts)
         self._sim.observe_after_reset(np.zeros(1, dtype=np.int64))
@@ -206,18 +214,36 @@ class TrackingEnv(gym.Env):
         info = self._info(terminated=False)
         if self._renderer is not None:
             self._renderer.on_reset(self.current_path, self._sim)
+        self._timer.handed_out()
         return self._obs_row.copy(), info
 
     def step(self, action: Any):
         if self._needs_reset:
             raise RuntimeError("call reset() before step() (and after an episode ends)")
-        reward, code, trunc = self._sim.step_one(check_action(action))
+        action = check_action(action)
+        spent = None
+        if self.latency.on:
+            spent = self.latency.seconds if self.latency.mode == "fixed" else self._timer.elapsed()
+        reward, code, trunc = self._sim.step_one(action, spent)
         term = code != 0
         self._needs_reset = term or trunc
         info = self._info(terminated=term)
         if self._renderer is not None:
             self._renderer.on_step(self.current_path, self._sim)
+        if spent is not None:
+            self._timer.handed_out()
         return self._obs_row.copy(), reward, term, trunc, info
+
+    def charge_compute(self, seconds: float) -> None:
+        """Charge ``seconds`` [s] as the next decision's compute (``latency="measured"``): a harness that timed
+        the policy call itself passes that time instead of the env's own clock."""
+        self._timer.charge(seconds)
+
+    def latency_stats(self) -> dict[str, Any]:
+        """The episode so far under compute latency: ``latency`` (``off``, ``measured`` or the fixed budget [s]),
+        ``decisions``, ``late_decisions`` (delay above the control period), ``late_share`` (0..1) and
+        ``max_latency_s`` [s] (all 0 when latency is off)."""
+        return {"latency": self.latency.label, **self._sim.latency.stats(0)}
 
     def _info(self, terminated: bool) -> dict[str, Any]:
         """Every ``envs.schema.INFO_KEYS`` entry of the car (numpy scalars and arrays), cheap enough per step."""

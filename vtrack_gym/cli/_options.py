@@ -124,6 +124,26 @@ def add_vehicle(p: argparse.ArgumentParser) -> None:
                    "hatchback); recorded in the rows' options, so cars are ranked apart")
 
 
+def latency_value(text: str) -> str | float:
+    """``--latency``'s value: ``measured`` or a number of seconds in [0, 1] (``argparse.ArgumentTypeError``
+    otherwise)."""
+    from vtrack_gym.envs.latency import Latency
+
+    try:
+        chosen = Latency.parse(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc).replace("latency must", "--latency must")) from None
+    return chosen.seconds if chosen.mode == "fixed" else chosen.mode
+
+
+def add_latency(p: argparse.ArgumentParser) -> None:
+    """``--latency measured|SECONDS``: charge each decision's compute in the loop (``envs.latency``)."""
+    p.add_argument("--latency", default=None, type=latency_value, metavar="measured|SECONDS",
+                   help="charge each decision's compute in the loop: 'measured' (the policy call's time) or a "
+                   "fixed budget in seconds; each command takes effect that long after its observation (rounded up "
+                   "to the physics step); rows record it and rank apart from the ideal ones (default: off)")
+
+
 def add_user_code(p: argparse.ArgumentParser) -> None:
     """``--trust-code`` and ``--policy-kwargs``: policies of the user's own code (``MODULE:NAME``)."""
     p.add_argument("--trust-code", action="store_true",

@@ -21,7 +21,14 @@ from vtrack_gym.evaluation.fingerprint import named_policy_hash, policy_hash
 from vtrack_gym.evaluation.rollout import policy_id_of
 from vtrack_gym.evaluation.rows import ResultRow
 from vtrack_gym.evaluation.store import ResultStore, StoreError
-from vtrack_gym.evaluation.suites import Episode, suite_episodes, suite_label, suite_names, with_vehicle
+from vtrack_gym.evaluation.suites import (
+    Episode,
+    suite_episodes,
+    suite_label,
+    suite_names,
+    with_latency,
+    with_vehicle,
+)
 
 log = logging.getLogger(__name__)
 
@@ -75,7 +82,7 @@ def _check_seeds(seeds: Sequence[int] | None) -> None:
 def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seeds: Sequence[int] | None = None,
              *, store: str | Path | ResultStore | None = None, vecnormalize: Any = None,
              policy_id: str | None = None, vehicle: str | None = None, workers: int | None = 1,
-             backend: str = "local") -> list[ResultRow]:
+             backend: str = "local", latency: str | float | None = None) -> list[ResultRow]:
     """Score a policy; one ``ResultRow`` per episode (``row.metrics``: the leaderboard's metrics).
 
     ``policy_or_factory``: an object with ``predict(obs, state=None, episode_start=None, deterministic=True)``
@@ -91,7 +98,9 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
     car), recorded in the rows' ``options`` (an env instance is driven with its own car, track and config, recorded
     by ``env_identity``). ``workers`` / ``backend``: run a suite's or an env id's episodes in local processes or on
     Ray (``vtrack_gym.evaluation.parallel.run_tasks``; the same rows as ``workers=1``; the factory must be
-    picklable for Ray). Rank the rows with ``leaderboard(rows)``, alone or with other rows of the same suite.
+    picklable for Ray). ``latency``: charge each decision's compute in the loop (``envs.latency``: ``"measured"``,
+    the policy call's time, or a fixed budget in seconds), recorded in the rows' options and ranked apart from the
+    ideal rows. Rank the rows with ``leaderboard(rows)``, alone or with other rows of the same suite.
     """
     _check_seeds(seeds)
     from vtrack_gym.evaluation.parallel import check_workers
@@ -112,7 +121,7 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
         from vtrack_gym.vehicle.catalog import read_vehicle_once
 
         found, suite = _episodes(suite_or_env, seeds)
-        episodes = list(with_vehicle(found, read_vehicle_once(vehicle)))   # a file: read once for every episode
+        episodes = with_latency(with_vehicle(found, read_vehicle_once(vehicle)), latency)   # a file: read once
     elif isinstance(suite_or_env, gym.Env):
         if vehicle is not None:
             raise ValueError("vehicle applies to a suite name or an env id; an env instance drives its own car")
@@ -147,7 +156,7 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
             raise ValueError("workers and backend apply to a suite name or an env id; an env instance is driven "
                              "in this process")
         for s in seeds if seeds is not None else (0,):
-            row = _row(make, suite_or_env, Episode(env_id, int(s)), CUSTOM_SUITE, policy_id,
+            row = _row(make, suite_or_env, with_latency([Episode(env_id, int(s))], latency)[0], CUSTOM_SUITE, policy_id,
                        rows[0].policy_hash if rows else None)
             keep(merge_provenance(row, identity))   # refuses a row that drove other content
     return rows

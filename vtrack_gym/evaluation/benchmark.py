@@ -27,6 +27,7 @@ from vtrack_gym.evaluation.suites import (
     get_suite,
     primary_metric,
     suite_label,
+    with_latency,
     with_vehicle,
 )
 from vtrack_gym.evaluation.trace import Trace
@@ -37,10 +38,11 @@ LEADERBOARD_COLUMNS: tuple[str, ...] = (
     "rms_e_y_m", "max_e_y_m", "rms_e_phi_deg", "rms_hand_wheel_deg", "max_hand_wheel_deg", "max_a_y_mps2",
     "max_roll_deg", "itae", "cones_hit", "comfort_a_v_mps2", "steering_reversals_per_s",
     "policy_time_p50_us", "policy_time_p95_us", "policy_time_max_us", "policy_real_time_factor", "solver_failures",
+    "late_decision_share",
 )
 """Every suite's leaderboard columns (every table format and the HTML board): the paper's metrics, then the policy's
-own compute per decision (``metrics.compute_metrics``: p50/p95/max [us], real-time factor at the control period)
-and its failed solves."""
+own compute per decision (``metrics.compute_metrics``: p50/p95/max [us], real-time factor at the control period),
+its failed solves and, with compute charged in the loop (``latency``), the share of its decisions that were late."""
 
 
 def suite_columns(suite: str) -> tuple[str, ...]:
@@ -76,11 +78,16 @@ def score_policy(name: str, make: Any, episodes: Sequence[Episode], suite: str,
 def run_benchmark(suite: str = "paper", store: ResultStore | None = None, policies: Sequence[str] | None = None,
                   figures_dir: str | Path | None = None, quick: bool = False,
                   show_progress: bool = True, seeds: Sequence[int] | None = None,
-                  vehicle: str | None = None, workers: int | None = 1, backend: str = "local") -> dict[str, Any]:
+                  vehicle: str | None = None, workers: int | None = 1, backend: str = "local",
+                  latency: str | float | None = None) -> dict[str, Any]:
     """Score every policy on ``suite``; write rows to ``store`` (each committed as its episode ends) and figures
     under ``figures_dir``.
 
     ``vehicle``: the car (a name of ``vehicle.list_vehicles()`` or a vehicle file; default the paper's car).
+
+    ``latency``: charge each decision's compute in the loop (``envs.latency``): ``"measured"`` (the policy call's
+    time) or a fixed budget in seconds; the rows record it (``options["latency"]`` / ``["latency_s"]``) and rank
+    apart from the ideal ones, beside them on the board (``None``: ideal, instant decisions).
 
     ``suite``: a registered suite (``suites.suite_names()``); ``seeds`` replaces its seeds (default: its own,
     ``Suite.seeds``; ``quick``: ``Suite.quick_seeds``).
@@ -102,7 +109,7 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
 
     chosen = get_suite(suite)
     vehicle = read_vehicle_once(vehicle)   # a vehicle file: its envs and rows use the bytes read here
-    episodes = with_vehicle(chosen.episodes_for(quick, seeds), vehicle)
+    episodes = with_latency(with_vehicle(chosen.episodes_for(quick, seeds), vehicle), latency)
     label = suite_label(suite, quick, seeds)
     factories = policy_factories(policies)
     tasks = [EpisodeTask(name, make, ep, label, chosen.score(make),

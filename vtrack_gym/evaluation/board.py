@@ -40,9 +40,10 @@ import numpy as np
 
 KEY_COLUMNS: tuple[str, ...] = ("env_id", "policy_id", "preset", "policy_hash")
 POLICY_METRICS: frozenset[str] = frozenset({"max_entry_speed_kmh", "entry_speed_bound_kmh", "entry_speed_fraction",
-                                            "above_physical_bound"})
+                                            "above_physical_bound", "late_decision_share"})
 """Columns aggregated over every episode, failed ones too: the entry-speed search's figures, which describe the
-policy on the manoeuvre at every speed, not the one run at the default speed."""
+policy on the manoeuvre at every speed, not the one run at the default speed; the share of late decisions under
+compute latency (a failed episode's decisions were late all the same)."""
 
 
 def clock_measured_columns() -> frozenset[str]:
@@ -168,9 +169,10 @@ def failure_reason(termination: str, metrics: Mapping[str, Any]) -> str:
 
 
 SETTING_OPTIONS: tuple[str, ...] = ("protocol", "env_config", "max_episode_steps", "wrappers", "env_kwargs",
-                                    "half_width_m")
+                                    "half_width_m", "latency", "latency_s")
 """Keys of a row's ``options`` that say how its env was set up beyond its id (``api.env_identity``: an entry speed or
-reference line, config fields, a time limit, wrappers, make kwargs, a half width): rows differing in any of them
+reference line, config fields, a time limit, wrappers, make kwargs, a half width, compute charged in the loop:
+``envs.latency``): rows differing in any of them
 never share a ranking. (Reset options of a suite's episodes, figure folders and track provenance are not settings:
 the id already encodes a track file's content and profile.)"""
 

@@ -49,6 +49,18 @@ def success_metrics(env: gym.Env) -> dict[str, float]:
     return dict(figures()) if callable(figures) else {}
 
 
+def latency_metrics(env: gym.Env) -> dict[str, float]:
+    """Under compute latency (``envs.latency``), the episode's ``late_decision_share`` (0..1: decisions whose
+    compute exceeded the control period) and ``max_latency_ms`` [ms]; empty when latency is off."""
+    stats = getattr(env.unwrapped, "latency_stats", None)
+    if not callable(stats):
+        return {}
+    found = stats()
+    if found["latency"] == "off":
+        return {}
+    return {"late_decision_share": float(found["late_share"]), "max_latency_ms": 1e3 * found["max_latency_s"]}
+
+
 def vehicle_label(vehicle: Any) -> str | None:
     """What a row records of the car in ``options["vehicle"]``: ``None`` for the default car (or a vehicle equal to
     it), a shipped vehicle's name, or ``<file stem>-<sha256[:10]>`` of a vehicle file (two files never mix; a
@@ -86,6 +98,7 @@ def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str,
     trace.policy_id = name
     metrics = evaluate_trace(trace)
     metrics.update(success_metrics(env))
+    metrics.update(latency_metrics(env))
     label = vehicle_label(ep.vehicle)
     options = dict(ep.options) if label is None else {**ep.options, "vehicle": label}
     driven = source_digest(tuple(getattr(env.unwrapped, "paths", ())))

@@ -33,3 +33,17 @@ def with_vehicle(episodes: Sequence[Episode], vehicle: Any) -> list[Episode]:
 
     chosen = vehicle if isinstance(vehicle, VehicleFile) else str(vehicle)   # a file read once stays as read
     return [replace(ep, vehicle=chosen) for ep in episodes]
+
+
+def with_latency(episodes: Sequence[Episode], latency: Any) -> list[Episode]:
+    """``episodes`` with each decision's compute charged (``envs.latency``): ``"measured"`` (the policy call's
+    time) or a fixed budget in seconds, added to their reset options (``latency`` / ``latency_s``), so their rows
+    record it and rank apart from the ideal ones; ``None`` or ``"off"``: unchanged. ``ValueError`` for anything
+    else."""
+    from vtrack_gym.envs.latency import Latency
+
+    chosen = Latency.parse(latency)
+    if not chosen.on:
+        return list(episodes)
+    option = {"latency": "measured"} if chosen.mode == "measured" else {"latency_s": chosen.seconds}
+    return [replace(ep, options={**ep.options, **option}) for ep in episodes]

@@ -24,9 +24,10 @@ steering wiggle, which a filter would hide."""
 
 
 CLOCK_MEASURED: tuple[str, ...] = ("wall_time_per_step_s", "policy_time_p50_us", "policy_time_p95_us",
-                                   "policy_time_max_us", "policy_real_time_factor")
+                                   "policy_time_max_us", "policy_real_time_factor", "late_decision_share",
+                                   "max_latency_ms")
 """Metrics measured from the clock (the machine's speed, not the episode's): the only metrics two runs of the same
-episode may differ in."""
+episode may differ in (with ``latency="measured"`` the compute charged moves the whole episode)."""
 
 def rms(values: np.ndarray, time_s: np.ndarray | None = None) -> float:
     """Root mean square sqrt((1/T) int x^2 dt) (trapezoid on ``time_s``; plain mean for uniform samples)."""

@@ -65,6 +65,8 @@ def rollout(policy: PolicyLike, env_id_or_env: str | gym.Env, seed: int | None =
     obs, _ = env.reset(seed=seed, options=options)
     unwrapped = env.unwrapped
     cfg = unwrapped.config
+    latency = getattr(unwrapped, "latency", None)
+    measured = latency is not None and latency.mode == "measured"
     state = None
     episode_start = np.ones(1, dtype=bool)
     infos: list[dict[str, Any]] = []
@@ -77,6 +79,8 @@ def rollout(policy: PolicyLike, env_id_or_env: str | gym.Env, seed: int | None =
         start = time.perf_counter()
         action, state = policy.predict(obs, state=state, episode_start=episode_start, deterministic=deterministic)
         policy_s.append(time.perf_counter() - start)
+        if measured:   # the policy call alone is charged, not the harness around it
+            unwrapped.charge_compute(policy_s[-1])
         episode_start = np.zeros(1, dtype=bool)
         obs, _, terminated, truncated, info = env.step(step_action(action, (1,)))
         step_s.append(time.perf_counter() - start)

@@ -32,8 +32,8 @@ from vtrack_gym.envs.observation import N_SCALARS, ObservationLayout
 from vtrack_gym.envs.pdflc_kernel import pdflc_step
 from vtrack_gym.envs.schema import REWARD_TERMS, SIGNAL_ROW
 from vtrack_gym.tracks import table as track_table
+from vtrack_gym.tracks.kernels import curvature_at, interp_row, lateral_offset, project_point
 from vtrack_gym.tracks.kernels import interp_linear as _linear
-from vtrack_gym.tracks.kernels import interp_row, lateral_offset, project_point
 from vtrack_gym.tracks.kernels import wrap_angle as _wrap
 from vtrack_gym.vehicle import layout as L
 from vtrack_gym.vehicle.kernels import step_vehicle
@@ -259,9 +259,8 @@ def observe_one(i: int, a: SimArrays, a_x: float, window_m: float, first: bool) 
     write_scalar_fields(obs[i], e_y, e_phi, vx, vy, r, state[L.S_DELTA], car[i, CAR_V_REF], kappa, dkappa, s_dot,
                         a_x)
     v_prev = vx if vx > preview_vmin else preview_vmin
-    for j in range(n_preview):
-        interp_row(table, ds, length, closed, s + v_prev * (j + 1) * preview_dt, row)
-        obs[i, O_PREVIEW + j] = row[C_KAPPA]
+    for j in range(n_preview):   # the curvature alone: nothing computed and thrown away
+        obs[i, O_PREVIEW + j] = curvature_at(table, ds, length, closed, s + v_prev * (j + 1) * preview_dt)
     o_speed = O_PREVIEW + n_preview
     speed_dt = cfg[CFG_SPEED_DT]
     for j in range(int(cfg[CFG_NSPEED])):
@@ -270,8 +269,8 @@ def observe_one(i: int, a: SimArrays, a_x: float, window_m: float, first: bool) 
         else:
             obs[i, o_speed + j] = car[i, CAR_V_REF]
 
-    # Road inputs for the next control period: grade and vertical acceleration v^2 z''(s) at the projection.
-    interp_row(table, ds, length, closed, s, row)
+    # Road inputs for the next control period: grade and vertical acceleration v^2 z''(s) at the projection
+    # (``row`` still holds the projection's row).
     a.road[i, L.R_GRADE] = math.atan(row[C_GRADE])
     a.road[i, L.R_AZ] = vx * vx * row[C_ZPP]
 

@@ -109,6 +109,16 @@ def interp_row(table: np.ndarray, ds: float, length: float, closed: bool, s: flo
 
 
 @kernel
+def curvature_at(table: np.ndarray, ds: float, length: float, closed: bool, s: float) -> float:
+    """Curvature [1/m] at arc length s [m]: ``interp_row``'s kappa column alone (the same formula and bits, without
+    the plane's 4 sin/cos and the other 7 columns; what a curvature preview needs)."""
+    i, t = _locate(table.shape[0], ds, length, closed, s)
+    a = table[i]
+    b = table[i + 1]
+    return _h3(a[C_KAPPA], a[C_DKAPPA], b[C_KAPPA], b[C_DKAPPA], t, ds)
+
+
+@kernel
 def interp_linear(table: np.ndarray, ds: float, length: float, closed: bool, s: float, col: int) -> float:
     """Column ``col`` of ``table`` at arc length s [m], linear between rows (wrapped / clamped like the path)."""
     j, t = _locate(table.shape[0], ds, length, closed, s)

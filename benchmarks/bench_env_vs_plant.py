@@ -1,0 +1,92 @@
+"""An env step against a plant step, on one thread, in the same units: CPU time per car and control period.
+
+The env step is ``BatchSim.step`` (what the vector env and the single env call: speed loop, plant, projection,
+observation, termination, reward); the plant step is ``Plant.step`` alone over the same physics steps (5 of 2 ms).
+Both run on one numba thread and are timed with ``time.process_time`` (CPU time, so a loaded machine slows both
+alike), alternating env and plant per repeat; the median of the repeats is shown with the load average.
+Run: ``python benchmarks/bench_env_vs_plant.py [N ...]`` (default N = 256 4096).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+REPEATS = 5
+MIN_CPU_S = 0.4   # CPU time per repeat and side
+
+
+def cpu_ns_per_call(fn: Callable[[], object]) -> float:
+    """CPU time of one call of ``fn`` [ns] over at least ``MIN_CPU_S`` of CPU."""
+    calls = 0
+    start = time.process_time()
+    while True:
+        fn()
+        calls += 1
+        spent = time.process_time() - start
+        if spent >= MIN_CPU_S:
+            return 1e9 * spent / calls
+
+
+def env_step(n: int) -> Callable[[], object]:
+    """One control period of ``n`` cars on the training mix's random tracks (steering 0.01, cars that end reset)."""
+    from vtrack_gym.envs.config import EnvConfig, ResetOptions
+    from vtrack_gym.envs.scenarios import resolve_scenario
+    from vtrack_gym.envs.sim import BatchSim
+
+    sim = BatchSim(resolve_scenario("LateralTracking-v0"), EnvConfig(), n)
+    for i in range(n):
+        sim.seed(i, i)
+        sim.reset_car(i, ResetOptions())
+    sim.observe_after_reset(np.arange(n))
+    actions = np.full(n, 0.01)
+
+    def step() -> None:
+        sim.step(actions)
+        ended = np.flatnonzero(sim.term != 0)
+        for i in ended:
+            sim.reset_car(int(i), ResetOptions())
+        if ended.size:
+            sim.observe_after_reset(ended)
+
+    return step
+
+
+def plant_step(n: int) -> Callable[[], object]:
+    """The plant alone over one control period (5 physics steps) of ``n`` cars at 11 m/s."""
+    from vtrack_gym.vehicle.plant import Plant
+
+    plant = Plant(n=n)
+    plant.state[:, 3] = 11.1
+    inputs = np.column_stack([np.full(n, 0.01), np.full(n, 0.2), np.zeros(n)])
+    return lambda: plant.step(inputs, 5)
+
+
+def main(sizes: list[int]) -> None:
+    import numba
+
+    numba.set_num_threads(1)
+    print(f"one thread; CPU time per car and control period (5 physics steps); load average "
+          f"{os.getloadavg()[0]:.1f} at start")
+    print(f"{'N':>6} {'env ns':>9} {'plant ns':>9} {'env/plant':>10} {'load':>5}")
+    for n in sizes:
+        env, plant = env_step(n), plant_step(n)
+        env(), plant()   # compile and warm
+        ratios, envs, plants = [], [], []
+        for _ in range(REPEATS):
+            e = cpu_ns_per_call(env) / n
+            p = cpu_ns_per_call(plant) / n
+            envs.append(e)
+            plants.append(p)
+            ratios.append(e / p)
+        print(f"{n:>6} {np.median(envs):>9.0f} {np.median(plants):>9.0f} {np.median(ratios):>9.2f}x "
+              f"{os.getloadavg()[0]:>5.1f}")
+    print("target: env/plant <= 1.25x (median of the per-repeat ratios)")
+
+
+if __name__ == "__main__":
+    main([int(a) for a in sys.argv[1:]] or [256, 4096])

@@ -1,7 +1,8 @@
 """Determinism: same seed -> bit-identical traces, across processes and between the single and the vector env.
 
 README: "sub-env i of a vector env seeded s is bit-identical to a single env seeded s + i". The vector env uses
-the serial kernel below 128 cars and the parallel one from 128 (``PARALLEL_THRESHOLD``); both are covered.
+the serial kernel below ``vehicle.threads.parallel_min_n()`` cars and the parallel one from there (forced from 128
+here); both are covered.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import numpy as np
 import pytest
 
 import vtrack_gym  # noqa: F401
-from vtrack_gym.vehicle.plant import PARALLEL_THRESHOLD
+from vtrack_gym.vehicle.threads import MIN_N_VARIABLE, parallel_min_n
 
 OPTIONS = {"sensor_noise": 1.0, "actuator_delay_s": 0.02, "friction_mu": 0.8, "mass_scale": 1.2}
 STEPS = 500
@@ -157,9 +158,10 @@ def test_vector_64_matches_vector_1_seeded_s_plus_i():
         _assert_same(one, vec[i], f"car {i} of N={n} vs N=1")
 
 
-def test_parallel_kernel_130_matches_single_envs(single_env):
+def test_parallel_kernel_130_matches_single_envs(single_env, monkeypatch):
     n, seed, steps = 130, 555, 200
-    assert n >= PARALLEL_THRESHOLD
+    monkeypatch.setenv(MIN_N_VARIABLE, "128")   # the multi-threaded kernel from 128 cars on
+    assert parallel_min_n() <= n
     actions = _actions(steps, n)
     cars = [0, 1, 64, 129]
     vec = _vector_traces(n, seed, actions, cars)

@@ -27,7 +27,8 @@ from vtrack_gym.envs.speed import speed_part
 from vtrack_gym.envs.track_bank import TrackBank
 from vtrack_gym.vehicle import layout as L
 from vtrack_gym.vehicle.params import VehicleParams
-from vtrack_gym.vehicle.plant import PARALLEL_THRESHOLD, Plant
+from vtrack_gym.vehicle.plant import Plant
+from vtrack_gym.vehicle.threads import use_parallel
 
 TERMINATION_NAMES: tuple[str, ...] = ("", "completed", "off_road", "spin_out", "wheel_lift", "invalid_state")
 """``info["termination"]`` for each kernel termination code ("" = still running)."""
@@ -95,7 +96,7 @@ class BatchSim:
         """Compute latency: each car's commands take effect after their decision's delay (``envs.latency``)."""
         self.max_steer_rad = config.vehicle.steering.max_road_wheel_angle_rad  # road-wheel angle of action 1 [rad]
         self.arrays = self._bundle(k, scenario, config)
-        self._step_kernel = k.step_parallel if n >= PARALLEL_THRESHOLD else k.step_serial
+        self._step_kernel = k.step_parallel if use_parallel(n) else k.step_serial
         self._step_compiled = None  # the kernel's compiled entry point for ``self.arrays`` (see _run_kernel)
         self._observe = k.observe_indices
         self.criterion = scenario.success.resolve(self.paths)

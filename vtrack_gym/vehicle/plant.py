@@ -9,9 +9,11 @@ import numpy as np
 from vtrack_gym.vehicle import layout as L
 from vtrack_gym.vehicle.packing import pack_params_batch
 from vtrack_gym.vehicle.params import VehicleParams
+from vtrack_gym.vehicle.threads import PARALLEL_MIN_N, use_parallel
 
-PARALLEL_THRESHOLD = 128
-"""Batches at least this large are stepped by the multi-threaded kernel (identical results)."""
+PARALLEL_THRESHOLD = PARALLEL_MIN_N
+"""The default size from which batches are stepped by the multi-threaded kernel (identical results; the one
+rule, with its override, is ``vehicle.threads.use_parallel``)."""
 
 
 def _kernels():
@@ -52,7 +54,7 @@ class Plant:
         self._out_cache: dict[int, np.ndarray] = {}
         k = _kernels()
         self._work = np.empty((self.n, k.WORKSPACE_SIZE), dtype=np.float64)
-        self._step = k.step_batch_parallel if self.n >= PARALLEL_THRESHOLD else k.step_batch_serial
+        self._step = k.step_batch_parallel if use_parallel(self.n) else k.step_batch_serial
 
     @property
     def workspace(self) -> np.ndarray:

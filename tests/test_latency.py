@@ -147,3 +147,14 @@ def test_schedule_newer_decision_replaces_older_waiting_one() -> None:
     s.schedule(0, 3, 2.0, 0.0)
     np.testing.assert_array_equal(s.cmds[0], [2.0] * 5)   # the older decision was dropped, never applied
     assert flags[0] == 0.0
+
+
+@pytest.mark.parametrize("where", ["make", "reset"])
+def test_the_vector_env_refuses_latency_clearly(where) -> None:
+    if where == "make":
+        with pytest.raises(ValueError, match="single env"):
+            gym.make_vec(ENV, num_envs=2, vectorization_mode="vector_entry_point", latency="measured")
+        return
+    envs = gym.make_vec(ENV, num_envs=2, vectorization_mode="vector_entry_point")
+    with pytest.raises(ValueError, match="single env"):
+        envs.reset(seed=0, options={"latency_s": 0.01})

@@ -40,6 +40,15 @@ def seeds_for(seed: int | list[int | None] | None, n: int) -> list[int | None]:
     return seeds
 
 
+def refuse_latency(given: dict[str, Any], what: str) -> None:
+    """``ValueError`` when ``given`` holds compute latency (``envs.latency``): the vector env steps every car at once,
+    so one decision's compute is not defined; charge it on the single env (``gym.make(..., latency=...)``)."""
+    for key in ("latency", "latency_s", "latency_clock"):
+        if key in given:
+            raise ValueError(f"{what} {key!r} applies to the single env (gym.make(id, {key}=...)): the vector env "
+                             "steps every car at once, so one decision's compute time is not defined")
+
+
 class TrackingVectorEnv(VectorEnv):
     """Batched version of ``TrackingEnv`` (same scenario, config and per-car results)."""
 
@@ -56,6 +65,7 @@ class TrackingVectorEnv(VectorEnv):
                                     {"allow_self_crossing": allow_self_crossing, "track_options": track_options})
         if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer (got {num_envs!r})")
+        refuse_latency(config_overrides, "argument")
         config = scenario_config(scenario, config, config_overrides)
         scenario = with_protocol(scenario, config.vehicle, entry_speed_kmh, reference, track_limits)
         self.scenario = scenario
@@ -85,6 +95,7 @@ class TrackingVectorEnv(VectorEnv):
         if options is not None and not isinstance(options, dict):
             raise ValueError(f"reset options must be a dict (got {type(options).__name__})")
         opts = dict(options or {})
+        refuse_latency(opts, "reset option")
         mask = self._check_mask(opts.pop("reset_mask")) if "reset_mask" in opts else self._all
         reset_opts = ResetOptions.from_dict(opts)
         self.sim.delay_steps_of(reset_opts)

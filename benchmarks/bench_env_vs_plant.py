@@ -32,7 +32,7 @@ def cpu_ns_per_call(fn: Callable[[], object]) -> float:
             return 1e9 * spent / calls
 
 
-def env_step(n: int) -> Callable[[], object]:
+def handling_course(n: int) -> Callable[[], object]:
     """One control period of ``n`` cars on the handling course (steering 0.01; a car whose episode ended keeps
     being stepped, as the compiled step does, so no Python-side reset is timed)."""
     from vtrack_gym.envs.config import EnvConfig, ResetOptions
@@ -67,7 +67,7 @@ def main(sizes: list[int]) -> None:
           f"{os.getloadavg()[0]:.1f} at start")
     print(f"{'N':>6} {'env ns':>9} {'plant ns':>9} {'env/plant':>10} {'load':>5}")
     for n in sizes:
-        env, plant = env_step(n), plant_step(n)
+        env, plant = handling_course(n), plant_step(n)
         env(), plant()   # compile and warm
         ratios, envs, plants = [], [], []
         for _ in range(REPEATS):

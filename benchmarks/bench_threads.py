@@ -26,20 +26,13 @@ MIN_WALL_S = 0.3
 
 def measure(n: int) -> dict[str, float]:
     """CPU and wall ns per car-step of ``n`` cars in this process."""
-    from vtrack_gym.envs.config import EnvConfig, ResetOptions
-    from vtrack_gym.envs.scenarios import resolve_scenario
-    from vtrack_gym.envs.sim import BatchSim
+    from bench_env_vs_plant import handling_course
 
-    sim = BatchSim(resolve_scenario("LateralTracking-v0"), EnvConfig(), n)
-    for i in range(n):
-        sim.seed(i, i)
-        sim.reset_car(i, ResetOptions())
-    sim.observe_after_reset(np.arange(n))
-    actions = np.full(n, 0.01)
-    sim.step(actions)   # compile / load and warm
+    step = handling_course(n)
+    step()   # compile / load and warm
     calls, c0, w0 = 0, time.process_time(), time.perf_counter()
     while time.perf_counter() - w0 < MIN_WALL_S:
-        sim.step(actions)
+        step()
         calls += 1
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     return {"cpu_ns": 1e9 * cpu / (calls * n), "wall_ns": 1e9 * wall / (calls * n)}

@@ -203,8 +203,10 @@ class TrackingEnv(gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
-        options = dict(options or {})
-        latency = Latency.parse(options.pop("latency", None), options.pop("latency_s", None))
+        latency = Latency()
+        if isinstance(options, dict) and ("latency" in options or "latency_s" in options):
+            options = dict(options)
+            latency = Latency.parse(options.pop("latency", None), options.pop("latency_s", None))
         opts = ResetOptions.from_dict(options)
         self.latency = latency if latency.on else self._default_latency
         self._sim.rngs[0] = self.np_random

@@ -109,3 +109,31 @@ def test_a_vehicle_file_saved_during_eval_changes_no_row(tmp_path: Path, monkeyp
     assert not (tmp_path / "replacement.json").exists()          # the file was saved during the run
     labels = {r["options"].get("vehicle") for r in ResultStore(store, read_only=True).rows()}
     assert labels == {f"my_car-{original}"}
+
+
+def test_yaw_acc_ref_stays_in_its_box_on_a_path_whose_curvature_alternates_every_0_1_m() -> None:
+    """An accepted path (curvature rate within the loader's 10 1/m^2) driven at 40 km/h asks for a reference yaw
+    acceleration above the 1000 rad/s^2 of its box: the field is saturated at its bound, and every observation
+    stays inside the space."""
+    import gymnasium as gym
+
+    from vtrack_gym.envs import OBS
+    from vtrack_gym.tracks import ConstantSpeed
+    from vtrack_gym.tracks import Path as TrackPath
+
+    from vtrack_gym.tracks.profiles import CurvatureProfile
+
+    segments = [(0.1, 0.25 if i % 2 == 0 else -0.25) for i in range(3000)]   # the sign flips every 0.1 m
+    path = TrackPath.from_curvature(CurvatureProfile.from_segments(-0.25, segments), 299.9)
+    assert float(np.max(np.abs(path.table[:, 4]))) <= 10.0   # a curvature rate the loader accepts
+    env = gym.make("vtrack/Track-v0", track=path, speed_profile=ConstantSpeed(40.0 / 3.6))
+    obs, _ = env.reset(seed=0)
+    peak = 0.0
+    for _ in range(3000):   # from standstill up to 40 km/h, then on at that speed
+        obs, _, terminated, truncated, _ = env.step(np.zeros(1, dtype=np.float32))
+        assert env.observation_space.contains(obs)
+        peak = max(peak, abs(float(obs[OBS.YAW_ACC_REF])))
+        if terminated or truncated:
+            break
+    env.close()
+    assert peak == 1000.0   # it would exceed the box: saturated exactly at the bound

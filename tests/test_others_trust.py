@@ -8,6 +8,7 @@ import pickle
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 import vtrack_gym
 from vtrack_gym.tracks import load_track
@@ -63,6 +64,7 @@ import os
 from pathlib import Path
 
 import numpy as np
+import pytest
 from vtrack_gym.envs import OBS
 
 
@@ -120,7 +122,6 @@ def test_yaw_acc_ref_stays_in_its_box_on_a_path_whose_curvature_alternates_every
     from vtrack_gym.envs import OBS
     from vtrack_gym.tracks import ConstantSpeed
     from vtrack_gym.tracks import Path as TrackPath
-
     from vtrack_gym.tracks.profiles import CurvatureProfile
 
     segments = [(0.1, 0.25 if i % 2 == 0 else -0.25) for i in range(3000)]   # the sign flips every 0.1 m
@@ -137,3 +138,41 @@ def test_yaw_acc_ref_stays_in_its_box_on_a_path_whose_curvature_alternates_every
             break
     env.close()
     assert peak == 1000.0   # it would exceed the box: saturated exactly at the bound
+
+
+def test_ray_with_a_track_edited_during_the_run_is_a_clear_error(tmp_path: Path,
+                                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    """``vtrack benchmark --tracks ... --backend ray``: the Ray worker makes the parent's env id whatever the file
+    holds now, so a track edited after it was registered gives the same one-line refusal as a local run (exit 2,
+    no traceback, no row of the edited content)."""
+    import os
+
+    import vtrack_gym.envs.registration as registration
+    from vtrack_gym.cli import main
+    from vtrack_gym.evaluation.store import ResultStore
+
+    ray = pytest.importorskip("ray")
+    if ray.is_initialized():
+        pytest.skip("Ray is already initialised in this process")
+    tracks = tmp_path / "tracks"
+    tracks.mkdir()
+    road = _road(tracks / "road.csv")
+    real = registration.register_track
+
+    def register_then_edit(*args, **kwargs):  # the file is saved right after the run registered it
+        found = real(*args, **kwargs)
+        road.write_text(road.read_text().replace("118.000", "118.500"))
+        return found
+
+    os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
+    ray.init(num_cpus=1, include_dashboard=False, _node_ip_address="127.0.0.1", log_to_driver=False)
+    try:
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(registration, "register_track", register_then_edit)
+            code = main(["benchmark", "--tracks", str(tracks), "--policies", "stanley", "--backend", "ray",
+                         "--no-figures", "--store", str(tmp_path / "s.sqlite")])
+    finally:
+        ray.shutdown()
+    err = capsys.readouterr().err
+    assert code == 2 and "changed while it was used" in err and "Traceback" not in err
+    assert ResultStore(tmp_path / "s.sqlite", read_only=True).rows() == []

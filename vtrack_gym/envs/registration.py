@@ -88,8 +88,6 @@ def register_track(track_file: str | os.PathLike[str], speed_profile: Any, close
     from dataclasses import asdict
     from pathlib import Path as FsPath
 
-    from gymnasium.envs.registration import register, registry
-
     from vtrack_gym.tracks.sources import file_digest
     from vtrack_gym.tracks.speed_profiles import as_speed_profile
 
@@ -104,13 +102,31 @@ def register_track(track_file: str | os.PathLike[str], speed_profile: Any, close
                                     sort_keys=True).encode()).hexdigest()[:10]
     stem = re.sub(r"[^A-Za-z0-9_.]", "_", file.stem)[:40] or "track"
     env_id = f"{TRACK_ID_PREFIX}{stem}-{key}-v0"
+    register_track_id(env_id, file, profile, closed, smoothing_m)
+    provenance = {"track_file": file.name, "track_sha256": file_sha, "speed_profile": params}
+    return env_id, {**provenance, "track_read": read} if read else provenance
+
+
+def register_track_id(env_id: str, track_file: str | os.PathLike[str], speed_profile: Any,
+                      closed: bool | None = None, smoothing_m: float | None = None) -> str:
+    """Register ``env_id`` (an id ``register_track`` made) driving ``track_file`` with ``speed_profile``, if this
+    process does not know it yet; returns ``env_id``. A worker process (Ray) registers the parent's id this way,
+    whatever the file holds now: an env made from an edited file then records the hash of what it read, and the
+    parent refuses that row (``track_benchmark.merge_provenance``), as it does for a local run."""
+    from pathlib import Path as FsPath
+
+    from gymnasium.envs.registration import register, registry
+
+    from vtrack_gym.tracks.speed_profiles import as_speed_profile
+
+    read = {k: v for k, v in (("closed", closed), ("smoothing_m", smoothing_m)) if v is not None}
     if env_id not in registry:
         register(id=env_id, entry_point="vtrack_gym.envs.tracking_env:TrackingEnv",
                  vector_entry_point="vtrack_gym.envs.vector_env:TrackingVectorEnv",
-                 kwargs={"scenario": "Track-v0", "track": str(file.resolve()), "speed_profile": profile, **read},
+                 kwargs={"scenario": "Track-v0", "track": str(FsPath(track_file).resolve()),
+                         "speed_profile": as_speed_profile(speed_profile), **read},
                  max_episode_steps=None, disable_env_checker=False)
-    provenance = {"track_file": file.name, "track_sha256": file_sha, "speed_profile": params}
-    return env_id, {**provenance, "track_read": read} if read else provenance
+    return env_id
 
 
 TRACK_ID_PREFIX = "vtrack/Track-"

@@ -108,7 +108,7 @@ def benchmark_tracks(dir_or_glob: str | Path, factories: Mapping[str, Any], seed
     each row committed as its episode ends. Returns ``{"rows", "traces", "figures", "suite", "lost", "tracks":
     [files]}``.
     """
-    from vtrack_gym.envs.registration import register_track
+    from vtrack_gym.envs.registration import register_track, register_track_id
     from vtrack_gym.tracks.speed_limits import speed_profile_from_limits
 
     files = track_files(dir_or_glob)
@@ -116,7 +116,7 @@ def benchmark_tracks(dir_or_glob: str | Path, factories: Mapping[str, Any], seed
     tracks = []
     for file in files:
         env_id, provenance = register_track(file, speed_profile, closed, smoothing_m)
-        setup = functools.partial(register_track, file, speed_profile, closed, smoothing_m)
+        setup = functools.partial(register_track_id, env_id, file, speed_profile, closed, smoothing_m)
         tracks.append((env_id, provenance, setup))
     name = Path(str(dir_or_glob)).name if Path(str(dir_or_glob)).is_dir() else Path(str(dir_or_glob)).parent.name
     suite = track_set_suite(name, [p for _, p, _ in tracks], seeds)

@@ -85,3 +85,37 @@ def test_a_creator_killed_midway_leaves_no_store_that_later_commands_refuse(tmp_
     store = ResultStore(path)                # the next command creates the store normally
     store.add(_rows(2))
     assert len(ResultStore(path, read_only=True).rows()) == 2
+
+
+def test_a_read_refused_on_a_full_disk_says_so(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    """A store with a ``-wal`` file needs room for SQLite's shared-memory file to be read: on a full disk the read
+    fails with an I/O error, which is said as a full disk (not "not a readable SQLite file ... Move it away")."""
+    import sqlite3
+
+    import vtrack_gym.evaluation.store as store_module
+
+    path = tmp_path / "s.sqlite"
+    ResultStore(path).add(_rows(3))
+    real = ResultStore._connect_ro
+
+    class _FullDiskConnection:
+        def __init__(self, con: sqlite3.Connection) -> None:
+            self.con = con
+
+        def execute(self, sql: str, *args: object) -> object:
+            if "sqlite_master" in sql:
+                exc = sqlite3.OperationalError("disk I/O error")
+                exc.sqlite_errorcode = sqlite3.SQLITE_IOERR
+                raise exc
+            return self.con.execute(sql, *args)
+
+        def close(self) -> None:
+            self.con.close()
+
+    monkeypatch.setattr(ResultStore, "_connect_ro", lambda self, immutable: _FullDiskConnection(real(self,
+                                                                                                    immutable)))
+    monkeypatch.setattr(store_module, "disk_is_full", lambda folder: True)
+    assert main(["leaderboard", "--suite", "bulk", "--store", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "the disk is full" in err and "Move it away" not in err and "corrupted" not in err

@@ -176,3 +176,39 @@ def test_ray_with_a_track_edited_during_the_run_is_a_clear_error(tmp_path: Path,
     err = capsys.readouterr().err
     assert code == 2 and "changed while it was used" in err and "Traceback" not in err
     assert ResultStore(tmp_path / "s.sqlite", read_only=True).rows() == []
+
+
+def test_a_crashed_ray_worker_costs_only_its_episode(tmp_path: Path) -> None:
+    """On the Ray backend a worker that dies (here ``os._exit`` in the first episode's policy factory) is a lost
+    episode, not a ``WorkerCrashedError`` that loses the run: the other episodes are delivered."""
+    import os
+
+    from vtrack_gym.evaluation.benchmark import score_episode
+    from vtrack_gym.evaluation.parallel import EpisodeTask, run_tasks
+    from vtrack_gym.evaluation.suites import Episode
+    from vtrack_gym.evaluation.worker_pool import LostTask
+
+    ray = pytest.importorskip("ray")
+    if ray.is_initialized():
+        pytest.skip("Ray is already initialised in this process")
+    marker = str(tmp_path / "crashed")
+
+    def make(env):  # pickled by value to the Ray worker
+        from vtrack_gym.baselines.registry import make_policy
+
+        try:
+            os.close(os.open(marker, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+        except FileExistsError:
+            return make_policy("stanley", env)
+        os._exit(9)
+
+    tasks = [EpisodeTask("stanley", make, Episode("DLC120-v0", seed), "custom", score_episode) for seed in (0, 1, 2)]
+    os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
+    ray.init(num_cpus=1, include_dashboard=False, _node_ip_address="127.0.0.1", log_to_driver=False)
+    try:
+        results = run_tasks(tasks, backend="ray")
+    finally:
+        ray.shutdown()
+    lost = [r for r in results if isinstance(r, LostTask)]
+    assert len(lost) == 1 and "died" in lost[0].reason
+    assert sorted(r[0].seed for r in results if not isinstance(r, LostTask)) == sorted({0, 1, 2} - {lost[0].index})

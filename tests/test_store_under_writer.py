@@ -60,18 +60,16 @@ def test_100k_row_store_under_a_writer_is_never_called_corrupted(tmp_path: Path,
 
 CREATOR = textwrap.dedent('''
     import os, sqlite3, sys
-    from vtrack_gym.evaluation import store as store_module
+    from vtrack_gym.evaluation import store, store_sqlite
 
-    real = store_module.ResultStore._create_schema
-
-    def killed_midway(self, file):
+    def killed_midway(file, timeout_s, name):
         with sqlite3.connect(file) as con:   # the schema half made, then the creator is killed
             con.execute("PRAGMA journal_mode = WAL")
-            con.execute(store_module._META_SQL)
+            con.execute(store_sqlite.META_SQL)
         os.kill(os.getpid(), 9)
 
-    store_module.ResultStore._create_schema = killed_midway
-    store_module.ResultStore(sys.argv[1])
+    store_sqlite.create_schema = killed_midway
+    store.ResultStore(sys.argv[1])
 ''')
 
 
@@ -93,7 +91,7 @@ def test_a_read_refused_on_a_full_disk_says_so(tmp_path: Path, monkeypatch: pyte
     fails with an I/O error, which is said as a full disk (not "not a readable SQLite file ... Move it away")."""
     import sqlite3
 
-    import vtrack_gym.evaluation.store as store_module
+    import vtrack_gym.evaluation.store_sqlite as store_module
 
     path = tmp_path / "s.sqlite"
     ResultStore(path).add(_rows(3))

@@ -134,9 +134,9 @@ def run_tasks(tasks: Sequence[EpisodeTask], workers: int | None = 1, backend: st
 
 
 def lost_line(task: EpisodeTask, lost: LostTask) -> str:
-    """``lqr on DLC120-v0 seed 0: its worker was killed by SIGKILL`` (what a lost episode's report says)."""
+    """``lqr on DLC120-v0 seed 0: worker killed by SIGKILL`` (what a lost episode's report says)."""
     ep = task.episode
-    return f"{task.policy_id} on {ep.env_id} seed {ep.seed}: its worker {lost.reason}"
+    return f"{task.policy_id} on {ep.env_id} seed {ep.seed}: worker {lost.reason}"
 
 
 def _advance(task: EpisodeTask, result: tuple[Any, Any], progress: Any) -> tuple[Any, Any]:

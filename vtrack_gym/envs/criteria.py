@@ -191,7 +191,7 @@ _RULE_MEASURES: dict[str, int] = {"centre": 0, "wheels": 1, "body": 2}   # track
 class EdgeState(NamedTuple):
     """``TrackLimits`` state: per track its edge polylines; per car its last pose and its record so far."""
 
-    edges: dict[int, tuple[np.ndarray, float, bool]]   # track -> (edges (m, 4) [m], ds [m], closed)
+    edges: dict[int, tuple[np.ndarray, float, bool]]   # track -> (tracks.judge.edge_polylines, ds [m], closed)
     body: np.ndarray           # tracks.judge.body_row of the car
     prev: np.ndarray           # (n, 4) x, y [m], psi [rad], station [m] after the last step
     fresh: np.ndarray          # (n,) bool: no step since the reset (``prev`` not yet set)

@@ -85,10 +85,10 @@ class SuccessCriterion:
 
     def safety(self, state: Any, cars: CarsView) -> tuple[np.ndarray, np.ndarray]:
         """Each car's ``info["cost"]`` (1.0 on a step that broke the scenario's rule, else 0.0) and
-        ``info["edge_margin_m"]`` (the body's least clearance to a road edge over the step [m]; NaN where the
+        ``info["edge_margin_m"]`` (the body's least clearance to a road edge over the step [m]; +inf where the
         criterion does not measure it). By default the rule is the road at the CG: cost 1.0 on the step that ends
         the episode ``off_road``."""
-        return (cars.termination == cars.off_road_code).astype(np.float64), np.full(cars.steps.shape, np.nan)
+        return (cars.termination == cars.off_road_code).astype(np.float64), np.full(cars.steps.shape, np.inf)
 
 
 @dataclass(frozen=True)
@@ -247,7 +247,7 @@ class TrackLimits(SuccessCriterion):
         z = np.zeros(n)
         return EdgeState(edges, body_row(vehicle.chassis), np.zeros((n, 4)), np.ones(n, dtype=bool),
                          np.zeros(n, dtype=bool), np.zeros(n, dtype=np.int64), np.full(n, np.inf), z.copy(),
-                         np.full(n, np.nan), z.copy(), z.copy(), z.copy())
+                         np.full(n, np.inf), z.copy(), z.copy(), z.copy())
 
     def reset_car(self, state: EdgeState, i: int, vehicle: Any) -> None:
         state.fresh[i] = True
@@ -255,7 +255,7 @@ class TrackLimits(SuccessCriterion):
         state.violations[i] = 0
         state.min_margin[i] = np.inf
         state.cost[i] = 0.0
-        state.margin[i] = np.nan
+        state.margin[i] = np.inf
 
     def observe_step(self, state: EdgeState, cars: CarsView) -> None:
         from vtrack_gym.tracks.judge import SWEEP_TOL_M, judge_edges

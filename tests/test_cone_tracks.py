@@ -100,3 +100,28 @@ def test_bad_cone_files_name_the_cone_lines(edit, message: str, tmp_path: Path) 
     file = _write(tmp_path / "bad.cones.csv", blue, yellow, extra)
     with pytest.raises(ValueError, match=message):
         load_cone_track(file)
+
+
+@pytest.mark.parametrize(("into_m", "hits"), [(0.001, True), (-0.002, False)])
+def test_cones_are_judged_as_discs_to_the_millimetre(into_m: float, hits: bool, tmp_path: Path) -> None:
+    """A straight cone lane 3 m wide (cones every 3 m); the car drives straight with its left side ``into_m`` into
+    the blue cones' discs (radius 0.114 m): 1 mm in touches every cone it passes (2 s each), 2 mm clear none."""
+    from vtrack_gym.tracks.cones import CONE_RADIUS_M
+
+    xs = np.arange(0.0, 61.0, 3.0)
+    file = _write(tmp_path / "lane.cones.csv", [(x, HALF_M) for x in xs], [(x, -HALF_M) for x in xs], ())
+    body_half = 1.916 / 2                                                    # the hatchback's body
+    offset = HALF_M - CONE_RADIUS_M["blue"] - body_half + into_m
+    env = gym.make("vtrack/Track-v0", track=str(file), track_limits="body", speed_profile=8.0)
+    env.reset(seed=0, options={"initial_lateral_offset_m": offset})
+    done = False
+    while not done:
+        _, _, term, trunc, info = env.step(np.zeros(1, dtype=np.float32))
+        done = term or trunc
+    metrics = env.unwrapped.success_metrics()
+    assert info["termination"] == "completed"
+    if hits:
+        assert metrics["cones_hit"] >= 15 and metrics["fs_penalty_s"] == 2.0 * metrics["cones_hit"]
+    else:
+        assert metrics["cones_hit"] == 0.0 and metrics["fs_penalty_s"] == 0.0
+    assert info["success"]      # the cone lines themselves are 0.11 m further out: the body rule holds

@@ -6,8 +6,9 @@ order (files listing the cones in any order, as FSDS's do, are chained by neares
 cones, and driven the way that puts blue on the left; a file without a header is read as ``tag,x,y,...``). The
 centre line is the midline of the two cone lines (each resampled by its own arc length, then paired),
 fitted by a smoothing spline; each station's half widths are its distances to the two cone lines (the lines through
-the cone centres: the track limits). A loop (both lines end within ``MAX_CONE_GAP_M`` of their start) starts at
-the centre point nearest the orange cones.
+the cone centres: the track limits); the cones themselves go with the path (``Path.cones_m``, discs of
+``CONE_RADIUS_M``) for ``track_limits=`` to judge. A loop (both lines end within ``MAX_CONE_GAP_M`` of their
+start) starts at the centre point nearest the orange cones.
 
 Errors name the file and the cone rows (the file's line numbers, header = line 1): an unknown tag, a side with
 too few cones, two neighbouring cones of a side more than ``MAX_CONE_GAP_M`` apart (sparse), a cone with no cone
@@ -18,6 +19,7 @@ One public function, ``load_cone_track``, so that the reader can be registered a
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from pathlib import Path as FsPath
 
@@ -37,6 +39,9 @@ MIN_CONES_PER_SIDE = 3
 CENTRE_SMOOTHING_M = 0.05
 """RMS deviation [m] the centre line's spline may make from the cone midline (the midline kinks at every cone)."""
 MAX_FILE_BYTES = 10_000_000
+CONE_RADIUS_M = {"blue": 0.114, "yellow": 0.114, "orange": 0.114, "big_orange": 0.1425}
+"""Base radius of each cone [m]: FS small cones 228 mm across the base, big orange cones 285 mm (FS Driverless
+Handbook, from memory, unverified); the judge measures the body against these discs."""
 
 
 def _read(file: FsPath) -> list[tuple[int, str, float, float]]:
@@ -188,5 +193,7 @@ def load_cone_track(file: str | os.PathLike[str], *, closed: bool | None = None,
     if closed and start.size:
         centre = np.roll(centre, -int(np.argmin(np.hypot(*(centre - start.mean(axis=0)).T))), axis=0)
     widths = np.column_stack((_polyline_distance(centre, loop_l), _polyline_distance(centre, loop_r)))
-    return Path.from_points(centre[:, 0], centre[:, 1], closed=closed, smoothing_m=CENTRE_SMOOTHING_M, ds_m=ds_m,
+    path = Path.from_points(centre[:, 0], centre[:, 1], closed=closed, smoothing_m=CENTRE_SMOOTHING_M, ds_m=ds_m,
                             half_width_m=float(np.median(widths)), name=file.name.split(".")[0], widths_m=widths)
+    cones = np.array([(x, y, CONE_RADIUS_M[tag]) for _, tag, x, y in rows])
+    return dataclasses.replace(path, cones_m=cones)

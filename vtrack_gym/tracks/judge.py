@@ -341,3 +341,27 @@ def judge_edges(mode: int, edges: np.ndarray, ds: float, closed: bool, body: np.
                                     rule_end[i] if known[i] else math.nan)
         rule_min[i] = least
         rule_end[i] = last
+
+
+@kernel
+def judge_cones(cones: np.ndarray, body: np.ndarray, idx: np.ndarray, prev: np.ndarray, x: np.ndarray,
+                y: np.ndarray, psi: np.ndarray, tol: float, hit: np.ndarray) -> None:
+    """``hit[i, k] = True`` where car i's body, moving over the last step from ``prev[i]`` (x, y [m], psi [rad])
+    to (x[i], y[i], psi[i]), touched cone k (``cones`` (K, 3): x, y, radius [m]; a disc; exact to ``tol``). Only the
+    cones within reach of the step are swept; ``hit`` (N, K) is only ever set to True."""
+    reach = reach_m(body)
+    pose0 = np.empty(3)
+    pose1 = np.empty(3)
+    one = np.empty((1, 3))
+    none = np.zeros((1, 6))
+    for i in idx:
+        pose0[0], pose0[1], pose0[2] = prev[i, 0], prev[i, 1], prev[i, 2]
+        pose1[0], pose1[1], pose1[2] = x[i], y[i], psi[i]
+        near = reach + math.hypot(pose1[0] - pose0[0], pose1[1] - pose0[1])
+        for k in range(cones.shape[0]):
+            if hit[i, k] or math.hypot(cones[k, 0] - pose1[0], cones[k, 1] - pose1[1]) > near + cones[k, 2]:
+                continue
+            one[0, 0], one[0, 1], one[0, 2] = cones[k, 0], cones[k, 1], cones[k, 2]
+            least, _ = sweep_min(MEASURE_BODY, pose0, pose1, body, none, 0, 0, False, one, tol, 0.0)
+            if least < 0.0:
+                hit[i, k] = True

@@ -53,6 +53,25 @@ def test_a_cone_loop_becomes_a_closed_path_between_its_cone_lines(tmp_path: Path
     assert load_cone_track(renamed).length_m == pytest.approx(path.length_m)
 
 
+def test_cones_in_any_order_and_without_a_header_make_the_same_track(tmp_path: Path) -> None:
+    """FSDS's files list the cones in any order, with no header (tag, x, y, direction, variances): chained by
+    nearest neighbour from the orange cones and driven with blue on the left, they give the same loop."""
+    ordered = load_cone_track(_write(tmp_path / "a.cones.csv", _stadium(-HALF_M), _stadium(HALF_M)))
+    rows = ([f"blue,{x:.3f},{y:.3f},0.0,0.0,0.0,0.0" for x, y in _stadium(-HALF_M)]
+            + [f"yellow,{x:.3f},{y:.3f},0.0,0.0,0.0,0.0" for x, y in _stadium(HALF_M)]
+            + ["big_orange,10.0,-8.3,0.0,0.0,0.0,0.0", "big_orange,10.0,-11.7,0.0,0.0,0.0,0.0"])
+    np.random.default_rng(0).shuffle(rows)
+    (tmp_path / "b.cones.csv").write_text("\n".join(rows) + "\n")
+    shuffled = load_cone_track(tmp_path / "b.cones.csv")
+    # the midline pairs the two cone lines by arc-length fraction from their first cones, which the chain picks
+    # nearest the orange cones: the same loop within 0.5 % of its length
+    assert shuffled.closed and shuffled.length_m == pytest.approx(ordered.length_m, rel=5e-3)
+    assert np.allclose(shuffled.table[0, :2], ordered.table[0, :2], atol=0.3)
+    assert shuffled.table[0, 2] == pytest.approx(ordered.table[0, 2], abs=0.05)
+    reversed_file = _write(tmp_path / "c.cones.csv", _stadium(-HALF_M)[::-1], _stadium(HALF_M)[::-1])
+    assert load_cone_track(reversed_file).table[0, 2] == pytest.approx(ordered.table[0, 2], abs=0.05)
+
+
 def test_a_lap_of_the_cone_loop_under_the_wheels_rule(tmp_path: Path) -> None:
     """Stanley laps the 3 m wide cone loop at Track-v0's default profile; the rule holds, the body stays inside."""
     file = _write(tmp_path / "stadium.cones.csv", _stadium(-HALF_M), _stadium(HALF_M))
@@ -71,7 +90,7 @@ def test_a_lap_of_the_cone_loop_under_the_wheels_rule(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize(("edit", "message"), [
     (lambda b, y, e: (b, y, ("purple,1,2",)), r"line 82: unknown cone tag 'purple'"),   # 1 + 40 + 40 + 1
-    (lambda b, y, e: (b[:5] + b[8:], y, e), r"lines 6 and 7: left \(blue\) cones 12.00 m apart \(sparse"),
+    (lambda b, y, e: (b[:5] + b[8:], y, e), r"lines (6 and 7|7 and 6): left \(blue\) cones 12.00 m apart \(sparse"),
     (lambda b, y, e: (b, y[:2], e), r"2 yellow cones on the right \(yellow\) side"),
     (lambda b, y, e: (b, y[:18], e), r"line 2[0-9]: blue cone at \(.*\) has no yellow cone within 10 m"),
     (lambda b, y, e: ([*b[:3], (9.0, -12.5), *b[4:]], y, e), r"the cone lines cross: left cones of lines 4-5"),
@@ -81,3 +100,28 @@ def test_bad_cone_files_name_the_cone_lines(edit, message: str, tmp_path: Path) 
     file = _write(tmp_path / "bad.cones.csv", blue, yellow, extra)
     with pytest.raises(ValueError, match=message):
         load_cone_track(file)
+
+
+@pytest.mark.parametrize(("into_m", "hits"), [(0.001, True), (-0.002, False)])
+def test_cones_are_judged_as_discs_to_the_millimetre(into_m: float, hits: bool, tmp_path: Path) -> None:
+    """A straight cone lane 3 m wide (cones every 3 m); the car drives straight with its left side ``into_m`` into
+    the blue cones' discs (radius 0.114 m): 1 mm in touches every cone it passes (2 s each), 2 mm clear none."""
+    from vtrack_gym.tracks.cones import CONE_RADIUS_M
+
+    xs = np.arange(0.0, 61.0, 3.0)
+    file = _write(tmp_path / "lane.cones.csv", [(x, HALF_M) for x in xs], [(x, -HALF_M) for x in xs], ())
+    body_half = 1.916 / 2                                                    # the hatchback's body
+    offset = HALF_M - CONE_RADIUS_M["blue"] - body_half + into_m
+    env = gym.make("vtrack/Track-v0", track=str(file), track_limits="body", speed_profile=8.0)
+    env.reset(seed=0, options={"initial_lateral_offset_m": offset})
+    done = False
+    while not done:
+        _, _, term, trunc, info = env.step(np.zeros(1, dtype=np.float32))
+        done = term or trunc
+    metrics = env.unwrapped.success_metrics()
+    assert info["termination"] == "completed"
+    if hits:
+        assert metrics["cones_hit"] >= 15 and metrics["fs_penalty_s"] == 2.0 * metrics["cones_hit"]
+    else:
+        assert metrics["cones_hit"] == 0.0 and metrics["fs_penalty_s"] == 0.0
+    assert info["success"]      # the cone lines themselves are 0.11 m further out: the body rule holds

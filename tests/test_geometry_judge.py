@@ -22,7 +22,7 @@ def _body() -> np.ndarray:
 
 def _straight_edges(y_left: float, y_right: float, x0: float = -50.0, x1: float = 50.0, n: int = 201) -> np.ndarray:
     x = np.linspace(x0, x1, n)
-    return np.column_stack((x, np.full(n, y_left), x, np.full(n, y_right)))
+    return np.column_stack((x, np.full(n, y_left), x, np.full(n, y_right), np.zeros(n), np.ones(n)))
 
 
 def test_body_row_is_the_cars_data() -> None:
@@ -109,10 +109,10 @@ def test_an_edge_vertex_poking_into_the_side_is_seen() -> None:
     half = body[2]
     x = np.array([-20.0, -1.0, 0.0, 1.0, 20.0])
     y = np.array([-1.5, -1.5, -half + 0.02, -1.5, -1.5])
-    edges = np.column_stack((x, np.full(5, 10.0), x, y))
+    edges = np.column_stack((x, np.full(5, 10.0), x, y, np.zeros(5), np.ones(5)))
     value = judge.pose_measure(judge.MEASURE_BODY, 0.0, 0.0, 0.0, body, edges, 0, 4, False)
     assert value == pytest.approx(-0.02, abs=1e-12)
-    corners = min(judge.point_polyline(cx, cy, edges[:, 2], edges[:, 3], 0, 4, False, 1.0)
+    corners = min(judge.point_polyline(cx, cy, edges[:, 2], edges[:, 3], edges[:, 4], edges[:, 5], 0, 4, False, 1.0)
                   for cx in (body[0], body[1]) for cy in (half, -half))
     assert corners > 0.0
 
@@ -132,12 +132,19 @@ def test_wheels_measure_is_negative_only_with_all_four_wheels_beyond_the_edge() 
         pytest.approx(-0.5, abs=1e-12)
 
 
-def test_signed_distance_at_a_polyline_vertex_uses_its_bisector() -> None:
-    """An L-shaped right edge (track on its left): points in the outer and inner corner regions get the right sign."""
+def test_signed_distance_reads_the_side_along_the_centre_lines_normal() -> None:
+    """An L-shaped right edge (track on its left; normals (0, 1), the corner's bisector, (-1, 0)): points in the
+    outer and inner corner regions get the right sign; so does a point near an inner edge folded back on itself."""
     ex, ey = np.array([-10.0, 0.0, 0.0]), np.array([0.0, 0.0, 10.0])
-    assert judge.point_polyline(1.0, -1.0, ex, ey, 0, 2, False, 1.0) == pytest.approx(-math.sqrt(2.0))
-    assert judge.point_polyline(-1.0, 1.0, ex, ey, 0, 2, False, 1.0) == pytest.approx(1.0)
-    assert judge.point_polyline(-0.5, -0.5, ex, ey, 0, 2, False, 1.0) == pytest.approx(-0.5)
+    nx, ny = np.array([0.0, -math.sqrt(0.5), -1.0]), np.array([1.0, math.sqrt(0.5), 0.0])
+    assert judge.point_polyline(1.0, -1.0, ex, ey, nx, ny, 0, 2, False, 1.0) == pytest.approx(-math.sqrt(2.0))
+    assert judge.point_polyline(-1.0, 1.0, ex, ey, nx, ny, 0, 2, False, 1.0) == pytest.approx(1.0)
+    assert judge.point_polyline(-0.5, -0.5, ex, ey, nx, ny, 0, 2, False, 1.0) == pytest.approx(-0.5)
+    # an inner edge that folds back (its rows run against the centre line between x = 1 and x = 0.5): a point on
+    # the track side, above the fold, is inside although it lies to the right of the folded segment's direction
+    fx, fy = np.array([-2.0, 0.0, 1.0, 0.5, 2.0]), np.zeros(5)
+    up_x, up_y = np.zeros(5), np.ones(5)
+    assert judge.point_polyline(0.75, 0.3, fx, fy, up_x, up_y, 0, 4, False, 1.0) == pytest.approx(0.3)
 
 
 def test_closed_edges_wrap_and_edge_polylines_follow_the_widths() -> None:

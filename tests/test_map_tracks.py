@@ -34,7 +34,7 @@ def test_the_format_comes_from_the_suffix_or_is_given(maps: Path, tmp_path: Path
         "opendrive", "gpx", "lanelet2", "commonroad"]
     assert format_of(tmp_path / "points.dat") == "csv"        # a suffix no format claims: a CSV of points
     assert format_of(tmp_path / "points.dat", "gpx") == "gpx"
-    with pytest.raises(ValueError, match="unknown track format 'kml'; known: csv, opendrive"):
+    with pytest.raises(ValueError, match="unknown track format 'kml'; known: cones, csv, opendrive"):
         format_of(maps / "ring.xodr", "kml")
 
 
@@ -69,7 +69,7 @@ def test_a_missing_optional_package_names_its_extra(maps: Path, monkeypatch: pyt
 
 @pytest.mark.parametrize(("options", "message"), [
     ({"route": ""}, "route: 1 to 10000 ids"), ({"lane": 0}, r"lane must be a lane id in \[-100, -1\]"),
-    ({"road_width_m": -1.0}, r"road_width_m must be in \(0, 100\] m"), ({"routes": "1"}, "unknown track option")])
+    ({"road_width_m": -1.0}, r"road_width_m must be in \[1, 100\] m"), ({"routes": "1"}, "unknown track option")])
 def test_bad_read_options_name_the_field_and_the_range(options: dict, message: str) -> None:
     with pytest.raises(ValueError, match=message):
         TrackRead.of(options)

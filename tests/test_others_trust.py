@@ -8,6 +8,7 @@ import pickle
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 import vtrack_gym
 from vtrack_gym.tracks import load_track
@@ -63,6 +64,7 @@ import os
 from pathlib import Path
 
 import numpy as np
+import pytest
 from vtrack_gym.envs import OBS
 
 
@@ -109,3 +111,104 @@ def test_a_vehicle_file_saved_during_eval_changes_no_row(tmp_path: Path, monkeyp
     assert not (tmp_path / "replacement.json").exists()          # the file was saved during the run
     labels = {r["options"].get("vehicle") for r in ResultStore(store, read_only=True).rows()}
     assert labels == {f"my_car-{original}"}
+
+
+def test_yaw_acc_ref_stays_in_its_box_on_a_path_whose_curvature_alternates_every_0_1_m() -> None:
+    """An accepted path (curvature rate within the loader's 10 1/m^2) driven at 40 km/h asks for a reference yaw
+    acceleration above the 1000 rad/s^2 of its box: the field is saturated at its bound, and every observation
+    stays inside the space."""
+    import gymnasium as gym
+
+    from vtrack_gym.envs import OBS
+    from vtrack_gym.tracks import ConstantSpeed
+    from vtrack_gym.tracks import Path as TrackPath
+    from vtrack_gym.tracks.profiles import CurvatureProfile
+
+    segments = [(0.1, 0.25 if i % 2 == 0 else -0.25) for i in range(3000)]   # the sign flips every 0.1 m
+    path = TrackPath.from_curvature(CurvatureProfile.from_segments(-0.25, segments), 299.9)
+    assert float(np.max(np.abs(path.table[:, 4]))) <= 10.0   # a curvature rate the loader accepts
+    env = gym.make("vtrack/Track-v0", track=path, speed_profile=ConstantSpeed(40.0 / 3.6))
+    obs, _ = env.reset(seed=0)
+    peak = 0.0
+    for _ in range(3000):   # from standstill up to 40 km/h, then on at that speed
+        obs, _, terminated, truncated, _ = env.step(np.zeros(1, dtype=np.float32))
+        assert env.observation_space.contains(obs)
+        peak = max(peak, abs(float(obs[OBS.YAW_ACC_REF])))
+        if terminated or truncated:
+            break
+    env.close()
+    assert peak == 1000.0   # it would exceed the box: saturated exactly at the bound
+
+
+def test_ray_with_a_track_edited_during_the_run_is_a_clear_error(tmp_path: Path,
+                                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    """``vtrack benchmark --tracks ... --backend ray``: the Ray worker makes the parent's env id whatever the file
+    holds now, so a track edited after it was registered gives the same one-line refusal as a local run (exit 2,
+    no traceback, no row of the edited content)."""
+    import os
+
+    import vtrack_gym.envs.registration as registration
+    from vtrack_gym.cli import main
+    from vtrack_gym.evaluation.store import ResultStore
+
+    ray = pytest.importorskip("ray")
+    if ray.is_initialized():
+        pytest.skip("Ray is already initialised in this process")
+    tracks = tmp_path / "tracks"
+    tracks.mkdir()
+    road = _road(tracks / "road.csv")
+    real = registration.register_track
+
+    def register_then_edit(*args, **kwargs):  # the file is saved right after the run registered it
+        found = real(*args, **kwargs)
+        road.write_text(road.read_text().replace("118.000", "118.500"))
+        return found
+
+    os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
+    ray.init(num_cpus=1, include_dashboard=False, _node_ip_address="127.0.0.1", log_to_driver=False)
+    try:
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(registration, "register_track", register_then_edit)
+            code = main(["benchmark", "--tracks", str(tracks), "--policies", "stanley", "--backend", "ray",
+                         "--no-figures", "--store", str(tmp_path / "s.sqlite")])
+    finally:
+        ray.shutdown()
+    err = capsys.readouterr().err
+    assert code == 2 and "changed while it was used" in err and "Traceback" not in err
+    assert ResultStore(tmp_path / "s.sqlite", read_only=True).rows() == []
+
+
+def test_a_crashed_ray_worker_costs_only_its_episode(tmp_path: Path) -> None:
+    """On the Ray backend a worker that dies (here ``os._exit`` in the first episode's policy factory) is a lost
+    episode, not a ``WorkerCrashedError`` that loses the run: the other episodes are delivered."""
+    import os
+
+    from vtrack_gym.evaluation.benchmark import score_episode
+    from vtrack_gym.evaluation.parallel import EpisodeTask, run_tasks
+    from vtrack_gym.evaluation.suites import Episode
+    from vtrack_gym.evaluation.worker_pool import LostTask
+
+    ray = pytest.importorskip("ray")
+    if ray.is_initialized():
+        pytest.skip("Ray is already initialised in this process")
+    marker = str(tmp_path / "crashed")
+
+    def make(env):  # pickled by value to the Ray worker
+        from vtrack_gym.baselines.registry import make_policy
+
+        try:
+            os.close(os.open(marker, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+        except FileExistsError:
+            return make_policy("stanley", env)
+        os._exit(9)
+
+    tasks = [EpisodeTask("stanley", make, Episode("DLC120-v0", seed), "custom", score_episode) for seed in (0, 1, 2)]
+    os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
+    ray.init(num_cpus=1, include_dashboard=False, _node_ip_address="127.0.0.1", log_to_driver=False)
+    try:
+        results = run_tasks(tasks, backend="ray")
+    finally:
+        ray.shutdown()
+    lost = [r for r in results if isinstance(r, LostTask)]
+    assert len(lost) == 1 and "died" in lost[0].reason
+    assert sorted(r[0].seed for r in results if not isinstance(r, LostTask)) == sorted({0, 1, 2} - {lost[0].index})

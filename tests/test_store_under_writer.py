@@ -60,18 +60,16 @@ def test_100k_row_store_under_a_writer_is_never_called_corrupted(tmp_path: Path,
 
 CREATOR = textwrap.dedent('''
     import os, sqlite3, sys
-    from vtrack_gym.evaluation import store as store_module
+    from vtrack_gym.evaluation import store, store_sqlite
 
-    real = store_module.ResultStore._create_schema
-
-    def killed_midway(self, file):
+    def killed_midway(file, timeout_s, name):
         with sqlite3.connect(file) as con:   # the schema half made, then the creator is killed
             con.execute("PRAGMA journal_mode = WAL")
-            con.execute(store_module._META_SQL)
+            con.execute(store_sqlite.META_SQL)
         os.kill(os.getpid(), 9)
 
-    store_module.ResultStore._create_schema = killed_midway
-    store_module.ResultStore(sys.argv[1])
+    store_sqlite.create_schema = killed_midway
+    store.ResultStore(sys.argv[1])
 ''')
 
 
@@ -85,3 +83,37 @@ def test_a_creator_killed_midway_leaves_no_store_that_later_commands_refuse(tmp_
     store = ResultStore(path)                # the next command creates the store normally
     store.add(_rows(2))
     assert len(ResultStore(path, read_only=True).rows()) == 2
+
+
+def test_a_read_refused_on_a_full_disk_says_so(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    """A store with a ``-wal`` file needs room for SQLite's shared-memory file to be read: on a full disk the read
+    fails with an I/O error, which is said as a full disk (not "not a readable SQLite file ... Move it away")."""
+    import sqlite3
+
+    import vtrack_gym.evaluation.store_sqlite as store_module
+
+    path = tmp_path / "s.sqlite"
+    ResultStore(path).add(_rows(3))
+    real = ResultStore._connect_ro
+
+    class _FullDiskConnection:
+        def __init__(self, con: sqlite3.Connection) -> None:
+            self.con = con
+
+        def execute(self, sql: str, *args: object) -> object:
+            if "sqlite_master" in sql:
+                exc = sqlite3.OperationalError("disk I/O error")
+                exc.sqlite_errorcode = sqlite3.SQLITE_IOERR
+                raise exc
+            return self.con.execute(sql, *args)
+
+        def close(self) -> None:
+            self.con.close()
+
+    monkeypatch.setattr(ResultStore, "_connect_ro", lambda self, immutable: _FullDiskConnection(real(self,
+                                                                                                    immutable)))
+    monkeypatch.setattr(store_module, "disk_is_full", lambda folder: True)
+    assert main(["leaderboard", "--suite", "bulk", "--store", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "the disk is full" in err and "Move it away" not in err and "corrupted" not in err

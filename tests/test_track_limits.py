@@ -127,3 +127,30 @@ def test_cli_track_limits_is_recorded_with_the_row(tmp_path: Path) -> None:
         assert row["metrics"]["min_edge_margin_m"] == pytest.approx(2.0 - 0.958, abs=0.02)   # on the centre line
     with pytest.raises(SystemExit):
         main(["eval", "--policy", "stanley", "--track", str(file), "--track-limits", "kerbs"])
+
+
+def test_cli_benchmark_tracks_takes_the_rule(tmp_path: Path) -> None:
+    folder = tmp_path / "tracks"
+    folder.mkdir()
+    x = np.linspace(0.0, 150.0, 76)
+    rows = "".join(f"{a:.1f},0.0,2.0,2.0\n" for a in x)
+    (folder / "road.csv").write_text("x_m,y_m,w_tr_right_m,w_tr_left_m\n" + rows)
+    store = tmp_path / "s.db"
+    assert main(["benchmark", "--tracks", str(folder), "--policies", "stanley", "--track-limits", "body",
+                 "--no-figures", "--workers", "1", "--store", str(store)]) == 0
+    from vtrack_gym.evaluation.store import ResultStore
+
+    (row,) = ResultStore(store, read_only=True).rows()
+    assert row["options"]["protocol"] == {"track_limits": "body"} and row["metrics"]["track_limit_violations"] == 0.0
+    with pytest.raises(ValueError, match="--track-limits applies to --track FILE or --tracks"):
+        from vtrack_gym.cli.benchmark import _check_track_options
+
+        _check_track_options(argparse_namespace(track_limits="body"))
+
+
+def argparse_namespace(**values: object) -> object:
+    """The benchmark command's options with ``values`` set (the rest at their defaults)."""
+    import argparse
+
+    defaults = {"workers": None, "track": None, "tracks": None, "suite": None, "quick": False, "track_limits": None}
+    return argparse.Namespace(**{**defaults, **values})

@@ -187,7 +187,7 @@ class _FullDiskConnection:
 
 
 def test_a_disk_io_error_on_a_full_disk_says_the_disk_is_full(tmp_path, monkeypatch):
-    import vtrack_gym.evaluation.store as store_module
+    import vtrack_gym.evaluation.store_sqlite as store_module  # the SQLite layer names a full disk
 
     path = _store(tmp_path / "s.sqlite")
     store = ResultStore(path)

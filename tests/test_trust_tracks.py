@@ -199,6 +199,8 @@ def test_target_speeds_past_the_observation_bound_are_refused_through_make_and_r
     write_loop(f, 500.0)
     with pytest.raises(ValueError, match=r"ConstantSpeed\.v_mps must be in \[1\.0, 100\.0\] m/s"):
         gym.make("vtrack/Track-v0", track=str(f), speed_profile=ConstantSpeed(speed))
-    assert main(["eval", "--policy", "stanley", "--track", str(f), "--speed-profile", "constant",
-                 "--max-speed-kmh", str(speed * 3.6), "--store", str(tmp_path / "s.db")]) == 2
+    with pytest.raises(SystemExit) as exc:   # refused while parsing, before any work
+        main(["eval", "--policy", "stanley", "--track", str(f), "--speed-profile", "constant",
+              "--max-speed-kmh", str(speed * 3.6), "--store", str(tmp_path / "s.db")])
+    assert exc.value.code == 2
     assert not (tmp_path / "s.db").exists()

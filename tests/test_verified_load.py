@@ -28,7 +28,7 @@ class _Payload:
     def __init__(self, marker: Path) -> None:
         self.marker = marker
 
-    def __reduce__(self):
+    def __reduce__(self) -> tuple:
         return (Path.write_text, (self.marker, "code ran"))
 
 

@@ -70,5 +70,6 @@ def test_policy_options_checked(tmp_path, capsys) -> None:
     assert "exactly one of --policy" in capsys.readouterr().err
     assert main(["video", "--policy", "nope", "--env", "DLC120-v0", "--out", out]) == 2
     assert "unknown policy" in capsys.readouterr().err
-    assert main(["video", "--policy", "lqr", "--env", "DLC120-v0", "--out", out, "--speedup", "0"]) == 2
-    assert "--speedup" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exc:   # out of its range: refused while parsing
+        main(["video", "--policy", "lqr", "--env", "DLC120-v0", "--out", out, "--speedup", "0"])
+    assert exc.value.code == 2 and "--speedup: must be a number in [0.05, 100]" in capsys.readouterr().err

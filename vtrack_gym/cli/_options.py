@@ -207,7 +207,7 @@ def add_track(p: argparse.ArgumentParser, text: str | None = None, where: Any = 
 def add_track_reading(p: argparse.ArgumentParser) -> None:
     """How a --track / --tracks file is read besides closure and smoothing: self-crossing, format and a map's route,
     lane and road width (``tracks.formats.TrackRead``)."""
-    from vtrack_gym.tracks.formats import FORMATS, MAX_ROAD_WIDTH_M
+    from vtrack_gym.tracks.formats import FORMATS, MAX_ROAD_WIDTH_M, MIN_ROAD_WIDTH_M
 
     p.add_argument("--allow-self-crossing", action="store_true",
                    help="--track: accept a centre line that crosses itself (a road over a bridge, a figure eight); "
@@ -219,11 +219,13 @@ def add_track_reading(p: argparse.ArgumentParser) -> None:
                    help="--track map: the road ids (OpenDRIVE) or lanelet ids (Lanelet2, CommonRoad) to drive, in "
                    "order, comma-separated, e.g. 1,2,3; lanelets that do not follow each other are joined by the "
                    "map's routing (default: the map's only road or lanelet; CommonRoad: the planning problem's route)")
-    p.add_argument("--track-lane", type=int, default=None, metavar="ID",
-                   help="--track OpenDRIVE map: drive the middle of this lane (-1: the first lane right of the "
-                   "reference line in the direction of travel) (default: the middle of the drivable carriageway)")
-    p.add_argument("--road-width-m", type=float, default=None, metavar="M",
-                   help=f"--track GPX file: the road's full width [m], up to {MAX_ROAD_WIDTH_M:g} (default: 7)")
+    p.add_argument("--track-lane", type=int_in(-100, 100), default=None, metavar="ID",
+                   help="--track OpenDRIVE map: drive the middle of this lane, an id in [-100, -1] or [1, 100] (-1: "
+                   "the first lane right of the reference line in the direction of travel) (default: the middle of "
+                   "the drivable carriageway)")
+    p.add_argument("--road-width-m", type=float_in(MIN_ROAD_WIDTH_M, MAX_ROAD_WIDTH_M), default=None, metavar="M",
+                   help=f"--track GPX file: the road's full width [m], {MIN_ROAD_WIDTH_M:g} to {MAX_ROAD_WIDTH_M:g} "
+                   "(default: 7)")
 
 
 def policy_list(text: str) -> list[str]:

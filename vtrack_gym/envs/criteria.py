@@ -91,10 +91,10 @@ class SuccessCriterion:
 
     def safety(self, state: Any, cars: CarsView) -> tuple[np.ndarray, np.ndarray]:
         """Each car's ``info["cost"]`` (1.0 on a step that broke the scenario's rule, else 0.0) and
-        ``info["edge_margin_m"]`` (the body's least clearance to a road edge over the step [m]; NaN where the
+        ``info["edge_margin_m"]`` (the body's least clearance to a road edge over the step [m]; +inf where the
         criterion does not measure it). By default the rule is the road at the CG: cost 1.0 on the step that ends
         the episode ``off_road``."""
-        return (cars.termination == cars.off_road_code).astype(np.float64), np.full(cars.steps.shape, np.nan)
+        return (cars.termination == cars.off_road_code).astype(np.float64), np.full(cars.steps.shape, np.inf)
 
 
 @dataclass(frozen=True)
@@ -197,7 +197,7 @@ _RULE_MEASURES: dict[str, int] = {"centre": 0, "wheels": 1, "body": 2}   # track
 class EdgeState(NamedTuple):
     """``TrackLimits`` state: per track its edge polylines; per car its last pose and its record so far."""
 
-    edges: dict[int, tuple[np.ndarray, float, bool]]   # track -> (edges (m, 4) [m], ds [m], closed)
+    edges: dict[int, tuple[np.ndarray, float, bool]]   # track -> (tracks.judge.edge_polylines, ds [m], closed)
     body: np.ndarray           # tracks.judge.body_row of the car
     prev: np.ndarray           # (n, 4) x, y [m], psi [rad], station [m] after the last step
     fresh: np.ndarray          # (n,) bool: no step since the reset (``prev`` not yet set)
@@ -209,6 +209,14 @@ class EdgeState(NamedTuple):
     rule_min: np.ndarray       # (n,) scratch: the rule's least measure over the step [m]
     rule_end: np.ndarray       # (n,) the rule's measure at the end of the last step [m]
     body_end: np.ndarray       # (n,) the body's edge clearance at the end of the last step [m]
+    cones: dict[int, np.ndarray]   # track -> its cones (K, 3): x, y, radius [m] (cone-lined tracks only)
+    cone_hit: np.ndarray       # (n, max K) bool: cone k touched by car i's body
+
+
+FS_CONE_PENALTY_S = 2.0
+"""Formula Student: a cone down or out costs 2 s."""
+FS_OFF_COURSE_PENALTY_S = 10.0
+"""Formula Student: off course (all four wheels beyond the track's edge) costs 10 s."""
 
 
 @documented
@@ -223,7 +231,10 @@ class TrackLimits(SuccessCriterion):
     between control steps). With ``"wheels"`` and ``"body"`` an excursion does not end the episode: the env ends it
     ``off_road`` only once the CG is a body reach (the farthest corner from the CG) beyond an edge, the whole car
     off. Metrics: ``track_limit_violations`` and ``min_edge_margin_m`` (the body's least clearance to an edge,
-    negative when the body crossed one). Not for courses with cone gates (their rule is the gates)."""
+    negative when the body crossed one). On a cone-lined track (``Path.cones_m``) the body is also judged against
+    every cone as a disc: ``cones_hit`` (cones touched) and ``fs_penalty_s`` (Formula Student's 2 s a cone, plus
+    10 s an excursion under the wheels rule, FS's off course); a touched cone is a penalty, not a failed lap. Not
+    for courses with cone gates (their rule is the gates)."""
 
     name: ClassVar[str] = "track_limits"
     per_step: ClassVar[bool] = True
@@ -250,10 +261,12 @@ class TrackLimits(SuccessCriterion):
         from vtrack_gym.tracks.judge import body_row, edge_polylines
 
         edges = {t: (edge_polylines(p), p.ds_m, p.closed) for t, p in enumerate(paths)}
+        cones = {t: p.cones_m for t, p in enumerate(paths) if p.cones_m is not None}
+        most = max((c.shape[0] for c in cones.values()), default=1)
         z = np.zeros(n)
         return EdgeState(edges, body_row(vehicle.chassis), np.zeros((n, 4)), np.ones(n, dtype=bool),
                          np.zeros(n, dtype=bool), np.zeros(n, dtype=np.int64), np.full(n, np.inf), z.copy(),
-                         np.full(n, np.nan), z.copy(), z.copy(), z.copy())
+                         np.full(n, np.inf), z.copy(), z.copy(), z.copy(), cones, np.zeros((n, most), dtype=bool))
 
     def reset_car(self, state: EdgeState, i: int, vehicle: Any) -> None:
         state.fresh[i] = True
@@ -261,7 +274,8 @@ class TrackLimits(SuccessCriterion):
         state.violations[i] = 0
         state.min_margin[i] = np.inf
         state.cost[i] = 0.0
-        state.margin[i] = np.nan
+        state.margin[i] = np.inf
+        state.cone_hit[i] = False
 
     def observe_step(self, state: EdgeState, cars: CarsView) -> None:
         from vtrack_gym.tracks.judge import SWEEP_TOL_M, judge_edges
@@ -275,6 +289,11 @@ class TrackLimits(SuccessCriterion):
                 judge_edges(_RULE_MEASURES[self.rule], edges, ds, closed, state.body, idx, state.prev, cars.x_m,
                             cars.y_m, cars.psi_rad, cars.station_m, SWEEP_TOL_M, state.rule_min, state.rule_end,
                             state.margin, state.body_end, ~first)
+                if track in state.cones:
+                    from vtrack_gym.tracks.judge import judge_cones
+
+                    judge_cones(state.cones[track], state.body, idx, state.prev, cars.x_m, cars.y_m, cars.psi_rad,
+                                SWEEP_TOL_M, state.cone_hit)
         broke = on & (state.rule_min < 0.0)
         state.violations[:] += broke & ~state.outside
         state.outside[:] = np.where(on, state.rule_end < 0.0, state.outside)
@@ -287,7 +306,12 @@ class TrackLimits(SuccessCriterion):
         return cars.completed & (state.violations == 0)
 
     def metrics(self, state: EdgeState, i: int, track: int) -> dict[str, float]:
-        return {"track_limit_violations": float(state.violations[i]), "min_edge_margin_m": float(state.min_margin[i])}
+        out = {"track_limit_violations": float(state.violations[i]), "min_edge_margin_m": float(state.min_margin[i])}
+        if track in state.cones:   # a cone-lined track: Formula Student's penalties
+            hit = float(np.count_nonzero(state.cone_hit[i]))
+            off = out["track_limit_violations"] if self.rule == "wheels" else 0.0
+            out |= {"cones_hit": hit, "fs_penalty_s": FS_CONE_PENALTY_S * hit + FS_OFF_COURSE_PENALTY_S * off}
+        return out
 
     def safety(self, state: EdgeState, cars: CarsView) -> tuple[np.ndarray, np.ndarray]:
         """Cost 1.0 on a step that broke the rule (an excursion's every step), the body's least edge clearance."""

@@ -28,7 +28,7 @@ import numpy as np
 
 from vtrack_gym._jit import kernel, prange
 from vtrack_gym.envs.config import EnvConfig, RewardConfig, Scenario
-from vtrack_gym.envs.observation import N_SCALARS, ObservationLayout
+from vtrack_gym.envs.observation import N_SCALARS, SCALAR_BOUNDS, SCALAR_FIELDS, ObservationLayout
 from vtrack_gym.envs.pdflc_kernel import pdflc_step
 from vtrack_gym.envs.schema import REWARD_TERMS, SIGNAL_ROW
 from vtrack_gym.tracks import table as track_table
@@ -168,6 +168,9 @@ N_TERMS = len(REWARD_TERMS)
 
 # The curvature preview follows the scalar fields (envs.observation).
 O_PREVIEW = N_SCALARS
+SCALAR_BOX = np.array([SCALAR_BOUNDS[name] for name in SCALAR_FIELDS], dtype=np.float64)
+"""Each scalar field's bound, in field order: ``write_scalar_fields`` saturates the field there (the box the
+observation space promises)."""
 
 
 @kernel
@@ -181,7 +184,9 @@ def write_scalar_fields(obs_row: np.ndarray, e_y: float, e_phi: float, v_x: floa
 
     The one writer of the scalar fields, used by the env step and by the highway-env adapter: one entry per row of
     ``envs.observation.SCALARS``, in its order (``tests/test_observation_fields.py`` checks each against its
-    formula); the curvature preview follows at ``O_PREVIEW``.
+    formula); the curvature preview follows at ``O_PREVIEW``. Each value is saturated at its field's bound
+    (``SCALAR_BOX``), so the row stays inside the observation box (e.g. ``yaw_acc_ref`` on a path whose curvature
+    rate is high at speed); NaN is left as it is.
     """
     yaw_rate_ref = kappa * s_dot
     values = (
@@ -200,7 +205,9 @@ def write_scalar_fields(obs_row: np.ndarray, e_y: float, e_phi: float, v_x: floa
         dkappa,                                                  # curvature_rate
     )
     for j in range(N_SCALARS):
-        obs_row[j] = values[j]
+        bound = SCALAR_BOX[j]
+        v = values[j]
+        obs_row[j] = -bound if v < -bound else (bound if v > bound else v)
 
 
 @kernel

@@ -111,7 +111,8 @@ SCALAR_FIELDS: tuple[str, ...] = tuple(f.name for f in SCALARS)
 N_SCALARS = len(SCALAR_FIELDS)
 """Number of scalar fields; the curvature preview starts at this index in every layout."""
 SCALAR_BOUNDS: dict[str, float] = {f.name: f.bound for f in SCALARS}
-"""Field name -> bound of the observation box (+- bound)."""
+"""Field name -> bound of the observation box (+- bound); the env saturates each scalar field there
+(``envs.kernels.write_scalar_fields``)."""
 PREVIEW_BOUND = CURVATURE_PREVIEW.bound  # [1/m]
 SPEED_PREVIEW_BOUND = SPEED_PREVIEW.bound  # [m/s]
 

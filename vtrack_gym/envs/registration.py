@@ -93,8 +93,6 @@ def register_track(track_file: str | os.PathLike[str], speed_profile: Any, close
     from dataclasses import asdict
     from pathlib import Path as FsPath
 
-    from gymnasium.envs.registration import register, registry
-
     from vtrack_gym.tracks.formats import TrackRead
     from vtrack_gym.tracks.sources import file_digest
     from vtrack_gym.tracks.speed_profiles import as_speed_profile
@@ -118,18 +116,46 @@ def register_track(track_file: str | os.PathLike[str], speed_profile: Any, close
                                     sort_keys=True).encode()).hexdigest()[:10]
     stem = re.sub(r"[^A-Za-z0-9_.]", "_", file.stem)[:40] or "track"
     env_id = f"{TRACK_ID_PREFIX}{stem}-{key}-v0"
-    if env_id not in registry:
-        register(id=env_id, entry_point="vtrack_gym.envs.tracking_env:TrackingEnv",
-                 vector_entry_point="vtrack_gym.envs.vector_env:TrackingVectorEnv",
-                 kwargs={"scenario": "Track-v0", "track": str(file.resolve()), "speed_profile": profile, **read,
-                         **rule},
-                 max_episode_steps=None, disable_env_checker=False)
+    register_track_id(env_id, file, profile, {**read, **rule})
     provenance = {"track_file": file.name, "track_sha256": file_sha, "speed_profile": params}
     if read:
         provenance["track_read"] = read
     if rule:
         provenance["protocol"] = rule     # as api.env_identity records a make kwarg of the protocol
     return env_id, provenance
+
+
+def register_track_id(env_id: str, track_file: str | os.PathLike[str], speed_profile: Any,
+                      read: dict[str, Any] | None = None) -> str:
+    """Register ``env_id`` (an id ``register_track`` made) driving ``track_file`` with ``speed_profile`` and the
+    make kwargs ``read`` (how the file is read, the track-limit rule), if this process does not know it yet; returns
+    ``env_id``. A worker process (Ray) registers the parent's id this way, whatever the file holds now: an env made
+    from an edited file then records the hash of what it read, and the parent refuses that row
+    (``track_benchmark.merge_provenance``), as it does for a local run."""
+    from pathlib import Path as FsPath
+
+    from gymnasium.envs.registration import register, registry
+
+    from vtrack_gym.tracks.speed_profiles import as_speed_profile
+
+    if env_id not in registry:
+        register(id=env_id, entry_point="vtrack_gym.envs.tracking_env:TrackingEnv",
+                 vector_entry_point="vtrack_gym.envs.vector_env:TrackingVectorEnv",
+                 kwargs={"scenario": "Track-v0", "track": str(FsPath(track_file).resolve()),
+                         "speed_profile": as_speed_profile(speed_profile), **dict(read or {})},
+                 max_episode_steps=None, disable_env_checker=False)
+    return env_id
+
+
+def track_id_setup(env_id: str, track_file: str | os.PathLike[str], speed_profile: Any) -> Any:
+    """A picklable call that registers ``env_id`` (registered here by ``register_track``) in another process with
+    the same make kwargs (``register_track_id``)."""
+    import functools
+
+    from gymnasium.envs.registration import registry
+
+    read = {k: v for k, v in registry[env_id].kwargs.items() if k not in ("scenario", "track", "speed_profile")}
+    return functools.partial(register_track_id, env_id, str(track_file), speed_profile, read)
 
 
 TRACK_ID_PREFIX = "vtrack/Track-"

@@ -42,8 +42,9 @@ SAFETY_SIGNALS: tuple[str, ...] = ("cost", "edge_margin_m")
 """The per-step safety signal (Safety-Gymnasium's convention): ``cost`` 1.0 on a step that broke the scenario's
 rule, else 0.0 (its success criterion's ``safety``: the road at the CG by default, a gate newly left on a gated
 course, the declared track-limit rule with ``track_limits=``); ``edge_margin_m`` the body's least clearance to a
-road edge over the step [m] (negative: the body crossed it), NaN where the scenario does not judge the body
-against the edges (``track_limits=`` judges it). Both 0.0 / NaN at reset."""
+road edge over the step [m] (negative: the body crossed it), +inf where the scenario does not judge the body
+against the edges (``track_limits=`` judges it; inf, not NaN, so that equal episodes give equal infos). Both
+0.0 / inf at reset."""
 
 INFO_KEYS: tuple[str, ...] = (*SCALAR_SIGNALS, *REWARD_TERMS, *ARRAY_SIGNALS, "termination", "success",
                               *SAFETY_SIGNALS)
@@ -55,7 +56,7 @@ it, then True if the criterion holds (``termination`` stays the end reason). ``c
 
 def info_dict(time_s: float, row: np.ndarray, fz_n: np.ndarray, acc_substeps_mps2: np.ndarray,
               termination: str, success: bool = False, cost: float = 0.0,
-              edge_margin_m: float = float("nan")) -> dict[str, Any]:
+              edge_margin_m: float = float("inf")) -> dict[str, Any]:
     """One car's ``info`` from its signal row (``SIGNAL_ROW`` order, float64) and arrays (copied by the caller);
     ``cost`` and ``edge_margin_m`` [m]: ``SAFETY_SIGNALS``."""
     info: dict[str, Any] = {"time_s": np.float64(time_s)}

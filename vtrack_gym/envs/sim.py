@@ -293,11 +293,11 @@ class BatchSim:
 
     def safety(self, i: int | None = None) -> tuple[Any, Any]:
         """``info["cost"]`` and ``info["edge_margin_m"]`` [m] of the last step (``envs.schema.SAFETY_SIGNALS``) of
-        every car ((n,) float64 each), or floats of car ``i``; 0.0 and NaN right after a reset."""
+        every car ((n,) float64 each), or floats of car ``i``; 0.0 and inf right after a reset."""
         cost, margin = self.criterion.safety(self.verdicts, self._cars)
         fresh = self.steps == 0
         cost = np.where(fresh, 0.0, cost)
-        margin = np.where(fresh, np.nan, margin)
+        margin = np.where(fresh, np.inf, margin)
         return (cost, margin) if i is None else (float(cost[i]), float(margin[i]))
 
     def success_metrics(self, i: int) -> dict[str, float]:

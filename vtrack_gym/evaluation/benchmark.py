@@ -34,15 +34,23 @@ from vtrack_gym.evaluation.trace import Trace
 
 log = logging.getLogger(__name__)
 
+CONTROL_COLUMNS: tuple[str, ...] = (
+    "max_steering_rate_degps", "rms_steering_rate_degps", "max_steering_acc_degps2", "rms_steering_acc_degps2",
+    "max_lateral_jerk_mps3", "rms_lateral_jerk_mps3", "max_yaw_rate_error_degps", "rms_yaw_rate_error_degps",
+    "track_limit_violations", "min_edge_margin_m",
+)
+"""The control metrics (``metrics.control_metrics``) and, on a track judged by ``track_limits=``, its excursions and
+the body's least clearance to an edge (missing for the other rows)."""
 LEADERBOARD_COLUMNS: tuple[str, ...] = (
     "rms_e_y_m", "max_e_y_m", "rms_e_phi_deg", "rms_hand_wheel_deg", "max_hand_wheel_deg", "max_a_y_mps2",
     "max_roll_deg", "itae", "cones_hit", "comfort_a_v_mps2", "steering_reversals_per_s",
     "policy_time_p50_us", "policy_time_p95_us", "policy_time_max_us", "policy_real_time_factor", "solver_failures",
-    "late_decision_share",
+    "late_decision_share", *CONTROL_COLUMNS,
 )
 """Every suite's leaderboard columns (every table format and the HTML board): the paper's metrics, then the policy's
 own compute per decision (``metrics.compute_metrics``: p50/p95/max [us], real-time factor at the control period),
-its failed solves and, with compute charged in the loop (``latency``), the share of its decisions that were late."""
+its failed solves and, with compute charged in the loop (``latency``), the share of its decisions that were late,
+then ``CONTROL_COLUMNS``."""
 
 
 def suite_columns(suite: str) -> tuple[str, ...]:

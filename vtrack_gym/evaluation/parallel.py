@@ -118,13 +118,15 @@ def run_tasks(tasks: Sequence[EpisodeTask], workers: int | None = 1, backend: st
         if on_result is not None:
             on_result(index, results[index])
 
+    n = min(workers or default_workers(), max(1, len(tasks)))   # never more processes than episodes
     if backend == "ray":
         lost = _run_ray(tasks, workers, deliver, address)
-    else:
-        n = min(workers or default_workers(), max(1, len(tasks)))
-        lost = _run_forked(tasks, n, deliver) if n > 1 else []
-        for index in range(len(tasks)) if n <= 1 else ():
-            deliver(index, run_task(tasks[index]))
+    elif n > 1:
+        lost = _run_forked(tasks, n, deliver)
+    else:   # in this process
+        lost = []
+        for index, task in enumerate(tasks):
+            deliver(index, run_task(task))
     for task in lost:
         log.warning("episode lost: %s", lost_line(tasks[task.index], task))
         results[task.index] = task
@@ -132,9 +134,9 @@ def run_tasks(tasks: Sequence[EpisodeTask], workers: int | None = 1, backend: st
 
 
 def lost_line(task: EpisodeTask, lost: LostTask) -> str:
-    """``lqr on DLC120-v0 seed 0: its worker was killed by SIGKILL`` (what a lost episode's report says)."""
+    """``lqr on DLC120-v0 seed 0: worker killed by SIGKILL`` (what a lost episode's report says)."""
     ep = task.episode
-    return f"{task.policy_id} on {ep.env_id} seed {ep.seed}: its worker {lost.reason}"
+    return f"{task.policy_id} on {ep.env_id} seed {ep.seed}: worker {lost.reason}"
 
 
 def _advance(task: EpisodeTask, result: tuple[Any, Any], progress: Any) -> tuple[Any, Any]:

@@ -33,7 +33,6 @@ Each row stores the episode's success verdict (``success`` 0/1, schema version 3
 
 from __future__ import annotations
 
-import contextlib
 import datetime as dt
 import functools
 import hashlib
@@ -42,12 +41,11 @@ import math
 import os
 import re
 import sqlite3
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from contextlib import closing
 from pathlib import Path
 from typing import Any, TypeVar
 
-from vtrack_gym._io import disk_is_full
 from vtrack_gym.evaluation.board import build_board
 from vtrack_gym.evaluation.report_formats import to_csv, to_json, to_markdown  # noqa: F401  (re-exported)
 from vtrack_gym.evaluation.row_validation import (  # noqa: F401  (MAX_SEED re-exported)
@@ -59,31 +57,22 @@ from vtrack_gym.evaluation.row_validation import (  # noqa: F401  (MAX_SEED re-e
     clean_scalar,
 )
 from vtrack_gym.evaluation.rows import ResultRow
+from vtrack_gym.evaluation.store_sqlite import (
+    META_SQL,
+    RESULTS_SQL,
+    SCHEMA_VERSION,
+    Busy,
+    StoreError,
+    create_schema,
+    create_store_file,
+    is_busy,
+    storage_problem,
+    write_transaction,
+)
 
-SCHEMA_VERSION = 3  # 3: the per-episode success verdict (column ``success``)
 DEFAULT_STORE_PATH = Path("vtrack_results") / "leaderboard.sqlite"
 T = TypeVar("T")
 
-_META_SQL = "CREATE TABLE IF NOT EXISTS vtrack_meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)"
-_RESULTS_SQL = """CREATE TABLE IF NOT EXISTS results (
-    id INTEGER PRIMARY KEY AUTOINCREMENT,
-    created_utc TEXT NOT NULL,
-    package_version TEXT NOT NULL,
-    suite TEXT NOT NULL,
-    env_id TEXT NOT NULL,
-    env_version TEXT NOT NULL,
-    policy_id TEXT NOT NULL,
-    policy_preset TEXT NOT NULL DEFAULT '',
-    policy_hash TEXT NOT NULL,
-    seed INTEGER,
-    options_json TEXT NOT NULL,
-    termination TEXT NOT NULL,
-    completed INTEGER NOT NULL,
-    success INTEGER NOT NULL DEFAULT 0,
-    wall_time_per_step_s REAL NOT NULL,
-    metrics_json TEXT NOT NULL,
-    row_sha256 TEXT NOT NULL DEFAULT ''
-)"""
 _COLUMNS = ("id", "created_utc", "package_version", "suite", "env_id", "env_version", "policy_id", "policy_preset",
             "policy_hash", "seed", "options_json", "termination", "completed", "success", "wall_time_per_step_s",
             "metrics_json")
@@ -92,20 +81,6 @@ READ_ATTEMPTS = 6
 _META_KEYS = frozenset({"schema_version", "row_count", "rows_digest"})
 
 
-class StoreError(RuntimeError):
-    """The store file cannot be used (not a vtrack store, corrupted, a newer schema, disk full, read-only)."""
-
-
-class _Busy(StoreError):
-    """A read that did not get SQLite's lock within the busy timeout (the store is healthy, a writer holds it)."""
-
-
-def _is_busy(exc: sqlite3.Error) -> bool:
-    """SQLITE_BUSY or SQLITE_LOCKED: another connection holds the lock."""
-    code = getattr(exc, "sqlite_errorcode", None)
-    if code is not None:
-        return code & 0xFF in (sqlite3.SQLITE_BUSY, sqlite3.SQLITE_LOCKED)
-    return "locked" in str(exc) or "busy" in str(exc)
 
 
 def _now() -> str:
@@ -121,40 +96,9 @@ def row_sha256(values: Sequence[Any]) -> str:
 def expected_schema() -> frozenset[tuple[str, str, str, str | None]]:
     """(type, name, tbl_name, sql) of every object in ``sqlite_master`` of a current, valid store."""
     with closing(sqlite3.connect(":memory:")) as con:
-        con.execute(_META_SQL)
-        con.execute(_RESULTS_SQL)
+        con.execute(META_SQL)
+        con.execute(RESULTS_SQL)
         return frozenset(con.execute("SELECT type, name, tbl_name, sql FROM sqlite_master"))
-
-
-def _storage_problem(exc: sqlite3.Error | OSError, folder: Path | None = None) -> str:
-    """A sentence naming disk-full and read-only-file-system failures, else the error text. SQLite reports some
-    failed writes on a full disk as a generic I/O error: with ``folder`` (where the store lives), such an error on a
-    file system without free blocks is named a full disk."""
-    code = getattr(exc, "sqlite_errorcode", None)
-    errno = getattr(exc, "errno", None)
-    io_error = code is not None and code & 0xFF == sqlite3.SQLITE_IOERR
-    full_after_io_error = io_error and folder is not None and disk_is_full(folder)
-    if (code is not None and code & 0xFF == sqlite3.SQLITE_FULL) or errno == 28 or full_after_io_error:
-        return f"the disk is full ({exc})"
-    if (code is not None and code & 0xFF == sqlite3.SQLITE_READONLY) or errno == 30:
-        return f"the store or its folder is read-only (read-only file system or no write permission: {exc})"
-    if errno == 13:
-        return f"permission denied ({exc})"
-    return str(exc)
-
-
-@contextlib.contextmanager
-def _write_transaction(con: sqlite3.Connection) -> Iterator[None]:
-    """``BEGIN IMMEDIATE`` ... ``COMMIT``, rolled back on any exception (unless SQLite already did, as on
-    SQLITE_FULL)."""
-    con.execute("BEGIN IMMEDIATE")
-    try:
-        yield
-        con.execute("COMMIT")
-    except BaseException:
-        if con.in_transaction:
-            con.execute("ROLLBACK")
-        raise
 
 
 def _stored_values(r: ResultRow, package_version: str) -> list[Any]:
@@ -178,21 +122,6 @@ def _stored_values(r: ResultRow, package_version: str) -> list[Any]:
               int(r.termination == "completed"), int(verdict), float(wall), json.dumps(metrics, sort_keys=True)]
     checked_row_values(dict(zip(_COLUMNS[1:], values, strict=True)))
     return values
-
-
-def _link_new(tmp: Path, target: Path) -> None:
-    """Give ``tmp`` the name ``target`` unless ``target`` exists (another creator won: keep theirs). A hard link
-    never replaces; on a file system without hard links, a rename when ``target`` is still missing."""
-    import errno
-
-    try:
-        os.link(tmp, target)
-    except FileExistsError:
-        return
-    except OSError as exc:
-        if exc.errno not in (errno.EPERM, errno.ENOTSUP, errno.EOPNOTSUPP, errno.EXDEV) or os.path.lexists(target):
-            raise
-        os.rename(tmp, target)
 
 
 class ResultStore:
@@ -228,7 +157,7 @@ class ResultStore:
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
-            raise StoreError(f"cannot create the store folder {self.path.parent}: {_storage_problem(exc)}") from exc
+            raise StoreError(f"cannot create the store folder {self.path.parent}: {storage_problem(exc)}") from exc
         self._initialise()
 
     def _companion(self, suffix: str) -> Path:
@@ -254,7 +183,7 @@ class ResultStore:
             fd = os.open(self._file, os.O_RDWR | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
             os.close(fd)
         except OSError as exc:
-            raise StoreError(f"the store {self.path} cannot be written: {_storage_problem(exc)}; it was left "
+            raise StoreError(f"the store {self.path} cannot be written: {storage_problem(exc)}; it was left "
                              "untouched (pass a writable --store / store path)") from exc
         try:
             fd, probe = tempfile.mkstemp(dir=self._file.parent, prefix=".vtrack-probe-")
@@ -262,7 +191,7 @@ class ResultStore:
             os.unlink(probe)
         except OSError as exc:
             raise StoreError(f"the store {self.path} cannot be written: its folder {self._file.parent} does not "
-                             f"accept the store's journal files ({_storage_problem(exc)})") from exc
+                             f"accept the store's journal files ({storage_problem(exc)})") from exc
 
     # ------------------------------------------------------------------------------------------ connections
     def _uri(self, immutable: bool) -> str:
@@ -290,7 +219,7 @@ class ResultStore:
         for attempt in range(READ_ATTEMPTS):   # a writer was active: read under its lock
             try:
                 return self._read_once(fn, immutable=False)
-            except _Busy:
+            except Busy:
                 if attempt == READ_ATTEMPTS - 1:
                     raise StoreError(f"{self.path} is busy: a writer held it for more than {self.timeout_s:g} s; "
                                      "nothing was read, try again") from None
@@ -317,8 +246,8 @@ class ResultStore:
                 con.execute("COMMIT")
                 return result
             except sqlite3.OperationalError as exc:
-                if _is_busy(exc):
-                    raise _Busy(str(exc)) from exc
+                if is_busy(exc):
+                    raise Busy(str(exc)) from exc
                 raise self._unreadable(exc) from exc
             except (sqlite3.Error, UnicodeError, TypeError, ValueError, KeyError) as exc:  # e.g. non-UTF-8
                 raise StoreError(f"{self.path} is corrupted ({type(exc).__name__}: {exc}); it was left "
@@ -327,7 +256,7 @@ class ResultStore:
     def _unreadable(self, exc: sqlite3.Error) -> StoreError:
         """The error for a read that SQLite refused: a full disk or read-only folder said as such, else
         corruption."""
-        problem = _storage_problem(exc, self._file.parent)
+        problem = storage_problem(exc, self._file.parent)
         if problem != str(exc):
             return StoreError(f"{self.path} cannot be read now: {problem}; the store was left untouched")
         return StoreError(f"{self.path} is corrupted ({type(exc).__name__}: {exc}); it was left untouched")
@@ -339,7 +268,7 @@ class ResultStore:
             con.execute("PRAGMA query_only = ON")
             con.execute(f"PRAGMA busy_timeout = {int(self.timeout_s * 1000)}")
         except sqlite3.Error as exc:
-            raise StoreError(f"cannot open the store {self.path}: {_storage_problem(exc, self._file.parent)}") \
+            raise StoreError(f"cannot open the store {self.path}: {storage_problem(exc, self._file.parent)}") \
                 from exc
         return con
 
@@ -349,7 +278,7 @@ class ResultStore:
             con.execute("PRAGMA trusted_schema = OFF")
             con.execute(f"PRAGMA busy_timeout = {int(self.timeout_s * 1000)}")
         except sqlite3.Error as exc:
-            raise StoreError(f"cannot open the store {self.path}: {_storage_problem(exc, self._file.parent)}") from exc
+            raise StoreError(f"cannot open the store {self.path}: {storage_problem(exc, self._file.parent)}") from exc
         return con
 
     # ------------------------------------------------------------------------------------------ verification
@@ -358,9 +287,9 @@ class ResultStore:
         try:
             objects = set(con.execute("SELECT type, name, tbl_name, sql FROM sqlite_master"))
         except sqlite3.DatabaseError as exc:
-            if _is_busy(exc):
+            if is_busy(exc):
                 raise
-            problem = _storage_problem(exc, self._file.parent)
+            problem = storage_problem(exc, self._file.parent)
             if problem != str(exc):   # a full disk or a read-only folder: the file itself may be fine
                 raise StoreError(f"{self.path} cannot be read now: {problem}; the store was left untouched") from exc
             raise StoreError(f"{self.path} is not a readable SQLite file ({exc}); it was left untouched. "
@@ -408,58 +337,14 @@ class ResultStore:
 
     def _initialise(self) -> None:
         """Create the schema: a missing store is built in a private temporary file in the same folder and linked
-        into place complete (a creator killed midway leaves no half-made store, only its temporary file, which is
-        never a store's name); an existing empty file is initialised in place. Concurrent creators: the first one
-        wins and the others use its store."""
+        into place complete (``store_sqlite.create_store_file``: a creator killed midway leaves no half-made store);
+        an existing empty file is initialised in place. Concurrent creators: the first one wins and the others use
+        its store."""
         if os.path.lexists(self._file):
-            self._create_schema(self._file)
+            create_schema(self._file, self.timeout_s, self.path)
         else:
-            self._create_and_link()
+            create_store_file(self._file, self.timeout_s, self.path)
         self._read(self._verify)  # a concurrent initialiser may have written something else
-
-    def _create_schema(self, file: Path) -> None:
-        """WAL mode and the empty tables in ``file`` (missing or empty), in one transaction."""
-        with closing(sqlite3.connect(file, timeout=self.timeout_s, isolation_level=None)) as con:
-            try:
-                con.execute("PRAGMA trusted_schema = OFF")
-                con.execute(f"PRAGMA busy_timeout = {int(self.timeout_s * 1000)}")
-                con.execute("PRAGMA journal_mode = WAL")
-                with _write_transaction(con):
-                    if not con.execute("SELECT count(*) FROM sqlite_master").fetchone()[0]:
-                        con.execute(_META_SQL)
-                        con.execute(_RESULTS_SQL)
-                        con.executemany("INSERT INTO vtrack_meta VALUES (?, ?)",
-                                        [("schema_version", str(SCHEMA_VERSION)), ("row_count", "0"),
-                                         ("rows_digest", "0" * 64)])
-            except sqlite3.Error as exc:
-                raise StoreError(f"cannot create the store {self.path}: "
-                                 f"{_storage_problem(exc, self._file.parent)}") from exc
-
-    def _create_and_link(self) -> None:
-        """Build the store in a temporary file next to it, then link it to the store's name (never replacing a
-        store another process created meanwhile); the temporary file and its journals are removed."""
-        import tempfile
-
-        from vtrack_gym._io import new_file_mode
-
-        try:
-            fd, name = tempfile.mkstemp(dir=self._file.parent, prefix=f".{self._file.name}.", suffix=".creating")
-            os.close(fd)
-        except OSError as exc:
-            raise StoreError(f"cannot create the store {self.path}: {_storage_problem(exc, self._file.parent)}") \
-                from exc
-        tmp = Path(name)
-        try:
-            self._create_schema(tmp)
-            os.chmod(tmp, new_file_mode(self._file))
-            _link_new(tmp, self._file)
-        except OSError as exc:
-            raise StoreError(f"cannot create the store {self.path}: {_storage_problem(exc, self._file.parent)}") \
-                from exc
-        finally:
-            for leftover in (tmp, *(tmp.with_name(tmp.name + suffix) for suffix in ("-wal", "-shm", "-journal"))):
-                with contextlib.suppress(OSError):
-                    leftover.unlink()
 
     # ------------------------------------------------------------------------------------------ writing
     def add(self, rows: Iterable[ResultRow]) -> int:
@@ -474,11 +359,11 @@ class ResultStore:
         pending = [_stored_values(r, __version__) for r in rows]
         self._check_no_rollback_journal()
         try:
-            with closing(self._connect_rw()) as con, _write_transaction(con):
+            with closing(self._connect_rw()) as con, write_transaction(con):
                 self._insert(con, pending)
         except sqlite3.Error as exc:
             raise StoreError(f"could not write {len(pending)} rows to {self.path}: "
-                             f"{_storage_problem(exc, self._file.parent)}; "
+                             f"{storage_problem(exc, self._file.parent)}; "
                              "nothing was written") from exc
         return len(pending)
 

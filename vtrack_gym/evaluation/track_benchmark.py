@@ -9,7 +9,6 @@ seed, with 95 % bootstrap intervals) and keeps the per-track rows below.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import hashlib
 import json
 from collections.abc import Callable, Mapping, Sequence
@@ -93,7 +92,7 @@ def check_track_files(files: Sequence[Path], speed_profile: Any, read: Mapping[s
     reason, the others are kept. ValueError listing the reasons when every file is refused."""
     import gymnasium as gym
 
-    from vtrack_gym.envs.registration import register_track
+    from vtrack_gym.envs.registration import register_track, track_id_setup
     from vtrack_gym.tracks.formats import describe_path, format_of
 
     tracks, described, refused, kept = [], [], [], []
@@ -110,7 +109,7 @@ def check_track_files(files: Sequence[Path], speed_profile: Any, read: Mapping[s
             refused.append((file, why[len(str(file)) + 2:] if named else why))
             continue
         kept.append(file)
-        tracks.append((env_id, provenance, functools.partial(register_track, file, speed_profile, **read)))
+        tracks.append((env_id, provenance, track_id_setup(env_id, file, speed_profile)))
         described.append((file, line))
     if not tracks:
         raise ValueError("every track file was refused: " + "; ".join(f"{f.name}: {why}" for f, why in refused))

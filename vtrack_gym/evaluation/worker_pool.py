@@ -87,6 +87,8 @@ def _worker_main(conn: Connection, run: Callable[[int], Any], init: Callable[[],
 
 @dataclass
 class _Worker:
+    """One forked worker: its process, this end of its pipe and the task index it runs (None: idle)."""
+
     process: Any
     conn: Connection
     index: int | None = None

@@ -1,11 +1,14 @@
 """Cone-lined tracks: a CSV of cones (``tag,x,y``) in the Formula Student convention -> a ``Path`` between them.
 
 Tags: ``blue`` cones line the LEFT edge, ``yellow`` the RIGHT edge, ``orange`` / ``big_orange`` mark the start
-(FS Driverless Handbook, as FSSIM and the teams' track files write it). Each side's cones are listed in driving
-order. The centre line is the midline of the two cone lines (each resampled by its own arc length, then paired),
+(FS Driverless Handbook, as FSSIM, FSDS and the teams' track files write it). Each side's cones are listed in driving
+order (files listing the cones in any order, as FSDS's do, are chained by nearest neighbour from the orange
+cones, and driven the way that puts blue on the left; a file without a header is read as ``tag,x,y,...``). The
+centre line is the midline of the two cone lines (each resampled by its own arc length, then paired),
 fitted by a smoothing spline; each station's half widths are its distances to the two cone lines (the lines through
-the cone centres: the track limits). A loop (both lines end within ``MAX_CONE_GAP_M`` of their start) starts at
-the centre point nearest the orange cones.
+the cone centres: the track limits); the cones themselves go with the path (``Path.cones_m``, discs of
+``CONE_RADIUS_M``) for ``track_limits=`` to judge. A loop (both lines end within ``MAX_CONE_GAP_M`` of their
+start) starts at the centre point nearest the orange cones.
 
 Errors name the file and the cone rows (the file's line numbers, header = line 1): an unknown tag, a side with
 too few cones, two neighbouring cones of a side more than ``MAX_CONE_GAP_M`` apart (sparse), a cone with no cone
@@ -16,6 +19,7 @@ One public function, ``load_cone_track``, so that the reader can be registered a
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from pathlib import Path as FsPath
 from typing import Any
@@ -36,6 +40,9 @@ MIN_CONES_PER_SIDE = 3
 CENTRE_SMOOTHING_M = 0.05
 """RMS deviation [m] the centre line's spline may make from the cone midline (the midline kinks at every cone)."""
 MAX_FILE_BYTES = 10_000_000
+CONE_RADIUS_M = {"blue": 0.114, "yellow": 0.114, "orange": 0.114, "big_orange": 0.1425}
+"""Base radius of each cone [m]: FS small cones 228 mm across the base, big orange cones 285 mm (FS Driverless
+Handbook, from memory, unverified); the judge measures the body against these discs."""
 
 
 def _read(file: FsPath) -> list[tuple[int, str, float, float]]:
@@ -45,11 +52,14 @@ def _read(file: FsPath) -> list[tuple[int, str, float, float]]:
     text = read_regular_file(file, MAX_FILE_BYTES, "cones file").decode("utf-8-sig")
     lines = text.splitlines()
     header = [h.strip().lower() for h in (lines[0].lstrip("#").split(",") if lines else [])]
+    first = 1
+    if header and header[0] in LEFT_TAGS + RIGHT_TAGS + START_TAGS:   # no header: tag, x, y, ... (FSDS's files)
+        header, first = ["tag", "x", "y"], 0
     if not {"tag", "x", "y"} <= set(header):
         raise ValueError(f"{file}: a cones file needs the header columns tag, x, y (got {lines[0]!r:.80})")
     col = {name: header.index(name) for name in ("tag", "x", "y")}
     rows = []
-    for k, line in enumerate(lines[1:], start=2):
+    for k, line in enumerate(lines[first:], start=first + 1):
         if not line.strip() or line.lstrip().startswith("#"):
             continue
         parts = [p.strip() for p in line.split(",")]
@@ -66,14 +76,30 @@ def _read(file: FsPath) -> list[tuple[int, str, float, float]]:
     return rows
 
 
-def _side(file: FsPath, rows: list, tags: tuple[str, ...], name: str) -> tuple[np.ndarray, np.ndarray]:
-    """(xy (m, 2) [m], line numbers (m,)) of one side's cones; ValueError for too few or a gap."""
+def _chain(xy: np.ndarray, start: np.ndarray) -> np.ndarray:
+    """Indices of the cones ``xy`` in a nearest-neighbour chain from the cone nearest ``start`` (x, y) [m]."""
+    todo = list(range(len(xy)))
+    order = [todo.pop(int(np.argmin(np.hypot(*(xy - start).T))))]
+    while todo:
+        last = xy[order[-1]]
+        order.append(todo.pop(int(np.argmin([np.hypot(*(xy[j] - last)) for j in todo]))))
+    return np.array(order)
+
+
+def _side(file: FsPath, rows: list, tags: tuple[str, ...], name: str,
+          start: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """(xy (m, 2) [m], line numbers (m,)) of one side's cones, in file order when its neighbours are all within
+    ``MAX_CONE_GAP_M``, else chained by nearest neighbour from the cone nearest ``start`` (the orange cones; None:
+    the side's first cone); ValueError for too few or a gap."""
     own = [(k, x, y) for k, tag, x, y in rows if tag in tags]
     if len(own) < MIN_CONES_PER_SIDE:
         raise ValueError(f"{file}: {len(own)} {'/'.join(tags)} cones on the {name} side (at least "
                          f"{MIN_CONES_PER_SIDE} needed)")
     xy = np.array([(x, y) for _, x, y in own])
     lines = np.array([k for k, _, _ in own])
+    if np.any(np.hypot(*np.diff(xy, axis=0).T) > MAX_CONE_GAP_M):    # not in driving order: chain them
+        order = _chain(xy, xy[0] if start is None else start)
+        xy, lines = xy[order], lines[order]
     gaps = np.hypot(*np.diff(xy, axis=0).T)
     if np.any(gaps > MAX_CONE_GAP_M):
         j = int(np.argmax(gaps > MAX_CONE_GAP_M))
@@ -118,6 +144,22 @@ def _check_not_crossing(file: FsPath, left: np.ndarray, ll: np.ndarray, right: n
                          f"of lines {rl[j]}-{rl[j + 1]}")
 
 
+def _blue_on_the_left(left: np.ndarray, ll: np.ndarray, right: np.ndarray,
+                     rl: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Both sides reversed when, driven in their order, the blue cones would lie on the right: the direction of
+    travel follows from the colours (a loop keeps its first cones, an open road starts at its other end)."""
+    heading = (left[1] + right[1]) - (left[0] + right[0])
+    across = left[0] - right[0]
+    if heading[0] * across[1] - heading[1] * across[0] >= 0.0:
+        return left, ll, right, rl
+    loop = np.hypot(*(left[-1] - left[0])) <= MAX_CONE_GAP_M
+
+    def flip(a: np.ndarray) -> np.ndarray:
+        return np.concatenate((a[:1], a[:0:-1])) if loop else a[::-1]
+
+    return flip(left), flip(ll), flip(right), flip(rl)
+
+
 def _resample(line: np.ndarray, n: int, closed: bool) -> np.ndarray:
     """``n`` points along a polyline (closed: back to its start) at equal arc-length fractions."""
     pts = np.vstack((line, line[:1])) if closed else line
@@ -133,8 +175,11 @@ def load_cone_track(file: str | os.PathLike[str], *, closed: bool | None = None,
     an unknown tag, a sparse side, an unpaired cone or crossing cone lines."""
     file = FsPath(file)
     rows = _read(file)
-    left, ll = _side(file, rows, LEFT_TAGS, "left (blue)")
-    right, rl = _side(file, rows, RIGHT_TAGS, "right (yellow)")
+    start = np.array([(x, y) for _, tag, x, y in rows if tag in START_TAGS])
+    anchor = start.mean(axis=0) if start.size else None
+    left, ll = _side(file, rows, LEFT_TAGS, "left (blue)", anchor)
+    right, rl = _side(file, rows, RIGHT_TAGS, "right (yellow)", anchor)
+    left, ll, right, rl = _blue_on_the_left(left, ll, right, rl)
     _check_paired(file, left, ll, right, "blue", "yellow")
     _check_paired(file, right, rl, left, "yellow", "blue")
     if closed is None:
@@ -146,19 +191,21 @@ def load_cone_track(file: str | os.PathLike[str], *, closed: bool | None = None,
                         loop_r, np.append(rl, rl[0]) if closed else rl)
     n = 8 * max(len(left), len(right))
     centre = 0.5 * (_resample(left, n, closed) + _resample(right, n, closed))
-    start = np.array([(x, y) for _, tag, x, y in rows if tag in START_TAGS])
     if closed and start.size:
         centre = np.roll(centre, -int(np.argmin(np.hypot(*(centre - start.mean(axis=0)).T))), axis=0)
     widths = np.column_stack((_polyline_distance(centre, loop_l), _polyline_distance(centre, loop_r)))
-    return Path.from_points(centre[:, 0], centre[:, 1], closed=closed, smoothing_m=CENTRE_SMOOTHING_M, ds_m=ds_m,
+    path = Path.from_points(centre[:, 0], centre[:, 1], closed=closed, smoothing_m=CENTRE_SMOOTHING_M, ds_m=ds_m,
                             half_width_m=float(np.median(widths)), name=file.name.split(".")[0], widths_m=widths)
+    cones = np.array([(x, y, CONE_RADIUS_M[tag]) for _, tag, x, y in rows])
+    return dataclasses.replace(path, cones_m=cones)
 
 
 def sniff(head: bytes) -> bool:
-    """True when a CSV's first line (``head``: the file's first bytes) has a ``tag`` column: a cone map, not a
-    centre line (``tracks.formats`` asks it for ``.csv`` files)."""
+    """True when a CSV's first line (``head``: the file's first bytes) is a cone map's: a ``tag`` column in its
+    header, or no header and a cone tag first (``tracks.formats`` asks it for ``.csv`` files)."""
     first = head.decode("utf-8-sig", errors="replace").splitlines()[0] if head else ""
-    return "tag" in [h.strip().lower() for h in first.lstrip("#").split(",")]
+    fields = [h.strip().lower() for h in first.lstrip("#").split(",")]
+    return "tag" in fields or fields[0] in LEFT_TAGS + RIGHT_TAGS + START_TAGS
 
 
 def load(file: FsPath, read: Any) -> Path:

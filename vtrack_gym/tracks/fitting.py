@@ -92,6 +92,23 @@ def smoothing_spline(fit: Callable[..., tuple[Any, float]], u: np.ndarray, k: in
     return good[1]
 
 
+def _splines(pts: list[np.ndarray], u: np.ndarray, k: int, closed: bool, budget: float) -> tuple[Any, Any]:
+    """The plan-view spline of ``pts[:2]`` and, with a third column, the elevation spline z(u), each with residuals
+    within ``budget`` [m^2] (``smoothing_spline``); the elevation's is None without a z column."""
+    from scipy.interpolate import splprep, splrep
+
+    def plane(**options: Any) -> tuple[Any, float]:
+        (spline, _), fp, _, _ = splprep(pts[:2], u=u, k=k, per=int(closed), quiet=2, full_output=1, **options)
+        return spline, float(fp)
+
+    def elevation(**options: Any) -> tuple[Any, float]:
+        spline, fp, _, _ = splrep(u, pts[2], k=k, per=int(closed), quiet=2, full_output=1, **options)
+        return spline, float(fp)
+
+    return (smoothing_spline(plane, u, k, budget),
+            smoothing_spline(elevation, u, k, budget) if len(pts) > 2 else None)
+
+
 class Fit(NamedTuple):
     """Result of :func:`fit_points`."""
 
@@ -109,7 +126,7 @@ def fit_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None, closed: bool,
     quadrature of |r'(u)|, inverted by Newton steps.
     ``point_data`` (m, k), one row per point, is interpolated linearly in the chord parameter onto the rows.
     """
-    from scipy.interpolate import splev, splprep
+    from scipy.interpolate import splev
 
     check_points(x, y, z)
     if not (math.isfinite(smoothing_m) and smoothing_m >= 0.0):
@@ -134,21 +151,7 @@ def fit_points(x: np.ndarray, y: np.ndarray, z: np.ndarray | None, closed: bool,
     k = 5 if m - int(closed) >= 8 else 3
     # x, y are fitted together; the elevation separately as z(u) on the same chord parameter, so that metres of
     # elevation never spend the horizontal smoothing budget (a joint fit can bend the plan view wildly).
-    budget = m * smoothing_m ** 2
-    def plane(**options: Any) -> tuple[Any, float]:
-        (spline, _), fp, _, _ = splprep(pts[:2], u=u, k=k, per=int(closed), quiet=2, full_output=1, **options)
-        return spline, float(fp)
-
-    tck = smoothing_spline(plane, u, k, budget)
-    tck_z = None
-    if z is not None:
-        from scipy.interpolate import splrep
-
-        def elevation(**options: Any) -> tuple[Any, float]:
-            spline, fp, _, _ = splrep(u, pts[2], k=k, per=int(closed), quiet=2, full_output=1, **options)
-            return spline, float(fp)
-
-        tck_z = smoothing_spline(elevation, u, k, budget)
+    tck, tck_z = _splines(pts, u, k, closed, m * smoothing_m ** 2)
     u_end = float(u[-1])
 
     def speed(uu: np.ndarray) -> np.ndarray:

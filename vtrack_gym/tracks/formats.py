@@ -22,6 +22,8 @@ SNIFF_BYTES = 4096
 """Bytes of a file a format's ``sniff`` sees."""
 MAX_ROUTE_IDS = 10_000
 """Most ids one route may name."""
+MIN_ROAD_WIDTH_M = 1.0
+"""Narrowest ``road_width_m`` accepted [m] (narrower than any car)."""
 MAX_ROAD_WIDTH_M = 100.0
 """Widest ``road_width_m`` accepted [m]."""
 
@@ -95,14 +97,12 @@ class TrackRead:
         lane = self.lane
         if lane is not None and (isinstance(lane, bool) or not isinstance(lane, int) or not 1 <= abs(lane) <= 100):
             raise ValueError(f"TrackRead.lane must be a lane id in [-100, -1] or [1, 100] (got {lane!r:.40})")
-        for name, high in (("smoothing_m", 50.0), ("road_width_m", MAX_ROAD_WIDTH_M)):
+        for name, low, high in (("smoothing_m", 0.0, 50.0), ("road_width_m", MIN_ROAD_WIDTH_M, MAX_ROAD_WIDTH_M)):
             value = getattr(self, name)
             ok = value is None or (isinstance(value, (int, float)) and not isinstance(value, bool)
-                                   and math.isfinite(value) and (0.0 <= value if name == "smoothing_m" else 0 < value)
-                                   and value <= high)
+                                   and math.isfinite(value) and low <= value <= high)
             if not ok:
-                low = "[0" if name == "smoothing_m" else "(0"
-                raise ValueError(f"TrackRead.{name} must be in {low}, {high:g}] m (got {value!r:.40})")
+                raise ValueError(f"TrackRead.{name} must be in [{low:g}, {high:g}] m (got {value!r:.40})")
 
     @classmethod
     def of(cls, options: Mapping[str, Any] | None = None, **given: Any) -> TrackRead:

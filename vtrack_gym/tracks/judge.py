@@ -10,8 +10,8 @@ how far it reaches into it. Exact closed forms:
 
 - point to rectangle: the Euclidean distance outside, minus the distance to the nearest side inside;
 - rectangle to disc (a cone of radius r): point-to-rectangle of the cone's centre minus r;
-- point to polyline (a track edge, ``side`` +1 when the track lies left of the edge's direction, -1 right): the
-  distance to the nearest segment, signed by the side (at a vertex by the bisector of its two segments); an open
+- point to polyline (a track edge): the distance to the nearest segment, signed by the side of the edge it lies on
+  along the centre line's normal there (robust where a tight bend folds an inner edge onto itself); an open
   road's edges go on straight before its first row and after its last (its approach and run-out);
 - rectangle to polyline: the least of the corners' signed distances and of the polyline vertices' signed
   distances to the rectangle (the gap between two polygonal chains is attained at a vertex of one of them; a
@@ -128,11 +128,13 @@ def _vertex(k: int, n: int, closed: bool) -> int:
 
 
 @kernel
-def point_polyline(px: float, py: float, ex: np.ndarray, ey: np.ndarray, i0: int, i1: int, closed: bool,
-                   side: float) -> float:
+def point_polyline(px: float, py: float, ex: np.ndarray, ey: np.ndarray, nx: np.ndarray, ny: np.ndarray, i0: int,
+                   i1: int, closed: bool, side: float) -> float:
     """Signed distance [m] from a point to the polyline through rows i0..i1 of (ex, ey) (wrapped modulo n - 1
-    on a closed polyline whose last row repeats the first): + on the track's side (``side`` +1: the track lies
-    left of the polyline's direction, -1: right), - beyond it."""
+    on a closed polyline whose last row repeats the first): + on the track's side, - beyond it. The side is read
+    along the centre line's normal (nx, ny) (left-pointing, per row) at the nearest point: ``side`` -1 for a left
+    edge (the track lies against the normal), +1 for a right one. Read this way the sign stays right where a
+    tight bend folds an inner edge back on itself (a half width above the bend's radius)."""
     n = ex.shape[0]
     best = math.inf
     best_k = i0
@@ -146,25 +148,26 @@ def point_polyline(px: float, py: float, ex: np.ndarray, ey: np.ndarray, i0: int
             best, best_k, best_t, best_cross = d2, k, t, cross
         a = b
     best = math.sqrt(best)
-    ray = not closed and ((best_k == 0 and best_t < 0.0) or (best_k == n - 2 and best_t > 1.0))
-    if ray:   # beyond an open road's first or last row: the edge goes on straight (an approach, a run-out)
-        a = _vertex(best_k, n, closed)
-        best = abs(best_cross) / math.hypot(ex[a + 1] - ex[a], ey[a + 1] - ey[a])
-    if 0.0 < best_t < 1.0 or ray:
-        sign = 1.0 if best_cross >= 0.0 else -1.0
-    else:  # the nearest point is a vertex: the side of the line through its two neighbours (its bisector)
-        v = _vertex(best_k + (1 if best_t >= 1.0 else 0), n, closed)
-        u = _vertex(best_k + (2 if best_t >= 1.0 else 1), n, closed)
-        w = _vertex(best_k + (0 if best_t >= 1.0 else -1), n, closed)
-        tx = ex[u] - ex[w]
-        ty = ey[u] - ey[w]
-        sign = 1.0 if tx * (py - ey[v]) - ty * (px - ex[v]) >= 0.0 else -1.0
-    return side * sign * best
+    a = _vertex(best_k, n, closed)
+    b = a + 1 if a + 1 < n else 1
+    if not closed and ((best_k == 0 and best_t < 0.0) or (best_k == n - 2 and best_t > 1.0)):
+        # beyond an open road's first or last row: the edge goes on straight (an approach, a run-out)
+        best = abs(best_cross) / math.hypot(ex[b] - ex[a], ey[b] - ey[a])
+    tc = min(1.0, max(0.0, best_t))
+    qx = ex[a] + tc * (ex[b] - ex[a])
+    qy = ey[a] + tc * (ey[b] - ey[a])
+    mx = nx[a] + tc * (nx[b] - nx[a])
+    my = ny[a] + tc * (ny[b] - ny[a])
+    if best_t < 0.0 or best_t > 1.0:   # beyond a ray's end: measure along the end row's normal
+        qx, qy = (ex[a], ey[a]) if best_t < 0.0 else (ex[b], ey[b])
+    outward = (px - qx) * mx + (py - qy) * my      # > 0: on the normal's side of the edge
+    return best if side * outward >= 0.0 else -best
 
 
 @kernel
 def rect_polyline(x: float, y: float, psi: float, front: float, rear: float, half: float, ex: np.ndarray,
-                  ey: np.ndarray, i0: int, i1: int, closed: bool, side: float) -> float:
+                  ey: np.ndarray, nx: np.ndarray, ny: np.ndarray, i0: int, i1: int, closed: bool,
+                  side: float) -> float:
     """Clearance [m] of a car's rectangle to the track edge through rows i0..i1 (see ``point_polyline``):
     the gap while the whole body is on the track's side, negative once any part reaches beyond the edge."""
     c = math.cos(psi)
@@ -172,8 +175,8 @@ def rect_polyline(x: float, y: float, psi: float, front: float, rear: float, hal
     best = math.inf
     for lon in (front, rear):
         for lat in (half, -half):
-            best = min(best, point_polyline(x + c * lon - s * lat, y + s * lon + c * lat, ex, ey, i0, i1, closed,
-                                            side))
+            best = min(best, point_polyline(x + c * lon - s * lat, y + s * lon + c * lat, ex, ey, nx, ny, i0, i1,
+                                            closed, side))
     n = ex.shape[0]
     for k in range(i0, i1 + 1):
         v = _vertex(k, n, closed)
@@ -184,14 +187,14 @@ def rect_polyline(x: float, y: float, psi: float, front: float, rear: float, hal
 @kernel
 def _point_edges(px: float, py: float, edges: np.ndarray, i0: int, i1: int, closed: bool) -> float:
     """Least signed distance [m] of a point to the left edge (rows edges[:, 0:2]) and the right one (2:4)."""
-    left = point_polyline(px, py, edges[:, 0], edges[:, 1], i0, i1, closed, -1.0)
-    return min(left, point_polyline(px, py, edges[:, 2], edges[:, 3], i0, i1, closed, 1.0))
+    left = point_polyline(px, py, edges[:, 0], edges[:, 1], edges[:, 4], edges[:, 5], i0, i1, closed, -1.0)
+    return min(left, point_polyline(px, py, edges[:, 2], edges[:, 3], edges[:, 4], edges[:, 5], i0, i1, closed, 1.0))
 
 
 @kernel
 def pose_measure(mode: int, x: float, y: float, psi: float, body: np.ndarray, edges: np.ndarray, i0: int, i1: int,
                  closed: bool) -> float:
-    """The ``MEASURE_*`` clearance [m] of a car at (x, y, psi) to the edges (n, 4): left x, y, right x, y."""
+    """The ``MEASURE_*`` clearance [m] of a car at (x, y, psi) to the edges (n, 6): ``edge_polylines``."""
     if mode == MEASURE_CENTRE:
         return _point_edges(x, y, edges, i0, i1, closed)
     if mode == MEASURE_WHEELS:
@@ -203,9 +206,10 @@ def pose_measure(mode: int, x: float, y: float, psi: float, body: np.ndarray, ed
             lat = body[4 + 2 * w]
             most = max(most, _point_edges(x + c * lon - s * lat, y + s * lon + c * lat, edges, i0, i1, closed))
         return most
-    left = rect_polyline(x, y, psi, body[0], body[1], body[2], edges[:, 0], edges[:, 1], i0, i1, closed, -1.0)
-    return min(left, rect_polyline(x, y, psi, body[0], body[1], body[2], edges[:, 2], edges[:, 3], i0, i1,
-                                   closed, 1.0))
+    left = rect_polyline(x, y, psi, body[0], body[1], body[2], edges[:, 0], edges[:, 1], edges[:, 4], edges[:, 5],
+                         i0, i1, closed, -1.0)
+    return min(left, rect_polyline(x, y, psi, body[0], body[1], body[2], edges[:, 2], edges[:, 3], edges[:, 4],
+                                   edges[:, 5], i0, i1, closed, 1.0))
 
 
 @kernel
@@ -275,14 +279,17 @@ def sweep_min(mode: int, pose0: np.ndarray, pose1: np.ndarray, body: np.ndarray,
 
 
 def edge_polylines(path: object) -> np.ndarray:
-    """The (n, 4) track edges of a ``tracks.Path`` [m]: left x, y and right x, y at every table row (the centre
-    line offset by the per-station half widths along its normal), the polylines the judge measures against."""
+    """The (n, 6) track edges of a ``tracks.Path``: left x, y and right x, y [m] at every table row (the centre
+    line offset by the per-station half widths along its normal), the polylines the judge measures against, and
+    the centre line's left-pointing unit normal x, y there (the side a point lies on)."""
     from vtrack_gym.tracks.table import COL_PSI, COL_X, COL_Y
 
     t = path.table
     w = path.half_widths_rows()
     nx, ny = -np.sin(t[:, COL_PSI]), np.cos(t[:, COL_PSI])
-    out = np.empty((t.shape[0], 4))
+    out = np.empty((t.shape[0], 6))
+    out[:, 4] = nx
+    out[:, 5] = ny
     out[:, 0] = t[:, COL_X] + w[:, 0] * nx
     out[:, 1] = t[:, COL_Y] + w[:, 0] * ny
     out[:, 2] = t[:, COL_X] - w[:, 1] * nx
@@ -312,7 +319,7 @@ def judge_edges(mode: int, edges: np.ndarray, ds: float, closed: bool, body: np.
                 known: np.ndarray) -> None:
     """For each car i in ``idx``, moving over the last step from ``prev[i]`` (x, y [m], psi [rad], station [m])
     to (x[i], y[i], psi[i]) at station s[i]: ``rule_min[i]`` / ``rule_end[i]`` the least / final ``mode``
-    measure (its sign exact to ``tol``) and ``body_min[i]`` the body's least clearance to the edges (n, 4) [m]
+    measure (its sign exact to ``tol``) and ``body_min[i]`` the body's least clearance to the edges (n, 6) [m]
     along the step (exact to ``tol`` below ``EXACT_BELOW_M``; ``sweep_min``), ``body_end[i]`` its value at the end.
     Where ``known[i]``, ``rule_end[i]`` and ``body_end[i]`` hold the last step's end values (this step's start)."""
     n = edges.shape[0]
@@ -334,3 +341,27 @@ def judge_edges(mode: int, edges: np.ndarray, ds: float, closed: bool, body: np.
                                     rule_end[i] if known[i] else math.nan)
         rule_min[i] = least
         rule_end[i] = last
+
+
+@kernel
+def judge_cones(cones: np.ndarray, body: np.ndarray, idx: np.ndarray, prev: np.ndarray, x: np.ndarray,
+                y: np.ndarray, psi: np.ndarray, tol: float, hit: np.ndarray) -> None:
+    """``hit[i, k] = True`` where car i's body, moving over the last step from ``prev[i]`` (x, y [m], psi [rad])
+    to (x[i], y[i], psi[i]), touched cone k (``cones`` (K, 3): x, y, radius [m]; a disc; exact to ``tol``). Only the
+    cones within reach of the step are swept; ``hit`` (N, K) is only ever set to True."""
+    reach = reach_m(body)
+    pose0 = np.empty(3)
+    pose1 = np.empty(3)
+    one = np.empty((1, 3))
+    none = np.zeros((1, 6))
+    for i in idx:
+        pose0[0], pose0[1], pose0[2] = prev[i, 0], prev[i, 1], prev[i, 2]
+        pose1[0], pose1[1], pose1[2] = x[i], y[i], psi[i]
+        near = reach + math.hypot(pose1[0] - pose0[0], pose1[1] - pose0[1])
+        for k in range(cones.shape[0]):
+            if hit[i, k] or math.hypot(cones[k, 0] - pose1[0], cones[k, 1] - pose1[1]) > near + cones[k, 2]:
+                continue
+            one[0, 0], one[0, 1], one[0, 2] = cones[k, 0], cones[k, 1], cones[k, 2]
+            least, _ = sweep_min(MEASURE_BODY, pose0, pose1, body, none, 0, 0, False, one, tol, 0.0)
+            if least < 0.0:
+                hit[i, k] = True

@@ -100,8 +100,9 @@ class Path:
     widths LEFT and RIGHT of the centre-line [m] (query :meth:`half_widths`), ``v_ref_mps`` (n,) a reference speed
     [m/s] (e.g. a racing line's speed column; used by ``speed_profiles.FileSpeed``). ``source_sha256``: the SHA-256
     (64 lowercase hex digits) of the file bytes the path was read from (``load_track_csv`` sets it; rows record it
-    as the driven content), None otherwise. Closed paths repeat the first row's values in the last row. Arrays are
-    copied and made read-only; equality is identity.
+    as the driven content), None otherwise. ``cones_m`` (K, 3): the cones lining a cone-lined track (x, y [m],
+    radius [m]; ``tracks.cones`` sets them), judged as discs by ``track_limits=``, None otherwise. Closed paths
+    repeat the first row's values in the last row. Arrays are copied and made read-only; equality is identity.
     """
 
     table: np.ndarray = field(repr=False)
@@ -114,6 +115,7 @@ class Path:
     widths_m: np.ndarray | None = field(default=None, repr=False)
     v_ref_mps: np.ndarray | None = field(default=None, repr=False)
     source_sha256: str | None = field(default=None, repr=False)
+    cones_m: np.ndarray | None = field(default=None, repr=False)
     length_m: float = field(init=False)
 
     def __post_init__(self) -> None:
@@ -151,17 +153,31 @@ class Path:
                 raise ValueError(f"Path.gates[{k}] must be a Gate (got {type(g).__name__})")
             if g.s_start_m < 0.0 or g.s_end_m > length + 1e-9:
                 raise ValueError(f"Path.gates[{k}] must lie within [0, {length}] m (got [{g.s_start_m}, {g.s_end_m}])")
+        cones = self._cones()
         widths = self._row_data("widths_m", table.shape[0], 2, 0.0, MAX_HALF_WIDTH_M, "m")
         v_ref = self._row_data("v_ref_mps", table.shape[0], 0, 0.0, MAX_V_REF_MPS, "m/s")
         table.flags.writeable = False
         object.__setattr__(self, "table", table)
         object.__setattr__(self, "widths_m", widths)
         object.__setattr__(self, "v_ref_mps", v_ref)
+        object.__setattr__(self, "cones_m", cones)
         object.__setattr__(self, "ds_m", float(ds))
         object.__setattr__(self, "closed", bool(self.closed))
         object.__setattr__(self, "half_width_m", float(hw))
         object.__setattr__(self, "gates", gates)
         object.__setattr__(self, "length_m", length)
+
+    def _cones(self) -> np.ndarray | None:
+        """Validated read-only copy of ``cones_m`` (K, 3): x, y [m] and radius in (0, 1] m, or None."""
+        if self.cones_m is None:
+            return None
+        cones = np.array(self.cones_m, dtype=np.float64, order="C", copy=True)
+        if cones.ndim != 2 or cones.shape[1] != 3 or not np.all(np.isfinite(cones)):
+            raise ValueError(f"Path.cones_m must be a finite (K, 3) array: x, y, radius [m] (got {cones.shape})")
+        if np.any((cones[:, 2] <= 0.0) | (cones[:, 2] > 1.0)):
+            raise ValueError("Path.cones_m radii must be in (0, 1] m")
+        cones.flags.writeable = False
+        return cones
 
     def _row_data(self, name: str, n: int, width: int, low: float, high: float, unit: str) -> np.ndarray | None:
         """Validated read-only copy of the optional per-row array ``name`` (shape (n,) or (n, width)), or None."""
@@ -186,7 +202,7 @@ class Path:
         """Pickle through the constructor (re-validates; the restored arrays are read-only again), every field
         included: a copy keeps the ``source_sha256`` of the bytes it was built from."""
         return (type(self), (self.table, self.ds_m, self.closed, self.half_width_m, self.name, self.version,
-                             self.gates, self.widths_m, self.v_ref_mps, self.source_sha256))
+                             self.gates, self.widths_m, self.v_ref_mps, self.source_sha256, self.cones_m))
 
     # ----------------------------------------------------------------------------------------------- constructors
     @classmethod

@@ -64,7 +64,7 @@ def path_digest(path: Path) -> str:
     h = hashlib.sha256()
     h.update(np.ascontiguousarray(path.table).tobytes())
     h.update(f"{path.ds_m!r}|{path.closed}|{path.half_width_m!r}".encode())
-    for extra in (path.widths_m, path.v_ref_mps):
+    for extra in (path.widths_m, path.v_ref_mps, path.cones_m):
         h.update(b"-" if extra is None else np.ascontiguousarray(extra).tobytes())
     return h.hexdigest()
 

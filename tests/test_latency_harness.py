@@ -61,3 +61,15 @@ def test_cli_eval_and_benchmark_take_latency(tmp_path, capsys) -> None:
     with pytest.raises(SystemExit):
         main(["benchmark", "--latency", "sometimes", "--store", str(store)])
     assert "--latency must be" in capsys.readouterr().err
+
+
+def test_cli_benchmark_charges_a_fixed_budget(tmp_path, capsys) -> None:
+    from vtrack_gym.evaluation.store import ResultStore
+
+    store = tmp_path / "board.db"
+    assert main(["benchmark", "--policies", "stanley", "--latency", "0.004", "--no-figures", "--workers", "1",
+                 "--store", str(store)]) == 0
+    rows = ResultStore(store).rows(suite="paper")
+    assert rows and all(r["options"]["latency_s"] == 0.004 for r in rows)
+    assert all(r["metrics"]["late_decision_share"] == 0.0 for r in rows)   # 4 ms < 10 ms: never late
+    assert 'latency_s=0.004' in capsys.readouterr().out

@@ -12,11 +12,14 @@ from __future__ import annotations
 import pytest
 
 SLOW: dict[str, str] = {
+    "test_agents.py::test_behaviour_cloning_warm_start": "training",
+    "test_agents.py::test_gsde_policies_export_and_agree": "training",
     "test_agents.py::test_offpolicy_train_export_agreement": "trains SAC and TD3",
     "test_baselines_closed_loop.py::test_default_baseline_completes[LateralTracking-v0-nmpc]": "NMPC lap, 28 s",
     "test_baselines_closed_loop.py::test_default_baseline_completes[LateralTracking-v0-pure_pursuit]": "a lap",
     "test_board_fixes.py::test_benchmark_with_other_seeds_is_ranked_apart": "two benchmarks",
     "test_board_runs.py::test_ray_backend_gives_the_rows_of_one_process": "starts Ray",
+    "test_cli_output.py::test_log_lines_never_break_into_progress_bars": "a benchmark process",
     "test_cli_quiet.py::test_leaderboard_into_a_closed_pipe_exits_141_without_traceback": "a benchmark process",
     "test_cli_quiet.py::test_shell_pipe_to_head": "a benchmark through a shell pipe",
     "test_cli_quiet.py::test_sigint_during_a_forked_run_drops_the_queued_episodes": "forked benchmark processes",
@@ -26,6 +29,7 @@ SLOW: dict[str, str] = {
     "test_docs.py::test_page_examples_run[tutorials/evaluate-your-agent.md]": "scores policies, 10 s",
     "test_docs_site.py::test_docs_site_builds_strict": "builds the MkDocs site",
     "test_entry_speed.py::test_entry_speed_bounds_of_the_shipped_cars": "a bound search per car",
+    "test_entry_speed.py::test_evaluate_on_the_maneuvers_suite_gives_the_benchmarks_entry_speed_metrics": "a suite run",
     "test_entry_speed.py::test_maneuvers_suite_json_rows_carry_the_entry_speed_columns": "a suite run",
     "test_fingerprint_complete.py::test_nested_lists_a_hundred_thousand_deep_and_cycles": "deep nesting, 45 s",
     "test_hairpin_circuit.py::test_default_baseline_laps_a_6m_hairpin_circuit[nmpc]": "NMPC lap",
@@ -44,6 +48,8 @@ SLOW: dict[str, str] = {
     "test_rl_recipes.py::test_recipe_trains_exports_and_drives": "training",
     "test_scenarios.py::test_track_env_follows_the_speed_profile_and_completes_a_lap": "a lap",
     "test_store.py::test_ten_concurrent_writers_lose_nothing": "a soak of ten processes",
+    "test_store_trust.py::test_byte_flip_fuzz_reads_identically_or_raises": "a fuzz of every byte region",
+    "test_train_fixes.py::test_warm_start_keeps_fixed_observation_scales": "training",
     "test_trust_store.py::test_reads_while_another_process_writes_never_report_corruption": "a soak",
     "test_tuning.py::test_compiled_rollout_equals_numpy_controllers[space1-X1]": "numpy rollouts, 9 s",
     "test_tuning.py::test_evaluator_itae_equals_evaluation_metric": "whole episodes both ways, 6.5 s",

@@ -40,7 +40,8 @@ def _perturbed_kernel(original, relative: float, every_step: bool):
     return run
 
 
-@pytest.mark.parametrize(("relative", "every_step"), [(1e-12, False), (1e-15, True)])
+@pytest.mark.parametrize(("relative", "every_step"),
+                         [(1e-12, False), pytest.param(1e-15, True, marks=pytest.mark.slow)])
 @pytest.mark.parametrize("env_id", NOISE_IDS)
 def test_last_bit_noise_in_the_plant_passes(env_id: str, relative: float, every_step: bool,
                                             monkeypatch: pytest.MonkeyPatch) -> None:

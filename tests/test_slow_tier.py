@@ -28,7 +28,7 @@ def test_the_gate_matches_a_file_a_function_or_one_case(monkeypatch) -> None:
     assert slow_reason("tests/test_reproduce.py::test_figures_written") is None
     assert slow_reason("tests/test_agents.py::test_offpolicy_train_export_agreement[td3]") is not None
     assert slow_reason("tests/test_plain_loop.py::test_plain_loop_equals_sb3_loop[nmpc-LateralTracking-v0]")
-    assert slow_reason("tests/test_plain_loop.py::test_plain_loop_equals_sb3_loop[nmpc-DLC120-v0]") is None
+    assert slow_reason("tests/test_plain_loop.py::test_plain_loop_equals_sb3_loop[smc-DLC120-v0]") is None
     assert slow_reason("tests/test_envs.py::test_make_without_prior_import") is None
 
 
@@ -43,4 +43,4 @@ def test_the_readme_names_both_tiers_and_the_fast_one_leaves_the_slow_tests_out(
                           cwd=TESTS.parent, timeout=300)
     assert "test_report_is_deterministic_apart_from_timestamp" not in done.stdout, done.stdout
     assert "nmpc-LateralTracking-v0" not in done.stdout and "test_figures_written" in done.stdout, done.stdout
-    assert "test_plain_loop.py::test_plain_loop_equals_sb3_loop[nmpc-DLC120-v0]" in done.stdout, done.stdout
+    assert "test_plain_loop.py::test_plain_loop_equals_sb3_loop[smc-DLC120-v0]" in done.stdout, done.stdout

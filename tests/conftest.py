@@ -31,7 +31,6 @@ SLOW: dict[str, str] = {
     "test_entry_speed.py::test_entry_speed_bounds_of_the_shipped_cars": "a bound search per car",
     "test_entry_speed.py::test_evaluate_on_the_maneuvers_suite_gives_the_benchmarks_entry_speed_metrics": "a suite run",
     "test_entry_speed.py::test_maneuvers_suite_json_rows_carry_the_entry_speed_columns": "a suite run",
-    "test_fingerprint_complete.py::test_nested_lists_a_hundred_thousand_deep_and_cycles": "deep nesting, 45 s",
     "test_hairpin_circuit.py::test_default_baseline_laps_a_6m_hairpin_circuit[nmpc]": "NMPC lap",
     "test_kernel_cache.py::test_old_cache_directories_are_pruned": "six interpreters compiling",
     "test_maneuver_suite.py::test_maneuvers_suite_rows_and_one_figure_per_maneuver": "the manoeuvres suite",

@@ -22,6 +22,7 @@ SLOW: dict[str, str] = {
     "test_docs.py::test_page_examples_run[maneuvers.md]": "drives every manoeuvre",
     "test_docs_site.py::test_docs_site_builds_strict": "builds the MkDocs site",
     "test_entry_speed.py::test_maneuvers_suite_json_rows_carry_the_entry_speed_columns": "a suite run",
+    "test_evaluate_parallel_rows.py::test_on_ray_each_row_is_stored_as_its_episode_ends": "starts Ray",
     "test_fingerprint_complete.py::test_nested_lists_a_hundred_thousand_deep_and_cycles": "deep nesting, 45 s",
     "test_hairpin_circuit.py::test_default_baseline_laps_a_6m_hairpin_circuit[nmpc]": "NMPC lap",
     "test_kernel_cache.py::test_old_cache_directories_are_pruned": "six interpreters compiling",

@@ -83,3 +83,28 @@ def test_parallel_rows_match_the_serial_ones(tmp_path: Path) -> None:
     parallel = vtrack_gym.evaluate(make, "paper", workers=2)
     assert [(r.env_id, r.policy_id, r.policy_hash, r.termination) for r in serial] == \
         [(r.env_id, r.policy_id, r.policy_hash, r.termination) for r in parallel]
+
+
+def test_on_ray_each_row_is_stored_as_its_episode_ends(tmp_path: Path) -> None:
+    """``backend="ray"`` (one CPU: the episodes run one after the other): the last episode starts with the first
+    one's row already in the store."""
+    import os
+    import sys
+
+    ray = pytest.importorskip("ray")
+    if ray.is_initialized():
+        pytest.skip("Ray is already initialised in this process")
+    from ray import cloudpickle
+
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])   # GatedLqr reaches the Ray worker by value
+    store, seen = tmp_path / "s.sqlite", tmp_path / "seen.txt"
+    os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
+    ray.init(num_cpus=1, include_dashboard=False, _node_ip_address="127.0.0.1", log_to_driver=False)
+    try:
+        rows = vtrack_gym.evaluate(_factory(store, seen, fail=False), "paper", store=store, backend="ray")
+    finally:
+        ray.shutdown()
+        cloudpickle.unregister_pickle_by_value(sys.modules[__name__])
+    assert seen.read_text() == "LateralTracking-v0"
+    assert [r.env_id for r in rows] == ["LateralTracking-v0", "DLC120-v0"]
+    assert len(ResultStore(store, read_only=True).rows()) == 2

@@ -12,6 +12,7 @@ from __future__ import annotations
 import pytest
 
 SLOW: dict[str, str] = {
+    "test_agent_read_once.py::test_workers_drive_the_loaded_agent_without_opening_its_files[ray]": "starts Ray",
     "test_agents.py::test_offpolicy_train_export_agreement": "trains SAC and TD3",
     "test_baselines_closed_loop.py::test_default_baseline_completes[LateralTracking-v0-nmpc]": "NMPC lap, 28 s",
     "test_board_runs.py::test_ray_backend_gives_the_rows_of_one_process": "starts Ray",

@@ -101,3 +101,29 @@ def test_the_normal_path_reads_each_file_once_and_records_its_content(tmp_path: 
     again = vtrack_gym.evaluate(vtrack_gym.make_policy(str(copy / "mine.json"), env), env, seeds=[0])
     env.close()
     assert rows[0].policy_hash == again[0].policy_hash and rows[0].termination == "completed"
+
+
+@pytest.mark.parametrize("backend", ["local", "ray"])
+def test_workers_drive_the_loaded_agent_without_opening_its_files(tmp_path: Path, backend: str) -> None:
+    """The files are deleted once the policy is loaded: forked workers and Ray workers still score it (they get
+    the loaded policy), with the hash of a run in this process."""
+    agent = agent_files(tmp_path / "a")
+    env = gym.make("DLC120-v0")
+    policy = vtrack_gym.make_policy(str(agent), env)
+    env.close()
+    serial = vtrack_gym.evaluate(policy, "paper")
+    agent.unlink()
+    agent.with_suffix(".npz").unlink()
+    if backend == "ray":
+        ray = pytest.importorskip("ray")
+        if ray.is_initialized():
+            pytest.skip("Ray is already initialised in this process")
+        os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
+        ray.init(num_cpus=1, include_dashboard=False, _node_ip_address="127.0.0.1", log_to_driver=False)
+    try:
+        rows = vtrack_gym.evaluate(policy, "paper", workers=2, backend=backend)
+    finally:
+        if backend == "ray":
+            ray.shutdown()
+    assert [(r.env_id, r.policy_id, r.policy_hash, r.termination) for r in rows] == \
+        [(r.env_id, r.policy_id, r.policy_hash, r.termination) for r in serial]

@@ -12,6 +12,7 @@ from __future__ import annotations
 import pytest
 
 SLOW: dict[str, str] = {
+    "test_agent_read_once.py::test_workers_drive_the_loaded_agent_without_opening_its_files[ray]": "starts Ray",
     "test_agents.py::test_behaviour_cloning_warm_start": "training",
     "test_agents.py::test_gsde_policies_export_and_agree": "training",
     "test_agents.py::test_offpolicy_train_export_agreement": "trains SAC and TD3",
@@ -31,6 +32,7 @@ SLOW: dict[str, str] = {
     "test_entry_speed.py::test_entry_speed_bounds_of_the_shipped_cars": "a bound search per car",
     "test_entry_speed.py::test_evaluate_on_the_maneuvers_suite_gives_the_benchmarks_entry_speed_metrics": "a suite run",
     "test_entry_speed.py::test_maneuvers_suite_json_rows_carry_the_entry_speed_columns": "a suite run",
+    "test_evaluate_parallel_rows.py::test_on_ray_each_row_is_stored_as_its_episode_ends": "starts Ray",
     "test_hairpin_circuit.py::test_default_baseline_laps_a_6m_hairpin_circuit[nmpc]": "NMPC lap",
     "test_kernel_cache.py::test_old_cache_directories_are_pruned": "six interpreters compiling",
     "test_maneuver_suite.py::test_maneuvers_suite_rows_and_one_figure_per_maneuver": "the manoeuvres suite",

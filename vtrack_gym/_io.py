@@ -262,6 +262,27 @@ def read_regular_file(path: str | os.PathLike[str], max_bytes: int, what: str = 
     ``ValueError`` naming ``what`` and the path when it is missing ("not found"), not a regular file, or larger than
     ``max_bytes``.
     """
+    return read_regular_file_stamped(path, max_bytes, what)[0]
+
+
+def file_stamp(st: os.stat_result) -> tuple[int, ...]:
+    """What identifies one version of a file: device, inode, size [bytes], modification and change times [ns]
+    (a file replaced by a rename has another inode; one rewritten in place, other times)."""
+    return (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
+
+
+def unchanged_since(path: str | os.PathLike[str], stamp: tuple[int, ...]) -> bool:
+    """Whether ``path`` is still the version of the file ``stamp`` (``file_stamp``) was taken of."""
+    try:
+        return file_stamp(os.stat(os.fspath(path))) == stamp
+    except OSError:
+        return False
+
+
+def read_regular_file_stamped(path: str | os.PathLike[str], max_bytes: int,
+                              what: str = "file") -> tuple[bytes, tuple[int, ...]]:
+    """``read_regular_file``'s bytes and the ``file_stamp`` of the open file they were read from (taken before the
+    read: a file rewritten while it is read no longer matches it)."""
     name = os.fspath(path)
     try:
         fd = os.open(name, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0) | getattr(os, "O_NOCTTY", 0))
@@ -279,22 +300,27 @@ def read_regular_file(path: str | os.PathLike[str], max_bytes: int, what: str = 
             raise ValueError(f"{name}: the {what} is {_kind(st.st_mode)}, not a regular file")
         if st.st_size > max_bytes:
             raise ValueError(f"{name}: the {what} is {st.st_size} bytes (limit {max_bytes})")
-        chunks: list[bytes] = []
-        total = 0
-        while True:
-            try:
-                chunk = os.read(fd, min(1 << 20, max_bytes + 1 - total))
-            except OSError as exc:
-                raise ValueError(f"{name}: cannot read the {what} ({exc.strerror or exc})") from None
-            if not chunk:
-                break
-            chunks.append(chunk)
-            total += len(chunk)
-            if total > max_bytes:
-                raise ValueError(f"{name}: the {what} grew beyond the limit of {max_bytes} bytes while being read")
-        return b"".join(chunks)
+        return _read_bounded(fd, name, max_bytes, what), file_stamp(st)
     finally:
         os.close(fd)
+
+
+def _read_bounded(fd: int, name: str, max_bytes: int, what: str) -> bytes:
+    """The rest of the open file ``fd``, refused once it passes ``max_bytes`` (a file growing while read)."""
+    chunks: list[bytes] = []
+    total = 0
+    while True:
+        try:
+            chunk = os.read(fd, min(1 << 20, max_bytes + 1 - total))
+        except OSError as exc:
+            raise ValueError(f"{name}: cannot read the {what} ({exc.strerror or exc})") from None
+        if not chunk:
+            break
+        chunks.append(chunk)
+        total += len(chunk)
+        if total > max_bytes:
+            raise ValueError(f"{name}: the {what} grew beyond the limit of {max_bytes} bytes while being read")
+    return b"".join(chunks)
 
 
 def check_regular_input(path: str | os.PathLike[str], what: str = "file") -> Path:

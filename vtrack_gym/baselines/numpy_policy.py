@@ -103,10 +103,8 @@ def _reject_constant(name: str) -> None:
     raise ValueError(f"agent json: non-standard number {name} is not allowed")
 
 
-def _read_json(path: Path) -> dict[str, Any]:
-    from vtrack_gym._io import read_regular_file
-
-    raw = read_regular_file(path, MAX_JSON_BYTES, "agent json")
+def _parse_json(path: Path, raw: bytes) -> dict[str, Any]:
+    """The agent description in ``raw`` (the bytes read from ``path``, named in errors)."""
     try:
         spec = json.loads(raw.decode("utf-8"), parse_constant=_reject_constant)
     except (UnicodeDecodeError, ValueError, RecursionError) as exc:  # also: deep nesting, integers > 4300 digits
@@ -238,11 +236,9 @@ def _read_member(zf: zipfile.ZipFile, info: zipfile.ZipInfo, shape: tuple[int, .
     return np.ascontiguousarray(arr, dtype=np.float32)
 
 
-def _read_npz(path: Path, shapes: dict[str, tuple[int, ...]]) -> dict[str, np.ndarray]:
-    """The arrays of an agent npz, read member by member with their headers checked first (bounded memory)."""
-    from vtrack_gym._io import read_regular_file
-
-    raw = read_regular_file(path, MAX_NPZ_BYTES, "agent npz")
+def _parse_npz(path: Path, raw: bytes, shapes: dict[str, tuple[int, ...]]) -> dict[str, np.ndarray]:
+    """The arrays of the agent npz in ``raw`` (the bytes read from ``path``), member by member with their headers
+    checked first (bounded memory)."""
     if not zipfile.is_zipfile(io.BytesIO(raw)):
         raise ValueError(f"{path}: not an npz archive (pickles and other files are refused)")
     expected_members = {f"{name}.npy": name for name in shapes}
@@ -472,10 +468,24 @@ class NumpyPolicy:
 
 
 def load_agent(path: str | Path) -> NumpyPolicy:
-    """Load ``<name>.json`` + ``<name>.npz`` (``path`` may name either or the common stem) as a ``NumpyPolicy``."""
+    """Load ``<name>.json`` + ``<name>.npz`` (``path`` may name either or the common stem) as a ``NumpyPolicy``.
+
+    Each file is read once; the policy, and its ``weights_hash``, are built from those bytes and nothing reads
+    the files again. The two files are one agent: when either is no longer the version that was read once both
+    are read (an agent written again meanwhile, e.g. by ``vtrack export``), the pair may be half old, half new,
+    and the load is refused with a ``ValueError`` saying so (load it again once it is written).
+    """
+    from vtrack_gym._io import read_regular_file_stamped, unchanged_since
+
     json_path, npz_path = agent_paths(path)
-    spec = validate_spec(_read_json(json_path))
-    arrays = _read_npz(npz_path, expected_arrays(spec))
+    json_raw, json_stamp = read_regular_file_stamped(json_path, MAX_JSON_BYTES, "agent json")
+    spec = validate_spec(_parse_json(json_path, json_raw))
+    npz_raw, npz_stamp = read_regular_file_stamped(npz_path, MAX_NPZ_BYTES, "agent npz")
+    for file, stamp in ((json_path, json_stamp), (npz_path, npz_stamp)):
+        if not unchanged_since(file, stamp):
+            raise ValueError(f"{file}: the agent changed while it was being read (its .json and .npz may be of two "
+                             "versions); load it again once it is written")
+    arrays = _parse_npz(npz_path, npz_raw, expected_arrays(spec))
     return NumpyPolicy(spec, arrays, name=json_path.stem)
 
 

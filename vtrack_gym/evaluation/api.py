@@ -91,8 +91,8 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
     ``seeds``), an env id (``seeds``, default ``[0]``) or a Gymnasium env instance (driven as given).
     ``vecnormalize``: SB3 ``VecNormalize`` statistics the policy was trained with (observations are normalised
     with them before ``predict``). ``store``: a leaderboard file (or ``ResultStore``) the rows are added to, each as its
-    episode ends (with ``workers``/``backend``: once every episode is done, as they share the first one's
-    fingerprint).
+    episode ends (also with ``workers``/``backend``: the policy's fingerprint is taken before the first episode
+    starts, so an episode that finished is stored whatever happens to the later ones).
     ``policy_id``: the name in the rows (default: ``policy.policy_id`` or the class name). ``vehicle``: the car of
     a suite's or an env id's episodes (a name of ``vehicle.list_vehicles()`` or a vehicle file; default the paper's
     car), recorded in the rows' ``options`` (an env instance is driven with its own car, track and config, recorded
@@ -142,8 +142,7 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
         rows.append(row)
 
     if isinstance(suite_or_env, str) and (workers != 1 or backend != "local"):
-        for row in _parallel_rows(make, episodes, suite, policy_id, workers, backend):
-            keep(row)
+        rows[:] = _parallel_rows(make, episodes, suite, policy_id, workers, backend, keep)
     elif isinstance(suite_or_env, str):
         for ep in episodes:
             env = gym.make(ep.env_id, **ep.make_kwargs)
@@ -183,8 +182,7 @@ def _row(make: Callable[[Any], Any], env: gym.Env, ep: Episode, suite: str, poli
     if not hasattr(policy, "predict"):
         raise ValueError(f"the factory returned {type(policy).__name__}, which has no predict method")
     name = policy_id or policy_id_of(policy)
-    if digest is None:   # a policy whose state cannot be read completely needs a policy_id naming it
-        digest = named_policy_hash(policy, policy_id, env) if policy_id else policy_hash(policy, env)
+    digest = digest or _fingerprint(policy, policy_id, env)
     row, _ = episode_scorer(suite, make)(name, policy, env, ep, suite, digest)
     log.debug("%s on %s seed %s: %s, max |e_y| %.4g m", name, ep.env_id, ep.seed, row.termination,
              row.metrics.get("max_e_y_m", float("nan")))
@@ -199,28 +197,45 @@ def _checked_policy(make: Callable[[Any], Any], env: gym.Env) -> Any:
     return policy
 
 
+def _fingerprint(policy: Any, policy_id: str | None, env: gym.Env) -> str:
+    """The policy hash a row records; a policy whose state cannot be read completely needs a ``policy_id``."""
+    return named_policy_hash(policy, policy_id, env) if policy_id else policy_hash(policy, env)
+
+
+def _first_identity(make: Callable[[Any], Any], episode: Episode, policy_id: str | None) -> tuple[str, str]:
+    """``(policy id, policy hash)`` of the policy ``make`` builds for ``episode``'s env, taken before any episode
+    runs, as the serial loop takes them from its first episode (a fresh env and a fresh policy)."""
+    env = gym.make(episode.env_id, **episode.make_kwargs)
+    try:
+        policy = make(env)
+        return policy_id or policy_id_of(policy), _fingerprint(policy, policy_id, env)
+    finally:
+        env.close()
+
+
 def _parallel_rows(make: Callable[[Any], Any], episodes: Sequence[Episode], suite: str, policy_id: str | None,
-                   workers: int | None, backend: str) -> list[ResultRow]:
-    """``episodes`` scored by ``parallel.run_tasks``; every row gets the first episode's fingerprint, as in the
-    serial loop. The rows' policy id is ``policy_id`` or that of a policy built once here for the first env."""
+                   workers: int | None, backend: str, keep: Callable[[ResultRow], None]) -> list[ResultRow]:
+    """``episodes`` scored by ``parallel.run_tasks``, each row handed to ``keep`` (stored) as its episode ends;
+    returns the rows in episode order. Every row records the name and fingerprint taken before the first episode
+    starts (``_first_identity``), so a row is complete when its episode ends and a later failure cannot lose it."""
     import functools
 
     from vtrack_gym.evaluation.parallel import EpisodeTask, run_tasks
 
     checked = functools.partial(_checked_policy, make)
-    name = policy_id
-    if name is None:
-        env = gym.make(episodes[0].env_id, **episodes[0].make_kwargs)
-        try:
-            name = policy_id_of(checked(env))
-        finally:
-            env.close()
-    score = episode_scorer(suite, checked)
-    results = run_tasks([EpisodeTask(name, checked, ep, suite, score) for ep in episodes], workers, backend)
-    rows = [result[0] for result in results if isinstance(result, tuple)]  # a lost episode was logged
-    if not rows:
+    name, digest = _first_identity(checked, episodes[0], policy_id)
+    score = functools.partial(episode_scorer(suite, checked), digest=digest)
+    done: dict[int, ResultRow] = {}
+
+    def on_result(index: int, result: tuple[Any, Any]) -> None:
+        keep(result[0])
+        done[index] = result[0]
+
+    run_tasks([EpisodeTask(name, checked, ep, suite, score) for ep in episodes], workers, backend,
+              on_result=on_result)   # a lost episode was logged
+    if not done:
         raise ValueError(f"every episode of {name} was lost: its worker processes died (see the log)")
-    return [dataclasses.replace(r, policy_hash=rows[0].policy_hash) for r in rows]
+    return [done[i] for i in sorted(done)]
 
 
 @dataclasses.dataclass(frozen=True)

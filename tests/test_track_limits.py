@@ -129,7 +129,7 @@ def test_cli_track_limits_is_recorded_with_the_row(tmp_path: Path) -> None:
         main(["eval", "--policy", "stanley", "--track", str(file), "--track-limits", "kerbs"])
 
 
-def test_cli_benchmark_tracks_takes_the_rule(tmp_path: Path) -> None:
+def test_cli_benchmark_tracks_takes_the_rule(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     folder = tmp_path / "tracks"
     folder.mkdir()
     x = np.linspace(0.0, 150.0, 76)
@@ -142,15 +142,8 @@ def test_cli_benchmark_tracks_takes_the_rule(tmp_path: Path) -> None:
 
     (row,) = ResultStore(store, read_only=True).rows()
     assert row["options"]["protocol"] == {"track_limits": "body"} and row["metrics"]["track_limit_violations"] == 0.0
-    with pytest.raises(ValueError, match="--track-limits applies to --track FILE or --tracks"):
-        from vtrack_gym.cli.benchmark import _check_track_options
-
-        _check_track_options(argparse_namespace(track_limits="body"))
-
-
-def argparse_namespace(**values: object) -> object:
-    """The benchmark command's options with ``values`` set (the rest at their defaults)."""
-    import argparse
-
-    defaults = {"workers": None, "track": None, "tracks": None, "suite": None, "quick": False, "track_limits": None}
-    return argparse.Namespace(**{**defaults, **values})
+    # the rule without a track: refused before any episode, as a user typing it sees it
+    assert main(["benchmark", "--policies", "stanley", "--track-limits", "body", "--no-figures",
+                 "--store", str(tmp_path / "other.db")]) == 2
+    assert "--track-limits applies to --track FILE or --tracks" in capsys.readouterr().err
+    assert not (tmp_path / "other.db").exists()

@@ -41,16 +41,22 @@ CONTROL_COLUMNS: tuple[str, ...] = (
 )
 """The control metrics (``metrics.control_metrics``) and, on a track judged by ``track_limits=``, its excursions and
 the body's least clearance to an edge (missing for the other rows)."""
+TIMING_COLUMNS: tuple[str, ...] = (
+    "rms_e_v_mps", "max_e_v_mps", "time_lag_s", "comfort_a_wx_mps2", "best_lap_s", "mean_lap_s",
+)
+"""Tracking in time (``metrics.speed_metrics``, ``metrics.timing_metrics``): the speed error's RMS and peak [m/s],
+the time lag behind the timed reference at the end [s], the ISO 2631-1 longitudinal comfort value [m/s^2] and, on a
+closed path, the best and mean lap [s] (missing on an open one and in rows stored before these columns)."""
 LEADERBOARD_COLUMNS: tuple[str, ...] = (
     "rms_e_y_m", "max_e_y_m", "rms_e_phi_deg", "rms_hand_wheel_deg", "max_hand_wheel_deg", "max_a_y_mps2",
-    "max_roll_deg", "itae", "cones_hit", "comfort_a_v_mps2", "steering_reversals_per_s",
+    "max_roll_deg", "itae", "cones_hit", "comfort_a_v_mps2", "steering_reversals_per_s", *TIMING_COLUMNS,
     "policy_time_p50_us", "policy_time_p95_us", "policy_time_max_us", "policy_real_time_factor", "solver_failures",
     "late_decision_share", *CONTROL_COLUMNS,
 )
-"""Every suite's leaderboard columns (every table format and the HTML board): the paper's metrics, then the policy's
-own compute per decision (``metrics.compute_metrics``: p50/p95/max [us], real-time factor at the control period),
-its failed solves and, with compute charged in the loop (``latency``), the share of its decisions that were late,
-then ``CONTROL_COLUMNS``."""
+"""Every suite's leaderboard columns (every table format and the HTML board): the paper's metrics, ``TIMING_COLUMNS``,
+then the policy's own compute per decision (``metrics.compute_metrics``: p50/p95/max [us], real-time factor at the
+control period), its failed solves and, with compute charged in the loop (``latency``), the share of its decisions
+that were late, then ``CONTROL_COLUMNS``."""
 
 
 def suite_columns(suite: str) -> tuple[str, ...]:

@@ -8,6 +8,7 @@ from typing import Any, Protocol
 import gymnasium as gym
 import numpy as np
 
+from vtrack_gym.evaluation.reference_time import episode_reference
 from vtrack_gym.evaluation.trace import STEP_SIGNALS, Trace
 
 
@@ -64,6 +65,7 @@ def rollout(policy: PolicyLike, env_id_or_env: str | gym.Env, seed: int | None =
     env, env_id = _make(env_id_or_env)
     obs, _ = env.reset(seed=seed, options=options)
     unwrapped = env.unwrapped
+    reference = episode_reference(unwrapped)
     cfg = unwrapped.config
     latency = getattr(unwrapped, "latency", None)
     measured = latency is not None and latency.mode == "measured"
@@ -96,7 +98,7 @@ def rollout(policy: PolicyLike, env_id_or_env: str | gym.Env, seed: int | None =
                             termination=termination, wall_time_s=wall,
                             meta={"options": dict(options or {}), "model": cfg.model},
                             policy_time_s=np.asarray(policy_s),
-                            solver_failures=_failures_since(policy, failures_before))
+                            solver_failures=_failures_since(policy, failures_before), reference=reference)
 
 
 def rollout_batch(policy: PolicyLike, env_id: str, seeds: list[int], options: dict[str, Any] | None = None,
@@ -113,6 +115,7 @@ def rollout_batch(policy: PolicyLike, env_id: str, seeds: list[int], options: di
     sim = envs.unwrapped.sim if hasattr(envs, "unwrapped") else envs.sim
     obs, _ = envs.reset(seed=list(seeds), options=options)
     cfg = envs.unwrapped.config
+    references = [episode_reference(envs, i) for i in range(n)]
     active = np.ones(n, dtype=bool)
     records: list[dict[str, list]] = [{k: [] for k in (*STEP_SIGNALS, "fz_n", "acc")} for _ in range(n)]
     terminations = ["max_steps"] * n
@@ -154,5 +157,5 @@ def rollout_batch(policy: PolicyLike, env_id: str, seeds: list[int], options: di
                             np.concatenate(rec["acc"], axis=0), 1.0 / cfg.physics_dt_s, cfg.control_period_s,
                             terminations[i], wall / max(steps, 1) / n, {"options": dict(options or {}),
                                                                          "model": cfg.model}, verdicts[i],
-                            np.asarray(policy_s[:len(rec["time_s"])]), failures))
+                            np.asarray(policy_s[:len(rec["time_s"])]), failures, references[i]))
     return traces

@@ -10,7 +10,7 @@ and the column), so a store edited by hand or by another program cannot rank abs
   ``completed``; ``success`` 0/1; ``wall_time_per_step_s`` a finite number >= 0;
 * ``options_json`` and ``metrics_json``: JSON objects of at most ``MAX_JSON_CHARS`` characters, nested at most
   ``MAX_JSON_DEPTH`` deep, integers of at most 20 digits; metrics as :func:`checked_metrics` keeps them (within
-  ``METRIC_RANGES`` where a metric has a physical range).
+  ``METRIC_RANGES`` where a metric has a physical range; ``LIST_METRICS``, the lap times, lists of durations).
 """
 
 from __future__ import annotations
@@ -35,12 +35,17 @@ MAX_METRIC_INT = 2**63
 UNIT_SUFFIXES = ("_m", "_s", "_deg", "_rad", "_mps", "_mps2", "_n", "_per_s", "_us", "_g", "_kmh", "_degps",
                  "_degps2", "_mps3")
 """A metric whose name ends in a unit is a number."""
-NON_NEGATIVE_METRICS = frozenset({"itae", "duration_s", "cones_hit", "comfort_a_v_mps2", "steering_reversals_per_s",
+NON_NEGATIVE_METRICS = frozenset({"itae", "duration_s", "cones_hit", "comfort_a_v_mps2", "comfort_a_wx_mps2",
+                                  "best_lap_s", "mean_lap_s", "steering_reversals_per_s",
                                   "a_y_violation_mps2", "wall_time_per_step_s", "wall_time_s", "episodes",
                                   "remaining_m", "completed", "success", "entry_speed_fraction",
                                   "above_physical_bound", "entry_speed_monotone", "entry_speed_capped",
                                   "track_limit_violations"})
 """Error, count and duration metrics that cannot be negative (also every ``max_*`` and ``rms_*`` metric)."""
+LIST_METRICS = frozenset({"lap_times_s"})
+"""Metrics that are a list of durations [s] (finite numbers >= 0), one per lap, at most ``MAX_LIST_ITEMS``."""
+MAX_LIST_ITEMS = 10_000
+"""Longest list metric."""
 FLAG_METRICS = frozenset({"completed", "success", "above_physical_bound", "entry_speed_monotone",
                           "entry_speed_capped"})
 """Metrics that are 0 or 1."""
@@ -102,7 +107,24 @@ def checked_seed(value: Any) -> int | None:
     return value
 
 
+def _checked_list(name: str, raw: Any) -> list[float]:
+    """A ``LIST_METRICS`` value: a list of finite numbers >= 0 [s]; ``ValueError`` naming the metric otherwise."""
+    items = raw.tolist() if hasattr(raw, "tolist") else raw
+    if not isinstance(items, (list, tuple)) or len(items) > MAX_LIST_ITEMS:
+        raise ValueError(f"metric {name!r} must be a list of at most {MAX_LIST_ITEMS} durations [s] (got "
+                         f"{type(raw).__name__} {str(raw)[:60]!r})")
+    out = []
+    for item in items:
+        v = clean_scalar(item)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
+            raise ValueError(f"metric {name!r} must hold finite durations >= 0 s (got {str(item)[:60]!r})")
+        out.append(float(v))
+    return out
+
+
 def _checked_metric(name: str, raw: Any) -> Any:
+    if name in LIST_METRICS:
+        return _checked_list(name, raw)
     value = clean_scalar(raw)
     if value is None or (isinstance(value, str) and not _numeric(name)):
         return value
@@ -126,8 +148,8 @@ def _checked_metric(name: str, raw: Any) -> Any:
 def checked_metrics(metrics: Any) -> dict[str, Any]:
     """``ResultRow.metrics`` as JSON-safe values; ``ValueError`` naming the metric when a value is of the wrong kind
     or out of range: numeric metrics real numbers (NaN/inf stored as None: missing), ``>= 0`` for error, count and
-    duration metrics, 0/1 for flags, ``METRIC_RANGES`` for bounded ones, integers within 2^63; other metrics a
-    number or text."""
+    duration metrics, 0/1 for flags, ``METRIC_RANGES`` for bounded ones, integers within 2^63, ``LIST_METRICS``
+    lists of finite durations >= 0; other metrics a number or text."""
     if not isinstance(metrics, dict):
         raise ValueError(f"metrics must be a dict of name -> value (got {type(metrics).__name__})")
     out: dict[str, Any] = {}

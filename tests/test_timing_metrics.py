@@ -17,8 +17,8 @@ from vtrack_gym.cli import main
 from vtrack_gym.evaluation import iso2631
 from vtrack_gym.evaluation.benchmark import LEADERBOARD_COLUMNS, TIMING_COLUMNS
 from vtrack_gym.evaluation.laps import lap_crossing_times, lap_metrics, lap_times
-from vtrack_gym.evaluation.metrics import evaluate_trace
-from vtrack_gym.evaluation.rollout import rollout
+from vtrack_gym.evaluation.metrics import evaluate_trace, timing_metrics
+from vtrack_gym.evaluation.rollout import rollout, rollout_batch
 from vtrack_gym.evaluation.store import ResultRow, ResultStore
 from vtrack_gym.tracks import CurvatureLimited, speed_table
 
@@ -120,6 +120,16 @@ def test_rows_of_the_paper_lane_change_carry_the_timing_columns() -> None:
         assert math.isfinite(m[name]), name
     assert 0.0 < m["rms_e_v_mps"] <= m["max_e_v_mps"]
     assert "lap_times_s" not in m and "best_lap_s" not in m   # an open path: no laps
+
+
+def test_the_vector_env_times_its_cars_as_the_single_env() -> None:
+    env = gym.make("vtrack/LateralTracking-v0")   # a closed path at a held speed
+    single = timing_metrics(rollout(vtrack_gym.make_policy("lqr", env), env, seed=0, max_steps=1500))
+    batch, = rollout_batch(vtrack_gym.make_policy("lqr", env), "vtrack/LateralTracking-v0", [0], max_steps=1500)
+    env.close()
+    assert batch.reference is not None and batch.reference.closed
+    assert batch.n_steps == 1500 and math.isfinite(single["time_lag_s"])
+    assert timing_metrics(batch)["time_lag_s"] == pytest.approx(single["time_lag_s"], abs=1e-9)
 
 
 def test_after_the_iso3888_entry_gate_the_speed_error_is_zero() -> None:

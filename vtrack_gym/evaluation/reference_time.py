@@ -62,23 +62,26 @@ def _sim_of(env: Any) -> Any:
 
 def episode_reference(env: Any, car: int = 0) -> EpisodeReference | None:
     """The timed reference of car ``car``'s episode, read right after ``env.reset`` (rules in the module
-    docstring); None for an env that is not a vtrack env (e.g. the highway-env adapter)."""
+    docstring); None for an env that is not a vtrack env (e.g. the highway-env adapter) and for a held speed outside
+    a speed table's range (1 to 100 m/s)."""
     sim = _sim_of(env)
     if sim is None or not hasattr(sim, "tracks"):
         return None
     from vtrack_gym.envs.speed import speed_part
+    from vtrack_gym.tracks.path import MAX_V_REF_MPS, MIN_V_REF_MPS
     from vtrack_gym.tracks.speed_profiles import ConstantSpeed, speed_table
     from vtrack_gym.tracks.time_law import time_law
 
     track = int(sim.veh_track[car])
     part = speed_part(sim.scenario.speed)
     set_speed = float(sim.v_ref[car])
-    if bool(sim.follow[car]):
-        table = sim.tracks.speed_tables[track]
-    elif part.takes_entry_speed and math.isclose(set_speed, part.entry_speed_mps, rel_tol=1e-12):
-        table = sim.tracks.speed_tables[track]   # the protocol's prediction: entry speed, then the coast
-    else:
+    entry = getattr(part, "entry_speed_mps", None) if part.takes_entry_speed else None
+    if bool(sim.follow[car]) or (entry is not None and math.isclose(set_speed, entry, rel_tol=1e-12)):
+        table = sim.tracks.speed_tables[track]   # the profile, or the protocol's prediction (entry, then coast)
+    elif MIN_V_REF_MPS <= set_speed <= MAX_V_REF_MPS:
         table = speed_table(sim.paths[track], ConstantSpeed(set_speed))
+    else:
+        return None
     return EpisodeReference(time_law(table), float(sim.station_m[car]))
 
 

@@ -178,7 +178,10 @@ def test_cli_eval_and_benchmark_print_the_timing_columns(tmp_path: Path, capsys:
     assert main(["eval", "--policy", "lqr", *track, "--store", store]) == 0
     out = capsys.readouterr().out
     header = [c.strip() for c in next(x for x in out.splitlines() if x.startswith("| seed")).strip("|").split("|")]
-    assert {"rms_e_v_mps", "max_e_v_mps", "time_lag_s", "comfort_a_wx_mps2", "best_lap_s", "mean_lap_s"} <= set(header)
+    assert {"rms_e_v_mps", "max_e_v_mps", "time_lag_s", "comfort_a_wx_mps2", "best_lap_s", "mean_lap_s",
+            "lap_times_s"} <= set(header)
+    cells = dict(zip(header, (c.strip() for c in out.splitlines()[-1].strip("|").split("|")), strict=True))
+    assert float(cells["lap_times_s"]) == pytest.approx(float(cells["best_lap_s"]), rel=1e-3)   # one lap, 3 digits
     assert main(["benchmark", *track, "--policies", "lqr", "--no-figures", "--store", store, "--columns", "all",
                  "--format", "json"]) == 0
     entry, = json.loads(capsys.readouterr().out)

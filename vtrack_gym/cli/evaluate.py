@@ -67,7 +67,9 @@ def run(args: argparse.Namespace) -> int:
     except StoreError as exc:
         store_error = exc
     table = [{"seed": r.seed, "termination": r.termination, "success": int(r.verdict()),
-              **{k: v for k, v in r.metrics.items() if isinstance(v, float)}} for r in rows]
+              **{k: v for k, v in r.metrics.items() if isinstance(v, float)},
+              **({"lap_times_s": " ".join(f"{t:.3f}" for t in r.metrics["lap_times_s"]) or "-"}
+                 if isinstance(r.metrics.get("lap_times_s"), list) else {})} for r in rows]
     out(to_markdown(table), flush=True)
     if len(rows) > 1:
         from vtrack_gym.evaluation.benchmark import LEADERBOARD_COLUMNS, summarise

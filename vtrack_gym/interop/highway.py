@@ -428,7 +428,10 @@ class HighwayLaneKeeping(gym.Env):
             yaw_rate_radps=r, road_wheel_angle_rad=delta, hand_wheel_angle_rad=delta * self.design_model.steering_ratio,
             steering_command_rad=delta, roll_rad=0.0, throttle=0.0, brake_n=0.0, a_x_mps2=a_x, a_y_mps2=a_y,
             a_z_mps2=0.0, min_fz_n=float(self._fz[0] if self._fz[0] < self._fz[2] else self._fz[2]),
-            station_m=station, progress_m=self._progress, target_speed_mps=self._target_speed, **terms)
+            station_m=station, progress_m=self._progress, target_speed_mps=self._target_speed,
+            speed_error_mps=v_x - self._target_speed,
+            time_error_s=(self._steps * self.control_period_s - self._progress / self._target_speed
+                          if self._target_speed > 0.0 else 0.0), **terms)
         info = info_dict(self._steps * self.control_period_s, row, self._fz.copy(),
                          self._acc_samples(a_x, a_y, stepped), "")
         return obs, info

@@ -198,7 +198,7 @@ def test_sb3_adapter_steps_two_actions() -> None:
     venv.reset()
     venv.step_async(np.array([[0.0, 0.5], [0.0, -0.5]], dtype=np.float32))
     obs, reward, done, _ = venv.step_wait()
-    assert obs.shape == (2, OBS.size + 2) and np.isfinite(reward).all()
+    assert obs.shape == (2, OBS.size + 2) and np.isfinite(reward).all() and not done.any()
     assert venv.venv.sim.inputs[0, 1] == 0.5 and venv.venv.sim.inputs[1, 2] == 0.5 * CAR.brakes.max_pedal_force_n
     with pytest.raises(ValueError, match=r"shape \(2, 2\) for a batch"):
         venv.step_async(np.zeros(2))

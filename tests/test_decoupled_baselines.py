@@ -62,6 +62,7 @@ def test_every_baseline_drives_every_mode(name: str, control: str) -> None:
     obs, _ = env.reset(seed=0)
     action, state = policy.predict(obs)
     assert action.shape == (2,) and action.dtype == np.float32 and np.isfinite(action).all()
+    assert state.shape == (1, policy.state_size)
     batch, _ = policy.predict(np.stack([obs, obs]))
     assert batch.shape == (2, 2)
 

@@ -203,3 +203,47 @@ def test_sb3_adapter_steps_two_actions() -> None:
     with pytest.raises(ValueError, match=r"shape \(2, 2\) for a batch"):
         venv.step_async(np.zeros(2))
         venv.step_wait()
+
+
+def test_highway_lane_keeping_takes_steer_only() -> None:
+    pytest.importorskip("highway_env")
+    assert gym.make("vtrack_gym/HighwayLaneKeeping-v0", control="steer").unwrapped.control == "steer"
+    with pytest.raises(ValueError, match="control must be 'steer' on HighwayLaneKeeping-v0"):
+        gym.make("vtrack_gym/HighwayLaneKeeping-v0", control="steer_accel")
+
+
+def test_vtrack_eval_records_the_control_mode(tmp_path, capsys) -> None:
+    """Rows of another control mode are another set-up (``options["control"]``, ranked apart on the board); steer
+    rows keep their identity (no ``control`` option)."""
+    from vtrack_gym.cli import main
+    from vtrack_gym.evaluation.board import board_env
+    from vtrack_gym.evaluation.store import ResultStore
+
+    store = tmp_path / "rows.db"
+    for extra in ([], ["--control", "steer_accel"]):
+        assert main(["eval", "--policy", "lqr", "--env", "DLC120-v0", "--store", str(store), *extra]) == 0
+    rows = ResultStore(store).rows()
+    assert [r["options"] for r in rows] == [{}, {"control": "steer_accel"}]
+    assert [board_env(r) for r in rows] == ["DLC120-v0", 'DLC120-v0 [control="steer_accel"]']
+    assert all(r["success"] for r in rows)
+
+
+def test_the_cli_refuses_an_unknown_mode_and_control_with_a_track_file(tmp_path, capsys) -> None:
+    from vtrack_gym.cli import main
+
+    with pytest.raises(SystemExit) as exit_info:
+        main(["eval", "--policy", "lqr", "--env", "DLC120-v0", "--control", "accel"])
+    assert exit_info.value.code == 2 and "--control: invalid choice: 'accel'" in capsys.readouterr().err
+    track = tmp_path / "t.csv"
+    track.write_text("x_m,y_m\n" + "".join(f"{x},0\n" for x in range(0, 200, 5)))
+    code = main(["benchmark", "--policies", "lqr", "--track", str(track), "--control", "steer_accel",
+                 "--store", str(tmp_path / "b.db"), "--no-figures"])
+    assert code != 0 and "--control applies to a suite's episodes" in capsys.readouterr().err
+
+
+def test_env_identity_records_the_mode() -> None:
+    from vtrack_gym.evaluation.env_identity import env_identity
+
+    assert env_identity(gym.make("DLC120-v0")) == ("DLC120-v0", {})
+    assert env_identity(gym.make("DLC120-v0", control="steer_rate_accel")) == ("DLC120-v0",
+                                                                               {"control": "steer_rate_accel"})

@@ -194,7 +194,14 @@ class HighwayLaneKeeping(gym.Env):
     def __init__(self, policy_frequency_hz: float = 50.0, start: str = "sine", max_episode_s: float = 120.0,
                  course_length_m: float | None = None, terminate_off_road: bool | None = None,
                  highway_config: dict[str, Any] | None = None, layout: ObservationLayout = OBS,
-                 render_mode: str | None = None) -> None:
+                 render_mode: str | None = None, control: str = "steer") -> None:
+        from vtrack_gym.envs.control import check_control
+
+        if check_control(control) != "steer":
+            raise ValueError(f"control must be 'steer' on HighwayLaneKeeping-v0 (got {control!r}): highway-env's "
+                             "car keeps its own speed; the longitudinal control modes drive this package's envs")
+        self.control = control
+        """The control mode (``envs.control``): always ``steer`` here."""
         import_highway_env()
         if not (1.0 <= policy_frequency_hz <= 1000.0):
             raise ValueError(f"policy_frequency_hz must be in [1, 1000] Hz (got {policy_frequency_hz})")

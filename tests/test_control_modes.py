@@ -247,3 +247,25 @@ def test_env_identity_records_the_mode() -> None:
     assert env_identity(gym.make("DLC120-v0")) == ("DLC120-v0", {})
     assert env_identity(gym.make("DLC120-v0", control="steer_rate_accel")) == ("DLC120-v0",
                                                                                {"control": "steer_rate_accel"})
+
+
+@pytest.mark.slow
+def test_vtrack_train_control_steer_accel_exports_a_two_output_agent(tmp_path) -> None:
+    """``vtrack train --control steer_accel``: the agent file takes the mode's layout and outputs the demand too, so
+    it is used as it is in that mode (not paired with the PD-FLC) and refused by a steer env, naming the field."""
+    import json
+
+    from vtrack_gym.cli import main
+
+    run = tmp_path / "run"
+    assert main(["train", "--algo", "ppo", "--env", "LateralTrackingRandom-v0", "--control", "steer_accel",
+                 "--timesteps", "256", "--num-envs", "2", "--eval-freq", "0", "--run-dir", str(run),
+                 "--set", "n_steps=128", "--set", "batch_size=64", "--no-progress", "--no-final-eval"]) == 0
+    spec = json.loads((run / "agent.json").read_text())
+    assert spec["action_dim"] == 2 and spec["env"]["observation_names"][-2:] == ["speed_error", "time_error"]
+    assert json.loads((run / "config.json").read_text())["hyperparams"]["env_kwargs"]["control"] == "steer_accel"
+    env = gym.make("DLC120-v0", control="steer_accel")
+    agent = vtrack_gym.make_policy(str(run / "agent.json"), env)
+    assert agent.predict(env.reset(seed=0)[0])[0].shape == (2,)
+    with pytest.raises(ValueError, match="entry 43 is 'speed_error' for the agent"):
+        vtrack_gym.make_policy(str(run / "agent.json"), gym.make("DLC120-v0"))

@@ -154,9 +154,10 @@ def export(model: Any, vecnormalize: Any, path: str | Path, *, env_id: str = "",
 SB3_CLASSES = ("ppo", "sac", "td3")
 
 
-TRAINING_ENV_KWARGS = ("control_period_s", "reward")
-"""Env settings a hyperparameter file may change for training (its ``env_kwargs``): the decision period [s] and
-``RewardConfig`` fields (a mapping, e.g. ``{w_ey: 1.0}``)."""
+TRAINING_ENV_KWARGS = ("control_period_s", "reward", "control")
+"""Env settings a hyperparameter file may change for training (its ``env_kwargs``): the decision period [s],
+``RewardConfig`` fields (a mapping, e.g. ``{w_ey: 1.0}``) and the control mode (``envs.control``; ``vtrack train
+--control``)."""
 
 
 def training_env_kwargs(raw: dict[str, Any] | None) -> dict[str, Any]:

@@ -149,15 +149,20 @@ class _Wrapped:
         return action, None
 
 
-def evaluate_paper(policy: Any, case1_max_steps: int | None = 3000, seed: int = 0) -> dict[str, dict[str, Any]]:
-    """Deterministic rollouts on both paper scenarios: ``{env_id: metrics + termination + steps}``."""
+def evaluate_paper(policy: Any, case1_max_steps: int | None = 3000, seed: int = 0,
+                   control: str = "steer") -> dict[str, dict[str, Any]]:
+    """Deterministic rollouts on both paper scenarios (in the control mode ``control``, ``envs.control``):
+    ``{env_id: metrics + termination + steps}``."""
+    import gymnasium as gym
+
     from vtrack_gym.evaluation.metrics import paper_metrics, smoothness_metrics
     from vtrack_gym.evaluation.rollout import rollout
 
     out: dict[str, dict[str, Any]] = {}
     for env_id in EVAL_ENV_IDS:
         cap = case1_max_steps if env_id == "LateralTracking-v0" else None
-        trace = rollout(policy, env_id, seed=seed, max_steps=cap)
+        env = gym.make(env_id, control=control) if control != "steer" else env_id
+        trace = rollout(policy, env, seed=seed, max_steps=cap)
         m = {**paper_metrics(trace), **smoothness_metrics(trace)}
         row: dict[str, Any] = {k: float(m[k]) for k in ("rms_e_y_m", "max_e_y_m", "rms_e_phi_deg",
                                                         "max_hand_wheel_deg", "max_a_y_mps2",
@@ -226,7 +231,8 @@ def _make_callbacks(run_dir: Path, vecnorm: Any, timesteps: int, eval_freq: int,
             log.info("evaluating on LateralTracking-v0 (%s) and DLC120-v0 at step %d", "full lap" if full else
                      f"first {case1_max_steps} steps", self.num_timesteps)
             t0 = time.perf_counter()
-            res = evaluate_paper(_Wrapped(self.model, vecnorm), None if full else case1_max_steps)
+            res = evaluate_paper(_Wrapped(self.model, vecnorm), None if full else case1_max_steps,
+                                 control=getattr(contract_env, "control", "steer"))
             for eval_id, row in res.items():  # not env_id: that is the training env id exported below
                 for key in ("rms_e_y_m", "max_e_y_m", "completed", "steps", "steering_reversals_per_s"):
                     self.logger.record(f"eval/{eval_id}/{key}", float(row[key]))
@@ -277,9 +283,10 @@ class _RunSetup:
 
 
 def _merged_params(algo: str, env_id: str, overrides: Mapping[str, Any] | None, bc: Any,
-                   num_envs: int | None) -> tuple[dict[str, Any], str]:
-    """The entry's hyperparameters with the warm start's ``bc_finetune``, ``overrides`` (None drops a key) and
-    ``num_envs`` applied, checked for settings of another algorithm; and the file's SHA-256."""
+                   num_envs: int | None, control: str | None = None) -> tuple[dict[str, Any], str]:
+    """The entry's hyperparameters with the warm start's ``bc_finetune``, ``overrides`` (None drops a key),
+    ``num_envs`` and the control mode (into ``env_kwargs``) applied, checked for settings of another algorithm; and
+    the file's SHA-256."""
     params, digest = load_hyperparams(algo, env_id)
     finetune = params.pop("bc_finetune", None) or {}
     if bc is not None:
@@ -295,12 +302,19 @@ def _merged_params(algo: str, env_id: str, overrides: Mapping[str, Any] | None, 
         raise ValueError(f"{sorted(REGULARISED_SAC_KEYS & params.keys())} apply to --algo sac only")
     if num_envs is not None:
         params["n_envs"] = int(num_envs)
+    if control is not None:
+        from vtrack_gym.envs.control import check_control
+
+        params["env_kwargs"] = {**dict(params.get("env_kwargs") or {}), "control": check_control(control)}
+    if bc is not None and dict(params.get("env_kwargs") or {}).get("control", "steer") != "steer":
+        raise ValueError("the behaviour-cloning warm start (--bc-expert) trains a steering actor: it applies to "
+                         "control 'steer' only")
     return params, digest
 
 
 def _configure(algo: str, env_id: str | None, timesteps: int | None, seed: int, run_dir: str | Path,
                num_envs: int | None, overrides: Mapping[str, Any] | None, bc: Any, command: str | None,
-               eval_settings: dict[str, Any]) -> _RunSetup:
+               eval_settings: dict[str, Any], control: str | None = None) -> _RunSetup:
     """Config phase: read and check the hyperparameters, decide the run's settings and its ``config.json``."""
     import stable_baselines3
     import torch
@@ -312,7 +326,7 @@ def _configure(algo: str, env_id: str | None, timesteps: int | None, seed: int, 
         raise ValueError(f"timesteps must be a positive int (got {timesteps!r})")
     if env_id is None:
         env_id = DEFAULT_ENV_ID if bc is None else IMITATION_ENV_ID
-    params, digest = _merged_params(algo, env_id, overrides, bc, num_envs)
+    params, digest = _merged_params(algo, env_id, overrides, bc, num_envs, control)
     file_timesteps = params.pop("n_timesteps", None)
     if timesteps is None:
         if file_timesteps is None:
@@ -482,8 +496,12 @@ def train(algo: str, env_id: str | None = None, timesteps: int | None = None, se
           overrides: Mapping[str, Any] | None = None, eval_freq: int = 100_000, case1_max_steps: int | None = 3000,
           case1_full_every: int = 5, final_eval: bool = True, progress_bar: bool = True, verbose: int = 0,
           torch_threads: int | None = 1, command: str | None = None, bc: Any = None,
-          overwrite: bool = False) -> dict[str, Any]:
+          overwrite: bool = False, control: str | None = None) -> dict[str, Any]:
     """Train ``algo`` on ``env_id`` and write ``run_dir`` (see the module docstring). Returns a summary dict.
+
+    ``control``: the control mode of the training env and the periodic evaluation (``envs.control``; recorded in
+    the hyperparameters' ``env_kwargs``; default: the hyperparameter file's, else ``steer``). The longitudinal modes
+    train a two-output actor (steering or its rate, and the demand); the warm start applies to ``steer`` only.
 
     ``timesteps`` None: the entry's ``n_timesteps``. ``overrides`` replace YAML entries (e.g. ``{"n_steps": 64}``;
     a value of ``None`` drops the entry); ``num_envs`` overrides ``n_envs``. ``env_id`` ``None``:
@@ -505,7 +523,8 @@ def train(algo: str, env_id: str | None = None, timesteps: int | None = None, se
     if torch_threads:
         torch.set_num_threads(torch_threads)
     setup = _configure(algo, env_id, timesteps, seed, run_dir, num_envs, overrides, bc, command,
-                       {"freq": eval_freq, "case1_max_steps": case1_max_steps, "case1_full_every": case1_full_every})
+                       {"freq": eval_freq, "case1_max_steps": case1_max_steps, "case1_full_every": case1_full_every},
+                       control)
     venv, vecnorm = _build_envs(setup)
     try:  # every setting is checked before anything of the run folder is written or replaced
         model = _build_model(setup, venv, vecnorm, verbose)

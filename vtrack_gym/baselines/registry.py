@@ -119,5 +119,10 @@ def make_policy(name: str, env: Any, preset: str = "default", **overrides: Any) 
     and ``tuned`` are the packaged GA result ``vtrack_gym/baselines/presets/<name>_tuned.json`` (JSON only,
     strict schema; ``ValueError`` if the file is missing or invalid; see ``vtrack_gym.baselines.preset_files``),
     ``hand`` the hand-tuned config and ``paper`` the paper's Table 3.
+
+    For an env in a longitudinal control mode (``steer_accel``, ``steer_rate_accel``) the steering law is paired
+    with the paper's PD-FLC as its longitudinal law (``baselines.decoupled.Decoupled``).
     """
-    return policy_class(name).from_env(env, preset=preset, **overrides)
+    from vtrack_gym.baselines.decoupled import for_control
+
+    return for_control(policy_class(name).from_env(env, preset=preset, **overrides), env)

@@ -181,10 +181,14 @@ def _file_factory(spec: str) -> Callable[[Any], Any]:
 
 
 def bind_agent(agent: Any, env: Any) -> Any:
-    """``agent`` after checking it against ``env`` (``NumpyPolicy.check_env``); ``env=None`` skips the check."""
-    if env is not None:
-        agent.check_env(env)
-    return agent
+    """``agent`` after checking it against ``env`` (``NumpyPolicy.check_env``); ``env=None`` skips the check. In a
+    longitudinal control mode the steering agent is paired with the PD-FLC (``baselines.decoupled``)."""
+    if env is None:
+        return agent
+    from vtrack_gym.baselines.decoupled import for_control
+
+    agent.check_env(env)
+    return for_control(agent, env)
 
 
 def resolve_policy(spec: str, env: Any, preset: str | None = None, *, trust_code: bool = False,

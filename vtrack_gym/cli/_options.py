@@ -144,6 +144,17 @@ def add_latency(p: argparse.ArgumentParser) -> None:
                    "to the physics step); rows record it and rank apart from the ideal ones (default: off)")
 
 
+def add_control(p: argparse.ArgumentParser, what: str = "rows record it and rank apart from the steer rows") -> None:
+    """``--control MODE``: what the action drives (``envs.control``)."""
+    from vtrack_gym.envs.control import CONTROL_MODES
+
+    p.add_argument("--control", choices=tuple(CONTROL_MODES), default=None,
+                   help="what the action drives: steer (steering; the PD-FLC holds the speed), steer_accel "
+                   "(steering and a longitudinal demand, throttle/brake) or steer_rate_accel (steering rate and the "
+                   "demand); the steering baselines drive the longitudinal modes with the PD-FLC as their speed law; "
+                   f"{what} (default: steer)")
+
+
 def add_user_code(p: argparse.ArgumentParser) -> None:
     """``--trust-code`` and ``--policy-kwargs``: policies of the user's own code (``MODULE:NAME``)."""
     p.add_argument("--trust-code", action="store_true",

@@ -31,6 +31,7 @@ def register(sub: Any) -> None:
     e.add_argument("--seeds", default="0", help="seeds, e.g. 0-9 or 0,3,5 (default: 0)")
     opt.add_vehicle(e)
     opt.add_latency(e)
+    opt.add_control(e)
     opt.add_store(e)
 
 
@@ -59,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
     policy_id = user_spec_label(args.policy, parse_policy_kwargs(args.policy_kwargs)) if args.trust_code \
         else recorded_policy_id(args.policy, args.preset)   # a class of yours: its class and arguments
     rows = with_provenance(evaluate(make, env_id, seeds, policy_id=policy_id, vehicle=args.vehicle,
-                                    latency=args.latency), provenance)
+                                    latency=args.latency, control=args.control), provenance)
     store_error = None
     try:   # before printing: a closed stdout cannot lose the run; a store that fails still lets the table show
         store.add(rows)

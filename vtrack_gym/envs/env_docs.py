@@ -143,7 +143,7 @@ def env_page(env_id: str) -> str:
     env = gym.make(env_id)
     try:
         sections = [f"# {env_id}", _aliases(name), DESCRIPTIONS[name], _spaces(env), _observation(env),
-                    _reward(), _start_and_end(env), _arguments(), _history(name)]
+                    _reward(), _control(), _start_and_end(env), _arguments(), _history(name)]
     finally:
         env.close()
     return "\n\n".join(s for s in sections if s) + "\n"
@@ -184,6 +184,17 @@ def _reward() -> str:
             "`vtrack_gym.envs.config.RewardConfig`).")
 
 
+def _control() -> str:
+    return ("## Control modes\n\nThe above is the default `control=\"steer\"` (the paper's design: the PD-FLC holds "
+            "the speed). `gymnasium.make(id, control=\"steer_accel\")` gives the agent the pedals too: the action is "
+            "`Box(-1, 1, (2,))`, the steering command and a longitudinal demand d (d >= 0: throttle fraction d; "
+            "d < 0: brake pedal force -d x the car's `brakes.max_pedal_force_n`), the PD-FLC is off; "
+            "`control=\"steer_rate_accel\"` takes the steering rate (a fraction of the car's road-wheel rate limit, "
+            "integrated by the env) instead of the command. Both append `speed_error` [m/s] and `time_error` [s] to "
+            "the observation and add the bounded speed term `-0.1 |e_v|/(|e_v| + 1 m/s)` to the reward; termination "
+            "is the same. See [Control modes](../control-modes.md).")
+
+
 def _start_and_end(env: Any) -> str:
     scenario = env.unwrapped.scenario
     crit = type(scenario.success).__name__
@@ -197,7 +208,8 @@ def _start_and_end(env: Any) -> str:
 def _arguments() -> str:
     return ("## Arguments\n\n`gymnasium.make(id, vehicle=\"suv\")` drives another car (a name of "
             "`vtrack_gym.vehicle.list_vehicles()` or a vehicle file); `control_period_s=` sets the decision period "
-            "[s]; `vtrack/Track-v0` also takes `track=` (a CSV file, an OpenDRIVE, Lanelet2, CommonRoad or GPX map: "
+            "[s]; `control=` the control mode (above); `vtrack/Track-v0` also takes `track=` (a CSV file, an "
+            "OpenDRIVE, Lanelet2, CommonRoad or GPX map: "
             "[Drive a map](../tutorials/drive-a-map.md)), `speed_profile=`, `half_width_m=`, `closed=`, "
             "`smoothing_m=`, `allow_self_crossing=` and `track_options=` (format, route, lane, road_width_m); the "
             "cone-lined standard ids (`vtrack/ISO3888-1-v1`, `vtrack/ISO3888-2-v1`, "

@@ -74,6 +74,8 @@ class BatchSim:
         self.reward = self.car[:, k.CAR_REWARD]
         self.min_fz = self.car[:, k.CAR_MIN_FZ]
         self.follow = self.car[:, k.CAR_FOLLOW]
+        self.demand = self.car[:, k.CAR_DEMAND]
+        """Each car's longitudinal demand in [-1, 1] (the longitudinal control modes; ``envs.control``) (view)."""
         self.obs = np.zeros((n, self.layout.size), dtype=np.float32)
         self.err = np.zeros((n, k.ERR_COLS))
         self.station_m = self.err[:, k.E_S]
@@ -95,6 +97,13 @@ class BatchSim:
         self.latency = CommandSchedule(n, self.n_sub, config.physics_dt_s, self.car[:, k.CAR_SCHEDULED])
         """Compute latency: each car's commands take effect after their decision's delay (``envs.latency``)."""
         self.max_steer_rad = config.vehicle.steering.max_road_wheel_angle_rad  # road-wheel angle of action 1 [rad]
+        self.control = config.control
+        """The control mode (``envs.control``): what ``step``'s actions drive."""
+        self.steer_command = np.zeros(n)
+        """``steer_rate_accel``: each car's integrated steering command (fraction of the road-wheel limit)."""
+        self.rate_step = (config.vehicle.steering.max_road_wheel_rate_radps * config.control_period_s
+                          / self.max_steer_rad)
+        """Command change of a full-rate action over one control period (``steer_rate_accel``)."""
         self.arrays = self._bundle(k, scenario, config)
         self._step_kernel = k.step_parallel if use_parallel(n) else k.step_serial
         self._step_compiled = None  # the kernel's compiled entry point for ``self.arrays`` (see _run_kernel)
@@ -163,6 +172,7 @@ class BatchSim:
         self.follow[i] = 1.0 if follow else 0.0
         v0 = sc.start.initial_speed_mps(v_ref, rng)
         self.v_ref[i] = v_ref
+        self.car[i, _kernels().CAR_INV_VSET] = self._inverse_set_speed(track, v_ref, follow)
         params = self._car_params(options)
         self.plant.set_vehicle_params(i, params)
         self.criterion.reset_car(self.verdicts, i, params)
@@ -175,6 +185,8 @@ class BatchSim:
         self.inputs[i] = 0.0
         self.steps[i] = 0
         self.prev_action[i] = 0.0
+        self.demand[i] = 0.0
+        self.steer_command[i] = 0.0
         self.noise.set_scale(i, options.sensor_noise)
         self.delay.set_delay(i, options.actuator_delay_s)
         self.latency.reset_car(i)
@@ -189,6 +201,13 @@ class BatchSim:
         part = speed_part(self.scenario.speed)
         v = part.start_speed_mps(self.tracks.peak_curvature(track), self.tracks.speed_tables[track], rng)
         return v, bool(part.follows_profile)
+
+    def _inverse_set_speed(self, track: int, v_ref: float, follow: bool) -> float:
+        """1 / the held set speed [s/m] when the car holds a set speed its track's speed table does not (a reset
+        option, a randomised set speed: the time error is then against s / v_set), else 0 (the table's time law)."""
+        table = self.tracks.speed_tables[track].v_mps
+        held = not follow and np.isinf(self.tracks.meta[track, _kernels().TM_RELEASE_S])
+        return 1.0 / v_ref if held and not np.all(table == v_ref) else 0.0
 
     def _car_params(self, options: ResetOptions) -> VehicleParams:
         """The env's car with the episode's mass, friction and steering-rate knobs."""
@@ -233,8 +252,13 @@ class BatchSim:
         """Advance every car one control period. ``actions`` (n,) are finite, clipped to [-1, 1]; ``quiet`` (bool
         (n,)) marks cars whose step will be discarded (no sensor noise is drawn for them).
 
+        In the longitudinal control modes ``actions`` is (n, 2): steering (or its rate) and the demand.
+
         Returns (reward (n,), terminated (n,), truncated (n,)); observations are in ``self.obs``.
         """
+        if self.control != "steer":
+            self.demand[:] = actions[:, 1]
+            actions = self._steering(actions[:, 0])
         self.actions[:] = actions
         cmd = self.delay.delayed(self.actions) if self.delay.active else self.actions
         self.inputs[:, L.U_DELTA] = cmd * self.max_steer_rad
@@ -248,9 +272,23 @@ class BatchSim:
             self.noise.apply(self.obs, self.rngs, quiet)
         return self.reward.copy(), terminated, truncated
 
-    def step_one(self, action: float, latency_s: float | None = None) -> tuple[float, int, bool]:
+    def _steering(self, first: np.ndarray) -> np.ndarray:
+        """The steering commands (fractions of the road-wheel limit) of the actions' first entries: as given, or in
+        ``steer_rate_accel`` the integrated rates ``c + rate * rate_step`` clipped to [-1, 1]."""
+        if self.control != "steer_rate_accel":
+            return first
+        np.clip(self.steer_command + first * self.rate_step, -1.0, 1.0, out=self.steer_command)
+        return self.steer_command.copy()
+
+    def step_one(self, action: float, latency_s: float | None = None,
+                 demand: float | None = None) -> tuple[float, int, bool]:
         """Fast path for a single car (n = 1): returns (reward, termination code, truncated). ``latency_s`` [s]:
-        the decision's compute, delaying its command (``envs.latency``; ``None``: latency off)."""
+        the decision's compute, delaying its command (``envs.latency``; ``None``: latency off). ``demand``: the
+        longitudinal demand of the longitudinal control modes (``action`` is then the steering or its rate)."""
+        if demand is not None:
+            self.demand[0] = demand
+            if self.control == "steer_rate_accel":
+                action = float(self._steering(np.array([action]))[0])
         self.actions[0] = action
         extras = self._extras
         cmd = self.delay.delayed(self.actions)[0] if extras and self.delay.active else action

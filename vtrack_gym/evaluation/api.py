@@ -26,6 +26,7 @@ from vtrack_gym.evaluation.suites import (
     suite_episodes,
     suite_label,
     suite_names,
+    with_control,
     with_latency,
     with_vehicle,
 )
@@ -82,7 +83,8 @@ def _check_seeds(seeds: Sequence[int] | None) -> None:
 def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seeds: Sequence[int] | None = None,
              *, store: str | Path | ResultStore | None = None, vecnormalize: Any = None,
              policy_id: str | None = None, vehicle: str | None = None, workers: int | None = 1,
-             backend: str = "local", latency: str | float | None = None) -> list[ResultRow]:
+             backend: str = "local", latency: str | float | None = None,
+             control: str | None = None) -> list[ResultRow]:
     """Score a policy; one ``ResultRow`` per episode (``row.metrics``: the leaderboard's metrics).
 
     ``policy_or_factory``: an object with ``predict(obs, state=None, episode_start=None, deterministic=True)``
@@ -100,7 +102,9 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
     Ray (``vtrack_gym.evaluation.parallel.run_tasks``; the same rows as ``workers=1``; the factory must be
     picklable for Ray). ``latency``: charge each decision's compute in the loop (``envs.latency``: ``"measured"``,
     the policy call's time, or a fixed budget in seconds), recorded in the rows' options and ranked apart from the
-    ideal rows. Rank the rows with ``leaderboard(rows)``, alone or with other rows of the same suite.
+    ideal rows. ``control``: the control mode of a suite's or an env id's episodes (``envs.control``; default
+    ``steer``), recorded in the rows' ``options["control"]`` (an env instance drives in its own mode, recorded by
+    ``env_identity``). Rank the rows with ``leaderboard(rows)``, alone or with other rows of the same suite.
     """
     _check_seeds(seeds)
     from vtrack_gym.evaluation.parallel import check_workers
@@ -121,10 +125,11 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
         from vtrack_gym.vehicle.catalog import read_vehicle_once
 
         found, suite = _episodes(suite_or_env, seeds)
-        episodes = with_latency(with_vehicle(found, read_vehicle_once(vehicle)), latency)   # a file: read once
+        episodes = with_control(with_latency(with_vehicle(found, read_vehicle_once(vehicle)), latency), control)
     elif isinstance(suite_or_env, gym.Env):
-        if vehicle is not None:
-            raise ValueError("vehicle applies to a suite name or an env id; an env instance drives its own car")
+        if vehicle is not None or control is not None:
+            raise ValueError("vehicle and control apply to a suite name or an env id; an env instance drives its "
+                             "own car in its own control mode (gym.make(..., vehicle=..., control=...))")
         env_id, identity = env_identity(suite_or_env)
         if UNIDENTIFIED in env_id:
             log.warning("the configuration of this env instance cannot be recorded; its rows are stored as %r, "

@@ -27,6 +27,7 @@ from vtrack_gym.evaluation.suites import (
     get_suite,
     primary_metric,
     suite_label,
+    with_control,
     with_latency,
     with_vehicle,
 )
@@ -93,7 +94,7 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
                   figures_dir: str | Path | None = None, quick: bool = False,
                   show_progress: bool = True, seeds: Sequence[int] | None = None,
                   vehicle: str | None = None, workers: int | None = 1, backend: str = "local",
-                  latency: str | float | None = None) -> dict[str, Any]:
+                  latency: str | float | None = None, control: str | None = None) -> dict[str, Any]:
     """Score every policy on ``suite``; write rows to ``store`` (each committed as its episode ends) and figures
     under ``figures_dir``.
 
@@ -102,6 +103,9 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
     ``latency``: charge each decision's compute in the loop (``envs.latency``): ``"measured"`` (the policy call's
     time) or a fixed budget in seconds; the rows record it (``options["latency"]`` / ``["latency_s"]``) and rank
     apart from the ideal ones, beside them on the board (``None``: ideal, instant decisions).
+
+    ``control``: the control mode (``envs.control``; ``None``: each episode's own, ``steer`` for every built-in
+    suite but ``trajectory``); the rows record a mode other than ``steer`` (``options["control"]``), ranked apart.
 
     ``suite``: a registered suite (``suites.suite_names()``); ``seeds`` replaces its seeds (default: its own,
     ``Suite.seeds``; ``quick``: ``Suite.quick_seeds``).
@@ -123,7 +127,7 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
 
     chosen = get_suite(suite)
     vehicle = read_vehicle_once(vehicle)   # a vehicle file: its envs and rows use the bytes read here
-    episodes = with_latency(with_vehicle(chosen.episodes_for(quick, seeds), vehicle), latency)
+    episodes = with_control(with_latency(with_vehicle(chosen.episodes_for(quick, seeds), vehicle), latency), control)
     label = suite_label(suite, quick, seeds)
     factories = policy_factories(policies)
     tasks = [EpisodeTask(name, make, ep, label, chosen.score(make),

@@ -169,10 +169,10 @@ def failure_reason(termination: str, metrics: Mapping[str, Any]) -> str:
 
 
 SETTING_OPTIONS: tuple[str, ...] = ("protocol", "env_config", "max_episode_steps", "wrappers", "env_kwargs",
-                                    "half_width_m", "latency", "latency_s")
+                                    "half_width_m", "latency", "latency_s", "control")
 """Keys of a row's ``options`` that say how its env was set up beyond its id (``api.env_identity``: an entry speed or
 reference line, config fields, a time limit, wrappers, make kwargs, a half width, compute charged in the loop:
-``envs.latency``): rows differing in any of them
+``envs.latency``, the control mode: ``envs.control``): rows differing in any of them
 never share a ranking. (Reset options of a suite's episodes, figure folders and track provenance are not settings:
 the id already encodes a track file's content and profile.)"""
 

@@ -88,7 +88,8 @@ def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str,
     judged by completion, ``ResultRow.verdict``) and its metrics carry the success criterion's own figures
     (``success_metrics``).
     The row's ``options`` carry ``ep``'s reset options and the car (``vehicle_label(ep.vehicle)``, when not the
-    default car), so cars never mix on the leaderboard, and on a track file the SHA-256 of the bytes this env read
+    default car) and a control mode other than ``steer`` (``control``), so cars and modes never mix on the
+    leaderboard, and on a track file the SHA-256 of the bytes this env read
     and drove (``track_sha256``). Its ``policy_hash`` is ``digest`` if given, else the policy's fingerprint
     (``fingerprint.policy_hash`` in this env's observation layout) taken before the rollout (a policy that
     changes its attributes while driving keeps one
@@ -101,6 +102,8 @@ def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str,
     metrics.update(latency_metrics(env))
     label = vehicle_label(ep.vehicle)
     options = dict(ep.options) if label is None else {**ep.options, "vehicle": label}
+    if getattr(ep, "control", "steer") != "steer":   # control modes are different set-ups; steer rows unchanged
+        options["control"] = ep.control
     driven = source_digest(tuple(getattr(env.unwrapped, "paths", ())))
     if driven is not None:   # a track file: the content this env read and drove (never the file's later state)
         options["track_sha256"] = driven

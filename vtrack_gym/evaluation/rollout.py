@@ -84,7 +84,7 @@ def rollout(policy: PolicyLike, env_id_or_env: str | gym.Env, seed: int | None =
         if measured:   # the policy call alone is charged, not the harness around it
             unwrapped.charge_compute(policy_s[-1])
         episode_start = np.zeros(1, dtype=bool)
-        obs, _, terminated, truncated, info = env.step(step_action(action, (1,)))
+        obs, _, terminated, truncated, info = env.step(step_action(action, env.action_space.shape))
         step_s.append(time.perf_counter() - start)
         infos.append(info)
         steps += 1
@@ -131,7 +131,7 @@ def rollout_batch(policy: PolicyLike, env_id: str, seeds: list[int], options: di
         action, state = policy.predict(obs, state=state, episode_start=episode_start, deterministic=deterministic)
         policy_s.append((time.perf_counter() - tick) / n)
         episode_start = np.zeros(n, dtype=bool)
-        obs, _, terminated, truncated, info = envs.step(step_action(action, (n, 1)))
+        obs, _, terminated, truncated, info = envs.step(step_action(action, envs.action_space.shape))
         steps += 1
         sig = info
         for i in np.flatnonzero(active):

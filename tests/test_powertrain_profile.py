@@ -178,9 +178,29 @@ def test_the_pd_flc_follows_the_default_profile_closed_loop() -> None:
     from vtrack_gym.tracks.speed_limits import speed_profile_from_limits
 
     env = gym.make("vtrack/Track-v0", speed_profile=speed_profile_from_limits("envelope", 100.0))
+    table = env.unwrapped.speed_tables[0]
+    assert env.unwrapped.current_path.closed and table.v_mps[0] == pytest.approx(1.0)
+    assert table.v_mps[-1] > 5.0                                      # the lap ends at its flying speed
     trace = rollout(vtrack_gym.make_policy("pure_pursuit", env), env, seed=0)
     m = evaluate_trace(trace)
     env.close()
     assert trace.termination == "completed"
     assert m["rms_speed_error_mps"] < 1.0
     assert m["max_speed_error_mps"] < 2.0
+    # past the finish line the station reads the next lap's start: the reference holds the finish speed
+    assert trace["target_speed_mps"][-1] == pytest.approx(table.v_mps[-1])
+
+
+def test_the_vector_env_binds_the_same_profile() -> None:
+    from vtrack_gym.tracks.speed_limits import speed_profile_from_limits
+
+    profile = speed_profile_from_limits("envelope", 60.0)
+    single = gym.make("vtrack/Track-v0", speed_profile=profile)
+    vec = gym.make_vec("vtrack/Track-v0", num_envs=2, speed_profile=profile)
+    np.testing.assert_array_equal(vec.unwrapped.sim.tracks.speed_tables[0].v_mps,
+                                  single.unwrapped.speed_tables[0].v_mps)
+    vec.reset(seed=0)
+    for _ in range(50):
+        vec.step(np.zeros(2))
+    single.close()
+    vec.close()

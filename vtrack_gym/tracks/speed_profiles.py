@@ -142,9 +142,20 @@ class EnvelopeLimited:
     margin left to correct an error. None: no check here; an env checks every ``EnvelopeLimited`` and
     ``CurvatureLimited`` profile against the car it drives anyway (``speed_limits.check_profile_for_car``).
 
+    ``throttle_authority`` (the powertrain, ``tracks.powertrain_limits``): None (default) keeps A_x =
+    ``max_accel_mps2``. A throttle fraction in (0, 1], or ``"speed_loop"`` (``SPEED_LOOP``: the throttle the env's
+    PD-FLC holds, resolved by the env), makes A_x(v) the car's own forward limit at that throttle, drive force less
+    drag and rolling resistance over the mass (``vehicle.longitudinal``), capped by ``max_accel_mps2`` unless that is
+    None, and the speed cap the car's top speed there when lower (``speed_cap_mps``; a warning names it). ``1.0``
+    is the truth for an agent that drives the throttle itself; a profile for the PD-FLC must assume the speed
+    loop's authority, or the loop falls behind it. ``vehicle``: the car whose powertrain it is (``for_car`` binds
+    one; an env binds its own). ``start_speed_mps`` [m/s]: the profile starts from this speed at s = 0 and speeds
+    up within the same limits (a standing start; None: a flying lap, periodic on a closed loop).
+
     Passes (v^2 linear in s between rows, so a_x is constant on a row interval; the interval's |kappa| is its
     largest sampled value): forward, v_{i+1}^2 = v_i^2 + 2 ds A_x sqrt(1 - (v_{i+1}^2 kappa / A_y)^2) solved for
-    v_{i+1}^2 (a quadratic); backward the same with the deceleration. The ellipse then holds on every interval,
+    v_{i+1}^2 (a quadratic; with a powertrain, A_x taken at the interval's faster end, where it is least: see
+    ``_forward_pass``); backward the same with the deceleration. The ellipse then holds on every interval,
     between rows too (``envelope_usage`` measures it).
     """
 

@@ -11,7 +11,6 @@ The checks here warn (``UserWarning``) when a request lies beyond the car, namin
 
 from __future__ import annotations
 
-import math
 import warnings
 from collections.abc import Callable
 from typing import Any
@@ -57,12 +56,15 @@ def forward_limit(vehicle: Any, authority: float, cap_mps2: float | None = None)
     """``v [m/s] -> min(cap_mps2, a_x,max(v))`` [m/s^2]: the forward acceleration ``vehicle`` (``VehicleParams``)
     gives at throttle ``authority`` less drag and rolling resistance (``longitudinal.forward_accel_limit_mps2``),
     capped by ``cap_mps2`` (None: no cap)."""
-    from vtrack_gym.vehicle.longitudinal import forward_accel_limit_mps2
+    from vtrack_gym.vehicle.longitudinal import forward_accel_limit_fn
 
-    cap = math.inf if cap_mps2 is None else float(cap_mps2)
+    powertrain = forward_accel_limit_fn(vehicle, authority)
+    if cap_mps2 is None:
+        return powertrain
+    cap = float(cap_mps2)
 
     def limit(v_mps: float) -> float:
-        return min(cap, float(forward_accel_limit_mps2(vehicle, v_mps, authority)))
+        return min(cap, powertrain(v_mps))
 
     return limit
 

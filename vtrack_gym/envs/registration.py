@@ -90,18 +90,17 @@ def register_track(track_file: str | os.PathLike[str], speed_profile: Any, close
     import hashlib
     import json
     import re
-    from dataclasses import asdict
     from pathlib import Path as FsPath
 
     from vtrack_gym.tracks.formats import TrackRead
     from vtrack_gym.tracks.sources import file_digest
-    from vtrack_gym.tracks.speed_profiles import as_speed_profile
+    from vtrack_gym.tracks.speed_profiles import as_speed_profile, profile_parameters
 
     file = FsPath(track_file)
     if not file.is_file():
         raise ValueError(f"--track {track_file}: track file not found")
     profile = as_speed_profile(speed_profile)
-    params = {"kind": type(profile).__name__, **asdict(profile)}
+    params = {"kind": type(profile).__name__, **profile_parameters(profile)}
     file_sha = file_digest(file)
     options = TrackRead.of(track_options).identity() or None    # checked and normalised ("1,2" -> ["1", "2"])
     read = {k: v for k, v in (("closed", closed), ("smoothing_m", smoothing_m),

@@ -20,10 +20,10 @@ from vtrack_gym.envs.criteria import CarsView
 from vtrack_gym.envs.disturbances import ActuatorDelay, SensorNoise
 from vtrack_gym.envs.latency import CommandSchedule
 from vtrack_gym.envs.observation import NOISY_INDICES
-from vtrack_gym.envs.pdflc import PDFLCConfig
+from vtrack_gym.envs.pdflc import PDFLCConfig, speed_loop_throttle_authority
 from vtrack_gym.envs.scenarios import Scenario
 from vtrack_gym.envs.schema import REWARD_TERMS, SIGNAL_ROW
-from vtrack_gym.envs.speed import speed_part
+from vtrack_gym.envs.speed import bind_to_car, check_tables_for_powertrain, speed_part
 from vtrack_gym.envs.track_bank import TrackBank
 from vtrack_gym.vehicle import layout as L
 from vtrack_gym.vehicle.params import VehicleParams
@@ -46,6 +46,14 @@ def scenario_tracks(scenario: Scenario, vehicle: VehicleParams) -> tuple:
     return scenario.reference.paths(scenario.track, vehicle)
 
 
+def car_speed(scenario: Scenario, config: EnvConfig) -> Any:
+    """The scenario's speed part for the env's car and speed loop (``speed.bind_to_car``): a profile with a
+    ``throttle_authority`` bound to ``config.vehicle``'s powertrain at the PD-FLC's authority, from rest when the
+    scenario starts its cars at rest."""
+    authority = speed_loop_throttle_authority(config.speed_controller)
+    return bind_to_car(scenario.speed, config.vehicle, authority, at_rest=not scenario.start.at_speed)
+
+
 class BatchSim:
     """N independent cars (one per sub-env) on the scenario's track(s)."""
 
@@ -55,8 +63,11 @@ class BatchSim:
         self.n = n
         # a speed profile's lateral limit within this car's own (ValueError above it, a warning near it); an entry
         # speed within (0, 200] km/h (ValueError naming the car)
-        speed_part(scenario.speed).check_for_car(config.vehicle)
-        self.tracks = TrackBank(scenario_tracks(scenario, config.vehicle), scenario.speed, config.vehicle)
+        speed = car_speed(scenario, config)
+        speed_part(speed).check_for_car(config.vehicle)
+        self.tracks = TrackBank(scenario_tracks(scenario, config.vehicle), speed, config.vehicle)
+        check_tables_for_powertrain(speed, self.tracks, config.vehicle,
+                                    speed_loop_throttle_authority(config.speed_controller))
         self.paths = self.tracks.paths
         if scenario.time_limit_s is None:
             scenario = replace(scenario, time_limit_s=self.tracks.time_limit_s())
@@ -113,6 +124,10 @@ class BatchSim:
         """The criterion's per-car state (its own NamedTuple of arrays)."""
         self._cars = self._cars_view(k)
         self._extras = self.criterion.per_step
+        self.finish_speed = self.tracks.finish_speeds()
+        """Per path: the profile's speed at the finish line of a closed path with a standing start, else NaN."""
+        self._hold_finish = bool(np.any(np.isfinite(self.finish_speed)))
+        self._codes = (k.T_COMPLETED, k.SIG_V_REF)
         """Whether a step has more to do than the kernel: a per-step criterion, a delay or noise (see reset_car)."""
 
     def _bundle(self, k, scenario: Scenario, config: EnvConfig):
@@ -263,6 +278,9 @@ class BatchSim:
         cmd = self.delay.delayed(self.actions) if self.delay.active else self.actions
         self.inputs[:, L.U_DELTA] = cmd * self.max_steer_rad
         self._run_kernel()
+        if self._hold_finish:
+            for i in np.flatnonzero(self.term == self._codes[0]):
+                self._finish_reference(int(i))
         self.steps += 1
         if self.criterion.per_step:
             self.criterion.observe_step(self.verdicts, self._cars)
@@ -303,9 +321,19 @@ class BatchSim:
         if extras and self.criterion.per_step:
             self.criterion.observe_step(self.verdicts, self._cars)
         code = int(self.term[0])
+        if self._hold_finish and code == self._codes[0]:
+            self._finish_reference(0)
         if extras and self.noise.active:
             self.noise.apply(self.obs, self.rngs)
         return float(self.reward[0]), code, code == 0 and steps >= self.max_steps
+
+    def _finish_reference(self, i: int) -> None:
+        """Car ``i`` has completed its lap on a closed path whose profile starts standing: its station reads the
+        next lap's start, so its reference speed (and the info signal) is the profile's finish speed instead."""
+        v = self.finish_speed[int(self.veh_track[i])]
+        if np.isfinite(v):
+            self.v_ref[i] = v
+            self.sig[i, self._codes[1]] = v
 
     def _run_kernel(self) -> None:
         """One compiled step of every car on ``self.arrays``.

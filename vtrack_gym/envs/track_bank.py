@@ -60,6 +60,16 @@ class TrackBank:
     def __len__(self) -> int:
         return len(self.paths)
 
+    def finish_speeds(self) -> np.ndarray:
+        """Per path (K,): the reference speed at the finish line [m/s] of a closed path whose profile starts
+        slower than it finishes (a standing start: rows 0 and n - 1 are the same point, and a car that has
+        completed its lap reads the next lap's start there); NaN for every other path."""
+        out = np.full(len(self.paths), np.nan)
+        for j, (path, table) in enumerate(zip(self.paths, self.speed_tables, strict=True)):
+            if path.closed and abs(float(table.v_mps[-1]) - float(table.v_mps[0])) > 1e-9:
+                out[j] = float(table.v_mps[-1])
+        return out
+
     def start_pose(self, track: int) -> tuple[float, float, float]:
         """The first row's x, y [m] and heading [rad] of path ``track``."""
         row = self.paths[track].table[0]

@@ -226,6 +226,12 @@ class TrackingEnv(gym.Env):
         return self._sim.paths
 
     @property
+    def speed_tables(self) -> tuple:
+        """The reference speed v_ref(s) on each track (``tracks.SpeedTable``), as the speed loop follows it: a
+        profile with a ``throttle_authority`` bound to this env's car and speed loop."""
+        return self._sim.tracks.speed_tables
+
+    @property
     def current_path(self):
         """The path of the current episode."""
         return self._sim.paths[self._sim.veh_track[0]]

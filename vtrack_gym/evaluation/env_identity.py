@@ -113,18 +113,18 @@ def _vehicle_of(config: Any, make_vehicle: Any) -> str | None:
 def _track_provenance(scenario: Any) -> tuple[str | None, dict[str, Any]] | None:
     """(env id or None, options) recording a scenario's own track, speed profile and half width, as
     ``vtrack eval --track`` does for a track file; None when the track cannot be identified."""
-    import dataclasses
     import os
 
     from vtrack_gym.tracks import Path as TrackPath
     from vtrack_gym.tracks.sources import path_digest
+    from vtrack_gym.tracks.speed_profiles import profile_parameters
 
     options: dict[str, Any] = {}
     env_id = None
     source = scenario.track
     track = source.track
     profile = scenario.speed_profile
-    params = None if profile is None else {"kind": type(profile).__name__, **dataclasses.asdict(profile)}
+    params = None if profile is None else {"kind": type(profile).__name__, **profile_parameters(profile)}
     if isinstance(track, (str, os.PathLike)) and Path(track).is_file():
         from vtrack_gym.envs.registration import register_track
 

@@ -45,7 +45,7 @@ def drive(track: str, cap_kmh: float, policy: str, vehicle: str | None, authorit
     env.close()
     return {"termination": trace.termination, "profile_top_kmh": float(np.max(table.v_mps)) * 3.6,
             "profile_lap_s": time_law(table).total_time_s, "lap_s": m["duration_s"],
-            "rms_e_v": m["rms_speed_error_mps"], "max_e_v": m["max_speed_error_mps"],
+            "rms_e_v": m["rms_e_v_mps"], "max_e_v": m["max_e_v_mps"],
             "warnings": [str(w.message) for w in caught]}
 
 

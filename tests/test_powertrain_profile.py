@@ -185,8 +185,8 @@ def test_the_pd_flc_follows_the_default_profile_closed_loop() -> None:
     m = evaluate_trace(trace)
     env.close()
     assert trace.termination == "completed"
-    assert m["rms_speed_error_mps"] < 1.0
-    assert m["max_speed_error_mps"] < 2.0
+    assert m["rms_e_v_mps"] < 1.0
+    assert m["max_e_v_mps"] < 2.0
     # past the finish line the station reads the next lap's start: the reference holds the finish speed
     assert trace["target_speed_mps"][-1] == pytest.approx(table.v_mps[-1])
 

@@ -46,12 +46,19 @@ def scenario_tracks(scenario: Scenario, vehicle: VehicleParams) -> tuple:
     return scenario.reference.paths(scenario.track, vehicle)
 
 
+def throttle_authority(config: EnvConfig) -> float:
+    """The throttle fraction a profile bound to this env's car may count on: the PD-FLC's steady authority in the
+    ``steer`` mode (the speed loop drives the pedals), 1.0 (full throttle) in the longitudinal control modes (the
+    agent drives them)."""
+    return speed_loop_throttle_authority(config.speed_controller) if config.control == "steer" else 1.0
+
+
 def car_speed(scenario: Scenario, config: EnvConfig) -> Any:
-    """The scenario's speed part for the env's car and speed loop (``speed.bind_to_car``): a profile with a
-    ``throttle_authority`` bound to ``config.vehicle``'s powertrain at the PD-FLC's authority, from rest when the
-    scenario starts its cars at rest."""
-    authority = speed_loop_throttle_authority(config.speed_controller)
-    return bind_to_car(scenario.speed, config.vehicle, authority, at_rest=not scenario.start.at_speed)
+    """The scenario's speed part for the env's car and who drives the pedals (``speed.bind_to_car``): a profile
+    with a ``throttle_authority`` bound to ``config.vehicle``'s powertrain at ``throttle_authority(config)``, from
+    rest when the scenario starts its cars at rest."""
+    return bind_to_car(scenario.speed, config.vehicle, throttle_authority(config),
+                       at_rest=not scenario.start.at_speed)
 
 
 class BatchSim:
@@ -66,8 +73,7 @@ class BatchSim:
         speed = car_speed(scenario, config)
         speed_part(speed).check_for_car(config.vehicle)
         self.tracks = TrackBank(scenario_tracks(scenario, config.vehicle), speed, config.vehicle)
-        check_tables_for_powertrain(speed, self.tracks, config.vehicle,
-                                    speed_loop_throttle_authority(config.speed_controller))
+        check_tables_for_powertrain(speed, self.tracks, config.vehicle, throttle_authority(config))
         self.paths = self.tracks.paths
         if scenario.time_limit_s is None:
             scenario = replace(scenario, time_limit_s=self.tracks.time_limit_s())

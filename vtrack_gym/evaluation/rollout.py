@@ -45,6 +45,37 @@ def solver_failure_count(policy: PolicyLike) -> int | None:
     return int(count) if isinstance(count, (int, np.integer)) and not isinstance(count, bool) else None
 
 
+def solver_stats_of(policy: PolicyLike) -> dict[str, float] | None:
+    """The policy's statistics of its last decision (``policy.last_solver_stats``: a dict of numbers, e.g. the NMPC's
+    preparation, feedback and QP times [s] and iteration counts), None when it reports none."""
+    stats = getattr(policy, "last_solver_stats", None)
+    return stats if isinstance(stats, dict) and stats else None
+
+
+def two_phase(policy: PolicyLike) -> bool:
+    """Whether the policy splits a decision into a feedback phase (``predict``) and a preparation phase for the next
+    decision that it can defer to a ``prepare()`` call (``defer_preparation`` attribute, the NMPC's real-time
+    iteration)."""
+    return hasattr(policy, "defer_preparation") and callable(getattr(policy, "prepare", None))
+
+
+class _StatsLog:
+    """Per-decision solver statistics gathered into arrays (names seen on the first decision)."""
+
+    def __init__(self) -> None:
+        self.values: dict[str, list[float]] = {}
+
+    def add(self, policy: PolicyLike) -> None:
+        stats = solver_stats_of(policy)
+        if stats is None:
+            return
+        for key, value in stats.items():
+            self.values.setdefault(key, []).append(float(value))
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        return {key: np.asarray(v) for key, v in self.values.items()}
+
+
 def _failures_since(policy: PolicyLike, before: int | None) -> int | None:
     after = solver_failure_count(policy)
     return None if before is None or after is None else after - before
@@ -74,21 +105,35 @@ def rollout(policy: PolicyLike, env_id_or_env: str | gym.Env, seed: int | None =
     step_s: list[float] = []   # wall time of each step (policy + env) [s]
     policy_s: list[float] = []  # wall time of each decision (the policy's predict alone) [s]
     failures_before = solver_failure_count(policy)
+    split = measured and two_phase(policy)
+    deferred_before = policy.defer_preparation if split else False
+    stats = _StatsLog()
     steps = 0
-    while max_steps is None or steps < max_steps:
-        start = time.perf_counter()
-        action, state = policy.predict(obs, state=state, episode_start=episode_start, deterministic=deterministic)
-        policy_s.append(time.perf_counter() - start)
-        if measured:   # the policy call alone is charged, not the harness around it
-            unwrapped.charge_compute(policy_s[-1])
-        episode_start = np.zeros(1, dtype=bool)
-        obs, _, terminated, truncated, info = env.step(step_action(action, (1,)))
-        step_s.append(time.perf_counter() - start)
-        infos.append(info)
-        steps += 1
-        if terminated or truncated:
-            termination = info["termination"] if terminated else "time_limit"
-            break
+    try:
+        if split:   # only the feedback phase (predict) is charged; the preparation runs after the command is sent
+            policy.defer_preparation = True
+        while max_steps is None or steps < max_steps:
+            start = time.perf_counter()
+            action, state = policy.predict(obs, state=state, episode_start=episode_start,
+                                           deterministic=deterministic)
+            decided = time.perf_counter()
+            if measured:   # the policy call alone is charged, not the harness around it
+                unwrapped.charge_compute(decided - start)
+            if split:
+                policy.prepare()
+            policy_s.append(time.perf_counter() - start)
+            stats.add(policy)
+            episode_start = np.zeros(1, dtype=bool)
+            obs, _, terminated, truncated, info = env.step(step_action(action, (1,)))
+            step_s.append(time.perf_counter() - start)
+            infos.append(info)
+            steps += 1
+            if terminated or truncated:
+                termination = info["termination"] if terminated else "time_limit"
+                break
+    finally:
+        if split:
+            policy.defer_preparation = deferred_before
     # the median step x steps: kernels compiled on first use (at any step) and a shared machine's hiccups stay out
     wall = float(np.median(step_s)) * len(step_s) if step_s else 0.0
     return Trace.from_infos(infos, env_id=env_id, policy_id=policy_id_of(policy), seed=seed,
@@ -96,7 +141,7 @@ def rollout(policy: PolicyLike, env_id_or_env: str | gym.Env, seed: int | None =
                             termination=termination, wall_time_s=wall,
                             meta={"options": dict(options or {}), "model": cfg.model},
                             policy_time_s=np.asarray(policy_s),
-                            solver_failures=_failures_since(policy, failures_before))
+                            solver_failures=_failures_since(policy, failures_before), solver_stats=stats.arrays())
 
 
 def rollout_batch(policy: PolicyLike, env_id: str, seeds: list[int], options: dict[str, Any] | None = None,

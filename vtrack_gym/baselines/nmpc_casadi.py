@@ -23,7 +23,6 @@ import numpy as np
 from vtrack_gym.baselines.nmpc_model import (
     HorizonWeights,
     TyreShape,
-    c_compiler_available,
     horizon_functions,
     import_casadi,
     linearise_horizon,
@@ -74,7 +73,7 @@ class CasadiIteration:
                                        math.sqrt(cfg.weight_yaw_rate), math.sqrt(cfg.weight_move),
                                        cfg.terminal_scale)
         self._horizon = horizon_functions(design, shape, cfg.actuator_lag_s, cfg.stage_time_s, cfg.rk4_substeps,
-                                          cfg.horizon_steps, cfg.compile_model and c_compiler_available())
+                                          cfg.horizon_steps, cfg.compile_model)
         self._qp = self._make_qp(ca, cfg)
         self._max_rate = float(design.max_road_wheel_rate_radps)
         self.max_steer_rad = float(design.max_road_wheel_angle_rad)

@@ -98,12 +98,32 @@ def rk4_stage(x: np.ndarray, u: float, v: float, kappa: float, mc: np.ndarray, s
               x_out: np.ndarray, sens: np.ndarray) -> None:
     """The state after one stage into ``x_out`` (5,) and its sensitivities d/d(x_start, u, v, kappa) into
     ``sens`` (5, 8) (exact derivatives of the RK4 map)."""
+    _rk4_stage(x, u, v, kappa, mc, stage_s, substeps, x_out, sens, np.empty((4, N_STATES)),
+               np.empty((N_STATES, N_SENS)), np.empty((4, N_STATES, N_SENS)), np.empty(N_STATES),
+               np.empty((N_STATES, N_SENS)))
+
+
+@kernel(inline=True)
+def _jac_times(jac: np.ndarray, dy: np.ndarray, out: np.ndarray) -> None:
+    """``out = jac[:, :5] @ dy + [0 | jac[:, 5:]]`` for the model's Jacobian (its structural zeros skipped)."""
+    for j in range(N_SENS):
+        d0, d1, d2, d3, d4 = dy[0, j], dy[1, j], dy[2, j], dy[3, j], dy[4, j]
+        out[0, j] = jac[0, 1] * d1 + jac[0, 2] * d2
+        out[1, j] = jac[1, 0] * d0 + jac[1, 1] * d1 + jac[1, 2] * d2 + jac[1, 3] * d3
+        out[2, j] = jac[2, 2] * d2 + jac[2, 3] * d3 + jac[2, 4] * d4
+        out[3, j] = jac[3, 2] * d2 + jac[3, 3] * d3 + jac[3, 4] * d4
+        out[4, j] = jac[4, 4] * d4
+    for i in range(N_STATES):
+        for j in range(N_STATES, N_SENS):
+            out[i, j] += jac[i, j]
+
+
+@kernel(inline=True)
+def _rk4_stage(x: np.ndarray, u: float, v: float, kappa: float, mc: np.ndarray, stage_s: float, substeps: int,
+               x_out: np.ndarray, sens: np.ndarray, f: np.ndarray, jac: np.ndarray, dk: np.ndarray, y: np.ndarray,
+               dy: np.ndarray) -> None:
+    """``rk4_stage`` with its work arrays given (f (4, 5), jac (5, 8), dk (4, 5, 8), y (5,), dy (5, 8))."""
     h = stage_s / substeps
-    f = np.empty((4, N_STATES))
-    jac = np.empty((N_STATES, N_SENS))
-    dk = np.empty((4, N_STATES, N_SENS))
-    y = np.empty(N_STATES)
-    dy = np.empty((N_STATES, N_SENS))
     x_out[:] = x
     sens[:, :] = 0.0
     for i in range(N_STATES):
@@ -116,12 +136,7 @@ def rk4_stage(x: np.ndarray, u: float, v: float, kappa: float, mc: np.ndarray, s
                 for j in range(N_SENS):
                     dy[i, j] = sens[i, j] + (c * dk[stage - 1, i, j] if stage else 0.0)
             derivative_and_jacobian(y, u, v, kappa, mc, f[stage], jac)
-            for i in range(N_STATES):
-                for j in range(N_SENS):
-                    acc = jac[i, j] if j >= N_STATES else 0.0
-                    for k in range(N_STATES):
-                        acc += jac[i, k] * dy[k, j]
-                    dk[stage, i, j] = acc
+            _jac_times(jac, dy, dk[stage])
         w = h / 6.0
         for i in range(N_STATES):
             x_out[i] += w * (f[0, i] + 2.0 * f[1, i] + 2.0 * f[2, i] + f[3, i])
@@ -182,12 +197,14 @@ def _linearise(plan: np.ndarray, x0: np.ndarray, speeds: np.ndarray, kappa: np.n
     delta, delta_u, delta_d = np.empty(n), np.zeros((n, n)), np.empty(n)
     su, sx, sp = np.zeros((N_STATES, n)), np.eye(N_STATES), np.zeros((N_STATES, 2 * n))
     x, xn, sens = x0.copy(), np.empty(N_STATES), np.empty((N_STATES, N_SENS))
+    f, jac, dk = np.empty((4, N_STATES)), np.empty((N_STATES, N_SENS)), np.empty((4, N_STATES, N_SENS))
+    y, dy = np.empty(N_STATES), np.empty((N_STATES, N_SENS))
     rows = (0, 1, 3)
     for k in range(n):
         delta[k], delta_d[k] = x[4], sx[4, 4]
         for j in range(k):
             delta_u[k, j] = su[4, j]
-        rk4_stage(x, plan[k], speeds[k], kappa[k], mc, stage_s, substeps, xn, sens)
+        _rk4_stage(x, plan[k], speeds[k], kappa[k], mc, stage_s, substeps, xn, sens, f, jac, dk, y, dy)
         _chain(sens, su, 0, k)          # chain rule: d x_{k+1} = A_k d x_k (+ this stage's own inputs)
         _chain(sens, sx, 0, N_STATES)
         _chain(sens, sp, 0, k)
@@ -215,6 +232,33 @@ def _linearise(plan: np.ndarray, x0: np.ndarray, speeds: np.ndarray, kappa: np.n
 
 
 @kernel
+def inverse_cholesky_t(hess: np.ndarray, out: np.ndarray) -> None:
+    """``out = L^-T`` (upper triangular) with ``hess = L L'`` (Cholesky; ``hess`` is overwritten by L)."""
+    n = hess.shape[0]
+    for j in range(n):
+        d = hess[j, j]
+        for k in range(j):
+            d -= hess[j, k] * hess[j, k]
+        if d <= 0.0:
+            raise np.linalg.LinAlgError("the Gauss-Newton Hessian is not positive definite")
+        d = math.sqrt(d)
+        hess[j, j] = d
+        for i in range(j + 1, n):
+            acc = hess[i, j]
+            for k in range(j):
+                acc -= hess[i, k] * hess[j, k]
+            hess[i, j] = acc / d
+    out[:, :] = 0.0
+    for c in range(n):   # column c of L^-1 by forward substitution, stored as row c of L^-T
+        out[c, c] = 1.0 / hess[c, c]
+        for i in range(c + 1, n):
+            acc = 0.0
+            for k in range(c, i):
+                acc -= hess[i, k] * out[c, k]
+            out[c, i] = acc / hess[i, i]
+
+
+@kernel
 def prepare(plan: np.ndarray, x0: np.ndarray, speeds: np.ndarray, kappa: np.ndarray, u_prev: float,
             weights: np.ndarray, mc: np.ndarray, stage_s: float, substeps: int, eps: float, out: np.ndarray) -> None:
     """The preparation phase: linearise at (plan, x0, speeds, kappa) and condense into the flat record ``out``
@@ -226,9 +270,8 @@ def prepare(plan: np.ndarray, x0: np.ndarray, speeds: np.ndarray, kappa: np.ndar
     hess = jut @ ju
     for i in range(n):
         hess[i, i] += eps
-    chol = np.linalg.cholesky(hess)
     o_j, o_g, o_gx, o_gp, o_r, o_ru, o_rd, end = prep_offsets(n)
-    out[o_j:o_g] = np.ascontiguousarray(np.linalg.inv(chol).T).reshape(-1)
+    inverse_cholesky_t(hess, out[o_j:o_g].reshape(n, n))
     out[o_g:o_gx] = jut @ res
     out[o_gx:o_gp] = (jut @ jx).reshape(-1)
     out[o_gp:o_r] = (jut @ jp).reshape(-1)

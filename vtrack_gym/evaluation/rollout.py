@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from typing import Any, Protocol
 
@@ -32,6 +33,10 @@ def step_action(action: Any, shape: tuple[int, ...]) -> np.ndarray:
     """A policy's action as the float32 array ``env.step`` takes: finite values are clipped to the action box
     [-1, 1] before the cast (a finite 1e39 would otherwise become inf in float32 and be refused as non-finite),
     NaN and inf are passed on for the env to refuse."""
+    if isinstance(action, np.ndarray) and action.size == 1 and shape == (1,):   # one car: plain floats, same cast
+        value = float(action.reshape(-1)[0])
+        if math.isfinite(value):
+            return np.array([min(1.0, max(-1.0, value))], dtype=np.float32)
     a = np.asarray(action, dtype=np.float64)
     with np.errstate(invalid="ignore"):
         a = np.where(np.isfinite(a), np.clip(a, -1.0, 1.0), a)

@@ -96,7 +96,12 @@ def _make(env_id_or_env: str | gym.Env, **make_kwargs: Any) -> tuple[gym.Env, st
 def rollout(policy: PolicyLike, env_id_or_env: str | gym.Env, seed: int | None = 0,
             options: dict[str, Any] | None = None, max_steps: int | None = None,
             deterministic: bool = True) -> Trace:
-    """Run one episode of ``policy`` and return its trace (until termination, truncation or ``max_steps``)."""
+    """Run one episode of ``policy`` and return its trace (until termination, truncation or ``max_steps``).
+
+    With the env's ``latency="measured"`` each decision is charged the wall time of the ``predict`` call. A policy
+    with a two-phase decision (``two_phase``) runs with ``defer_preparation`` set for the episode and its
+    ``prepare()`` called after each ``predict``: only the feedback is charged, the preparation is not (its time is
+    in ``policy_time_s`` and the solver statistics)."""
     env, env_id = _make(env_id_or_env)
     obs, _ = env.reset(seed=seed, options=options)
     unwrapped = env.unwrapped

@@ -36,7 +36,8 @@ class Trace:
     success: bool | None = None
     """The env's own success verdict (the last info's ``"success"``), None when the env gives none."""
     policy_time_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    """Wall time of each of the policy's decisions [s] (its ``predict`` call alone, not the env's step)."""
+    """Wall time of each of the policy's decisions [s] (its ``predict`` call, not the env's step; with a preparation
+    deferred to ``prepare()`` under ``latency="measured"``, both calls)."""
     solver_failures: int | None = None
     """Failed solves of the policy's optimiser during the episode (0 for a closed-form law; None: not reported)."""
     solver_stats: dict[str, np.ndarray] = field(default_factory=dict)

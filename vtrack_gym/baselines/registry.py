@@ -2,8 +2,9 @@
 
 Names: ``available_policies()`` (the keys of ``_POLICIES``, then those registered from outside with
 ``register_policy`` or the ``vtrack_gym.policies`` entry point); each policy's page in ``docs/baselines/`` says
-what it is and which extra it needs (``mpc_osqp``: osqp; ``nmpc``: casadi). Controller modules are imported on first
-use, so ``import vtrack_gym.baselines.registry`` is cheap and works without osqp or casadi.
+what it is and which extra it needs (``mpc_osqp``: osqp; ``nmpc``: casadi for its ``casadi`` and ``converged``
+presets). Controller modules are imported on first use, so ``import vtrack_gym.baselines.registry`` is cheap and
+works without osqp or casadi.
 """
 
 from __future__ import annotations

@@ -184,15 +184,39 @@ def control_metrics(trace: Trace) -> dict[str, float]:
     return out
 
 
+SOLVER_TIME_STATS = {"preparation_s": "preparation_time", "feedback_s": "feedback_time", "qp_s": "qp_time"}
+"""Per-decision solver times reported as p50/p95 [us] (``<name>_p50_us``), when the policy reports them."""
+SOLVER_COUNT_STATS = {"qp_iterations": "qp_iterations", "sqp_iterations": "sqp_iterations",
+                      "cold_starts": "cold_starts"}
+"""Per-decision solver counts reported as their mean and maximum (``<name>_mean``, ``<name>_max``)."""
+
+
+def solver_stat_metrics(stats: dict[str, np.ndarray]) -> dict[str, float]:
+    """The solver statistics' columns: p50/p95 [us] of each time in ``SOLVER_TIME_STATS``, mean and maximum of each
+    count in ``SOLVER_COUNT_STATS`` (only those the policy reported)."""
+    out: dict[str, float] = {}
+    for key, name in SOLVER_TIME_STATS.items():
+        values = np.asarray(stats.get(key, ()), dtype=np.float64)
+        if values.size:
+            p50, p95 = np.percentile(values, (50.0, 95.0))
+            out[f"{name}_p50_us"], out[f"{name}_p95_us"] = 1e6 * float(p50), 1e6 * float(p95)
+    for key, name in SOLVER_COUNT_STATS.items():
+        values = np.asarray(stats.get(key, ()), dtype=np.float64)
+        if values.size:
+            out[f"{name}_mean"], out[f"{name}_max"] = float(values.mean()), float(values.max())
+    return out
+
+
 def compute_metrics(trace: Trace) -> dict[str, float]:
     """The policy's own compute per decision (its ``predict`` call, not the env's step): median, 95th percentile
     and maximum [us], the real-time factor ``control period / p95`` (> 1: the policy decides faster than real
     time at the env's control period) and its failed solves (NaN when the trace has no timings or the policy
-    reports no count)."""
+    reports no count), and the solver's own statistics when it reports them (``solver_stat_metrics``)."""
     times = np.asarray(trace.policy_time_s, dtype=np.float64)
     out = {"policy_time_p50_us": math.nan, "policy_time_p95_us": math.nan, "policy_time_max_us": math.nan,
            "policy_real_time_factor": math.nan,
            "solver_failures": math.nan if trace.solver_failures is None else float(trace.solver_failures)}
+    out.update(solver_stat_metrics(trace.solver_stats))
     if times.size:
         p50, p95 = np.percentile(times, (50.0, 95.0))
         out.update({"policy_time_p50_us": 1e6 * float(p50), "policy_time_p95_us": 1e6 * float(p95),

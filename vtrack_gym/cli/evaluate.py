@@ -47,25 +47,33 @@ def run(args: argparse.Namespace) -> int:
     from vtrack_gym.evaluation.api import evaluate
     from vtrack_gym.evaluation.policy_names import user_spec_label
     from vtrack_gym.evaluation.report_formats import to_markdown
-    from vtrack_gym.evaluation.store import ResultStore, StoreError
-    from vtrack_gym.evaluation.track_benchmark import with_provenance
+    from vtrack_gym.evaluation.store import ResultStore
+    from vtrack_gym.evaluation.track_benchmark import merge_provenance
 
     seeds = opt.parse_seeds(args.seeds)
     make = policy_factory(args.policy, args.preset, args.trust_code, parse_policy_kwargs(args.policy_kwargs))
     check_vehicle(args)   # read once: the speed-profile check, the envs and the rows use the same bytes
     env_id, provenance = env_or_track(args)
-    store = ResultStore(args.store)  # verified before the rollouts; written before anything is printed
+    store = ResultStore(args.store)  # verified before the rollouts
     announce_kernels()
     policy_id = user_spec_label(args.policy, parse_policy_kwargs(args.policy_kwargs)) if args.trust_code \
         else recorded_policy_id(args.policy, args.preset)   # a class of yours: its class and arguments
-    rows = with_provenance(evaluate(make, env_id, seeds, policy_id=policy_id, vehicle=args.vehicle,
-                                    latency=args.latency), provenance)
-    store_error = None
-    try:   # before printing: a closed stdout cannot lose the run; a store that fails still lets the table show
-        store.add(rows)
-        err(f"results stored in {args.store} (suite 'custom': vtrack leaderboard --suite custom)")
-    except StoreError as exc:
-        store_error = exc
+    # each row committed as its episode ends, before anything is printed: a crash or a kill in a later seed, or a
+    # closed stdout, cannot lose the seeds that finished
+    done: list[int] = []
+
+    def finish(row: Any) -> Any:
+        done.append(row.seed)
+        return merge_provenance(row, provenance) if provenance else row
+
+    try:
+        rows = evaluate(make, env_id, seeds, policy_id=policy_id, vehicle=args.vehicle, latency=args.latency,
+                        store=store, finish=finish)
+    except BaseException:
+        err(f"vtrack eval: stopped after {len(done)} of {len(seeds)} seeds; "
+            f"{'seeds ' + ', '.join(map(str, done)) + ' are' if done else 'nothing is'} stored in {args.store}")
+        raise
+    err(f"results stored in {args.store} (suite 'custom': vtrack leaderboard --suite custom)")
     table = [{"seed": r.seed, "termination": r.termination, "success": int(r.verdict()),
               **{k: v for k, v in r.metrics.items() if isinstance(v, float)}} for r in rows]
     out(to_markdown(table), flush=True)
@@ -73,6 +81,4 @@ def run(args: argparse.Namespace) -> int:
         from vtrack_gym.evaluation.benchmark import LEADERBOARD_COLUMNS, summarise
 
         out("\n" + to_markdown(summarise(rows, LEADERBOARD_COLUMNS)), flush=True)
-    if store_error is not None:
-        raise store_error
     return 0

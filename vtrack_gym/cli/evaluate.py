@@ -46,8 +46,7 @@ def run(args: argparse.Namespace) -> int:
     from vtrack_gym.baselines.resolve import recorded_policy_id
     from vtrack_gym.evaluation.api import evaluate
     from vtrack_gym.evaluation.policy_names import user_spec_label
-    from vtrack_gym.evaluation.report_formats import to_markdown
-    from vtrack_gym.evaluation.store import ResultStore
+    from vtrack_gym.evaluation.store import ResultStore, StoreError
     from vtrack_gym.evaluation.track_benchmark import merge_provenance
 
     seeds = opt.parse_seeds(args.seeds)
@@ -58,22 +57,42 @@ def run(args: argparse.Namespace) -> int:
     announce_kernels()
     policy_id = user_spec_label(args.policy, parse_policy_kwargs(args.policy_kwargs)) if args.trust_code \
         else recorded_policy_id(args.policy, args.preset)   # a class of yours: its class and arguments
-    # each row committed as its episode ends, before anything is printed: a crash or a kill in a later seed, or a
-    # closed stdout, cannot lose the seeds that finished
-    done: list[int] = []
+    stored: list[int] = []
+    store_error: list[StoreError] = []
 
-    def finish(row: Any) -> Any:
-        done.append(row.seed)
-        return merge_provenance(row, provenance) if provenance else row
+    def commit(row: Any) -> Any:
+        """The row with its track's provenance, committed as its episode ends, before anything is printed: a
+        crash or a kill in a later seed, or a closed stdout, cannot lose the seeds that finished. A store that
+        fails (a full disk) stops the storing, not the run: the table still shows."""
+        row = merge_provenance(row, provenance) if provenance else row
+        if not store_error:
+            try:
+                store.add([row])
+                stored.append(row.seed)
+            except StoreError as exc:
+                err(f"vtrack eval: {exc}; the remaining rows are not stored")
+                store_error.append(exc)
+        return row
 
     try:
         rows = evaluate(make, env_id, seeds, policy_id=policy_id, vehicle=args.vehicle, latency=args.latency,
-                        store=store, finish=finish)
+                        finish=commit)
     except BaseException:
-        err(f"vtrack eval: stopped after {len(done)} of {len(seeds)} seeds; "
-            f"{'seeds ' + ', '.join(map(str, done)) + ' are' if done else 'nothing is'} stored in {args.store}")
+        err(f"vtrack eval: stopped after {len(stored)} of {len(seeds)} seeds; "
+            f"{'seeds ' + ', '.join(map(str, stored)) + ' are' if stored else 'nothing is'} stored in {args.store}")
         raise
-    err(f"results stored in {args.store} (suite 'custom': vtrack leaderboard --suite custom)")
+    if not store_error:
+        err(f"results stored in {args.store} (suite 'custom': vtrack leaderboard --suite custom)")
+    _print_table(rows)
+    if store_error:
+        raise store_error[0]
+    return 0
+
+
+def _print_table(rows: list[Any]) -> None:
+    """One line per seed (termination, success, float metrics) and, for several seeds, their summary."""
+    from vtrack_gym.evaluation.report_formats import to_markdown
+
     table = [{"seed": r.seed, "termination": r.termination, "success": int(r.verdict()),
               **{k: v for k, v in r.metrics.items() if isinstance(v, float)}} for r in rows]
     out(to_markdown(table), flush=True)
@@ -81,4 +100,3 @@ def run(args: argparse.Namespace) -> int:
         from vtrack_gym.evaluation.benchmark import LEADERBOARD_COLUMNS, summarise
 
         out("\n" + to_markdown(summarise(rows, LEADERBOARD_COLUMNS)), flush=True)
-    return 0

@@ -28,7 +28,8 @@ def register(sub: Any) -> None:
     e.add_argument("--preset", default="default",
                    help="baseline preset: default (for smc and mpc the shipped GA-tuned preset), tuned, hand "
                         "(hand-tuned smc/mpc) or paper (Table 3) (default: default)")
-    e.add_argument("--seeds", default="0", help="seeds, e.g. 0-9 or 0,3,5 (default: 0)")
+    e.add_argument("--seeds", default="0", help="episode seeds (the env's reset seeds: each draws its own initial "
+                   "offset and heading error), e.g. 0-9 or 0,3,5; one row per seed (default: 0)")
     opt.add_vehicle(e)
     opt.add_latency(e)
     opt.add_store(e)

@@ -101,7 +101,7 @@ def test_missing_casadi_names_the_extra(monkeypatch: pytest.MonkeyPatch) -> None
             raise ImportError("No module named 'casadi'")
         return real(name, *args)
 
-    monkeypatch.setattr(nmpc_model.importlib, "import_module", no_casadi)
+    monkeypatch.setattr(importlib, "import_module", no_casadi)
     with pytest.raises(ImportError, match=r'pip install "vtrack_gym\[nmpc\]"'):
         nmpc_model.import_casadi()
 

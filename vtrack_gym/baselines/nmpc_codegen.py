@@ -23,7 +23,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from vtrack_gym.baselines.nmpc_model import import_casadi
+from vtrack_gym.baselines.casadi_import import import_casadi
 
 logger = logging.getLogger(__name__)
 

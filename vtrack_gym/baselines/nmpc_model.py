@@ -26,25 +26,16 @@ their Jacobian. A Gauss-Newton QP built from them is the real-time iteration of 
 from __future__ import annotations
 
 import functools
-import importlib
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from vtrack_gym.baselines.casadi_import import import_casadi
 from vtrack_gym.vehicle.params import GRAVITY_MPS2, DesignModel
 
 N_STATES = 5
 """e_y, e_phi, v_y, r, delta."""
-
-
-def import_casadi() -> Any:
-    """The ``casadi`` module, or ``ImportError`` naming the extra that installs it."""
-    try:
-        return importlib.import_module("casadi")
-    except ImportError as exc:
-        raise ImportError('the nmpc baseline needs CasADi: pip install "vtrack_gym[nmpc]" (or pip install casadi)'
-                          ) from exc
 
 
 @dataclass(frozen=True)

@@ -17,8 +17,10 @@ pass your object to ``vtrack_gym.evaluate``, or ``trust_code=True`` (``vtrack ev
 
 from __future__ import annotations
 
+import logging
 import re
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +30,7 @@ from vtrack_gym.baselines.registry import make_policy as make_baseline
 AGENT_SUFFIXES = (".json", ".npz")
 UNSAFE_SUFFIXES = (".zip", ".pkl", ".pickle", ".pt", ".pth")
 _USER_SPEC = re.compile(r"[A-Za-z_][\w.]*:[A-Za-z_]\w*")
+log = logging.getLogger(__name__)
 
 
 def shipped_names() -> tuple[str, ...]:
@@ -126,34 +129,46 @@ def recorded_policy_id(spec: str, preset: str | None = None) -> str:
     return canonical_spec(spec, preset)
 
 
-def canonical_ids(specs: Sequence[str]) -> dict[str, str]:
-    """``{canonical id: spec}`` for ``specs``, in order (``canonical_spec``); ``ValueError`` when two specs are the
-    same policy (a policy is never ranked against itself)."""
-    ids: dict[str, str] = {}
-    for spec in specs:
-        key = canonical_spec(spec)
-        if key in ids and _agent_content(ids[key]) != _agent_content(spec):
-            raise ValueError(f"--policies names two different agents {key!r} ({ids[key]!r} and {spec!r}): score "
-                             "them in two runs (each is its own row, shown as NAME@HASH on the board) or rename "
-                             "one file")
-        if key in ids:
-            raise ValueError(f"--policies names {key!r} twice ({ids[key]!r} and {spec!r} are the same policy); "
-                             "list each policy once")
-        ids[key] = spec
-    return ids
+def named_factories(entries: Sequence[tuple[str, str, Callable[[Any], Any]]]) -> dict[str, Callable[[Any], Any]]:
+    """``{name: make(env)}`` of ``(canonical id, spec, make)`` entries, in order, one per policy: a policy's identity
+    is its id and, for an agent file, its content (``AgentFactory.content``, the weights hash), so the same policy
+    given twice (``lqr`` and ``lqr:default``; one agent by a relative and an absolute path, a symlink or a copy) is
+    scored once (a warning says so), and two different agents with one stem are two policies, named apart as
+    ``stem@<first 12 digits of the weights hash>`` (their rows record the stem: ``recorded_id``)."""
+    chosen: dict[tuple[str, str | None], tuple[str, Callable[[Any], Any]]] = {}
+    for key, spec, make in entries:
+        identity = (key, getattr(make, "content", None))
+        if identity in chosen:
+            log.warning("%r and %r are the same policy %r: scored once", chosen[identity][0], spec, key)
+            continue
+        chosen[identity] = (spec, make)
+    keys = [key for key, _ in chosen]
+    return {(key if keys.count(key) == 1 or content is None else f"{key}@{content[:12]}"): make
+            for (key, content), (_, make) in chosen.items()}
 
 
-def _agent_content(spec: str) -> str | None:
-    """The weights hash of an agent file spec (None for other specs or a file that does not load)."""
-    path = Path(spec.strip())
-    if path.suffix not in AGENT_SUFFIXES or not path.exists():
-        return None
-    from vtrack_gym.baselines.numpy_policy import load_agent
+def recorded_id(name: str, make: Callable[[Any], Any]) -> str:
+    """The policy id the rows of ``make`` under ``name`` record: an agent file's stem when ``name`` is the
+    ``stem@hash`` label ``named_factories`` gave it (two agents with one stem in one run), else ``name``."""
+    if isinstance(make, AgentFactory) and name == f"{make.policy_id}@{make.content[:12]}":
+        return make.policy_id
+    return name
 
-    try:
-        return load_agent(path).weights_hash
-    except (ValueError, OSError):
-        return None
+
+@dataclass(frozen=True)
+class AgentFactory:
+    """``make(env)`` of a weights-only agent file read once: ``agent`` bound to each env (``bind_agent``);
+    ``policy_id`` its file's stem, ``content`` its weights hash (its identity)."""
+
+    agent: Any
+    policy_id: str
+
+    @property
+    def content(self) -> str:
+        return str(self.agent.weights_hash)
+
+    def __call__(self, env: Any) -> Any:
+        return bind_agent(self.agent, env)
 
 
 def _presets(name: str) -> tuple[str, ...]:
@@ -172,7 +187,7 @@ def _file_factory(spec: str) -> Callable[[Any], Any]:
         except (ValueError, OSError) as exc:
             raise ValueError(f"{spec!r} looks like an agent file but is not a valid weights-only vtrack agent: "
                              f"{exc}") from None
-        return lambda env: bind_agent(agent, env)
+        return AgentFactory(agent, path.stem)
     if path.suffix in UNSAFE_SUFFIXES or path.is_file():
         raise ValueError(f"{spec!r} looks like an agent file; only weights-only vtrack agents (agent.json + "
                          "agent.npz, written by `vtrack train` / `vtrack export`) are loaded: SB3 zips and "

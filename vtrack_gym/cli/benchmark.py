@@ -45,7 +45,8 @@ def register(sub: Any) -> None:
     b.add_argument("--quick", action="store_true", help=f"suites with a quick variant ({', '.join(quick_suites())}): "
                    "fewer seeds (stored as suite NAME[quick], apart from the standard board)")
     b.add_argument("--seeds", default=None,
-                   help=f"seeds to score, e.g. 0-9 or 0,3,5 (default: the suite's: {seeds_help()}); the table shows "
+                   help=f"episode seeds to score (the env's reset seeds), e.g. 0-9 or 0,3,5 (default: the suite's: "
+                   f"{seeds_help()}); the table shows "
                    "95 %% bootstrap intervals; other seeds are stored as suite NAME[seeds=...], apart from the "
                    "standard board")
     opt.add_track(b, "score the policies on this CSV track file (suite 'custom', seed 0 or --seeds) instead of "

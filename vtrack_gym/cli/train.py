@@ -28,7 +28,10 @@ def register(sub: Any) -> None:
                     "mix at 20 Hz decisions; with --bc-expert: LateralTrackingRandom-v0, the imitation recipes')")
     tr.add_argument("--timesteps", type=opt.int_in(1, 10**10), default=None,
                     help="environment steps (default: the hyperparameter entry's n_timesteps)")
-    tr.add_argument("--seed", type=opt.int_in(0, opt.MAX_RNG_SEED), default=0, help="training seed (default: 0)")
+    tr.add_argument("--seed", "--rng-seed", dest="seed", type=opt.int_in(0, opt.MAX_RNG_SEED), default=0,
+                    help="random seed of the training run, 0 to 2^32-1: the network's initial weights, the "
+                    "exploration and the training envs' episode draws (not an episode seed of the scoring; the "
+                    "periodic evaluations use episode seed 0) (default: 0)")
     tr.add_argument("--run-dir", type=Path, required=True, help="folder for config, logs, checkpoints and the agent "
                     "(a folder that already holds a run is refused, see --overwrite)")
     tr.add_argument("--overwrite", action="store_true",

@@ -84,7 +84,8 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
              *, store: str | Path | ResultStore | None = None, vecnormalize: Any = None,
              policy_id: str | None = None, vehicle: str | None = None, workers: int | None = 1,
              backend: str = "local", latency: str | float | None = None,
-             control: str | None = None) -> list[ResultRow]:
+             control: str | None = None,
+             finish: Callable[[ResultRow], ResultRow] | None = None) -> list[ResultRow]:
     """Score a policy; one ``ResultRow`` per episode (``row.metrics``: the leaderboard's metrics).
 
     ``policy_or_factory``: an object with ``predict(obs, state=None, episode_start=None, deterministic=True)``
@@ -104,7 +105,10 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
     the policy call's time, or a fixed budget in seconds), recorded in the rows' options and ranked apart from the
     ideal rows. ``control``: the control mode of a suite's or an env id's episodes (``envs.control``; default
     ``steer``), recorded in the rows' ``options["control"]`` (an env instance drives in its own mode, recorded by
-    ``env_identity``). Rank the rows with ``leaderboard(rows)``, alone or with other rows of the same suite.
+    ``env_identity``).
+    ``finish``: applied to each row as its episode ends, before it is stored and returned (e.g.
+    ``track_benchmark.merge_provenance`` with a track file's provenance; an error it raises ends the run, the rows
+    stored before it stay). Rank the rows with ``leaderboard(rows)``, alone or with other rows of the same suite.
     """
     _check_seeds(seeds)
     from vtrack_gym.evaluation.parallel import check_workers
@@ -142,6 +146,8 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
     rows: list[ResultRow] = []
 
     def keep(row: ResultRow) -> None:  # committed as its episode ends: a later failure cannot lose it
+        if finish is not None:
+            row = finish(row)
         if result_store is not None:
             result_store.add([row])
         rows.append(row)

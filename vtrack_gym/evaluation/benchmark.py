@@ -122,6 +122,7 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
     (``parallel.run_tasks``), the others are all there; ``store_error``: why the store stopped taking rows (a full
     disk; logged as an error), None when every row was stored.
     """
+    from vtrack_gym.baselines.resolve import recorded_id
     from vtrack_gym.evaluation.parallel import EpisodeTask
     from vtrack_gym.vehicle.catalog import read_vehicle_once
 
@@ -130,7 +131,7 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
     episodes = with_control(with_latency(with_vehicle(chosen.episodes_for(quick, seeds), vehicle), latency), control)
     label = suite_label(suite, quick, seeds)
     factories = policy_factories(policies)
-    tasks = [EpisodeTask(name, make, ep, label, chosen.score(make),
+    tasks = [EpisodeTask(recorded_id(name, make), make, ep, label, chosen.score(make),
                          keep_trace=ep.seed == episodes[0].seed or chosen.trace_every_seed)
              for name, make in factories.items() for ep in episodes]
     scored = score_tasks(tasks, figures_dir, vehicle, workers, backend,

@@ -122,11 +122,12 @@ def policy_factories(names: Sequence[str] | dict[str, Any] | None = None) -> dic
     ``names`` (policy specs, see ``vtrack_gym.baselines.resolve``; all checked before any is returned; a dict of
     factories built already, e.g. of user code, is returned as is).
 
-    Ids are canonical (``resolve.canonical_spec``: ``lqr:default`` is ``lqr``); ``ValueError`` when two names are
-    the same policy (a policy is never ranked against itself)."""
-    from vtrack_gym.baselines.resolve import canonical_ids, policy_factory, policy_names
+    Ids are canonical (``resolve.canonical_spec``: ``lqr:default`` is ``lqr``); one policy named twice (also one
+    agent file by two paths) is scored once, two different agents with one stem are two policies
+    (``resolve.named_factories``)."""
+    from vtrack_gym.baselines.resolve import canonical_spec, named_factories, policy_factory, policy_names
 
     if isinstance(names, dict):  # factories already built: {policy id: make(env) -> policy}
         return dict(names)
     specs = [str(n).strip() for n in names] if names else list(policy_names())
-    return {key: policy_factory(spec) for key, spec in canonical_ids(specs).items()}
+    return named_factories([(canonical_spec(spec), spec, policy_factory(spec)) for spec in specs])

@@ -11,11 +11,17 @@ and the column), so a store edited by hand or by another program cannot rank abs
 * ``options_json`` and ``metrics_json``: JSON objects of at most ``MAX_JSON_CHARS`` characters, nested at most
   ``MAX_JSON_DEPTH`` deep, integers of at most 20 digits; metrics as :func:`checked_metrics` keeps them (within
   ``METRIC_RANGES`` where a metric has a physical range; ``LIST_METRICS``, the lap times, lists of durations).
+
+The cost of the rule is bounded by the input and small per row: a metric's rule is looked up once per name (cached),
+a finite number within its rule is accepted on a fast path, and a text column's character scan and a time's parse
+are cached per distinct value (a 100,000-row store repeats a few names, ids and times; ``benchmarks/
+bench_store_read.py``). Every value that could break the rule goes through the full checks, which name it.
 """
 
 from __future__ import annotations
 
 import datetime as dt
+import functools
 import json
 import math
 import re
@@ -122,6 +128,30 @@ def _checked_list(name: str, raw: Any) -> list[float]:
     return out
 
 
+RULE_CACHE = 4096
+"""Distinct metric names, text values and times whose rule or verdict is kept (least recently used beyond)."""
+
+
+@functools.lru_cache(maxsize=RULE_CACHE)
+def _metric_rule(name: str) -> tuple[bool, bool, float, float]:
+    """(must be >= 0, must be 0 or 1, lowest, highest) of a number stored as metric ``name``."""
+    lo, hi = METRIC_RANGES.get(name, (-math.inf, math.inf))
+    return _non_negative(name), name in FLAG_METRICS, lo, hi
+
+
+def _fast_metric_ok(name: str, value: Any) -> bool:
+    """True when ``value`` (an exact int or a finite float) obeys metric ``name``'s rule as it is: the common case,
+    decided without ``_checked_metric``'s general path (which decides every other case and names the problem)."""
+    kind = type(value)
+    if kind is float:
+        if not math.isfinite(value):
+            return False
+    elif kind is not int or abs(value) > MAX_METRIC_INT:
+        return False
+    non_negative, flag, lo, hi = _metric_rule(name)
+    return not (non_negative and value < 0) and not (flag and value not in (0, 1)) and lo <= value <= hi
+
+
 def _checked_metric(name: str, raw: Any) -> Any:
     if name in LIST_METRICS:
         return _checked_list(name, raw)
@@ -157,7 +187,7 @@ def checked_metrics(metrics: Any) -> dict[str, Any]:
         if not isinstance(name, str) or len(name) > MAX_TEXT_CHARS:
             raise ValueError(f"metric names must be strings of at most {MAX_TEXT_CHARS} characters (got "
                              f"{str(name)[:60]!r})")
-        out[name] = _checked_metric(name, raw)
+        out[name] = raw if _fast_metric_ok(name, raw) else _checked_metric(name, raw)
     return out
 
 
@@ -168,10 +198,16 @@ def _checked_text(column: str, value: Any, required: bool) -> None:
         raise ValueError(f"{column} must not be empty")
     if len(value) > MAX_TEXT_CHARS:
         raise ValueError(f"{column} must be at most {MAX_TEXT_CHARS} characters (got {len(value)})")
-    bad = next((c for c in value if unicodedata.category(c) in _UNSAFE_CATEGORIES), None)
+    bad = _unsafe_char(value)
     if bad is not None:
         raise ValueError(f"{column} must not hold control, format or separator characters (found "
                          f"U+{ord(bad):04X} in {value[:60]!r})")
+
+
+@functools.lru_cache(maxsize=RULE_CACHE)
+def _unsafe_char(value: str) -> str | None:
+    """The first control, format or separator character of ``value`` (None: there is none)."""
+    return next((c for c in value if unicodedata.category(c) in _UNSAFE_CATEGORIES), None)
 
 
 def _json_depth_ok(text: str) -> bool:
@@ -197,6 +233,11 @@ def _json_depth_ok(text: str) -> bool:
 def _is_iso_time(value: Any) -> bool:
     if not isinstance(value, str) or len(value) > 40:
         return False
+    return _parses_as_iso_time(value)
+
+
+@functools.lru_cache(maxsize=RULE_CACHE)
+def _parses_as_iso_time(value: str) -> bool:
     try:
         dt.datetime.fromisoformat(value)
     except ValueError:

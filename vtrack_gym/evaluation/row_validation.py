@@ -142,6 +142,8 @@ def _metric_rule(name: str) -> tuple[bool, bool, float, float]:
 def _fast_metric_ok(name: str, value: Any) -> bool:
     """True when ``value`` (an exact int or a finite float) obeys metric ``name``'s rule as it is: the common case,
     decided without ``_checked_metric``'s general path (which decides every other case and names the problem)."""
+    if name in LIST_METRICS:   # a list metric is never a bare number
+        return False
     kind = type(value)
     if kind is float:
         if not math.isfinite(value):

@@ -9,12 +9,18 @@ with finite differences and a sparse solver:
 - Bounds: -(w_right,j - c) <= alpha_j <= w_left,j - c with c = body_width / 2 + ``margin_m``: the car's half
   width and a margin inside the drivable half widths (``Path.half_widths``).
 - Curvature of the line at node j, kappa_j = (p'_j x p''_j) / |p'_j|^3, with p' = (p_{j+1} - p_{j-1}) / 2 and
-  p'' = p_{j+1} - 2 p_j + p_{j-1} (per node index). p'' is linear in alpha; holding p' at the current line makes
-  kappa linear in alpha (the linearisation), kappa = k0 + E alpha with E sparse (three entries a row).
-- Objective: sum_j |p'_j| kappa_j^2 (the integral of kappa^2 along the line) plus ``REGULARISATION`` x alpha^2
-  (picks one line among those of equal curvature, such as shifts along a straight), a box-constrained convex QP
-  with a banded (cyclic on a closed track) Hessian: ``tracks.box_qp``. The linearisation is repeated about the new
-  line (p' re-evaluated) until the offsets move less than ``tol_m``, at most ``max_iterations`` times.
+  p'' = p_{j+1} - 2 p_j + p_{j-1} (per node index). Objective: the integral of kappa^2 along the line, sum_j
+  r_j^2 with r_j = sqrt(|p'_j|) kappa_j = (p'_j x p''_j) / |p'_j|^(5/2), plus ``REGULARISATION`` x sum alpha^2
+  (picks one line among those of equal curvature, such as shifts along a straight).
+- The residuals are linearised in alpha about the current line, r = r0 + J (alpha - alpha0) with J sparse (three
+  entries a row), which makes each step a box-constrained convex QP with a banded (cyclic on a closed track)
+  Hessian J^T J: ``tracks.box_qp``. The step is taken with a backtracking on the true objective and the
+  linearisation repeated about the new line (Gauss-Newton) until the offsets move less than ``tol_m`` or the
+  objective falls by less than ``RELATIVE_DECREASE`` of it, at most ``max_iterations`` times. Unlike Heilmeier et
+  al., who hold p' at the reference line and linearise only p'', the whole curvature is linearised: with p'
+  held, moving inwards on a circle shortens p'' but not p', so the linearised curvature falls and the iteration
+  ends on the inner edge of a ring, whereas the true curvature 1 / R is least on the outer edge (the line this
+  module finds).
 - The line: ``Path.from_points`` through the nodes (an interpolating quintic spline, exact curvature). Its rows are
   checked against the track's edges (``tracks.track_edges``: the distance to each edge polyline, which is less than
   the lateral offset where the widths change); where a row comes closer than c, the nearby nodes' bounds are
@@ -37,6 +43,9 @@ from vtrack_gym.tracks.path import Path
 
 REGULARISATION = 1e-10
 """Weight of sum alpha^2 against the curvature integral [1/m^3 per m^2 of offset]: negligible against any bend."""
+RELATIVE_DECREASE = 1e-5
+"""The linearisation has also converged when a step lowers the objective by less than this share of it (a line
+drifting along a flat valley, e.g. a shift along a straight, by millimetres a step)."""
 MAX_REPAIRS = 6
 """Rounds of bound tightening where a row of the fitted line comes closer to an edge than the clearance."""
 EDGE_TOL_M = 1e-3
@@ -171,8 +180,8 @@ def _solve_offsets(nodes: _Nodes, spec: RacingLineSpec, alpha0: np.ndarray) -> t
             step *= 0.5
         change = float(np.max(np.abs(step * delta)))
         alpha = alpha + step * delta
-        value = _objective(nodes, alpha)
-        if change < spec.tol_m:
+        value, before = _objective(nodes, alpha), value
+        if change < spec.tol_m or before - value <= RELATIVE_DECREASE * abs(before):
             return alpha, it, qp_steps
     return alpha, spec.max_iterations, qp_steps
 
@@ -185,15 +194,28 @@ def _line_path(track: Path, nodes: _Nodes, alpha: np.ndarray, ds_m: float) -> Pa
                             name=f"{track.name} racing line", version=track.version)
 
 
-def _row_clearance(track: Path, line: Path) -> tuple[np.ndarray, np.ndarray]:
+def _row_stations(nodes: _Nodes, alpha: np.ndarray, line: Path) -> np.ndarray:
+    """Approximate station [m] on the track of every row of ``line``: the node stations interpolated against the
+    nodes' chord length along the line (rescaled to the line's length)."""
+    p = nodes.r + alpha[:, None] * nodes.n
+    if nodes.closed:
+        p = np.vstack((p, p[:1]))
+        s_nodes = np.append(nodes.s, nodes.s[-1] + (nodes.s[1] - nodes.s[0]))
+    else:
+        s_nodes = nodes.s
+    chord = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(p, axis=0).T))))
+    return np.interp(line.s_m * chord[-1] / line.length_m, chord, s_nodes)
+
+
+def _row_clearance(track: Path, line: Path, stations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Each row's (left, right) signed distance [m] to the track's edges (``track_edges.edge_clearance``)."""
     from vtrack_gym.tracks.track_edges import edge_clearance
 
-    return edge_clearance(track, line.table[:, tb.COL_X], line.table[:, tb.COL_Y])
+    return edge_clearance(track, line.table[:, tb.COL_X], line.table[:, tb.COL_Y], stations)
 
 
-def _tighten(nodes: _Nodes, track: Path, line: Path, short_left: np.ndarray, short_right: np.ndarray,
-             ) -> _Nodes:
+def _tighten(nodes: _Nodes, track: Path, stations: np.ndarray, short_left: np.ndarray,
+             short_right: np.ndarray) -> _Nodes:
     """The nodes with bounds tightened where rows of ``line`` came too close to an edge: each short row's
     shortfall (plus ``EDGE_TOL_M``) taken off the bound of the two nodes around its station on the track."""
     lo, hi = nodes.lo.copy(), nodes.hi.copy()
@@ -203,7 +225,7 @@ def _tighten(nodes: _Nodes, track: Path, line: Path, short_left: np.ndarray, sho
         rows = np.flatnonzero(short > 0.0)
         if rows.size == 0:
             continue
-        s = track.project(line.table[rows, tb.COL_X], line.table[rows, tb.COL_Y]).s
+        s = stations[rows]
         base = np.floor(s / step).astype(np.int64)
         for j in (base, base + 1):
             j = j % count if nodes.closed else np.clip(j, 0, count - 1)
@@ -235,11 +257,12 @@ def solve_racing_line(track: object, vehicle: object = None, spec: RacingLineSpe
     repairs = 0
     while True:
         line = _line_path(path, nodes, alpha, ds)
-        left, right = _row_clearance(path, line)
+        stations = _row_stations(nodes, alpha, line)
+        left, right = _row_clearance(path, line, stations)
         short_left, short_right = clearance - left, clearance - right
         if max(float(short_left.max()), float(short_right.max())) <= EDGE_TOL_M or repairs == MAX_REPAIRS:
             break
-        nodes = _tighten(nodes, path, line, short_left, short_right)
+        nodes = _tighten(nodes, path, stations, short_left, short_right)
         alpha, more, steps = _solve_offsets(nodes, spec, alpha)
         iterations, qp_steps, repairs = iterations + more, qp_steps + steps, repairs + 1
     widths = np.column_stack((left, right))

@@ -14,8 +14,12 @@ import numpy as np
 from vtrack_gym.tracks import table as tb
 from vtrack_gym.tracks.path import Path
 
-NEAREST_VERTICES = 8
+NEAREST_VERTICES = 16
 """Edge vertices (the nearest by a KD-tree) whose two adjacent segments are measured for each point."""
+MIN_WINDOW_M = 10.0
+"""Least station window [m] either side of a point's own station within which its edges are sought (also at least
+3 x the widest half width), so that another part of the track passing close (or over: a figure eight, the laps of a
+circle) is not taken for this part's edge."""
 
 
 def edge_polylines(path: Path) -> tuple[np.ndarray, np.ndarray]:
@@ -27,35 +31,58 @@ def edge_polylines(path: Path) -> tuple[np.ndarray, np.ndarray]:
     return xy + widths[:, :1] * normal, xy - widths[:, 1:] * normal
 
 
-def polyline_distance(vertices: np.ndarray, points: np.ndarray) -> np.ndarray:
+def _segment_distance(vertices: np.ndarray, points: np.ndarray, a_idx: np.ndarray) -> np.ndarray:
+    """Distance [m] from each point (m, 2) to the segments a_idx -> a_idx + 1 (m, k) of the polyline: (m, k)."""
+    a = vertices[a_idx]
+    ab = vertices[a_idx + 1] - a
+    length2 = np.maximum(np.einsum("mkj,mkj->mk", ab, ab), 1e-300)
+    t = np.clip(np.einsum("mkj,mkj->mk", points[:, None, :] - a, ab) / length2, 0.0, 1.0)
+    gap = points[:, None, :] - (a + t[..., None] * ab)
+    return np.sqrt(np.einsum("mkj,mkj->mk", gap, gap))
+
+
+def polyline_distance(vertices: np.ndarray, points: np.ndarray, rows: np.ndarray | None = None,
+                      window: int = 0, closed: bool = False) -> np.ndarray:
     """Distance [m] from each point (m, 2) to the polyline through ``vertices`` (n, 2): the least distance to the
-    segments next to the ``NEAREST_VERTICES`` nearest vertices."""
+    segments next to the ``NEAREST_VERTICES`` nearest vertices. With ``rows`` (m,) (each point's own vertex index)
+    only vertices within ``window`` indices of it count (cyclic when ``closed``), measured on the whole window
+    where none of the nearest is in it."""
     from scipy.spatial import cKDTree
 
     n = vertices.shape[0]
     k = min(NEAREST_VERTICES, n)
     _, idx = cKDTree(vertices).query(points, k=k)
     idx = idx.reshape(points.shape[0], k)
-    best = np.full(points.shape[0], np.inf)
-    for a_idx in (np.maximum(idx - 1, 0), idx):
-        b_idx = np.minimum(a_idx + 1, n - 1)
-        a, b = vertices[a_idx], vertices[b_idx]
-        ab = b - a
-        length2 = np.maximum(np.einsum("mkj,mkj->mk", ab, ab), 1e-300)
-        t = np.clip(np.einsum("mkj,mkj->mk", points[:, None, :] - a, ab) / length2, 0.0, 1.0)
-        gap = points[:, None, :] - (a + t[..., None] * ab)
-        best = np.minimum(best, np.sqrt(np.einsum("mkj,mkj->mk", gap, gap)).min(axis=1))
+    segments = np.concatenate((np.maximum(idx - 1, 0), np.minimum(idx, n - 2)), axis=1)
+    dist = _segment_distance(vertices, points, segments)
+    if rows is None:
+        return dist.min(axis=1)
+    gap = np.abs(segments - rows[:, None])
+    if closed:
+        gap = np.minimum(gap, (n - 1) - gap)
+    dist = np.where(gap <= window, dist, np.inf)
+    best = dist.min(axis=1)
+    lost = np.flatnonzero(~np.isfinite(best))
+    if lost.size:
+        span = rows[lost, None] + np.arange(-window, window + 1)[None, :]
+        span = span % (n - 1) if closed else np.clip(span, 0, n - 2)
+        best[lost] = _segment_distance(vertices, points[lost], span).min(axis=1)
     return best
 
 
-def edge_clearance(path: Path, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(left, right) distances [m] of the points (x, y) [m] to the track's left and right edges, negative for a
-    point beyond that edge (its offset from the centre line past the half width there)."""
+def edge_clearance(path: Path, x: np.ndarray, y: np.ndarray,
+                   s_guess: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(left, right) distances [m] of the points (x, y) [m] to the track's left and right edges near each point's
+    own station (``MIN_WINDOW_M``), negative for a point beyond that edge (its offset from the centre line past the
+    half width there). ``s_guess`` [m]: the points' approximate stations (else the nearest centre-line sample's:
+    give them where the track overlaps itself)."""
     points = np.column_stack((np.ravel(x), np.ravel(y)))
+    proj = path.project(points[:, 0], points[:, 1], None if s_guess is None else np.ravel(s_guess))
+    rows = np.clip(np.rint(proj.s / path.ds_m).astype(np.int64), 0, path.n_samples - 1)
+    window = int(np.ceil(max(MIN_WINDOW_M, 3.0 * float(path.half_widths_rows().max())) / path.ds_m))
     left, right = edge_polylines(path)
-    d_left = polyline_distance(left, points)
-    d_right = polyline_distance(right, points)
-    proj = path.project(points[:, 0], points[:, 1])
+    d_left = polyline_distance(left, points, rows, window, path.closed)
+    d_right = polyline_distance(right, points, rows, window, path.closed)
     w_left, w_right = path.half_widths(proj.s)
     d_left = np.where(proj.e_y > w_left, -d_left, d_left)
     d_right = np.where(-proj.e_y > w_right, -d_right, d_right)

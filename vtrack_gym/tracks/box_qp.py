@@ -24,8 +24,8 @@ MAX_BAND = 16              # a reordered H with at most this many sub-diagonals 
 @dataclass(frozen=True)
 class BoxQPResult:
     """Solution ``x`` of :func:`solve_box_qp`, its objective, the interior-point iterations used, the final
-    residual (the larger of the dual residual relative to 1 + |f| and the mean complementarity) and whether it met
-    the tolerance."""
+    residual (the larger of the dual residual relative to 1 + |f| and the largest complementarity product s z) and
+    whether it met the tolerance."""
 
     x: np.ndarray
     objective: float
@@ -100,7 +100,7 @@ def solve_box_qp(h: object, f: np.ndarray, lo: np.ndarray, hi: np.ndarray, *, to
                  max_iterations: int = 100) -> BoxQPResult:
     """Minimise 1/2 x^T H x + f^T x subject to lo < x < hi (H symmetric positive definite, a scipy sparse matrix;
     lo < hi elementwise). Converged when the dual residual |H x + f - z_lo + z_hi| (relative to 1 + max |f|) and
-    the mean complementarity s z are both below ``tol``."""
+    every complementarity product s z are below ``tol``."""
     from scipy.sparse import csr_matrix
 
     h = csr_matrix(h)
@@ -118,7 +118,7 @@ def solve_box_qp(h: object, f: np.ndarray, lo: np.ndarray, hi: np.ndarray, *, to
         s_lo, s_hi = x - lo, hi - x
         r_d = h @ x + f - z_lo + z_hi
         mu = float((s_lo @ z_lo + s_hi @ z_hi) / (2 * x.size))
-        residual = max(float(np.max(np.abs(r_d))) / scale, mu)
+        residual = max(float(np.max(np.abs(r_d))) / scale, float(np.max(s_lo * z_lo)), float(np.max(s_hi * z_hi)))
         if residual <= tol:
             return BoxQPResult(x, float(0.5 * x @ (h @ x) + f @ x), it - 1, residual, True)
         solve = factor.solver(z_lo / s_lo + z_hi / s_hi)

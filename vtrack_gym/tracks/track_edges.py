@@ -1,19 +1,22 @@
 """The edges of a track as polylines, and how far points lie from them.
 
-A track's edges are the centre line's rows offset along their left normals by the drivable half widths
-(``Path.half_widths_rows``): left edge r + w_left n, right edge r - w_right n. ``edge_clearance`` gives every
-point's Euclidean distance to each edge polyline (exact distance to the nearest segment), signed: negative beyond
-that edge (the point's lateral offset from the centre line, ``Path.project``, past the half width). Used by
-``tracks.raceline`` to keep a racing line clear of the edges and to give it its own half widths.
+A track's edges are the centre line offset along its left normals by the drivable half widths
+(``Path.half_widths``): left edge r + w_left n, right edge r - w_right n, as polylines through points every
+``EDGE_SPACING_M`` or less. ``edge_clearance`` gives every point's Euclidean distance to each edge polyline (exact
+distance to the nearest segment), signed: negative beyond that edge (the point's lateral offset from the centre
+line, ``Path.project``, past the half width). Used by ``tracks.raceline`` to keep a racing line clear of the edges
+and to give it its own half widths.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from vtrack_gym.tracks import table as tb
 from vtrack_gym.tracks.path import Path
 
+EDGE_SPACING_M = 0.05
+"""Largest station spacing of the edge vertices [m]: the polyline then lies within about 0.1 mm of the smooth edge
+even on a 2 m radius."""
 NEAREST_VERTICES = 16
 """Edge vertices (the nearest by a KD-tree) whose two adjacent segments are measured for each point."""
 MIN_WINDOW_M = 10.0
@@ -22,13 +25,21 @@ MIN_WINDOW_M = 10.0
 circle) is not taken for this part's edge."""
 
 
+def edge_spacing_m(path: Path) -> float:
+    """Station spacing [m] of the edge vertices: the rows' spacing divided until at most ``EDGE_SPACING_M``."""
+    return path.ds_m / max(1, int(np.ceil(path.ds_m / EDGE_SPACING_M - 1e-9)))
+
+
 def edge_polylines(path: Path) -> tuple[np.ndarray, np.ndarray]:
-    """(left, right) edge vertices [m], each (n, 2): the rows offset by their half widths along the normal."""
-    psi = path.table[:, tb.COL_PSI]
-    normal = np.column_stack((-np.sin(psi), np.cos(psi)))
-    xy = path.table[:, [tb.COL_X, tb.COL_Y]]
-    widths = path.half_widths_rows()
-    return xy + widths[:, :1] * normal, xy - widths[:, 1:] * normal
+    """(left, right) edge vertices [m], each (n, 2): the centre line every ``edge_spacing_m`` (interpolated
+    between rows) offset by its half widths along the normal."""
+    spacing = edge_spacing_m(path)
+    s = np.minimum(np.arange(round(path.length_m / spacing) + 1) * spacing, path.length_m)
+    row = path.sample(s)
+    normal = np.column_stack((-np.sin(row.psi), np.cos(row.psi)))
+    xy = np.column_stack((row.x, row.y))
+    w_left, w_right = path.half_widths(s)
+    return xy + w_left[:, None] * normal, xy - w_right[:, None] * normal
 
 
 def _segment_distance(vertices: np.ndarray, points: np.ndarray, a_idx: np.ndarray) -> np.ndarray:
@@ -78,9 +89,10 @@ def edge_clearance(path: Path, x: np.ndarray, y: np.ndarray,
     give them where the track overlaps itself)."""
     points = np.column_stack((np.ravel(x), np.ravel(y)))
     proj = path.project(points[:, 0], points[:, 1], None if s_guess is None else np.ravel(s_guess))
-    rows = np.clip(np.rint(proj.s / path.ds_m).astype(np.int64), 0, path.n_samples - 1)
-    window = int(np.ceil(max(MIN_WINDOW_M, 3.0 * float(path.half_widths_rows().max())) / path.ds_m))
     left, right = edge_polylines(path)
+    spacing = edge_spacing_m(path)
+    rows = np.clip(np.rint(proj.s / spacing).astype(np.int64), 0, left.shape[0] - 1)
+    window = int(np.ceil(max(MIN_WINDOW_M, 3.0 * float(path.half_widths_rows().max())) / spacing))
     d_left = polyline_distance(left, points, rows, window, path.closed)
     d_right = polyline_distance(right, points, rows, window, path.closed)
     w_left, w_right = path.half_widths(proj.s)

@@ -22,12 +22,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 SPEED_STEP_MPS = 0.25
-"""Spacing of the speed grid the limits are tabulated on [m/s] (linear interpolation between)."""
+"""Spacing of the speed grid the limits are tabulated on [m/s] (plus the kinks: the speeds of the lateral-limit
+curve, so that its piecewise-linear limit is reproduced exactly, and where the drive force turns from force- to
+power-limited; linear interpolation between)."""
 
 
 @dataclass(frozen=True, eq=False)
 class GGLimits:
-    """Acceleration limits [m/s^2] tabulated against speed: ``speeds_mps`` (increasing, from 0, uniform step),
+    """Acceleration limits [m/s^2] tabulated against speed: ``speeds_mps`` (increasing, from 0),
     ``lateral_mps2``, ``forward_mps2`` (may reach 0 at the top speed) and ``brake_mps2`` (> 0), each held at its
     end values beyond the grid; ``top_speed_mps`` [m/s]; ``name`` says whose limits they are."""
 
@@ -44,9 +46,8 @@ class GGLimits:
         n = arrays[0].size
         if n < 2 or any(a.shape != (n,) or not np.all(np.isfinite(a)) for a in arrays):
             raise ValueError("GGLimits arrays must be finite, 1-D, of one length >= 2")
-        step = np.diff(arrays[0])
-        if arrays[0][0] != 0.0 or np.any(step <= 0.0) or np.ptp(step) > 1e-9 * step[0]:
-            raise ValueError("GGLimits.speeds_mps must start at 0 m/s with a uniform step")
+        if arrays[0][0] != 0.0 or np.any(np.diff(arrays[0]) <= 0.0):
+            raise ValueError("GGLimits.speeds_mps must start at 0 m/s and increase")
         if np.any(arrays[1] <= 0.0) or np.any(arrays[3] <= 0.0) or np.any(arrays[2] < 0.0):
             raise ValueError("GGLimits: lateral and brake limits must be > 0, forward limits >= 0 m/s^2")
         if not (math.isfinite(self.top_speed_mps) and self.top_speed_mps > 0.0):
@@ -63,11 +64,6 @@ class GGLimits:
         return cls(speeds, np.full(2, float(lateral_mps2)), np.full(2, float(forward_mps2)),
                    np.full(2, float(brake_mps2)), float(top_speed_mps), name)
 
-    @property
-    def step_mps(self) -> float:
-        """Spacing of the speed grid [m/s]."""
-        return float(self.speeds_mps[1] - self.speeds_mps[0])
-
     def at(self, speed_mps: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(lateral, forward, brake) limits [m/s^2] at ``speed_mps`` [m/s]."""
         v = np.asarray(speed_mps, dtype=float)
@@ -80,15 +76,22 @@ def gg_limits(vehicle: object = None) -> GGLimits:
     paper's car), as the module docstring says. Solving the lateral limit curve takes about 3 s the first time
     for a car (cached after)."""
     from vtrack_gym.vehicle.catalog import resolve_vehicle
-    from vtrack_gym.vehicle.longitudinal import forward_accel_limit_mps2, resistance_n, top_speed_mps
+    from vtrack_gym.vehicle.longitudinal import (
+        MIN_POWER_SPEED_MPS,
+        forward_accel_limit_mps2,
+        resistance_n,
+        top_speed_mps,
+    )
     from vtrack_gym.vehicle.params import GRAVITY_MPS2
-    from vtrack_gym.vehicle.steady_state import lateral_limit_mps2
+    from vtrack_gym.vehicle.steady_state import lateral_limit_curve, lateral_limit_mps2
 
     car = resolve_vehicle(vehicle)
+    power = car.powertrain
     top = top_speed_mps(car)
     if not math.isfinite(top):
         raise ValueError(f"{car.name}: no top speed (no drag); give the car a drag area > 0")
-    speeds = np.arange(math.ceil(top / SPEED_STEP_MPS) + 1) * SPEED_STEP_MPS
+    kinks = np.append(lateral_limit_curve(car)[0], [MIN_POWER_SPEED_MPS, power.max_power_w / power.max_drive_force_n])
+    speeds = np.union1d(np.arange(math.ceil(top / SPEED_STEP_MPS) + 1) * SPEED_STEP_MPS, kinks[kinks < top])
     mass = car.chassis.mass_kg
     brake_force = min(car.brakes.pedal_gain * car.brakes.max_pedal_force_n,
                       car.tyres.friction_mu * mass * GRAVITY_MPS2)

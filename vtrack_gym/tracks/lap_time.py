@@ -19,6 +19,7 @@ start). The lap time is the exact time of the table (``tracks.time_law``).
 
 from __future__ import annotations
 
+import bisect
 import math
 import time
 from dataclasses import dataclass
@@ -62,20 +63,19 @@ def lateral_speed_limit(limits: GGLimits, kappa_per_m: np.ndarray) -> np.ndarray
 
 
 class _Tables:
-    """The limits as Python lists on a uniform speed grid (fast scalar interpolation inside the passes)."""
+    """The limits as Python lists (fast scalar interpolation inside the passes)."""
 
     def __init__(self, limits: GGLimits) -> None:
-        self.step = limits.step_mps
-        self.last = limits.speeds_mps.size - 1
+        self.speeds = limits.speeds_mps.tolist()
+        self.last = len(self.speeds) - 1
         self.lateral = limits.lateral_mps2.tolist()
         self.forward = limits.forward_mps2.tolist()
         self.brake = limits.brake_mps2.tolist()
 
     def pair(self, speed: float, braking: bool) -> tuple[float, float]:
         """(A_x or A_b, A_y) [m/s^2] at ``speed`` [m/s]."""
-        x = speed / self.step
-        i = min(int(x), self.last - 1)
-        t = min(x - i, 1.0)
+        i = min(bisect.bisect_right(self.speeds, speed) - 1, self.last - 1)
+        t = min((speed - self.speeds[i]) / (self.speeds[i + 1] - self.speeds[i]), 1.0)
         along = self.brake if braking else self.forward
         return (along[i] + t * (along[i + 1] - along[i]),
                 self.lateral[i] + t * (self.lateral[i + 1] - self.lateral[i]))

@@ -16,6 +16,8 @@ from vtrack_gym.tracks.path import Path
 ELLIPSE_SPEEDS_KMH: tuple[float, ...] = (60.0, 120.0, 180.0)
 """Speeds at which the car's friction ellipse is drawn on the g-g panel [km/h] (those below its top speed)."""
 LINE_COLOURS = {"raceline": "tab:red", "centreline": "tab:blue"}
+ZOOM_HALF_SPAN_M = 40.0
+"""Half span [m] of the inset on the line's slowest corner."""
 
 
 def accelerations(bound: LapTimeBound) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -28,23 +30,40 @@ def accelerations(bound: LapTimeBound) -> tuple[np.ndarray, np.ndarray, np.ndarr
     return v[fast], a_x, u[fast] * bound.path.table[fast, tb.COL_KAPPA]
 
 
-def _track_panel(ax: Any, track: Path, bounds: Sequence[LapTimeBound]) -> Any:
-    """Track edges, centre line and the first bound's line coloured by speed; returns the coloured collection."""
+def _draw_track(ax: Any, track: Path, bound: LapTimeBound, edges: tuple[np.ndarray, np.ndarray]) -> Any:
+    """Edges, centre line and ``bound``'s line coloured by speed on ``ax``; returns the coloured collection."""
     from matplotlib.collections import LineCollection
 
-    from vtrack_gym.tracks.track_edges import edge_polylines
-
-    for edge in edge_polylines(track):
+    for edge in edges:
         ax.plot(edge[:, 0], edge[:, 1], color="0.35", lw=0.8)
     ax.plot(track.table[:, tb.COL_X], track.table[:, tb.COL_Y], color="0.6", lw=0.6, ls="--")
-    line = bounds[0].path.table[:, [tb.COL_X, tb.COL_Y]]
+    line = bound.path.table[:, [tb.COL_X, tb.COL_Y]]
     segments = np.stack((line[:-1], line[1:]), axis=1)
-    kmh = 3.6 * bounds[0].speed_table.v_mps
+    kmh = 3.6 * bound.speed_table.v_mps
     coloured = LineCollection(segments, cmap="viridis", linewidths=1.8)
     coloured.set_array(0.5 * (kmh[:-1] + kmh[1:]))
     ax.add_collection(coloured)
     ax.set_aspect("equal")
+    return coloured
+
+
+def _track_panel(ax: Any, track: Path, bounds: Sequence[LapTimeBound]) -> Any:
+    """The track with the first bound's line coloured by speed, and an inset on its slowest corner
+    (``ZOOM_HALF_SPAN_M`` either side); returns the coloured collection."""
+    from vtrack_gym.tracks.track_edges import edge_polylines
+
+    edges = edge_polylines(track)
+    coloured = _draw_track(ax, track, bounds[0], edges)
     ax.autoscale()
+    slowest = int(np.argmin(bounds[0].speed_table.v_mps))
+    x0, y0 = bounds[0].path.table[slowest, [tb.COL_X, tb.COL_Y]]
+    inset = ax.inset_axes((0.62, 0.02, 0.36, 0.36))
+    _draw_track(inset, track, bounds[0], edges)
+    inset.set_xlim(x0 - ZOOM_HALF_SPAN_M, x0 + ZOOM_HALF_SPAN_M)
+    inset.set_ylim(y0 - ZOOM_HALF_SPAN_M, y0 + ZOOM_HALF_SPAN_M)
+    inset.set_xticks([])
+    inset.set_yticks([])
+    ax.indicate_inset_zoom(inset, edgecolor="0.3")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_title(f"{bounds[0].line} over the track (grey: edges, dashed: centre line)", fontsize=9)

@@ -215,9 +215,11 @@ def _row_clearance(track: Path, line: Path, stations: np.ndarray) -> tuple[np.nd
 
 
 def _tighten(nodes: _Nodes, track: Path, stations: np.ndarray, short_left: np.ndarray,
-             short_right: np.ndarray) -> _Nodes:
-    """The nodes with bounds tightened where rows of ``line`` came too close to an edge: each short row's
-    shortfall (plus ``EDGE_TOL_M``) taken off the bound of the two nodes around its station on the track."""
+             short_right: np.ndarray, spread: int) -> _Nodes:
+    """The nodes with bounds tightened where rows of the line came too close to an edge: each short row's
+    shortfall (plus ``EDGE_TOL_M``) taken off the bound of the two nodes around its station on the track and of
+    ``spread`` more either side (the nearest edge point may lie beside the row's station: the sharp inner edge of a
+    corner nearly as tight as the track is wide)."""
     lo, hi = nodes.lo.copy(), nodes.hi.copy()
     count = nodes.s.size
     step = track.length_m / (count if nodes.closed else count - 1)
@@ -227,7 +229,7 @@ def _tighten(nodes: _Nodes, track: Path, stations: np.ndarray, short_left: np.nd
             continue
         s = stations[rows]
         base = np.floor(s / step).astype(np.int64)
-        for j in (base, base + 1):
+        for j in (base + k for k in range(-spread, spread + 2)):
             j = j % count if nodes.closed else np.clip(j, 0, count - 1)
             np.add.at(bound, j, sign * (short[rows] + EDGE_TOL_M))
     if np.any(lo > hi):
@@ -262,7 +264,7 @@ def solve_racing_line(track: object, vehicle: object = None, spec: RacingLineSpe
         short_left, short_right = clearance - left, clearance - right
         if max(float(short_left.max()), float(short_right.max())) <= EDGE_TOL_M or repairs == MAX_REPAIRS:
             break
-        nodes = _tighten(nodes, path, stations, short_left, short_right)
+        nodes = _tighten(nodes, path, stations, short_left, short_right, repairs)
         alpha, more, steps = _solve_offsets(nodes, spec, alpha)
         iterations, qp_steps, repairs = iterations + more, qp_steps + steps, repairs + 1
     widths = np.column_stack((left, right))

@@ -154,7 +154,7 @@ def _residuals(nodes: _Nodes, alpha: np.ndarray, jacobian: bool = True) -> tuple
 def _objective(nodes: _Nodes, alpha: np.ndarray) -> float:
     """sum r^2 + ``REGULARISATION`` sum alpha^2 (the integral of kappa^2 [1/m] plus the tie-break)."""
     r, _ = _residuals(nodes, alpha, jacobian=False)
-    return float(r @ r + REGULARISATION * alpha @ alpha)
+    return float(np.einsum("i,i->", r, r) + REGULARISATION * np.einsum("i,i->", alpha, alpha))  # no BLAS threads
 
 
 def _solve_offsets(nodes: _Nodes, spec: RacingLineSpec, alpha0: np.ndarray) -> tuple[np.ndarray, int, int]:

@@ -150,3 +150,24 @@ def test_the_qp_solver_meets_its_optimality_conditions() -> None:
     assert np.all((x >= lo) & (x <= hi))
     assert np.max(np.abs(x - np.clip(x - g, lo, hi))) < 1e-6
     assert (x < lo + 1e-6).any() and (x > hi - 1e-6).any() and (np.abs(g) < 1e-6).any()
+
+
+def test_the_racing_line_is_a_track_the_env_drives_and_judges_by_its_own_widths() -> None:
+    """Its half widths are distances to the real edges: the env's track-limit rule reads them as it reads a
+    track's (stanley at 60 km/h and 0.5 g for 60 s of the handling course)."""
+    import gymnasium as gym
+
+    import vtrack_gym
+
+    line = vt.racing_line("handling_course")
+    env = gym.make("vtrack/Track-v0", track=line, speed_profile=vt.EnvelopeLimited(60.0 / 3.6, 0.5 * 9.81),
+                   track_limits="body")
+    policy = vtrack_gym.make_policy("stanley", env)
+    obs, _ = env.reset(seed=0)
+    for _ in range(1200):
+        action, _ = policy.predict(obs)
+        obs, _, terminated, truncated, _ = env.step(action)
+        assert not (terminated or truncated)
+    metrics = env.unwrapped.success_metrics()
+    assert metrics["track_limit_violations"] == 0.0 and 0.1 < metrics["min_edge_margin_m"] < 1.0
+    env.close()

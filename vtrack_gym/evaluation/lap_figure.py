@@ -49,7 +49,9 @@ def _draw_track(ax: Any, track: Path, bound: LapTimeBound, edges: tuple[np.ndarr
 
 def _track_panel(ax: Any, track: Path, bounds: Sequence[LapTimeBound]) -> Any:
     """The track with the first bound's line coloured by speed, and an inset on its slowest corner
-    (``ZOOM_HALF_SPAN_M`` either side); returns the coloured collection."""
+    (``ZOOM_HALF_SPAN_M`` either side, outlined on the track); returns the coloured collection."""
+    from matplotlib.patches import Rectangle
+
     from vtrack_gym.tracks.track_edges import edge_polylines
 
     edges = edge_polylines(track)
@@ -63,10 +65,12 @@ def _track_panel(ax: Any, track: Path, bounds: Sequence[LapTimeBound]) -> Any:
     inset.set_ylim(y0 - ZOOM_HALF_SPAN_M, y0 + ZOOM_HALF_SPAN_M)
     inset.set_xticks([])
     inset.set_yticks([])
-    ax.indicate_inset_zoom(inset, edgecolor="0.3")
+    ax.add_patch(Rectangle((x0 - ZOOM_HALF_SPAN_M, y0 - ZOOM_HALF_SPAN_M), 2.0 * ZOOM_HALF_SPAN_M,
+                           2.0 * ZOOM_HALF_SPAN_M, fill=False, edgecolor="0.3", lw=0.8))
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
-    ax.set_title(f"{bounds[0].line} over the track (grey: edges, dashed: centre line)", fontsize=9)
+    ax.set_title(f"{bounds[0].line} over the track (grey: edges, dashed: centre line; inset: slowest corner)",
+                 fontsize=9)
     return coloured
 
 

@@ -21,6 +21,8 @@ _POLICIES: dict[str, tuple[str, str]] = {
     "pure_pursuit": ("vtrack_gym.baselines.pure_pursuit", "PurePursuit"),
     "mpc_osqp": ("vtrack_gym.baselines.mpc_osqp", "OSQPMPC"),
     "nmpc": ("vtrack_gym.baselines.nmpc", "NMPC"),
+    "raceline": ("vtrack_gym.baselines.race_line", "RaceLine"),
+    "centreline": ("vtrack_gym.baselines.race_line", "CentreLine"),
 }
 
 

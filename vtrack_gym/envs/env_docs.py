@@ -210,7 +210,8 @@ def _control() -> str:
 
 def _race() -> str:
     return ("## Action and reward\n\nThe action is `[steering command, longitudinal demand]` "
-            "(`control=\"steer_accel\"`; `\"steer_rate_accel\"`: the steering rate), as in [Control modes](../control-modes.md); the observation "
+            "(`control=\"steer_accel\"`; `\"steer_rate_accel\"`: the steering rate), as in "
+            "[Control modes](../control-modes.md); the observation "
             "ends with `speed_error`, `time_error`, `edge_left_m`, `edge_right_m` and `lap_fraction`. The reward per "
             "step is `100 dp/L - 10 T/T_b - 1 cost - 50 [failure]`: centre-line progress dp per lap length L (ground "
             "gained beyond the track-limit rule is not paid), the control period T per lap-time bound T_b, a step "

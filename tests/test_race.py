@@ -108,9 +108,8 @@ def test_spinning_in_place_earns_less_than_driving_the_line_slowly(ring: gym.Env
 
 
 def test_cutting_a_corner_earns_less_than_staying_on(ring: gym.Env) -> None:
-    from vtrack_gym.tracks.path import Path
-
     from vtrack_gym.baselines.registry import make_policy
+    from vtrack_gym.tracks.path import Path
 
     on = make_policy("centreline", ring, grip_scale=0.8)
     cut = make_policy("centreline", ring, grip_scale=0.8)
@@ -143,7 +142,7 @@ def test_driving_backwards_earns_negative(ring: gym.Env) -> None:
     assert terms["race_reward_progress"] == pytest.approx(-1.0) and sum(terms.values()) < 0.0
     assert RaceReward().terms(-5.0, 500.0, 0.01, 25.0, 1.0, False)["race_reward_progress"] == pytest.approx(-1.0)
     # in the env: turning round on the spot loses ground and ends in a spin-out
-    total, info, infos = drive(ring, lambda o: np.array([1.0, 0.3], dtype=np.float32))
+    total, info, _ = drive(ring, lambda o: np.array([1.0, 0.3], dtype=np.float32))
     assert info["termination"] == "spin_out" and total < 0.0
 
 

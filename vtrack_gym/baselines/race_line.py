@@ -31,6 +31,8 @@ import numpy as np
 
 from vtrack_gym._ranges import documented, ranged, validate
 
+STATION_WINDOW_M = 60.0
+"""Search window [m] of the line's station nearest each centre-line station, around the proportional guess."""
 STEERING_LAWS: tuple[str, ...] = ("lqr", "stanley", "pure_pursuit", "smc")
 """Stateless steering baselines a line follower can use."""
 
@@ -131,7 +133,8 @@ class LineFollower:
         """(centre-line stations, the line's station nearest each) every metre, for the projection's first guess."""
         s_c = np.arange(0.0, self.centre.length_m, 1.0)
         row = self.centre.sample(s_c)
-        return s_c, self.line.project(row.x, row.y).s
+        guess = s_c * (self.line.length_m / self.centre.length_m)   # no KD-tree: the policy's state stays plain data
+        return s_c, self.line.project(row.x, row.y, guess, STATION_WINDOW_M).s
 
     def predict(self, observation: Any, state: Any = None, episode_start: Any = None,
                 deterministic: bool = True) -> tuple[np.ndarray, None]:

@@ -189,3 +189,15 @@ def test_cli_benchmark_race_suite(tmp_path, capsys) -> None:
                  "--store", str(tmp_path / "store")]) == 0
     out = capsys.readouterr().out
     assert "vtrack/Race-v0" in out and "vtrack/RaceRing-v0" in out and "lap_time_fraction" in out
+
+
+def test_race_baselines_have_one_fingerprint_per_circuit() -> None:
+    """Two envs of one id give two policies of one hash (the board ranks a policy's seeds together)."""
+    from vtrack_gym.evaluation.fingerprint import policy_hash
+
+    for name in ("raceline", "centreline"):
+        hashes = set()
+        for _ in range(2):
+            env = gym.make("vtrack/RaceRing-v0")
+            hashes.add(policy_hash(vtrack_gym.make_policy(name, env), env))
+        assert len(hashes) == 1, name

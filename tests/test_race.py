@@ -163,6 +163,8 @@ def test_raceline_laps_within_limits_near_the_bound_and_beats_centreline(env_id:
 def test_race_baselines_need_the_race_env() -> None:
     with pytest.raises(ValueError, match="Race-v0"):
         vtrack_gym.make_policy("raceline", gym.make("DLC120-v0", control="steer_accel"))
+    with pytest.raises(ValueError, match="control='steer_accel'"):
+        vtrack_gym.make_policy("raceline", gym.make("vtrack/RaceRing-v0", control="steer_rate_accel"))
     from vtrack_gym.baselines.registry import available_policies, race_policies
 
     assert set(race_policies()) == {"raceline", "centreline"} and not set(race_policies()) & set(available_policies())

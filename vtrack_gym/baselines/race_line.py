@@ -17,8 +17,9 @@ F >= 0 is the throttle fraction F / F_drive,max(v); F < 0 the brake pedal force 
 the throttle/brake map (``envs.control``). ``grip_scale`` (<= 1) scales the car's lateral, forward and braking
 limits of the profile (1: the bound's own profile).
 
-Only in the race env (``vtrack/Race-v0``); a ``ValueError`` names it for an env without ``lap_fraction``. The
-coupled form (a nonlinear MPC planning steering and longitudinal force together) is not provided.
+Only in the race env (``vtrack/Race-v0``) in ``control="steer_accel"``; a ``ValueError`` names it for an env
+without ``lap_fraction`` or in ``steer_rate_accel``. The coupled form (a nonlinear MPC planning steering and
+longitudinal force together) is not provided.
 """
 
 from __future__ import annotations
@@ -88,6 +89,9 @@ class LineFollower:
         if layout is None or "lap_fraction" not in layout.names or not hasattr(base, "race_line"):
             raise ValueError(f"{self.name} drives the race env (vtrack/Race-v0): it needs the observation's "
                              "lap_fraction and the env's racing line")
+        if getattr(base, "control", None) != "steer_accel":
+            raise ValueError(f"{self.name} sends a steering command: it drives the race env made with "
+                             f"control='steer_accel' (got control={getattr(base, 'control', None)!r})")
         vehicle = base.config.vehicle
         self.centre = base.paths[0]
         self.line = base.race_line.path if self.line_kind == "raceline" else self.centre

@@ -23,6 +23,12 @@ _POLICIES: dict[str, tuple[str, str]] = {
     "mpc_osqp": ("vtrack_gym.baselines.mpc_osqp", "OSQPMPC"),
     "nmpc": ("vtrack_gym.baselines.nmpc", "NMPC"),
 }
+_RACE_POLICIES: dict[str, tuple[str, str]] = {
+    "raceline": ("vtrack_gym.baselines.race_line", "RaceLine"),
+    "centreline": ("vtrack_gym.baselines.race_line", "CentreLine"),
+}
+"""The race baselines (``baselines.race_line``): steering and pedals on the race env (``vtrack/Race-v0``) only, so
+they are not among ``available_policies()`` (the steering baselines every env takes) but ``race_policies()``."""
 
 
 _TUNING: dict[str, tuple[str, str]] = {
@@ -97,14 +103,25 @@ def available_policies() -> tuple[str, ...]:
     return (*_POLICIES, *_added())
 
 
+def race_policies() -> tuple[str, ...]:
+    """The race baselines' names (``raceline``, ``centreline``): they drive the race env only."""
+    return tuple(_RACE_POLICIES)
+
+
+def known_policies() -> tuple[str, ...]:
+    """Every name ``make_policy`` takes: ``available_policies()`` and ``race_policies()``."""
+    return (*available_policies(), *race_policies())
+
+
 def policy_class(name: str) -> type[Policy]:
     """The controller class registered as ``name`` (``ValueError`` listing the valid names if unknown)."""
     added = _added()
     if name in added:
         return added[name]
-    if name not in _POLICIES:
-        raise ValueError(f"unknown policy {name!r}; valid: {', '.join(available_policies())}")
-    module, attr = _POLICIES[name]
+    known = {**_POLICIES, **_RACE_POLICIES}
+    if name not in known:
+        raise ValueError(f"unknown policy {name!r}; valid: {', '.join(known_policies())}")
+    module, attr = known[name]
     return getattr(importlib.import_module(module), attr)
 
 

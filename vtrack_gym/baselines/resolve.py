@@ -3,7 +3,7 @@
 A spec is, in this order (names always win over files, so a file or directory in the working directory named
 like a policy never shadows it):
 
-* a baseline name (``registry.available_policies()``), default preset;
+* a baseline name (``registry.known_policies()``: the steering baselines and the race ones), default preset;
 * ``name:preset`` for a baseline (``smc:paper``, ``mpc:hand``);
 * a shipped agent name (``shipped.shipped_agents()``: the agent files in ``vtrack_gym/baselines/shipped``);
 * a weights-only agent file path (``agent.json`` or ``agent.npz``; JSON + ``np.load(allow_pickle=False)``,
@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from vtrack_gym.baselines.registry import available_policies
+from vtrack_gym.baselines.registry import known_policies
 from vtrack_gym.baselines.registry import make_policy as make_baseline
 
 AGENT_SUFFIXES = (".json", ".npz")
@@ -42,7 +42,7 @@ def shipped_names() -> tuple[str, ...]:
 
 def policy_names() -> tuple[str, ...]:
     """Every policy name a spec may be: the baselines, then the shipped agents."""
-    return (*available_policies(), *shipped_names())
+    return (*known_policies(), *shipped_names())
 
 
 def _valid_text() -> str:
@@ -75,7 +75,7 @@ def policy_factory(spec: str, preset: str | None = None, *, trust_code: bool = F
     if policy_kwargs:
         raise ValueError(f"policy_kwargs apply to a module:Name policy of your own code, not to {spec!r}")
     name, sep, spec_preset = spec.partition(":")
-    baselines = available_policies()
+    baselines = known_policies()
     if sep and name in baselines:
         if preset not in (None, "default"):
             raise ValueError(f"policy {spec!r} names a preset; do not also pass preset={preset!r}")
@@ -103,7 +103,7 @@ def policy_factory(spec: str, preset: str | None = None, *, trust_code: bool = F
 def is_user_spec(spec: str) -> bool:
     """``spec`` has the form ``module:Name`` of user code: not a baseline with a preset, not an existing file."""
     module, sep, _ = spec.partition(":")
-    return bool(sep) and module not in available_policies() and _USER_SPEC.fullmatch(spec) is not None \
+    return bool(sep) and module not in known_policies() and _USER_SPEC.fullmatch(spec) is not None \
         and not Path(spec).exists()
 
 
@@ -117,7 +117,7 @@ def canonical_spec(spec: str, preset: str | None = None) -> str:
     if Path(text).suffix in AGENT_SUFFIXES and Path(text).stem:
         return Path(text).stem    # an agent file: shown by its stem, identified by its content (weights hash)
     name, sep, spec_preset = text.partition(":")
-    if name not in available_policies():
+    if name not in known_policies():
         return text
     chosen = (spec_preset.strip() if sep else "") or (preset or "default")
     return name if chosen == "default" else f"{name}:{chosen}"

@@ -58,6 +58,14 @@ DESCRIPTIONS: dict[str, str] = {
                  "side with the body clear of it. `reference=\"lane_centres\"` drives the v0 line instead.",
     "StepCurvature-v0": "A straight followed by a step into a constant-radius curve (the step-steer response of "
                         "path tracking); success: the end of the course reached within the road.",
+    "Race-v0": "A race: `laps=` laps (default 2) of a closed track (default the handling course; `track=` any "
+               "closed track Track-v0 reads) from a standing start (`start=\"flying\"`: at speed), the agent on "
+               "the steering and the pedals (`control=\"steer_accel\"` or `\"steer_rate_accel\"`); success: "
+               "every lap within the track-limit rule (`track_limits=`, default `\"wheels\"`). The reward is "
+               "progress along the track less time, track-limit and failure penalties; `info` carries the lap "
+               "times and the car's lap-time bound. See [Race](../race.md).",
+    "RaceRing-v0": "The race of `vtrack/Race-v0` on the shipped example ring (a 491 m stadium loop, "
+                   "`tracks.example_maps`). See [Race](../race.md).",
 }
 """Scenario name -> what the scenario is, for its page."""
 
@@ -83,6 +91,9 @@ _ISO2 = (_V0_PINNED + " The lane-centre line at a constant 80 km/h: it asks 1.75
 _SLALOM = (_V0_PINNED + " The lane-centre line, 0.5 m clear of each cone.",
            "v1: the planned line for the driven car's body past the cones, same 40 km/h. v0 stays registered "
            "unchanged.")
+_RACE = ("v0: pinned by `tests/test_env_versions.py` from its first release (the fixed steering and demand "
+         "sequence and the fixed follower of `tests/env_fingerprint.py`).",)
+VERSION_HISTORY.update({"Race-v0": _RACE, "RaceRing-v0": _RACE})
 VERSION_HISTORY.update({"ISO3888-1-v0": _ISO1, "ISO3888-1-v1": _ISO1, "ISO3888-2-v1": _ISO2, "Slalom-v0": _SLALOM,
                         "Slalom-v1": _SLALOM})
 DEPRECATED_PAGES: dict[str, tuple[str, ...]] = {"ISO3888-2-v0": _ISO2}
@@ -110,9 +121,9 @@ def deprecated_page(name: str) -> str:
 
 def documented_ids() -> tuple[str, ...]:
     """Every namespaced id the package registers (one per scenario, plus the training recipes' ids)."""
-    from vtrack_gym.envs.registration import NAMESPACED_IDS, RECIPE_IDS
+    from vtrack_gym.envs.registration import NAMESPACED_IDS, RACE_IDS, RECIPE_IDS
 
-    return (*NAMESPACED_IDS, *RECIPE_IDS)
+    return (*NAMESPACED_IDS, *RECIPE_IDS, *RACE_IDS)
 
 
 def _name(env_id: str) -> str:
@@ -142,8 +153,10 @@ def env_page(env_id: str) -> str:
     name = _name(env_id)
     env = gym.make(env_id)
     try:
+        race = hasattr(env.unwrapped, "lap_time_bound_s")
         sections = [f"# {env_id}", _aliases(name), DESCRIPTIONS[name], _spaces(env), _observation(env),
-                    _reward(), _control(), _start_and_end(env), _arguments(), _history(name)]
+                    *((_race(),) if race else (_reward(), _control())), _start_and_end(env),
+                    _race_arguments() if race else _arguments(), _history(name)]
     finally:
         env.close()
     return "\n\n".join(s for s in sections if s) + "\n"
@@ -193,6 +206,24 @@ def _control() -> str:
             "integrated by the env) instead of the command. Both append `speed_error` [m/s] and `time_error` [s] to "
             "the observation and add the bounded speed term `-0.1 |e_v|/(|e_v| + 1 m/s)` to the reward; termination "
             "is the same. See [Control modes](../control-modes.md).")
+
+
+def _race() -> str:
+    return ("## Action and reward\n\nThe action is `[steering command, longitudinal demand]` "
+            "(`control=\"steer_accel\"`; `\"steer_rate_accel\"`: the steering rate), as in "
+            "[Control modes](../control-modes.md); the observation "
+            "ends with `speed_error`, `time_error`, `edge_left_m`, `edge_right_m` and `lap_fraction`. The reward per "
+            "step is `100 dp/L - 10 T/T_b - 1 cost - 50 [failure]`: centre-line progress dp per lap length L (ground "
+            "gained beyond the track-limit rule is not paid), the control period T per lap-time bound T_b, a step "
+            "beyond the rule, a failure (`vtrack_gym.envs.race_reward.RaceReward`); the terms are in "
+            "`info[\"race_reward_*\"]`. See [Race](../race.md).")
+
+
+def _race_arguments() -> str:
+    return ("## Arguments\n\n`track=` (a closed track), `laps=` (1 to 20), `start=\"standing\"|\"flying\"`, "
+            "`control=\"steer_accel\"|\"steer_rate_accel\"` (`\"steer\"` is refused), `track_limits=`, "
+            "`time_limit_factor=` (the time limit in lap-time bounds per lap, default 3), `reward=` (a `RaceReward`), "
+            "`margin_m=` (the bound's racing line clearance), `vehicle=` and every env config field.")
 
 
 def _start_and_end(env: Any) -> str:

@@ -26,7 +26,11 @@ RECIPE_IDS: dict[str, tuple[str, dict[str, Any]]] = {
     "vtrack/TrainingMix20Hz-v0": ("TrainingMix-v0", {"control_period_s": 0.05})}
 """Training setups as ids: id -> (scenario, env settings). ``vtrack/TrainingMix20Hz-v0`` is the training mix at a
 50 ms decision period (20 Hz), what the shipped ``ppo`` and ``sac`` agents were trained on."""
-ALL_ENV_IDS: tuple[str, ...] = NAMESPACED_IDS + ENV_IDS + tuple(RECIPE_IDS)
+RACE_IDS: dict[str, dict[str, Any]] = {"vtrack/Race-v0": {}, "vtrack/RaceRing-v0": {"track": "ring.gpx"}}
+"""Ids of the race (``envs.race_env.RaceEnv``) -> their make kwargs: N laps within track limits, the agent on the
+pedals too; ``Race-v0`` on the handling course (or any closed track given as ``track=``), ``RaceRing-v0`` on the
+shipped example ring (``tracks.example_maps``)."""
+ALL_ENV_IDS: tuple[str, ...] = NAMESPACED_IDS + ENV_IDS + tuple(RECIPE_IDS) + tuple(RACE_IDS)
 """Every id this package registers for its own envs."""
 
 
@@ -54,6 +58,10 @@ def register_envs() -> None:
                      vector_entry_point="vtrack_gym.envs.vector_env:TrackingVectorEnv",
                      kwargs={"scenario": name, **settings}, disable_env_checker=False,
                      max_episode_steps=None if limit_s is None else round(limit_s / settings["control_period_s"]))
+    for env_id, kwargs in RACE_IDS.items():
+        if env_id not in registry:    # the time limit depends on the track and the car: the env truncates itself
+            register(id=env_id, entry_point="vtrack_gym.envs.race_env:RaceEnv", kwargs=dict(kwargs),
+                     max_episode_steps=None, disable_env_checker=False)
 
 
 def register_scenario(scenario: Scenario) -> str:

@@ -46,7 +46,7 @@ NON_NEGATIVE_METRICS = frozenset({"itae", "duration_s", "cones_hit", "comfort_a_
                                   "a_y_violation_mps2", "wall_time_per_step_s", "wall_time_s", "episodes",
                                   "remaining_m", "completed", "success", "entry_speed_fraction",
                                   "above_physical_bound", "entry_speed_monotone", "entry_speed_capped",
-                                  "track_limit_violations"})
+                                  "track_limit_violations", "lap_time_fraction", "laps_completed"})
 """Error, count and duration metrics that cannot be negative (also every ``max_*`` and ``rms_*`` metric)."""
 LIST_METRICS = frozenset({"lap_times_s"})
 """Metrics that are a list of durations [s] (finite numbers >= 0), one per lap, at most ``MAX_LIST_ITEMS``."""

@@ -17,6 +17,7 @@ from vtrack_gym.evaluation.episodes import Episode, with_control, with_latency, 
 from vtrack_gym.evaluation.suite_defs.highway import HIGHWAY
 from vtrack_gym.evaluation.suite_defs.maneuvers import MANEUVER_ENV_IDS, MANEUVERS  # noqa: F401  (re-exported)
 from vtrack_gym.evaluation.suite_defs.paper import PAPER
+from vtrack_gym.evaluation.suite_defs.race import RACE
 from vtrack_gym.evaluation.suite_defs.robust import (  # noqa: F401  (re-exported)
     ROBUST,
     ROBUST_FRICTION,
@@ -30,7 +31,7 @@ ENTRY_POINT_GROUP = "vtrack_gym.suites"
 DEFAULT_METRIC = "max_e_y_m"
 """What a board of rows outside any registered suite (``custom``, ``tuning``, ``tracks[...]``) ranks on."""
 
-_REGISTRY: dict[str, Suite] = {s.name: s for s in (PAPER, ROBUST, HIGHWAY, MANEUVERS)}
+_REGISTRY: dict[str, Suite] = {s.name: s for s in (PAPER, ROBUST, HIGHWAY, MANEUVERS, RACE)}
 _LOADED_ENTRY_POINTS: dict[str, str] = {}  # "name=value" of a loaded entry point -> the suite it registered
 
 

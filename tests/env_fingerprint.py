@@ -4,7 +4,8 @@ tolerance that holds on any machine and still catches any change of behaviour.
 Two episodes: from seed 0, ``STEPS`` control steps of a fixed action sequence (a sinusoid plus fixed pseudo-random
 noise: the car steers off its line and often leaves the road); from seed 7, up to ``FOLLOW_STEPS`` steps of a fixed
 proportional law on e_y and e_phi defined here (so the car follows the road far enough to reach its curves, gates
-and speed changes).
+and speed changes). An id registered with the agent on the pedals (a two-entry action) gets, in both episodes, the
+demand -0.5 x the speed error [m/s] as its second entry.
 
 What is pinned, per episode:
 
@@ -111,6 +112,8 @@ def _episode(env: Any, seed: int, steps: int) -> Episode:
     """Run one pinned episode of ``env`` (the sequence from ``SEQUENCE_SEED``, the follower otherwise)."""
     layout = env.unwrapped.observation_layout
     e_y, e_phi = layout.index("e_y"), layout.index("e_phi")
+    # an id whose agent drives the pedals (control="steer_accel"): the demand of a fixed law on the speed error
+    two = layout.index("speed_error") if env.action_space.shape == (2,) else None
     obs, info = env.reset(seed=seed)
     names, row = _signal_row(obs, 0.0, info)
     rows, events, last = [row], [], ("", False)
@@ -122,7 +125,8 @@ def _episode(env: Any, seed: int, steps: int) -> Episode:
             action = sequence[k]
         else:  # fixed follower: 0.5 rad of command per metre of e_y, 1.5 per radian of e_phi
             action = np.clip(-0.5 * obs[e_y] - 1.5 * obs[e_phi], -1.0, 1.0)
-        obs, reward, terminated, truncated, info = env.step(np.array([action], dtype=np.float32))
+        command = [action] if two is None else [action, np.clip(-0.5 * obs[two], -1.0, 1.0)]
+        obs, reward, terminated, truncated, info = env.step(np.array(command, dtype=np.float32))
         rows.append(_signal_row(obs, reward, info)[1])
         now = (str(info["termination"]), bool(info["success"]))
         if now != last:

@@ -16,6 +16,7 @@ from __future__ import annotations
 import os
 from typing import Any
 
+from vtrack_gym.envs.circuits import CIRCUIT_IDS, circuit_setups
 from vtrack_gym.envs.scenarios import LEGACY_IDS, SCENARIOS, Scenario
 
 ENV_IDS: tuple[str, ...] = LEGACY_IDS
@@ -26,7 +27,7 @@ RECIPE_IDS: dict[str, tuple[str, dict[str, Any]]] = {
     "vtrack/TrainingMix20Hz-v0": ("TrainingMix-v0", {"control_period_s": 0.05})}
 """Training setups as ids: id -> (scenario, env settings). ``vtrack/TrainingMix20Hz-v0`` is the training mix at a
 50 ms decision period (20 Hz), what the shipped ``ppo`` and ``sac`` agents were trained on."""
-ALL_ENV_IDS: tuple[str, ...] = NAMESPACED_IDS + ENV_IDS + tuple(RECIPE_IDS)
+ALL_ENV_IDS: tuple[str, ...] = NAMESPACED_IDS + ENV_IDS + tuple(RECIPE_IDS) + CIRCUIT_IDS
 """Every id this package registers for its own envs."""
 
 
@@ -47,13 +48,15 @@ def register_envs() -> None:
             max_episode_steps=scenario.max_episode_steps,
             disable_env_checker=False,
         )
-    for env_id, (name, settings) in RECIPE_IDS.items():
+    setups = dict(RECIPE_IDS) if all(c in registry for c in CIRCUIT_IDS) else {**RECIPE_IDS, **circuit_setups()}
+    for env_id, (name, settings) in setups.items():
         if env_id not in registry:
             limit_s = SCENARIOS[name].time_limit_s
+            period = settings.get("control_period_s", SCENARIOS[name].control_period_s)
             register(id=env_id, entry_point="vtrack_gym.envs.tracking_env:TrackingEnv",
                      vector_entry_point="vtrack_gym.envs.vector_env:TrackingVectorEnv",
                      kwargs={"scenario": name, **settings}, disable_env_checker=False,
-                     max_episode_steps=None if limit_s is None else round(limit_s / settings["control_period_s"]))
+                     max_episode_steps=None if limit_s is None else round(limit_s / period))
 
 
 def register_scenario(scenario: Scenario) -> str:

@@ -27,6 +27,7 @@ from vtrack_gym.evaluation.suites import (
     get_suite,
     primary_metric,
     suite_label,
+    then_metrics,
     with_control,
     with_latency,
     with_vehicle,
@@ -248,8 +249,8 @@ def summarise(rows: Sequence[ResultRow], columns: Sequence[str] = LEADERBOARD_CO
     aggregation and NaN rule as ``ResultStore.leaderboard`` (``vtrack_gym.evaluation.board``; primary metric of
     the rows' suite)."""
     suites = {r.suite for r in rows}
-    primary = primary_metric(suites.pop() if len(suites) == 1 else "")
-    return build_board((row_record(r) for r in rows), columns, primary)
+    suite = suites.pop() if len(suites) == 1 else ""
+    return build_board((row_record(r) for r in rows), columns, primary_metric(suite), then_metrics(suite))
 
 
 def row_record(r: ResultRow) -> dict[str, Any]:

@@ -180,8 +180,8 @@ def _set_return_statistics(vecnorm: Any, reward: np.ndarray, done: np.ndarray, g
 
 def _fit(params: list[Any], predict: Any, inputs: Any, targets: Any, config: BCConfig, seed: int,
          weights: Any = None) -> float:
-    """Minimise the MSE of ``predict(inputs[batch])`` against ``targets[batch]`` (each output's error times its
-    entry of ``weights`` if given); returns the last epoch's loss."""
+    """Minimise the MSE of ``predict(inputs[batch])`` against ``targets[batch]`` (each error times its entry of
+    ``weights[batch]``, (N, outputs), if given); returns the last epoch's loss."""
     import torch
 
     opt = torch.optim.Adam(params, lr=config.learning_rate)
@@ -194,7 +194,7 @@ def _fit(params: list[Any], predict: Any, inputs: Any, targets: Any, config: BCC
         for start in range(0, n, config.batch_size):
             idx = perm[start:start + config.batch_size]
             error = predict(inputs[idx]) - targets[idx]
-            loss = torch.mean((error if weights is None else error * weights) ** 2)
+            loss = torch.mean((error if weights is None else error * weights[idx]) ** 2)
             opt.zero_grad()
             loss.backward()
             opt.step()
@@ -236,20 +236,68 @@ def labelled_states(rounds: list[ExpertData]) -> tuple[np.ndarray, np.ndarray]:
     return obs, np.concatenate([d.label.reshape(-1, _action_dim(d)) for d in rounds])
 
 
+LATERAL_FIELDS = frozenset({"e_y", "e_phi", "e_y_dot", "e_phi_dot", "v_y", "yaw_rate", "road_wheel_angle",
+                            "yaw_rate_ref", "yaw_acc_ref", "curvature", "curvature_rate"})
+"""Observation fields that change sign in the mirror image of a state (left and right swapped); so do the
+``kappa_preview_*`` fields. The others (speeds, speed and time errors, speed preview) keep theirs."""
+LONGITUDINAL_FIELDS = frozenset({"v_x", "target_speed", "speed_error", "time_error"})
+"""Observation fields a mirror image leaves unchanged (with the ``v_ref_preview_*`` fields)."""
+
+
+def _layout_names(vecnorm: Any) -> tuple[str, ...] | None:
+    """The observation layout's field names of the env under ``vecnorm`` (None if it has none)."""
+    env = vecnorm
+    while env is not None and not hasattr(env, "observation_layout"):
+        env = getattr(env, "venv", None)
+    return None if env is None else tuple(env.observation_layout.names)
+
+
+def mirrored(obs: np.ndarray, label: np.ndarray, names: tuple[str, ...] | None) -> tuple[np.ndarray, np.ndarray]:
+    """``obs`` (N, obs_dim) and ``label`` (N, outputs) with their mirror images appended: lateral fields and the
+    steering output (entry 0) negated, the rest kept, so the clone steers straight on a straight road at any speed
+    (a data set drawn mostly at low speed otherwise leaves a bias where it extrapolates). Unchanged when a field of
+    ``names`` is neither lateral nor longitudinal (a layout this function does not know)."""
+    if names is None:
+        return obs, label
+    odd = np.array([n in LATERAL_FIELDS or n.startswith("kappa_preview_") for n in names])
+    even = np.array([n in LONGITUDINAL_FIELDS or n.startswith("v_ref_preview_") for n in names])
+    if not np.all(odd | even) or len(names) != obs.shape[1]:
+        return obs, label
+    sign = np.where(odd, -1.0, 1.0).astype(obs.dtype)
+    flip = np.ones(label.shape[1], dtype=label.dtype)
+    flip[0] = -1.0
+    return np.concatenate([obs, obs * sign]), np.concatenate([label, label * flip])
+
+
+def _output_weights(obs: np.ndarray, label: np.ndarray) -> np.ndarray:
+    """(N, action_dim) weights of a several-output clone's errors: each output's error in its own spread (steering
+    ~0.01-0.1, demand ~0.1-1), and the steering error also times (v / 10 m/s)^2 above 10 m/s (what a steering error
+    does to the path grows as v^2, as the perturbation falls in ``collect``), rescaled to a mean of 1."""
+    from vtrack_gym.envs.observation import OBS
+
+    weights = np.tile(1.0 / np.maximum(label.std(axis=0), 1e-3), (label.shape[0], 1))
+    speed = (np.maximum(obs[:, OBS.V_X], NOISE_REFERENCE_SPEED_MPS) / NOISE_REFERENCE_SPEED_MPS) ** 2
+    weights[:, 0] *= np.sqrt(speed / speed.mean())   # squared in the loss
+    return weights
+
+
 def _clone(model: Any, vecnorm: Any, rounds: list[ExpertData], config: BCConfig, seed: int) -> float:
     """Fit the actor to the expert labels of all ``rounds`` (running observation statistics from the same data;
-    fixed scales are kept). With several outputs each one's error is divided by the spread (std) of its labels, so
-    that the small steering commands weigh as much as the demand."""
+    fixed scales are kept). With several outputs (the longitudinal modes) the data get their mirror image
+    (``mirrored``) and the errors are weighted (``_output_weights``): the small steering commands weigh as much as
+    the demand, and more at speed."""
     import torch
 
     obs, label = labelled_states(rounds)
+    if label.shape[1] > 1:   # the longitudinal modes: the data and their mirror image
+        obs, label = mirrored(obs, label, _layout_names(vecnorm))
     _set_obs_statistics(vecnorm, obs)
     act, params = _actor(model)
     x = torch.as_tensor(vecnorm.normalize_obs(obs), dtype=torch.float32)
     y = torch.as_tensor(label, dtype=torch.float32)
     weights = None
-    if label.shape[1] > 1:   # steering (~0.01-0.1) and demand (~0.1-1): each output's error in its own spread
-        weights = torch.as_tensor(1.0 / np.maximum(label.std(axis=0), 1e-3), dtype=torch.float32)
+    if label.shape[1] > 1:
+        weights = torch.as_tensor(_output_weights(obs, label), dtype=torch.float32)
     model.policy.set_training_mode(True)
     mse = _fit(params, act, x, y, config, seed, weights)
     model.policy.set_training_mode(False)

@@ -95,7 +95,7 @@ class ExpertData:
 
     @property
     def transitions(self) -> int:
-        return int(self.label.size)
+        return int(self.label.shape[0] * self.label.shape[1])   # (T, n[, action_dim]): one per car and step
 
 
 def collect(venv: Any, config: BCConfig, seed: int = 0, driver: Any = None) -> ExpertData:

@@ -22,6 +22,8 @@ The run folder holds:
   ``case1_max_steps`` steps (default 3000 = 30 s of driving) at the same times and in full only every
   ``case1_full_every``-th evaluation and at the end. Each line records the metrics, the termination and
   the number of steps so a capped run is never mistaken for a full lap.
+* ``bc_agent.json`` + ``bc_agent.npz`` (with a ``--bc-expert`` warm start): the weights-only export of the cloned
+  actor before any RL update (``provenance.timesteps`` 0, the warm start recorded), to compare with the fine-tune
 * ``model.zip`` + ``vecnormalize.pkl`` (SB3's own formats, for resuming; trusted local files only) and
   ``agent.json`` + ``agent.npz`` (the weights-only export of the final model, loaded by ``load_agent``)
 * ``best_agent.json`` + ``best_agent.npz``: the weights-only export of the checkpoint with the best
@@ -72,7 +74,8 @@ log = logging.getLogger(__name__)
 
 EVAL_ENV_IDS = ("DLC120-v0", "LateralTracking-v0")
 RUN_FILES = ("config.json", "model.zip", "vecnormalize.pkl", "best_model.zip", "agent.json", "agent.npz",
-             "best_agent.json", "best_agent.npz", "bc.json", "evaluations.jsonl", "vtrack-train.sig")
+             "best_agent.json", "best_agent.npz", "bc.json", "bc_agent.json", "bc_agent.npz", "evaluations.jsonl",
+             "vtrack-train.sig")
 """Files ``train`` writes at the top of its run folder."""
 LOG_FILE_PATTERNS = ("progress.csv", "log.txt", "events.out.tfevents.*")
 """Files SB3's logger writes into ``<run>/logs`` (CSV, text log, TensorBoard events)."""
@@ -306,9 +309,6 @@ def _merged_params(algo: str, env_id: str, overrides: Mapping[str, Any] | None, 
         from vtrack_gym.envs.control import check_control
 
         params["env_kwargs"] = {**dict(params.get("env_kwargs") or {}), "control": check_control(control)}
-    if bc is not None and dict(params.get("env_kwargs") or {}).get("control", "steer") != "steer":
-        raise ValueError("the behaviour-cloning warm start (--bc-expert) trains a steering actor: it applies to "
-                         "control 'steer' only")
     return params, digest
 
 
@@ -440,7 +440,7 @@ def _learn(setup: _RunSetup, model: Any, venv: Any, vecnorm: Any, callbacks: lis
     try:
         if setup.bc is not None:
             interrupted = "warm start"
-            _behaviour_clone(model, venv, vecnorm, setup.bc, setup.seed, setup.run_dir)
+            _behaviour_clone(model, venv, vecnorm, setup)
             if eval_freq > 0:
                 callbacks[0].init_callback(model)
                 callbacks[0].run()
@@ -501,7 +501,8 @@ def train(algo: str, env_id: str | None = None, timesteps: int | None = None, se
 
     ``control``: the control mode of the training env and the periodic evaluation (``envs.control``; recorded in
     the hyperparameters' ``env_kwargs``; default: the hyperparameter file's, else ``steer``). The longitudinal modes
-    train a two-output actor (steering or its rate, and the demand); the warm start applies to ``steer`` only.
+    train a two-output actor (steering or its rate, and the demand); there the warm start clones the expert paired
+    with the PD-FLC (``baselines.decoupled``), both outputs.
 
     ``timesteps`` None: the entry's ``n_timesteps``. ``overrides`` replace YAML entries (e.g. ``{"n_steps": 64}``;
     a value of ``None`` drops the entry); ``num_envs`` overrides ``n_envs``. ``env_id`` ``None``:
@@ -567,14 +568,20 @@ def _check_exportable(model: Any, vecnorm: Any, contract_env: Any, algo: str) ->
                              f"an agent that cannot be exported: {exc}; nothing was trained or written") from None
 
 
-def _behaviour_clone(model: Any, venv: Any, vecnorm: Any, bc: Any, seed: int, run_dir: Path) -> None:
-    """Warm start (``vtrack_gym.agents.imitation``): expert data, fit, SAC replay buffer; writes ``bc.json``."""
+def _behaviour_clone(model: Any, venv: Any, vecnorm: Any, setup: _RunSetup) -> None:
+    """Warm start (``vtrack_gym.agents.imitation``): expert data, fit, SAC replay buffer; writes ``bc.json`` and
+    the cloned actor, before any RL update, as ``bc_agent.json/.npz`` (``timesteps`` 0, the warm start recorded)."""
     from vtrack_gym.agents import imitation
+    from vtrack_gym.agents.export import export
+
+    bc, seed, run_dir = setup.bc, setup.seed, setup.run_dir
 
     t0 = time.perf_counter()
     log.info("warm start: %s drives %d x %d steps of expert data, %d DAgger rounds, then the actor is fitted",
              bc.expert, bc.steps, venv.num_envs, bc.dagger_rounds)
     rounds, fit = imitation.warm_start(model, venv, vecnorm, bc, seed=seed)
+    export(model, vecnorm, run_dir / "bc_agent", env_id=setup.env_id, command=setup.command, seed=seed,
+           warm_start=_warm_start_text(setup), env=venv.venv)
     prefilled = 0
     if hasattr(model, "replay_buffer"):
         prefilled = imitation.prefill_replay_buffer(model, rounds)

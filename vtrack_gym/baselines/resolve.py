@@ -45,6 +45,19 @@ def policy_names() -> tuple[str, ...]:
     return (*known_policies(), *shipped_names())
 
 
+def default_policy_names(controls: set[str] | frozenset[str] = frozenset({"steer"})) -> tuple[str, ...]:
+    """The policies a run without a policy list scores on episodes in the control modes ``controls``: every
+    baseline (each drives every mode) and every shipped agent that can drive all of them. A steering agent (one
+    output) drives every mode (paired with the PD-FLC in the longitudinal ones); an agent that drives the pedals too
+    (two outputs, e.g. ``bc_accel``) reads the speed error and cannot drive a ``steer`` episode."""
+    from vtrack_gym.baselines.shipped import shipped_agent_factories
+
+    agents = shipped_agent_factories()
+    steer_only = [n for n, make in agents.items() if getattr(make(None), "action_dim", 1) == 1]
+    both = [n for n in agents if n not in steer_only and "steer" not in controls]
+    return (*available_policies(), *[n for n in agents if n in steer_only or n in both])
+
+
 def _valid_text() -> str:
     return (f"valid: {', '.join(policy_names())} (a baseline may take :PRESET, e.g. smc:paper), or an agent file "
             "path (agent.json)")

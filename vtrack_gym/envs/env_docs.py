@@ -28,6 +28,21 @@ DESCRIPTIONS: dict[str, str] = {
     "TrainingMix20Hz-v0": "The training mix (`vtrack/TrainingMix-v0`) with the policy deciding every 50 ms "
                          "(`control_period_s=0.05`): the setup the shipped `ppo` and `sac` agents were trained on, "
                          "the default of `vtrack train` and the id of the rl_zoo3 hyperparameter files.",
+    "TrainingMixNominal-v0": "The training mix's roads, speed profiles and standstill starts with friction and mass "
+                             "drawn per episode, without sensor noise, actuator delay, a changed steering rate "
+                             "limit or an offset start: the training env of the behaviour-cloning recipe of the "
+                             "shipped agent that drives the pedals (`control=\"steer_accel\"`), whose expert, the "
+                             "decoupled mpc, drives it without failing.",
+    "HandlingCourseCircuit-v0": "The paper's handling course (2.33 km, radii down to 20 m) as a timed "
+                                "trajectory: from standstill, one lap of a friction-ellipse speed profile (70 km/h "
+                                "cap, 4 m/s^2 lateral, 2 m/s^2 forward, 3 m/s^2 braking, standing start). A "
+                                "circuit of the `trajectory` suite.",
+    "RingCircuit-v0": "The shipped example map's stadium loop (`ring.gpx`: two 100 m straights, two R 40 m half "
+                      "turns entered through 20 m clothoids), one lap from standstill on the circuits' speed "
+                      "profile (see `vtrack/HandlingCourseCircuit-v0`). A circuit of the `trajectory` suite.",
+    "ProceduralRoad-v0": "An open procedural road (the bank of `LateralTrackingRandom-v0`; the reset seed draws "
+                         "which), driven from standstill to its end on the circuits' speed profile (see "
+                         "`vtrack/HandlingCourseCircuit-v0`). A course of the `trajectory` suite.",
     "Track-v0": "Any track: `track=` a CSV file (x, y and optional elevation, speed and per-station widths), a "
                 "`tracks.Path` or a built-in name, with `speed_profile=` (default curvature-limited at 40 km/h "
                 "and 0.7 g). From standstill; the time limit is derived from the track and the profile.",
@@ -121,9 +136,9 @@ def deprecated_page(name: str) -> str:
 
 def documented_ids() -> tuple[str, ...]:
     """Every namespaced id the package registers (one per scenario, plus the training recipes' ids)."""
-    from vtrack_gym.envs.registration import NAMESPACED_IDS, RACE_IDS, RECIPE_IDS
+    from vtrack_gym.envs.registration import CIRCUIT_IDS, NAMESPACED_IDS, RACE_IDS, RECIPE_IDS
 
-    return (*NAMESPACED_IDS, *RECIPE_IDS, *RACE_IDS)
+    return (*NAMESPACED_IDS, *RECIPE_IDS, *CIRCUIT_IDS, *RACE_IDS)
 
 
 def _name(env_id: str) -> str:

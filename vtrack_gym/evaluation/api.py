@@ -284,7 +284,7 @@ def board_of(source: Any, suite: str | None = None, latest_only: bool = True,
     the rows' one suite. A track set's suite (``tracks[...]``) ranks across all tracks first, then per track."""
     from vtrack_gym.evaluation.benchmark import suite_columns
     from vtrack_gym.evaluation.board import build_board
-    from vtrack_gym.evaluation.suites import primary_metric
+    from vtrack_gym.evaluation.suites import primary_metric, then_metrics
     from vtrack_gym.evaluation.track_benchmark import is_track_set, track_set_board
 
     if isinstance(source, (str, Path, ResultStore)):
@@ -303,7 +303,8 @@ def board_of(source: Any, suite: str | None = None, latest_only: bool = True,
                          f"{type(source).__name__})")
     cols = tuple(columns) if columns is not None else suite_columns(suite)
     primary = primary_metric(suite)
-    entries = track_set_board(rows, cols, primary) if is_track_set(suite) else build_board(rows, cols, primary)
+    entries = track_set_board(rows, cols, primary) if is_track_set(suite) else \
+        build_board(rows, cols, primary, then_metrics(suite))
     return Board(suite, entries, rows, suite_rows)
 
 

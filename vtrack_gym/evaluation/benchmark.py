@@ -27,6 +27,7 @@ from vtrack_gym.evaluation.suites import (
     get_suite,
     primary_metric,
     suite_label,
+    then_metrics,
     with_control,
     with_latency,
     with_vehicle,
@@ -130,7 +131,7 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
     vehicle = read_vehicle_once(vehicle)   # a vehicle file: its envs and rows use the bytes read here
     episodes = with_control(with_latency(with_vehicle(chosen.episodes_for(quick, seeds), vehicle), latency), control)
     label = suite_label(suite, quick, seeds)
-    factories = policy_factories(policies)
+    factories = policy_factories(policies, {ep.control for ep in episodes})
     tasks = [EpisodeTask(recorded_id(name, make), make, ep, label, chosen.score(make),
                          keep_trace=ep.seed == episodes[0].seed or chosen.trace_every_seed)
              for name, make in factories.items() for ep in episodes]
@@ -249,8 +250,8 @@ def summarise(rows: Sequence[ResultRow], columns: Sequence[str] = LEADERBOARD_CO
     aggregation and NaN rule as ``ResultStore.leaderboard`` (``vtrack_gym.evaluation.board``; primary metric of
     the rows' suite)."""
     suites = {r.suite for r in rows}
-    primary = primary_metric(suites.pop() if len(suites) == 1 else "")
-    return build_board((row_record(r) for r in rows), columns, primary)
+    suite = suites.pop() if len(suites) == 1 else ""
+    return build_board((row_record(r) for r in rows), columns, primary_metric(suite), then_metrics(suite))
 
 
 def row_record(r: ResultRow) -> dict[str, Any]:

@@ -117,17 +117,19 @@ def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str,
     return row, trace
 
 
-def policy_factories(names: Sequence[str] | dict[str, Any] | None = None) -> dict[str, Any]:
-    """``{policy id: make(env) -> policy}`` for every baseline (default presets) and shipped agent, or for
+def policy_factories(names: Sequence[str] | dict[str, Any] | None = None,
+                     controls: set[str] | frozenset[str] = frozenset({"steer"})) -> dict[str, Any]:
+    """``{policy id: make(env) -> policy}`` for every baseline (default presets) and shipped agent that drives
+    episodes in the control modes ``controls`` (``resolve.default_policy_names``), or for
     ``names`` (policy specs, see ``vtrack_gym.baselines.resolve``; all checked before any is returned; a dict of
     factories built already, e.g. of user code, is returned as is).
 
     Ids are canonical (``resolve.canonical_spec``: ``lqr:default`` is ``lqr``); one policy named twice (also one
     agent file by two paths) is scored once, two different agents with one stem are two policies
     (``resolve.named_factories``)."""
-    from vtrack_gym.baselines.resolve import canonical_spec, named_factories, policy_factory, policy_names
+    from vtrack_gym.baselines.resolve import canonical_spec, default_policy_names, named_factories, policy_factory
 
     if isinstance(names, dict):  # factories already built: {policy id: make(env) -> policy}
         return dict(names)
-    specs = [str(n).strip() for n in names] if names else list(policy_names())
+    specs = [str(n).strip() for n in names] if names else list(default_policy_names(controls))
     return named_factories([(canonical_spec(spec), spec, policy_factory(spec)) for spec in specs])

@@ -436,9 +436,9 @@ class ResultStore:
         ``latest_only``: only rows written by the newest package version present in the suite, and of those the
         newest row per (env, policy key, seed, options); otherwise every row of every version.
         """
-        from vtrack_gym.evaluation.suites import primary_metric
+        from vtrack_gym.evaluation.suites import primary_metric, then_metrics
 
-        return build_board(self.board_rows(suite, latest_only), columns, primary_metric(suite))
+        return build_board(self.board_rows(suite, latest_only), columns, primary_metric(suite), then_metrics(suite))
 
     def board_rows(self, suite: str, latest_only: bool = True) -> list[dict[str, Any]]:
         """The stored rows ``leaderboard`` aggregates (see there); the run's figure folder

@@ -24,6 +24,7 @@ from vtrack_gym.evaluation.suite_defs.robust import (  # noqa: F401  (re-exporte
     ROBUST_SEEDS,
     robust_options,
 )
+from vtrack_gym.evaluation.suite_defs.trajectory import TRAJECTORY
 from vtrack_gym.evaluation.suite_parts import Suite
 
 ENTRY_POINT_GROUP = "vtrack_gym.suites"
@@ -31,7 +32,7 @@ ENTRY_POINT_GROUP = "vtrack_gym.suites"
 DEFAULT_METRIC = "max_e_y_m"
 """What a board of rows outside any registered suite (``custom``, ``tuning``, ``tracks[...]``) ranks on."""
 
-_REGISTRY: dict[str, Suite] = {s.name: s for s in (PAPER, ROBUST, HIGHWAY, MANEUVERS, RACE)}
+_REGISTRY: dict[str, Suite] = {s.name: s for s in (PAPER, ROBUST, HIGHWAY, MANEUVERS, TRAJECTORY, RACE)}
 _LOADED_ENTRY_POINTS: dict[str, str] = {}  # "name=value" of a loaded entry point -> the suite it registered
 
 
@@ -105,6 +106,13 @@ def primary_metric(suite: str) -> str:
     non-standard seed set, ``robust[seeds=7]``, ranks like its suite; other labels on ``DEFAULT_METRIC``)."""
     found = find_suite(suite)
     return DEFAULT_METRIC if found is None else found.primary_metric
+
+
+def then_metrics(suite: str) -> tuple[str, ...]:
+    """The metrics ``suite``'s board orders on after its primary metric (``Suite.then_metrics``; none for labels of
+    no registered suite)."""
+    found = find_suite(suite)
+    return () if found is None else found.then_metrics
 
 
 def primary_metrics() -> frozenset[str]:

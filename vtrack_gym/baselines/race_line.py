@@ -6,9 +6,9 @@ env's lap-time bound drives) at the car's quasi-steady-state profile along it (`
 Localisation: the race observation (``envs.race_layout``) gives the car's centre-line station (``lap_fraction``)
 and its errors to the centre line (``e_y``, ``e_phi``); the policy rebuilds the car's pose from them and its map of
 the track (the env's centre line, read when the policy is made), projects the pose on its own line and hands the
-steering law (``steering``: ``lqr`` by default, or any stateless steering baseline: ``stanley``,
-``pure_pursuit``, ``smc``) an observation re-referenced to that line: e_y, e_phi, their rates, the line's
-curvature and its preview, the profile's speed and its preview.
+steering law (``steering``: ``lqr`` by default, or another stateless steering baseline of the registry) an
+observation re-referenced to that line: e_y, e_phi, their rates, the line's curvature and its preview, the
+profile's speed and its preview.
 
 Longitudinal law: the profile's speed v_p and acceleration a_p = d(v_p^2)/ds / 2, read ``preview_s`` [s] ahead of
 the car's station on the line; the command a = a_p + ``speed_gain_per_s`` (v_p - v_x) [m/s^2], mapped to the

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from vtrack_gym.baselines.registry import known_policies
+from vtrack_gym.baselines.registry import available_policies, known_policies
 from vtrack_gym.baselines.registry import make_policy as make_baseline
 
 AGENT_SUFFIXES = (".json", ".npz")

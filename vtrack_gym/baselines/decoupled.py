@@ -25,6 +25,8 @@ from typing import Any
 
 import numpy as np
 
+from vtrack_gym.baselines.base import _episode_starts
+
 EXTRA_STATE = 4
 """State entries the pairing adds after the lateral law's: PD-FLC memory (e_prev, de, fresh) and the integrated
 steering command."""
@@ -166,12 +168,6 @@ class Decoupled:
 
 
 def _starts(episode_start: Any, n: int) -> np.ndarray:
-    """``episode_start`` as a bool mask of ``n`` rows (all False when None)."""
-    if episode_start is None:
-        return np.zeros(n, dtype=bool)
-    if isinstance(episode_start, (bool, np.bool_)):
-        return np.full(n, bool(episode_start))
-    mask = np.asarray(episode_start, dtype=bool).reshape(-1)
-    if mask.size != n:
-        raise ValueError(f"episode_start must have {n} entries (got {mask.size})")
-    return mask
+    """``episode_start`` as a bool mask of ``n`` rows (all False when None; ``base._episode_starts`` checks it)."""
+    mask = _episode_starts(episode_start, n)
+    return np.zeros(n, dtype=bool) if mask is None else mask

@@ -237,11 +237,13 @@ class RealTimeIteration:
             plan = prep.point[:n]
         new_row = np.concatenate(((plan[0], 1.0), plan, x0, p))
         fed = time.perf_counter()
-        if defer:
+        if defer:   # nothing prepared here: prepare_pending measures and reports the preparation
             self._pending.append((car, new_row))
+            prepared_s = 0.0
         else:
             self._cache[car] = self._prepare(new_row)
-        self.last_stats = {"preparation_s": time.perf_counter() - fed, "feedback_s": fed - start, "qp_s": qp_s,
+            prepared_s = time.perf_counter() - fed
+        self.last_stats = {"preparation_s": prepared_s, "feedback_s": fed - start, "qp_s": qp_s,
                            "qp_iterations": float(qp_iterations), "sqp_iterations": float(sqp),
                            "cold_starts": float(cold)}
         return new_row

@@ -81,6 +81,10 @@ DESCRIPTIONS: dict[str, str] = {
                "times and the car's lap-time bound. See [Race](../race.md).",
     "RaceRing-v0": "The race of `vtrack/Race-v0` on the shipped example ring (a 491 m stadium loop, "
                    "`tracks.example_maps`). See [Race](../race.md).",
+    "RaceFS-v0": "The race of `vtrack/Race-v0` for the Formula Student car (`vehicle=\"formula_student\"`) on a "
+                 "cone-lined Formula Student layout: AMZ Racing's FSI track (215 m between blue and yellow cones, "
+                 "3.2-5.0 m wide, `tracks.fs_layouts`); the wheels track-limit rule decides success, the cones the "
+                 "body touches are counted (`cones_hit`). See [Formula Student](../formula-student.md).",
 }
 """Scenario name -> what the scenario is, for its page."""
 
@@ -108,7 +112,7 @@ _SLALOM = (_V0_PINNED + " The lane-centre line, 0.5 m clear of each cone.",
            "unchanged.")
 _RACE = ("v0: pinned by `tests/test_env_versions.py` from its first release (the fixed steering and demand "
          "sequence and the fixed follower of `tests/env_fingerprint.py`).",)
-VERSION_HISTORY.update({"Race-v0": _RACE, "RaceRing-v0": _RACE})
+VERSION_HISTORY.update({"Race-v0": _RACE, "RaceRing-v0": _RACE, "RaceFS-v0": _RACE})
 VERSION_HISTORY.update({"ISO3888-1-v0": _ISO1, "ISO3888-1-v1": _ISO1, "ISO3888-2-v1": _ISO2, "Slalom-v0": _SLALOM,
                         "Slalom-v1": _SLALOM})
 DEPRECATED_PAGES: dict[str, tuple[str, ...]] = {"ISO3888-2-v0": _ISO2}

@@ -61,9 +61,9 @@ DESCRIPTIONS: dict[str, str] = {
                     "(make kwarg `entry_speed_kmh=`, at most 200 km/h) and coasts from the entry gate on (throttle "
                     "and brake released, the speed loop off); success: every gate passed with the body inside it. "
                     "50 km/h lies below every shipped car's bound on that line (hatchback 61.3, SUV 59.9, sports "
-                    "car 65.5 km/h) and its physical bound (67.4, 66.6, 71.7 km/h); the commonly cited 80 km/h "
-                    "lies above them all. `reference=\"lane_centres\"` drives the "
-                    "lane-centre line instead.",
+                    "car 65.5 km/h, Formula Student car 93.1 km/h) and its physical bound (67.4, 66.6, 71.7, "
+                    "101.5 km/h); the commonly cited 80 km/h lies above the road cars'. "
+                    "`reference=\"lane_centres\"` drives the lane-centre line instead.",
     "ISO4138-Circle-v0": "ISO 4138 steady-state circular driving: a slow speed ramp on a constant-radius circle; "
                          "success: the lateral error held within the band until the car's own grip limit.",
     "Slalom-v0": "A slalom between evenly spaced cones at constant speed; success: the end of the course reached "

@@ -53,7 +53,9 @@ def steady_circle(params: VehicleParams, v: float, delta: float) -> tuple[np.nda
     for k in range(800):
         err = v - plant.state[0, L.S_VX]
         u[0, L.U_THROTTLE] = np.clip(0.1 + 2.0 * err, 0.0, 1.0)
-        u[0, L.U_BRAKE] = np.clip(-200.0 * err, 0.0, 500.0)
+        # brake only with the throttle shut: the equilibrium it is compared with has no brake force (a light car
+        # needs less than 0.1 throttle at these speeds and would otherwise settle driving and braking at once)
+        u[0, L.U_BRAKE] = np.clip(-200.0 * err, 0.0, 500.0) if u[0, L.U_THROTTLE] == 0.0 else 0.0
         out = plant.step(u, N_SUB)
         if k >= 700:
             radii.append(math.hypot(plant.state[0, L.S_VX], plant.state[0, L.S_VY]) / plant.state[0, L.S_R])
@@ -83,7 +85,9 @@ def test_lateral_transfer_is_the_moment_balance_of_the_whole_car(name: str, v: f
     # a_y (cos phi - 1) term trims it by up to ~3 % of itself at 0.7 g)
     excess = transfer / rigid_lateral_transfer_n(params, a_y) - 1.0
     assert excess == pytest.approx(roll_shift_share(params), rel=0.05)
-    assert 0.04 < excess < 0.10
+    # 4-10 % on the road cars' soft suspensions; under 1 % on the Formula Student car's stiff one (4x the roll
+    # stiffness per unit of m_s h_s)
+    assert (0.04 < excess < 0.10) if params.roll.roll_stiffness_nmpr < 100_000.0 else (0.0 < excess < 0.01)
 
 
 def test_roll_shift_share_of_the_paper_car() -> None:

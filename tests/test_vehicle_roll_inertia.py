@@ -19,9 +19,11 @@ from vtrack_gym.vehicle.catalog import (
 )
 from vtrack_gym.vehicle.params import VehicleParams
 
-CG_RANGES = {"hatchback": (200.0, 250.0), "suv": (350.0, 480.0), "sports": (150.0, 250.0)}
+CG_RANGES = {"hatchback": (200.0, 250.0), "suv": (350.0, 480.0), "sports": (150.0, 250.0),
+             "formula_student": (50.0, 150.0)}
 """Published roll inertias about the sprung mass's CG [kg m^2] for the class of each shipped car (C-segment cars
-200-250, vans and SUVs 350-480; a light roadster below the C-segment)."""
+200-250, vans and SUVs 350-480; a light roadster below the C-segment; a Formula Student car with its driver about
+100, the published template's value)."""
 
 
 @pytest.mark.parametrize("name", list_vehicles())
@@ -34,7 +36,7 @@ def test_roll_axis_value_is_the_cg_value_plus_the_parallel_axis_term(name: str) 
     lo, hi = CG_RANGES[name]
     assert lo <= record.roll_inertia_cg_kgm2 <= hi
     assert json.loads(record.to_json())["format"] == FORMAT
-    assert record.sources["roll"][ROLL_CG_FIELD].startswith(("CHOICE", "ESTIMATE"))
+    assert record.sources["roll"][ROLL_CG_FIELD].startswith(("CHOICE", "ESTIMATE", "ADTM"))
 
 
 def test_paper_car_keeps_its_roll_axis_inertia_exactly() -> None:

@@ -61,9 +61,9 @@ DESCRIPTIONS: dict[str, str] = {
                     "(make kwarg `entry_speed_kmh=`, at most 200 km/h) and coasts from the entry gate on (throttle "
                     "and brake released, the speed loop off); success: every gate passed with the body inside it. "
                     "50 km/h lies below every shipped car's bound on that line (hatchback 61.3, SUV 59.9, sports "
-                    "car 65.5 km/h) and its physical bound (67.4, 66.6, 71.7 km/h); the commonly cited 80 km/h "
-                    "lies above them all. `reference=\"lane_centres\"` drives the "
-                    "lane-centre line instead.",
+                    "car 65.5 km/h, Formula Student car 93.1 km/h) and its physical bound (67.4, 66.6, 71.7, "
+                    "101.5 km/h); the commonly cited 80 km/h lies above the road cars'. "
+                    "`reference=\"lane_centres\"` drives the lane-centre line instead.",
     "ISO4138-Circle-v0": "ISO 4138 steady-state circular driving: a slow speed ramp on a constant-radius circle; "
                          "success: the lateral error held within the band until the car's own grip limit.",
     "Slalom-v0": "A slalom between evenly spaced cones at constant speed; success: the end of the course reached "
@@ -81,6 +81,10 @@ DESCRIPTIONS: dict[str, str] = {
                "times and the car's lap-time bound. See [Race](../race.md).",
     "RaceRing-v0": "The race of `vtrack/Race-v0` on the shipped example ring (a 491 m stadium loop, "
                    "`tracks.example_maps`). See [Race](../race.md).",
+    "RaceFS-v0": "The race of `vtrack/Race-v0` for the Formula Student car (`vehicle=\"formula_student\"`) on a "
+                 "cone-lined Formula Student layout: AMZ Racing's FSI track (215 m between blue and yellow cones, "
+                 "3.2-5.0 m wide, `tracks.fs_layouts`); the wheels track-limit rule decides success, the cones the "
+                 "body touches are counted (`cones_hit`). See [Formula Student](../formula-student.md).",
 }
 """Scenario name -> what the scenario is, for its page."""
 
@@ -108,7 +112,7 @@ _SLALOM = (_V0_PINNED + " The lane-centre line, 0.5 m clear of each cone.",
            "unchanged.")
 _RACE = ("v0: pinned by `tests/test_env_versions.py` from its first release (the fixed steering and demand "
          "sequence and the fixed follower of `tests/env_fingerprint.py`).",)
-VERSION_HISTORY.update({"Race-v0": _RACE, "RaceRing-v0": _RACE})
+VERSION_HISTORY.update({"Race-v0": _RACE, "RaceRing-v0": _RACE, "RaceFS-v0": _RACE})
 VERSION_HISTORY.update({"ISO3888-1-v0": _ISO1, "ISO3888-1-v1": _ISO1, "ISO3888-2-v1": _ISO2, "Slalom-v0": _SLALOM,
                         "Slalom-v1": _SLALOM})
 DEPRECATED_PAGES: dict[str, tuple[str, ...]] = {"ISO3888-2-v0": _ISO2}

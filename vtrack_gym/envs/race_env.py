@@ -1,7 +1,8 @@
 """``RaceEnv`` (``vtrack/Race-v0``): the fastest laps within track limits, judged against the car's lap-time bound.
 
 Make kwargs: ``track=`` (any track Track-v0 reads: a built-in closed track, a track file, a ``tracks.Path`` or
-the name of a shipped example map, ``"ring.gpx"``; default the handling course; the track must be one closed
+the name of a shipped example map, ``"ring.gpx"``, or of a shipped Formula Student cone file, ``"amz_fsi.csv"``
+(``tracks.fs_layouts``); default the handling course; the track must be one closed
 path), ``laps=`` (1..20, default 2), ``start=``
 (``"standing"``, default, or ``"flying"``: at the reference speed), ``control=`` (``"steer_accel"``, default, or
 ``"steer_rate_accel"``: the agent drives the pedals; ``"steer"`` is refused), ``track_limits=`` (``"wheels"``,
@@ -89,11 +90,14 @@ def race_scenario(settings: RaceSettings, track_limits: str, track: Any, read: d
     """(the scenario, the env config, the racing line, the bound) of a race on ``track``."""
     from vtrack_gym.envs.sim import scenario_tracks
     from vtrack_gym.tracks.example_maps import EXAMPLE_MAPS, example_map
+    from vtrack_gym.tracks.fs_layouts import FS_LAYOUTS, fs_layout
     from vtrack_gym.tracks.gg_limits import gg_limits
     from vtrack_gym.tracks.lap_time import QuasiSteadyState
 
     if isinstance(track, str) and track in EXAMPLE_MAPS:
         track = str(example_map(track))
+    elif isinstance(track, str) and track in FS_LAYOUTS:
+        track = str(fs_layout(track))
     base = Scenario(name="Race-v0", track=TrackSource(track=DEFAULT_TRACK),
                     start=Start(at_speed=settings.start == "flying"), success=TrackLimits(rule=track_limits))
     scenario = with_track(base, track, None, read.pop("half_width_m", None), read.pop("closed", None),

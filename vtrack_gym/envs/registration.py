@@ -27,10 +27,12 @@ RECIPE_IDS: dict[str, tuple[str, dict[str, Any]]] = {
     "vtrack/TrainingMix20Hz-v0": ("TrainingMix-v0", {"control_period_s": 0.05})}
 """Training setups as ids: id -> (scenario, env settings). ``vtrack/TrainingMix20Hz-v0`` is the training mix at a
 50 ms decision period (20 Hz), what the shipped ``ppo`` and ``sac`` agents were trained on."""
-RACE_IDS: dict[str, dict[str, Any]] = {"vtrack/Race-v0": {}, "vtrack/RaceRing-v0": {"track": "ring.gpx"}}
+RACE_IDS: dict[str, dict[str, Any]] = {"vtrack/Race-v0": {}, "vtrack/RaceRing-v0": {"track": "ring.gpx"},
+                                        "vtrack/RaceFS-v0": {"track": "amz_fsi.csv", "vehicle": "formula_student"}}
 """Ids of the race (``envs.race_env.RaceEnv``) -> their make kwargs: N laps within track limits, the agent on the
 pedals too; ``Race-v0`` on the handling course (or any closed track given as ``track=``), ``RaceRing-v0`` on the
-shipped example ring (``tracks.example_maps``)."""
+shipped example ring (``tracks.example_maps``), ``RaceFS-v0`` the Formula Student car on the cone-lined AMZ FSI
+layout (``tracks.fs_layouts``)."""
 ALL_ENV_IDS: tuple[str, ...] = NAMESPACED_IDS + ENV_IDS + tuple(RECIPE_IDS) + CIRCUIT_IDS + tuple(RACE_IDS)
 """Every id this package registers for its own envs."""
 

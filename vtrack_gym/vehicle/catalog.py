@@ -23,7 +23,9 @@ its CG's height above the roll axis). Files of the earlier format ``vtrack-vehic
 ``tyres.relaxation_length_m`` (then 0, off).
 
 The shipped files start every source with its kind (``SOURCE_TAGS``): ``paper`` (the paper's Nomenclature), ``IDSC``
-(the public reproduction of the paper's CarSim car), ``ISA`` (standard atmosphere), ``SPEC (from memory,
+(the public reproduction of the paper's CarSim car), ``ADTM`` (the Formula Student template of TUM's public
+Advanced Dual Track Model), ``AMZ`` (AMZ Racing's public fssim car, the car of the AMZ Driverless paper),
+``ISA`` (standard atmosphere), ``SPEC (from memory,
 unverified)`` (a manufacturer's published figure as recalled, not checked against a document), ``ESTIMATE``
 (inferred from typical values) or ``CHOICE`` (our own modelling choice). Unknown keys, missing keys, duplicate keys,
 non-finite numbers (``NaN``/``Infinity``), booleans or strings where a number belongs are errors naming the key
@@ -65,7 +67,8 @@ MAX_VEHICLE_FILE_BYTES = 64 * 1024
 DEFAULT_VEHICLE = "hatchback"
 """Name of the shipped file holding the paper's car (equal to ``VehicleParams()``)."""
 
-SOURCE_TAGS: tuple[str, ...] = ("paper", "IDSC", "ISA", "SPEC (from memory, unverified)", "ESTIMATE", "CHOICE")
+SOURCE_TAGS: tuple[str, ...] = ("paper", "IDSC", "ADTM", "AMZ", "ISA", "SPEC (from memory, unverified)", "ESTIMATE",
+                                 "CHOICE")
 """How every source text of a shipped vehicle file begins (its kind of provenance, see the module docstring)."""
 
 _TOP_KEYS = ("format", "name", "description")

@@ -1,8 +1,8 @@
 """``race``: two laps from a standing start on each shipped circuit (``vtrack/Race-v0`` on the handling course,
-``vtrack/RaceRing-v0`` on the example ring), within the wheels track-limit rule, the sensors at their nominal noise
-(``sensor_noise`` 1) so that seeds differ. Ranks on the best lap as a fraction of the car's lap-time bound
-(``lap_time_fraction``, lower is better); the board also shows the lap times, the bound, the track-limit
-excursions and the least edge margin. No cone-lined course: the package ships no cone file.
+``vtrack/RaceRing-v0`` on the example ring, ``vtrack/RaceFS-v0``: the Formula Student car on the cone-lined AMZ FSI
+layout), within the wheels track-limit rule, the sensors at their nominal noise (``sensor_noise`` 1) so that seeds
+differ. Ranks on the best lap as a fraction of the car's lap-time bound (``lap_time_fraction``, lower is better);
+the board also shows the lap times, the bound, the track-limit excursions and the least edge margin.
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from __future__ import annotations
 from vtrack_gym.evaluation.episodes import Episode
 from vtrack_gym.evaluation.suite_parts import Suite
 
-RACE_ENV_IDS: tuple[str, ...] = ("vtrack/Race-v0", "vtrack/RaceRing-v0")
+RACE_ENV_IDS: tuple[str, ...] = ("vtrack/Race-v0", "vtrack/RaceRing-v0", "vtrack/RaceFS-v0")
 """The race suite's circuits."""
 RACE_SEEDS: tuple[int, ...] = (0, 1, 2)
 """Seeds of the race suite (the sensor noise's draws)."""

@@ -8,7 +8,8 @@ command ``c`` [rad] and the longitudinal demand ``d`` in [-1, 1], stage paramete
     rows e_y .. delta:  nmpc_kernels.derivative_and_jacobian at the speed max(v, v_lat_min) (Frenet single-track,
                         Pacejka axle tyres, first-order steering actuator)
     F_d   = max(d, 0) min(F_max, P_max / max(v, 1 m/s))               (throttle fraction; the plant's drive curve)
-    F_b   = max(-d, 0) F_pedal,max pedal_gain tanh(v / 0.1 m/s)        (brake pedal force; the plant's smooth sign)
+    F_b   = min(max(-d, 0) F_pedal,max pedal_gain, mu m g) tanh(v / 0.1 m/s)
+                                                                       (brakes, at most the tyres' grip; smooth sign)
     F_xf  = s_d F_d - s_b F_b,   F_xr = (1 - s_d) F_d - (1 - s_b) F_b  (drive and brake shares front/rear)
     R(v)  = 1/2 rho C_d A v |v| + f_r m g tanh(v / 0.1 m/s)             (drag, rolling resistance)
     v'    = (F_xf cos delta - F_yf sin delta + F_xr - R(v)) / m + r v_y
@@ -16,12 +17,15 @@ command ``c`` [rad] and the longitudinal demand ``d`` in [-1, 1], stage paramete
 
 ``e_t`` is the time error of the observation (t - T(s), positive = behind the reference's time law T, dT/ds =
 1 / v_ref). The throttle/brake map is the env's (``envs.control.pedals``), the forces the plant's
-(``vehicle.kernels``, flat road, no wheel slip, no traction cap). Jacobian columns: d/dx (7), d/dc, d/dd,
-d/dkappa, d/dv_ref (``N_SENS`` = 11); at d = 0 the throttle side's slope is taken.
+(``vehicle.kernels``, flat road, no wheel slip). The plant caps every wheel's force at mu F_z with the loads
+shifted by the deceleration; the model caps the total brake force at mu m g (what an ideal split of the shifted
+loads allows), so a demand past about -0.42 brakes no harder, as in the plant; the drive force is not capped.
+Jacobian columns: d/dx (7), d/dc, d/dd, d/dkappa, d/dv_ref (``N_SENS`` = 11); at d = 0 the throttle side's slope
+is taken.
 
 Longitudinal constants ``lc`` (``longitudinal_constants``): m [kg], F_max [N], P_max [W], drag coefficient
 1/2 rho C_d A [kg/m], rolling force f_r m g [N], full brake force F_pedal,max pedal_gain [N], drive share s_d,
-brake share s_b, lateral-model speed floor [m/s], reference-speed floor [m/s].
+brake share s_b, lateral-model speed floor [m/s], reference-speed floor [m/s], grip force mu m g [N].
 """
 
 from __future__ import annotations
@@ -42,13 +46,15 @@ SIGN_SPEED_MPS = 0.1
 
 
 def longitudinal_constants(vehicle: object, v_lat_min_mps: float, v_ref_min_mps: float) -> np.ndarray:
-    """``lc`` of the module docstring from a ``VehicleParams`` and the two speed floors [m/s]."""
+    """``lc`` of the module docstring from a ``VehicleParams`` (its tyres' friction coefficient) and the two speed
+    floors [m/s]."""
     from vtrack_gym.vehicle.params import GRAVITY_MPS2
 
     p, b, m = vehicle.powertrain, vehicle.brakes, vehicle.chassis.mass_kg
     return np.array([m, p.max_drive_force_n, p.max_power_w, 0.5 * p.air_density_kgpm3 * p.drag_area_m2,
                      vehicle.tyres.rolling_resistance_coeff * m * GRAVITY_MPS2, b.pedal_gain * b.max_pedal_force_n,
-                     p.front_drive_share, b.front_brake_share, v_lat_min_mps, v_ref_min_mps])
+                     p.front_drive_share, b.front_brake_share, v_lat_min_mps, v_ref_min_mps,
+                     vehicle.tyres.friction_mu * m * GRAVITY_MPS2])
 
 
 @kernel(inline=True)
@@ -82,16 +88,18 @@ def _speed_row(x: np.ndarray, c_d: float, v_lat: float, lat: bool, mc: np.ndarra
     sgn = math.tanh(v / SIGN_SPEED_MPS)
     dsgn = (1.0 - sgn * sgn) / SIGN_SPEED_MPS
     thr, brk = (c_d, 0.0) if c_d >= 0.0 else (0.0, -c_d)
-    f_drive, f_brake = thr * cap, lc[5] * brk * sgn
+    gripped = lc[5] * brk > lc[10]   # the brake force past the grip: no harder
+    f_drive, f_brake = thr * cap, (lc[10] if gripped else lc[5] * brk) * sgn
     fxf, fxr = s_d * f_drive - s_b * f_brake, (1.0 - s_d) * f_drive - (1.0 - s_b) * f_brake
     fyf, fy_vy, fy_r, fy_delta, fy_v = _front_force(x, v_lat, mc)
     cd, sd = math.cos(delta), math.sin(delta)
     resist = lc[3] * v * abs(v) + lc[4] * sgn
     if c_d >= 0.0:   # d F_drive / d d = cap, d F_brake / d d = 0
         dxf_dd, dxr_dd = s_d * cap, (1.0 - s_d) * cap
-    else:            # d F_brake / d d = -full brake x sgn
-        dxf_dd, dxr_dd = s_b * lc[5] * sgn, (1.0 - s_b) * lc[5] * sgn
-    dfd_dv, dfb_dv = thr * dcap, lc[5] * brk * dsgn
+    else:            # d F_brake / d d = -full brake x sgn (0 past the grip)
+        slope = 0.0 if gripped else lc[5] * sgn
+        dxf_dd, dxr_dd = s_b * slope, (1.0 - s_b) * slope
+    dfd_dv, dfb_dv = thr * dcap, (lc[10] if gripped else lc[5] * brk) * dsgn
     dxf_dv, dxr_dv = s_d * dfd_dv - s_b * dfb_dv, (1.0 - s_d) * dfd_dv - (1.0 - s_b) * dfb_dv
     dres_dv = 2.0 * lc[3] * abs(v) + lc[4] * dsgn
     jac[5, 2] = -fy_vy * sd / m + r

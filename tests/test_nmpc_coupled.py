@@ -167,3 +167,14 @@ def test_the_cli_evaluates_it(tmp_path) -> None:
 
     assert main(["eval", "--policy", "nmpc_coupled", "--env", "DLC120-v0", "--control", "steer_accel",
                  "--seeds", "0", "--store", str(tmp_path / "store")]) == 0
+
+
+def test_with_compute_charged_only_the_feedback_is_charged() -> None:
+    """``latency="measured"``: the harness defers the preparation to ``prepare()`` and charges the feedback."""
+    env = gym.make("DLC120-v0", control="steer_accel", latency="measured")
+    policy = vtrack_gym.make_policy("nmpc_coupled", env)
+    trace = rollout(policy, env, seed=0, max_steps=30)
+    stats = trace.solver_stats
+    assert policy.defer_preparation is False                 # restored after the episode
+    assert stats["cold_starts"][0] == 1 and not stats["cold_starts"][1:].any()   # every deferred one was used
+    assert np.all(stats["preparation_s"][1:] > 0.0) and np.all(stats["qp_s"] <= stats["feedback_s"])

@@ -178,3 +178,24 @@ def test_with_compute_charged_only_the_feedback_is_charged() -> None:
     assert policy.defer_preparation is False                 # restored after the episode
     assert stats["cold_starts"][0] == 1 and not stats["cold_starts"][1:].any()   # every deferred one was used
     assert np.all(stats["preparation_s"][1:] > 0.0) and np.all(stats["qp_s"] <= stats["feedback_s"])
+
+
+def test_the_coupled_race_form_laps_the_ring_within_the_wheels_rule() -> None:
+    """``raceline_coupled`` on ``vtrack/RaceRing-v0``, seed 0: both laps, no track-limit excursion, the flying lap
+    within 5 % of the car's lap-time bound (measured 3.7 %)."""
+    env = gym.make("vtrack/RaceRing-v0")
+    policy = vtrack_gym.make_policy("raceline_coupled", env)
+    obs, info = env.reset(seed=0)
+    while True:
+        obs, _, terminated, truncated, info = env.step(policy.predict(obs)[0])
+        if terminated or truncated:
+            break
+    metrics = env.unwrapped.success_metrics()
+    assert len(info["lap_times_s"]) == 2 and metrics["track_limit_violations"] == 0
+    assert info["lap_time_fraction"] < 1.05
+    assert policy.solver_failures == 0
+
+
+def test_the_coupled_race_form_needs_steer_accel() -> None:
+    with pytest.raises(ValueError, match="control='steer_accel'"):
+        vtrack_gym.make_policy("raceline_coupled", gym.make("vtrack/RaceRing-v0", control="steer_rate_accel"))

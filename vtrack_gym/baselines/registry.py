@@ -26,6 +26,7 @@ _POLICIES: dict[str, tuple[str, str]] = {
 _RACE_POLICIES: dict[str, tuple[str, str]] = {
     "raceline": ("vtrack_gym.baselines.race_line", "RaceLine"),
     "centreline": ("vtrack_gym.baselines.race_line", "CentreLine"),
+    "raceline_coupled": ("vtrack_gym.baselines.race_line_coupled", "CoupledRaceLine"),
 }
 """The race baselines (``baselines.race_line``): steering and pedals on the race env (``vtrack/Race-v0``) only, so
 they are not among ``available_policies()`` (the steering baselines every env takes) but ``race_policies()``."""
@@ -109,7 +110,7 @@ def available_policies() -> tuple[str, ...]:
 
 
 def race_policies() -> tuple[str, ...]:
-    """The race baselines' names (``raceline``, ``centreline``): they drive the race env only."""
+    """The race baselines' names (the decoupled ones and the coupled form): they drive the race env only."""
     return tuple(_RACE_POLICIES)
 
 

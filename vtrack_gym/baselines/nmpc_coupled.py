@@ -1,7 +1,8 @@
 """Coupled nonlinear MPC: one model and one optimisation for the steering and the longitudinal demand.
 
-Model (``nmpc_coupled_model``): the steering NMPC's lateral model (Frenet single-track, Pacejka axle tyres, the
-steering actuator's lag) with the speed v and the time error e_t as states; inputs the road-wheel command and the
+Model (``nmpc_coupled_model``): the steering NMPC's lateral model (Frenet single-track, Pacejka axle tyres derated
+by the friction ellipse of the longitudinal force, the steering actuator's lag) with the speed v and the time
+error e_t as states; inputs the road-wheel command and the
 longitudinal demand d in [-1, 1] through the env's throttle/brake map and the plant's drive-force curve, brakes,
 drag and rolling resistance; stage parameters the path's curvature and the reference speed at each stage's
 predicted station (the observation's previews). Cost (``nmpc_coupled_kernels``): e_y, e_phi, yaw rate against

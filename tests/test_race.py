@@ -167,7 +167,8 @@ def test_race_baselines_need_the_race_env() -> None:
         vtrack_gym.make_policy("raceline", gym.make("vtrack/RaceRing-v0", control="steer_rate_accel"))
     from vtrack_gym.baselines.registry import available_policies, race_policies
 
-    assert set(race_policies()) == {"raceline", "centreline"} and not set(race_policies()) & set(available_policies())
+    assert set(race_policies()) == {"raceline", "centreline", "raceline_coupled"}
+    assert not set(race_policies()) & set(available_policies())
 
 
 def test_cli_eval_reports_the_lap_figures(tmp_path, capsys) -> None:

@@ -18,8 +18,8 @@ the throttle/brake map (``envs.control``). ``grip_scale`` (<= 1) scales the car'
 limits of the profile (1: the bound's own profile).
 
 Only in the race env (``vtrack/Race-v0``) in ``control="steer_accel"``; a ``ValueError`` names it for an env
-without ``lap_fraction`` or in ``steer_rate_accel``. The coupled form (a nonlinear MPC planning steering and
-longitudinal force together) is not provided.
+without ``lap_fraction`` or in ``steer_rate_accel``. The coupled form (the coupled NMPC planning steering and
+longitudinal force together): ``race_line_coupled``.
 """
 
 from __future__ import annotations

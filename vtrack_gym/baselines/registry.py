@@ -26,9 +26,15 @@ _POLICIES: dict[str, tuple[str, str]] = {
 _RACE_POLICIES: dict[str, tuple[str, str]] = {
     "raceline": ("vtrack_gym.baselines.race_line", "RaceLine"),
     "centreline": ("vtrack_gym.baselines.race_line", "CentreLine"),
+    "raceline_coupled": ("vtrack_gym.baselines.race_line_coupled", "CoupledRaceLine"),
 }
 """The race baselines (``baselines.race_line``): steering and pedals on the race env (``vtrack/Race-v0``) only, so
 they are not among ``available_policies()`` (the steering baselines every env takes) but ``race_policies()``."""
+_PEDAL_POLICIES: dict[str, tuple[str, str]] = {
+    "nmpc_coupled": ("vtrack_gym.baselines.nmpc_coupled", "CoupledNMPC"),
+}
+"""Baselines that send the steering command and the longitudinal demand themselves (``control="steer_accel"``
+only): not among ``available_policies()`` (which every env takes) but ``pedal_policies()``."""
 
 
 _TUNING: dict[str, tuple[str, str]] = {
@@ -104,13 +110,18 @@ def available_policies() -> tuple[str, ...]:
 
 
 def race_policies() -> tuple[str, ...]:
-    """The race baselines' names (``raceline``, ``centreline``): they drive the race env only."""
+    """The race baselines' names (the decoupled ones and the coupled form): they drive the race env only."""
     return tuple(_RACE_POLICIES)
 
 
+def pedal_policies() -> tuple[str, ...]:
+    """The baselines that drive steering and pedals in ``steer_accel`` envs (``nmpc_coupled``)."""
+    return tuple(_PEDAL_POLICIES)
+
+
 def known_policies() -> tuple[str, ...]:
-    """Every name ``make_policy`` takes: ``available_policies()`` and ``race_policies()``."""
-    return (*available_policies(), *race_policies())
+    """Every name ``make_policy`` takes: ``available_policies()``, ``race_policies()`` and ``pedal_policies()``."""
+    return (*available_policies(), *race_policies(), *pedal_policies())
 
 
 def policy_class(name: str) -> type[Policy]:
@@ -118,7 +129,7 @@ def policy_class(name: str) -> type[Policy]:
     added = _added()
     if name in added:
         return added[name]
-    known = {**_POLICIES, **_RACE_POLICIES}
+    known = {**_POLICIES, **_RACE_POLICIES, **_PEDAL_POLICIES}
     if name not in known:
         raise ValueError(f"unknown policy {name!r}; valid: {', '.join(known_policies())}")
     module, attr = known[name]

@@ -93,11 +93,12 @@ def add_format(p: argparse.ArgumentParser, reports: bool = False) -> None:
 
 def policy_help() -> str:
     """What a ``--policy`` value may be, the names read from the policy registry and the shipped agents' folder."""
-    from vtrack_gym.baselines.registry import available_policies, race_policies
+    from vtrack_gym.baselines.registry import available_policies, pedal_policies, race_policies
     from vtrack_gym.baselines.shipped import shipped_agents
 
     return (f"a baseline name ({', '.join(available_policies())}; on the race ids also "
-            f"{', '.join(race_policies())}), NAME:PRESET (smc:paper), a shipped agent name "
+            f"{', '.join(race_policies())}; with --control steer_accel also {', '.join(pedal_policies())}), "
+            "NAME:PRESET (smc:paper), a shipped agent name "
             f"({', '.join(shipped_agents())}), a weights-only agent file (agent.json / agent.npz), or, with "
             "--trust-code, MODULE:NAME of your own policy (a class: NAME.from_env(env) if it defines from_env, else "
             "NAME(); keyword arguments from --policy-kwargs)")

@@ -53,6 +53,9 @@ def test_min_turning_radius_under_3_m_from_the_plant() -> None:
     assert min_turning_radius_m(fs, 6.0) > min_turning_radius_m(fs, 2.0) > min_turning_radius_m(fs)
     with pytest.raises(ValueError, match=r"speed_mps must be in \[0.1, 10\]"):
         min_turning_radius_m(fs, 20.0)
+    # at its grip limit the hatchback does not settle on a circle at full lock: no radius, a clear error
+    with pytest.raises(ValueError, match=r"no steady circle at full lock at speed_mps=6.0 m/s"):
+        min_turning_radius_m(load_vehicle("hatchback"), 6.0)
 
 
 @pytest.mark.parametrize(("radius", "speed"), [(40.0, 5.0), (40.0, 12.0), (20.0, 8.0)])

@@ -21,6 +21,8 @@ WALKING_SPEED_MPS = 0.8
 """Default speed [m/s] of :func:`min_turning_radius_m`: below every shipped car's kinematic blend start (1 m/s)."""
 _PERIOD_STEPS = 5            # physics steps per held input (0.01 s at 500 Hz)
 _SETTLE_S = 20.0             # simulated time [s] before the radius is read
+_STEADY_WINDOW_S = 2.0       # the last seconds [s] in which V / r must be steady
+_STEADY_RTOL = 1e-3          # relative spread of V / r [-] allowed in that window
 
 
 def kinematic_turning_radius_m(params: VehicleParams) -> float:
@@ -32,7 +34,8 @@ def kinematic_turning_radius_m(params: VehicleParams) -> float:
 
 def min_turning_radius_m(params: VehicleParams, speed_mps: float = WALKING_SPEED_MPS) -> float:
     """The CG's path radius [m] of the plant at full left lock, its speed held at ``speed_mps`` [m/s] (0.1 to
-    10 m/s) by the throttle and brake, after ``_SETTLE_S`` of simulated time (module docstring)."""
+    10 m/s) by the throttle and brake, after ``_SETTLE_S`` of simulated time (module docstring). Raises
+    ValueError when V / r is not steady over the last ``_STEADY_WINDOW_S`` (the car spins at that speed)."""
     from vtrack_gym.vehicle import layout as L
     from vtrack_gym.vehicle.plant import Plant
 
@@ -43,15 +46,22 @@ def min_turning_radius_m(params: VehicleParams, speed_mps: float = WALKING_SPEED
     u = np.zeros((1, L.N_INPUT))
     u[0, L.U_DELTA] = params.steering.max_road_wheel_angle_rad
     brake_gain = params.chassis.mass_kg / params.brakes.pedal_gain       # pedal [N] per m/s of excess speed
-    for _ in range(int(_SETTLE_S / (_PERIOD_STEPS * plant.physics_dt_s))):
+    n_periods = int(_SETTLE_S / (_PERIOD_STEPS * plant.physics_dt_s))
+    radii = np.empty(n_periods)
+    for k in range(n_periods):
         speed = math.hypot(plant.state[0, L.S_VX], plant.state[0, L.S_VY])
         err = speed_mps - speed
         u[0, L.U_THROTTLE] = min(max(0.05 + 2.0 * err, 0.0), 1.0)
         u[0, L.U_BRAKE] = min(max(-brake_gain * err, 0.0), params.brakes.max_pedal_force_n) \
             if u[0, L.U_THROTTLE] == 0.0 else 0.0
         plant.step(u, _PERIOD_STEPS)
-    speed = math.hypot(plant.state[0, L.S_VX], plant.state[0, L.S_VY])
-    return float(speed / plant.state[0, L.S_R])
+        radii[k] = math.hypot(plant.state[0, L.S_VX], plant.state[0, L.S_VY]) / plant.state[0, L.S_R]
+    last = radii[-int(_STEADY_WINDOW_S / (_PERIOD_STEPS * plant.physics_dt_s)):]
+    if not (np.all(np.isfinite(last)) and np.ptp(last) <= _STEADY_RTOL * abs(float(np.mean(last)))):
+        raise ValueError(f"no steady circle at full lock at speed_mps={speed_mps} m/s: V/r ranges over "
+                         f"[{np.min(last):.3f}, {np.max(last):.3f}] m in the last {_STEADY_WINDOW_S} s (the car "
+                         "spins or oscillates at its grip limit); use a lower speed")
+    return float(radii[-1])
 
 
 __all__ = ["WALKING_SPEED_MPS", "kinematic_turning_radius_m", "min_turning_radius_m"]

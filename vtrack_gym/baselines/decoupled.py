@@ -75,8 +75,7 @@ class Decoupled:
         period = float(config.control_period_s)
         self.lateral = lateral
         self.speed_law = SpeedLaw(config, speed_law)
-        self.rate_step = config.vehicle.steering.max_road_wheel_rate_radps * period / \
-            config.vehicle.steering.max_road_wheel_angle_rad
+        self.rate_step = rate_step_of(config.vehicle, period)
         self.lateral_state = int(getattr(lateral, "state_size", 0) or 0)
         self.state_size = self.lateral_state + EXTRA_STATE
         self.obs_dim = layout.size
@@ -148,8 +147,7 @@ class Decoupled:
         """The steering entry: the command, or (``steer_rate_accel``) the rate towards it, integrated in ``own``."""
         if self.control != "steer_rate_accel":
             return target
-        rate = float(np.float32(min(max((target - own[COMMAND]) / self.rate_step, -1.0), 1.0)))
-        own[COMMAND] = min(max(own[COMMAND] + rate * self.rate_step, -1.0), 1.0)   # the env's own integration
+        rate, own[COMMAND] = rate_towards(target, float(own[COMMAND]), self.rate_step)
         return rate
 
     def _demand(self, row: np.ndarray, own: np.ndarray) -> float:
@@ -161,6 +159,19 @@ class Decoupled:
 
     def __repr__(self) -> str:
         return f"Decoupled({self.lateral!r}, control={self.control!r}, speed_law={self.speed_law.name!r})"
+
+
+def rate_step_of(vehicle: Any, control_period_s: float) -> float:
+    """The command change [fraction of the road-wheel limit] of a full-rate action over one control period."""
+    steering = vehicle.steering
+    return steering.max_road_wheel_rate_radps * control_period_s / steering.max_road_wheel_angle_rad
+
+
+def rate_towards(target: float, command: float, rate_step: float) -> tuple[float, float]:
+    """(the ``steer_rate_accel`` rate that moves the integrated ``command`` towards ``target`` in one period, clipped
+    to [-1, 1] and rounded to the float32 action, the command after the env's own integration)."""
+    rate = float(np.float32(min(max((target - command) / rate_step, -1.0), 1.0)))
+    return rate, min(max(command + rate * rate_step, -1.0), 1.0)
 
 
 def _starts(episode_start: Any, n: int) -> np.ndarray:

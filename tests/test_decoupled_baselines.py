@@ -131,8 +131,8 @@ def test_the_plain_loop_and_the_sb3_state_protocol_give_one_episode() -> None:
 
 
 def test_the_pdflc_speed_law_is_the_pd_flc_pedals() -> None:
-    """The decoupled demand with speed_law="pdflc" reproduces the env's own PD-FLC pedals: throttle and brake of steer_accel equal the
-    steer mode's over the first steps of the lane change (up to the float32 action)."""
+    """The decoupled demand with speed_law="pdflc" reproduces the env's own PD-FLC pedals: throttle and brake of
+    steer_accel equal the steer mode's over the first steps of the lane change (up to the float32 action)."""
     def pedals(control: str) -> np.ndarray:
         env = gym.make("DLC120-v0", control=control)
         policy = paired("lqr", env, "pdflc")

@@ -23,7 +23,7 @@ def test_the_powertrain_launch_ramps_the_reference_at_a_share_of_full_throttle()
     car = VehicleParams()
     least = float(np.min(forward_accel_limit_mps2(car, np.linspace(0.0, 40.0 / 3.6, 64))))
     np.testing.assert_allclose(accel, LAUNCH_SHARE * least, rtol=1e-9)
-    obs, info = env.reset(seed=0)
+    _, info = env.reset(seed=0)
     assert info["target_speed_mps"] == pytest.approx(1.0)
 
 

@@ -84,6 +84,10 @@ def scaled_limits(limits: Any, scale: float, brake_scale: float = 1.0, vehicle: 
                     f"{', brake balance' if vehicle is not None else ''})")
 
 
+CENTRE_LINE_GRIP = 0.97
+"""``grip_scale`` of ``centreline``'s default preset."""
+
+
 class LineFollower:
     """A line and its speed profile tracked by a steering law and a longitudinal law (module docstring)."""
 
@@ -249,10 +253,12 @@ class RaceLine(LineFollower):
 
 
 class CentreLine(LineFollower):
-    """The track's centre line at the car's limit profile along it (module docstring)."""
+    """The track's centre line at the car's limit profile along it (module docstring), its lateral and forward
+    limits x 0.97 (``CENTRE_LINE_GRIP``: at 1 it spins on the handling course's second lap)."""
 
     name: ClassVar[str] = "centreline"
     line_kind: ClassVar[str] = "centreline"
+    PRESETS: ClassVar[dict[str, LineFollowerConfig]] = {"default": LineFollowerConfig(grip_scale=CENTRE_LINE_GRIP)}
 
 
 @dataclass(frozen=True)

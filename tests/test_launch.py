@@ -50,3 +50,14 @@ def test_the_vector_env_takes_launch() -> None:
                         control="steer_accel", launch="powertrain")
     _, info = envs.reset(seed=0)
     np.testing.assert_allclose(info["target_speed_mps"], [1.0, 1.0])
+
+
+def test_rows_record_the_launch() -> None:
+    """A row of the ramp is never ranked with one of the step: the launch is part of the env's identity."""
+    from vtrack_gym.evaluation.env_identity import env_identity
+
+    ramp = env_identity(gym.make("LateralTracking-v0", control="steer_accel", launch="powertrain"))
+    step = env_identity(gym.make("LateralTracking-v0", control="steer_accel", launch="step"))
+    plain = env_identity(gym.make("LateralTracking-v0", control="steer_accel"))
+    assert ramp[1]["protocol"] == {"launch": "powertrain"}
+    assert step == plain and "protocol" not in plain[1]

@@ -1,4 +1,4 @@
-"""The decoupled design: a lateral law paired with the paper's PD-FLC as its longitudinal law, so every steering
+"""The decoupled design: a lateral law paired with a speed law built on the paper's PD-FLC, so every steering
 baseline drives an env in any control mode (``envs.control``).
 
 ``make_policy(name, env)`` and the agent resolver return the steering policy itself for a ``steer`` env and

@@ -61,3 +61,20 @@ def test_rows_record_the_launch() -> None:
     plain = env_identity(gym.make("LateralTracking-v0", control="steer_accel"))
     assert ramp[1]["protocol"] == {"launch": "powertrain"}
     assert step == plain and "protocol" not in plain[1]
+
+
+@pytest.mark.slow
+def test_cli_eval_drives_the_launch(tmp_path, capsys) -> None:
+    """``vtrack eval --control steer_accel --launch powertrain``: the decoupled lqr laps LateralTracking-v0 with
+    an RMS speed error under 0.5 m/s, and its row records the launch."""
+    from vtrack_gym.cli import main
+
+    store = tmp_path / "store"
+    assert main(["eval", "--policy", "lqr", "--env", "LateralTracking-v0", "--control", "steer_accel",
+                 "--launch", "powertrain", "--store", str(store)]) == 0
+    assert "rms_e_v_mps" in capsys.readouterr().out
+    from vtrack_gym.evaluation.store import ResultStore
+
+    row = ResultStore(store, read_only=True).rows()[-1]
+    assert row["options"] == {"control": "steer_accel", "protocol": {"launch": "powertrain"}}
+    assert row["metrics"]["rms_e_v_mps"] < 0.5

@@ -11,7 +11,7 @@ then RL improves it on the env's reward:
    lateral-acceleration perturbation), so the data also cover the states just off the expert's path and how the
    expert recovers from them (noise injection, as in DART); the label is always the expert's own action.
    In the longitudinal control modes (``control="steer_accel"`` / ``"steer_rate_accel"``) the expert is the
-   steering law paired with the paper's PD-FLC (``make_policy``'s decoupled design), the labels and the actor
+   steering law paired with its speed law (``make_policy``'s decoupled design), the labels and the actor
    have two entries ``[steering, demand]`` and the demand gets its own perturbation (``demand_noise_std``).
    ``dagger_rounds`` further rounds are driven by the cloned agent itself and labelled by the expert (DAgger),
    so the data also hold the states the clone's own errors lead to; the fit runs on the aggregate.

@@ -1,4 +1,4 @@
-"""The decoupled design: a lateral law paired with the paper's PD-FLC as its longitudinal law, so every steering
+"""The decoupled design: a lateral law paired with a speed law built on the paper's PD-FLC, so every steering
 baseline drives an env in any control mode (``envs.control``).
 
 ``make_policy(name, env)`` and the agent resolver return the steering policy itself for a ``steer`` env and
@@ -9,14 +9,16 @@ baseline drives an env in any control mode (``envs.control``).
   towards ``c*`` in one control period, ``rate = clip((c* - c) / rate_step, -1, 1)`` with ``rate_step`` the command
   change of a full-rate action over a period (``BatchSim.rate_step``), and integrates ``c`` exactly as the env does
   (0 at an episode start), so the car steers like ``c*`` behind a rate limit equal to the car's own actuator's;
-* the longitudinal demand is the PD-FLC's output for the observation's ``v_x`` and ``target_speed`` (the env's
-  ``speed_controller`` gains, the kernel's own ``pdflc_step``): ``throttle`` if it is > 0, else
-  ``-brake / brakes.max_pedal_force_n`` (``envs.control.demand_of``), which the env's throttle/brake map turns
-  back into the same pedals.
+* the longitudinal demand is the speed law's (``speed_law``, ``baselines.speed_law.SPEED_LAWS``): by default
+  ``"pdflc_ff"``, the PD-FLC's pedals (the env's ``speed_controller`` gains, the kernel's own ``pdflc_step``) plus
+  a feed-forward of the car's resistance, of the steered wheels' drag and of the reference's acceleration, and a
+  bounded integral of the speed error, mapped to the demand through the car's own longitudinal model;
+  ``"pdflc"``: the PD-FLC's pedals alone, ``throttle`` if it is > 0, else ``-brake / brakes.max_pedal_force_n``
+  (``envs.control.demand_of``), which the env's throttle/brake map turns back into the same pedals.
 
-So ``steer_accel`` with a decoupled baseline reproduces the ``steer`` mode's episode up to the float32 rounding of
-the observation and the action. The state (SB3 protocol) is the lateral law's memory followed by the PD-FLC's
-three memory entries and the integrated command.
+So ``steer_accel`` with ``speed_law="pdflc"`` reproduces the ``steer`` mode's episode up to the float32 rounding of
+the observation and the action. The state (SB3 protocol) is the lateral law's memory followed by the speed law's
+memory (``speed_law.MEMORY`` entries) and the integrated command.
 """
 
 from __future__ import annotations
@@ -26,10 +28,13 @@ from typing import Any
 import numpy as np
 
 from vtrack_gym.baselines.base import _episode_starts
+from vtrack_gym.baselines.speed_law import FRESH_MEMORY, MEMORY, SpeedLaw
 
-EXTRA_STATE = 4
-"""State entries the pairing adds after the lateral law's: PD-FLC memory (e_prev, de, fresh) and the integrated
-steering command."""
+EXTRA_STATE = MEMORY + 1
+"""State entries the pairing adds after the lateral law's: the speed law's memory (``speed_law.MEMORY``: the
+PD-FLC's e_prev, de, fresh and the integral's a_i) and the integrated steering command."""
+COMMAND = MEMORY
+"""Index of the integrated steering command in the pairing's state."""
 
 
 def _env_value(env: Any, name: str) -> Any:
@@ -45,22 +50,22 @@ def _env_value(env: Any, name: str) -> Any:
     return None
 
 
-def for_control(policy: Any, env: Any) -> Any:
+def for_control(policy: Any, env: Any, speed_law: str = "pdflc_ff") -> Any:
     """``policy`` for ``env``: itself in the ``steer`` mode (or an env without control modes, or an agent whose
-    action already has the demand), else the steering policy paired with the PD-FLC (``Decoupled``)."""
+    action already has the demand), else the steering policy paired with the speed law ``speed_law``
+    (``Decoupled``)."""
     control = _env_value(env, "control") if env is not None else None
     if control in (None, "steer") or isinstance(policy, Decoupled) or getattr(policy, "action_dim", 1) != 1:
         return policy   # a steer env, or an agent trained with the longitudinal action already
-    return Decoupled(policy, env)
+    return Decoupled(policy, env, speed_law)
 
 
 class Decoupled:
-    """A steering policy paired with the PD-FLC speed law for a longitudinal control mode (module docstring)."""
+    """A steering policy paired with a speed law (``speed_law``: ``"pdflc_ff"``, default, or ``"pdflc"``) for a
+    longitudinal control mode (module docstring)."""
 
-    def __init__(self, lateral: Any, env: Any) -> None:
+    def __init__(self, lateral: Any, env: Any, speed_law: str = "pdflc_ff") -> None:
         from vtrack_gym.envs.control import check_control
-        from vtrack_gym.envs.pdflc import control_surface
-        from vtrack_gym.envs.pdflc_kernel import pdflc_gains
 
         config = _env_value(env, "config")
         self.control = check_control(_env_value(env, "control"))
@@ -69,14 +74,8 @@ class Decoupled:
         layout = config.layout
         period = float(config.control_period_s)
         self.lateral = lateral
-        pd = config.speed_controller
-        self._gains = pdflc_gains(pd, period)
-        self._surface = np.ascontiguousarray(control_surface(pd.method, pd.surface_resolution))
-        self._kinks = pd.method == "mamdani"
-        self.max_pedal_force_n = float(config.vehicle.brakes.max_pedal_force_n)
-        self.rate_step = config.vehicle.steering.max_road_wheel_rate_radps * period / \
-            config.vehicle.steering.max_road_wheel_angle_rad
-        self._v, self._v_ref = layout.index("v_x"), layout.index("target_speed")
+        self.speed_law = SpeedLaw(config, speed_law)
+        self.rate_step = rate_step_of(config.vehicle, period)
         self.lateral_state = int(getattr(lateral, "state_size", 0) or 0)
         self.state_size = self.lateral_state + EXTRA_STATE
         self.obs_dim = layout.size
@@ -121,7 +120,7 @@ class Decoupled:
                                               deterministic=deterministic)
         steer = np.asarray(steer, dtype=np.float64).reshape(n)
         starts = _starts(episode_start, n)
-        own[starts] = (0.0, 0.0, 1.0, 0.0)
+        own[starts] = (*FRESH_MEMORY, 0.0)
         action = np.empty((n, 2), dtype=np.float32)
         for i in range(n):
             action[i, 0] = self._steering(float(steer[i]), own[i])
@@ -134,7 +133,7 @@ class Decoupled:
 
     def _split(self, state: Any, n: int) -> tuple[np.ndarray | None, np.ndarray]:
         """(the lateral law's state or None, this pairing's memory (n, EXTRA_STATE), a copy)."""
-        fresh = np.tile((0.0, 0.0, 1.0, 0.0), (n, 1))
+        fresh = np.tile((*FRESH_MEMORY, 0.0), (n, 1))
         if state is None:
             own = self._memory.copy() if self._memory is not None and self._memory.shape[0] == n else fresh
             return None, own
@@ -148,23 +147,31 @@ class Decoupled:
         """The steering entry: the command, or (``steer_rate_accel``) the rate towards it, integrated in ``own``."""
         if self.control != "steer_rate_accel":
             return target
-        rate = float(np.float32(min(max((target - own[3]) / self.rate_step, -1.0), 1.0)))
-        own[3] = min(max(own[3] + rate * self.rate_step, -1.0), 1.0)   # the env's own integration
+        rate, own[COMMAND] = rate_towards(target, float(own[COMMAND]), self.rate_step)
         return rate
 
     def _demand(self, row: np.ndarray, own: np.ndarray) -> float:
-        """The PD-FLC's pedals for this observation as a demand (``envs.control.demand_of``)."""
-        from vtrack_gym.envs.control import demand_of
-        from vtrack_gym.envs.pdflc_kernel import pdflc_step
-
-        mem = own[:3].copy()
-        throttle, brake = pdflc_step(float(row[self._v]), float(row[self._v_ref]), mem, self._gains, self._surface,
-                                     self._kinks)
-        own[:3] = mem
-        return demand_of(throttle, brake, self.max_pedal_force_n)
+        """The speed law's demand for this observation (``speed_law.SpeedLaw.demand``), its memory in ``own``."""
+        mem = own[:MEMORY].copy()
+        demand = self.speed_law.demand(row, mem)
+        own[:MEMORY] = mem
+        return demand
 
     def __repr__(self) -> str:
-        return f"Decoupled({self.lateral!r}, control={self.control!r})"
+        return f"Decoupled({self.lateral!r}, control={self.control!r}, speed_law={self.speed_law.name!r})"
+
+
+def rate_step_of(vehicle: Any, control_period_s: float) -> float:
+    """The command change [fraction of the road-wheel limit] of a full-rate action over one control period."""
+    steering = vehicle.steering
+    return steering.max_road_wheel_rate_radps * control_period_s / steering.max_road_wheel_angle_rad
+
+
+def rate_towards(target: float, command: float, rate_step: float) -> tuple[float, float]:
+    """(the ``steer_rate_accel`` rate that moves the integrated ``command`` towards ``target`` in one period, clipped
+    to [-1, 1] and rounded to the float32 action, the command after the env's own integration)."""
+    rate = float(np.float32(min(max((target - command) / rate_step, -1.0), 1.0)))
+    return rate, min(max(command + rate * rate_step, -1.0), 1.0)
 
 
 def _starts(episode_start: Any, n: int) -> np.ndarray:

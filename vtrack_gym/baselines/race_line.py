@@ -14,11 +14,17 @@ Longitudinal law: the profile's speed v_p and acceleration a_p = d(v_p^2)/ds / 2
 the car's station on the line; the command a = a_p + ``speed_gain_per_s`` (v_p - v_x) [m/s^2], mapped to the
 pedals through the car's own longitudinal model: the net force F = m a + R(v) (drag and rolling resistance);
 F >= 0 is the throttle fraction F / F_drive,max(v); F < 0 the brake pedal force -F / pedal_gain; as the demand of
-the throttle/brake map (``envs.control``). ``grip_scale`` (<= 1) scales the car's lateral, forward and braking
-limits of the profile (1: the bound's own profile).
+the throttle/brake map (``envs.control``). The profile is the bound's g-g-v limits with the braking capped at the
+car's brake-balance deceleration (``vehicle.brake_balance``: with the fixed front/rear brake split the rear axle's
+brakes use all of its grip first, at 6.6 m/s^2 on the paper's car, and a rear axle braked to its grip has no
+lateral force left: braking into a corner beyond it spins the car). ``grip_scale`` (<= 1) scales the lateral,
+forward and braking limits, ``brake_scale`` (<= 1) the braking once more (1, 1: the car's limits).
 
-Only in the race env (``vtrack/Race-v0``) in ``control="steer_accel"``; a ``ValueError`` names it for an env
-without ``lap_fraction`` or in ``steer_rate_accel``. The coupled form (the coupled NMPC planning steering and
+Only in the race env (``vtrack/Race-v0``), in ``control="steer_accel"`` or ``"steer_rate_accel"``: in the latter
+the policy sends the rate that moves the env's integrated steering command towards the steering law's command in
+one control period, clipped to the car's rate limit, and integrates the command as the env does (0 at an episode
+start; ``decoupled.rate_towards``), so it keeps that command as its state (SB3 protocol: one entry per car). A
+``ValueError`` names the env for one without ``lap_fraction``. The coupled form (the coupled NMPC planning steering and
 longitudinal force together): ``race_line_coupled``.
 """
 
@@ -45,8 +51,8 @@ class LineFollowerConfig:
     [1/s], ``preview_s`` [s] (the profile read this far ahead) and ``search_m`` [m] (the projection window)."""
 
     steering: str = "lqr"
-    grip_scale: float = ranged(0.97, ge=0.5, le=1.0)
-    brake_scale: float = ranged(0.7, ge=0.2, le=1.0)
+    grip_scale: float = ranged(1.0, ge=0.5, le=1.0)
+    brake_scale: float = ranged(1.0, ge=0.2, le=1.0)
     speed_gain_per_s: float = ranged(2.0, ge=0.0, le=20.0, unit="1/s")
     preview_s: float = ranged(0.1, ge=0.0, le=1.0, unit="s")
     search_m: float = ranged(15.0, ge=2.0, le=100.0, unit="m")
@@ -57,16 +63,29 @@ class LineFollowerConfig:
             raise ValueError(f"steering must be one of {', '.join(STEERING_LAWS)} (got {self.steering!r})")
 
 
-def scaled_limits(limits: Any, scale: float, brake_scale: float = 1.0) -> Any:
+def scaled_limits(limits: Any, scale: float, brake_scale: float = 1.0, vehicle: Any = None) -> Any:
     """``limits`` (``GGLimits``) with the lateral and forward accelerations times ``scale`` and the braking ones
-    times ``scale * brake_scale``."""
+    times ``scale * brake_scale``; with ``vehicle``, the braking first capped at what its fixed brake split gives
+    before an axle's brakes use all of its grip (``vehicle.brake_balance``), plus the resistance."""
     from vtrack_gym.tracks.gg_limits import GGLimits
 
-    if scale == 1.0 and brake_scale == 1.0:
+    brake = limits.brake_mps2
+    if vehicle is not None:
+        from vtrack_gym.vehicle.brake_balance import brake_balance_decel_mps2
+        from vtrack_gym.vehicle.longitudinal import resistance_n
+
+        resistance = resistance_n(vehicle, limits.speeds_mps) / vehicle.chassis.mass_kg
+        brake = np.minimum(brake, brake_balance_decel_mps2(vehicle) + resistance)
+    if scale == 1.0 and brake_scale == 1.0 and vehicle is None:
         return limits
     return GGLimits(limits.speeds_mps, scale * limits.lateral_mps2, scale * limits.forward_mps2,
-                    scale * brake_scale * limits.brake_mps2, limits.top_speed_mps,
-                    f"{limits.name} x {scale:g} (braking x {scale * brake_scale:g})")
+                    scale * brake_scale * brake, limits.top_speed_mps,
+                    f"{limits.name} x {scale:g} (braking x {scale * brake_scale:g}"
+                    f"{', brake balance' if vehicle is not None else ''})")
+
+
+CENTRE_LINE_GRIP = 0.97
+"""``grip_scale`` of ``centreline``'s default preset."""
 
 
 class LineFollower:
@@ -89,14 +108,20 @@ class LineFollower:
         if layout is None or "lap_fraction" not in layout.names or not hasattr(base, "race_line"):
             raise ValueError(f"{self.name} drives the race env (vtrack/Race-v0): it needs the observation's "
                              "lap_fraction and the env's racing line")
-        if getattr(base, "control", None) != "steer_accel":
-            raise ValueError(f"{self.name} sends a steering command: it drives the race env made with "
-                             f"control='steer_accel' (got control={getattr(base, 'control', None)!r})")
+        from vtrack_gym.baselines.decoupled import rate_step_of
+
+        self.control = getattr(base, "control", None)
+        if self.control not in ("steer_accel", "steer_rate_accel"):
+            raise ValueError(f"{self.name} drives the race env made with control='steer_accel' or "
+                             f"'steer_rate_accel' (got control={self.control!r})")
         vehicle = base.config.vehicle
+        self.state_size = 1 if self.control == "steer_rate_accel" else 0
+        self._rate_step = rate_step_of(vehicle, base.control_period_s)
+        self._command: np.ndarray | None = None
         self.centre = base.paths[0]
         self.line = base.race_line.path if self.line_kind == "raceline" else self.centre
         self.table = QuasiSteadyState(scaled_limits(gg_limits(vehicle), self.config.grip_scale,
-                                                        self.config.brake_scale)).row_speeds(self.line)
+                                                    self.config.brake_scale, vehicle)).row_speeds(self.line)
         self.inner_layout = base.config.layout
         self.steer = policy_class(self.config.steering).from_env(_Contract(base, self.inner_layout))
         self._idx = {n: layout.index(n) for n in ("e_y", "e_phi", "v_x", "v_y", "yaw_rate", "road_wheel_angle",
@@ -131,7 +156,8 @@ class LineFollower:
         return self.name
 
     def reset(self) -> None:
-        """Nothing to forget: the policy is stateless."""
+        """Forget the integrated steering command (``steer_rate_accel``; nothing else is remembered)."""
+        self._command = None
 
     def _station_map(self) -> tuple[np.ndarray, np.ndarray]:
         """(centre-line stations, the line's station nearest each) every metre, for the projection's first guess."""
@@ -141,12 +167,35 @@ class LineFollower:
         return s_c, self.line.project(row.x, row.y, guess, STATION_WINDOW_M).s
 
     def predict(self, observation: Any, state: Any = None, episode_start: Any = None,
-                deterministic: bool = True) -> tuple[np.ndarray, None]:
-        """[steering command, longitudinal demand] for one observation (shape (2,)) or a batch ((n, 2))."""
+                deterministic: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+        """[steering command (or its rate), longitudinal demand] for one observation (shape (2,)) or a batch
+        ((n, 2)); the state is None, or in ``steer_rate_accel`` the integrated command (n, 1)."""
+        from vtrack_gym.baselines.decoupled import _starts, rate_towards
+
         obs = np.asarray(observation, dtype=np.float64)
         rows = np.atleast_2d(obs)
         out = np.array([self._act(row) for row in rows], dtype=np.float32)
-        return (out[0] if obs.ndim == 1 else out), None
+        if self.state_size == 0:
+            return (out[0] if obs.ndim == 1 else out), None
+        n = rows.shape[0]
+        command = self._commands(state, n)
+        command[_starts(episode_start, n)] = 0.0
+        for i in range(n):
+            out[i, 0], command[i, 0] = rate_towards(float(out[i, 0]), float(command[i, 0]), self._rate_step)
+        if state is None:
+            self._command = command.copy()
+        return (out[0] if obs.ndim == 1 else out), command
+
+    def _commands(self, state: Any, n: int) -> np.ndarray:
+        """The integrated commands (n, 1): ``state``, else this policy's own (0 for a new episode), a copy."""
+        if state is not None:
+            found = np.array(state, dtype=np.float64, copy=True).reshape(n, -1)
+            if found.shape[1] != 1:
+                raise ValueError(f"state must have shape ({n}, 1) (got {np.shape(state)})")
+            return found
+        if self._command is not None and self._command.shape[0] == n:
+            return self._command.copy()
+        return np.zeros((n, 1))
 
     def _act(self, row: np.ndarray) -> tuple[float, float]:
         idx = self._idx
@@ -204,10 +253,12 @@ class RaceLine(LineFollower):
 
 
 class CentreLine(LineFollower):
-    """The track's centre line at the car's limit profile along it (module docstring)."""
+    """The track's centre line at the car's limit profile along it (module docstring), its lateral and forward
+    limits x 0.97 (``CENTRE_LINE_GRIP``: at 1 it spins on the handling course's second lap)."""
 
     name: ClassVar[str] = "centreline"
     line_kind: ClassVar[str] = "centreline"
+    PRESETS: ClassVar[dict[str, LineFollowerConfig]] = {"default": LineFollowerConfig(grip_scale=CENTRE_LINE_GRIP)}
 
 
 @dataclass(frozen=True)

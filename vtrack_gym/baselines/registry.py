@@ -150,7 +150,7 @@ def make_policy(name: str, env: Any, preset: str = "default", **overrides: Any) 
     ``hand`` the hand-tuned config and ``paper`` the paper's Table 3.
 
     For an env in a longitudinal control mode (``steer_accel``, ``steer_rate_accel``) the steering law is paired
-    with the paper's PD-FLC as its longitudinal law (``baselines.decoupled.Decoupled``).
+    with a speed law built on the paper's PD-FLC (``baselines.decoupled.Decoupled``, ``baselines.speed_law``).
     """
     from vtrack_gym.baselines.decoupled import for_control
 

@@ -153,8 +153,18 @@ def add_control(p: argparse.ArgumentParser, what: str = "rows record it and rank
     p.add_argument("--control", choices=tuple(CONTROL_MODES), default=None,
                    help="what the action drives: steer (steering; the PD-FLC holds the speed), steer_accel "
                    "(steering and a longitudinal demand, throttle/brake) or steer_rate_accel (steering rate and the "
-                   "demand); the steering baselines drive the longitudinal modes with the PD-FLC as their speed law; "
-                   f"{what} (default: steer)")
+                   "demand); the steering baselines drive the longitudinal modes with a speed law built on the "
+                   f"PD-FLC; {what} (default: steer)")
+
+
+def add_launch(p: argparse.ArgumentParser) -> None:
+    """``--launch step|powertrain``: how the reference of a held speed from rest leaves the start (``envs.launch``)."""
+    from vtrack_gym.envs.launch import LAUNCHES
+
+    p.add_argument("--launch", choices=tuple(LAUNCHES), default=None,
+                   help="with a longitudinal --control: how a held speed from rest (LateralTracking-v0) starts: step "
+                   "(the set speed from t = 0, the id's own) or powertrain (a ramp at 0.75 of the car's full-throttle "
+                   "acceleration); rows record it (default: step)")
 
 
 def add_user_code(p: argparse.ArgumentParser) -> None:

@@ -265,7 +265,9 @@ def _arguments() -> str:
             "cone-lined standard ids (`vtrack/ISO3888-1-v1`, `vtrack/ISO3888-2-v1`, "
             "`vtrack/Slalom-v1`) take `reference=\"planned\"` (default) or `\"lane_centres\"`, and the two ISO 3888 "
             "ids `entry_speed_kmh=` (in (0, 200] km/h); every id driving a road between edges (not the cone-lined "
-            "manoeuvres, not the circle) takes `track_limits=\"wheels\"`, `\"body\"` or `\"centre\"`. "
+            "manoeuvres, not the circle) takes `track_limits=\"wheels\"`, `\"body\"` or `\"centre\"`; in a "
+            "longitudinal control mode `LateralTracking-v0` takes `launch=\"powertrain\"` (the held speed reached "
+            "from rest along a ramp the car can drive: [Control modes](../control-modes.md)). "
             "Reset options: see [Getting started](../getting-started.md).")
 
 

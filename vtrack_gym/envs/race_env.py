@@ -76,13 +76,20 @@ def check_race_control(control: Any) -> str:
 
 
 def race_bound(path: Any, vehicle: Any, margin_m: float) -> tuple[Any, Any]:
-    """(the ``RacingLine`` of ``path`` for ``vehicle``, its ``LapTimeBound`` at the car's g-g-v limits)."""
+    """(the ``RacingLine`` of ``path`` for ``vehicle``, its ``LapTimeBound`` at the car's g-g-v limits), solved
+    once per content of the track, the car and the solver settings in a process (``tracks.race_bound_cache``)."""
     from vtrack_gym.tracks.gg_limits import gg_limits
     from vtrack_gym.tracks.lap_time import line_lap_time
+    from vtrack_gym.tracks.race_bound_cache import bound_cache
     from vtrack_gym.tracks.raceline import RacingLineSpec, solve_racing_line
 
-    line = solve_racing_line(path, vehicle, RacingLineSpec(margin_m=margin_m))
-    return line, line_lap_time(line.path, gg_limits(vehicle), "raceline")
+    spec = RacingLineSpec(margin_m=margin_m)
+
+    def solve() -> tuple[Any, Any]:
+        line = solve_racing_line(path, vehicle, spec)
+        return line, line_lap_time(line.path, gg_limits(vehicle), "raceline")
+
+    return bound_cache().get(path, vehicle, spec, solve)
 
 
 def race_scenario(settings: RaceSettings, track_limits: str, track: Any, read: dict[str, Any],

@@ -362,14 +362,20 @@ def _registered_track(env_id: str) -> dict[str, Any] | None:
 
 
 def with_protocol(scenario: Scenario, vehicle: Any, entry_speed_kmh: float | None = None,
-                  reference: str | None = None, track_limits: str | None = None) -> Scenario:
+                  reference: str | None = None, track_limits: str | None = None, *, launch: str | None = None,
+                  control: str = "steer") -> Scenario:
     """``scenario`` with the make kwargs of the standard ids: ``entry_speed_kmh`` [km/h] (an ``EntryThenRelease``
     scenario only; refused outside (0, 200] km/h naming the car, ``feasibility.check_entry_speed``),
-    ``reference`` (``"planned"`` or ``"lane_centres"``, ``REFERENCE_LINES``; a cone-lined manoeuvre only) and
-    ``track_limits`` (``"wheels"``, ``"body"`` or ``"centre"``: ``with_track_limits``).
-    ``vehicle`` is the driven car (``VehicleParams``); ``None`` keeps a part."""
+    ``reference`` (``"planned"`` or ``"lane_centres"``, ``REFERENCE_LINES``; a cone-lined manoeuvre only),
+    ``track_limits`` (``"wheels"``, ``"body"`` or ``"centre"``: ``with_track_limits``) and ``launch``
+    (``"step"`` or ``"powertrain"``, ``envs.launch``; a held speed from rest in the env's ``control`` mode, a
+    longitudinal one). ``vehicle`` is the driven car (``VehicleParams``); ``None`` keeps a part."""
     if track_limits is not None:
         scenario = with_track_limits(scenario, track_limits)
+    if launch is not None:
+        from vtrack_gym.envs.launch import with_launch
+
+        scenario = with_launch(scenario, vehicle, launch, control)
     changes: dict[str, Any] = {}
     if entry_speed_kmh is not None:
         from vtrack_gym.tracks.feasibility import check_entry_speed

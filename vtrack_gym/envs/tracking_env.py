@@ -171,13 +171,14 @@ class TrackingEnv(gym.Env):
                  track: Any = None, speed_profile: Any = None, half_width_m: float | None = None,
                  closed: bool | None = None, smoothing_m: float | None = None, allow_self_crossing: bool | None = None,
                  track_options: dict[str, Any] | None = None, entry_speed_kmh: float | None = None,
-                 reference: str | None = None, track_limits: str | None = None,
+                 reference: str | None = None, track_limits: str | None = None, launch: str | None = None,
                  latency: str | float | None = None, latency_s: float | None = None,
                  latency_clock: Clock | None = None, **config_overrides: Any) -> None:
         scenario = resolve_scenario(scenario, track, speed_profile, half_width_m, closed, smoothing_m,
                                     {"allow_self_crossing": allow_self_crossing, "track_options": track_options})
         config = scenario_config(scenario, config, config_overrides)
-        scenario = with_protocol(scenario, config.vehicle, entry_speed_kmh, reference, track_limits)
+        scenario = with_protocol(scenario, config.vehicle, entry_speed_kmh, reference, track_limits,
+                                 launch=launch, control=config.control)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} (got {render_mode!r})")
         self.scenario = scenario

@@ -61,14 +61,15 @@ class TrackingVectorEnv(VectorEnv):
                  smoothing_m: float | None = None, allow_self_crossing: bool | None = None,
                  track_options: dict[str, Any] | None = None, max_episode_steps: int | None = None,
                  entry_speed_kmh: float | None = None, reference: str | None = None,
-                 track_limits: str | None = None, **config_overrides: Any) -> None:
+                 track_limits: str | None = None, launch: str | None = None, **config_overrides: Any) -> None:
         scenario = resolve_scenario(scenario, track, speed_profile, half_width_m, closed, smoothing_m,
                                     {"allow_self_crossing": allow_self_crossing, "track_options": track_options})
         if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer (got {num_envs!r})")
         refuse_latency(config_overrides, "argument")
         config = scenario_config(scenario, config, config_overrides)
-        scenario = with_protocol(scenario, config.vehicle, entry_speed_kmh, reference, track_limits)
+        scenario = with_protocol(scenario, config.vehicle, entry_speed_kmh, reference, track_limits,
+                                 launch=launch, control=config.control)
         self.scenario = scenario
         self.config = config
         self.num_envs = int(num_envs)

@@ -202,11 +202,12 @@ def _tracking_identity(unwrapped: Any, spec: Any, env_id: str,
                                 spec.kwargs.get("half_width_m"), spec.kwargs.get("closed"),
                                 spec.kwargs.get("smoothing_m"), {k: spec.kwargs.get(k) for k in READ_KWARGS})
     base = resolve_scenario(scenario.name)
-    protocol = {k: spec.kwargs[k] for k in ("entry_speed_kmh", "reference", "track_limits")
+    protocol = {k: spec.kwargs[k] for k in ("entry_speed_kmh", "reference", "track_limits", "launch")
                 if spec.kwargs.get(k) is not None}
-    if protocol:   # entry speed / reference line / track-limit rule: recorded, so two settings never share a row
-        scenario = with_protocol(scenario, unwrapped.config.vehicle, **protocol)
-        applied = with_protocol(base, unwrapped.config.vehicle, **protocol)
+    if protocol:   # entry speed / reference line / track-limit rule / launch: recorded, so two never share a row
+        control = unwrapped.config.control
+        scenario = with_protocol(scenario, unwrapped.config.vehicle, **protocol, control=control)
+        applied = with_protocol(base, unwrapped.config.vehicle, **protocol, control=control)
         if not _equal(applied, base):
             options["protocol"] = jsonable(protocol)
         base = applied

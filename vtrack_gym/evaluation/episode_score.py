@@ -104,6 +104,8 @@ def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str,
     options = dict(ep.options) if label is None else {**ep.options, "vehicle": label}
     if getattr(ep, "control", "steer") != "steer":   # control modes are different set-ups; steer rows unchanged
         options["control"] = ep.control
+    if getattr(ep, "launch", "step") != "step":   # another reference from rest (envs.launch): ranked apart
+        options["protocol"] = {**options.get("protocol", {}), "launch": ep.launch}
     driven = source_digest(tuple(getattr(env.unwrapped, "paths", ())))
     if driven is not None:   # a track file: the content this env read and drove (never the file's later state)
         options["track_sha256"] = driven

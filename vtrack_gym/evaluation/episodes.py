@@ -12,13 +12,14 @@ class Episode:
     """One scored episode of a suite: reset with ``seed`` and ``options``, on the env made with ``vehicle`` (a name
     of ``vehicle.list_vehicles()``, a vehicle file path or a ``vehicle.catalog.VehicleFile`` read once; ``None``:
     the default car), in the control mode ``control`` (``envs.control``: ``"steer"``, the default, or a
-    longitudinal mode)."""
+    longitudinal mode), its reference leaving a standing start as ``launch`` says (``envs.launch``)."""
 
     env_id: str
     seed: int
     options: dict[str, Any] = field(default_factory=dict)
     vehicle: Any = None
     control: str = "steer"
+    launch: str = "step"
 
     @property
     def make_kwargs(self) -> dict[str, Any]:
@@ -27,6 +28,8 @@ class Episode:
         kwargs: dict[str, Any] = {} if self.vehicle is None else {"vehicle": self.vehicle}
         if self.control != "steer":
             kwargs["control"] = self.control
+        if self.launch != "step":
+            kwargs["launch"] = self.launch
         return kwargs
 
 
@@ -50,6 +53,16 @@ def with_control(episodes: Sequence[Episode], control: str | None) -> list[Episo
     from vtrack_gym.envs.control import check_control
 
     return [replace(ep, control=check_control(control)) for ep in episodes]
+
+
+def with_launch(episodes: Sequence[Episode], launch: str | None) -> list[Episode]:
+    """``episodes`` with their reference leaving a standing start as ``launch`` says (``envs.launch``; ``None``:
+    unchanged); the env refuses it where it does not apply, and the rows record it (``options["protocol"]``)."""
+    if launch is None:
+        return list(episodes)
+    from vtrack_gym.envs.launch import check_launch
+
+    return [replace(ep, launch=check_launch(launch)) for ep in episodes]
 
 
 def with_latency(episodes: Sequence[Episode], latency: Any) -> list[Episode]:

@@ -13,7 +13,13 @@ from collections.abc import Sequence
 from typing import Any
 
 from vtrack_gym._plugins import add_named, forget, load_group
-from vtrack_gym.evaluation.episodes import Episode, with_control, with_latency, with_vehicle  # noqa: F401  (re-exported)
+from vtrack_gym.evaluation.episodes import (  # noqa: F401  (re-exported)
+    Episode,
+    with_control,
+    with_latency,
+    with_launch,
+    with_vehicle,
+)
 from vtrack_gym.evaluation.suite_defs.highway import HIGHWAY
 from vtrack_gym.evaluation.suite_defs.maneuvers import MANEUVER_ENV_IDS, MANEUVERS  # noqa: F401  (re-exported)
 from vtrack_gym.evaluation.suite_defs.paper import PAPER

@@ -9,10 +9,11 @@ a steering law and the feed-forward/P speed law. A race has no time law to keep 
 NMPC's time weight defaults to 0 here (``RACE_NMPC``); the speed weight pulls the car to the profile, the braking
 zones included; the model knows the brakes' grip limit and the friction ellipse.
 
-Its profile is ``raceline``'s at ``grip_scale`` 0.94 (preset ``default``; ``raceline``'s is 0.97): the model's axle
-loads are static, the plant shifts load to the front under braking, so trail braking at 0.97 of the bound's grip
-spins the car out on ``vtrack/RaceRing-v0`` (0.96 still laps it). ``steering``, ``speed_gain_per_s`` and
-``preview_s`` of ``LineFollowerConfig`` are not used (the NMPC replaces both laws).
+Its profile is ``raceline``'s at ``grip_scale`` 0.94 and ``brake_scale`` 0.7 (preset ``default``; ``raceline``
+runs at 1 and 1): the model caps the brakes at mu m g, not at the car's brake balance (``vehicle.brake_balance``),
+and its axle loads are static, so its speed weight brakes harder into a corner than the rear axle can carry; with
+``brake_scale`` 1 it spins out on ``vtrack/RaceRing-v0`` at every ``grip_scale`` from 0.94 to 1. ``steering``,
+``speed_gain_per_s`` and ``preview_s`` of ``LineFollowerConfig`` are not used (the NMPC replaces both laws).
 
 The line's station is found by projecting the pose with a first guess from the centre line's station map,
 interpolated the short way round the lap where the map wraps to 0 (``_station_guess``).
@@ -41,10 +42,14 @@ class CoupledRaceLine(LineFollower):
 
     name: ClassVar[str] = "raceline_coupled"
     line_kind: ClassVar[str] = "raceline"
-    PRESETS: ClassVar[dict[str, LineFollowerConfig]] = {"default": LineFollowerConfig(grip_scale=0.94)}
+    PRESETS: ClassVar[dict[str, LineFollowerConfig]] = {
+        "default": LineFollowerConfig(grip_scale=0.94, brake_scale=0.7)}
 
     def __init__(self, env: Any, config: Any = None, nmpc: CoupledNMPCConfig = RACE_NMPC) -> None:
         super().__init__(env, config)
+        if self.control != "steer_accel":
+            raise ValueError(f"raceline_coupled drives only in control='steer_accel' (the coupled NMPC plans the "
+                             f"steering command itself; got control={self.control!r})")
         base = getattr(env, "unwrapped", env)
         self.inner_layout = dataclasses.replace(base.config.layout, tracking_errors=True)
         self.nmpc = CoupledNMPC(base.design_model, nmpc, self.inner_layout, base.control_period_s,

@@ -91,7 +91,8 @@ def main() -> None:
             m = env.unwrapped.success_metrics()
             laps = ", ".join(f"{t:.2f}" for t in info["lap_times_s"])
             verdict = "yes" if info["success"] else f"no ({info['termination'] or 'time limit'})"
-            print(f"| {circuit} | {name} | {verdict} | {laps} | {info['best_lap_s']:.2f} | {info['lap_time_bound_s']:.2f} | "
+            print(f"| {circuit} | {name} | {verdict} | {laps} | {info['best_lap_s']:.2f} | "
+                  f"{info['lap_time_bound_s']:.2f} | "
                   f"{info['lap_time_fraction']:.4f} | {m['track_limit_violations']:.0f} | "
                   f"{m['min_edge_margin_m']:.3f} |", flush=True)
             if args.figures is not None and name == "raceline":

@@ -110,7 +110,8 @@ def test_dagger_accel_is_shipped_with_two_outputs_and_its_recipe() -> None:
     prov = policy.provenance
     assert "train --algo dagger --env vtrack/TrainingMixNominal-v0 --seed 0" in prov["command"]
     assert prov["warm_start"].startswith("DAgger of lqr[default] on vtrack/TrainingMixNominal-v0 (9 rounds")
-    assert Path(vtrack_gym.__file__).parent.joinpath("baselines", "shipped", "dagger_accel.npz").stat().st_size < 100_000
+    shipped = Path(vtrack_gym.__file__).parent / "baselines" / "shipped"
+    assert (shipped / "dagger_accel.npz").stat().st_size < 100_000
 
 
 def test_dagger_accel_completes_the_lane_change_at_120_kmh() -> None:

@@ -34,10 +34,6 @@ from vtrack_gym._ranges import documented, ranged, validate
 
 log = logging.getLogger(__name__)
 
-DAGGER_RUN_FILES = ("config.json", "dagger.json", "agent.json", "agent.npz")
-"""Files ``train_dagger`` writes into its run folder."""
-
-
 @documented
 @dataclass(frozen=True)
 class DaggerConfig:
@@ -69,11 +65,12 @@ class DaggerConfig:
         return {**dataclasses.asdict(self), "hidden_sizes": list(self.hidden_sizes)}
 
     def imitation(self) -> Any:
-        """The same settings as the ``imitation.BCConfig`` that ``collect`` and the fit read."""
+        """The same settings as the ``imitation.BCConfig`` that ``collect`` and the fit read (the rounds are run
+        here, not by ``imitation.warm_start``)."""
         from vtrack_gym.agents.imitation import BCConfig
 
         return BCConfig(expert=self.expert, expert_preset=self.expert_preset, steps=self.steps,
-                        dagger_rounds=min(self.rounds, 20), noise_std=self.noise_std, noise_corr_s=self.noise_corr_s,
+                        dagger_rounds=0, noise_std=self.noise_std, noise_corr_s=self.noise_corr_s,
                         demand_noise_std=self.demand_noise_std, epochs=self.epochs, batch_size=self.batch_size,
                         learning_rate=self.learning_rate)
 
@@ -92,7 +89,7 @@ def aggregate(model: Any, venv: Any, vecnorm: Any, config: DaggerConfig, seed: i
     """Run the DAgger rounds on ``venv`` (a ``TrackingSB3VecEnv``): fit ``model``'s actor on the aggregate after
     each round. Returns one record per round (transitions, ``actor_mse`` [action units^2], ``terminations``,
     ``wall_s``)."""
-    from vtrack_gym.agents.imitation import _clone, _Clone, collect
+    from vtrack_gym.agents.imitation import _Clone, _clone, collect
 
     bc = config.imitation()
     rounds, records = [], []
@@ -159,8 +156,9 @@ def train_dagger(env_id: str = "vtrack/TrainingMixNominal-v0", control: str = "s
 def dagger_recipe(env_id: str | None = None, *, seed: int = 0, run_dir: Any = "vtrack_runs/dagger",
                   command: str = "", overwrite: bool = False, **changes: Any) -> dict[str, Any]:
     """Run the DAgger recipe of ``env_id`` (``agents.recipes.DAGGER_RECIPES``) with ``changes`` (``expert``,
-    ``expert_preset``, ``rounds``, ``steps``, ``num_envs``, ``circuits_per_round``, ``control``; None keeps the recipe's value) and
-    return the run's summary (``agents.dagger.train_dagger`` / ``agents.race_dagger.train_race_dagger``)."""
+    ``expert_preset``, ``rounds``, ``steps``, ``num_envs``, ``circuits_per_round``, ``control``; None keeps the
+    recipe's value) and return the run's summary (``train_dagger``, or ``agents.race_dagger.train_race_dagger``
+    for ``vtrack/Race-v0``)."""
     from vtrack_gym.agents.recipes import DAGGER_DEFAULT_ENV_ID, DAGGER_RECIPES
 
     env_id = env_id or DAGGER_DEFAULT_ENV_ID

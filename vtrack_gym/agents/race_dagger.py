@@ -3,10 +3,10 @@ vtrack/Race-v0`` (the circuits: ``tracks.race_circuits.RACE_SPLIT["train"]``; th
 
 Each round drives ``circuits_per_round`` training circuits (``vtrack/Race-v0`` with ``track=`` the circuit and
 ``laps=`` ``config.laps``, standing start; the held-out ids are never made), one race each: round 0 with the expert
-at the wheel, every later round with the clone, plus the AR(1) perturbation of ``imitation.collect`` in both cases. Every
-visited state is labelled with the expert's action (``raceline``: the env's racing line at the car's limit profile;
-stateless, so its label is a function of the state) and the actor is refitted on all rounds (``imitation._fit``'s
-MSE, each output's error weighted by its spread, the steering one also by (v / 10 m/s)^2).
+at the wheel, every later round with the clone, plus the AR(1) perturbation of ``imitation.collect`` in both cases.
+Every visited state is labelled with the expert's action (``raceline``: the env's racing line at the car's limit
+profile; stateless, so its label is a function of the state) and the actor is refitted on all rounds
+(``imitation._fit``'s MSE, each output's error weighted by its spread, the steering one also by (v / 10 m/s)^2).
 
 The agent does not see the racing line: it reads the race observation without ``lap_fraction`` (a station on one
 circuit means nothing on another), i.e. the tracking errors to the centre line, the curvature and reference-speed
@@ -100,7 +100,8 @@ def drive_race(env: Any, expert: Any, driver: Any, config: RaceDaggerConfig,
         labels.append(label)
         obs, _, terminated, truncated, info = env.step(np.clip(base + noise * scale, -1.0, 1.0).astype(np.float32))
         if terminated or truncated or len(seen) >= config.steps:
-            return np.asarray(seen, np.float32), np.asarray(labels, np.float32), str(info["termination"] or ("time_limit" if truncated else "step_cap"))
+            end = str(info["termination"] or ("time_limit" if truncated else "step_cap"))
+            return np.asarray(seen, np.float32), np.asarray(labels, np.float32), end
 
 
 def _container(obs_dim: int, config: RaceDaggerConfig, seed: int) -> tuple[Any, Any]:
@@ -219,8 +220,9 @@ def export_race_agent(model: Any, vecnorm: Any, names: tuple[str, ...], path: st
 
 
 def _warm_start_text(config: RaceDaggerConfig, circuits: tuple[str, ...]) -> str:
-    return (f"DAgger of {config.expert} on {len(circuits)} training circuits of the race split ({config.rounds + 1} "
-            f"rounds of {config.circuits_per_round} races of {config.laps} lap(s), {config.rounds} driven by the clone)")
+    return (f"DAgger of {config.expert} on {len(circuits)} training circuits of the race split "
+            f"({config.rounds + 1} rounds of {config.circuits_per_round} races of {config.laps} lap(s), "
+            f"{config.rounds} driven by the clone)")
 
 
 def train_race_dagger(config: RaceDaggerConfig | None = None, seed: int = 0,

@@ -4,7 +4,8 @@ page (docs/figures/race_<circuit>.png).
     python benchmarks/race_laps.py [--figures docs/figures]
 
 For each shipped circuit (``vtrack/Race-v0``: the handling course, ``vtrack/RaceRing-v0``: the example ring), seed
-0, two laps from a standing start: each baseline's lap times, best lap / bound, track-limit excursions and least
+0, two laps from a standing start: each policy's verdict (``--policies``, default the two race baselines; e.g.
+``--policies raceline,centreline,dagger_race``), lap times, best lap / bound, track-limit excursions and least
 edge margin; the figure shows the best lap of ``raceline``: its speed along the lap against the bound's profile,
 and its longitudinal against lateral acceleration against the bound's.
 """
@@ -77,17 +78,21 @@ def figure(env: gym.Env, infos: list[dict], title: str, file: Path) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--figures", type=Path, default=None)
+    parser.add_argument("--policies", default="raceline,centreline",
+                        help="comma-separated policies (race baselines, shipped agents, agent files)")
     args = parser.parse_args()
-    print("| circuit | baseline | lap_times_s | best_lap_s | lap_time_bound_s | lap_time_fraction | "
+    print("| circuit | policy | success | lap_times_s | best_lap_s | lap_time_bound_s | lap_time_fraction | "
           "track_limit_violations | min_edge_margin_m |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|")
     for circuit, env_id in CIRCUITS.items():
         env = gym.make(env_id)
-        for name in ("raceline", "centreline"):
+        for name in args.policies.split(","):
             info, infos = run(env, name)
             m = env.unwrapped.success_metrics()
             laps = ", ".join(f"{t:.2f}" for t in info["lap_times_s"])
-            print(f"| {circuit} | {name} | {laps} | {info['best_lap_s']:.2f} | {info['lap_time_bound_s']:.2f} | "
+            verdict = "yes" if info["success"] else f"no ({info['termination'] or 'time limit'})"
+            print(f"| {circuit} | {name} | {verdict} | {laps} | {info['best_lap_s']:.2f} | "
+                  f"{info['lap_time_bound_s']:.2f} | "
                   f"{info['lap_time_fraction']:.4f} | {m['track_limit_violations']:.0f} | "
                   f"{m['min_edge_margin_m']:.3f} |", flush=True)
             if args.figures is not None and name == "raceline":

@@ -27,6 +27,8 @@ SLOW: dict[str, str] = {
     "test_cli_quiet.py::test_leaderboard_into_a_closed_pipe_exits_141_without_traceback": "a benchmark process",
     "test_cli_quiet.py::test_shell_pipe_to_head": "a benchmark through a shell pipe",
     "test_cli_quiet.py::test_sigint_during_a_forked_run_drops_the_queued_episodes": "forked benchmark processes",
+    "test_dagger_agents.py::test_cli_dagger_race_runs_on_training_circuits": "two racing lines solved, 30 s",
+    "test_dagger_agents.py::test_dagger_accel_laps_the_handling_course": "a lap",
     "test_dataset.py::test_dataset_round_trip": "Minari dataset of whole episodes, 16 s",
     "test_determinism.py::test_same_seed_bit_identical_in_two_processes[LateralTrackingRandom-v0]": "two laps",
     "test_docs.py::test_page_examples_run[maneuvers.md]": "drives every manoeuvre",

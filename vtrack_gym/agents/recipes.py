@@ -299,3 +299,16 @@ def _schedule(name: str, value: Any) -> Any:
     if head != "lin" or not (start > 0.0 and start < 1e3):
         raise ValueError(f"{name} must be a number or 'lin_X' with X > 0, e.g. lin_3e-4 (got {value!r})")
     return lambda progress_remaining: progress_remaining * start
+
+
+DAGGER_RECIPES: dict[str, dict[str, Any]] = {
+    "vtrack/TrainingMixNominal-v0": {"expert": "lqr", "control": "steer_accel", "rounds": 8, "steps": 3000,
+                                     "num_envs": 16},
+    "vtrack/Race-v0": {"expert": "raceline", "expert_grip_scale": 0.8, "rounds": 10, "circuits_per_round": 6},
+}
+"""``vtrack train --algo dagger``'s recipes per training env id (``agents.dagger.dagger_recipe`` runs them;
+``vtrack/Race-v0``: ``agents.race_dagger`` on the race split's training circuits): the shipped ``dagger_accel`` is
+the first entry at seed 0."""
+DAGGER_DEFAULT_ENV_ID = "vtrack/TrainingMixNominal-v0"
+"""``--algo dagger``'s env without ``--env``."""
+

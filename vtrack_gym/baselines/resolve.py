@@ -45,17 +45,34 @@ def policy_names() -> tuple[str, ...]:
     return (*known_policies(), *shipped_names())
 
 
-def default_policy_names(controls: set[str] | frozenset[str] = frozenset({"steer"})) -> tuple[str, ...]:
-    """The policies a run without a policy list scores on episodes in the control modes ``controls``: every
-    baseline (each drives every mode) and every shipped agent that can drive all of them. A steering agent (one
-    output) drives every mode (paired with the PD-FLC in the longitudinal ones); an agent that drives the pedals too
-    (two outputs, e.g. ``bc_accel``) reads the speed error and cannot drive a ``steer`` episode."""
+def default_policy_names(controls: set[str] | frozenset[str] = frozenset({"steer"}),
+                         env_ids: Sequence[str] | None = None) -> tuple[str, ...]:
+    """The policies a run without a policy list scores on episodes in the control modes ``controls`` of the envs
+    ``env_ids``: every baseline (each drives every mode) and every shipped agent that can drive all of them. A
+    steering agent (one output) drives every mode (paired with the PD-FLC in the longitudinal ones); an agent that
+    drives the pedals too (two outputs, e.g. ``bc_accel``) reads the speed error and cannot drive a ``steer``
+    episode; an agent that reads the race's fields (``race_agent_names``) drives only the race ids, so it is listed
+    only when ``env_ids`` are all race ids."""
     from vtrack_gym.baselines.shipped import shipped_agent_factories
+    from vtrack_gym.envs.registration import RACE_IDS
 
     agents = shipped_agent_factories()
     steer_only = [n for n, make in agents.items() if getattr(make(None), "action_dim", 1) == 1]
     both = [n for n in agents if n not in steer_only and "steer" not in controls]
-    return (*available_policies(), *[n for n in agents if n in steer_only or n in both])
+    racing = set(race_agent_names())
+    race_envs = bool(env_ids) and all(e in RACE_IDS for e in env_ids)
+    return (*available_policies(), *[n for n in agents if (n in steer_only or n in both)
+                                     and (n not in racing or race_envs)])
+
+
+def race_agent_names() -> tuple[str, ...]:
+    """The shipped agents that read a field only the race's observation has (``envs.race_layout.RACE_FIELDS``)."""
+    from vtrack_gym.baselines.shipped import shipped_agent_factories
+    from vtrack_gym.envs.race_layout import RACE_FIELDS
+
+    race = {f.name for f in RACE_FIELDS}
+    return tuple(n for n, make in shipped_agent_factories().items()
+                 if race & set((make(None).spec.get("env") or {}).get("observation_names", ())))
 
 
 def _valid_text() -> str:

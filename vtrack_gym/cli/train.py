@@ -22,7 +22,9 @@ def register(sub: Any) -> None:
                         "the versioned hyperparameters of vtrack_gym/agents/hyperparams, evaluate on both paper "
                         "scenarios periodically, and export a weights-only agent (agent.json + agent.npz) that "
                         "`vtrack eval` and the benchmark load without torch.")
-    tr.add_argument("--algo", choices=("ppo", "sac", "td3"), required=True, help="SB3 algorithm")
+    tr.add_argument("--algo", choices=("ppo", "sac", "td3", "dagger"), required=True,
+                    help="SB3 algorithm, or dagger: dataset aggregation of --bc-expert's labels into a small MLP "
+                    "agent, no RL update (vtrack/Race-v0: on the race split's training circuits)")
     tr.add_argument("--env", default=None,
                     help="training env id (default: vtrack/TrainingMix20Hz-v0, the from-scratch recipes' training "
                     "mix at 20 Hz decisions; with --bc-expert: LateralTrackingRandom-v0, the imitation recipes')")
@@ -55,6 +57,10 @@ def register(sub: Any) -> None:
                     help="vector-env steps of expert data for --bc-expert (x num-envs transitions; default: 3000)")
     tr.add_argument("--bc-dagger-rounds", type=opt.int_in(0, 100), default=None,
                     help="DAgger rounds after the expert's own round, each --bc-steps long (default: 2)")
+    tr.add_argument("--dagger-rounds", type=opt.int_in(0, 100), default=None,
+                    help="--algo dagger: rounds driven by the clone after the expert's (default: the recipe's)")
+    tr.add_argument("--dagger-circuits", type=opt.int_in(1, 1000), default=None,
+                    help="--algo dagger on vtrack/Race-v0: training races per round (default: the recipe's)")
     tr.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="hyperparams",
                     help="replace one hyperparameter of the YAML file, VALUE read as YAML (e.g. learning_rate=3e-5, "
                     "'policy_kwargs={net_arch: [64, 64]}', bc_weight=null to drop an entry); repeatable")
@@ -129,6 +135,11 @@ def run(args: argparse.Namespace) -> int:
 
     from vtrack_gym.agents.train import train
 
+    command = shlex.join(["vtrack", *sys.argv[1:]]) if args.argv is None else shlex.join(["vtrack", *args.argv])
+    if args.algo == "dagger":
+        return _run_dagger(args, command)
+    if args.dagger_rounds is not None or args.dagger_circuits is not None:
+        raise ValueError("--dagger-rounds and --dagger-circuits apply to --algo dagger only")
     bc = None
     if args.bc_expert is None and (args.bc_steps is not None or args.bc_dagger_rounds is not None):
         raise ValueError("--bc-steps and --bc-dagger-rounds apply to a --bc-expert warm start only")
@@ -144,7 +155,6 @@ def run(args: argparse.Namespace) -> int:
         bc = BCConfig(expert=name, expert_preset=preset or "default",
                       steps=defaults.steps if args.bc_steps is None else args.bc_steps,
                       dagger_rounds=defaults.dagger_rounds if args.bc_dagger_rounds is None else args.bc_dagger_rounds)
-    command = shlex.join(["vtrack", *sys.argv[1:]]) if args.argv is None else shlex.join(["vtrack", *args.argv])
     summary = train(args.algo, args.env, args.timesteps, args.seed, str(args.run_dir), num_envs=args.num_envs,
                     overrides=parse_hyperparams(args.hyperparams),
                     eval_freq=args.eval_freq, case1_max_steps=args.case1_max_steps,
@@ -158,4 +168,24 @@ def run(args: argparse.Namespace) -> int:
             f"`vtrack eval --policy {summary['agent']}` evaluates it, `vtrack export --run-dir {args.run_dir}` "
             "re-exports it")
         return 130
+    return 0
+
+
+def _run_dagger(args: argparse.Namespace, command: str) -> int:
+    """``--algo dagger``: the recipe of ``agents.dagger.dagger_recipe`` for ``--env`` with the options given."""
+    import json
+
+    from vtrack_gym.agents.dagger import dagger_recipe
+
+    refused = [flag for flag, value in (("--timesteps", args.timesteps), ("--set", args.hyperparams or None),
+                                        ("--bc-dagger-rounds", args.bc_dagger_rounds)) if value is not None]
+    if refused:
+        raise ValueError(f"{', '.join(refused)} do not apply to --algo dagger (use --dagger-rounds, --bc-steps, "
+                         "--num-envs, --dagger-circuits)")
+    name, _, preset = (args.bc_expert or "").partition(":")
+    summary = dagger_recipe(args.env, expert=name or None, expert_preset=preset or None, rounds=args.dagger_rounds,
+                            steps=args.bc_steps, num_envs=args.num_envs, circuits_per_round=args.dagger_circuits,
+                            control=args.control, seed=args.seed, run_dir=args.run_dir, command=command,
+                            overwrite=args.overwrite)
+    out(json.dumps(summary, indent=2, default=str))
     return 0

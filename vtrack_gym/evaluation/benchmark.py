@@ -131,7 +131,7 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
     vehicle = read_vehicle_once(vehicle)   # a vehicle file: its envs and rows use the bytes read here
     episodes = with_control(with_latency(with_vehicle(chosen.episodes_for(quick, seeds), vehicle), latency), control)
     label = suite_label(suite, quick, seeds)
-    factories = policy_factories(policies, {ep.control for ep in episodes})
+    factories = policy_factories(policies, {ep.control for ep in episodes}, [ep.env_id for ep in episodes])
     tasks = [EpisodeTask(recorded_id(name, make), make, ep, label, chosen.score(make),
                          keep_trace=ep.seed == episodes[0].seed or chosen.trace_every_seed)
              for name, make in factories.items() for ep in episodes]

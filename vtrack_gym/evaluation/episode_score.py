@@ -120,9 +120,10 @@ def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str,
 
 
 def policy_factories(names: Sequence[str] | dict[str, Any] | None = None,
-                     controls: set[str] | frozenset[str] = frozenset({"steer"})) -> dict[str, Any]:
+                     controls: set[str] | frozenset[str] = frozenset({"steer"}),
+                     env_ids: Sequence[str] | None = None) -> dict[str, Any]:
     """``{policy id: make(env) -> policy}`` for every baseline (default presets) and shipped agent that drives
-    episodes in the control modes ``controls`` (``resolve.default_policy_names``), or for
+    episodes in the control modes ``controls`` of the envs ``env_ids`` (``resolve.default_policy_names``), or for
     ``names`` (policy specs, see ``vtrack_gym.baselines.resolve``; all checked before any is returned; a dict of
     factories built already, e.g. of user code, is returned as is).
 
@@ -133,5 +134,5 @@ def policy_factories(names: Sequence[str] | dict[str, Any] | None = None,
 
     if isinstance(names, dict):  # factories already built: {policy id: make(env) -> policy}
         return dict(names)
-    specs = [str(n).strip() for n in names] if names else list(default_policy_names(controls))
+    specs = [str(n).strip() for n in names] if names else list(default_policy_names(controls, env_ids))
     return named_factories([(canonical_spec(spec), spec, policy_factory(spec)) for spec in specs])

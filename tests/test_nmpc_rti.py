@@ -10,7 +10,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-import vtrack_gym  # noqa: F401
+import vtrack_gym
 from vtrack_gym.baselines import dense_qp, nmpc_kernels, nmpc_rti
 from vtrack_gym.baselines.nmpc import NMPC
 from vtrack_gym.evaluation.metrics import evaluate_trace
@@ -236,3 +236,26 @@ def test_closed_loop_tracking_within_5_percent_of_the_casadi_iteration() -> None
     assert m_new["success"] == 1.0 and m_new["solver_failures"] == 0.0
     assert m_new["max_e_y_m"] <= 1.05 * m_old["max_e_y_m"]
     assert abs(m_new["rms_e_y_m"] / m_old["rms_e_y_m"] - 1.0) < 0.05
+
+
+def test_the_paired_nmpc_defers_its_preparation_in_the_accel_modes() -> None:
+    """In ``control="steer_accel"`` the nmpc is paired with a speed law (``Decoupled``); under
+    ``latency="measured"`` the harness's ``defer_preparation`` reaches the nmpc itself: every warm decision used
+    the preparation deferred after the previous one, and the nmpc's own setting is restored afterwards."""
+    env = gym.make("DLC120-v0", latency="measured", control="steer_accel")
+    paired = vtrack_gym.make_policy("nmpc", env)
+    assert paired.lateral.defer_preparation is False
+    engine = paired.lateral._engine
+    pending: list[int] = []
+    real = engine.prepare_pending
+
+    def spy() -> float:
+        pending.append(len(engine._pending))
+        return real()
+
+    engine.prepare_pending = spy
+    trace = rollout(paired, env, seed=0, max_steps=40)
+    stats = trace.solver_stats
+    assert trace.n_steps == 40 and not stats["cold_starts"][1:].any()
+    assert pending == [1] * 40   # each decision left its preparation to the harness's prepare() call
+    assert paired.lateral.defer_preparation is False and paired.defer_preparation is False

@@ -96,6 +96,17 @@ class Decoupled:
         """The lateral law's failed solves (``Policy.solver_failures``)."""
         return getattr(self.lateral, "solver_failures", 0)
 
+    @property
+    def defer_preparation(self) -> bool:
+        """The lateral law's two-phase switch (the NMPC's ``defer_preparation``): read from and written to the
+        lateral law, so a harness that defers the preparation defers the law's own (AttributeError where the
+        law has none)."""
+        return bool(self.lateral.defer_preparation)
+
+    @defer_preparation.setter
+    def defer_preparation(self, value: bool) -> None:
+        self.lateral.defer_preparation = value
+
     def __getattr__(self, name: str) -> Any:
         if name == "lateral":
             raise AttributeError(name)

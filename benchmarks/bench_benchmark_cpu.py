@@ -3,7 +3,8 @@
 Each policy's episodes are scored in this process (``run_benchmark(policies=[name], workers=1)``, no store, no
 figures) after one warm-up episode set (kernels compiled and cached, modules imported); the CPU time is
 ``time.process_time`` (all threads of this process), printed per policy with its share and the load average.
-Run: ``python benchmarks/bench_benchmark_cpu.py [POLICY ...]`` (default: every policy of the benchmark).
+Run: ``python benchmarks/bench_benchmark_cpu.py [POLICY ...]`` (default: the policies ``vtrack benchmark`` scores without ``--policies``,
+``default_policy_names()``).
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ import os
 import sys
 import time
 
-from vtrack_gym.baselines.resolve import policy_names
+from vtrack_gym.baselines.resolve import default_policy_names
 from vtrack_gym.evaluation.benchmark import run_benchmark
 
 TARGET_CPU_S = 15.0
@@ -41,4 +42,4 @@ def main(names: list[str]) -> None:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:] or list(policy_names()))
+    main(sys.argv[1:] or list(default_policy_names()))

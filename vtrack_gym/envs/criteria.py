@@ -19,7 +19,6 @@ A new criterion is one more class with these methods (see ``tests/test_scenario_
 from __future__ import annotations
 
 import math
-
 from dataclasses import dataclass
 from typing import Any, ClassVar, NamedTuple
 

@@ -1,9 +1,12 @@
 """An env step against a plant step, on one thread, in the same units: CPU time per car and control period.
 
 The env step is ``BatchSim.step`` (what the vector env and the single env call: speed loop, plant, projection,
-observation, termination, reward); the plant step is ``Plant.step`` alone over the same physics steps (5 of 2 ms).
-Both run on one numba thread and are timed with ``time.process_time`` (CPU time, so a loaded machine slows both
-alike), alternating env and plant per repeat; the median of the repeats is shown with the load average.
+observation, termination, reward); the plant step is ``Plant.step`` alone over the same physics steps (5 of 2 ms)
+at the same operating point: the env's cars start on the handling course at its target speed (11.1 m/s; the course
+itself starts them at rest, and the tyre model costs more near standstill, which would charge the env for other
+physics) and the plant steps copies of those cars (states, inputs, road) as the env has left them after its first
+step. Both run on one numba thread and are timed with ``time.process_time`` (CPU time, so a loaded machine slows
+both alike), alternating env and plant per repeat; the median of the repeats is shown with the load average.
 Run: ``python benchmarks/bench_env_vs_plant.py [N ...]`` (default N = 256 4096).
 """
 
@@ -32,31 +35,42 @@ def cpu_ns_per_call(fn: Callable[[], object]) -> float:
             return 1e9 * spent / calls
 
 
-def handling_course(n: int) -> Callable[[], object]:
+def handling_course(n: int, at_speed: bool = True) -> Callable[[], object]:
     """One control period of ``n`` cars on the handling course (steering 0.01; a car whose episode ended keeps
-    being stepped, as the compiled step does, so no Python-side reset is timed)."""
+    being stepped, as the compiled step does, so no Python-side reset is timed). ``at_speed``: the cars start at the
+    course's target speed instead of at rest."""
     from vtrack_gym.envs.config import EnvConfig, ResetOptions
     from vtrack_gym.envs.scenarios import resolve_scenario
     from vtrack_gym.envs.sim import BatchSim
+    from vtrack_gym.vehicle import layout as L
 
     sim = BatchSim(resolve_scenario("LateralTracking-v0"), EnvConfig(), n)
     for i in range(n):
         sim.seed(i, i)
         sim.reset_car(i, ResetOptions())
+    if at_speed:
+        sim.plant.state[:, L.S_VX] = sim.v_ref
     sim.observe_after_reset(np.arange(n))
     actions = np.full(n, 0.01)
 
-    return lambda: sim.step(actions)
+    def step() -> object:
+        return sim.step(actions)
+
+    step.sim = sim   # type: ignore[attr-defined]  # for plant_like
+    return step
 
 
-def plant_step(n: int) -> Callable[[], object]:
-    """The plant alone over one control period (5 physics steps) of ``n`` cars at 11 m/s."""
+def plant_like(env_step: Callable[[], object]) -> Callable[[], object]:
+    """The plant alone over one control period (5 physics steps) of copies of ``env_step``'s cars: their states,
+    inputs (steering, throttle, brake) and road as the env has left them."""
     from vtrack_gym.vehicle.plant import Plant
 
-    plant = Plant(n=n)
-    plant.state[:, 3] = 11.1
-    inputs = np.column_stack([np.full(n, 0.01), np.full(n, 0.2), np.zeros(n)])
-    return lambda: plant.step(inputs, 5)
+    sim = env_step.sim   # type: ignore[attr-defined]
+    plant = Plant(sim.config.vehicle, n=sim.n, model=sim.config.model, physics_dt_s=sim.config.physics_dt_s)
+    plant.state[:] = sim.plant.state
+    inputs, road = sim.inputs.copy(), sim.road.copy()
+    n_sub = sim.n_sub
+    return lambda: plant.step(inputs, n_sub, road)
 
 
 def main(sizes: list[int]) -> None:
@@ -67,8 +81,10 @@ def main(sizes: list[int]) -> None:
           f"{os.getloadavg()[0]:.1f} at start")
     print(f"{'N':>6} {'env ns':>9} {'plant ns':>9} {'env/plant':>10} {'load':>5}")
     for n in sizes:
-        env, plant = handling_course(n), plant_step(n)
-        env(), plant()   # compile and warm
+        env = handling_course(n)
+        env()   # compile and warm; the plant copies the cars after this step
+        plant = plant_like(env)
+        plant()
         ratios, envs, plants = [], [], []
         for _ in range(REPEATS):
             e = cpu_ns_per_call(env) / n

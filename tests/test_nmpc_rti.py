@@ -14,7 +14,7 @@ import vtrack_gym
 from vtrack_gym.baselines import dense_qp, nmpc_kernels, nmpc_rti
 from vtrack_gym.baselines.nmpc import NMPC
 from vtrack_gym.evaluation.metrics import evaluate_trace
-from vtrack_gym.evaluation.rollout import rollout
+from vtrack_gym.evaluation.rollout import rollout, rollout_batch
 from vtrack_gym.vehicle.params import DesignModel, VehicleParams
 
 DESIGN = DesignModel.from_vehicle(VehicleParams())
@@ -161,6 +161,26 @@ def test_statistics_are_recorded_per_decision_and_reach_the_row() -> None:
     for name in ("feedback_time", "preparation_time", "qp_time"):
         assert metrics[f"{name}_p95_us"] >= metrics[f"{name}_p50_us"] >= 0.0
     assert metrics["sqp_iterations_mean"] == 1.0 and metrics["cold_starts_max"] == 1.0
+
+
+def test_the_batch_rollout_records_the_statistics_as_the_single_one() -> None:
+    """``rollout_batch`` takes its decisions through the same code as ``rollout``: one car gives the single
+    rollout's actions and statistics (their counts exactly); two cars record the batch's figures per car (the mean
+    of the two), one entry per recorded step."""
+    env, policy = _policy()
+    single = rollout(policy, env, seed=3, max_steps=30)
+    one, = rollout_batch(NMPC.from_env(env), "DLC120-v0", [3], max_steps=30)
+    assert set(one.solver_stats) == set(nmpc_rti.STAT_NAMES)
+    for name in ("qp_iterations", "sqp_iterations", "cold_starts"):
+        np.testing.assert_array_equal(one.solver_stats[name], single.solver_stats[name])
+    np.testing.assert_array_equal(one["e_y_m"], single["e_y_m"])
+    pair = rollout_batch(NMPC.from_env(env), "DLC120-v0", [3, 4], max_steps=30)
+    for trace in pair:
+        stats = trace.solver_stats
+        assert all(v.shape == (trace.n_steps,) for v in stats.values())
+        assert stats["cold_starts"][0] == 1.0 and not stats["cold_starts"][1:].any()   # both cars cold, once
+        assert np.all(stats["feedback_s"] + stats["preparation_s"] <= trace.policy_time_s)   # per car, nested
+    assert evaluate_trace(pair[0])["sqp_iterations_mean"] == 1.0
 
 
 def test_with_compute_charged_the_preparation_is_deferred_and_not_charged() -> None:

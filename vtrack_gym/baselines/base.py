@@ -220,9 +220,7 @@ class Policy(abc.ABC):
         elif obs.ndim != 2 or obs.shape[1] != self.obs_dim:
             raise ValueError(f"observation must have shape ({self.obs_dim},) or (N, {self.obs_dim}) "
                              f"(got {obs.shape})")
-        with np.errstate(over="ignore", invalid="ignore"):
-            total = obs.sum()
-        if not math.isfinite(total):  # NaN or inf somewhere (or an overflowing sum: check exactly)
+        if not np.isfinite(obs).all():  # NaN or inf somewhere
             self._check_finite(obs)
         n = obs.shape[0]
         st = None

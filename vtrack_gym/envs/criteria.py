@@ -18,6 +18,7 @@ A new criterion is one more class with these methods (see ``tests/test_scenario_
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any, ClassVar, NamedTuple
 
@@ -95,6 +96,14 @@ class SuccessCriterion:
         criterion does not measure it). By default the rule is the road at the CG: cost 1.0 on the step that ends
         the episode ``off_road``."""
         return (cars.termination == cars.off_road_code).astype(np.float64), np.full(cars.steps.shape, np.inf)
+
+    def safety_of(self, state: Any, cars: CarsView, i: int) -> tuple[float, float]:
+        """``safety`` of car ``i`` alone, as floats (the single env's per-step path): the default rule without
+        building the batch's arrays; a criterion with its own ``safety`` is read through it."""
+        if type(self).safety is SuccessCriterion.safety:
+            return (1.0 if cars.termination[i] == cars.off_road_code else 0.0), math.inf
+        cost, margin = self.safety(state, cars)
+        return float(cost[i]), float(margin[i])
 
 
 @dataclass(frozen=True)

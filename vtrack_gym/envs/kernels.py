@@ -5,10 +5,11 @@ env run the same per-car code and give bit-identical results. Imported lazily by
 
 Every array the step reads or writes travels in one ``SimArrays`` bundle (a NamedTuple: fields are read by
 name, so two arrays cannot be swapped silently). Track data of all paths in use are concatenated: ``tables``
-(M, 12): the 8 columns of ``vtrack_gym.tracks.path``, then the squared reference speed v_ref^2 [m^2/s^2], the
+(M, 14): the 8 columns of ``vtrack_gym.tracks.path``, then the squared reference speed v_ref^2 [m^2/s^2], the
 drivable half widths left / right [m] of each row (``C_V2``, ``C_WL``, ``C_WR``; interpolated linearly, so v^2 is
-linear in s between rows) and the cumulative reference time t_ref(s_i) [s] of the speed table's time law
-(``C_T``: ``tracks.time_law``, from which ``reference_time`` gives the exact t_ref(s) between rows); ``tmeta``
+linear in s between rows), the cumulative reference time t_ref(s_i) [s] of the speed table's time law
+(``C_T``: ``tracks.time_law``, from which ``reference_time`` gives the exact t_ref(s) between rows) and cos psi,
+sin psi of the row's heading (``C_COS``, ``C_SIN``: the projection reads them instead of computing them); ``tmeta``
 (K, N_TM) holds per track k its first row, row count, spacing [m], length [m], closed flag (0/1), half width [m],
 whether it has a speed profile (0/1), the release station [m] from which the speed loop is off (+inf on every track
 but an ``EntryThenRelease`` one), the pedals' mode after it (0 coast, 1 hold the throttle) and the table's lap time
@@ -54,8 +55,10 @@ from vtrack_gym.vehicle.kernels import step_vehicle
 C_X, C_Y, C_PSI, C_KAPPA = track_table.COL_X, track_table.COL_Y, track_table.COL_PSI, track_table.COL_KAPPA
 C_DKAPPA, C_Z, C_GRADE, C_ZPP = track_table.COL_DKAPPA, track_table.COL_Z, track_table.COL_GRADE, track_table.COL_ZPP
 N_COLS = track_table.N_COLS
-C_V2, C_WL, C_WR, C_T = range(N_COLS, N_COLS + 4)   # the env's own columns after the path's
-N_ENV_COLS = N_COLS + 4   # C_T: the reference's time law at the row, t_ref(s_i) [s] (tracks.time_law.row_times_s)
+C_V2, C_WL, C_WR, C_T, C_COS, C_SIN = range(N_COLS, N_COLS + 6)   # the env's own columns after the path's
+N_ENV_COLS = N_COLS + 6   # C_T: the reference's time law at the row, t_ref(s_i) [s] (tracks.time_law.row_times_s);
+                          # C_COS, C_SIN: cos and sin of the row's heading (tracks.kernels.trig_columns), read by the
+                          # projection and the row interpolation instead of computed (the same bits)
 
 # Track metadata columns and per-car scalar columns.
 TM_START, TM_N, TM_DS, TM_LEN, TM_CLOSED, TM_HALF_WIDTH, TM_PROFILE, TM_RELEASE_S, TM_RELEASE_HOLD = range(9)
@@ -178,6 +181,7 @@ SPIN_HEADING_RAD = 0.5 * math.pi   # |e_phi| beyond this: spun out / driving the
 SPIN_SIDESLIP_RAD = 0.3            # |atan(v_y / v_x)| beyond this above 3 m/s, with the rear axle's sideslip
                                    # |atan((v_y - a2 r) / v_x)| beyond it too: spun out (a car rolling round a
                                    # 6 m radius has a CG sideslip of atan(a2 / R) = 0.31 rad without any sliding)
+SIDESLIP_SCREEN = 0.3               # tan of an angle below SPIN_SIDESLIP_RAD: |v_y| / v_x under it is no spin
 ERR_COLS = 10                      # s*, e_y, e_phi, kappa, s_dot, z, half width left, right at the projection,
 E_S, E_EY, E_EPHI, E_KAPPA, E_SDOT, E_Z, E_WL, E_WR, E_EV, E_ET = range(ERR_COLS)  # speed and time error
 
@@ -203,7 +207,7 @@ EV_BOUND, ET_BOUND = (f.bound for f in TRACKING_ERRORS)   # the tracking-error f
 observation space promises)."""
 
 
-@kernel
+@kernel(inline=True)
 def write_scalar_fields(obs_row: np.ndarray, e_y: float, e_phi: float, v_x: float, v_y: float, yaw_rate: float,
                         road_wheel_angle: float, target_speed: float, kappa: float, dkappa: float, s_dot: float,
                         a_x: float) -> None:
@@ -240,7 +244,7 @@ def write_scalar_fields(obs_row: np.ndarray, e_y: float, e_phi: float, v_x: floa
         obs_row[j] = -bound if v < -bound else (bound if v > bound else v)
 
 
-@kernel
+@kernel(inline=True)
 def observe_one(i: int, a: SimArrays, a_x: float, window_m: float, first: bool) -> None:
     """Project car ``i`` on its path and write its observation row, road inputs and error row."""
     state, car, cfg, row = a.states[i], a.car, a.cfg, a.rows[i]
@@ -262,7 +266,7 @@ def observe_one(i: int, a: SimArrays, a_x: float, window_m: float, first: bool) 
 
     follow = a.tmeta[k, TM_PROFILE] != 0.0 and car[i, CAR_FOLLOW] != 0.0
     s_guess = -1.0 if first else car[i, CAR_S_PREV]
-    s = project_point(table, ds, length, closed, x, y, s_guess, window_m)
+    s = project_point(table, ds, length, closed, x, y, s_guess, window_m, C_COS)
     if first:
         car[i, CAR_PROGRESS] = 0.0
         car[i, CAR_STEPS] = 0.0
@@ -278,7 +282,7 @@ def observe_one(i: int, a: SimArrays, a_x: float, window_m: float, first: bool) 
         car[i, CAR_PROGRESS] += step_s
     car[i, CAR_S_PREV] = s
 
-    interp_row(table, ds, length, closed, s, row)
+    interp_row(table, ds, length, closed, s, row, C_COS)
     w_left = _linear(table, ds, length, closed, s, C_WL)
     w_right = _linear(table, ds, length, closed, s, C_WR)
     if follow:
@@ -333,7 +337,7 @@ def observe_one(i: int, a: SimArrays, a_x: float, window_m: float, first: bool) 
     err[i, E_ET] = e_t
 
 
-@kernel
+@kernel(inline=True)
 def reference_time(table: np.ndarray, ds: float, length: float, closed: bool, lap_s: float, s: float) -> float:
     """The reference's time law t_ref(s) [s] at station ``s`` [m] from the table's ``C_T`` and ``C_V2`` columns:
     ``tracks.time_law.TimeLaw.time_at`` (exact for v^2 linear between rows; laps counted on a closed path, s
@@ -351,7 +355,7 @@ def reference_time(table: np.ndarray, ds: float, length: float, closed: bool, la
     return table[j, C_T] + 2.0 * into / (math.sqrt(v0sq) + v_s) + laps * lap_s
 
 
-@kernel
+@kernel(inline=True)
 def time_error(i: int, a: SimArrays, table: np.ndarray, ds: float, length: float, closed: bool) -> float:
     """Car ``i``'s time error e_t = t - (t_ref(s0 + progress) - t_ref(s0)) [s] (positive: behind the reference),
     t = steps x control period, s0 its station at reset; a car holding a per-episode set speed the table does not
@@ -367,7 +371,7 @@ def time_error(i: int, a: SimArrays, table: np.ndarray, ds: float, length: float
                 - car[i, CAR_T0])
 
 
-@kernel
+@kernel(inline=True)
 def termination_one(i: int, a: SimArrays) -> int:
     """Termination code of car ``i`` after a step (``T_NONE`` if it goes on); stores its min wheel load."""
     state, outputs, err, car, tmeta = a.states[i], a.outputs[i], a.err, a.car, a.tmeta
@@ -386,7 +390,10 @@ def termination_one(i: int, a: SimArrays) -> int:
     vx = state[L.S_VX]
     if abs(err[i, E_EPHI]) > SPIN_HEADING_RAD:
         return T_SPIN_OUT
-    if vx > 3.0 and abs(math.atan2(state[L.S_VY], vx)) > SPIN_SIDESLIP_RAD and \
+    # |v_y| <= 0.3 v_x gives |atan2(v_y, v_x)| <= atan(0.3) = 0.29 < SPIN_SIDESLIP_RAD: no atan2 needed (the same
+    # verdict, the usual case)
+    if vx > 3.0 and abs(state[L.S_VY]) > SIDESLIP_SCREEN * vx and \
+            abs(math.atan2(state[L.S_VY], vx)) > SPIN_SIDESLIP_RAD and \
             abs(math.atan2(state[L.S_VY] - a.params[i, L.P_A2] * state[L.S_R], vx)) > SPIN_SIDESLIP_RAD:
         return T_SPIN_OUT
     margin = a.cfg[CFG_OFF_ROAD]
@@ -400,7 +407,7 @@ def termination_one(i: int, a: SimArrays) -> int:
     return T_NONE
 
 
-@kernel
+@kernel(inline=True)
 def reward_one(code: int, e_y: float, e_phi: float, action: float, prev_action: float, rw: np.ndarray,
                terms: np.ndarray, longitudinal: bool, e_v: float) -> float:
     """Reward of one car for one step; its seven terms (``REWARD_TERMS`` order) go to ``terms``. The speed term
@@ -430,7 +437,7 @@ def reward_one(code: int, e_y: float, e_phi: float, action: float, prev_action: 
     return total + terms[6]
 
 
-@kernel
+@kernel(inline=True)
 def write_signals(i: int, a: SimArrays) -> None:
     """Car ``i``'s row of ``info`` signals (``envs.schema.ROW_SIGNALS``; the reward terms are written apart)."""
     st, sig, car = a.states[i], a.sig[i], a.car

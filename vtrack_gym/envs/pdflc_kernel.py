@@ -29,7 +29,7 @@ def pdflc_gains(config: PDFLCConfig, dt_s: float) -> np.ndarray:
                      3.6 if config.speed_error_in_kmh else 1.0])
 
 
-@kernel
+@kernel(inline=True)
 def _surface_value(surface: np.ndarray, e: float, de: float, kink_aligned: bool) -> float:
     """Interpolated fuzzy output at clipped inputs (bilinear, or triangles aligned with the Mamdani kinks)."""
     n = surface.shape[0]
@@ -55,7 +55,7 @@ def _surface_value(surface: np.ndarray, e: float, de: float, kink_aligned: bool)
     return f11 + (1.0 - fx) * (f01 - f11) + (1.0 - fy) * (f10 - f11)
 
 
-@kernel
+@kernel(inline=True)
 def pdflc_step(v: float, v_ref: float, mem: np.ndarray, gains: np.ndarray, surface: np.ndarray,
                kink_aligned: bool) -> tuple[float, float]:
     """Throttle fraction [0..1] and brake pedal force [N] for speed ``v`` and set point ``v_ref`` [m/s]."""

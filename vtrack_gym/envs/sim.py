@@ -10,6 +10,7 @@ batch seeded with ``seed`` reproduces a single env seeded with ``seed + i`` bit 
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from typing import Any
 
@@ -366,11 +367,13 @@ class BatchSim:
     def safety(self, i: int | None = None) -> tuple[Any, Any]:
         """``info["cost"]`` and ``info["edge_margin_m"]`` [m] of the last step (``envs.schema.SAFETY_SIGNALS``) of
         every car ((n,) float64 each), or floats of car ``i``; 0.0 and inf right after a reset."""
+        if i is not None:
+            return (0.0, math.inf) if self.steps[i] == 0 else self.criterion.safety_of(self.verdicts, self._cars, i)
         cost, margin = self.criterion.safety(self.verdicts, self._cars)
         fresh = self.steps == 0
         cost = np.where(fresh, 0.0, cost)
         margin = np.where(fresh, np.inf, margin)
-        return (cost, margin) if i is None else (float(cost[i]), float(margin[i]))
+        return cost, margin
 
     def success_metrics(self, i: int) -> dict[str, float]:
         """The success criterion's leaderboard figures of car ``i``'s episode so far (e.g. ``cones_hit``)."""

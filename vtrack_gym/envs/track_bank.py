@@ -2,7 +2,8 @@
 
 All paths in use are concatenated into ``tables`` (M, ``N_ENV_COLS``): the path's own columns
 (``tracks.table``), then the squared reference speed and the half widths left / right (``kernels.C_V2``,
-``C_WL``, ``C_WR``) and the reference's time law at each row (``C_T``, ``tracks.time_law``); ``meta`` (K,
+``C_WL``, ``C_WR``), the reference's time law at each row (``C_T``, ``tracks.time_law``) and the cos and sin of
+each row's heading (``C_COS``, ``C_SIN``: read by the projection instead of computed); ``meta`` (K,
 ``N_TM``) holds per path its first row, row count, spacing, length, closed flag, half width, whether the speed
 protocol follows a profile, the station and mode of an ``EntryThenRelease`` protocol's release, and the table's
 lap time (``kernels.TM_*``). Code outside this class reads the
@@ -24,6 +25,15 @@ TIME_LIMIT_FACTOR = 1.5
 TIME_LIMIT_MARGIN_S = 30.0
 
 
+def heading_trig(table: np.ndarray) -> np.ndarray:
+    """cos and sin of each row's heading (M, 2) (``kernels.C_COS``, ``C_SIN``; ``tracks.kernels.trig_columns``)."""
+    from vtrack_gym.tracks.kernels import trig_columns
+
+    out = np.empty((table.shape[0], 2))
+    trig_columns(np.ascontiguousarray(table[:, COL_PSI]), out)
+    return out
+
+
 class TrackBank:
     """The paths a scenario's cars drive on, their speed tables and the packed arrays the kernel reads."""
 
@@ -36,8 +46,8 @@ class TrackBank:
         self.time_laws = tuple(time_law(t) for t in self.speed_tables)
         """The reference's time law t_ref(s) of each speed table (``tracks.time_law``)."""
         self.tables = np.ascontiguousarray(np.concatenate([
-            np.column_stack([p.table, t.v_mps ** 2, p.half_widths_rows(), law.row_times_s]) for p, t, law in zip(
-                paths, self.speed_tables, self.time_laws, strict=True)]))
+            np.column_stack([p.table, t.v_mps ** 2, p.half_widths_rows(), law.row_times_s, heading_trig(p.table)])
+            for p, t, law in zip(paths, self.speed_tables, self.time_laws, strict=True)]))
         counts = np.array([p.table.shape[0] for p in paths], dtype=np.int64)
         starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
         meta = np.zeros((len(paths), k.N_TM))

@@ -66,20 +66,77 @@ def two_phase(policy: PolicyLike) -> bool:
 
 
 class _StatsLog:
-    """Per-decision solver statistics gathered into arrays (names seen on the first decision)."""
+    """Per-decision solver statistics gathered into arrays (names seen on the first decision), each divided by
+    ``cars`` (a batch decision's totals as the mean per car; 1: as reported)."""
 
-    def __init__(self) -> None:
+    def __init__(self, cars: int = 1) -> None:
         self.values: dict[str, list[float]] = {}
+        self.cars = cars
 
     def add(self, policy: PolicyLike) -> None:
         stats = solver_stats_of(policy)
         if stats is None:
             return
         for key, value in stats.items():
-            self.values.setdefault(key, []).append(float(value))
+            self.values.setdefault(key, []).append(float(value) / self.cars)
 
-    def arrays(self) -> dict[str, np.ndarray]:
-        return {key: np.asarray(v) for key, v in self.values.items()}
+    def arrays(self, steps: int | None = None) -> dict[str, np.ndarray]:
+        """Each statistic over the first ``steps`` decisions (None: all)."""
+        return {key: np.asarray(v[:steps]) for key, v in self.values.items()}
+
+
+class Decisions:
+    """The policy's side of every step, one code path for ``rollout`` and ``rollout_batch``: ``predict`` on the
+    ``n`` cars' observations, timed; with ``charge`` (the single env's ``charge_compute`` under
+    ``latency="measured"``) the call's time charged and a two-phase policy's preparation (``two_phase``) deferred
+    until after it, so only the feedback delays the command; the decision's time per car [s] and the policy's
+    solver statistics (per car) logged. Use as a context manager: ``defer_preparation`` is restored on exit."""
+
+    def __init__(self, policy: PolicyLike, n: int, deterministic: bool = True,
+                 charge: Any = None) -> None:
+        self.policy = policy
+        self.n = n
+        self.deterministic = deterministic
+        self.charge = charge
+        self.split = charge is not None and two_phase(policy)
+        self.state: Any = None
+        self.episode_start = np.ones(n, dtype=bool)
+        self._running = np.zeros(n, dtype=bool)
+        self.policy_s: list[float] = []
+        """Each decision's time per car [s] (with the deferred preparation)."""
+        self.stats = _StatsLog(n)
+        self._reports = hasattr(policy, "last_solver_stats")
+        self._failures_before = solver_failure_count(policy)
+        self._deferred_before = False
+
+    def __enter__(self) -> Decisions:
+        if self.split:   # only the feedback phase (predict) is charged; the preparation runs after the command
+            self._deferred_before = self.policy.defer_preparation
+            self.policy.defer_preparation = True
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self.split:
+            self.policy.defer_preparation = self._deferred_before
+
+    def decide(self, obs: np.ndarray) -> tuple[Any, float]:
+        """The policy's action for ``obs`` and the ``time.perf_counter`` reading at the decision's start [s]."""
+        start = time.perf_counter()
+        action, self.state = self.policy.predict(obs, state=self.state, episode_start=self.episode_start,
+                                                 deterministic=self.deterministic)
+        if self.charge is not None:   # the policy call alone is charged, not the harness around it
+            self.charge(time.perf_counter() - start)
+        if self.split:
+            self.policy.prepare()
+        self.policy_s.append((time.perf_counter() - start) / self.n)
+        if self._reports:
+            self.stats.add(self.policy)
+        self.episode_start = self._running
+        return action, start
+
+    def failures(self) -> int | None:
+        """Solves that failed since the start (None when the policy does not count them)."""
+        return _failures_since(self.policy, self._failures_before)
 
 
 def _failures_since(policy: PolicyLike, before: int | None) -> int | None:
@@ -110,50 +167,27 @@ def rollout(policy: PolicyLike, env_id_or_env: str | gym.Env, seed: int | None =
     cfg = unwrapped.config
     latency = getattr(unwrapped, "latency", None)
     measured = latency is not None and latency.mode == "measured"
-    state = None
-    episode_start = np.ones(1, dtype=bool)
     infos: list[dict[str, Any]] = []
     termination = "max_steps"
     step_s: list[float] = []   # wall time of each step (policy + env) [s]
-    policy_s: list[float] = []  # wall time of each decision (the policy's predict alone) [s]
-    failures_before = solver_failure_count(policy)
-    split = measured and two_phase(policy)
-    deferred_before = policy.defer_preparation if split else False
-    stats = _StatsLog()
-    steps = 0
-    try:
-        if split:   # only the feedback phase (predict) is charged; the preparation runs after the command is sent
-            policy.defer_preparation = True
-        while max_steps is None or steps < max_steps:
-            start = time.perf_counter()
-            action, state = policy.predict(obs, state=state, episode_start=episode_start,
-                                           deterministic=deterministic)
-            decided = time.perf_counter()
-            if measured:   # the policy call alone is charged, not the harness around it
-                unwrapped.charge_compute(decided - start)
-            if split:
-                policy.prepare()
-            policy_s.append(time.perf_counter() - start)
-            stats.add(policy)
-            episode_start = np.zeros(1, dtype=bool)
-            obs, _, terminated, truncated, info = env.step(step_action(action, env.action_space.shape))
+    shape = env.action_space.shape
+    with Decisions(policy, 1, deterministic, unwrapped.charge_compute if measured else None) as decisions:
+        while max_steps is None or len(infos) < max_steps:
+            action, start = decisions.decide(obs)
+            obs, _, terminated, truncated, info = env.step(step_action(action, shape))
             step_s.append(time.perf_counter() - start)
             infos.append(info)
-            steps += 1
             if terminated or truncated:
                 termination = info["termination"] if terminated else "time_limit"
                 break
-    finally:
-        if split:
-            policy.defer_preparation = deferred_before
     # the median step x steps: kernels compiled on first use (at any step) and a shared machine's hiccups stay out
     wall = float(np.median(step_s)) * len(step_s) if step_s else 0.0
     return Trace.from_infos(infos, env_id=env_id, policy_id=policy_id_of(policy), seed=seed,
                             physics_rate_hz=1.0 / cfg.physics_dt_s, control_period_s=cfg.control_period_s,
                             termination=termination, wall_time_s=wall,
                             meta={"options": dict(options or {}), "model": cfg.model},
-                            policy_time_s=np.asarray(policy_s),
-                            solver_failures=_failures_since(policy, failures_before), solver_stats=stats.arrays(),
+                            policy_time_s=np.asarray(decisions.policy_s),
+                            solver_failures=decisions.failures(), solver_stats=decisions.stats.arrays(),
                             reference=reference)
 
 
@@ -161,14 +195,16 @@ def rollout_batch(policy: PolicyLike, env_id: str, seeds: list[int], options: di
                   max_steps: int | None = None, deterministic: bool = True) -> list[Trace]:
     """One episode per seed, all cars stepped together on the native vector env (car i seeded ``seeds[i]``).
 
-    Cars that finish early are frozen (their later steps are not recorded); returns traces in seed order. Each
-    trace's ``policy_time_s`` is the batch's decision time divided by the number of cars; its ``solver_failures``
-    the batch's failed solves when there are none or one car (a failure cannot be attributed to a car), else
-    None.
+    Cars that finish early are frozen (their later steps are not recorded); returns traces in seed order. The
+    decisions go through ``Decisions`` as in ``rollout``: each trace's ``policy_time_s`` is the batch's decision
+    time divided by the number of cars and its ``solver_stats`` the batch decision's statistics divided by it too
+    (the mean per car: one car gives ``rollout``'s figures); its ``solver_failures`` the batch's failed solves when
+    there are none or one car (a failure cannot be attributed to a car), else None. Compute latency is not charged:
+    the vector env refuses it (one decision's compute for every car at once is not defined), so a two-phase policy
+    prepares within its decision, as ``rollout`` runs it without latency.
     """
     n = len(seeds)
     envs = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
-    sim = envs.unwrapped.sim if hasattr(envs, "unwrapped") else envs.sim
     obs, _ = envs.reset(seed=list(seeds), options=options)
     cfg = envs.unwrapped.config
     references = [episode_reference(envs, i) for i in range(n)]
@@ -176,42 +212,41 @@ def rollout_batch(policy: PolicyLike, env_id: str, seeds: list[int], options: di
     records: list[dict[str, list]] = [{k: [] for k in (*STEP_SIGNALS, "fz_n", "acc")} for _ in range(n)]
     terminations = ["max_steps"] * n
     verdicts: list[bool | None] = [None] * n
-    state = None
-    episode_start = np.ones(n, dtype=bool)
-    policy_s: list[float] = []
-    failures_before = solver_failure_count(policy)
     start = time.perf_counter()
     steps = 0
-    while active.any() and (max_steps is None or steps < max_steps):
-        tick = time.perf_counter()
-        action, state = policy.predict(obs, state=state, episode_start=episode_start, deterministic=deterministic)
-        policy_s.append((time.perf_counter() - tick) / n)
-        episode_start = np.zeros(n, dtype=bool)
-        obs, _, terminated, truncated, info = envs.step(step_action(action, envs.action_space.shape))
-        steps += 1
-        sig = info
-        for i in np.flatnonzero(active):
-            rec = records[i]
-            for name in STEP_SIGNALS:
-                rec[name].append(float(sig[name][i]))
-            rec["fz_n"].append(sig["fz_n"][i])
-            rec["acc"].append(sig["acc_substeps_mps2"][i])
-            if terminated[i] or truncated[i]:
-                terminations[i] = str(sig["termination"][i]) if terminated[i] else "time_limit"
-                if "success" in sig and sig["success"][i] is not None:
-                    verdicts[i] = bool(sig["success"][i])
-                active[i] = False
+    shape = envs.action_space.shape
+    with Decisions(policy, n, deterministic) as decisions:
+        while active.any() and (max_steps is None or steps < max_steps):
+            action, _ = decisions.decide(obs)
+            obs, _, terminated, truncated, info = envs.step(step_action(action, shape))
+            steps += 1
+            for i in np.flatnonzero(active):
+                _record_car(records[i], info, i)
+                if "success" in info:   # the last recorded step's verdict, as ``Trace.from_infos`` reads it
+                    verdicts[i] = bool(info["success"][i])
+                if terminated[i] or truncated[i]:
+                    terminations[i] = str(info["termination"][i]) if terminated[i] else "time_limit"
+                    active[i] = False
     wall = time.perf_counter() - start
-    del sim
-    failures = _failures_since(policy, failures_before)
+    failures = decisions.failures()
     failures = failures if failures == 0 or n == 1 else None
+    meta = {"options": dict(options or {}), "model": cfg.model}
     traces = []
     for i, seed in enumerate(seeds):
         rec = records[i]
+        recorded = len(rec["time_s"])
         signals = {name: np.asarray(rec[name]) for name in STEP_SIGNALS}
         traces.append(Trace(env_id, policy_id_of(policy), seed, signals, np.asarray(rec["fz_n"]),
                             np.concatenate(rec["acc"], axis=0), 1.0 / cfg.physics_dt_s, cfg.control_period_s,
-                            terminations[i], wall / max(steps, 1) / n, {"options": dict(options or {}),
-                                                                         "model": cfg.model}, verdicts[i],
-                            np.asarray(policy_s[:len(rec["time_s"])]), failures, references[i]))
+                            terminations[i], wall / max(steps, 1) / n, dict(meta), verdicts[i],
+                            np.asarray(decisions.policy_s[:recorded]), failures, references[i],
+                            decisions.stats.arrays(recorded)))
     return traces
+
+
+def _record_car(rec: dict[str, list], info: dict[str, Any], i: int) -> None:
+    """Append car ``i``'s signals of the vector env's step ``info`` to its record."""
+    for name in STEP_SIGNALS:
+        rec[name].append(float(info[name][i]))
+    rec["fz_n"].append(info["fz_n"][i])
+    rec["acc"].append(info["acc_substeps_mps2"][i])

@@ -23,12 +23,17 @@ C_X, C_Y, C_PSI, C_KAPPA, C_DKAPPA, C_Z, C_GRADE, C_ZPP = range(8)
 N_COLS = C_ZPP + 1    # columns of a table row
 TOL_M = 1e-10          # refinement stops when s moves less than this [m]
 MAX_ITER = 12
+INSIDE_LAP = 1.0 - 1e-12
+"""A closed path's station below this fraction of its length is already wrapped (its quotient by the length
+rounds below 1 whatever the rounding): ``wrap_s`` returns it without the division."""
 
 
 @kernel
 def wrap_s(s: float, length: float, closed: bool) -> float:
     """Arc length wrapped into [0, length) (closed) or clamped to [0, length] (open) [m]."""
     if closed:
+        if 0.0 < s < INSIDE_LAP * length:   # floor(s / length) is 0 there: the formula below gives s itself
+            return s
         w = s - math.floor(s / length) * length
         if w >= length or w < 0.0:
             w = 0.0
@@ -69,13 +74,18 @@ def _locate(n: int, ds: float, length: float, closed: bool, s: float) -> tuple[i
 
 
 @kernel(inline=True)
-def _plane_at(table: np.ndarray, i: int, t: float, ds: float) -> tuple[float, float, float, float]:
+def _plane_at(table: np.ndarray, i: int, t: float, ds: float, trig: int) -> tuple[float, float, float, float]:
     """(X [m], Y [m], psi [rad], kappa [1/m]) at fraction t of the interval from row i (the one formula of the
-    plane columns, for ``_geom`` and ``interp_row``)."""
+    plane columns, for ``_geom`` and ``interp_row``). ``trig`` >= 0: the table holds cos psi and sin psi of each
+    row in columns ``trig`` and ``trig + 1`` (``trig_columns``: the same bits), read instead of computed."""
     a = table[i]
     b = table[i + 1]
-    ca, sa = math.cos(a[C_PSI]), math.sin(a[C_PSI])
-    cb, sb = math.cos(b[C_PSI]), math.sin(b[C_PSI])
+    if trig >= 0:
+        ca, sa = a[trig], a[trig + 1]
+        cb, sb = b[trig], b[trig + 1]
+    else:
+        ca, sa = math.cos(a[C_PSI]), math.sin(a[C_PSI])
+        cb, sb = math.cos(b[C_PSI]), math.sin(b[C_PSI])
     ka, kb = a[C_KAPPA], b[C_KAPPA]
     x = _h5(a[C_X], ca, -ka * sa, b[C_X], cb, -kb * sb, t, ds)
     y = _h5(a[C_Y], sa, ka * ca, b[C_Y], sb, kb * cb, t, ds)
@@ -84,18 +94,32 @@ def _plane_at(table: np.ndarray, i: int, t: float, ds: float) -> tuple[float, fl
     return x, y, psi, kap
 
 
-@kernel
-def _geom(table: np.ndarray, ds: float, length: float, closed: bool, s: float) -> tuple[float, float, float, float]:
-    """(X [m], Y [m], psi [rad], kappa [1/m]) at s."""
+@kernel(inline=True)
+def _geom(table: np.ndarray, ds: float, length: float, closed: bool, s: float,
+          trig: int = -1) -> tuple[float, float, float, float]:
+    """(X [m], Y [m], psi [rad], kappa [1/m]) at s (``trig``: see ``_plane_at``)."""
     i, t = _locate(table.shape[0], ds, length, closed, s)
-    return _plane_at(table, i, t, ds)
+    return _plane_at(table, i, t, ds, trig)
 
 
 @kernel
-def interp_row(table: np.ndarray, ds: float, length: float, closed: bool, s: float, out_row: np.ndarray) -> None:
-    """Write all 8 columns at arc length s [m] into out_row (wrapped for closed, clamped for open paths)."""
+def trig_columns(psi: np.ndarray, out: np.ndarray) -> None:
+    """cos and sin of each row's heading ``psi`` (M,) [rad] into ``out`` (M, 2): the columns a table passes to
+    ``interp_row`` and ``project_point`` as ``trig`` (computed by the same compiled calls as without them, so the
+    results keep their bits)."""
+    for i in range(psi.shape[0]):
+        out[i, 0] = math.cos(psi[i])
+        out[i, 1] = math.sin(psi[i])
+
+
+@kernel(inline=True)
+def interp_row(table: np.ndarray, ds: float, length: float, closed: bool, s: float, out_row: np.ndarray,
+               trig: int = -1) -> None:
+    """Write all 8 columns at arc length s [m] into out_row (wrapped for closed, clamped for open paths).
+    ``trig`` >= 0: columns ``trig``, ``trig + 1`` of ``table`` hold cos psi, sin psi of each row
+    (``trig_columns``)."""
     i, t = _locate(table.shape[0], ds, length, closed, s)
-    x, y, psi, kap = _plane_at(table, i, t, ds)
+    x, y, psi, kap = _plane_at(table, i, t, ds, trig)
     out_row[C_X] = x
     out_row[C_Y] = y
     out_row[C_PSI] = psi
@@ -108,7 +132,7 @@ def interp_row(table: np.ndarray, ds: float, length: float, closed: bool, s: flo
     out_row[C_ZPP] = a[C_ZPP] + t * (b[C_ZPP] - a[C_ZPP])
 
 
-@kernel
+@kernel(inline=True)
 def curvature_at(table: np.ndarray, ds: float, length: float, closed: bool, s: float) -> float:
     """Curvature [1/m] at arc length s [m]: ``interp_row``'s kappa column alone (the same formula and bits, without
     the plane's 4 sin/cos and the other 7 columns; what a curvature preview needs)."""
@@ -118,7 +142,7 @@ def curvature_at(table: np.ndarray, ds: float, length: float, closed: bool, s: f
     return _h3(a[C_KAPPA], a[C_DKAPPA], b[C_KAPPA], b[C_DKAPPA], t, ds)
 
 
-@kernel
+@kernel(inline=True)
 def interp_linear(table: np.ndarray, ds: float, length: float, closed: bool, s: float, col: int) -> float:
     """Column ``col`` of ``table`` at arc length s [m], linear between rows (wrapped / clamped like the path)."""
     j, t = _locate(table.shape[0], ds, length, closed, s)
@@ -186,18 +210,18 @@ def _nearest_sample(table: np.ndarray, ds: float, closed: bool, x: float, y: flo
 
 @kernel
 def project_point(table: np.ndarray, ds: float, length: float, closed: bool, x: float, y: float, s_guess: float,
-                  window_m: float) -> float:
+                  window_m: float, trig: int = -1) -> float:
     """Arc length s* [m] of the closest path point to (x, y) [m].
 
     Coarse search over the samples within +- window_m [m] of s_guess [m] (warm start; global if s_guess < 0),
     then refinement: project (x, y) exactly onto the osculating circle at the current s and move there, until s
     moves less than 1e-10 m (exact on arcs and straights, a few steps on clothoids). Wrapped for closed paths,
-    clamped to [0, length] for open ones.
+    clamped to [0, length] for open ones. ``trig``: as for ``interp_row`` (the same s, fewer sin / cos).
     """
     s = _nearest_sample(table, ds, closed, x, y, s_guess, window_m) * ds
     step_max = max(4.0 * ds, 2.0)
     for _ in range(MAX_ITER):
-        xr, yr, psi, kap = _geom(table, ds, length, closed, s)
+        xr, yr, psi, kap = _geom(table, ds, length, closed, s, trig)
         c = math.cos(psi)
         sn = math.sin(psi)
         px = x - xr

@@ -9,7 +9,7 @@ a steering law and the feed-forward/P speed law. A race has no time law to keep 
 NMPC's time weight defaults to 0 here (``RACE_NMPC``); the speed weight pulls the car to the profile, the braking
 zones included; the model knows the brakes' grip limit and the friction ellipse.
 
-Its profile is ``raceline``'s at ``grip_scale`` 0.94 and ``brake_scale`` 0.7 (preset ``default``; ``raceline``
+Its profile is ``raceline``'s at ``grip_scale`` 0.97 and ``brake_scale`` 0.85 (preset ``default``; ``raceline``
 runs at 1 and 1): the model caps the brakes at mu m g, not at the car's brake balance (``vehicle.brake_balance``),
 and its axle loads are static, so its speed weight brakes harder into a corner than the rear axle can carry; with
 ``brake_scale`` 1 it spins out on ``vtrack/RaceRing-v0`` at every ``grip_scale`` from 0.94 to 1. ``steering``,
@@ -43,7 +43,7 @@ class CoupledRaceLine(LineFollower):
     name: ClassVar[str] = "raceline_coupled"
     line_kind: ClassVar[str] = "raceline"
     PRESETS: ClassVar[dict[str, LineFollowerConfig]] = {
-        "default": LineFollowerConfig(grip_scale=0.94, brake_scale=0.7)}
+        "default": LineFollowerConfig(grip_scale=0.97, brake_scale=0.85)}
 
     def __init__(self, env: Any, config: Any = None, nmpc: CoupledNMPCConfig = RACE_NMPC) -> None:
         super().__init__(env, config)

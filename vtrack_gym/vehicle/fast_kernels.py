@@ -6,9 +6,11 @@ runs over the cars of a block innermost. The derivative is branch-free (selects,
 function: sin/cos, atan2 and tanh are ``vehicle.fast_math``'s polynomial forms (bounded errors, about 1e-16), so
 LLVM vectorises the whole derivative across cars (``benchmarks/bench_fast_plant.py`` lists the vector
 instructions). Divisions by parameters are multiplications by reciprocals computed once per call, and the
-friction ellipse times the effective load is one square root (``_wheel_lateral_scale``). Compiled without
-fast-math: the float operations are the ones written, in that order, so a car's trajectory does not depend on
-its batch (lanes and the scalar remainder do the same IEEE operations).
+friction ellipse times the effective load is one square root (``_wheel_lateral_scale``). The stage loops
+(``rk4_block``) compile with IEEE division (no zero test per division: every denominator is positive), without
+array reference counting, and with one fast-math licence only, contraction (``a * b + c`` as one fused
+multiply-add, one rounding instead of two): no reassociation, so the vector lanes and the scalar remainder do the
+same operations and a car's trajectory does not depend on its batch (``tests/test_fast_numerics.py``).
 
 Agreement with the default plant: not bit-identical (rounding of the rewritten formulas and the approximations),
 within 1e-12 relative per step; ``tests/test_fast_numerics.py`` bounds the difference over closed-loop episodes.
@@ -221,7 +223,7 @@ def _store_all(w: np.ndarray, i: int, d: tuple, kind: int, c: float) -> None:
     _store(w, i, L.S_ALR, d[12], kind, c)
 
 
-@kernel
+@kernel(error_model="numpy", refcount=False, contract=True)
 def rk4_block(w: np.ndarray, nb: int, dt: float) -> None:
     """One RK4 step of ``dt`` [s] of the ``nb`` cars of the block in ``w`` (flat scratch); the outputs at the step's
     start go to the block's output rows. Four loops over the cars (one per stage), each vectorised."""
@@ -330,9 +332,11 @@ def _schedule_command(w: np.ndarray, c: int, cmd: float, p: np.ndarray) -> None:
 @kernel
 def advance_block(states: np.ndarray, inputs: np.ndarray, road: np.ndarray, params: np.ndarray,
                   models: np.ndarray, dt: float, n_sub: int, outputs: np.ndarray, work: np.ndarray,
-                  cmds: np.ndarray, scheduled: np.ndarray, block: int) -> None:
-    """Advance the cars of block ``block`` by ``n_sub`` RK4 steps of ``dt`` [s]; a car with ``scheduled[i]`` != 0
-    takes ``cmds[i, j]`` as its steering command in physics step j (and keeps the last in ``inputs``)."""
+                  cmds: np.ndarray, flags: np.ndarray, col: int, block: int) -> None:
+    """Advance the cars of block ``block`` by ``n_sub`` RK4 steps of ``dt`` [s]; a car with ``flags[i, col]`` != 0
+    (scheduled, ``envs.latency``) takes ``cmds[i, j]`` as its steering command in physics step j (and keeps the
+    last in ``inputs``)."""
+    scheduled = flags[:, col]
     lo = block * BLOCK
     nb = min(BLOCK, states.shape[0] - lo)
     w = work[lo:lo + BLOCK].reshape(-1)
@@ -377,16 +381,17 @@ def _step_default(states: np.ndarray, inputs: np.ndarray, road: np.ndarray, para
 @kernel
 def step_batch_fast(states: np.ndarray, inputs: np.ndarray, road: np.ndarray, params: np.ndarray,
                     models: np.ndarray, dt: float, n_sub: int, outputs: np.ndarray, work: np.ndarray,
-                    cmds: np.ndarray, scheduled: np.ndarray) -> None:
-    """Advance every car by one control period, block after block (single thread). ``work``: ``workspace(n)``."""
+                    cmds: np.ndarray, flags: np.ndarray, col: int) -> None:
+    """Advance every car by one control period, block after block (single thread). ``work``: ``workspace(n)``;
+    ``cmds``, ``flags``, ``col``: the latency schedule (``advance_block``)."""
     for b in range(-(-states.shape[0] // BLOCK)):
-        advance_block(states, inputs, road, params, models, dt, n_sub, outputs, work, cmds, scheduled, b)
+        advance_block(states, inputs, road, params, models, dt, n_sub, outputs, work, cmds, flags, col, b)
 
 
 @kernel(parallel=True)
 def step_batch_fast_parallel(states: np.ndarray, inputs: np.ndarray, road: np.ndarray, params: np.ndarray,
                              models: np.ndarray, dt: float, n_sub: int, outputs: np.ndarray, work: np.ndarray,
-                             cmds: np.ndarray, scheduled: np.ndarray) -> None:
+                             cmds: np.ndarray, flags: np.ndarray, col: int) -> None:
     """``step_batch_fast`` with the blocks spread over threads (same per-block code, same results)."""
     for b in prange(-(-states.shape[0] // BLOCK)):
-        advance_block(states, inputs, road, params, models, dt, n_sub, outputs, work, cmds, scheduled, b)
+        advance_block(states, inputs, road, params, models, dt, n_sub, outputs, work, cmds, flags, col, b)

@@ -61,7 +61,7 @@ class Plant:
 
             self._work = fk.workspace(self.n)
             fast = fk.step_batch_fast_parallel if use_parallel(self.n) else fk.step_batch_fast
-            unscheduled = (np.zeros((self.n, 1)), np.zeros(self.n))
+            unscheduled = (np.zeros((self.n, 1)), np.zeros((self.n, 1)), 0)
             self._step = lambda *args: fast(*args, *unscheduled)
             return
         k = _kernels()

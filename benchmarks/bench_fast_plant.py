@@ -1,0 +1,165 @@
+"""The ``fast`` plant against the default one: ns per car-step (CPU time) at N = 1, 64, 1024, 4096 on one thread,
+and the fast kernel's fraction of its all-SIMD bound.
+
+Timing: both plants step the same cars (speeds 5..30 m/s, steering +-0.05 rad, a fifth braking) in alternating
+rounds (A, B, A, B, ...), each round at least ``--seconds`` of CPU time; the median over rounds is reported, CPU
+time (``time.process_time``) beside wall time, with the load average. One thread: batches of every size use the
+single-threaded kernels (``VTRACK_PARALLEL_MIN_N`` is set above the largest N before the plant is imported).
+
+The all-SIMD bound (``simd_bound``): the fast kernel's optimised LLVM IR is read, and in each vectorised loop body
+the vector operations are counted by kind, divided by the cars one pass of the body advances (its induction
+step). Each kind is charged its reciprocal throughput on this CPU (``ZEN4_THROUGHPUT``: cycles per 256-bit
+instruction, a 512-bit one counts as two, from AMD's Zen 4 optimisation guide and Agner Fog's tables): the bound
+is the largest of the FP pipes' load (FMA/mul on 2 pipes, add/compare/min/max on 2, everything else on all 4),
+the divider's (div, sqrt), the loads' (2 per cycle) and the stores' (1 per cycle), per car-step (four stages),
+converted to ns with the core clock measured by a chain of dependent float64 adds (3 cycles each). It assumes
+every instruction issues at full throughput with no latency stall: a bound, not a prediction.
+
+Run: ``python benchmarks/bench_fast_plant.py`` (``--seconds 0.3 --rounds 5`` by default).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import statistics
+import time
+from collections import Counter
+
+import numpy as np
+
+SIZES = (1, 64, 1024, 4096)
+N_SUB = 5  # physics steps per call (one 10 ms control period at 500 Hz)
+ZEN4_THROUGHPUT = {  # cycles per 256-bit instruction (reciprocal throughput), and its pipe group
+    "fma": (0.5, "mul"), "fmul": (0.5, "mul"), "fadd": (0.5, "add"), "fsub": (0.5, "add"), "fcmp": (0.5, "add"),
+    "minnum": (0.5, "add"), "maxnum": (0.5, "add"), "select": (0.25, "any"), "fneg": (0.25, "any"),
+    "copysign": (0.25, "any"), "fabs": (0.25, "any"), "and": (0.25, "any"), "or": (0.25, "any"),
+    "xor": (0.25, "any"), "floor": (0.5, "any"), "fdiv": (5.0, "div"), "sqrt": (9.0, "div"),
+    "load": (0.5, "load"), "store": (1.0, "store"),
+}
+FADD_LATENCY_CYCLES = 3
+
+
+def cpu_clock_ghz(adds: int = 50_000_000) -> float:
+    """The core clock [GHz] from a chain of dependent float64 additions (``FADD_LATENCY_CYCLES`` each)."""
+    import numba
+
+    @numba.njit
+    def chain(n: int) -> float:
+        x = 0.0
+        for _ in range(n):
+            x = x + 1e-9
+        return x
+
+    chain(10)
+    best = float("inf")
+    for _ in range(3):
+        start = time.process_time()
+        chain(adds)
+        best = min(best, time.process_time() - start)
+    return FADD_LATENCY_CYCLES * adds / best / 1e9
+
+
+def _vector_ops(body: str) -> tuple[Counter, int]:
+    """Vector operations of one loop body of LLVM IR, in 256-bit units, and its induction step (cars per pass)."""
+    ops: Counter = Counter()
+    for line in body.splitlines():
+        vec = re.search(r"<(\d+) x double>", line)
+        if vec is None:
+            continue
+        units = max(1, int(vec.group(1)) // 4)
+        call = re.search(r"@llvm\.(fma|fmuladd|minnum|maxnum|copysign|fabs|floor|sqrt)\.", line)
+        if call:
+            name = "fma" if call.group(1) in ("fma", "fmuladd") else call.group(1)
+        else:
+            op = re.match(r"\s*(?:%\S+ = )?(\w+)", line)
+            name = op.group(1) if op else ""
+            name = {"fneg": "fneg", "load": "load", "store": "store", "select": "select"}.get(name, name)
+        if name in ZEN4_THROUGHPUT:
+            ops[name] += units
+    step = re.search(r"%index\.next\S* = add (?:nuw )?(?:nsw )?i64 %index\S*, (\d+)", body)
+    return ops, int(step.group(1)) if step else 0
+
+
+def simd_bound(ghz: float) -> tuple[float, Counter, list[int]]:
+    """(ns per car-step of the all-SIMD bound, vector ops per car-step, induction steps of the vector loops)."""
+    from vtrack_gym.vehicle import fast_kernels as fk
+
+    ir = "\n".join(fk.rk4_block.inspect_llvm().values())
+    per_car: Counter = Counter()
+    steps = []
+    for body in re.findall(r"\nvector\.body\d*:[^\n]*\n(.*?)\n\s*br i1 [^\n]*", ir, flags=re.S):
+        ops, step = _vector_ops(body)
+        if step == 0:
+            continue
+        steps.append(step)
+        for name, count in ops.items():
+            per_car[name] += count / step  # 256-bit instructions per car (one pass advances ``step`` cars)
+    groups: Counter = Counter()
+    for name, units in per_car.items():
+        cycles, group = ZEN4_THROUGHPUT[name]
+        groups[group] += units * cycles
+    fp = max(groups["mul"] / 2, groups["add"] / 2, (groups["mul"] + groups["add"] + groups["any"]) / 4)
+    cycles = max(fp, groups["div"], groups["load"] / 2, groups["store"])
+    return cycles / ghz, per_car, steps
+
+
+def _plant(n: int, numerics: str):
+    from vtrack_gym.vehicle.plant import Plant
+
+    plant = Plant(n=n, numerics=numerics)
+    rng = np.random.default_rng(0)
+    plant.state[:, 3] = rng.uniform(5.0, 30.0, n)
+    inputs = np.column_stack([rng.uniform(-0.05, 0.05, n), np.full(n, 0.2), np.zeros(n)])
+    inputs[::5, 2] = 100.0
+    return plant, inputs
+
+
+def _round(plant, inputs, seconds: float) -> tuple[float, float]:
+    """(CPU ns, wall ns) per car-step of ``plant`` over at least ``seconds`` of CPU time."""
+    calls = 0
+    cpu0, wall0 = time.process_time(), time.perf_counter()
+    while time.process_time() - cpu0 < seconds:
+        plant.step(inputs, N_SUB)
+        calls += 1
+    work = calls * plant.n * N_SUB
+    return (time.process_time() - cpu0) / work * 1e9, (time.perf_counter() - wall0) / work * 1e9
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seconds", type=float, default=0.3, help="CPU seconds per round and plant")
+    parser.add_argument("--rounds", type=int, default=5)
+    args = parser.parse_args()
+    os.environ["VTRACK_PARALLEL_MIN_N"] = str(10 * max(SIZES))
+    print(f"load average (1, 5, 15 min): {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
+    rows = []
+    for n in SIZES:
+        pair = {mode: _plant(n, mode) for mode in ("default", "fast")}
+        for plant, inputs in pair.values():
+            plant.step(inputs, N_SUB)  # compile / load the kernels
+        times: dict[str, list[tuple[float, float]]] = {"default": [], "fast": []}
+        for _ in range(args.rounds):
+            for mode, (plant, inputs) in pair.items():
+                times[mode].append(_round(plant, inputs, args.seconds))
+        cpu = {m: statistics.median(t[0] for t in v) for m, v in times.items()}
+        wall = {m: statistics.median(t[1] for t in v) for m, v in times.items()}
+        rows.append((n, cpu, wall))
+    ghz = cpu_clock_ghz()
+    bound, per_car, steps = simd_bound(ghz)
+    print(f"{'N':>5} {'default CPU ns':>15} {'fast CPU ns':>12} {'speed-up':>9} {'default wall':>13} "
+          f"{'fast wall':>10} {'fast/bound':>11}")
+    for n, cpu, wall in rows:
+        print(f"{n:>5} {cpu['default']:>15.1f} {cpu['fast']:>12.1f} {cpu['default'] / cpu['fast']:>8.2f}x "
+              f"{wall['default']:>13.1f} {wall['fast']:>10.1f} {bound / cpu['fast']:>10.0%}")
+    print(f"core clock (dependent-add chain): {ghz:.2f} GHz")
+    print(f"all-SIMD bound of the fast kernel: {bound:.1f} ns per car-step "
+          f"(vector loops advancing {steps} cars per pass)")
+    print("256-bit vector instructions per car-step: "
+          + ", ".join(f"{k} {v:.1f}" for k, v in sorted(per_car.items(), key=lambda kv: -kv[1])))
+    os.environ["VTRACK_PARALLEL_MIN_N"] = ""
+
+
+if __name__ == "__main__":
+    main()

@@ -84,9 +84,15 @@ def _vector_ops(body: str) -> tuple[Counter, int]:
 
 def simd_bound(ghz: float) -> tuple[float, Counter, list[int]]:
     """(ns per car-step of the all-SIMD bound, vector ops per car-step, induction steps of the vector loops)."""
+    import numba
+
     from vtrack_gym.vehicle import fast_kernels as fk
 
-    ir = "\n".join(fk.rk4_block.inspect_llvm().values())
+    # a fresh, uncached compilation with the kernel's own options (numba cannot inspect code loaded from its cache)
+    options = {k: v for k, v in fk.rk4_block.targetoptions.items() if k not in ("nopython", "boundscheck")}
+    fresh = numba.njit(**options)(fk.rk4_block.py_func)
+    fresh(np.zeros(fk.ROWS * fk.BLOCK), 1, 0.002)
+    ir = "\n".join(fresh.inspect_llvm().values())
     per_car: Counter = Counter()
     steps = []
     for body in re.findall(r"\nvector\.body\d*:[^\n]*\n(.*?)\n\s*br i1 [^\n]*", ir, flags=re.S):
@@ -146,10 +152,12 @@ def main() -> None:
         cpu = {m: statistics.median(t[0] for t in v) for m, v in times.items()}
         wall = {m: statistics.median(t[1] for t in v) for m, v in times.items()}
         rows.append((n, cpu, wall))
+        print(f"N={n}: default {cpu['default']:.1f} ns, fast {cpu['fast']:.1f} ns (CPU, median)", flush=True)
+    print(f"load average after the timing: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
     ghz = cpu_clock_ghz()
     bound, per_car, steps = simd_bound(ghz)
     print(f"{'N':>5} {'default CPU ns':>15} {'fast CPU ns':>12} {'speed-up':>9} {'default wall':>13} "
-          f"{'fast wall':>10} {'fast/bound':>11}")
+          f"{'fast wall':>10} {'bound/fast':>11}")
     for n, cpu, wall in rows:
         print(f"{n:>5} {cpu['default']:>15.1f} {cpu['fast']:>12.1f} {cpu['default'] / cpu['fast']:>8.2f}x "
               f"{wall['default']:>13.1f} {wall['fast']:>10.1f} {bound / cpu['fast']:>10.0%}")

@@ -160,7 +160,7 @@ def _attach_cache(dispatcher: Any) -> Any:
 
 
 def kernel(func: Callable[..., Any] | None = None, *, parallel: bool = False, inline: bool = False,
-           error_model: str = "python", refcount: bool = True, contract: bool = False) -> Any:
+           error_model: str = "python", refcount: bool = True) -> Any:
     """Compile ``func`` with ``numba.njit`` (``parallel`` for ``prange`` loops) and the source-hash cache.
 
     ``inline=True`` inlines the function into every compiled caller at numba's level (numba's
@@ -171,9 +171,8 @@ def kernel(func: Callable[..., Any] | None = None, *, parallel: bool = False, in
 
     For a loop meant to compile to SIMD code (``vehicle.fast_kernels``): ``error_model="numpy"`` (a float division
     by zero gives inf/NaN instead of raising, so no test and branch per division) and ``refcount=False`` (no array
-    reference counting, whose calls stop the vectoriser; only for a function that allocates no array);
-    ``contract=True`` lets LLVM fuse ``a * b + c`` into one fused multiply-add (one rounding instead of two; no
-    other fast-math licence: no reassociation, inf and NaN kept).
+    reference counting, whose calls stop the vectoriser; only for a function that allocates no array). No
+    fast-math: the operations stay the ones written, in their order.
     """
     def build(f: Callable[..., Any]) -> Any:
         options: dict[str, Any] = {"parallel": parallel, "inline": "always" if inline else "never"}
@@ -181,8 +180,6 @@ def kernel(func: Callable[..., Any] | None = None, *, parallel: bool = False, in
             options["error_model"] = error_model
         if not refcount:
             options["_nrt"] = False
-        if contract:
-            options["fastmath"] = {"contract"}
         return _attach_cache(numba.njit(**options)(f))
 
     return build if func is None else build(func)

@@ -7,10 +7,11 @@ function: sin/cos, atan2 and tanh are ``vehicle.fast_math``'s polynomial forms (
 LLVM vectorises the whole derivative across cars (``benchmarks/bench_fast_plant.py`` lists the vector
 instructions). Divisions by parameters are multiplications by reciprocals computed once per call, and the
 friction ellipse times the effective load is one square root (``_wheel_lateral_scale``). The stage loops
-(``rk4_block``) compile with IEEE division (no zero test per division: every denominator is positive), without
-array reference counting, and with one fast-math licence only, contraction (``a * b + c`` as one fused
-multiply-add, one rounding instead of two): no reassociation, so the vector lanes and the scalar remainder do the
-same operations and a car's trajectory does not depend on its batch (``tests/test_fast_numerics.py``).
+(``rk4_block``) compile with IEEE division (no zero test per division: every denominator is positive) and
+without array reference counting, and without fast-math: not even contraction into fused multiply-adds, which
+LLVM may apply differently to the vector body and the scalar remainder; so the vector lanes and the scalar
+remainder do the same operations and a car's trajectory does not depend on its batch
+(``tests/test_fast_numerics.py``).
 
 Agreement with the default plant: not bit-identical (rounding of the rewritten formulas and the approximations),
 within 1e-12 relative per step; ``tests/test_fast_numerics.py`` bounds the difference over closed-loop episodes.
@@ -223,7 +224,7 @@ def _store_all(w: np.ndarray, i: int, d: tuple, kind: int, c: float) -> None:
     _store(w, i, L.S_ALR, d[12], kind, c)
 
 
-@kernel(error_model="numpy", refcount=False, contract=True)
+@kernel(error_model="numpy", refcount=False)
 def rk4_block(w: np.ndarray, nb: int, dt: float) -> None:
     """One RK4 step of ``dt`` [s] of the ``nb`` cars of the block in ``w`` (flat scratch); the outputs at the step's
     start go to the block's output rows. Four loops over the cars (one per stage), each vectorised."""

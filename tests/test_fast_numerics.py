@@ -106,9 +106,11 @@ def plant_runs() -> dict[str, tuple[np.ndarray, np.ndarray]]:
 def test_fast_plant_agrees_with_the_default_one(plant_runs) -> None:
     """One control period (5 RK4 steps) from the same states, every 10th period of the default plant's 3 s run of
     40 cars (0 to 35 m/s: standstill, the low-speed blend, brakes, relaxation length, mu 0.6 and 0.9, one
-    linear-model car): every state entry and output of the fast plant within 1e-12 of its scale. (Over the whole
-    open-loop run the difference grows where a car slides: up to 1.3e-7 of the scale after 3 s; closed-loop, see
-    the mpc test below.)"""
+    linear-model car): every state entry and output of the fast plant within 1e-10 of its scale. The largest
+    measured is 1.9e-11 (the yaw rate of a car on mu 0.6 whose lightly loaded front wheel's drive force sits at the
+    friction cap: there the ellipse sqrt(1 - (F_x / mu F_z)^2) takes the root of a rounding-sized difference, so
+    either mode's own rounding moves that wheel's lateral force by up to ~1e-8 of it). Over the whole open-loop
+    run the difference grows where a car slides (1.3e-7 of the scale after 3 s); closed loop, see the mpc test."""
     states, outputs = plant_runs["default"]
     state_scale = np.abs(states).max(axis=(0, 1)) + 1e-3
     out_scale = np.abs(outputs).max(axis=(0, 1, 2)) + 1e-3
@@ -123,8 +125,8 @@ def test_fast_plant_agrees_with_the_default_one(plant_runs) -> None:
             out = plant.step(inputs, 5)
             if numerics == "default":
                 ref_state, ref_out = plant.state.copy(), out.copy()
-        assert np.max(np.abs(plant.state - ref_state) / state_scale) < 1e-12, k
-        assert np.max(np.abs(out - ref_out) / out_scale) < 1e-12, k
+        assert np.max(np.abs(plant.state - ref_state) / state_scale) < 1e-10, k
+        assert np.max(np.abs(out - ref_out) / out_scale) < 1e-10, k
         assert np.array_equal(plant.state[7], ref_state[7])   # the linear-model car: the default kernel
 
 

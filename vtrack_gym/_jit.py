@@ -159,7 +159,8 @@ def _attach_cache(dispatcher: Any) -> Any:
     return dispatcher
 
 
-def kernel(func: Callable[..., Any] | None = None, *, parallel: bool = False, inline: bool = False) -> Any:
+def kernel(func: Callable[..., Any] | None = None, *, parallel: bool = False, inline: bool = False,
+           error_model: str = "python", refcount: bool = True) -> Any:
     """Compile ``func`` with ``numba.njit`` (``parallel`` for ``prange`` loops) and the source-hash cache.
 
     ``inline=True`` inlines the function into every compiled caller at numba's level (numba's
@@ -167,8 +168,18 @@ def kernel(func: Callable[..., Any] | None = None, *, parallel: bool = False, in
     functions costs nothing at run time (the same operations in the same order, no call and no array reference
     counting). Use as ``@kernel``, ``@kernel(parallel=True)``, ``@kernel(inline=True)`` or
     ``name = kernel(function)``.
+
+    For a loop meant to compile to SIMD code (``vehicle.fast_kernels``): ``error_model="numpy"`` (a float division
+    by zero gives inf/NaN instead of raising, so no test and branch per division) and ``refcount=False`` (no array
+    reference counting, whose calls stop the vectoriser; only for a function that allocates no array). No
+    fast-math: the operations stay the ones written, in their order.
     """
     def build(f: Callable[..., Any]) -> Any:
-        return _attach_cache(numba.njit(parallel=parallel, inline="always" if inline else "never")(f))
+        options: dict[str, Any] = {"parallel": parallel, "inline": "always" if inline else "never"}
+        if error_model != "python":
+            options["error_model"] = error_model
+        if not refcount:
+            options["_nrt"] = False
+        return _attach_cache(numba.njit(**options)(f))
 
     return build if func is None else build(func)

@@ -84,11 +84,16 @@ class EnvConfig:
     # what the action drives (envs.control.CONTROL_MODES): "steer" (the PD-FLC holds the speed), "steer_accel",
     # "steer_rate_accel"; the two longitudinal modes add the tracking errors at the end of the layout
     control: str = "steer"
+    # which compiled plant integrates the cars (vehicle.numerics.NUMERICS): "default" (pinned) or "fast" (SIMD,
+    # bounded-error maths; a configuration of its own in a result's identity)
+    numerics: str = "default"
 
     def __post_init__(self) -> None:
         from vtrack_gym.envs.control import check_control
+        from vtrack_gym.vehicle.numerics import check_numerics
 
         check_control(self.control)
+        check_numerics(self.numerics)
         if self.control != "steer" and not self.layout.tracking_errors:
             object.__setattr__(self, "layout", replace(self.layout, tracking_errors=True))
         if not isinstance(self.vehicle, VehicleParams):  # a shipped vehicle's name or a vehicle file path

@@ -79,7 +79,8 @@ class BatchSim:
         if scenario.time_limit_s is None:
             scenario = replace(scenario, time_limit_s=self.tracks.time_limit_s())
         self.scenario = scenario
-        self.plant = Plant(config.vehicle, n=n, model=config.model, physics_dt_s=config.physics_dt_s)
+        self.plant = Plant(config.vehicle, n=n, model=config.model, physics_dt_s=config.physics_dt_s,
+                           numerics=config.numerics)
         self.n_sub = config.n_substeps
         self.layout = config.layout
         self.inputs = np.zeros((n, L.N_INPUT))
@@ -124,6 +125,10 @@ class BatchSim:
         """Command change of a full-rate action over one control period (``steer_rate_accel``)."""
         self.arrays = self._bundle(k, scenario, config)
         self._step_kernel = k.step_parallel if use_parallel(n) else k.step_serial
+        if config.numerics == "fast":  # the SIMD plant (vehicle.numerics); the same per-car env code around it
+            from vtrack_gym.envs import fast_step
+
+            self._step_kernel = fast_step.step_parallel if use_parallel(n) else fast_step.step_serial
         self._step_compiled = None  # the kernel's compiled entry point for ``self.arrays`` (see _run_kernel)
         self._observe = k.observe_indices
         self.criterion = scenario.success.resolve(self.paths)

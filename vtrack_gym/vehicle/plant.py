@@ -7,6 +7,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from vtrack_gym.vehicle import layout as L
+from vtrack_gym.vehicle.numerics import check_numerics
 from vtrack_gym.vehicle.packing import pack_params_batch
 from vtrack_gym.vehicle.params import VehicleParams
 from vtrack_gym.vehicle.threads import PARALLEL_MIN_N, use_parallel
@@ -30,13 +31,15 @@ class Plant:
         n: number of vehicles.
         model: ``"nonlinear"`` (default plant) or ``"linear"`` (paper eq. 5), or one name per vehicle.
         physics_dt_s: physics step [s]; at most 1/500 s (>= 500 Hz).
+        numerics: ``"default"`` or ``"fast"`` (``vehicle.numerics``: the SIMD kernel, bounded-error maths).
 
     ``step`` holds the inputs over ``n_sub`` physics steps (one control period) and returns the per-substep
     outputs ``(n, n_sub, N_OUTPUT)`` (a_x, a_y, a_z [m/s^2], F_z of FL, FR, RL, RR [N]).
     """
 
     def __init__(self, params: VehicleParams | Sequence[VehicleParams] | None = None, n: int = 1,
-                 model: str | Sequence[str] = "nonlinear", physics_dt_s: float = 0.002) -> None:
+                 model: str | Sequence[str] = "nonlinear", physics_dt_s: float = 0.002,
+                 numerics: str = "default") -> None:
         if not isinstance(n, (int, np.integer)) or n < 1:
             raise ValueError(f"n must be a positive integer (got {n!r})")
         if not (0.0 < physics_dt_s <= 1.0 / 500.0):
@@ -52,6 +55,15 @@ class Plant:
         self.state = np.zeros((self.n, L.N_STATE), dtype=np.float64)
         self._road = np.zeros((self.n, L.N_ROAD), dtype=np.float64)
         self._out_cache: dict[int, np.ndarray] = {}
+        self.numerics = check_numerics(numerics)
+        if self.numerics == "fast":
+            from vtrack_gym.vehicle import fast_kernels as fk
+
+            self._work = fk.workspace(self.n)
+            fast = fk.step_batch_fast_parallel if use_parallel(self.n) else fk.step_batch_fast
+            unscheduled = (np.zeros((self.n, 1)), np.zeros((self.n, 1)), 0)
+            self._step = lambda *args: fast(*args, *unscheduled)
+            return
         k = _kernels()
         self._work = np.empty((self.n, k.WORKSPACE_SIZE), dtype=np.float64)
         self._step = k.step_batch_parallel if use_parallel(self.n) else k.step_batch_serial

@@ -170,9 +170,14 @@ def block_mismatches(now: Episode, pinned_sums: np.ndarray) -> list[str]:
     scale = now.abs_sums.max(axis=0) / BLOCK_STEPS
     rtol = np.where(now.float32, FLOAT32_RTOL, RTOL)
     allowed = rtol * now.abs_sums + BLOCK_STEPS * (RTOL * scale + ATOL)
-    excess = np.abs(now.sums - pinned_sums) / allowed
-    bad = np.flatnonzero((excess > 1.0).any(axis=0))
-    return [f"{now.signals[j]}: {excess[:, j].max():.3g} x the tolerance" for j in bad]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        excess = np.abs(now.sums - pinned_sums) / allowed
+    # equal sums match (the same infinity included); anything else must be within the tolerance, so a NaN or an
+    # infinity on one side only is a mismatch, never a silent pass
+    same = (now.sums == pinned_sums) | (np.isnan(now.sums) & np.isnan(pinned_sums))
+    bad = np.flatnonzero((~same & ~(excess <= 1.0)).any(axis=0))
+    return [f"{now.signals[j]}: {np.nanmax(np.where(same[:, j], 0.0, excess[:, j])):.3g} x the tolerance"
+            for j in bad]
 
 
 def _pinned_columns(now: Episode, names: list[str]) -> Episode | None:

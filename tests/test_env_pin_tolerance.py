@@ -107,3 +107,17 @@ def test_a_signal_added_later_is_not_pinned_and_a_missing_one_fails() -> None:
     shrunk = [dataclasses.replace(ep, signals=ep.signals[:-1], float32=ep.float32[:-1], sums=ep.sums[:, :-1],
                                   abs_sums=ep.abs_sums[:, :-1]) for ep in episodes]
     assert any("pinned signals missing" in m for m in mismatches("DLC120-v0", shrunk))
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_a_non_finite_sum_on_one_side_fails(bad: float) -> None:
+    """A block sum that became NaN or infinite where the pin is finite is a mismatch (the relative excess is NaN
+    there and must not pass as 'not above the tolerance'); the same infinity on both sides matches."""
+    episodes = record("DLC120-v0")
+    broken = [dataclasses.replace(ep, sums=ep.sums.copy()) for ep in episodes]
+    broken[0].sums[0, 0] = bad
+    assert any(broken[0].signals[0] in m for m in mismatches("DLC120-v0", broken))
+    from env_fingerprint import block_mismatches
+    both = dataclasses.replace(episodes[0], sums=episodes[0].sums.copy())
+    both.sums[0, 0] = np.inf
+    assert block_mismatches(both, both.sums.copy()) == []

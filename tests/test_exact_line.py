@@ -115,3 +115,36 @@ def test_bad_input_is_refused_naming_the_field() -> None:
         plan_exact_line(lanes, [60.0], SMALL, approach_m=10.0, run_out_m=10.0, margin_m=0.02)
     with pytest.raises(ValueError, match="one gap between consecutive lanes"):
         plan_exact_line(lanes, [], SMALL, approach_m=10.0, run_out_m=10.0)
+
+
+@pytest.mark.slow
+def test_the_v2_env_judges_its_gates_exactly_as_the_offline_judge() -> None:
+    """Through ``gym.make``: a car steering a fixed small angle leaves a lane; the env's live judge (swept between
+    control steps) and the offline sweep of the recorded poses agree on every gate and on the least clearance."""
+    import gymnasium as gym
+
+    import vtrack_gym  # noqa: F401
+    from vtrack_gym.tracks.gate_judge import gate_table, judge_gates
+
+    env = gym.make("vtrack/ISO3888-2-v2", entry_speed_kmh=40.0)
+    _, info = env.reset(seed=0)
+    poses = [(info["x_m"], info["y_m"], info["psi_rad"])]
+    done = False
+    while not done:
+        _, _, term, trunc, info = env.step(np.array([0.004], dtype=np.float32))
+        poses.append((info["x_m"], info["y_m"], info["psi_rad"]))
+        done = term or trunc
+    live = env.unwrapped.success_metrics()
+    path, c = env.unwrapped.current_path, env.unwrapped.config.vehicle.chassis
+    env.close()
+    body = np.array([c.cg_to_front_end_m, c.cg_to_front_end_m - c.body_length_m, 0.5 * c.body_width_m])
+    gates = gate_table(path.gates)
+    p = np.array(poses, dtype=float)
+    hit, least = np.zeros((1, len(gates)), dtype=bool), np.full(1, np.inf)
+    for k in range(1, p.shape[0]):   # the same kernel, step by step over the recorded poses
+        judge_gates(gates, body, np.zeros(1, dtype=np.int64), p[k - 1:k], p[k:k + 1, 0], p[k:k + 1, 1],
+                    p[k:k + 1, 2], 1e-3, hit, least)
+    offline = path_gate_clearance_m(path, body, tol=1e-3, pose=(p[:, 0], p[:, 1], p[:, 2]), floor_m=0.05)
+    assert live["cones_hit"] == np.count_nonzero(hit) == np.count_nonzero(offline < 0.0) >= 1
+    assert live["min_gate_clearance_m"] == pytest.approx(float(least[0]), abs=1e-9)
+    assert live["min_gate_clearance_m"] == pytest.approx(float(np.min(offline)), abs=2e-3)

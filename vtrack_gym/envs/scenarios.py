@@ -16,8 +16,9 @@ The standard manoeuvres (``tracks.maneuvers``) are scenarios too (``MANEUVER_IDS
 driven car's body and the standards' speed protocols (``EntryThenRelease``); the ISO 3888 ones (-v2) the line of
 ``tracks.exact_line`` with their gates judged exactly. The others keep their ``ManeuverSpec``'s speed profile.
 ``vtrack/ISO3888-1-v0``, ``vtrack/Slalom-v0``, ``vtrack/ISO3888-1-v1`` and ``vtrack/ISO3888-2-v1`` stay
-registered unchanged (``LEGACY_MANEUVER_SCENARIOS``); ``vtrack/ISO3888-2-v0`` asked 1.13 g of a car that has 0.81 g and is no longer
-registered, so Gymnasium refuses it with ``gymnasium.error.DeprecatedEnv`` naming ``vtrack/ISO3888-2-v1``.
+registered unchanged (``LEGACY_MANEUVER_SCENARIOS``); ``vtrack/ISO3888-2-v0`` asked 1.13 g of a car that has
+0.81 g and is no longer registered, so Gymnasium refuses it with ``gymnasium.error.DeprecatedEnv`` naming
+``vtrack/ISO3888-2-v1``.
 
 Imports nothing heavy (``vtrack_gym.tracks``, numpy only, is imported for the manoeuvre scenarios' specs).
 """

@@ -45,5 +45,5 @@ def test_changed_ids_carry_their_version_history() -> None:
     assert VERSION_HISTORY["ISO3888-1-v0"] == VERSION_HISTORY["ISO3888-1-v1"] == VERSION_HISTORY["ISO3888-1-v2"]
     assert "entry_speed_kmh" in env_page("vtrack/ISO3888-2-v2")
     page = deprecated_page("ISO3888-2-v0")
-    assert "DeprecatedEnv" in page and "ISO3888-2-v1.md" in page and "## Version history" in page
+    assert "DeprecatedEnv" in page and "ISO3888-2-v2.md" in page and "## Version history" in page
     assert "entry_speed_kmh" in env_page("vtrack/ISO3888-2-v1")

@@ -145,7 +145,7 @@ class ConeGates(SuccessCriterion):
     of the gated stretch, like ``tracks.gate_violations`` on a whole trajectory (compiled). ``exact=True``: the
     body rectangle against every anchored gate's cone lines, swept between control steps, exact to 1 mm
     (``tracks.gate_judge``); metric ``min_gate_clearance_m`` too (the body's least clearance to a cone line near
-    it, negative when it crossed one)."""
+    it, exact below 5 cm, negative when it crossed one; absent when no gate came within the body's reach)."""
 
     name: ClassVar[str] = "gates"
     per_step: ClassVar[bool] = True
@@ -231,7 +231,7 @@ class ConeGates(SuccessCriterion):
         if track not in state.gated:
             return {}
         out = {"cones_hit": float(np.count_nonzero(state.hit[i]))}
-        if state.least is not None:
+        if state.least is not None and np.isfinite(state.least[i]):   # a gate came within the body's reach
             out["min_gate_clearance_m"] = float(state.least[i])
         return out
 

@@ -88,7 +88,7 @@ _ISO1 = (_V0_PINNED + " The lane-centre line, lane 3's centre 3.5 m left of lane
          "(make kwargs `entry_speed_kmh=`, `reference=`). v0 stays registered unchanged.")
 _ISO2 = (_V0_PINNED + " The lane-centre line at a constant 80 km/h: it asks 1.75 g (1.13 g on the best line) of a "
          "car with a limit of about 0.8 g, so no car could pass it; no longer registered (`gymnasium.make` raises "
-         "`gymnasium.error.DeprecatedEnv` naming v1).",
+         "`gymnasium.error.DeprecatedEnv` naming the latest version).",
          "v1: the planned line for the driven car's body, entry at 50 km/h (below every shipped car's bound) "
          "and a coast from the entry gate on, as the standard's protocol asks (make kwargs "
          "`entry_speed_kmh=`, `reference=`).")

@@ -230,7 +230,7 @@ LEGACY_MANEUVER_IDS: dict[str, str] = {"iso3888_1": "ISO3888-1-v0", "slalom": "S
 PLANNED_V1_IDS: dict[str, str] = {"iso3888_1": "ISO3888-1-v1", "iso3888_2": "ISO3888-2-v1"}
 """The first planned-line versions of the ISO 3888 ids, registered unchanged (``planned_line``: the body sampled,
 the line one of a linear programme's optima, 10 cm clear)."""
-DEPRECATED_IDS: dict[str, str] = {"vtrack/ISO3888-2-v0": "vtrack/ISO3888-2-v1"}
+DEPRECATED_IDS: dict[str, str] = {"vtrack/ISO3888-2-v0": "vtrack/ISO3888-2-v2"}
 """Ids no longer registered -> the id Gymnasium's ``DeprecatedEnv`` error names instead."""
 
 ISO3888_2_ENTRY_KMH = 50.0

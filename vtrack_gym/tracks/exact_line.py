@@ -18,6 +18,11 @@ with a bounded curvature rate. What differs:
   about the previous round, ``SLP_ITERATIONS`` rounds). The planned line is then checked with the exact gate judge
   (``tracks.gate_judge``: the body rectangle against the cone lines, swept between poses 1 cm apart, exact to
   0.1 mm); a clearance below ``margin_m`` minus ``CHECK_TOL_M`` plans again with the margin raised by the deficit.
+- **The same bits.** The solve's last-bit differences (5e-13 m between numpy's AVX-512 and generic code paths,
+  or with another memory alignment) would still reach a closed loop's trajectory; the coefficients are rounded to
+  ``QUANTUM_M`` (2^-24 m, 6e-8 m), so the line is bit-identical unless a coefficient lies within those 5e-13 m of
+  a rounding boundary (about one line in 200), and then it moves by 6e-8 m. The check below runs on the rounded
+  line.
 - **Exact curvature.** ``ExactLine.kappa_at(s)`` is the spline's curvature at arc length s and
   ``peak_curvature_per_m`` its maximum (the path's table holds the same values at its rows; between rows the
   env's cubic interpolation of a curvature whose rate jumps at the knots overshoots, so bounds use this).
@@ -48,6 +53,7 @@ CHECK_TOL_M = 2e-4              # accepted shortfall of the exact clearance belo
 CHECK_STEP_M = 0.01             # arc-length step of the exact check's poses [m]
 MARGIN_RETRIES = 3              # re-plans with a raised margin when the exact check finds a shortfall
 FINE_STEP_M = 0.01              # x step of the arc-length integration and of the peak search [m]
+QUANTUM_M = 2.0 ** -24          # the line's coefficients are rounded to this (6e-8 m) [m]
 
 
 class _Knots(_Spline):
@@ -347,6 +353,7 @@ def plan_exact_line(lanes: Sequence[LaneSection], gaps_m: Sequence[float], body:
         coef = np.full(spline.n, lanes[0].centre_y_m)
         for k in range(SLP_ITERATIONS):
             coef = _round(spline, coef, in_x, body, planned, rate, x_lo, ends, objective, k == 0)
+        coef = np.round(coef / QUANTUM_M) * QUANTUM_M   # last-bit differences of the solve (~5e-13 m) vanish
         arc = _arc(spline, coef, x_lo, x_end)
         path = anchored_gates(_path(spline, coef, x_lo, arc, ds_m, half_width_m, name, version), lanes,
                               [ln.x0 for ln in in_x])

@@ -51,7 +51,7 @@ DESCRIPTIONS: dict[str, str] = {
                     "lane-centre line instead.",
     "ISO3888-1-v2": "ISO 3888-1 double lane change as `vtrack/ISO3888-1-v1` poses it (lane 3 by its cone line, "
                     "entry at 80 km/h, the throttle held from the entry gate on), the car driving the planned line "
-                    "of `tracks.exact_line` for its own body: one line for given inputs (the same on any CPU), the "
+                    "of `tracks.exact_line` for its own body: one line for given inputs (rounded to 2^-24 m), the "
                     "body held 2 cm clear of every cone line judged exactly, within 5 % of the least peak "
                     "curvature; success: every gate passed with the body rectangle inside it, judged exactly "
                     "between control steps (`tracks.gate_judge`, 1 mm). `reference=\"lane_centres\"` drives the "

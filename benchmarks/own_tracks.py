@@ -143,7 +143,7 @@ def drive(file: Path, policy_name: str, vehicle: str | None = None, max_speed_km
     steer_share = float(np.max(np.abs(trace["road_wheel_angle_rad"]))) / lock
     env.close()
     return {"termination": trace.termination, "success": trace.success, "lap_s": m["duration_s"],
-            "max_e_y_m": m["max_e_y_m"], "rms_speed_error_mps": m["rms_speed_error_mps"], "steer_share": steer_share}
+            "max_e_y_m": m["max_e_y_m"], "rms_e_v_mps": m["rms_e_v_mps"], "steer_share": steer_share}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -167,7 +167,7 @@ def main(argv: list[str] | None = None) -> int:
             start = time.perf_counter()
             r = drive(file, policy, args.vehicle)
             print(f"| {name} | {policy} | {r['termination']} | {r['success']} | {r['lap_s']:.1f} | "
-                  f"{r['max_e_y_m']:.3f} | {r['rms_speed_error_mps']:.3f} | {r['steer_share']:.2f} |  "
+                  f"{r['max_e_y_m']:.3f} | {r['rms_e_v_mps']:.3f} | {r['steer_share']:.2f} |  "
                   f"({time.perf_counter() - start:.0f} s)")
             sys.stdout.flush()
     return 0

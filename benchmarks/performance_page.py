@@ -156,6 +156,33 @@ def population(controller: str, size: int, compiled: bool, seconds: float) -> Ca
     return run
 
 
+def nmpc_decisions(preset: str, seconds: float) -> Callable[[], Rate]:
+    """The NMPC's decisions per CPU second (feedback and preparation) over the first 300 observations of a
+    closed-loop DLC120-v0 episode, replayed in order with the policy's own memory."""
+    def run() -> Rate:
+        import gymnasium as gym
+
+        from vtrack_gym.baselines.nmpc import NMPC
+
+        env = gym.make("DLC120-v0")
+        driver = NMPC.from_env(env)
+        obs, _ = env.reset(seed=0)
+        observations = []
+        for _ in range(300):
+            observations.append(obs)
+            obs, *_ = env.step(driver.predict(obs)[0])
+        policy = NMPC.from_env(env, preset)
+
+        def episode() -> None:
+            policy.reset()
+            for o in observations:
+                policy.predict(o)
+
+        return measure(episode, len(observations), seconds)
+
+    return run
+
+
 def rows(seconds: float) -> list[Row]:
     """The page's rows, in its order."""
     return [
@@ -175,6 +202,9 @@ def rows(seconds: float) -> list[Row]:
         Row(f"GA population rollout, MPC, 20 cars, {POPULATION_STEPS} steps (car-steps/s)", "steps/s",
             population("mpc", 20, True, seconds), "step-by-step numpy reference path",
             population("mpc", 20, False, seconds), threaded=True),
+        Row("`nmpc` decisions, DLC120-v0 observations (decisions/s, feedback and preparation)", "decisions/s",
+            nmpc_decisions("default", seconds), "`nmpc` preset `casadi` (CasADi, qpOASES)",
+            nmpc_decisions("casadi", seconds)),
     ]
 
 

@@ -12,6 +12,9 @@ from __future__ import annotations
 import pytest
 
 SLOW: dict[str, str] = {
+    "test_race.py::test_raceline_laps_within_limits_near_the_bound_and_beats_centreline[vtrack/Race-v0]":
+        "two laps of the handling course per baseline",
+    "test_race.py::test_cli_benchmark_race_suite": "two laps of both circuits per baseline",
     "test_agent_read_once.py::test_workers_drive_the_loaded_agent_without_opening_its_files[ray]": "starts Ray",
     "test_agents.py::test_behaviour_cloning_warm_start": "training",
     "test_agents.py::test_gsde_policies_export_and_agree": "training",

@@ -4,7 +4,8 @@ tolerance that holds on any machine and still catches any change of behaviour.
 Two episodes: from seed 0, ``STEPS`` control steps of a fixed action sequence (a sinusoid plus fixed pseudo-random
 noise: the car steers off its line and often leaves the road); from seed 7, up to ``FOLLOW_STEPS`` steps of a fixed
 proportional law on e_y and e_phi defined here (so the car follows the road far enough to reach its curves, gates
-and speed changes).
+and speed changes). An id whose action is [steering, longitudinal demand] (the race) gets a fixed demand as well
+(``_demand``); the signals are the keys of the reset's ``info`` (a race's last step adds its lap times).
 
 What is pinned, per episode:
 
@@ -72,6 +73,14 @@ def action_sequence(steps: int = STEPS) -> np.ndarray:
     return (0.08 * np.sin(2.0 * np.pi * k / 150.0) + noise).astype(np.float32)
 
 
+def _demand(seed: int, k: int, obs: np.ndarray, layout: Any) -> float:
+    """The longitudinal demand of an id whose action is [steering, demand] (``vtrack/Race-v0``): a slow wave
+    through throttle and brake in the sequence episode, a proportional law on the speed error in the follower's."""
+    if seed == SEQUENCE_SEED:
+        return float(np.float32(0.4 * np.cos(2.0 * np.pi * k / 100.0) + 0.1))
+    return float(np.clip(-0.5 * obs[layout.index("speed_error")], -1.0, 1.0))
+
+
 @dataclass
 class Episode:
     """One recorded episode: ``exact`` (JSON-able, compared with ==), ``sums`` / ``abs_sums`` (blocks x signals)."""
@@ -117,13 +126,16 @@ def _episode(env: Any, seed: int, steps: int) -> Episode:
     sequence = action_sequence()
     terminated = truncated = False
     k = 0
+    at_reset = set(info)   # an id's last step may carry more (a race's lap times): the rows keep the reset's keys
+    pair = env.action_space.shape == (2,)
     for k in range(steps):
         if seed == SEQUENCE_SEED:
             action = sequence[k]
         else:  # fixed follower: 0.5 rad of command per metre of e_y, 1.5 per radian of e_phi
             action = np.clip(-0.5 * obs[e_y] - 1.5 * obs[e_phi], -1.0, 1.0)
-        obs, reward, terminated, truncated, info = env.step(np.array([action], dtype=np.float32))
-        rows.append(_signal_row(obs, reward, info)[1])
+        act = [action, _demand(seed, k, obs, layout)] if pair else [action]
+        obs, reward, terminated, truncated, info = env.step(np.array(act, dtype=np.float32))
+        rows.append(_signal_row(obs, reward, {key: v for key, v in info.items() if key in at_reset})[1])
         now = (str(info["termination"]), bool(info["success"]))
         if now != last:
             events.append([k + 1, *now])
@@ -131,7 +143,7 @@ def _episode(env: Any, seed: int, steps: int) -> Episode:
         if terminated or truncated:
             break
     sums, abs_sums = _blocks(np.array(rows))
-    metrics = {key: float(v) for key, v in env.unwrapped.success_metrics().items()}
+    metrics = {key: float(v) for key, v in env.unwrapped.success_metrics().items() if np.isfinite(v)}
     exact = {"seed": seed, "steps": k + 1, "terminated": bool(terminated), "truncated": bool(truncated),
              "events": events, "counts": {key: metrics.pop(key) for key in EXACT_METRICS if key in metrics}}
     float32 = np.array([name.startswith("obs[") for name in names])

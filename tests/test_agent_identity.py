@@ -66,7 +66,38 @@ def test_two_agents_with_one_stem_are_two_rows_named_apart(tmp_path: Path, capsy
     assert main(["leaderboard", "--suite", "custom", "--store", str(store)]) == 0
     out = capsys.readouterr().out
     assert all(f"mine@{h}" in out for h in hashes)
-    from vtrack_gym.baselines.resolve import canonical_ids
 
-    with pytest.raises(ValueError, match="two different agents 'mine'"):   # in one run: said before any work
-        canonical_ids([str(first), str(second)])
+
+def test_two_agents_with_one_stem_in_one_run_are_two_rows(tmp_path: Path, capsys) -> None:
+    store = tmp_path / "s.sqlite"
+    first, second = agent_files(tmp_path / "a"), agent_files(tmp_path / "b", shift=0.05)
+    assert main(["benchmark", "--suite", "paper", "--policies", f"{first},{second}", "--no-figures",
+                 "--format", "json", "--store", str(store)]) == 0
+    printed = json.loads(capsys.readouterr().out)
+    rows = ResultStore(store).rows()
+    hashes = {r["policy_hash"] for r in rows}
+    assert len(rows) == 4 and len(hashes) == 2 and {r["policy_id"] for r in rows} == {"mine"}   # rows: the stem
+    assert {(e["policy_id"], e["policy_hash"]) for e in printed} == {("mine", h) for h in hashes}
+    assert main(["leaderboard", "--suite", "paper", "--store", str(store)]) == 0
+    shown = capsys.readouterr().out
+    assert all(f"| mine@{h} |" in shown for h in hashes)   # named apart by content
+    board = vtrack_gym.leaderboard(store, "paper")
+    assert len(board) == 4 and {(e["policy_id"], e["policy_hash"]) for e in board} == {("mine", h) for h in hashes}
+    # each agent scored alone afterwards joins its own rows (identity by content, not by the run it was in)
+    assert main(["benchmark", "--suite", "paper", "--policies", str(second), "--no-figures", "--store",
+                 str(store)]) == 0
+    assert len(vtrack_gym.leaderboard(store, "paper")) == 4
+
+
+def test_one_agent_typed_two_ways_in_one_run_is_one_row(tmp_path: Path, monkeypatch, caplog) -> None:
+    agent = agent_files(tmp_path / "a")
+    os.symlink(tmp_path / "a", tmp_path / "link")
+    monkeypatch.chdir(tmp_path)
+    store = tmp_path / "s.sqlite"
+    with caplog.at_level("WARNING"):
+        assert main(["benchmark", "--suite", "paper", "--policies", f"a/mine.json,{agent},link/mine.json",
+                     "--no-figures", "--store", str(store)]) == 0
+    assert "the same policy 'mine': scored once" in caplog.text
+    rows = ResultStore(store).rows()
+    assert len(rows) == 2 and {r["policy_id"] for r in rows} == {"mine"}    # one episode per env, not three
+    assert len(vtrack_gym.leaderboard(store, "paper")) == 2

@@ -158,11 +158,13 @@ def test_canonical_preset_ids() -> None:
         == "agent"
 
 
-def test_benchmark_refuses_duplicates_and_accepts_spaces(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_benchmark_scores_a_duplicate_once_and_accepts_spaces(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                               caplog: pytest.LogCaptureFixture) -> None:
     store = tmp_path / "s.sqlite"
-    assert main(["benchmark", "--policies", "lqr,lqr:default", "--no-figures", "--store", str(store)]) == 2
-    err = capsys.readouterr().err
-    assert "--policies" in err and "'lqr'" in err and "twice" in err and not store.exists()
+    with caplog.at_level("WARNING"):
+        assert main(["benchmark", "--policies", "lqr,lqr:default", "--no-figures", "--store", str(store)]) == 0
+    assert "'lqr' and 'lqr:default' are the same policy 'lqr': scored once" in caplog.text
+    assert [r["policy_id"] for r in ResultStore(store).rows()] == ["lqr", "lqr"]   # one episode per env
     assert main(["benchmark", "--policies", "stanley, lqr", "--no-figures", "--format", "csv",
                  "--store", str(store)]) == 0
     assert {r["policy_id"] for r in ResultStore(store).rows()} == {"stanley", "lqr"}

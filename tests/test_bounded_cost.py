@@ -121,7 +121,8 @@ def test_every_numeric_option_is_ranged_at_parse_time() -> None:
 @pytest.mark.parametrize("argv", [["benchmark", "--workers", "0"], ["benchmark", "--workers", "100000"],
                                   ["video", "--env", "DLC120-v0", "--policies", "mpc", "--out", "v.mp4", "--fps",
                                    "0"],
-                                  ["entry-speed", "--policy", "lqr", "--tol-kmh", "1e-300"]])
+                                  ["entry-speed", "--policy", "lqr", "--tol-kmh", "1e-300"],
+                                  ["lap-bound", "--track", "handling_course", "--step-m", "0"]])
 def test_out_of_range_numbers_are_refused_before_any_work(argv: list[str],
                                                           capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as exit_info:

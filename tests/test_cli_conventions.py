@@ -62,6 +62,7 @@ def test_verbose_is_accepted_before_and_after_every_command(command: str) -> Non
     required = {"eval": ["--policy", "lqr", "--env", "DLC120-v0"], "train": ["--algo", "ppo", "--run-dir", "r"],
                 "tune": ["--controller", "smc"], "dataset": ["--policy", "lqr", "--env", "DLC120-v0"],
                 "entry-speed": ["--policy", "lqr", "--env", "vtrack/ISO3888-2-v1"],
+                "lap-bound": ["--track", "handling_course"],
                 "export": ["--run-dir", "r", "--out", "a"],
                 "video": ["--out", "v.mp4", "--env", "DLC120-v0"]}.get(command, [])
     parser = build_parser()

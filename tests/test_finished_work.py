@@ -126,6 +126,8 @@ def test_kill_9_of_a_worker_keeps_every_finished_episode(tmp_path: Path) -> None
     assert process.returncode == 3, stderr[-3000:]
     assert "Traceback" not in stderr and "BrokenProcessPool" not in stderr
     assert "lost episodes: 1" in stdout and "killed by SIGKILL" in stdout
+    bar = [line for line in stderr.splitlines() if line.startswith("vtrack benchmark")]
+    assert bar and "4/4" in bar[-1] and "lost=1" in bar[-1], stderr[-3000:]   # the bar counts the lost episode
     rows = ResultStore(tmp_path / "s.sqlite", read_only=True).rows()
     assert len(rows) == 3 and len({r["seed"] for r in rows}) == 3
 

@@ -101,7 +101,7 @@ def test_missing_casadi_names_the_extra(monkeypatch: pytest.MonkeyPatch) -> None
             raise ImportError("No module named 'casadi'")
         return real(name, *args)
 
-    monkeypatch.setattr(nmpc_model.importlib, "import_module", no_casadi)
+    monkeypatch.setattr(importlib, "import_module", no_casadi)
     with pytest.raises(ImportError, match=r'pip install "vtrack_gym\[nmpc\]"'):
         nmpc_model.import_casadi()
 
@@ -117,16 +117,18 @@ class FailingQP:
 
 
 def test_failed_solves_are_counted_and_the_shifted_plan_is_applied() -> None:
+    """The CasADi iteration (preset ``casadi``; the compiled one: tests/test_nmpc_rti.py)."""
     env = gym.make("DLC120-v0")
-    policy = make_policy("nmpc", env)
+    policy = NMPC.from_env(env, "casadi")
     obs, _ = env.reset(seed=0)
     _, state = policy.predict(obs)
-    policy._qp = FailingQP()
+    engine = policy._engine
+    engine._qp = FailingQP()
     plan = state[0, 1:].copy()
     action2, state2 = policy.predict(obs, state=state)
     assert policy.solver_failures == 1
-    np.testing.assert_allclose(state2[0, 1:], policy._shifted(plan))
-    assert action2[0] == pytest.approx(policy._shifted(plan)[0] / DESIGN.max_road_wheel_angle_rad, rel=1e-6)
+    np.testing.assert_allclose(state2[0, 1:], engine._shifted(plan))
+    assert action2[0] == pytest.approx(engine._shifted(plan)[0] / DESIGN.max_road_wheel_angle_rad, rel=1e-6)
 
 
 def test_nmpc_reads_only_the_env_contract() -> None:
@@ -148,16 +150,17 @@ def test_nmpc_beats_the_paper_mpc_on_the_double_lane_change() -> None:
     assert m["policy_time_p50_us"] > 0.0
 
 
-def test_batch_and_single_observations_give_the_same_plan() -> None:
+@pytest.mark.parametrize("preset", ["default", "casadi"])
+def test_batch_and_single_observations_give_the_same_plan(preset: str) -> None:
     env = gym.make("DLC120-v0")
-    policy = make_policy("nmpc", env)
+    policy = NMPC.from_env(env, preset)
     env.reset(seed=0, options={"initial_lateral_offset_m": 0.5})
     obs, *_ = env.step(np.zeros(1, dtype=np.float32))
     single, _ = policy.predict(obs, episode_start=True)
     assert abs(single[0]) > 1e-3
     policy.reset()
     batch, state = policy.predict(np.stack((obs, obs)), episode_start=np.ones(2, dtype=bool))
-    assert state.shape == (2, 1 + NMPCConfig().horizon_steps)
+    assert state.shape == (2, policy.state_size)
     np.testing.assert_allclose(batch[:, 0], single[0], rtol=1e-6)
 
 

@@ -20,7 +20,8 @@ from vtrack_gym.baselines.registry import available_policies, make_policy
 from vtrack_gym.baselines.shipped import shipped_agent_factories
 
 SCENARIOS = {"DLC120-v0": None, "LateralTracking-v0": 3000}
-AGENTS = shipped_agent_factories()
+AGENTS = {n: make for n, make in shipped_agent_factories().items() if make(None).action_dim == 1}
+"""The shipped steering agents (the loop below drives the ``steer`` mode; ``bc_accel`` drives the pedals too)."""
 
 
 def _factory(name: str):

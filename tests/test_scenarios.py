@@ -177,9 +177,11 @@ def test_cli_track_option_records_provenance(circuit_csv: Path, tmp_path: Path, 
     first, bench, other = rows
     assert first["options"]["track_sha256"] == file_digest(circuit_csv) != other["options"]["track_sha256"]
     assert first["options"]["speed_profile"] == {"kind": "EnvelopeLimited", "max_speed_mps": 40.0 / 3.6,
-                                                 "max_lateral_accel_mps2": 0.7 * 9.81, "max_accel_mps2": 2.0,
+                                                 "max_lateral_accel_mps2": 0.7 * 9.81, "max_accel_mps2": None,
                                                  "max_decel_mps2": 3.0, "vehicle_limit_mps2": None,
-                                                 "vehicle_name": "the car"}  # the CLI's default profile
+                                                 "vehicle_name": "the car", "throttle_authority": "speed_loop"
+                                                 }  # the CLI's default profile: the car's powertrain, as its
+    #                                                  speed loop can drive it
     assert bench["options"]["speed_profile"] == {"kind": "ConstantSpeed", "v_mps": 20.0 / 3.6}
     assert first["metrics"]["success"] == 1.0 and first["termination"] == "completed"
     capsys.readouterr()

@@ -19,7 +19,8 @@ from vtrack_gym.evaluation.metrics import paper_metrics, smoothness_metrics
 from vtrack_gym.evaluation.rollout import rollout
 from vtrack_gym.evaluation.trace import Trace
 
-AGENTS = sorted(shipped_agents())
+AGENTS = sorted(n for n, path in shipped_agents().items() if load_agent(path).action_dim == 1)
+"""The shipped steering agents (the one that drives the pedals too, ``bc_accel``: tests/test_accel_agent.py)."""
 DLC_BAR = 1.5  # the issue's bar: max|e_y| on DLC120-v0 within 1.5x of the best scripted baseline
 WIGGLE_BAR = 2.0  # steering reversals per second within 2x the scripted baselines' most (or 1/s, if more)
 

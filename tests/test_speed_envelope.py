@@ -138,7 +138,10 @@ def test_profile_of_limits_defaults_to_the_envelope_and_checks_the_car() -> None
     from vtrack_gym.tracks.speed_limits import PROFILE_KINDS, speed_profile_from_limits
 
     assert PROFILE_KINDS[0] == "envelope"
-    assert speed_profile_from_limits() == EnvelopeLimited(40.0 / 3.6, 0.7 * 9.81)
+    # speeding up as the driven car's powertrain allows at the throttle its speed loop holds (bound by the env)
+    assert speed_profile_from_limits() == EnvelopeLimited(40.0 / 3.6, 0.7 * 9.81, None,
+                                                          throttle_authority="speed_loop")
+    assert speed_profile_from_limits(throttle_authority=None) == EnvelopeLimited(40.0 / 3.6, 0.7 * 9.81)
     assert isinstance(speed_profile_from_limits("curvature", 80.0, 0.7), CurvatureLimited)
     car = load_vehicle("hatchback")
     with pytest.raises(ValueError, match=r"max_lateral_g = 8\.33\d m/s\^2 \(0\.850 g\) against the steady-state "

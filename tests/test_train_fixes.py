@@ -218,12 +218,18 @@ def test_export_model_checks_normalisation_algo_and_period(tmp_path: Path,
     model = str(run / "model.zip")
     base = ["export", "--trust-code", "--env", "vtrack/TrainingMix-v0"]
     capsys.readouterr()
-    assert main([*base, "--model", model, "--algo", "ppo", "--out", str(tmp_path / "a")]) == 2
+    assert main([*base, "--model", model, "--algo", "ppo", "--vecnormalize", str(run / "vecnormalize.pkl"),
+                 "--out", str(tmp_path / "a")]) == 2   # the run folder records its 0.05 s: the env's own is refused
+    err = " ".join(capsys.readouterr().err.split())
+    assert "trained deciding every 0.05 s" in err and "decides every 0.01 s" in err
+    at_period = [*base, "--control-period-s", "0.05"]
+    assert main([*at_period, "--model", model, "--algo", "ppo", "--out", str(tmp_path / "a")]) == 2
     assert "vecnormalize.pkl next to it" in capsys.readouterr().err and not (tmp_path / "a.json").exists()
-    assert main([*base, "--model", model, "--algo", "sac", "--vecnormalize", str(run / "vecnormalize.pkl"),
+    assert main([*at_period, "--model", model, "--algo", "sac", "--vecnormalize", str(run / "vecnormalize.pkl"),
                  "--out", str(tmp_path / "a")]) == 2
     assert "holds a PPO model, not --algo sac" in capsys.readouterr().err
-    assert main([*base, "--model", model, "--algo", "ppo", "--vecnormalize", model, "--out", str(tmp_path / "a")]) == 2
+    assert main([*at_period, "--model", model, "--algo", "ppo", "--vecnormalize", model,
+                 "--out", str(tmp_path / "a")]) == 2
     assert f"--vecnormalize {model} is not a VecNormalize pickle" in capsys.readouterr().err
     not_zip = tmp_path / "junk.zip"
     not_zip.write_bytes(b"not even a zip")

@@ -104,8 +104,10 @@ def test_same_seed_same_randomised_episode() -> None:
 
 def test_scenarios_without_ranges_draw_nothing() -> None:
     for name, sc in SCENARIOS.items():
-        if name != "TrainingMix-v0":
+        if name not in ("TrainingMix-v0", "TrainingMixNominal-v0"):
             assert sc.randomisation == Randomisation() and sc.randomisation.is_off
+    nominal = SCENARIOS["TrainingMixNominal-v0"].randomisation   # friction and mass only: nothing the expert fails on
+    assert nominal == Randomisation(friction_range=(0.7, 1.1), mass_scale_range=(0.8, 1.25))
     env = gym.make("DLC120-v0")
     env.reset(seed=0)
     assert env.unwrapped._sim.noise.scale[0] == 0.0 and env.unwrapped._sim.delay.steps[0] == 0

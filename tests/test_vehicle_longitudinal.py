@@ -7,6 +7,7 @@ from vtrack_gym.vehicle import layout as L
 from vtrack_gym.vehicle.catalog import list_vehicles, resolve_vehicle
 from vtrack_gym.vehicle.longitudinal import (
     brake_decel_limit_mps2,
+    forward_accel_limit_fn,
     forward_accel_limit_mps2,
     resistance_n,
     top_speed_mps,
@@ -40,3 +41,14 @@ def test_forward_limit_matches_the_plant_at_full_throttle(speed):
 def test_brake_limit_exceeds_forward_limit():
     car = resolve_vehicle(list_vehicles()[0])
     assert float(brake_decel_limit_mps2(car, 20.0)) > float(forward_accel_limit_mps2(car, 20.0)) > 0.0
+
+
+@pytest.mark.parametrize("name", list_vehicles())
+def test_the_scalar_forward_limit_is_the_array_one(name):
+    car = resolve_vehicle(name)
+    speeds = np.concatenate([[0.0, 0.5, 1.0], np.linspace(1.5, 80.0, 60)])
+    for throttle in (1.0, 0.348, 0.1):
+        scalar = forward_accel_limit_fn(car, throttle)
+        got = np.array([scalar(float(v)) for v in speeds])
+        np.testing.assert_allclose(got, forward_accel_limit_mps2(car, speeds, throttle), rtol=1e-12, atol=1e-12)
+

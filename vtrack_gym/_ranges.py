@@ -32,6 +32,9 @@ from typing import Any, TypeVar
 RANGE_KEY = "range"
 """Key of the :class:`Range` in a dataclass field's ``metadata``."""
 
+OPTIONAL = "optional"
+"""Key of a field's ``metadata``: ``True`` lets a field with a numeric default be ``None`` too."""
+
 _T = TypeVar("_T")
 
 Bound = float | str | None
@@ -130,7 +133,8 @@ def validate(obj: Any) -> None:
     """Check every field of dataclass ``obj`` that declares a :class:`Range`, in field order (and that every field
     annotated ``bool`` holds a ``bool``).
 
-    A field whose default is ``None`` may be ``None`` (optional: "use the scenario's value").
+    A field whose default is ``None`` may be ``None`` (optional: "use the scenario's value"), as may a field
+    declared ``ranged(..., metadata={OPTIONAL: True})`` (a number by default, ``None`` allowed).
     """
     for f in dataclasses.fields(obj):
         if f.type in ("bool", bool) and not isinstance(getattr(obj, f.name), bool):
@@ -138,7 +142,7 @@ def validate(obj: Any) -> None:
         rng = f.metadata.get(RANGE_KEY)
         if rng is not None:
             value = getattr(obj, f.name)
-            if value is not None or f.default is not None:
+            if value is not None or (f.default is not None and not f.metadata.get(OPTIONAL)):
                 rng.check(obj, f.name, value)
 
 

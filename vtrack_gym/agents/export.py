@@ -154,9 +154,10 @@ def export(model: Any, vecnormalize: Any, path: str | Path, *, env_id: str = "",
 SB3_CLASSES = ("ppo", "sac", "td3")
 
 
-TRAINING_ENV_KWARGS = ("control_period_s", "reward")
-"""Env settings a hyperparameter file may change for training (its ``env_kwargs``): the decision period [s] and
-``RewardConfig`` fields (a mapping, e.g. ``{w_ey: 1.0}``)."""
+TRAINING_ENV_KWARGS = ("control_period_s", "reward", "control")
+"""Env settings a hyperparameter file may change for training (its ``env_kwargs``): the decision period [s],
+``RewardConfig`` fields (a mapping, e.g. ``{w_ey: 1.0}``) and the control mode (``envs.control``; ``vtrack train
+--control``)."""
 
 
 def training_env_kwargs(raw: dict[str, Any] | None) -> dict[str, Any]:
@@ -225,13 +226,16 @@ def export_model(model_zip: str | Path, out: str | Path, algo: str, vecnormalize
     Without ``vecnormalize_pkl`` the agent takes raw observations. ``raw_observations`` None: that is refused
     (``ValueError``) when a ``vecnormalize.pkl`` lies next to the model or the model's observation space looks
     normalised; True: the caller vouches the model was trained on raw observations. A model of another
-    algorithm than ``algo`` and a ``vecnormalize_pkl`` that is not a VecNormalize pickle are ``ValueError``.
+    algorithm than ``algo``, a ``vecnormalize_pkl`` that is not a VecNormalize pickle and a model of a ``vtrack
+    train`` run folder trained at another decision period than ``env_id``'s (``trained_period``) are ``ValueError``.
     """
     from vtrack_gym._io import read_regular_file
+    from vtrack_gym.agents.trained_period import check_export_period
 
     if algo not in SB3_CLASSES:
         raise ValueError(f"unknown algo {algo!r}; valid: {', '.join(SB3_CLASSES)}")
     model_zip = Path(model_zip)
+    check_export_period(model_zip, env_id, env_kwargs)   # a run folder's recorded period against the export env's
     model_bytes = read_regular_file(model_zip, MAX_RUN_FILE_BYTES, "SB3 model file")
     if vecnormalize_pkl is None and not raw_observations and (model_zip.parent / "vecnormalize.pkl").is_file():
         raise ValueError(f"--model {model_zip} has a vecnormalize.pkl next to it: the model was probably trained "

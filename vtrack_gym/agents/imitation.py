@@ -10,6 +10,9 @@ then RL improves it on the env's reward:
    temporally correlated perturbation (AR(1), ``noise_std`` at <= 10 m/s, falling as 1/v^2 above: a constant
    lateral-acceleration perturbation), so the data also cover the states just off the expert's path and how the
    expert recovers from them (noise injection, as in DART); the label is always the expert's own action.
+   In the longitudinal control modes (``control="steer_accel"`` / ``"steer_rate_accel"``) the expert is the
+   steering law paired with the paper's PD-FLC (``make_policy``'s decoupled design), the labels and the actor
+   have two entries ``[steering, demand]`` and the demand gets its own perturbation (``demand_noise_std``).
    ``dagger_rounds`` further rounds are driven by the cloned agent itself and labelled by the expert (DAgger),
    so the data also hold the states the clone's own errors lead to; the fit runs on the aggregate.
 2. ``warm_start``: running observation statistics are set from the data (fixed physical scales,
@@ -54,6 +57,8 @@ class BCConfig:
     dagger_rounds: int = ranged(2, ge=0, le=20, integer=True)
     noise_std: float = ranged(0.02, ge=0.0, le=1.0)  # std of the AR(1) perturbation of the executed action at <= 10 m/s
     noise_corr_s: float = ranged(0.2, ge=0.0, le=10.0, unit="s")  # correlation time of the perturbation [s]
+    # longitudinal modes: std of the AR(1) perturbation of the executed demand (fraction of the pedal range)
+    demand_noise_std: float = ranged(0.05, ge=0.0, le=1.0)
     epochs: int = ranged(30, ge=1, le=1000, integer=True)  # passes over the data per round
     batch_size: int = ranged(1024, ge=16, le=10**6, integer=True)
     learning_rate: float = ranged(1e-3, ge=1e-6, le=1.0)
@@ -74,8 +79,9 @@ class BCConfig:
 
 @dataclass
 class ExpertData:
-    """Transitions, time-major: ``obs`` (T, n, obs_dim) raw, ``label`` (T, n) the expert's action, ``executed``
-    (T, n) the perturbed action applied, ``reward``/``done`` (T, n), ``next_obs`` (T, n, obs_dim) (the terminal
+    """Transitions, time-major: ``obs`` (T, n, obs_dim) raw, ``label`` (T, n, action_dim) the expert's action
+    (``collect``'s; (T, n) is read as one entry per action), ``executed`` the same shape, the perturbed action
+    applied, ``reward``/``done`` (T, n), ``next_obs`` (T, n, obs_dim) (the terminal
     observation at an episode end), and how the episodes that ended did."""
 
     obs: np.ndarray
@@ -89,35 +95,42 @@ class ExpertData:
 
     @property
     def transitions(self) -> int:
-        return int(self.label.size)
+        return int(self.label.shape[0] * self.label.shape[1])   # (T, n[, action_dim]): one per car and step
 
 
 def collect(venv: Any, config: BCConfig, seed: int = 0, driver: Any = None) -> ExpertData:
     """Drive ``venv`` (a ``TrackingSB3VecEnv``) for ``config.steps`` vector steps with the expert, or with
-    ``driver`` (a ``predict(obs)`` policy: the DAgger rounds) if given; the labels are always the expert's."""
+    ``driver`` (a ``predict(obs)`` policy: the DAgger rounds) if given; the labels are always the expert's.
+
+    The expert is ``make_policy(config.expert, venv)``: in a longitudinal control mode the steering law paired with
+    the PD-FLC (``baselines.decoupled``), whose labels are ``[steering, demand]``. The steering entry gets the
+    AR(1) perturbation of ``noise_std`` (falling as 1/v^2 above 10 m/s), the demand entry one of
+    ``demand_noise_std`` (constant: a fraction of the pedal range)."""
     from vtrack_gym.baselines.registry import make_policy
     from vtrack_gym.envs.observation import OBS
 
     expert = make_policy(config.expert, venv, preset=config.expert_preset)
-    n = venv.num_envs
+    n, dim = venv.num_envs, int(venv.action_space.shape[0])
     rng = np.random.default_rng(seed)
     rho = math.exp(-venv.get_attr("control_period_s")[0] / config.noise_corr_s) if config.noise_corr_s > 0 else 0.0
     venv.seed(seed)
     obs = venv.reset()
     state, starts = None, np.ones(n, dtype=bool)
-    noise = np.zeros(n)
+    noise = np.zeros((n, dim))
+    std = np.array([config.noise_std] + [config.demand_noise_std] * (dim - 1))
     shape = (config.steps, n)
-    data = ExpertData(np.empty((*shape, obs.shape[1]), np.float32), np.empty(shape, np.float32),
-                      np.empty(shape, np.float32), np.empty(shape, np.float32), np.empty(shape, bool),
+    data = ExpertData(np.empty((*shape, obs.shape[1]), np.float32), np.empty((*shape, dim), np.float32),
+                      np.empty((*shape, dim), np.float32), np.empty(shape, np.float32), np.empty(shape, bool),
                       np.empty((*shape, obs.shape[1]), np.float32), {}, np.zeros(shape, bool))
     for t in range(config.steps):
         action, state = expert.predict(obs, state, episode_start=starts)
-        label = np.asarray(action, dtype=np.float32).reshape(n)
-        base = label if driver is None else np.asarray(driver.predict(obs)[0], dtype=np.float32).reshape(n)
-        noise = rho * noise + math.sqrt(1.0 - rho * rho) * config.noise_std * rng.standard_normal(n)
-        speed = np.maximum(obs[:, OBS.V_X], NOISE_REFERENCE_SPEED_MPS)
-        executed = np.clip(base + noise * (NOISE_REFERENCE_SPEED_MPS / speed) ** 2, -1.0, 1.0).astype(np.float32)
-        next_obs, reward, done, infos = venv.step(executed[:, None])
+        label = np.asarray(action, dtype=np.float32).reshape(n, dim)
+        base = label if driver is None else np.asarray(driver.predict(obs)[0], dtype=np.float32).reshape(n, dim)
+        noise = rho * noise + math.sqrt(1.0 - rho * rho) * std * rng.standard_normal((n, dim))
+        scale = np.ones((n, dim))
+        scale[:, 0] = (NOISE_REFERENCE_SPEED_MPS / np.maximum(obs[:, OBS.V_X], NOISE_REFERENCE_SPEED_MPS)) ** 2
+        executed = np.clip(base + noise * scale, -1.0, 1.0).astype(np.float32)
+        next_obs, reward, done, infos = venv.step(executed)
         data.obs[t], data.label[t], data.executed[t], data.reward[t], data.done[t] = obs, label, executed, reward, done
         data.next_obs[t] = next_obs
         for i in np.flatnonzero(done):
@@ -165,8 +178,10 @@ def _set_return_statistics(vecnorm: Any, reward: np.ndarray, done: np.ndarray, g
     vecnorm.ret_rms.count = float(seen.size)
 
 
-def _fit(params: list[Any], predict: Any, inputs: Any, targets: Any, config: BCConfig, seed: int) -> float:
-    """Minimise the MSE of ``predict(inputs[batch])`` against ``targets[batch]``; returns the last epoch's loss."""
+def _fit(params: list[Any], predict: Any, inputs: Any, targets: Any, config: BCConfig, seed: int,
+         weights: Any = None) -> float:
+    """Minimise the MSE of ``predict(inputs[batch])`` against ``targets[batch]`` (each error times its entry of
+    ``weights[batch]``, (N, outputs), if given); returns the last epoch's loss."""
     import torch
 
     opt = torch.optim.Adam(params, lr=config.learning_rate)
@@ -178,7 +193,8 @@ def _fit(params: list[Any], predict: Any, inputs: Any, targets: Any, config: BCC
         loss_sum, batches = 0.0, 0
         for start in range(0, n, config.batch_size):
             idx = perm[start:start + config.batch_size]
-            loss = torch.mean((predict(inputs[idx]) - targets[idx]) ** 2)
+            error = predict(inputs[idx]) - targets[idx]
+            loss = torch.mean((error if weights is None else error * weights[idx]) ** 2)
             opt.zero_grad()
             loss.backward()
             opt.step()
@@ -209,25 +225,85 @@ def _actor(model: Any) -> tuple[Any, list[Any]]:
     raise ValueError(f"the behaviour-cloning warm start supports PPO and SAC (got {type(model).__name__})")
 
 
+def _action_dim(data: ExpertData) -> int:
+    """Entries of one action in ``data`` (1 for labels stored as (T, n), the steering-only layout)."""
+    return int(data.label.shape[2]) if data.label.ndim == 3 else 1
+
+
 def labelled_states(rounds: list[ExpertData]) -> tuple[np.ndarray, np.ndarray]:
-    """All rounds' raw observations (N, obs_dim) and the expert's labels for them (N, 1)."""
+    """All rounds' raw observations (N, obs_dim) and the expert's labels for them (N, action_dim)."""
     obs = np.concatenate([d.obs.reshape(-1, d.obs.shape[-1]) for d in rounds])
-    return obs, np.concatenate([d.label.reshape(-1, 1) for d in rounds])
+    return obs, np.concatenate([d.label.reshape(-1, _action_dim(d)) for d in rounds])
+
+
+LATERAL_FIELDS = frozenset({"e_y", "e_phi", "e_y_dot", "e_phi_dot", "v_y", "yaw_rate", "road_wheel_angle",
+                            "yaw_rate_ref", "yaw_acc_ref", "curvature", "curvature_rate"})
+"""Observation fields that change sign in the mirror image of a state (left and right swapped); so do the
+``kappa_preview_*`` fields. The others (speeds, speed and time errors, speed preview) keep theirs."""
+LONGITUDINAL_FIELDS = frozenset({"v_x", "target_speed", "speed_error", "time_error"})
+"""Observation fields a mirror image leaves unchanged (with the ``v_ref_preview_*`` fields)."""
+
+
+def _layout_names(vecnorm: Any) -> tuple[str, ...] | None:
+    """The observation layout's field names of the env under ``vecnorm`` (None if it has none)."""
+    env = vecnorm
+    while env is not None and not hasattr(env, "observation_layout"):
+        env = getattr(env, "venv", None)
+    return None if env is None else tuple(env.observation_layout.names)
+
+
+def mirrored(obs: np.ndarray, label: np.ndarray, names: tuple[str, ...] | None) -> tuple[np.ndarray, np.ndarray]:
+    """``obs`` (N, obs_dim) and ``label`` (N, outputs) with their mirror images appended: lateral fields and the
+    steering output (entry 0) negated, the rest kept, so the clone steers straight on a straight road at any speed
+    (a data set drawn mostly at low speed otherwise leaves a bias where it extrapolates). Unchanged when a field of
+    ``names`` is neither lateral nor longitudinal (a layout this function does not know)."""
+    if names is None:
+        return obs, label
+    odd = np.array([n in LATERAL_FIELDS or n.startswith("kappa_preview_") for n in names])
+    even = np.array([n in LONGITUDINAL_FIELDS or n.startswith("v_ref_preview_") for n in names])
+    if not np.all(odd | even) or len(names) != obs.shape[1]:
+        return obs, label
+    sign = np.where(odd, -1.0, 1.0).astype(obs.dtype)
+    flip = np.ones(label.shape[1], dtype=label.dtype)
+    flip[0] = -1.0
+    return np.concatenate([obs, obs * sign]), np.concatenate([label, label * flip])
+
+
+def _output_weights(obs: np.ndarray, label: np.ndarray) -> np.ndarray:
+    """(N, action_dim) weights of a several-output clone's errors: each output's error in its own spread (steering
+    ~0.01-0.1, demand ~0.1-1), and the steering error also times (v / 10 m/s)^2 above 10 m/s (what a steering error
+    does to the path grows as v^2, as the perturbation falls in ``collect``), rescaled to a mean of 1."""
+    from vtrack_gym.envs.observation import OBS
+
+    weights = np.tile(1.0 / np.maximum(label.std(axis=0), 1e-3), (label.shape[0], 1))
+    speed = (np.maximum(obs[:, OBS.V_X], NOISE_REFERENCE_SPEED_MPS) / NOISE_REFERENCE_SPEED_MPS) ** 2
+    weights[:, 0] *= np.sqrt(speed / speed.mean())   # squared in the loss
+    return weights
 
 
 def _clone(model: Any, vecnorm: Any, rounds: list[ExpertData], config: BCConfig, seed: int) -> float:
     """Fit the actor to the expert labels of all ``rounds`` (running observation statistics from the same data;
-    fixed scales are kept)."""
+    fixed scales are kept). With several outputs (the longitudinal modes) the data get their mirror image
+    (``mirrored``) and the errors are weighted (``_output_weights``): the small steering commands weigh as much as
+    the demand, and more at speed."""
     import torch
 
     obs, label = labelled_states(rounds)
+    if label.shape[1] > 1:   # the longitudinal modes: the data and their mirror image
+        obs, label = mirrored(obs, label, _layout_names(vecnorm))
     _set_obs_statistics(vecnorm, obs)
     act, params = _actor(model)
     x = torch.as_tensor(vecnorm.normalize_obs(obs), dtype=torch.float32)
     y = torch.as_tensor(label, dtype=torch.float32)
+    weights = None
+    if label.shape[1] > 1:
+        weights = torch.as_tensor(_output_weights(obs, label), dtype=torch.float32)
     model.policy.set_training_mode(True)
-    mse = _fit(params, act, x, y, config, seed)
+    mse = _fit(params, act, x, y, config, seed, weights)
     model.policy.set_training_mode(False)
+    if weights is not None:  # the record keeps the plain MSE [action units^2]
+        with torch.no_grad():
+            mse = float(torch.mean((act(x) - y) ** 2))
     return mse
 
 
@@ -296,7 +372,8 @@ def prefill_replay_buffer(model: Any, rounds: list[ExpertData]) -> int:
             # SB3 stores a time-limit end as a timeout, bootstrapped like a running episode, not a true terminal
             infos = [{"TimeLimit.truncated": bool(data.truncated is not None and data.truncated[t, i])}
                      for i in range(n)]
-            buf.add(data.obs[t], data.next_obs[t], data.executed[t][:, None], data.reward[t], data.done[t], infos)
+            buf.add(data.obs[t], data.next_obs[t], data.executed[t].reshape(n, _action_dim(data)), data.reward[t],
+                    data.done[t], infos)
         added += data.transitions
     return added
 

@@ -22,12 +22,12 @@ import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.running_mean_std import RunningMeanStd
 
-from vtrack_gym.envs.observation import SCALARS, SERIES, scale_columns
+from vtrack_gym.envs.observation import SCALARS, SERIES, TRACKING_ERRORS, scale_columns
 
 CLIP = 10.0
 """Scaled observations are clipped at +-CLIP (the visible range of a field is centre +- CLIP x scale)."""
 
-FIELD_SCALES: dict[str, tuple[float, float]] = scale_columns(SCALARS)
+FIELD_SCALES: dict[str, tuple[float, float]] = scale_columns(SCALARS + TRACKING_ERRORS)
 """Field name -> (centre, scale) in the field's SI unit (the observation table's scale columns)."""
 PREFIX_SCALES: dict[str, tuple[float, float]] = scale_columns(SERIES)
 """Name prefix -> (centre, scale) for the preview samples (the table's series rows)."""

@@ -33,7 +33,7 @@ class TrackingSB3VecEnv(VecEnv):
             scenario = spec_kwargs.pop("scenario", env_id_or_vector_env)
             self.venv = TrackingVectorEnv(scenario, num_envs=num_envs, **{**spec_kwargs, **kwargs})
         super().__init__(self.venv.num_envs, self.venv.single_observation_space, self.venv.single_action_space)
-        self._actions = np.zeros(self.num_envs)
+        self._actions = np.zeros((self.num_envs, *self.venv.single_action_space.shape))
         self._pending_seed: int | None = None
 
     def reset(self) -> VecEnvObs:
@@ -62,7 +62,8 @@ class TrackingSB3VecEnv(VecEnv):
         sim = self.venv.sim
         from vtrack_gym.envs.tracking_env import check_actions
 
-        reward, terminated, truncated = sim.step(check_actions(self._actions, self.num_envs))
+        reward, terminated, truncated = sim.step(check_actions(self._actions, self.num_envs,
+                                                               self.venv.single_action_space.shape[0]))
         obs = sim.obs.copy()
         done = terminated | truncated
         cost = sim.safety()[0]    # info["cost"] of every car (envs.schema.SAFETY_SIGNALS), before any reset

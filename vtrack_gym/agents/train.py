@@ -22,6 +22,8 @@ The run folder holds:
   ``case1_max_steps`` steps (default 3000 = 30 s of driving) at the same times and in full only every
   ``case1_full_every``-th evaluation and at the end. Each line records the metrics, the termination and
   the number of steps so a capped run is never mistaken for a full lap.
+* ``bc_agent.json`` + ``bc_agent.npz`` (with a ``--bc-expert`` warm start): the weights-only export of the cloned
+  actor before any RL update (``provenance.timesteps`` 0, the warm start recorded), to compare with the fine-tune
 * ``model.zip`` + ``vecnormalize.pkl`` (SB3's own formats, for resuming; trusted local files only) and
   ``agent.json`` + ``agent.npz`` (the weights-only export of the final model, loaded by ``load_agent``)
 * ``best_agent.json`` + ``best_agent.npz``: the weights-only export of the checkpoint with the best
@@ -72,7 +74,8 @@ log = logging.getLogger(__name__)
 
 EVAL_ENV_IDS = ("DLC120-v0", "LateralTracking-v0")
 RUN_FILES = ("config.json", "model.zip", "vecnormalize.pkl", "best_model.zip", "agent.json", "agent.npz",
-             "best_agent.json", "best_agent.npz", "bc.json", "evaluations.jsonl", "vtrack-train.sig")
+             "best_agent.json", "best_agent.npz", "bc.json", "bc_agent.json", "bc_agent.npz", "evaluations.jsonl",
+             "vtrack-train.sig")
 """Files ``train`` writes at the top of its run folder."""
 LOG_FILE_PATTERNS = ("progress.csv", "log.txt", "events.out.tfevents.*")
 """Files SB3's logger writes into ``<run>/logs`` (CSV, text log, TensorBoard events)."""
@@ -149,15 +152,20 @@ class _Wrapped:
         return action, None
 
 
-def evaluate_paper(policy: Any, case1_max_steps: int | None = 3000, seed: int = 0) -> dict[str, dict[str, Any]]:
-    """Deterministic rollouts on both paper scenarios: ``{env_id: metrics + termination + steps}``."""
+def evaluate_paper(policy: Any, case1_max_steps: int | None = 3000, seed: int = 0,
+                   control: str = "steer") -> dict[str, dict[str, Any]]:
+    """Deterministic rollouts on both paper scenarios (in the control mode ``control``, ``envs.control``):
+    ``{env_id: metrics + termination + steps}``."""
+    import gymnasium as gym
+
     from vtrack_gym.evaluation.metrics import paper_metrics, smoothness_metrics
     from vtrack_gym.evaluation.rollout import rollout
 
     out: dict[str, dict[str, Any]] = {}
     for env_id in EVAL_ENV_IDS:
         cap = case1_max_steps if env_id == "LateralTracking-v0" else None
-        trace = rollout(policy, env_id, seed=seed, max_steps=cap)
+        env = gym.make(env_id, control=control) if control != "steer" else env_id
+        trace = rollout(policy, env, seed=seed, max_steps=cap)
         m = {**paper_metrics(trace), **smoothness_metrics(trace)}
         row: dict[str, Any] = {k: float(m[k]) for k in ("rms_e_y_m", "max_e_y_m", "rms_e_phi_deg",
                                                         "max_hand_wheel_deg", "max_a_y_mps2",
@@ -226,7 +234,8 @@ def _make_callbacks(run_dir: Path, vecnorm: Any, timesteps: int, eval_freq: int,
             log.info("evaluating on LateralTracking-v0 (%s) and DLC120-v0 at step %d", "full lap" if full else
                      f"first {case1_max_steps} steps", self.num_timesteps)
             t0 = time.perf_counter()
-            res = evaluate_paper(_Wrapped(self.model, vecnorm), None if full else case1_max_steps)
+            res = evaluate_paper(_Wrapped(self.model, vecnorm), None if full else case1_max_steps,
+                                 control=getattr(contract_env, "control", "steer"))
             for eval_id, row in res.items():  # not env_id: that is the training env id exported below
                 for key in ("rms_e_y_m", "max_e_y_m", "completed", "steps", "steering_reversals_per_s"):
                     self.logger.record(f"eval/{eval_id}/{key}", float(row[key]))
@@ -277,9 +286,10 @@ class _RunSetup:
 
 
 def _merged_params(algo: str, env_id: str, overrides: Mapping[str, Any] | None, bc: Any,
-                   num_envs: int | None) -> tuple[dict[str, Any], str]:
-    """The entry's hyperparameters with the warm start's ``bc_finetune``, ``overrides`` (None drops a key) and
-    ``num_envs`` applied, checked for settings of another algorithm; and the file's SHA-256."""
+                   num_envs: int | None, control: str | None = None) -> tuple[dict[str, Any], str]:
+    """The entry's hyperparameters with the warm start's ``bc_finetune``, ``overrides`` (None drops a key),
+    ``num_envs`` and the control mode (into ``env_kwargs``) applied, checked for settings of another algorithm; and
+    the file's SHA-256."""
     params, digest = load_hyperparams(algo, env_id)
     finetune = params.pop("bc_finetune", None) or {}
     if bc is not None:
@@ -295,12 +305,16 @@ def _merged_params(algo: str, env_id: str, overrides: Mapping[str, Any] | None, 
         raise ValueError(f"{sorted(REGULARISED_SAC_KEYS & params.keys())} apply to --algo sac only")
     if num_envs is not None:
         params["n_envs"] = int(num_envs)
+    if control is not None:
+        from vtrack_gym.envs.control import check_control
+
+        params["env_kwargs"] = {**dict(params.get("env_kwargs") or {}), "control": check_control(control)}
     return params, digest
 
 
 def _configure(algo: str, env_id: str | None, timesteps: int | None, seed: int, run_dir: str | Path,
                num_envs: int | None, overrides: Mapping[str, Any] | None, bc: Any, command: str | None,
-               eval_settings: dict[str, Any]) -> _RunSetup:
+               eval_settings: dict[str, Any], control: str | None = None) -> _RunSetup:
     """Config phase: read and check the hyperparameters, decide the run's settings and its ``config.json``."""
     import stable_baselines3
     import torch
@@ -312,7 +326,7 @@ def _configure(algo: str, env_id: str | None, timesteps: int | None, seed: int, 
         raise ValueError(f"timesteps must be a positive int (got {timesteps!r})")
     if env_id is None:
         env_id = DEFAULT_ENV_ID if bc is None else IMITATION_ENV_ID
-    params, digest = _merged_params(algo, env_id, overrides, bc, num_envs)
+    params, digest = _merged_params(algo, env_id, overrides, bc, num_envs, control)
     file_timesteps = params.pop("n_timesteps", None)
     if timesteps is None:
         if file_timesteps is None:
@@ -426,7 +440,7 @@ def _learn(setup: _RunSetup, model: Any, venv: Any, vecnorm: Any, callbacks: lis
     try:
         if setup.bc is not None:
             interrupted = "warm start"
-            _behaviour_clone(model, venv, vecnorm, setup.bc, setup.seed, setup.run_dir)
+            _behaviour_clone(model, venv, vecnorm, setup)
             if eval_freq > 0:
                 callbacks[0].init_callback(model)
                 callbacks[0].run()
@@ -482,8 +496,13 @@ def train(algo: str, env_id: str | None = None, timesteps: int | None = None, se
           overrides: Mapping[str, Any] | None = None, eval_freq: int = 100_000, case1_max_steps: int | None = 3000,
           case1_full_every: int = 5, final_eval: bool = True, progress_bar: bool = True, verbose: int = 0,
           torch_threads: int | None = 1, command: str | None = None, bc: Any = None,
-          overwrite: bool = False) -> dict[str, Any]:
+          overwrite: bool = False, control: str | None = None) -> dict[str, Any]:
     """Train ``algo`` on ``env_id`` and write ``run_dir`` (see the module docstring). Returns a summary dict.
+
+    ``control``: the control mode of the training env and the periodic evaluation (``envs.control``; recorded in
+    the hyperparameters' ``env_kwargs``; default: the hyperparameter file's, else ``steer``). The longitudinal modes
+    train a two-output actor (steering or its rate, and the demand); there the warm start clones the expert paired
+    with the PD-FLC (``baselines.decoupled``), both outputs.
 
     ``timesteps`` None: the entry's ``n_timesteps``. ``overrides`` replace YAML entries (e.g. ``{"n_steps": 64}``;
     a value of ``None`` drops the entry); ``num_envs`` overrides ``n_envs``. ``env_id`` ``None``:
@@ -505,7 +524,8 @@ def train(algo: str, env_id: str | None = None, timesteps: int | None = None, se
     if torch_threads:
         torch.set_num_threads(torch_threads)
     setup = _configure(algo, env_id, timesteps, seed, run_dir, num_envs, overrides, bc, command,
-                       {"freq": eval_freq, "case1_max_steps": case1_max_steps, "case1_full_every": case1_full_every})
+                       {"freq": eval_freq, "case1_max_steps": case1_max_steps, "case1_full_every": case1_full_every},
+                       control)
     venv, vecnorm = _build_envs(setup)
     try:  # every setting is checked before anything of the run folder is written or replaced
         model = _build_model(setup, venv, vecnorm, verbose)
@@ -548,14 +568,20 @@ def _check_exportable(model: Any, vecnorm: Any, contract_env: Any, algo: str) ->
                              f"an agent that cannot be exported: {exc}; nothing was trained or written") from None
 
 
-def _behaviour_clone(model: Any, venv: Any, vecnorm: Any, bc: Any, seed: int, run_dir: Path) -> None:
-    """Warm start (``vtrack_gym.agents.imitation``): expert data, fit, SAC replay buffer; writes ``bc.json``."""
+def _behaviour_clone(model: Any, venv: Any, vecnorm: Any, setup: _RunSetup) -> None:
+    """Warm start (``vtrack_gym.agents.imitation``): expert data, fit, SAC replay buffer; writes ``bc.json`` and
+    the cloned actor, before any RL update, as ``bc_agent.json/.npz`` (``timesteps`` 0, the warm start recorded)."""
     from vtrack_gym.agents import imitation
+    from vtrack_gym.agents.export import export
+
+    bc, seed, run_dir = setup.bc, setup.seed, setup.run_dir
 
     t0 = time.perf_counter()
     log.info("warm start: %s drives %d x %d steps of expert data, %d DAgger rounds, then the actor is fitted",
              bc.expert, bc.steps, venv.num_envs, bc.dagger_rounds)
     rounds, fit = imitation.warm_start(model, venv, vecnorm, bc, seed=seed)
+    export(model, vecnorm, run_dir / "bc_agent", env_id=setup.env_id, command=setup.command, seed=seed,
+           warm_start=_warm_start_text(setup), env=venv.venv)
     prefilled = 0
     if hasattr(model, "replay_buffer"):
         prefilled = imitation.prefill_replay_buffer(model, rounds)

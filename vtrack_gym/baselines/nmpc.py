@@ -1,4 +1,5 @@
-"""Nonlinear MPC steering baseline: real-time iterations on the Pacejka single-track model (needs CasADi).
+"""Nonlinear MPC steering baseline on the Pacejka single-track model: a compiled real-time iteration (default) or
+CasADi's iterations (presets ``casadi``, ``converged``; they need CasADi).
 
 Model: ``vtrack_gym.baselines.nmpc_model`` (Frenet single-track, Pacejka axle tyres with the env's design
 parameters, first-order steering actuator). Horizon: ``horizon_steps`` stages of ``stage_time_s`` (default 40 x
@@ -10,30 +11,34 @@ Per control period (``control_period_s`` of the env, 10 ms):
    the env's speed loop will hold, ``v_k = v_ref + (v_x - v_ref) exp(-t_k / speed_time_constant_s)`` with v_ref
    the observation's target speed (or its speed preview), floored at ``min_speed_mps``. Stage curvatures: the
    observation's curvature and preview, linear in distance travelled, held beyond the last sample.
-2. Real-time iteration (Diehl's RTI, ``sqp_iterations = 1``): one Gauss-Newton QP in the command increments
-   around the previous solution shifted by one control period (the warm start), ``min 1/2 dU'(J'J + eps I)dU +
-   (J'res)'dU`` subject to ``|U + dU| <= max_road_wheel_angle_rad`` and the linearised actuator rate
-   ``|(u_k - delta_k) / tau| <= max_road_wheel_rate_radps`` (the plant's own limits). qpOASES (dense, 40
-   variables) solves it. More iterations per period (``sqp_iterations`` > 1, preset ``converged``) move the plan
-   nearer the converged optimum (a full SQP once they converge).
+2. One Gauss-Newton QP in the command increments (``sqp_iterations = 1``: Diehl's real-time iteration) around the
+   previous plan shifted by one control period, ``min 1/2 dU'(J'J + eps I)dU + (J'res)'dU`` subject to
+   ``|U + dU| <= max_road_wheel_angle_rad`` and the actuator rate ``|(u_k - delta_k) / tau| <=
+   max_road_wheel_rate_radps`` (the plant's own limits). More iterations (``sqp_iterations`` > 1, preset
+   ``converged``) move the plan nearer the converged optimum.
 3. The first command of the plan is applied; the plan is kept (policy memory) for the next period's warm start.
+
+``method = "rti"`` (default, ``nmpc_rti``): compiled model Jacobians and a compiled dense active-set QP solver,
+split into a *feedback* phase (observation -> command: the prepared QP corrected to first order for the measured
+state and stage parameters, then solved) and a *preparation* phase (linearising and condensing around the
+predicted next state, run after the command is known). ``method = "casadi"`` (``nmpc_casadi``): CasADi's model
+functions (compiled to C when a compiler is found) and its QP plugin ``qp_solver``, linearised after the state
+arrives (no split: everything is feedback).
+
+Statistics of the last decision: ``last_solver_stats`` (``nmpc_rti.STAT_NAMES``: preparation and feedback time,
+QP time and iterations, Gauss-Newton steps, preparations made in the feedback). The evaluation harness records
+them per decision and reports them in the rows; with compute charged in the loop (``latency="measured"``) it sets
+``defer_preparation`` and calls ``prepare()`` after each decision, so only the feedback phase delays the command
+(the preparation must fit in the control period; its time is reported beside).
 
 A QP that fails (non-finite or not solved) is counted in ``solver_failures`` and the shifted previous plan is
 applied instead. Cost: ``e_y``, ``e_phi``, yaw rate against ``v kappa`` and command moves, the last stage's state
 terms scaled by ``terminal_scale``.
-
-State per row (``state_size = 1 + horizon_steps``): the command applied last [rad] and the plan U [rad].
 """
 
 from __future__ import annotations
 
-import contextlib
-import ctypes
 import logging
-import math
-import os
-import sys
-from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -41,21 +46,15 @@ import numpy as np
 
 from vtrack_gym._ranges import documented, ranged, validate
 from vtrack_gym.baselines.base import Policy, require_choice
-from vtrack_gym.baselines.nmpc_model import (
-    HorizonWeights,
-    TyreShape,
-    c_compiler_available,
-    horizon_functions,
-    import_casadi,
-    linearise_horizon,
-)
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.vehicle.params import DesignModel
 
 logger = logging.getLogger(__name__)
 
 QP_SOLVERS = ("qpoases", "osqp", "qrqp")
-"""CasADi QP plugins the real-time iteration may use (all ship with the casadi wheel)."""
+"""CasADi QP plugins the ``casadi`` method may use (all ship with the casadi wheel)."""
+METHODS = ("rti", "casadi")
+"""``NMPCConfig.method``: the compiled real-time iteration, or CasADi's functions and QP plugin."""
 
 
 @documented
@@ -67,8 +66,9 @@ class NMPCConfig:
     curvature preview). rk4_substeps: RK4 steps per stage. weight_e_y [1/m^2], weight_e_phi [1/rad^2],
     weight_yaw_rate [s^2/rad^2], weight_move [1/rad^2]: stage costs; terminal_scale: factor on the last stage's
     state weights. regularisation: eps added to the Gauss-Newton Hessian. sqp_iterations: 1 = real-time iteration.
-    qp_solver: the CasADi QP plugin. compile_model: compile the model's functions to C when a C compiler is
-    found (same numbers, faster). min_speed_mps: model speed floor [m/s]. speed_time_constant_s: how fast the
+    method: ``rti`` (compiled, preparation/feedback split) or ``casadi``. qp_solver (``casadi`` only): the CasADi
+    QP plugin. compile_model (``casadi`` only): compile the model's functions to C when a C compiler is found
+    (same numbers, faster). min_speed_mps: model speed floor [m/s]. speed_time_constant_s: how fast the
     predicted speed approaches the target [s]. actuator_lag_s: the steering actuator's time constant [s].
     front_shape_c, front_peak_d, rear_shape_c, rear_peak_d: the Pacejka shape (C, D) per axle.
     """
@@ -83,6 +83,7 @@ class NMPCConfig:
     terminal_scale: float = ranged(3.0, ge=0.0, le=100.0)
     regularisation: float = ranged(1e-6, ge=0.0, le=1e3)
     sqp_iterations: int = ranged(1, ge=1, le=20, integer=True)
+    method: str = "rti"
     qp_solver: str = "qpoases"
     compile_model: bool = True
     min_speed_mps: float = ranged(4.0, ge=1.0, le=30.0, unit="m/s")
@@ -96,6 +97,7 @@ class NMPCConfig:
     def __post_init__(self) -> None:
         validate(self)
         require_choice(self, "qp_solver", QP_SOLVERS)
+        require_choice(self, "method", METHODS)
 
     @property
     def horizon_s(self) -> float:
@@ -104,33 +106,10 @@ class NMPCConfig:
 
 
 NMPC_PRESETS: dict[str, NMPCConfig] = {"default": NMPCConfig(),
-                                       "converged": NMPCConfig(sqp_iterations=5)}
-
-
-def _flush_c_stdio() -> None:
-    """Flush the C library's stdio buffers (what a C++ library printed is written out now, not at exit)."""
-    try:
-        ctypes.CDLL(None).fflush(None)
-    except (OSError, AttributeError, TypeError):  # no C runtime reachable this way (non-POSIX): nothing to flush
-        pass
-
-
-@contextlib.contextmanager
-def silenced_stdout() -> Iterator[None]:
-    """Discard what C libraries write to the process's standard output (file descriptor 1) inside the block."""
-    sys.stdout.flush()
-    _flush_c_stdio()
-    saved = os.dup(1)
-    try:
-        with open(os.devnull, "wb") as null:
-            os.dup2(null.fileno(), 1)
-            try:
-                yield
-            finally:
-                _flush_c_stdio()
-    finally:
-        os.dup2(saved, 1)
-        os.close(saved)
+                                       "casadi": NMPCConfig(method="casadi"),
+                                       "converged": NMPCConfig(method="casadi", sqp_iterations=5)}
+"""``default``: the compiled real-time iteration; ``casadi``: the same problem, one Gauss-Newton step by CasADi
+and qpOASES after the state arrives (the default until the compiled one); ``converged``: five such steps."""
 
 
 def check_horizon(config: NMPCConfig, layout: ObservationLayout) -> None:
@@ -154,48 +133,38 @@ class NMPC(Policy):
         super().__init__(design, config, layout, control_period_s)
         cfg: NMPCConfig = self.config
         check_horizon(cfg, layout)
-        ca = import_casadi()
-        self.state_size = 1 + cfg.horizon_steps
-        shape = TyreShape(cfg.front_shape_c, cfg.front_peak_d, cfg.rear_shape_c, cfg.rear_peak_d)
-        weights = HorizonWeights(math.sqrt(cfg.weight_e_y), math.sqrt(cfg.weight_e_phi),
-                                 math.sqrt(cfg.weight_yaw_rate), math.sqrt(cfg.weight_move), cfg.terminal_scale)
-        self._weights = weights
-        self._horizon = horizon_functions(design, shape, cfg.actuator_lag_s, cfg.stage_time_s, cfg.rk4_substeps,
-                                          cfg.horizon_steps, cfg.compile_model and c_compiler_available())
-        self._qp = self._make_qp(ca, cfg)
-        self._max_rate = float(design.max_road_wheel_rate_radps)
         self._stage_mid_s = (np.arange(cfg.horizon_steps) + 0.5) * cfg.stage_time_s
         self._idx = {name: layout.index(name) for name in (
             "e_y", "e_phi", "v_y", "yaw_rate", "road_wheel_angle", "v_x", "curvature", "target_speed")}
-        self.solver_failures = 0
-        """QPs that failed since the policy was built (the shifted plan was applied instead)."""
-        self._warm_up()
+        self.defer_preparation = False
+        """True: ``predict`` stops after the feedback phase and ``prepare()`` runs the preparation (what a harness
+        that charges compute in the loop sets); False: ``predict`` prepares the next decision before returning."""
+        if cfg.method == "rti":
+            from vtrack_gym.baselines.nmpc_rti import RealTimeIteration
 
-    def _warm_up(self) -> None:
-        """Evaluate the model once (CasADi compiles lazily: the first call would otherwise pay for it)."""
-        n = self.config.horizon_steps
-        self._horizon.simulate(np.zeros(5), np.zeros((1, n)), np.full((1, n), self.config.min_speed_mps),
-                               np.zeros((1, n)))
-
-    def _make_qp(self, ca: Any, cfg: NMPCConfig) -> Any:
-        """The CasADi QP solver of the Gauss-Newton step (dense H, one rate row per stage)."""
-        n = cfg.horizon_steps
-        structure = {"h": ca.Sparsity.dense(n, n), "a": ca.Sparsity.dense(n, n)}
-        options: dict[str, Any] = {"error_on_fail": False}
-        if cfg.qp_solver == "qpoases":
-            options.update({"printLevel": "none", "sparse": False, "schur": False})
-        elif cfg.qp_solver == "osqp":
-            options.update({"osqp": {"verbose": False, "eps_abs": 1e-8, "eps_rel": 1e-8, "max_iter": 20000,
-                                     "polishing": False}})
+            self._engine: Any = RealTimeIteration(design, cfg, layout, self.control_period_s)
         else:
-            options.update({"print_iter": False, "print_header": False, "print_info": False})
-        with silenced_stdout():  # qpOASES prints its licence banner when its first solver is created
-            return ca.conic("nmpc_qp", cfg.qp_solver, structure, options)
+            from vtrack_gym.baselines.nmpc_casadi import CasadiIteration
+
+            self._engine = CasadiIteration(design, cfg, self.control_period_s, self.stage_parameters,
+                                           self.measured_state)
+        self.state_size = self._engine.state_size
+        self.last_solver_stats: dict[str, float] = {}
+        """The last ``predict`` call's solver statistics (``nmpc_rti.STAT_NAMES``; summed over a batch's rows)."""
+
+    @property
+    def solver_failures(self) -> int:  # type: ignore[override]
+        """QPs that failed since the policy was built (the shifted plan was applied instead)."""
+        return self._engine.solver_failures
 
     # ----------------------------------------------------------------------------------------- memory
     def _initial_state_batch(self, obs: np.ndarray) -> np.ndarray:
         delta = np.clip(obs[:, self._idx["road_wheel_angle"]], -self.max_steer_rad, self.max_steer_rad)
-        return np.repeat(delta[:, None], self.state_size, axis=1)
+        state = np.repeat(delta[:, None], self.state_size, axis=1)
+        if self.config.method == "rti":   # the command, no decision yet, the plan; x0 and p unused until then
+            state[:, 1] = 0.0
+            state[:, 2 + self.config.horizon_steps:] = 0.0
+        return state
 
     # ------------------------------------------------------------------------------------- prediction
     def stage_parameters(self, row: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -221,45 +190,28 @@ class NMPC(Policy):
         return np.array([row[idx["e_y"]], row[idx["e_phi"]], row[idx["v_y"]], row[idx["yaw_rate"]],
                          row[idx["road_wheel_angle"]]])
 
-    def _shifted(self, plan: np.ndarray) -> np.ndarray:
-        """The previous plan moved one control period forward in time (its last command held)."""
-        t = np.arange(plan.size) * self.config.stage_time_s
-        return np.interp(t + self.control_period_s, t, plan)
-
     # ---------------------------------------------------------------------------------------- solving
-    def _gauss_newton_step(self, plan: np.ndarray, x0: np.ndarray, speeds: np.ndarray, kappa: np.ndarray,
-                           u_prev: float) -> np.ndarray | None:
-        """One Gauss-Newton QP step from ``plan`` (None when the QP fails)."""
-        lin = linearise_horizon(self._horizon, self._weights, self.config.actuator_lag_s, plan, x0, speeds, kappa,
-                                u_prev)
-        hess = lin.jac.T @ lin.jac + self.config.regularisation * np.eye(plan.size)
-        grad = lin.jac.T @ lin.res
-        sol = self._qp(h=hess, g=grad, a=lin.rate_jac, lba=-self._max_rate - lin.rate, uba=self._max_rate - lin.rate,
-                       lbx=-self.max_steer_rad - plan, ubx=self.max_steer_rad - plan)
-        step = np.asarray(sol["x"]).reshape(-1)
-        if not self._qp.stats().get("success", False) or not np.all(np.isfinite(step)):
-            return None
-        return np.clip(plan + step, -self.max_steer_rad, self.max_steer_rad)
-
-    def plan(self, row: np.ndarray, u_prev: float, warm: np.ndarray) -> np.ndarray:
-        """The command plan [rad] (N,) for one observation row from the warm start ``warm``."""
-        speeds, kappa = self.stage_parameters(row)
-        x0 = self.measured_state(row)
-        plan = warm
-        for _ in range(self.config.sqp_iterations):
-            new = self._gauss_newton_step(plan, x0, speeds, kappa, u_prev)
-            if new is None:
-                self.solver_failures += 1
-                logger.debug("nmpc: QP failed (%s); applying the shifted plan", self._qp.stats().get("return_status"))
-                break
-            plan = new
-        return plan
+    def prepare(self) -> float:
+        """Run the preparation phase the last ``predict`` left undone (``defer_preparation``); returns its time
+        [s] (0 for the ``casadi`` method, which has none) and adds it to ``last_solver_stats``."""
+        if self.config.method != "rti":
+            return 0.0
+        spent = self._engine.prepare_pending()
+        if self.last_solver_stats:
+            self.last_solver_stats["preparation_s"] += spent
+        return spent
 
     def _act_batch(self, obs: np.ndarray, state: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
         assert state is not None
         out = np.empty(obs.shape[0])
+        rti = self.config.method == "rti"
+        totals: dict[str, float] = {}
         for n in range(obs.shape[0]):
-            plan = self.plan(obs[n], float(state[n, 0]), self._shifted(state[n, 1:]))
-            state[n, 0] = out[n] = plan[0]
-            state[n, 1:] = plan
+            row = (self._engine.decide(obs[n], state[n], n, self.defer_preparation) if rti
+                   else self._engine.decide(obs[n], state[n]))
+            state[n] = row
+            out[n] = row[0]
+            for key, value in self._engine.last_stats.items():
+                totals[key] = totals.get(key, 0.0) + value
+        self.last_solver_stats = totals
         return out, state

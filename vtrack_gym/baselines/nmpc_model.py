@@ -26,27 +26,16 @@ their Jacobian. A Gauss-Newton QP built from them is the real-time iteration of 
 from __future__ import annotations
 
 import functools
-import importlib
-import shutil
-import tempfile
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from vtrack_gym.baselines.casadi_import import import_casadi
 from vtrack_gym.vehicle.params import GRAVITY_MPS2, DesignModel
 
 N_STATES = 5
 """e_y, e_phi, v_y, r, delta."""
-
-
-def import_casadi() -> Any:
-    """The ``casadi`` module, or ``ImportError`` naming the extra that installs it."""
-    try:
-        return importlib.import_module("casadi")
-    except ImportError as exc:
-        raise ImportError('the nmpc baseline needs CasADi: pip install "vtrack_gym[nmpc]" (or pip install casadi)'
-                          ) from exc
 
 
 @dataclass(frozen=True)
@@ -115,14 +104,15 @@ class HorizonFunctions:
 
     simulate: Any
     linearise: Any
-    workdir: Any = None
-    """The temporary folder of the compiled code (removed with this object or at exit, with everything CasADi
-    wrote there), None when interpreted."""
+    compiled: bool = False
+    """Whether the stage functions run as compiled C (``nmpc_codegen``), else on CasADi's virtual machine."""
 
 
 def c_compiler_available() -> bool:
-    """Whether CasADi can compile functions to machine code here (a ``cc``/``gcc`` on the PATH)."""
-    return any(shutil.which(name) for name in ("cc", "gcc"))
+    """Whether CasADi's functions can be compiled to machine code here (``nmpc_codegen.c_compiler``)."""
+    from vtrack_gym.baselines.nmpc_codegen import c_compiler
+
+    return c_compiler() is not None
 
 
 @functools.lru_cache(maxsize=8)
@@ -130,21 +120,25 @@ def horizon_functions(design: DesignModel, shape: TyreShape, lag_s: float, stage
                       horizon: int, compiled: bool) -> HorizonFunctions:
     """The stage map (RK4, the module docstring's model) accumulated and mapped over ``horizon`` stages.
 
-    ``compiled``: the stage functions are compiled to C by CasADi's JIT (about 1 s, once per model: cached;
-    evaluation about 5x faster than CasADi's virtual machine), in a temporary folder, never the working directory.
+    ``compiled``: the stage functions are generated as C and compiled once into the user's cache directory
+    (``nmpc_codegen.compiled_functions``, keyed by the generated source; about 1 s the first time, loaded after;
+    evaluation about 5x faster than CasADi's virtual machine, which is kept where no compiler is found).
     """
     ca = import_casadi()
     xs, us, vs, ks = ca.SX.sym("x", N_STATES), ca.SX.sym("u"), ca.SX.sym("v"), ca.SX.sym("kappa")
     f = ca.Function("f", [xs, us, vs, ks], [state_derivative(ca, design, shape, lag_s, xs, us, vs, ks)])
     x_next = rk4_stage(ca, f, xs, us, vs, ks, stage_s, substeps)
-    workdir = tempfile.TemporaryDirectory(prefix="vtrack-nmpc-") if compiled else None
-    options = {"jit": True, "compiler": "shell", "jit_cleanup": False, "jit_name": "vtrack_nmpc",
-               "jit_options": {"flags": ["-O2"], "verbose": False, "cleanup": False,
-                                   "directory": workdir.name}} if workdir else {}
-    stage = ca.Function("stage", [xs, us, vs, ks], [x_next], options)
-    stage_jac = ca.Function("stage_jac", [xs, us, vs, ks], [ca.jacobian(x_next, xs), ca.jacobian(x_next, us)],
-                            options)
-    return HorizonFunctions(stage.mapaccum("simulate", horizon), stage_jac.map(horizon, "serial"), workdir)
+    stage = ca.Function("vtrack_stage", [xs, us, vs, ks], [x_next])
+    stage_jac = ca.Function("vtrack_stage_jac", [xs, us, vs, ks],
+                            [ca.jacobian(x_next, xs), ca.jacobian(x_next, us)])
+    loaded = None
+    if compiled:
+        from vtrack_gym.baselines.nmpc_codegen import compiled_functions
+
+        loaded = compiled_functions([stage, stage_jac])
+    if loaded is not None:
+        stage, stage_jac = loaded
+    return HorizonFunctions(stage.mapaccum("simulate", horizon), stage_jac.map(horizon, "serial"), loaded is not None)
 
 
 @dataclass(frozen=True)

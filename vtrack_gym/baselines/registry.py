@@ -2,8 +2,9 @@
 
 Names: ``available_policies()`` (the keys of ``_POLICIES``, then those registered from outside with
 ``register_policy`` or the ``vtrack_gym.policies`` entry point); each policy's page in ``docs/baselines/`` says
-what it is and which extra it needs (``mpc_osqp``: osqp; ``nmpc``: casadi). Controller modules are imported on first
-use, so ``import vtrack_gym.baselines.registry`` is cheap and works without osqp or casadi.
+what it is and which extra it needs (``mpc_osqp``: osqp; ``nmpc``: casadi for its ``casadi`` and ``converged``
+presets). Controller modules are imported on first use, so ``import vtrack_gym.baselines.registry`` is cheap and
+works without osqp or casadi.
 """
 
 from __future__ import annotations
@@ -22,6 +23,12 @@ _POLICIES: dict[str, tuple[str, str]] = {
     "mpc_osqp": ("vtrack_gym.baselines.mpc_osqp", "OSQPMPC"),
     "nmpc": ("vtrack_gym.baselines.nmpc", "NMPC"),
 }
+_RACE_POLICIES: dict[str, tuple[str, str]] = {
+    "raceline": ("vtrack_gym.baselines.race_line", "RaceLine"),
+    "centreline": ("vtrack_gym.baselines.race_line", "CentreLine"),
+}
+"""The race baselines (``baselines.race_line``): steering and pedals on the race env (``vtrack/Race-v0``) only, so
+they are not among ``available_policies()`` (the steering baselines every env takes) but ``race_policies()``."""
 
 
 _TUNING: dict[str, tuple[str, str]] = {
@@ -96,14 +103,25 @@ def available_policies() -> tuple[str, ...]:
     return (*_POLICIES, *_added())
 
 
+def race_policies() -> tuple[str, ...]:
+    """The race baselines' names (``raceline``, ``centreline``): they drive the race env only."""
+    return tuple(_RACE_POLICIES)
+
+
+def known_policies() -> tuple[str, ...]:
+    """Every name ``make_policy`` takes: ``available_policies()`` and ``race_policies()``."""
+    return (*available_policies(), *race_policies())
+
+
 def policy_class(name: str) -> type[Policy]:
     """The controller class registered as ``name`` (``ValueError`` listing the valid names if unknown)."""
     added = _added()
     if name in added:
         return added[name]
-    if name not in _POLICIES:
-        raise ValueError(f"unknown policy {name!r}; valid: {', '.join(available_policies())}")
-    module, attr = _POLICIES[name]
+    known = {**_POLICIES, **_RACE_POLICIES}
+    if name not in known:
+        raise ValueError(f"unknown policy {name!r}; valid: {', '.join(known_policies())}")
+    module, attr = known[name]
     return getattr(importlib.import_module(module), attr)
 
 
@@ -119,5 +137,10 @@ def make_policy(name: str, env: Any, preset: str = "default", **overrides: Any) 
     and ``tuned`` are the packaged GA result ``vtrack_gym/baselines/presets/<name>_tuned.json`` (JSON only,
     strict schema; ``ValueError`` if the file is missing or invalid; see ``vtrack_gym.baselines.preset_files``),
     ``hand`` the hand-tuned config and ``paper`` the paper's Table 3.
+
+    For an env in a longitudinal control mode (``steer_accel``, ``steer_rate_accel``) the steering law is paired
+    with the paper's PD-FLC as its longitudinal law (``baselines.decoupled.Decoupled``).
     """
-    return policy_class(name).from_env(env, preset=preset, **overrides)
+    from vtrack_gym.baselines.decoupled import for_control
+
+    return for_control(policy_class(name).from_env(env, preset=preset, **overrides), env)

@@ -3,7 +3,7 @@
 A spec is, in this order (names always win over files, so a file or directory in the working directory named
 like a policy never shadows it):
 
-* a baseline name (``registry.available_policies()``), default preset;
+* a baseline name (``registry.known_policies()``: the steering baselines and the race ones), default preset;
 * ``name:preset`` for a baseline (``smc:paper``, ``mpc:hand``);
 * a shipped agent name (``shipped.shipped_agents()``: the agent files in ``vtrack_gym/baselines/shipped``);
 * a weights-only agent file path (``agent.json`` or ``agent.npz``; JSON + ``np.load(allow_pickle=False)``,
@@ -17,17 +17,20 @@ pass your object to ``vtrack_gym.evaluate``, or ``trust_code=True`` (``vtrack ev
 
 from __future__ import annotations
 
+import logging
 import re
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from vtrack_gym.baselines.registry import available_policies
+from vtrack_gym.baselines.registry import available_policies, known_policies
 from vtrack_gym.baselines.registry import make_policy as make_baseline
 
 AGENT_SUFFIXES = (".json", ".npz")
 UNSAFE_SUFFIXES = (".zip", ".pkl", ".pickle", ".pt", ".pth")
 _USER_SPEC = re.compile(r"[A-Za-z_][\w.]*:[A-Za-z_]\w*")
+log = logging.getLogger(__name__)
 
 
 def shipped_names() -> tuple[str, ...]:
@@ -39,7 +42,20 @@ def shipped_names() -> tuple[str, ...]:
 
 def policy_names() -> tuple[str, ...]:
     """Every policy name a spec may be: the baselines, then the shipped agents."""
-    return (*available_policies(), *shipped_names())
+    return (*known_policies(), *shipped_names())
+
+
+def default_policy_names(controls: set[str] | frozenset[str] = frozenset({"steer"})) -> tuple[str, ...]:
+    """The policies a run without a policy list scores on episodes in the control modes ``controls``: every
+    baseline (each drives every mode) and every shipped agent that can drive all of them. A steering agent (one
+    output) drives every mode (paired with the PD-FLC in the longitudinal ones); an agent that drives the pedals too
+    (two outputs, e.g. ``bc_accel``) reads the speed error and cannot drive a ``steer`` episode."""
+    from vtrack_gym.baselines.shipped import shipped_agent_factories
+
+    agents = shipped_agent_factories()
+    steer_only = [n for n, make in agents.items() if getattr(make(None), "action_dim", 1) == 1]
+    both = [n for n in agents if n not in steer_only and "steer" not in controls]
+    return (*available_policies(), *[n for n in agents if n in steer_only or n in both])
 
 
 def _valid_text() -> str:
@@ -72,7 +88,7 @@ def policy_factory(spec: str, preset: str | None = None, *, trust_code: bool = F
     if policy_kwargs:
         raise ValueError(f"policy_kwargs apply to a module:Name policy of your own code, not to {spec!r}")
     name, sep, spec_preset = spec.partition(":")
-    baselines = available_policies()
+    baselines = known_policies()
     if sep and name in baselines:
         if preset not in (None, "default"):
             raise ValueError(f"policy {spec!r} names a preset; do not also pass preset={preset!r}")
@@ -100,7 +116,7 @@ def policy_factory(spec: str, preset: str | None = None, *, trust_code: bool = F
 def is_user_spec(spec: str) -> bool:
     """``spec`` has the form ``module:Name`` of user code: not a baseline with a preset, not an existing file."""
     module, sep, _ = spec.partition(":")
-    return bool(sep) and module not in available_policies() and _USER_SPEC.fullmatch(spec) is not None \
+    return bool(sep) and module not in known_policies() and _USER_SPEC.fullmatch(spec) is not None \
         and not Path(spec).exists()
 
 
@@ -114,7 +130,7 @@ def canonical_spec(spec: str, preset: str | None = None) -> str:
     if Path(text).suffix in AGENT_SUFFIXES and Path(text).stem:
         return Path(text).stem    # an agent file: shown by its stem, identified by its content (weights hash)
     name, sep, spec_preset = text.partition(":")
-    if name not in available_policies():
+    if name not in known_policies():
         return text
     chosen = (spec_preset.strip() if sep else "") or (preset or "default")
     return name if chosen == "default" else f"{name}:{chosen}"
@@ -126,34 +142,46 @@ def recorded_policy_id(spec: str, preset: str | None = None) -> str:
     return canonical_spec(spec, preset)
 
 
-def canonical_ids(specs: Sequence[str]) -> dict[str, str]:
-    """``{canonical id: spec}`` for ``specs``, in order (``canonical_spec``); ``ValueError`` when two specs are the
-    same policy (a policy is never ranked against itself)."""
-    ids: dict[str, str] = {}
-    for spec in specs:
-        key = canonical_spec(spec)
-        if key in ids and _agent_content(ids[key]) != _agent_content(spec):
-            raise ValueError(f"--policies names two different agents {key!r} ({ids[key]!r} and {spec!r}): score "
-                             "them in two runs (each is its own row, shown as NAME@HASH on the board) or rename "
-                             "one file")
-        if key in ids:
-            raise ValueError(f"--policies names {key!r} twice ({ids[key]!r} and {spec!r} are the same policy); "
-                             "list each policy once")
-        ids[key] = spec
-    return ids
+def named_factories(entries: Sequence[tuple[str, str, Callable[[Any], Any]]]) -> dict[str, Callable[[Any], Any]]:
+    """``{name: make(env)}`` of ``(canonical id, spec, make)`` entries, in order, one per policy: a policy's identity
+    is its id and, for an agent file, its content (``AgentFactory.content``, the weights hash), so the same policy
+    given twice (``lqr`` and ``lqr:default``; one agent by a relative and an absolute path, a symlink or a copy) is
+    scored once (a warning says so), and two different agents with one stem are two policies, named apart as
+    ``stem@<first 12 digits of the weights hash>`` (their rows record the stem: ``recorded_id``)."""
+    chosen: dict[tuple[str, str | None], tuple[str, Callable[[Any], Any]]] = {}
+    for key, spec, make in entries:
+        identity = (key, getattr(make, "content", None))
+        if identity in chosen:
+            log.warning("%r and %r are the same policy %r: scored once", chosen[identity][0], spec, key)
+            continue
+        chosen[identity] = (spec, make)
+    keys = [key for key, _ in chosen]
+    return {(key if keys.count(key) == 1 or content is None else f"{key}@{content[:12]}"): make
+            for (key, content), (_, make) in chosen.items()}
 
 
-def _agent_content(spec: str) -> str | None:
-    """The weights hash of an agent file spec (None for other specs or a file that does not load)."""
-    path = Path(spec.strip())
-    if path.suffix not in AGENT_SUFFIXES or not path.exists():
-        return None
-    from vtrack_gym.baselines.numpy_policy import load_agent
+def recorded_id(name: str, make: Callable[[Any], Any]) -> str:
+    """The policy id the rows of ``make`` under ``name`` record: an agent file's stem when ``name`` is the
+    ``stem@hash`` label ``named_factories`` gave it (two agents with one stem in one run), else ``name``."""
+    if isinstance(make, AgentFactory) and name == f"{make.policy_id}@{make.content[:12]}":
+        return make.policy_id
+    return name
 
-    try:
-        return load_agent(path).weights_hash
-    except (ValueError, OSError):
-        return None
+
+@dataclass(frozen=True)
+class AgentFactory:
+    """``make(env)`` of a weights-only agent file read once: ``agent`` bound to each env (``bind_agent``);
+    ``policy_id`` its file's stem, ``content`` its weights hash (its identity)."""
+
+    agent: Any
+    policy_id: str
+
+    @property
+    def content(self) -> str:
+        return str(self.agent.weights_hash)
+
+    def __call__(self, env: Any) -> Any:
+        return bind_agent(self.agent, env)
 
 
 def _presets(name: str) -> tuple[str, ...]:
@@ -172,7 +200,7 @@ def _file_factory(spec: str) -> Callable[[Any], Any]:
         except (ValueError, OSError) as exc:
             raise ValueError(f"{spec!r} looks like an agent file but is not a valid weights-only vtrack agent: "
                              f"{exc}") from None
-        return lambda env: bind_agent(agent, env)
+        return AgentFactory(agent, path.stem)
     if path.suffix in UNSAFE_SUFFIXES or path.is_file():
         raise ValueError(f"{spec!r} looks like an agent file; only weights-only vtrack agents (agent.json + "
                          "agent.npz, written by `vtrack train` / `vtrack export`) are loaded: SB3 zips and "
@@ -181,10 +209,14 @@ def _file_factory(spec: str) -> Callable[[Any], Any]:
 
 
 def bind_agent(agent: Any, env: Any) -> Any:
-    """``agent`` after checking it against ``env`` (``NumpyPolicy.check_env``); ``env=None`` skips the check."""
-    if env is not None:
-        agent.check_env(env)
-    return agent
+    """``agent`` after checking it against ``env`` (``NumpyPolicy.check_env``); ``env=None`` skips the check. In a
+    longitudinal control mode the steering agent is paired with the PD-FLC (``baselines.decoupled``)."""
+    if env is None:
+        return agent
+    from vtrack_gym.baselines.decoupled import for_control
+
+    agent.check_env(env)
+    return for_control(agent, env)
 
 
 def resolve_policy(spec: str, env: Any, preset: str | None = None, *, trust_code: bool = False,

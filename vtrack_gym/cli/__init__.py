@@ -8,6 +8,7 @@
     vtrack video --policy mpc --env DLC120-v0 --out dlc.mp4
     vtrack dataset --policy mpc --suite paper --episodes 2
     vtrack entry-speed --policy mpc --env vtrack/ISO3888-2-v1
+    vtrack lap-bound --track handling_course --plot lap.png
 
 One module per command (``evaluate`` runs ``vtrack eval``, ``entry_speed`` ``vtrack entry-speed``): ``register``
 adds its subparser, ``run`` runs it, ``needed_modules`` and ``check_outputs`` say which optional packages and
@@ -36,6 +37,7 @@ from vtrack_gym.cli import (
     entry_speed,
     evaluate,
     export,
+    lap_bound,
     leaderboard,
     plot,
     reproduce,
@@ -50,7 +52,7 @@ from vtrack_gym.evaluation.store import StoreError
 from vtrack_gym.tuning.backends import BackendError
 
 COMMANDS: tuple[ModuleType, ...] = (benchmark, evaluate, leaderboard, train, export, plot, tune, video, reproduce,
-                                    dataset, entry_speed)
+                                    dataset, entry_speed, lap_bound)
 """The command modules, in the order ``vtrack --help`` lists them."""
 EXIT_ERROR = 2
 """Exit code of a refused command (bad input, unusable file, missing package)."""

@@ -30,9 +30,9 @@ def shown_columns(board: list[dict[str, Any]], fmt: str, columns: str, suite: st
 def ranking_note(suite: str) -> str:
     """How ``suite``'s board is ranked (one sentence for stderr or the report)."""
     from vtrack_gym.evaluation.board import ranking_note as note
-    from vtrack_gym.evaluation.suites import primary_metric
+    from vtrack_gym.evaluation.suites import primary_metric, then_metrics
 
-    return note(primary_metric(suite))
+    return note(primary_metric(suite), then_metrics(suite))
 
 
 EXIT_LOST = 3

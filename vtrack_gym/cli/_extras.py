@@ -7,7 +7,7 @@ from collections.abc import Callable
 
 EXTRAS: dict[str, tuple[str, str]] = {
     "matplotlib": ("benchmark", "the figures"), "osqp": ("benchmark", "the mpc_osqp baseline"),
-    "casadi": ("nmpc", "the nmpc baseline"),
+    "casadi": ("nmpc", "the nmpc baseline's casadi and converged presets"),
     "highway_env": ("highway", "highway-env's lane-keeping-v0"), "stable_baselines3": ("rl", "SB3 training"),
     "torch": ("rl", "SB3 training"), "yaml": ("rl", "the hyperparameter files"), "pymoo": ("tuning", "the GA"),
     "minari": ("dataset", "Minari datasets"), "h5py": ("dataset", "Minari's HDF5 files"),
@@ -21,9 +21,18 @@ TORCH_HINT = ("The rl extra brings PyTorch: without an NVIDIA GPU, install its C
 
 
 def osqp_for(policies: list[str]) -> list[str]:
-    """The solver packages of the policies: ``"osqp"`` for the OSQP MPC, ``"casadi"`` for the nonlinear MPC."""
-    names = {p.partition(":")[0] for p in policies}
-    return [module for name, module in (("mpc_osqp", "osqp"), ("nmpc", "casadi")) if name in names]
+    """The solver packages of the policies: ``"osqp"`` for the OSQP MPC, ``"casadi"`` for the nonlinear MPC's
+    presets that run on CasADi (``nmpc:casadi``, ``nmpc:converged``; its default is compiled by the package)."""
+    from vtrack_gym.baselines.nmpc import NMPC_PRESETS
+
+    needed = []
+    for spec in policies:
+        name, _, preset = spec.partition(":")
+        if name == "mpc_osqp":
+            needed.append("osqp")
+        elif name == "nmpc" and preset in NMPC_PRESETS and NMPC_PRESETS[preset].method == "casadi":
+            needed.append("casadi")
+    return list(dict.fromkeys(needed))
 
 
 def missing_packages(args: argparse.Namespace, needed_modules: Callable[[argparse.Namespace], list[str]]) -> str:

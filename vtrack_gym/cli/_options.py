@@ -93,10 +93,11 @@ def add_format(p: argparse.ArgumentParser, reports: bool = False) -> None:
 
 def policy_help() -> str:
     """What a ``--policy`` value may be, the names read from the policy registry and the shipped agents' folder."""
-    from vtrack_gym.baselines.registry import available_policies
+    from vtrack_gym.baselines.registry import available_policies, race_policies
     from vtrack_gym.baselines.shipped import shipped_agents
 
-    return (f"a baseline name ({', '.join(available_policies())}), NAME:PRESET (smc:paper), a shipped agent name "
+    return (f"a baseline name ({', '.join(available_policies())}; on the race ids also "
+            f"{', '.join(race_policies())}), NAME:PRESET (smc:paper), a shipped agent name "
             f"({', '.join(shipped_agents())}), a weights-only agent file (agent.json / agent.npz), or, with "
             "--trust-code, MODULE:NAME of your own policy (a class: NAME.from_env(env) if it defines from_env, else "
             "NAME(); keyword arguments from --policy-kwargs)")
@@ -142,6 +143,17 @@ def add_latency(p: argparse.ArgumentParser) -> None:
                    help="charge each decision's compute in the loop: 'measured' (the policy call's time) or a "
                    "fixed budget in seconds; each command takes effect that long after its observation (rounded up "
                    "to the physics step); rows record it and rank apart from the ideal ones (default: off)")
+
+
+def add_control(p: argparse.ArgumentParser, what: str = "rows record it and rank apart from the steer rows") -> None:
+    """``--control MODE``: what the action drives (``envs.control``)."""
+    from vtrack_gym.envs.control import CONTROL_MODES
+
+    p.add_argument("--control", choices=tuple(CONTROL_MODES), default=None,
+                   help="what the action drives: steer (steering; the PD-FLC holds the speed), steer_accel "
+                   "(steering and a longitudinal demand, throttle/brake) or steer_rate_accel (steering rate and the "
+                   "demand); the steering baselines drive the longitudinal modes with the PD-FLC as their speed law; "
+                   f"{what} (default: steer)")
 
 
 def add_user_code(p: argparse.ArgumentParser) -> None:

@@ -77,19 +77,15 @@ def policy_makers(names: Sequence[str], preset: str = "default", trust_code: boo
 
 def policy_factories(names: Sequence[str], preset: str = "default", trust_code: bool = False,
                      kwargs_text: str | None = None) -> dict[str, Any]:
-    """``{policy id: make(env)}`` for ``--policies`` names (``policy_makers``); ids are canonical (``lqr:default``
-    is ``lqr``; a class of your own is named by its class and arguments, ``policy_names.class_label``, as from
-    Python), a policy given twice is refused (it is never ranked against itself)."""
-    from vtrack_gym.baselines.resolve import canonical_ids, is_user_spec
+    """``{policy id: make(env)}`` for ``--policies`` names (``policy_makers``: each built once, checked before any
+    rollout); ids are canonical (``lqr:default`` is ``lqr``; a class of your own is named by its class and
+    arguments, ``policy_names.class_label``, as from Python; an agent file by its stem). One policy given twice
+    (also one agent file by two paths) is scored once; two different agents with one stem are two policies
+    (``resolve.named_factories``)."""
+    from vtrack_gym.baselines.resolve import canonical_spec, is_user_spec, named_factories
     from vtrack_gym.evaluation.policy_names import user_spec_label
 
-    ids = canonical_ids(names)
-    makers = policy_makers(list(ids.values()), preset, trust_code, kwargs_text)
     kwargs = parse_policy_kwargs(kwargs_text)
-    named: dict[str, Any] = {}
-    for (key, spec), (_, make) in zip(ids.items(), makers, strict=True):
-        label = user_spec_label(spec, kwargs) if is_user_spec(spec) else key
-        if label in named:
-            raise ValueError(f"--policies names two policies {label!r}; list each policy once")
-        named[label] = make
-    return named
+    makers = policy_makers([n.strip() for n in names], preset, trust_code, kwargs_text)
+    return named_factories([(user_spec_label(spec, kwargs) if is_user_spec(spec) else canonical_spec(spec), spec, make)
+                            for spec, make in makers])

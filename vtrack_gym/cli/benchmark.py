@@ -45,7 +45,8 @@ def register(sub: Any) -> None:
     b.add_argument("--quick", action="store_true", help=f"suites with a quick variant ({', '.join(quick_suites())}): "
                    "fewer seeds (stored as suite NAME[quick], apart from the standard board)")
     b.add_argument("--seeds", default=None,
-                   help=f"seeds to score, e.g. 0-9 or 0,3,5 (default: the suite's: {seeds_help()}); the table shows "
+                   help=f"episode seeds to score (the env's reset seeds), e.g. 0-9 or 0,3,5 (default: the suite's: "
+                   f"{seeds_help()}); the table shows "
                    "95 %% bootstrap intervals; other seeds are stored as suite NAME[seeds=...], apart from the "
                    "standard board")
     opt.add_track(b, "score the policies on this CSV track file (suite 'custom', seed 0 or --seeds) instead of "
@@ -66,6 +67,7 @@ def register(sub: Any) -> None:
                    "local Ray instance (needs the 'ray' extra) (default: local)")
     opt.add_vehicle(b)
     opt.add_latency(b)
+    opt.add_control(b)
     opt.add_store(b)
     opt.add_format(b)
     opt.add_columns(b)
@@ -88,6 +90,9 @@ def _check_track_options(args: argparse.Namespace) -> None:
     if args.latency is not None and (args.track is not None or args.tracks is not None):
         raise ValueError("--latency applies to a suite's episodes (not --track or --tracks); score a track file "
                          "with compute charged through vtrack eval --track FILE --latency ...")
+    if args.control is not None and (args.track is not None or args.tracks is not None):
+        raise ValueError("--control applies to a suite's episodes (not --track or --tracks); score a track file in "
+                         "another control mode with vtrack eval --track FILE --control ...")
     if args.track_limits is not None and args.track is None and args.tracks is None:
         raise ValueError("--track-limits applies to --track FILE or --tracks DIR_OR_GLOB")
     if args.track is not None and args.tracks is not None:
@@ -122,7 +127,7 @@ def _score(args: argparse.Namespace, factories: dict[str, Any] | None, seeds: li
         return benchmark_track(env_id, provenance, factories or all_policies(), seeds or [0], vehicle=args.vehicle,
                                figures_dir=figures, show_progress=True, **where)
     return run_benchmark(args.suite, policies=factories, figures_dir=figures, quick=args.quick,
-                         seeds=seeds, vehicle=args.vehicle, latency=args.latency, **where)
+                         seeds=seeds, vehicle=args.vehicle, latency=args.latency, control=args.control, **where)
 
 
 def run(args: argparse.Namespace) -> int:

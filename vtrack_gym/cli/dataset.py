@@ -33,7 +33,9 @@ def register(sub: Any) -> None:
     ds.add_argument("--episodes", type=opt.int_in(1, MAX_EPISODES), default=1,
                     help="episodes per env, seeds --seed, --seed + 1, ...; each starts from its seed's draw of "
                     "offset and heading error, so the episodes differ (default: 1)")
-    ds.add_argument("--seed", type=opt.int_in(0, opt.MAX_RNG_SEED), default=0, help="first seed (default: 0)")
+    ds.add_argument("--seed", "--episode-seed", dest="seed", type=opt.int_in(0, opt.MAX_RNG_SEED), default=0,
+                    help="episode seed of the first episode (the env's reset seed; the others follow: --seed + 1, "
+                    "...) (default: 0)")
     ds.add_argument("--name", default=None,
                     help="dataset name; ids are vtrack/<env>/<name>-v0 (default: <policy>-<suite or env>)")
     ds.add_argument("--root", type=Path, default=None,

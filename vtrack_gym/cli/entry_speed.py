@@ -45,7 +45,8 @@ def register(sub: Any) -> None:
     e.add_argument("--checks", type=opt.int_in(0, MAX_CHECKS), default=DEFAULT_CHECKS, metavar="N",
                    help=f"probes below the speed found that must pass too (monotonicity check; default: "
                    f"{DEFAULT_CHECKS})")
-    e.add_argument("--seed", type=opt.int_in(0, 2**31 - 1), default=0, help="reset seed of every run (default: 0)")
+    e.add_argument("--seed", "--episode-seed", dest="seed", type=opt.int_in(0, 2**31 - 1), default=0,
+                   help="episode seed: the env's reset seed of every run of the search (default: 0)")
     e.add_argument("--format", choices=("md", "json"), default="md",
                    help="md: one table row per policy (and the probes of a single policy); json: every result "
                    "with its probes (default: md)")

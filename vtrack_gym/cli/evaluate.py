@@ -28,9 +28,11 @@ def register(sub: Any) -> None:
     e.add_argument("--preset", default="default",
                    help="baseline preset: default (for smc and mpc the shipped GA-tuned preset), tuned, hand "
                         "(hand-tuned smc/mpc) or paper (Table 3) (default: default)")
-    e.add_argument("--seeds", default="0", help="seeds, e.g. 0-9 or 0,3,5 (default: 0)")
+    e.add_argument("--seeds", default="0", help="episode seeds (the env's reset seeds: each draws its own initial "
+                   "offset and heading error), e.g. 0-9 or 0,3,5; one row per seed (default: 0)")
     opt.add_vehicle(e)
     opt.add_latency(e)
+    opt.add_control(e)
     opt.add_store(e)
 
 
@@ -46,33 +48,59 @@ def run(args: argparse.Namespace) -> int:
     from vtrack_gym.baselines.resolve import recorded_policy_id
     from vtrack_gym.evaluation.api import evaluate
     from vtrack_gym.evaluation.policy_names import user_spec_label
-    from vtrack_gym.evaluation.report_formats import to_markdown
     from vtrack_gym.evaluation.store import ResultStore, StoreError
-    from vtrack_gym.evaluation.track_benchmark import with_provenance
+    from vtrack_gym.evaluation.track_benchmark import merge_provenance
 
     seeds = opt.parse_seeds(args.seeds)
     make = policy_factory(args.policy, args.preset, args.trust_code, parse_policy_kwargs(args.policy_kwargs))
     check_vehicle(args)   # read once: the speed-profile check, the envs and the rows use the same bytes
     env_id, provenance = env_or_track(args)
-    store = ResultStore(args.store)  # verified before the rollouts; written before anything is printed
+    store = ResultStore(args.store)  # verified before the rollouts
     announce_kernels()
     policy_id = user_spec_label(args.policy, parse_policy_kwargs(args.policy_kwargs)) if args.trust_code \
         else recorded_policy_id(args.policy, args.preset)   # a class of yours: its class and arguments
-    rows = with_provenance(evaluate(make, env_id, seeds, policy_id=policy_id, vehicle=args.vehicle,
-                                    latency=args.latency), provenance)
-    store_error = None
-    try:   # before printing: a closed stdout cannot lose the run; a store that fails still lets the table show
-        store.add(rows)
+    stored: list[int] = []
+    store_error: list[StoreError] = []
+
+    def commit(row: Any) -> Any:
+        """The row with its track's provenance, committed as its episode ends, before anything is printed: a
+        crash or a kill in a later seed, or a closed stdout, cannot lose the seeds that finished. A store that
+        fails (a full disk) stops the storing, not the run: the table still shows."""
+        row = merge_provenance(row, provenance) if provenance else row
+        if not store_error:
+            try:
+                store.add([row])
+                stored.append(row.seed)
+            except StoreError as exc:
+                err(f"vtrack eval: {exc}; the remaining rows are not stored")
+                store_error.append(exc)
+        return row
+
+    try:
+        rows = evaluate(make, env_id, seeds, policy_id=policy_id, vehicle=args.vehicle, latency=args.latency,
+                        control=args.control, finish=commit)
+    except BaseException:
+        err(f"vtrack eval: stopped after {len(stored)} of {len(seeds)} seeds; "
+            f"{'seeds ' + ', '.join(map(str, stored)) + ' are' if stored else 'nothing is'} stored in {args.store}")
+        raise
+    if not store_error:
         err(f"results stored in {args.store} (suite 'custom': vtrack leaderboard --suite custom)")
-    except StoreError as exc:
-        store_error = exc
+    _print_table(rows)
+    if store_error:
+        raise store_error[0]
+    return 0
+
+
+def _print_table(rows: list[Any]) -> None:
+    """One line per seed (termination, success, float metrics) and, for several seeds, their summary."""
+    from vtrack_gym.evaluation.report_formats import to_markdown
+
     table = [{"seed": r.seed, "termination": r.termination, "success": int(r.verdict()),
-              **{k: v for k, v in r.metrics.items() if isinstance(v, float)}} for r in rows]
+              **{k: v for k, v in r.metrics.items() if isinstance(v, float)},
+              **({"lap_times_s": " ".join(f"{t:.3f}" for t in r.metrics["lap_times_s"]) or "-"}
+                 if isinstance(r.metrics.get("lap_times_s"), list) else {})} for r in rows]
     out(to_markdown(table), flush=True)
     if len(rows) > 1:
         from vtrack_gym.evaluation.benchmark import LEADERBOARD_COLUMNS, summarise
 
         out("\n" + to_markdown(summarise(rows, LEADERBOARD_COLUMNS)), flush=True)
-    if store_error is not None:
-        raise store_error
-    return 0

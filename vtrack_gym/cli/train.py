@@ -28,7 +28,10 @@ def register(sub: Any) -> None:
                     "mix at 20 Hz decisions; with --bc-expert: LateralTrackingRandom-v0, the imitation recipes')")
     tr.add_argument("--timesteps", type=opt.int_in(1, 10**10), default=None,
                     help="environment steps (default: the hyperparameter entry's n_timesteps)")
-    tr.add_argument("--seed", type=opt.int_in(0, opt.MAX_RNG_SEED), default=0, help="training seed (default: 0)")
+    tr.add_argument("--seed", "--rng-seed", dest="seed", type=opt.int_in(0, opt.MAX_RNG_SEED), default=0,
+                    help="random seed of the training run, 0 to 2^32-1: the network's initial weights, the "
+                    "exploration and the training envs' episode draws (not an episode seed of the scoring; the "
+                    "periodic evaluations use episode seed 0) (default: 0)")
     tr.add_argument("--run-dir", type=Path, required=True, help="folder for config, logs, checkpoints and the agent "
                     "(a folder that already holds a run is refused, see --overwrite)")
     tr.add_argument("--overwrite", action="store_true",
@@ -42,6 +45,7 @@ def register(sub: Any) -> None:
                     help="cap of the periodic LateralTracking-v0 evaluation (full lap every --case1-full-every)")
     tr.add_argument("--case1-full-every", type=opt.int_in(0, 10**6), default=5,
                     help="full-lap evaluation period, 0 = only at the end (default: 5)")
+    opt.add_control(tr, "recorded in the run's hyperparameters (env_kwargs) and the agent file's observation names")
     tr.add_argument("--no-progress", action="store_true", help="no progress bar")
     tr.add_argument("--no-final-eval", action="store_true", help="skip the full evaluation at the end")
     tr.add_argument("--bc-expert", default=None, metavar="POLICY[:PRESET]",
@@ -145,7 +149,7 @@ def run(args: argparse.Namespace) -> int:
                     overrides=parse_hyperparams(args.hyperparams),
                     eval_freq=args.eval_freq, case1_max_steps=args.case1_max_steps,
                     case1_full_every=args.case1_full_every, progress_bar=not args.no_progress, command=command,
-                    final_eval=not args.no_final_eval, bc=bc, overwrite=args.overwrite)
+                    final_eval=not args.no_final_eval, bc=bc, overwrite=args.overwrite, control=args.control)
     out(json.dumps({k: v for k, v in summary.items() if k not in ("model", "vecnormalize")}, indent=2,
                    default=str))
     if summary.get("interrupted"):

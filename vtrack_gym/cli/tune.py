@@ -36,7 +36,9 @@ def register(sub: Any) -> None:
                    help="override the budget's generations (1-10000)")
     t.add_argument("--pop-size", type=opt.int_in(2, 10_000), default=None,
                    help="override the budget's population size (2-10000)")
-    t.add_argument("--seed", type=opt.int_in(0, opt.MAX_RNG_SEED), default=0, help="GA seed, 0 to 2^32-1 (default: 0)")
+    t.add_argument("--seed", "--rng-seed", dest="seed", type=opt.int_in(0, opt.MAX_RNG_SEED), default=0,
+                   help="random seed of the genetic algorithm, 0 to 2^32-1: its initial population, selection, "
+                   "crossover and mutation (the scenario is the nominal one, not drawn from a seed) (default: 0)")
     t.add_argument("--comfort-weight", type=opt.float_in(0.0, 1e6), default=0.0,
                    help="weight of the ISO 2631-1 comfort a_v in the fitness (default: 0 = off)")
     t.add_argument("--out", type=Path, default=None,

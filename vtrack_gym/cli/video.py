@@ -28,7 +28,9 @@ def register(sub: Any) -> None:
     vd.add_argument("--out", type=Path, required=True, help="output file ending in .mp4 or .gif")
     vd.add_argument("--preset", default="default", help="baseline preset for every policy (default: default)")
     opt.add_vehicle(vd)
-    vd.add_argument("--seed", type=opt.int_in(0, opt.MAX_SEED), default=0, help="episode seed (default: 0)")
+    vd.add_argument("--seed", "--episode-seed", dest="seed", type=opt.int_in(0, opt.MAX_SEED), default=0,
+                    help="episode seed: the env's reset seed (its draw of initial offset and heading error, as "
+                    "--seeds of vtrack eval) (default: 0)")
     vd.add_argument("--speedup", type=opt.float_in(0.05, 100.0), default=1.0,
                     help="seconds of driving per second of video, in [0.05, 100] (default: 1 = real time)")
     vd.add_argument("--fps", type=opt.int_in(1, 120), default=25,

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 import numbers
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, ClassVar
 
 import numpy as np
@@ -33,7 +33,13 @@ class RewardConfig:
     at every error: 1 cm of e_y costs 0.045, 10 cm 0.25, 1 m 0.45 (w_ey = 0.5, ey_scale = 0.1 m). On a failure
     termination (off road, spin-out, wheel lift) ``failure_penalty`` is added once (negative). Completing the
     course gives ``completion_bonus``. Every term is reported in ``info`` (``reward_tracking``,
-    ``reward_heading``, ``reward_effort``, ``reward_rate``, ``reward_terminal``).
+    ``reward_heading``, ``reward_effort``, ``reward_rate``, ``reward_terminal``, ``reward_speed``).
+
+    In the longitudinal control modes (``steer_accel``, ``steer_rate_accel``: ``envs.control``) the reward also has
+    the speed-tracking term ``reward_speed = -w_speed q(e_v, speed_scale_mps)`` with e_v = v_x - v_ref, bounded in
+    (-w_speed, 0] like the others (with the defaults every step still earns at least 0.05); ``a`` is then the
+    steering command (in ``steer_rate_accel`` the integrated command, not the rate). In ``steer`` mode the term is
+    exactly 0 and is not added.
     """
 
     # Bounded so that every reward is finite: |r| <= alive + w_ey + w_ephi + w_effort + w_rate + |penalty| + bonus
@@ -48,6 +54,8 @@ class RewardConfig:
     rate_scale: float = ranged(0.1, ge=1e-6, le=2.0)
     failure_penalty: float = ranged(-10.0, ge=-1e6, le=0.0)
     completion_bonus: float = ranged(0.0, ge=0.0, le=1e6)
+    w_speed: float = ranged(0.1, ge=0.0, le=1e6)
+    speed_scale_mps: float = ranged(1.0, ge=1e-6, le=1e3, unit="m/s")
 
     def __post_init__(self) -> None:
         validate(self)
@@ -73,8 +81,16 @@ class EnvConfig:
     # Sensor noise standard deviations at ``sensor_noise = 1`` (reset option scales them), one per entry of
     # ``observation.NOISY_FIELDS`` in its unit; the default is the observation table's noise column.
     noise_std: tuple[float, ...] = DEFAULT_NOISE_STD
+    # what the action drives (envs.control.CONTROL_MODES): "steer" (the PD-FLC holds the speed), "steer_accel",
+    # "steer_rate_accel"; the two longitudinal modes add the tracking errors at the end of the layout
+    control: str = "steer"
 
     def __post_init__(self) -> None:
+        from vtrack_gym.envs.control import check_control
+
+        check_control(self.control)
+        if self.control != "steer" and not self.layout.tracking_errors:
+            object.__setattr__(self, "layout", replace(self.layout, tracking_errors=True))
         if not isinstance(self.vehicle, VehicleParams):  # a shipped vehicle's name or a vehicle file path
             from vtrack_gym.vehicle.catalog import resolve_vehicle
 

@@ -28,6 +28,21 @@ DESCRIPTIONS: dict[str, str] = {
     "TrainingMix20Hz-v0": "The training mix (`vtrack/TrainingMix-v0`) with the policy deciding every 50 ms "
                          "(`control_period_s=0.05`): the setup the shipped `ppo` and `sac` agents were trained on, "
                          "the default of `vtrack train` and the id of the rl_zoo3 hyperparameter files.",
+    "TrainingMixNominal-v0": "The training mix's roads, speed profiles and standstill starts with friction and mass "
+                             "drawn per episode, without sensor noise, actuator delay, a changed steering rate "
+                             "limit or an offset start: the training env of the behaviour-cloning recipe of the "
+                             "shipped agent that drives the pedals (`control=\"steer_accel\"`), whose expert, the "
+                             "decoupled mpc, drives it without failing.",
+    "HandlingCourseCircuit-v0": "The paper's handling course (2.33 km, radii down to 20 m) as a timed "
+                                "trajectory: from standstill, one lap of a friction-ellipse speed profile (70 km/h "
+                                "cap, 4 m/s^2 lateral, 2 m/s^2 forward, 3 m/s^2 braking, standing start). A "
+                                "circuit of the `trajectory` suite.",
+    "RingCircuit-v0": "The shipped example map's stadium loop (`ring.gpx`: two 100 m straights, two R 40 m half "
+                      "turns entered through 20 m clothoids), one lap from standstill on the circuits' speed "
+                      "profile (see `vtrack/HandlingCourseCircuit-v0`). A circuit of the `trajectory` suite.",
+    "ProceduralRoad-v0": "An open procedural road (the bank of `LateralTrackingRandom-v0`; the reset seed draws "
+                         "which), driven from standstill to its end on the circuits' speed profile (see "
+                         "`vtrack/HandlingCourseCircuit-v0`). A course of the `trajectory` suite.",
     "Track-v0": "Any track: `track=` a CSV file (x, y and optional elevation, speed and per-station widths), a "
                 "`tracks.Path` or a built-in name, with `speed_profile=` (default curvature-limited at 40 km/h "
                 "and 0.7 g). From standstill; the time limit is derived from the track and the profile.",
@@ -70,6 +85,14 @@ DESCRIPTIONS: dict[str, str] = {
                  "side with the body clear of it. `reference=\"lane_centres\"` drives the v0 line instead.",
     "StepCurvature-v0": "A straight followed by a step into a constant-radius curve (the step-steer response of "
                         "path tracking); success: the end of the course reached within the road.",
+    "Race-v0": "A race: `laps=` laps (default 2) of a closed track (default the handling course; `track=` any "
+               "closed track Track-v0 reads) from a standing start (`start=\"flying\"`: at speed), the agent on "
+               "the steering and the pedals (`control=\"steer_accel\"` or `\"steer_rate_accel\"`); success: "
+               "every lap within the track-limit rule (`track_limits=`, default `\"wheels\"`). The reward is "
+               "progress along the track less time, track-limit and failure penalties; `info` carries the lap "
+               "times and the car's lap-time bound. See [Race](../race.md).",
+    "RaceRing-v0": "The race of `vtrack/Race-v0` on the shipped example ring (a 491 m stadium loop, "
+                   "`tracks.example_maps`). See [Race](../race.md).",
 }
 """Scenario name -> what the scenario is, for its page."""
 
@@ -105,6 +128,9 @@ _ISO1 = (*_ISO1, _V2)
 _ISO2 = (*_ISO2, _V2)
 VERSION_HISTORY.update({"ISO3888-1-v0": _ISO1, "ISO3888-1-v1": _ISO1, "ISO3888-1-v2": _ISO1, "ISO3888-2-v1": _ISO2,
                         "ISO3888-2-v2": _ISO2, "Slalom-v0": _SLALOM, "Slalom-v1": _SLALOM})
+_RACE = ("v0: pinned by `tests/test_env_versions.py` from its first release (the fixed steering and demand "
+         "sequence and the fixed follower of `tests/env_fingerprint.py`).",)
+VERSION_HISTORY.update({"Race-v0": _RACE, "RaceRing-v0": _RACE})
 DEPRECATED_PAGES: dict[str, tuple[str, ...]] = {"ISO3888-2-v0": _ISO2}
 """Pages of ids no longer registered (``scenarios.DEPRECATED_IDS``): what they were and which id replaces them."""
 
@@ -130,9 +156,9 @@ def deprecated_page(name: str) -> str:
 
 def documented_ids() -> tuple[str, ...]:
     """Every namespaced id the package registers (one per scenario, plus the training recipes' ids)."""
-    from vtrack_gym.envs.registration import NAMESPACED_IDS, RECIPE_IDS
+    from vtrack_gym.envs.registration import CIRCUIT_IDS, NAMESPACED_IDS, RACE_IDS, RECIPE_IDS
 
-    return (*NAMESPACED_IDS, *RECIPE_IDS)
+    return (*NAMESPACED_IDS, *RECIPE_IDS, *CIRCUIT_IDS, *RACE_IDS)
 
 
 def _name(env_id: str) -> str:
@@ -162,8 +188,10 @@ def env_page(env_id: str) -> str:
     name = _name(env_id)
     env = gym.make(env_id)
     try:
+        race = hasattr(env.unwrapped, "lap_time_bound_s")
         sections = [f"# {env_id}", _aliases(name), DESCRIPTIONS[name], _spaces(env), _observation(env),
-                    _reward(), _start_and_end(env), _arguments(), _history(name)]
+                    *((_race(),) if race else (_reward(), _control())), _start_and_end(env),
+                    _race_arguments() if race else _arguments(), _history(name)]
     finally:
         env.close()
     return "\n\n".join(s for s in sections if s) + "\n"
@@ -204,6 +232,35 @@ def _reward() -> str:
             "`vtrack_gym.envs.config.RewardConfig`).")
 
 
+def _control() -> str:
+    return ("## Control modes\n\nThe above is the default `control=\"steer\"` (the paper's design: the PD-FLC holds "
+            "the speed). `gymnasium.make(id, control=\"steer_accel\")` gives the agent the pedals too: the action is "
+            "`Box(-1, 1, (2,))`, the steering command and a longitudinal demand d (d >= 0: throttle fraction d; "
+            "d < 0: brake pedal force -d x the car's `brakes.max_pedal_force_n`), the PD-FLC is off; "
+            "`control=\"steer_rate_accel\"` takes the steering rate (a fraction of the car's road-wheel rate limit, "
+            "integrated by the env) instead of the command. Both append `speed_error` [m/s] and `time_error` [s] to "
+            "the observation and add the bounded speed term `-0.1 |e_v|/(|e_v| + 1 m/s)` to the reward; termination "
+            "is the same. See [Control modes](../control-modes.md).")
+
+
+def _race() -> str:
+    return ("## Action and reward\n\nThe action is `[steering command, longitudinal demand]` "
+            "(`control=\"steer_accel\"`; `\"steer_rate_accel\"`: the steering rate), as in "
+            "[Control modes](../control-modes.md); the observation "
+            "ends with `speed_error`, `time_error`, `edge_left_m`, `edge_right_m` and `lap_fraction`. The reward per "
+            "step is `100 dp/L - 10 T/T_b - 1 cost - 50 [failure]`: centre-line progress dp per lap length L (ground "
+            "gained beyond the track-limit rule is not paid), the control period T per lap-time bound T_b, a step "
+            "beyond the rule, a failure (`vtrack_gym.envs.race_reward.RaceReward`); the terms are in "
+            "`info[\"race_reward_*\"]`. See [Race](../race.md).")
+
+
+def _race_arguments() -> str:
+    return ("## Arguments\n\n`track=` (a closed track), `laps=` (1 to 20), `start=\"standing\"|\"flying\"`, "
+            "`control=\"steer_accel\"|\"steer_rate_accel\"` (`\"steer\"` is refused), `track_limits=`, "
+            "`time_limit_factor=` (the time limit in lap-time bounds per lap, default 3), `reward=` (a `RaceReward`), "
+            "`margin_m=` (the bound's racing line clearance), `vehicle=` and every env config field.")
+
+
 def _start_and_end(env: Any) -> str:
     scenario = env.unwrapped.scenario
     crit = type(scenario.success).__name__
@@ -217,7 +274,8 @@ def _start_and_end(env: Any) -> str:
 def _arguments() -> str:
     return ("## Arguments\n\n`gymnasium.make(id, vehicle=\"suv\")` drives another car (a name of "
             "`vtrack_gym.vehicle.list_vehicles()` or a vehicle file); `control_period_s=` sets the decision period "
-            "[s]; `vtrack/Track-v0` also takes `track=` (a CSV file, an OpenDRIVE, Lanelet2, CommonRoad or GPX map: "
+            "[s]; `control=` the control mode (above); `vtrack/Track-v0` also takes `track=` (a CSV file, an "
+            "OpenDRIVE, Lanelet2, CommonRoad or GPX map: "
             "[Drive a map](../tutorials/drive-a-map.md)), `speed_profile=`, `half_width_m=`, `closed=`, "
             "`smoothing_m=`, `allow_self_crossing=` and `track_options=` (format, route, lane, road_width_m); the "
             "cone-lined standard ids (`vtrack/ISO3888-1-v1`, `vtrack/ISO3888-2-v1`, "

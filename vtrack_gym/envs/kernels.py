@@ -5,15 +5,26 @@ env run the same per-car code and give bit-identical results. Imported lazily by
 
 Every array the step reads or writes travels in one ``SimArrays`` bundle (a NamedTuple: fields are read by
 name, so two arrays cannot be swapped silently). Track data of all paths in use are concatenated: ``tables``
-(M, 11): the 8 columns of ``vtrack_gym.tracks.path``, then the squared reference speed v_ref^2 [m^2/s^2] and the
+(M, 12): the 8 columns of ``vtrack_gym.tracks.path``, then the squared reference speed v_ref^2 [m^2/s^2], the
 drivable half widths left / right [m] of each row (``C_V2``, ``C_WL``, ``C_WR``; interpolated linearly, so v^2 is
-linear in s between rows); ``tmeta`` (K, N_TM) holds per track k its first row, row count, spacing [m], length [m],
-closed flag (0/1), half width [m], whether it has a speed profile (0/1), the release station [m] from which the
-speed loop is off (+inf on every track but an ``EntryThenRelease`` one) and the pedals' mode after it (0 coast,
-1 hold the throttle); ``veh_track[i]`` is car i's track.
+linear in s between rows) and the cumulative reference time t_ref(s_i) [s] of the speed table's time law
+(``C_T``: ``tracks.time_law``, from which ``reference_time`` gives the exact t_ref(s) between rows); ``tmeta``
+(K, N_TM) holds per track k its first row, row count, spacing [m], length [m], closed flag (0/1), half width [m],
+whether it has a speed profile (0/1), the release station [m] from which the speed loop is off (+inf on every track
+but an ``EntryThenRelease`` one), the pedals' mode after it (0 coast, 1 hold the throttle) and the table's lap time
+[s]; ``veh_track[i]`` is car i's track.
+
+Longitudinal tracking errors (every control mode; ``info["speed_error_mps"]``, ``info["time_error_s"]``, and the
+observation's last two fields in the longitudinal modes): e_v = v_x - v_ref(s*) [m/s] and
+e_t = t - (t_ref(s0 + progress) - t_ref(s0)) [s], t the time since reset and s0 the car's station at reset
+(positive: behind the reference).
+
+Control modes (``cfg[CFG_CONTROL]``, ``envs.control``): 0 (steer) runs the PD-FLC speed loop exactly as before;
+1 and 2 map the car's demand ``car[:, CAR_DEMAND]`` to throttle / brake (``envs.control.pedals``) and add the
+reward's speed term.
 Constant settings travel in one vector ``cfg``: the fields of ``StepConstants``, then of the observation layout,
 then of the ``RewardConfig``, each offset (``CFG_*``, ``RW_*``) derived from the dataclass fields by name.
-Per-car scalars sit in ``car`` (n, 7) (``CAR_*`` columns); ``sig`` (n, len(SIGNAL_ROW)) is the row of ``info``
+Per-car scalars sit in ``car`` (n, N_CAR) (``CAR_*`` columns); ``sig`` (n, len(SIGNAL_ROW)) is the row of ``info``
 signals and reward terms (``envs.schema``); ``obs`` is written by ``write_scalar_fields`` (the scalars) and the
 preview loops.
 """
@@ -28,7 +39,8 @@ import numpy as np
 
 from vtrack_gym._jit import kernel, prange
 from vtrack_gym.envs.config import EnvConfig, RewardConfig, Scenario
-from vtrack_gym.envs.observation import N_SCALARS, SCALAR_BOUNDS, SCALAR_FIELDS, ObservationLayout
+from vtrack_gym.envs.control import MODE_CODES
+from vtrack_gym.envs.observation import N_SCALARS, SCALAR_BOUNDS, SCALAR_FIELDS, TRACKING_ERRORS, ObservationLayout
 from vtrack_gym.envs.pdflc_kernel import pdflc_step
 from vtrack_gym.envs.schema import REWARD_TERMS, SIGNAL_ROW
 from vtrack_gym.tracks import table as track_table
@@ -42,15 +54,21 @@ from vtrack_gym.vehicle.kernels import step_vehicle
 C_X, C_Y, C_PSI, C_KAPPA = track_table.COL_X, track_table.COL_Y, track_table.COL_PSI, track_table.COL_KAPPA
 C_DKAPPA, C_Z, C_GRADE, C_ZPP = track_table.COL_DKAPPA, track_table.COL_Z, track_table.COL_GRADE, track_table.COL_ZPP
 N_COLS = track_table.N_COLS
-C_V2, C_WL, C_WR = range(N_COLS, N_COLS + 3)   # the env's own columns after the path's
-N_ENV_COLS = N_COLS + 3
+C_V2, C_WL, C_WR, C_T = range(N_COLS, N_COLS + 4)   # the env's own columns after the path's
+N_ENV_COLS = N_COLS + 4   # C_T: the reference's time law at the row, t_ref(s_i) [s] (tracks.time_law.row_times_s)
 
 # Track metadata columns and per-car scalar columns.
 TM_START, TM_N, TM_DS, TM_LEN, TM_CLOSED, TM_HALF_WIDTH, TM_PROFILE, TM_RELEASE_S, TM_RELEASE_HOLD = range(9)
-N_TM = 9    # TM_RELEASE_S: station [m] from which the PD-FLC is off (+inf: never); TM_RELEASE_HOLD: 1 = the
+TM_LAP_T = 9  # the reference's time to drive the whole table (one lap of a closed path) [s]
+N_TM = 10   # TM_RELEASE_S: station [m] from which the PD-FLC is off (+inf: never); TM_RELEASE_HOLD: 1 = the
             # throttle stays at its last value there, 0 = throttle 0 (coast); the brake is 0 either way
 CAR_S_PREV, CAR_PROGRESS, CAR_V_REF, CAR_PREV_ACTION, CAR_REWARD, CAR_MIN_FZ, CAR_FOLLOW, CAR_SCHEDULED = range(8)
-N_CAR = 8   # CAR_FOLLOW: 1 = the car follows its track's speed profile (CAR_V_REF updated from it every step);
+CAR_DEMAND, CAR_S0, CAR_T0, CAR_STEPS, CAR_INV_VSET = range(8, 13)
+N_CAR = 13  # CAR_DEMAND: the longitudinal demand in [-1, 1] of the longitudinal control modes; CAR_S0, CAR_T0: the
+            # station [m] at reset and t_ref there [s]; CAR_STEPS: control steps since reset; CAR_INV_VSET: 1 / the
+            # held set speed [s/m] of a car holding a per-episode set speed the table does not hold (0: the table's
+            # time law; see ``reference_time``)
+            # CAR_FOLLOW: 1 = the car follows its track's speed profile (CAR_V_REF updated from it every step);
             # CAR_SCHEDULED: 1 = this step's steering command changes within the period (SimArrays.cmds)
 
 
@@ -65,13 +83,17 @@ class StepConstants:
     max_steer_rad: float         # road-wheel angle of action 1 [rad]
     steering_ratio: float        # hand-wheel / road-wheel angle
     off_road_margin_m: float     # off_road once e_y passes a half width by more than this [m] (the criterion's)
+    control_mode: int            # envs.control.MODE_CODES: 0 steer (PD-FLC), 1 steer_accel, 2 steer_rate_accel
+    max_pedal_force_n: float     # brake pedal force of demand -1 [N]
+    control_period_s: float      # [s]: time since reset = steps x this
 
     @classmethod
     def of(cls, scenario: Scenario, config: EnvConfig) -> StepConstants:
         """The constants of an env with this scenario and config."""
         return cls(config.physics_dt_s, config.n_substeps, scenario.track.end_margin_m,
                    config.speed_controller.method == "mamdani", config.vehicle.steering.max_road_wheel_angle_rad,
-                   config.vehicle.steering.steering_ratio, scenario.success.off_road_margin_m(config.vehicle))
+                   config.vehicle.steering.steering_ratio, scenario.success.off_road_margin_m(config.vehicle),
+                   MODE_CODES[config.control], config.vehicle.brakes.max_pedal_force_n, config.control_period_s)
 
 
 def _offsets(cls: type, start: int) -> dict[str, int]:
@@ -92,11 +114,15 @@ CFG_KINKS = _STEP["kink_aligned"]
 CFG_STEER_MAX = _STEP["max_steer_rad"]
 CFG_STEER_RATIO = _STEP["steering_ratio"]
 CFG_OFF_ROAD = _STEP["off_road_margin_m"]
+CFG_CONTROL = _STEP["control_mode"]
+CFG_PEDAL_MAX = _STEP["max_pedal_force_n"]
+CFG_PERIOD = _STEP["control_period_s"]
 CFG_NPREV = _LAYOUT["n_preview"]
 CFG_PREV_DT = _LAYOUT["preview_dt_s"]
 CFG_PREV_VMIN = _LAYOUT["preview_min_speed_mps"]
 CFG_NSPEED = _LAYOUT["n_speed_preview"]
 CFG_SPEED_DT = _LAYOUT["speed_preview_dt_s"]
+CFG_TRACKING = _LAYOUT["tracking_errors"]
 RW_ALIVE = _REWARD["alive"]
 RW_WEY = _REWARD["w_ey"]
 RW_EYSCALE = _REWARD["ey_scale_m"]
@@ -107,6 +133,8 @@ RW_WRATE = _REWARD["w_rate"]
 RW_RATESCALE = _REWARD["rate_scale"]
 RW_FAIL = _REWARD["failure_penalty"]
 RW_COMPLETE = _REWARD["completion_bonus"]
+RW_WSPEED = _REWARD["w_speed"]
+RW_SPEEDSCALE = _REWARD["speed_scale_mps"]
 
 
 def pack_cfg(step: StepConstants, layout: ObservationLayout, reward: RewardConfig) -> np.ndarray:
@@ -126,13 +154,13 @@ class SimArrays(NamedTuple):
     models: np.ndarray       # (n,) int64 model id
     outputs: np.ndarray      # (n, n_sub, N_OUTPUT) accelerations and wheel loads per physics step
     work: np.ndarray         # (n, WORKSPACE_SIZE) plant scratch
-    tables: np.ndarray       # (M, N_ENV_COLS) concatenated track tables (path columns, C_V2, C_WL, C_WR)
+    tables: np.ndarray       # (M, N_ENV_COLS) concatenated track tables (path columns, C_V2, C_WL, C_WR, C_T)
     tmeta: np.ndarray        # (K, N_TM) track metadata (TM_*)
     veh_track: np.ndarray    # (n,) int64 track of each car
     car: np.ndarray          # (n, N_CAR) per-car scalars (CAR_*)
     cfg: np.ndarray          # (N_CFG,) constant settings (CFG_*, RW_*)
     obs: np.ndarray          # (n, layout.size) float32 observations
-    err: np.ndarray          # (n, ERR_COLS) projection: s*, e_y, e_phi, kappa, s_dot, z, width l/r (E_*)
+    err: np.ndarray          # (n, ERR_COLS) projection: s*, e_y, e_phi, kappa, s_dot, z, width l/r, e_v, e_t (E_*)
     term: np.ndarray         # (n,) int64 termination code (T_*)
     rows: np.ndarray         # (n, 8) scratch track row per car
     actions: np.ndarray      # (n,) normalised steering actions of this step
@@ -150,8 +178,8 @@ SPIN_HEADING_RAD = 0.5 * math.pi   # |e_phi| beyond this: spun out / driving the
 SPIN_SIDESLIP_RAD = 0.3            # |atan(v_y / v_x)| beyond this above 3 m/s, with the rear axle's sideslip
                                    # |atan((v_y - a2 r) / v_x)| beyond it too: spun out (a car rolling round a
                                    # 6 m radius has a CG sideslip of atan(a2 / R) = 0.31 rad without any sliding)
-ERR_COLS = 8                       # s*, e_y, e_phi, kappa, s_dot, z, half width left, right at the projection
-E_S, E_EY, E_EPHI, E_KAPPA, E_SDOT, E_Z, E_WL, E_WR = range(ERR_COLS)
+ERR_COLS = 10                      # s*, e_y, e_phi, kappa, s_dot, z, half width left, right at the projection,
+E_S, E_EY, E_EPHI, E_KAPPA, E_SDOT, E_Z, E_WL, E_WR, E_EV, E_ET = range(ERR_COLS)  # speed and time error
 
 # Signal-row columns (envs.schema.SIGNAL_ROW), derived by name.
 N_SIG = len(SIGNAL_ROW)
@@ -163,12 +191,14 @@ SIG_DELTA, SIG_HAND, SIG_CMD, SIG_ROLL = (SIGNAL_ROW.index(n) for n in (
 SIG_THROTTLE, SIG_BRAKE, SIG_AX, SIG_AY, SIG_AZ, SIG_MIN_FZ = (SIGNAL_ROW.index(n) for n in (
     "throttle", "brake_n", "a_x_mps2", "a_y_mps2", "a_z_mps2", "min_fz_n"))
 SIG_STATION, SIG_PROGRESS, SIG_V_REF = (SIGNAL_ROW.index(n) for n in ("station_m", "progress_m", "target_speed_mps"))
+SIG_EV, SIG_ET = (SIGNAL_ROW.index(n) for n in ("speed_error_mps", "time_error_s"))
 SIG_REWARD = SIGNAL_ROW.index(REWARD_TERMS[0])   # the reward terms follow in REWARD_TERMS order
 N_TERMS = len(REWARD_TERMS)
 
 # The curvature preview follows the scalar fields (envs.observation).
 O_PREVIEW = N_SCALARS
 SCALAR_BOX = np.array([SCALAR_BOUNDS[name] for name in SCALAR_FIELDS], dtype=np.float64)
+EV_BOUND, ET_BOUND = (f.bound for f in TRACKING_ERRORS)   # the tracking-error fields' box (saturated there)
 """Each scalar field's bound, in field order: ``write_scalar_fields`` saturates the field there (the box the
 observation space promises)."""
 
@@ -235,6 +265,9 @@ def observe_one(i: int, a: SimArrays, a_x: float, window_m: float, first: bool) 
     s = project_point(table, ds, length, closed, x, y, s_guess, window_m)
     if first:
         car[i, CAR_PROGRESS] = 0.0
+        car[i, CAR_STEPS] = 0.0
+        car[i, CAR_S0] = s
+        car[i, CAR_T0] = reference_time(table, ds, length, closed, a.tmeta[k, TM_LAP_T], s)
     else:
         step_s = s - car[i, CAR_S_PREV]
         if closed:
@@ -275,6 +308,12 @@ def observe_one(i: int, a: SimArrays, a_x: float, window_m: float, first: bool) 
             obs[i, o_speed + j] = math.sqrt(_linear(table, ds, length, closed, s + v_prev * (j + 1) * speed_dt, C_V2))
         else:
             obs[i, o_speed + j] = car[i, CAR_V_REF]
+    e_v = vx - car[i, CAR_V_REF]
+    e_t = time_error(i, a, table, ds, length, closed)
+    if cfg[CFG_TRACKING] != 0.0:   # the longitudinal modes' fields, at the very end (saturated at their bounds)
+        o_track = o_speed + int(cfg[CFG_NSPEED])
+        obs[i, o_track] = -EV_BOUND if e_v < -EV_BOUND else (EV_BOUND if e_v > EV_BOUND else e_v)
+        obs[i, o_track + 1] = -ET_BOUND if e_t < -ET_BOUND else (ET_BOUND if e_t > ET_BOUND else e_t)
 
     # Road inputs for the next control period: grade and vertical acceleration v^2 z''(s) at the projection
     # (``row`` still holds the projection's row).
@@ -290,6 +329,42 @@ def observe_one(i: int, a: SimArrays, a_x: float, window_m: float, first: bool) 
     err[i, E_Z] = row[C_Z]
     err[i, E_WL] = w_left
     err[i, E_WR] = w_right
+    err[i, E_EV] = e_v
+    err[i, E_ET] = e_t
+
+
+@kernel
+def reference_time(table: np.ndarray, ds: float, length: float, closed: bool, lap_s: float, s: float) -> float:
+    """The reference's time law t_ref(s) [s] at station ``s`` [m] from the table's ``C_T`` and ``C_V2`` columns:
+    ``tracks.time_law.TimeLaw.time_at`` (exact for v^2 linear between rows; laps counted on a closed path, s
+    clamped to [0, L] on an open one)."""
+    if closed:
+        laps = math.floor(s / length)
+        s_in = s - laps * length
+    else:
+        laps = 0.0
+        s_in = min(max(s, 0.0), length)
+    j = min(max(int(s_in / ds), 0), table.shape[0] - 2)   # s_in >= 0: truncation is the floor
+    v0sq = table[j, C_V2]
+    into = s_in - j * ds
+    v_s = math.sqrt(v0sq + (into / ds) * (table[j + 1, C_V2] - v0sq))
+    return table[j, C_T] + 2.0 * into / (math.sqrt(v0sq) + v_s) + laps * lap_s
+
+
+@kernel
+def time_error(i: int, a: SimArrays, table: np.ndarray, ds: float, length: float, closed: bool) -> float:
+    """Car ``i``'s time error e_t = t - (t_ref(s0 + progress) - t_ref(s0)) [s] (positive: behind the reference),
+    t = steps x control period, s0 its station at reset; a car holding a per-episode set speed the table does not
+    hold (a reset option, a randomised set speed) has t_ref(s) = s / v_set (``CAR_INV_VSET``)."""
+    car = a.car
+    t = car[i, CAR_STEPS] * a.cfg[CFG_PERIOD]
+    inv = car[i, CAR_INV_VSET]
+    if inv > 0.0:
+        return t - car[i, CAR_PROGRESS] * inv
+    k = a.veh_track[i]
+    lap_s = a.tmeta[k, TM_LAP_T]
+    return t - (reference_time(table, ds, length, closed, lap_s, car[i, CAR_S0] + car[i, CAR_PROGRESS])
+                - car[i, CAR_T0])
 
 
 @kernel
@@ -327,8 +402,9 @@ def termination_one(i: int, a: SimArrays) -> int:
 
 @kernel
 def reward_one(code: int, e_y: float, e_phi: float, action: float, prev_action: float, rw: np.ndarray,
-               terms: np.ndarray) -> float:
-    """Reward of one car for one step; its six terms (``REWARD_TERMS`` order) go to ``terms``."""
+               terms: np.ndarray, longitudinal: bool, e_v: float) -> float:
+    """Reward of one car for one step; its seven terms (``REWARD_TERMS`` order) go to ``terms``. The speed term
+    (``longitudinal`` control modes only) is 0 and not added in the steer mode, whose sum stays the six terms'."""
     # Bounded, cusped penalties q = |x| / (|x| + scale) in [0, 1): a slope at every error (centimetres count, and
     # so do metres), and every step's reward stays >= alive - w_ey - w_ephi - w_effort - w_rate.
     ey, ephi = abs(e_y), abs(e_phi)
@@ -345,7 +421,13 @@ def reward_one(code: int, e_y: float, e_phi: float, action: float, prev_action: 
         terms[5] = rw[RW_FAIL]
     else:
         terms[5] = 0.0
-    return terms[0] + terms[1] + terms[2] + terms[3] + terms[4] + terms[5]
+    total = terms[0] + terms[1] + terms[2] + terms[3] + terms[4] + terms[5]
+    if not longitudinal:
+        terms[6] = 0.0
+        return total
+    ev = abs(e_v)
+    terms[6] = -rw[RW_WSPEED] * ev / (ev + rw[RW_SPEEDSCALE])
+    return total + terms[6]
 
 
 @kernel
@@ -375,6 +457,8 @@ def write_signals(i: int, a: SimArrays) -> None:
     sig[SIG_STATION] = a.err[i, E_S]
     sig[SIG_PROGRESS] = car[i, CAR_PROGRESS]
     sig[SIG_V_REF] = car[i, CAR_V_REF]
+    sig[SIG_EV] = a.err[i, E_EV]
+    sig[SIG_ET] = a.err[i, E_ET]
 
 
 @kernel
@@ -385,7 +469,16 @@ def step_car(i: int, a: SimArrays) -> None:
     n_sub = int(cfg[CFG_NSUB])
     k = a.veh_track[i]
     released = car[i, CAR_S_PREV] >= a.tmeta[k, TM_RELEASE_S]   # never on a track whose release station is +inf
-    if released:  # the speed loop is off: coast, or keep the throttle of the last step before the entry gate
+    longitudinal = cfg[CFG_CONTROL] != 0.0
+    if longitudinal:  # the agent's demand through the throttle/brake map (envs.control.pedals); the PD-FLC is off
+        demand = car[i, CAR_DEMAND]
+        if demand >= 0.0:
+            inputs[i, L.U_THROTTLE] = demand
+            inputs[i, L.U_BRAKE] = 0.0
+        else:
+            inputs[i, L.U_THROTTLE] = 0.0
+            inputs[i, L.U_BRAKE] = -demand * cfg[CFG_PEDAL_MAX]
+    elif released:  # the speed loop is off: coast, or keep the throttle of the last step before the entry gate
         if a.tmeta[k, TM_RELEASE_HOLD] == 0.0:
             inputs[i, L.U_THROTTLE] = 0.0
         inputs[i, L.U_BRAKE] = 0.0
@@ -403,6 +496,7 @@ def step_car(i: int, a: SimArrays) -> None:
         step_vehicle(states[i], inputs[i], a.road[i], a.params[i], a.models[i], dt, n_sub, outputs[i], a.work[i])
     if released:  # no set point: the target speed shown is the car's own speed
         car[i, CAR_V_REF] = states[i, L.S_VX]
+    car[i, CAR_STEPS] += 1.0
     travel = abs(states[i, L.S_VX]) * dt * n_sub
     window = 5.0 + 3.0 * travel
     a_x = outputs[i, n_sub - 1, L.O_AX]
@@ -411,7 +505,8 @@ def step_car(i: int, a: SimArrays) -> None:
     a.term[i] = code
     action = a.actions[i]
     car[i, CAR_REWARD] = reward_one(code, a.err[i, E_EY], a.err[i, E_EPHI], action, car[i, CAR_PREV_ACTION],
-                                    cfg[CFG_REWARD:CFG_REWARD + N_RW], a.sig[i, SIG_REWARD:SIG_REWARD + N_TERMS])
+                                    cfg[CFG_REWARD:CFG_REWARD + N_RW], a.sig[i, SIG_REWARD:SIG_REWARD + N_TERMS],
+                                    longitudinal, a.err[i, E_EV])
     car[i, CAR_PREV_ACTION] = action
     write_signals(i, a)
 

@@ -27,6 +27,11 @@ speed_preview_dt_s`` for j = 1..n_speed_preview (``OBS``: 10 samples every 0.2 s
 ``ObservationLayout()`` has none, the 33-entry layout of the shipped agents). ``target_speed`` is the reference
 speed now (constant on the paper scenarios, v_ref(s*) on a track with a speed profile).
 
+Then, only when ``tracking_errors`` is set (the layout of the longitudinal control modes ``steer_accel`` and
+``steer_rate_accel``, see ``envs.control``), the two rows of ``TRACKING_ERRORS`` at the very end: ``speed_error``
+e_v = v_x - v_ref [m/s] and ``time_error`` e_t [s] against the reference's time law (``envs.kernels``). Without it
+(every registered id's default) the layout is unchanged.
+
 Every accepted setting keeps the observation inside the box: reference speeds are capped at
 ``tracks.path.MAX_V_REF_MPS`` (the speed fields' bound) and a loaded track whose fitted curvature or curvature rate
 leaves the box is refused by the loader (``tracks.path.MAX_CURVATURE_PER_M``, ``MAX_CURVATURE_RATE_PER_M2``).
@@ -106,6 +111,14 @@ SPEED_PREVIEW = ObservationField("v_ref_preview_", "m/s", MAX_V_REF_MPS, None, 1
                                  "reference speed v_ref(s* + d_j) ahead, j = 1..n_speed_preview", series=True)
 SERIES: tuple[ObservationField, ...] = (CURVATURE_PREVIEW, SPEED_PREVIEW)
 """The preview series, in observation order after the scalars."""
+TRACKING_ERRORS: tuple[ObservationField, ...] = (
+    ObservationField("speed_error", "m/s", 2.0 * MAX_V_REF_MPS, None, 0.0, 2.0,
+                     "e_v = v_x - v_ref(s*), positive = faster than the reference"),
+    ObservationField("time_error", "s", 3600.0, None, 0.0, 2.0,
+                     "e_t = t - (T(s0 + progress) - T(s0)) against the reference's time law T, positive = behind it"),
+)
+"""The longitudinal tracking errors appended at the very end with ``ObservationLayout(tracking_errors=True)`` (the
+layout of the ``steer_accel`` and ``steer_rate_accel`` control modes, ``envs.control``)."""
 
 SCALAR_FIELDS: tuple[str, ...] = tuple(f.name for f in SCALARS)
 N_SCALARS = len(SCALAR_FIELDS)
@@ -163,9 +176,12 @@ class ObservationLayout:
     preview_min_speed_mps: float = ranged(2.0, gt=0.0, le=20.0, unit="m/s")
     n_speed_preview: int = ranged(0, ge=0, le=200, integer=True)
     speed_preview_dt_s: float = ranged(0.2, gt=0.0, le=1.0, unit="s")
+    tracking_errors: bool = False
 
     def __post_init__(self) -> None:
         validate(self)
+        if not isinstance(self.tracking_errors, (bool, np.bool_)):
+            raise ValueError(f"ObservationLayout.tracking_errors must be a bool (got {self.tracking_errors!r})")
 
     @property
     def n_scalars(self) -> int:
@@ -175,7 +191,12 @@ class ObservationLayout:
     @property
     def size(self) -> int:
         """Length of the observation vector."""
-        return self.n_scalars + self.n_preview + self.n_speed_preview
+        return self.n_scalars + self.n_preview + self.n_speed_preview + self.n_tracking
+
+    @property
+    def n_tracking(self) -> int:
+        """Number of longitudinal tracking-error fields at the end (``TRACKING_ERRORS``; 0 without them)."""
+        return len(TRACKING_ERRORS) if self.tracking_errors else 0
 
     @property
     def preview(self) -> slice:
@@ -184,15 +205,16 @@ class ObservationLayout:
 
     @property
     def speed_preview(self) -> slice:
-        """Slice of the reference-speed preview samples (the last entries)."""
-        return slice(self.n_scalars + self.n_preview, self.size)
+        """Slice of the reference-speed preview samples (the last entries but the tracking errors)."""
+        return slice(self.n_scalars + self.n_preview, self.size - self.n_tracking)
 
     @property
     def names(self) -> tuple[str, ...]:
         """Name of every entry: the scalars, ``kappa_preview_k`` (k = 1..n_preview), ``v_ref_preview_j``
-        (j = 1..n_speed_preview)."""
+        (j = 1..n_speed_preview), then ``speed_error`` and ``time_error`` with ``tracking_errors``."""
         return (SCALAR_FIELDS + tuple(f"{CURVATURE_PREVIEW.name}{k}" for k in range(1, self.n_preview + 1))
-                + tuple(f"{SPEED_PREVIEW.name}{j}" for j in range(1, self.n_speed_preview + 1)))
+                + tuple(f"{SPEED_PREVIEW.name}{j}" for j in range(1, self.n_speed_preview + 1))
+                + tuple(f.name for f in TRACKING_ERRORS[:self.n_tracking]))
 
     def index(self, name: str) -> int:
         """Index of a named entry; ``KeyError`` listing the valid names if unknown."""
@@ -200,8 +222,9 @@ class ObservationLayout:
             return self.names.index(name)
         except ValueError:
             speed = f", {SPEED_PREVIEW.name}1..{self.n_speed_preview}" if self.n_speed_preview else ""
+            track = "".join(f", {f.name}" for f in TRACKING_ERRORS[:self.n_tracking])
             raise KeyError(f"unknown observation field {name!r}; valid: {', '.join(SCALAR_FIELDS)}, "
-                           f"{CURVATURE_PREVIEW.name}1..{self.n_preview}{speed}") from None
+                           f"{CURVATURE_PREVIEW.name}1..{self.n_preview}{speed}{track}") from None
 
     def preview_distances(self, v_x: np.ndarray | float) -> np.ndarray:
         """Look-ahead distances [m] of the preview samples; shape (..., n_preview)."""
@@ -222,7 +245,8 @@ class ObservationLayout:
 
     def fields(self) -> tuple[ObservationField, ...]:
         """The table row of every entry, in observation order (a series' row repeated per sample)."""
-        return SCALARS + (CURVATURE_PREVIEW,) * self.n_preview + (SPEED_PREVIEW,) * self.n_speed_preview
+        return (SCALARS + (CURVATURE_PREVIEW,) * self.n_preview + (SPEED_PREVIEW,) * self.n_speed_preview
+                + TRACKING_ERRORS[:self.n_tracking])
 
     def as_dict(self) -> dict[str, int]:
         """Name -> index mapping."""

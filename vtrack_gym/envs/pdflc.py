@@ -329,3 +329,15 @@ class PDFLC:
         throttle = np.clip(cfg.g3 * np.maximum(self._u, 0.0), 0.0, 1.0)
         brake_n = cfg.g4 * np.maximum(-self._u, 0.0)
         return throttle, brake_n
+
+
+def speed_loop_throttle_authority(config: PDFLCConfig) -> float:
+    """The largest throttle fraction [-] the PD-FLC holds while it follows a profile: ``G3 u`` at a saturated
+    speed error (e_hat = -1) and a steady one (de_hat = 0), clipped to 1; the paper's gains: 0.5225 x 2/3 = 0.348.
+
+    Only a speed error that keeps growing (de_v < 0) opens it further, up to ``G3`` x the surface's range (0.465
+    Mamdani, 0.5225 Sugeno): a profile that needs more than this lets the car fall ever further behind it. A speed
+    profile for the env's speed loop therefore assumes this authority (``powertrain_limits.SPEED_LOOP``)."""
+    u = float(np.asarray(pdflc_output(np.array([-1.0]), np.array([0.0]), config.method,
+                                      config.surface_resolution))[0])
+    return min(max(config.g3 * u, 0.0), 1.0)

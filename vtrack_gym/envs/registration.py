@@ -16,6 +16,7 @@ from __future__ import annotations
 import os
 from typing import Any
 
+from vtrack_gym.envs.circuits import CIRCUIT_IDS, circuit_setups
 from vtrack_gym.envs.scenarios import LEGACY_IDS, SCENARIOS, Scenario
 
 ENV_IDS: tuple[str, ...] = LEGACY_IDS
@@ -26,7 +27,11 @@ RECIPE_IDS: dict[str, tuple[str, dict[str, Any]]] = {
     "vtrack/TrainingMix20Hz-v0": ("TrainingMix-v0", {"control_period_s": 0.05})}
 """Training setups as ids: id -> (scenario, env settings). ``vtrack/TrainingMix20Hz-v0`` is the training mix at a
 50 ms decision period (20 Hz), what the shipped ``ppo`` and ``sac`` agents were trained on."""
-ALL_ENV_IDS: tuple[str, ...] = NAMESPACED_IDS + ENV_IDS + tuple(RECIPE_IDS)
+RACE_IDS: dict[str, dict[str, Any]] = {"vtrack/Race-v0": {}, "vtrack/RaceRing-v0": {"track": "ring.gpx"}}
+"""Ids of the race (``envs.race_env.RaceEnv``) -> their make kwargs: N laps within track limits, the agent on the
+pedals too; ``Race-v0`` on the handling course (or any closed track given as ``track=``), ``RaceRing-v0`` on the
+shipped example ring (``tracks.example_maps``)."""
+ALL_ENV_IDS: tuple[str, ...] = NAMESPACED_IDS + ENV_IDS + tuple(RECIPE_IDS) + CIRCUIT_IDS + tuple(RACE_IDS)
 """Every id this package registers for its own envs."""
 
 
@@ -47,13 +52,19 @@ def register_envs() -> None:
             max_episode_steps=scenario.max_episode_steps,
             disable_env_checker=False,
         )
-    for env_id, (name, settings) in RECIPE_IDS.items():
+    setups = dict(RECIPE_IDS) if all(c in registry for c in CIRCUIT_IDS) else {**RECIPE_IDS, **circuit_setups()}
+    for env_id, (name, settings) in setups.items():
         if env_id not in registry:
             limit_s = SCENARIOS[name].time_limit_s
+            period = settings.get("control_period_s", SCENARIOS[name].control_period_s)
             register(id=env_id, entry_point="vtrack_gym.envs.tracking_env:TrackingEnv",
                      vector_entry_point="vtrack_gym.envs.vector_env:TrackingVectorEnv",
                      kwargs={"scenario": name, **settings}, disable_env_checker=False,
-                     max_episode_steps=None if limit_s is None else round(limit_s / settings["control_period_s"]))
+                     max_episode_steps=None if limit_s is None else round(limit_s / period))
+    for env_id, kwargs in RACE_IDS.items():
+        if env_id not in registry:    # the time limit depends on the track and the car: the env truncates itself
+            register(id=env_id, entry_point="vtrack_gym.envs.race_env:RaceEnv", kwargs=dict(kwargs),
+                     max_episode_steps=None, disable_env_checker=False)
 
 
 def register_scenario(scenario: Scenario) -> str:
@@ -90,18 +101,17 @@ def register_track(track_file: str | os.PathLike[str], speed_profile: Any, close
     import hashlib
     import json
     import re
-    from dataclasses import asdict
     from pathlib import Path as FsPath
 
     from vtrack_gym.tracks.formats import TrackRead
     from vtrack_gym.tracks.sources import file_digest
-    from vtrack_gym.tracks.speed_profiles import as_speed_profile
+    from vtrack_gym.tracks.speed_profiles import as_speed_profile, profile_parameters
 
     file = FsPath(track_file)
     if not file.is_file():
         raise ValueError(f"--track {track_file}: track file not found")
     profile = as_speed_profile(speed_profile)
-    params = {"kind": type(profile).__name__, **asdict(profile)}
+    params = {"kind": type(profile).__name__, **profile_parameters(profile)}
     file_sha = file_digest(file)
     options = TrackRead.of(track_options).identity() or None    # checked and normalised ("1,2" -> ["1", "2"])
     read = {k: v for k, v in (("closed", closed), ("smoothing_m", smoothing_m),

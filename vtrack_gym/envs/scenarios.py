@@ -193,6 +193,13 @@ def _training_mix() -> Scenario:
 
 
 TRAINING_MIX = _training_mix()
+TRAINING_MIX_NOMINAL = replace(
+    TRAINING_MIX, name="TrainingMixNominal-v0",
+    randomisation=Randomisation(friction_range=(0.7, 1.1), mass_scale_range=(0.8, 1.25)))
+"""The training mix's roads, speed profiles, standstill starts and drawn friction and mass, without sensor noise,
+actuator delay, a changed steering rate limit or an offset start: what a model-based expert (the decoupled mpc)
+drives without failing, so its demonstrations are worth cloning (the behaviour-cloning recipes in
+``control="steer_accel"``)."""
 """The RL training distribution (``tracks.training_mix``): 60 roads, half of them lane-change courses (8 cone-lined
 lanes 2.5-4 m left or right and back at 15-37 m/s, 0.4-0.85 g), a sixth each twisty (R >= 18 m), highway
 (R >= 120 m) and hairpin (R >= 5.5 m) roads, each with its own speed profile; 20 % standstill starts; friction
@@ -303,7 +310,8 @@ LEGACY_MANEUVER_SCENARIOS: tuple[Scenario, ...] = tuple(
 unchanged."""
 
 SCENARIOS: dict[str, Scenario] = {s.name: s for s in (LATERAL_TRACKING, DLC120, RANDOM_TRACKS, TRAINING_MIX,
-                                                      TRACK, *LEGACY_MANEUVER_SCENARIOS, *MANEUVER_SCENARIOS)}
+                                                      TRAINING_MIX_NOMINAL, TRACK, *LEGACY_MANEUVER_SCENARIOS,
+                                                      *MANEUVER_SCENARIOS)}
 """Scenario name -> scenario; one registered id ``vtrack/<name>`` per entry (``registration.register_scenario``
 adds one)."""
 LEGACY_IDS: tuple[str, ...] = ("LateralTracking-v0", "DLC120-v0", "LateralTrackingRandom-v0")

@@ -22,12 +22,17 @@ ROW_SIGNALS: tuple[str, ...] = (
     "x_m", "y_m", "z_m", "psi_rad", "e_y_m", "e_phi_rad", "v_mps", "v_y_mps", "yaw_rate_radps",
     "road_wheel_angle_rad", "hand_wheel_angle_rad", "steering_command_rad", "roll_rad", "throttle", "brake_n",
     "a_x_mps2", "a_y_mps2", "a_z_mps2", "min_fz_n", "station_m", "progress_m", "target_speed_mps",
+    "speed_error_mps", "time_error_s",
 )
-"""Scalar signals of one car after a step (or a reset), in the order of the kernel's signal row."""
+"""Scalar signals of one car after a step (or a reset), in the order of the kernel's signal row.
+``speed_error_mps`` is v_x - v_ref [m/s] and ``time_error_s`` the time error e_t [s] against the reference's time
+law (``envs.kernels``: positive = behind the reference), in every control mode."""
 
 REWARD_TERMS: tuple[str, ...] = (
-    "reward_alive", "reward_tracking", "reward_heading", "reward_effort", "reward_rate", "reward_terminal")
-"""The reward's terms (see ``envs.config.RewardConfig``); they sum to the step's reward."""
+    "reward_alive", "reward_tracking", "reward_heading", "reward_effort", "reward_rate", "reward_terminal",
+    "reward_speed")
+"""The reward's terms (see ``envs.config.RewardConfig``); they sum to the step's reward (``reward_speed`` is 0 in
+the ``steer`` control mode)."""
 
 SIGNAL_ROW: tuple[str, ...] = ROW_SIGNALS + REWARD_TERMS
 """Columns of the per-car signal row the compiled step writes."""

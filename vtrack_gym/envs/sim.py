@@ -20,10 +20,10 @@ from vtrack_gym.envs.criteria import CarsView
 from vtrack_gym.envs.disturbances import ActuatorDelay, SensorNoise
 from vtrack_gym.envs.latency import CommandSchedule
 from vtrack_gym.envs.observation import NOISY_INDICES
-from vtrack_gym.envs.pdflc import PDFLCConfig
+from vtrack_gym.envs.pdflc import PDFLCConfig, speed_loop_throttle_authority
 from vtrack_gym.envs.scenarios import Scenario
 from vtrack_gym.envs.schema import REWARD_TERMS, SIGNAL_ROW
-from vtrack_gym.envs.speed import speed_part
+from vtrack_gym.envs.speed import bind_to_car, check_tables_for_powertrain, speed_part
 from vtrack_gym.envs.track_bank import TrackBank
 from vtrack_gym.vehicle import layout as L
 from vtrack_gym.vehicle.params import VehicleParams
@@ -46,6 +46,21 @@ def scenario_tracks(scenario: Scenario, vehicle: VehicleParams) -> tuple:
     return scenario.reference.paths(scenario.track, vehicle)
 
 
+def throttle_authority(config: EnvConfig) -> float:
+    """The throttle fraction a profile bound to this env's car may count on: the PD-FLC's steady authority in the
+    ``steer`` mode (the speed loop drives the pedals), 1.0 (full throttle) in the longitudinal control modes (the
+    agent drives them)."""
+    return speed_loop_throttle_authority(config.speed_controller) if config.control == "steer" else 1.0
+
+
+def car_speed(scenario: Scenario, config: EnvConfig) -> Any:
+    """The scenario's speed part for the env's car and who drives the pedals (``speed.bind_to_car``): a profile
+    with a ``throttle_authority`` bound to ``config.vehicle``'s powertrain at ``throttle_authority(config)``, from
+    rest when the scenario starts its cars at rest."""
+    return bind_to_car(scenario.speed, config.vehicle, throttle_authority(config),
+                       at_rest=not scenario.start.at_speed)
+
+
 class BatchSim:
     """N independent cars (one per sub-env) on the scenario's track(s)."""
 
@@ -55,8 +70,10 @@ class BatchSim:
         self.n = n
         # a speed profile's lateral limit within this car's own (ValueError above it, a warning near it); an entry
         # speed within (0, 200] km/h (ValueError naming the car)
-        speed_part(scenario.speed).check_for_car(config.vehicle)
-        self.tracks = TrackBank(scenario_tracks(scenario, config.vehicle), scenario.speed, config.vehicle)
+        speed = car_speed(scenario, config)
+        speed_part(speed).check_for_car(config.vehicle)
+        self.tracks = TrackBank(scenario_tracks(scenario, config.vehicle), speed, config.vehicle)
+        check_tables_for_powertrain(speed, self.tracks, config.vehicle, throttle_authority(config))
         self.paths = self.tracks.paths
         if scenario.time_limit_s is None:
             scenario = replace(scenario, time_limit_s=self.tracks.time_limit_s())
@@ -74,6 +91,8 @@ class BatchSim:
         self.reward = self.car[:, k.CAR_REWARD]
         self.min_fz = self.car[:, k.CAR_MIN_FZ]
         self.follow = self.car[:, k.CAR_FOLLOW]
+        self.demand = self.car[:, k.CAR_DEMAND]
+        """Each car's longitudinal demand in [-1, 1] (the longitudinal control modes; ``envs.control``) (view)."""
         self.obs = np.zeros((n, self.layout.size), dtype=np.float32)
         self.err = np.zeros((n, k.ERR_COLS))
         self.station_m = self.err[:, k.E_S]
@@ -95,6 +114,13 @@ class BatchSim:
         self.latency = CommandSchedule(n, self.n_sub, config.physics_dt_s, self.car[:, k.CAR_SCHEDULED])
         """Compute latency: each car's commands take effect after their decision's delay (``envs.latency``)."""
         self.max_steer_rad = config.vehicle.steering.max_road_wheel_angle_rad  # road-wheel angle of action 1 [rad]
+        self.control = config.control
+        """The control mode (``envs.control``): what ``step``'s actions drive."""
+        self.steer_command = np.zeros(n)
+        """``steer_rate_accel``: each car's integrated steering command (fraction of the road-wheel limit)."""
+        self.rate_step = (config.vehicle.steering.max_road_wheel_rate_radps * config.control_period_s
+                          / self.max_steer_rad)
+        """Command change of a full-rate action over one control period (``steer_rate_accel``)."""
         self.arrays = self._bundle(k, scenario, config)
         self._step_kernel = k.step_parallel if use_parallel(n) else k.step_serial
         self._step_compiled = None  # the kernel's compiled entry point for ``self.arrays`` (see _run_kernel)
@@ -104,6 +130,10 @@ class BatchSim:
         """The criterion's per-car state (its own NamedTuple of arrays)."""
         self._cars = self._cars_view(k)
         self._extras = self.criterion.per_step
+        self.finish_speed = self.tracks.finish_speeds()
+        """Per path: the profile's speed at the finish line of a closed path with a standing start, else NaN."""
+        self._hold_finish = bool(np.any(np.isfinite(self.finish_speed)))
+        self._codes = (k.T_COMPLETED, k.SIG_V_REF)
         """Whether a step has more to do than the kernel: a per-step criterion, a delay or noise (see reset_car)."""
 
     def _bundle(self, k, scenario: Scenario, config: EnvConfig):
@@ -163,6 +193,7 @@ class BatchSim:
         self.follow[i] = 1.0 if follow else 0.0
         v0 = sc.start.initial_speed_mps(v_ref, rng)
         self.v_ref[i] = v_ref
+        self.car[i, _kernels().CAR_INV_VSET] = self._inverse_set_speed(track, v_ref, follow)
         params = self._car_params(options)
         self.plant.set_vehicle_params(i, params)
         self.criterion.reset_car(self.verdicts, i, params)
@@ -175,6 +206,8 @@ class BatchSim:
         self.inputs[i] = 0.0
         self.steps[i] = 0
         self.prev_action[i] = 0.0
+        self.demand[i] = 0.0
+        self.steer_command[i] = 0.0
         self.noise.set_scale(i, options.sensor_noise)
         self.delay.set_delay(i, options.actuator_delay_s)
         self.latency.reset_car(i)
@@ -189,6 +222,13 @@ class BatchSim:
         part = speed_part(self.scenario.speed)
         v = part.start_speed_mps(self.tracks.peak_curvature(track), self.tracks.speed_tables[track], rng)
         return v, bool(part.follows_profile)
+
+    def _inverse_set_speed(self, track: int, v_ref: float, follow: bool) -> float:
+        """1 / the held set speed [s/m] when the car holds a set speed its track's speed table does not (a reset
+        option, a randomised set speed: the time error is then against s / v_set), else 0 (the table's time law)."""
+        table = self.tracks.speed_tables[track].v_mps
+        held = not follow and np.isinf(self.tracks.meta[track, _kernels().TM_RELEASE_S])
+        return 1.0 / v_ref if held and not np.all(table == v_ref) else 0.0
 
     def _car_params(self, options: ResetOptions) -> VehicleParams:
         """The env's car with the episode's mass, friction and steering-rate knobs."""
@@ -233,12 +273,20 @@ class BatchSim:
         """Advance every car one control period. ``actions`` (n,) are finite, clipped to [-1, 1]; ``quiet`` (bool
         (n,)) marks cars whose step will be discarded (no sensor noise is drawn for them).
 
+        In the longitudinal control modes ``actions`` is (n, 2): steering (or its rate) and the demand.
+
         Returns (reward (n,), terminated (n,), truncated (n,)); observations are in ``self.obs``.
         """
+        if self.control != "steer":
+            self.demand[:] = actions[:, 1]
+            actions = self._steering(actions[:, 0])
         self.actions[:] = actions
         cmd = self.delay.delayed(self.actions) if self.delay.active else self.actions
         self.inputs[:, L.U_DELTA] = cmd * self.max_steer_rad
         self._run_kernel()
+        if self._hold_finish:
+            for i in np.flatnonzero(self.term == self._codes[0]):
+                self._finish_reference(int(i))
         self.steps += 1
         if self.criterion.per_step:
             self.criterion.observe_step(self.verdicts, self._cars)
@@ -248,9 +296,23 @@ class BatchSim:
             self.noise.apply(self.obs, self.rngs, quiet)
         return self.reward.copy(), terminated, truncated
 
-    def step_one(self, action: float, latency_s: float | None = None) -> tuple[float, int, bool]:
+    def _steering(self, first: np.ndarray) -> np.ndarray:
+        """The steering commands (fractions of the road-wheel limit) of the actions' first entries: as given, or in
+        ``steer_rate_accel`` the integrated rates ``c + rate * rate_step`` clipped to [-1, 1]."""
+        if self.control != "steer_rate_accel":
+            return first
+        np.clip(self.steer_command + first * self.rate_step, -1.0, 1.0, out=self.steer_command)
+        return self.steer_command.copy()
+
+    def step_one(self, action: float, latency_s: float | None = None,
+                 demand: float | None = None) -> tuple[float, int, bool]:
         """Fast path for a single car (n = 1): returns (reward, termination code, truncated). ``latency_s`` [s]:
-        the decision's compute, delaying its command (``envs.latency``; ``None``: latency off)."""
+        the decision's compute, delaying its command (``envs.latency``; ``None``: latency off). ``demand``: the
+        longitudinal demand of the longitudinal control modes (``action`` is then the steering or its rate)."""
+        if demand is not None:
+            self.demand[0] = demand
+            if self.control == "steer_rate_accel":
+                action = float(self._steering(np.array([action]))[0])
         self.actions[0] = action
         extras = self._extras
         cmd = self.delay.delayed(self.actions)[0] if extras and self.delay.active else action
@@ -265,9 +327,19 @@ class BatchSim:
         if extras and self.criterion.per_step:
             self.criterion.observe_step(self.verdicts, self._cars)
         code = int(self.term[0])
+        if self._hold_finish and code == self._codes[0]:
+            self._finish_reference(0)
         if extras and self.noise.active:
             self.noise.apply(self.obs, self.rngs)
         return float(self.reward[0]), code, code == 0 and steps >= self.max_steps
+
+    def _finish_reference(self, i: int) -> None:
+        """Car ``i`` has completed its lap on a closed path whose profile starts standing: its station reads the
+        next lap's start, so its reference speed (and the info signal) is the profile's finish speed instead."""
+        v = self.finish_speed[int(self.veh_track[i])]
+        if np.isfinite(v):
+            self.v_ref[i] = v
+            self.sig[i, self._codes[1]] = v
 
     def _run_kernel(self) -> None:
         """One compiled step of every car on ``self.arrays``.

@@ -198,6 +198,45 @@ class FollowProfile:
         check_profile_for_car(self.profile, vehicle)
 
 
+def bind_to_car(speed: Any, vehicle: Any, speed_loop_authority: float, at_rest: bool) -> Any:
+    """``speed`` with its profile bound to the env's car: a profile with a ``for_car`` method (``EnvelopeLimited``
+    with a ``throttle_authority``) limited by ``vehicle``'s powertrain at that authority (``SPEED_LOOP``: the
+    PD-FLC's ``speed_loop_authority``, a throttle fraction) and, when the cars start ``at_rest``, starting from
+    ``MIN_V_REF_MPS`` (a standing start) rather than at its lap speed; any other speed part unchanged."""
+    from vtrack_gym.tracks.path import MIN_V_REF_MPS
+
+    part = speed_part(speed)
+    profile = getattr(part, "profile", None)
+    if not callable(getattr(profile, "for_car", None)):
+        return speed
+    bound = profile.for_car(vehicle, speed_loop_authority, MIN_V_REF_MPS if at_rest else None)
+    return speed if bound is profile else FollowProfile(bound)
+
+
+CHECKED_PROFILES: tuple[str, ...] = ("ConstantSpeed", "FileSpeed", "SpeedRamp")
+"""The package's profiles whose speeds an env checks against its car's powertrain (with any profile class of the
+user's own); the profiles of limits (``CurvatureLimited``, ``EnvelopeLimited``) and the training mix are built to
+their own acceleration figures."""
+
+
+def check_tables_for_powertrain(speed: Any, bank: Any, vehicle: Any, authority: float) -> None:
+    """A ``UserWarning`` per path when a followed profile (``CHECKED_PROFILES`` or a class from outside the
+    package) asks for more forward acceleration or speed than ``vehicle`` gives at the speed loop's throttle
+    ``authority`` (``powertrain_limits.check_table_for_powertrain``: the worst station and the figures)."""
+    from vtrack_gym.tracks.powertrain_limits import check_table_for_powertrain
+
+    part = speed_part(speed)
+    profile = getattr(part, "profile", None)
+    if not part.follows_profile or profile is None:
+        return
+    cls = type(profile)
+    if cls.__module__.startswith("vtrack_gym.") and cls.__name__ not in CHECKED_PROFILES:
+        return
+    for path, table in zip(bank.paths, bank.speed_tables, strict=True):
+        check_table_for_powertrain(table.v_mps, table.ds_m, vehicle, authority,
+                                   f"the {cls.__name__} profile on {path.name!r} (followed by the speed loop)")
+
+
 def _never_released(paths: tuple) -> np.ndarray:
     """(K, 2) release columns of a protocol whose PD-FLC never lets go: station +inf, mode 0."""
     out = np.zeros((len(paths), 2))

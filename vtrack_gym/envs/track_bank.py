@@ -2,9 +2,10 @@
 
 All paths in use are concatenated into ``tables`` (M, ``N_ENV_COLS``): the path's own columns
 (``tracks.table``), then the squared reference speed and the half widths left / right (``kernels.C_V2``,
-``C_WL``, ``C_WR``); ``meta`` (K, ``N_TM``) holds per path its first row, row count, spacing, length, closed flag,
-half width, whether the speed protocol follows a profile, and the station and mode of an ``EntryThenRelease``
-protocol's release (``kernels.TM_*``). Code outside this class reads the
+``C_WL``, ``C_WR``) and the reference's time law at each row (``C_T``, ``tracks.time_law``); ``meta`` (K,
+``N_TM``) holds per path its first row, row count, spacing, length, closed flag, half width, whether the speed
+protocol follows a profile, the station and mode of an ``EntryThenRelease`` protocol's release, and the table's
+lap time (``kernels.TM_*``). Code outside this class reads the
 bank through its named accessors, never by column number.
 """
 
@@ -17,6 +18,7 @@ import numpy as np
 from vtrack_gym.envs.scenarios import MAX_EPISODE_S
 from vtrack_gym.envs.speed import is_profile, release_columns, speed_tables
 from vtrack_gym.tracks.table import COL_KAPPA, COL_PSI, COL_X, COL_Y
+from vtrack_gym.tracks.time_law import time_law
 
 TIME_LIMIT_FACTOR = 1.5
 TIME_LIMIT_MARGIN_S = 30.0
@@ -31,9 +33,11 @@ class TrackBank:
 
         self.paths = check_observable(paths)   # every route (file, Path, built-in): observations stay in the box
         self.speed_tables = speed_tables(paths, speed, vehicle)
+        self.time_laws = tuple(time_law(t) for t in self.speed_tables)
+        """The reference's time law t_ref(s) of each speed table (``tracks.time_law``)."""
         self.tables = np.ascontiguousarray(np.concatenate([
-            np.column_stack([p.table, t.v_mps ** 2, p.half_widths_rows()]) for p, t in zip(
-                paths, self.speed_tables, strict=True)]))
+            np.column_stack([p.table, t.v_mps ** 2, p.half_widths_rows(), law.row_times_s]) for p, t, law in zip(
+                paths, self.speed_tables, self.time_laws, strict=True)]))
         counts = np.array([p.table.shape[0] for p in paths], dtype=np.int64)
         starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
         meta = np.zeros((len(paths), k.N_TM))
@@ -45,6 +49,7 @@ class TrackBank:
         meta[:, k.TM_HALF_WIDTH] = [p.half_width_m for p in paths]
         meta[:, k.TM_PROFILE] = 1.0 if is_profile(speed) else 0.0
         meta[:, [k.TM_RELEASE_S, k.TM_RELEASE_HOLD]] = release_columns(paths, speed)
+        meta[:, k.TM_LAP_T] = [law.total_time_s for law in self.time_laws]
         self.meta = meta
         self.length_m = meta[:, k.TM_LEN].copy()
         """Length of each path [m] (K,)."""
@@ -54,6 +59,16 @@ class TrackBank:
 
     def __len__(self) -> int:
         return len(self.paths)
+
+    def finish_speeds(self) -> np.ndarray:
+        """Per path (K,): the reference speed at the finish line [m/s] of a closed path whose profile starts
+        slower than it finishes (a standing start: rows 0 and n - 1 are the same point, and a car that has
+        completed its lap reads the next lap's start there); NaN for every other path."""
+        out = np.full(len(self.paths), np.nan)
+        for j, (path, table) in enumerate(zip(self.paths, self.speed_tables, strict=True)):
+            if path.closed and abs(float(table.v_mps[-1]) - float(table.v_mps[0])) > 1e-9:
+                out[j] = float(table.v_mps[-1])
+        return out
 
     def start_pose(self, track: int) -> tuple[float, float, float]:
         """The first row's x, y [m] and heading [rad] of path ``track``."""

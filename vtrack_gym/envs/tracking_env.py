@@ -15,7 +15,10 @@ curvature-limited, 40 km/h, 0.7 g). With a speed profile the PD-FLC holds v_ref(
 Observation: ``Box(float32)`` laid out by ``env.unwrapped.observation_layout`` (see ``envs.observation``).
 Action: ``Box(-1, 1, (1,))``, the steering command as a fraction of the road-wheel limit (0.6 rad by
 default); out-of-range values are clipped, NaN/inf or a wrong shape raise ``ValueError``. The PD-FLC speed
-loop drives throttle and brake inside the env.
+loop drives throttle and brake inside the env. ``control="steer_accel"`` / ``"steer_rate_accel"`` (``envs.control``)
+make it ``Box(-1, 1, (2,))``: the steering command (or its rate) and a longitudinal demand through the documented
+throttle/brake map, the PD-FLC off; the observation then ends with ``speed_error`` and ``time_error`` and the
+reward has a speed term (``RewardConfig``).
 
 Reward (per control step; weights in ``RewardConfig``):
 ``1 - w_ey |e_y|/(|e_y| + 0.1 m) - w_ephi |e_phi|/(|e_phi| + 0.05 rad) - w_effort a^2
@@ -44,6 +47,7 @@ import gymnasium as gym
 import numpy as np
 
 from vtrack_gym.envs.config import EnvConfig, ResetOptions, Scenario
+from vtrack_gym.envs.control import action_space as control_action_space
 from vtrack_gym.envs.latency import Clock, DecisionTimer, Latency
 from vtrack_gym.envs.scenarios import resolve_scenario, with_protocol
 from vtrack_gym.envs.schema import info_dict
@@ -86,8 +90,11 @@ def _is_complex(action: Any) -> bool:
         return False
 
 
-def check_actions(action: Any, n: int) -> np.ndarray:
-    """Validate and clip a batch of steering actions to shape (n,) float64 in [-1, 1]."""
+def check_actions(action: Any, n: int, dim: int = 1) -> np.ndarray:
+    """Validate and clip a batch of steering actions to shape (n,) float64 in [-1, 1]; with ``dim`` 2 (the
+    longitudinal control modes) a batch of (steering, demand) pairs to shape (n, 2)."""
+    if dim != 1:
+        return _check_pairs(action, n, dim)
     a = _as_float_array(action)
     if a.size != n:
         raise ValueError(f"action must have {n} element(s) (shape ({n}, 1) or ({n},) for a batch, (1,) for one "
@@ -96,6 +103,26 @@ def check_actions(action: Any, n: int) -> np.ndarray:
     if not np.isfinite(a).all():
         raise ValueError(f"action must be finite (got {action!r}); NaN/inf steering commands are refused")
     return np.clip(a, -1.0, 1.0)
+
+
+def _check_pairs(action: Any, n: int, dim: int) -> np.ndarray:
+    """``check_actions`` of the longitudinal control modes: (n, dim) float64 in [-1, 1]."""
+    a = _as_float_array(action)
+    if a.size != n * dim or (a.ndim >= 1 and a.shape[-1] != dim):
+        single = f", ({dim},) for one env" if n == 1 else ""
+        raise ValueError(f"action must have {n * dim} elements (shape ({n}, {dim}) for a batch{single}: steering "
+                         f"and longitudinal demand), got shape {a.shape}")
+    a = a.reshape(n, dim)
+    if not np.isfinite(a).all():
+        raise ValueError(f"action must be finite (got {action!r}); NaN/inf commands are refused")
+    return np.clip(a, -1.0, 1.0)
+
+
+def check_action_pair(action: Any) -> tuple[float, float]:
+    """Validate one env's action of a longitudinal control mode (steering or its rate, and the demand: shape
+    (2,)) and clip both to [-1, 1]."""
+    a = _check_pairs(action, 1, 2)
+    return float(a[0, 0]), float(a[0, 1])
 
 
 def check_action(action: Any) -> float:
@@ -160,7 +187,9 @@ class TrackingEnv(gym.Env):
         self.control_period_s = config.control_period_s
         self.design_model = DesignModel.from_vehicle(config.vehicle)
         self.observation_space = observation_space(config)
-        self.action_space = ACTION_SPACE
+        self.control = config.control
+        """What the action drives (``envs.control``: steer, steer_accel or steer_rate_accel)."""
+        self.action_space = ACTION_SPACE if config.control == "steer" else control_action_space(config.control)
         self.metadata = {**self.metadata, "render_fps": render_fps}
         self._sim = BatchSim(scenario, config, 1)
         self.scenario = scenario = self._sim.scenario  # with its time limit resolved
@@ -197,6 +226,12 @@ class TrackingEnv(gym.Env):
         return self._sim.paths
 
     @property
+    def speed_tables(self) -> tuple:
+        """The reference speed v_ref(s) on each track (``tracks.SpeedTable``), as the speed loop follows it: a
+        profile with a ``throttle_authority`` bound to this env's car and speed loop."""
+        return self._sim.tracks.speed_tables
+
+    @property
     def current_path(self):
         """The path of the current episode."""
         return self._sim.paths[self._sim.veh_track[0]]
@@ -222,11 +257,15 @@ class TrackingEnv(gym.Env):
     def step(self, action: Any):
         if self._needs_reset:
             raise RuntimeError("call reset() before step() (and after an episode ends)")
-        action = check_action(action)
+        demand = None
+        if self.control == "steer":
+            action = check_action(action)
+        else:
+            action, demand = check_action_pair(action)
         spent = None
         if self.latency.on:
             spent = self.latency.seconds if self.latency.mode == "fixed" else self._timer.elapsed()
-        reward, code, trunc = self._sim.step_one(action, spent)
+        reward, code, trunc = self._sim.step_one(action, spent, demand)
         term = code != 0
         self._needs_reset = term or trunc
         info = self._info(terminated=term)

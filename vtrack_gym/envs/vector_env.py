@@ -22,6 +22,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from vtrack_gym.envs.config import EnvConfig, ResetOptions, Scenario
+from vtrack_gym.envs.control import action_space as control_action_space
 from vtrack_gym.envs.scenarios import resolve_scenario, with_protocol
 from vtrack_gym.envs.sim import TERMINATION_NAMES, BatchSim
 from vtrack_gym.envs.tracking_env import ACTION_SPACE, check_actions, observation_space, scenario_config
@@ -76,7 +77,9 @@ class TrackingVectorEnv(VectorEnv):
         self.control_period_s = config.control_period_s
         self.design_model = DesignModel.from_vehicle(config.vehicle)
         self.single_observation_space = observation_space(config)
-        self.single_action_space = ACTION_SPACE
+        self.control = config.control
+        """What the actions drive (``envs.control``); the longitudinal modes take (num_envs, 2) actions."""
+        self.single_action_space = ACTION_SPACE if config.control == "steer" else control_action_space(config.control)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.sim = BatchSim(scenario, config, self.num_envs)
@@ -129,7 +132,7 @@ class TrackingVectorEnv(VectorEnv):
             never = np.flatnonzero(~self._was_reset)
             raise RuntimeError(f"call reset() before step(): sub-env(s) {never[:10].tolist()} have never been reset "
                                "(a reset_mask leaving some out on the first reset does not reset them)")
-        a = check_actions(actions, self.num_envs)
+        a = check_actions(actions, self.num_envs, self.single_action_space.shape[0])
         sim = self.sim
         done_before = self._autoreset
         reward, terminated, truncated = sim.step(a, done_before if done_before.any() else None)

@@ -26,6 +26,7 @@ from vtrack_gym.evaluation.suites import (
     suite_episodes,
     suite_label,
     suite_names,
+    with_control,
     with_latency,
     with_vehicle,
 )
@@ -82,7 +83,9 @@ def _check_seeds(seeds: Sequence[int] | None) -> None:
 def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seeds: Sequence[int] | None = None,
              *, store: str | Path | ResultStore | None = None, vecnormalize: Any = None,
              policy_id: str | None = None, vehicle: str | None = None, workers: int | None = 1,
-             backend: str = "local", latency: str | float | None = None) -> list[ResultRow]:
+             backend: str = "local", latency: str | float | None = None,
+             control: str | None = None,
+             finish: Callable[[ResultRow], ResultRow] | None = None) -> list[ResultRow]:
     """Score a policy; one ``ResultRow`` per episode (``row.metrics``: the leaderboard's metrics).
 
     ``policy_or_factory``: an object with ``predict(obs, state=None, episode_start=None, deterministic=True)``
@@ -100,7 +103,12 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
     Ray (``vtrack_gym.evaluation.parallel.run_tasks``; the same rows as ``workers=1``; the factory must be
     picklable for Ray). ``latency``: charge each decision's compute in the loop (``envs.latency``: ``"measured"``,
     the policy call's time, or a fixed budget in seconds), recorded in the rows' options and ranked apart from the
-    ideal rows. Rank the rows with ``leaderboard(rows)``, alone or with other rows of the same suite.
+    ideal rows. ``control``: the control mode of a suite's or an env id's episodes (``envs.control``; default
+    ``steer``), recorded in the rows' ``options["control"]`` (an env instance drives in its own mode, recorded by
+    ``env_identity``).
+    ``finish``: applied to each row as its episode ends, before it is stored and returned (e.g.
+    ``track_benchmark.merge_provenance`` with a track file's provenance; an error it raises ends the run, the rows
+    stored before it stay). Rank the rows with ``leaderboard(rows)``, alone or with other rows of the same suite.
     """
     _check_seeds(seeds)
     from vtrack_gym.evaluation.parallel import check_workers
@@ -121,10 +129,11 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
         from vtrack_gym.vehicle.catalog import read_vehicle_once
 
         found, suite = _episodes(suite_or_env, seeds)
-        episodes = with_latency(with_vehicle(found, read_vehicle_once(vehicle)), latency)   # a file: read once
+        episodes = with_control(with_latency(with_vehicle(found, read_vehicle_once(vehicle)), latency), control)
     elif isinstance(suite_or_env, gym.Env):
-        if vehicle is not None:
-            raise ValueError("vehicle applies to a suite name or an env id; an env instance drives its own car")
+        if vehicle is not None or control is not None:
+            raise ValueError("vehicle and control apply to a suite name or an env id; an env instance drives its "
+                             "own car in its own control mode (gym.make(..., vehicle=..., control=...))")
         env_id, identity = env_identity(suite_or_env)
         if UNIDENTIFIED in env_id:
             log.warning("the configuration of this env instance cannot be recorded; its rows are stored as %r, "
@@ -137,6 +146,8 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
     rows: list[ResultRow] = []
 
     def keep(row: ResultRow) -> None:  # committed as its episode ends: a later failure cannot lose it
+        if finish is not None:
+            row = finish(row)
         if result_store is not None:
             result_store.add([row])
         rows.append(row)
@@ -273,7 +284,7 @@ def board_of(source: Any, suite: str | None = None, latest_only: bool = True,
     the rows' one suite. A track set's suite (``tracks[...]``) ranks across all tracks first, then per track."""
     from vtrack_gym.evaluation.benchmark import suite_columns
     from vtrack_gym.evaluation.board import build_board
-    from vtrack_gym.evaluation.suites import primary_metric
+    from vtrack_gym.evaluation.suites import primary_metric, then_metrics
     from vtrack_gym.evaluation.track_benchmark import is_track_set, track_set_board
 
     if isinstance(source, (str, Path, ResultStore)):
@@ -292,7 +303,8 @@ def board_of(source: Any, suite: str | None = None, latest_only: bool = True,
                          f"{type(source).__name__})")
     cols = tuple(columns) if columns is not None else suite_columns(suite)
     primary = primary_metric(suite)
-    entries = track_set_board(rows, cols, primary) if is_track_set(suite) else build_board(rows, cols, primary)
+    entries = track_set_board(rows, cols, primary) if is_track_set(suite) else \
+        build_board(rows, cols, primary, then_metrics(suite))
     return Board(suite, entries, rows, suite_rows)
 
 

@@ -27,6 +27,8 @@ from vtrack_gym.evaluation.suites import (
     get_suite,
     primary_metric,
     suite_label,
+    then_metrics,
+    with_control,
     with_latency,
     with_vehicle,
 )
@@ -41,16 +43,22 @@ CONTROL_COLUMNS: tuple[str, ...] = (
 )
 """The control metrics (``metrics.control_metrics``) and, on a track judged by ``track_limits=``, its excursions and
 the body's least clearance to an edge (missing for the other rows)."""
+TIMING_COLUMNS: tuple[str, ...] = (
+    "rms_e_v_mps", "max_e_v_mps", "time_lag_s", "comfort_a_wx_mps2", "best_lap_s", "mean_lap_s",
+)
+"""Tracking in time (``metrics.speed_metrics``, ``metrics.timing_metrics``): the speed error's RMS and peak [m/s],
+the time lag behind the timed reference at the end [s], the ISO 2631-1 longitudinal comfort value [m/s^2] and, on a
+closed path, the best and mean lap [s] (missing on an open one and in rows stored before these columns)."""
 LEADERBOARD_COLUMNS: tuple[str, ...] = (
     "rms_e_y_m", "max_e_y_m", "rms_e_phi_deg", "rms_hand_wheel_deg", "max_hand_wheel_deg", "max_a_y_mps2",
-    "max_roll_deg", "itae", "cones_hit", "comfort_a_v_mps2", "steering_reversals_per_s",
+    "max_roll_deg", "itae", "cones_hit", "comfort_a_v_mps2", "steering_reversals_per_s", *TIMING_COLUMNS,
     "policy_time_p50_us", "policy_time_p95_us", "policy_time_max_us", "policy_real_time_factor", "solver_failures",
     "late_decision_share", *CONTROL_COLUMNS,
 )
-"""Every suite's leaderboard columns (every table format and the HTML board): the paper's metrics, then the policy's
-own compute per decision (``metrics.compute_metrics``: p50/p95/max [us], real-time factor at the control period),
-its failed solves and, with compute charged in the loop (``latency``), the share of its decisions that were late,
-then ``CONTROL_COLUMNS``."""
+"""Every suite's leaderboard columns (every table format and the HTML board): the paper's metrics, ``TIMING_COLUMNS``,
+then the policy's own compute per decision (``metrics.compute_metrics``: p50/p95/max [us], real-time factor at the
+control period), its failed solves and, with compute charged in the loop (``latency``), the share of its decisions
+that were late, then ``CONTROL_COLUMNS``."""
 
 
 def suite_columns(suite: str) -> tuple[str, ...]:
@@ -87,7 +95,7 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
                   figures_dir: str | Path | None = None, quick: bool = False,
                   show_progress: bool = True, seeds: Sequence[int] | None = None,
                   vehicle: str | None = None, workers: int | None = 1, backend: str = "local",
-                  latency: str | float | None = None) -> dict[str, Any]:
+                  latency: str | float | None = None, control: str | None = None) -> dict[str, Any]:
     """Score every policy on ``suite``; write rows to ``store`` (each committed as its episode ends) and figures
     under ``figures_dir``.
 
@@ -96,6 +104,9 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
     ``latency``: charge each decision's compute in the loop (``envs.latency``): ``"measured"`` (the policy call's
     time) or a fixed budget in seconds; the rows record it (``options["latency"]`` / ``["latency_s"]``) and rank
     apart from the ideal ones, beside them on the board (``None``: ideal, instant decisions).
+
+    ``control``: the control mode (``envs.control``; ``None``: each episode's own, ``steer`` for every built-in
+    suite but ``trajectory``); the rows record a mode other than ``steer`` (``options["control"]``), ranked apart.
 
     ``suite``: a registered suite (``suites.suite_names()``); ``seeds`` replaces its seeds (default: its own,
     ``Suite.seeds``; ``quick``: ``Suite.quick_seeds``).
@@ -112,15 +123,16 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
     (``parallel.run_tasks``), the others are all there; ``store_error``: why the store stopped taking rows (a full
     disk; logged as an error), None when every row was stored.
     """
+    from vtrack_gym.baselines.resolve import recorded_id
     from vtrack_gym.evaluation.parallel import EpisodeTask
     from vtrack_gym.vehicle.catalog import read_vehicle_once
 
     chosen = get_suite(suite)
     vehicle = read_vehicle_once(vehicle)   # a vehicle file: its envs and rows use the bytes read here
-    episodes = with_latency(with_vehicle(chosen.episodes_for(quick, seeds), vehicle), latency)
+    episodes = with_control(with_latency(with_vehicle(chosen.episodes_for(quick, seeds), vehicle), latency), control)
     label = suite_label(suite, quick, seeds)
-    factories = policy_factories(policies)
-    tasks = [EpisodeTask(name, make, ep, label, chosen.score(make),
+    factories = policy_factories(policies, {ep.control for ep in episodes})
+    tasks = [EpisodeTask(recorded_id(name, make), make, ep, label, chosen.score(make),
                          keep_trace=ep.seed == episodes[0].seed or chosen.trace_every_seed)
              for name, make in factories.items() for ep in episodes]
     scored = score_tasks(tasks, figures_dir, vehicle, workers, backend,
@@ -238,8 +250,8 @@ def summarise(rows: Sequence[ResultRow], columns: Sequence[str] = LEADERBOARD_CO
     aggregation and NaN rule as ``ResultStore.leaderboard`` (``vtrack_gym.evaluation.board``; primary metric of
     the rows' suite)."""
     suites = {r.suite for r in rows}
-    primary = primary_metric(suites.pop() if len(suites) == 1 else "")
-    return build_board((row_record(r) for r in rows), columns, primary)
+    suite = suites.pop() if len(suites) == 1 else ""
+    return build_board((row_record(r) for r in rows), columns, primary_metric(suite), then_metrics(suite))
 
 
 def row_record(r: ResultRow) -> dict[str, Any]:

@@ -169,10 +169,10 @@ def failure_reason(termination: str, metrics: Mapping[str, Any]) -> str:
 
 
 SETTING_OPTIONS: tuple[str, ...] = ("protocol", "env_config", "max_episode_steps", "wrappers", "env_kwargs",
-                                    "half_width_m", "latency", "latency_s")
+                                    "half_width_m", "latency", "latency_s", "control")
 """Keys of a row's ``options`` that say how its env was set up beyond its id (``api.env_identity``: an entry speed or
 reference line, config fields, a time limit, wrappers, make kwargs, a half width, compute charged in the loop:
-``envs.latency``): rows differing in any of them
+``envs.latency``, the control mode: ``envs.control``): rows differing in any of them
 never share a ranking. (Reset options of a suite's episodes, figure folders and track provenance are not settings:
 the id already encodes a track file's content and profile.)"""
 
@@ -209,13 +209,14 @@ def settings_label(options: Mapping[str, Any]) -> str:
 
 
 def build_board(records: Iterable[Mapping[str, Any]], columns: Sequence[str],
-                primary: str = "max_e_y_m") -> list[dict[str, Any]]:
+                primary: str = "max_e_y_m", then: Sequence[str] = ()) -> list[dict[str, Any]]:
     """One entry per policy key from episode ``records``, ranked within each env (see the module docstring).
 
     Each record has ``env_id`` (and optionally ``options``: see ``board_env``), ``policy_id``, ``policy_preset``
     (may be empty), ``policy_hash``, ``completed``
     (0/1), ``success`` (0/1; absent: ``completed``), ``termination`` (optional), ``wall_time_per_step_s`` [s] and
-    ``metrics`` (name -> value). ``primary``: the metric ranked on (lower is better). Entries are sorted by env
+    ``metrics`` (name -> value). ``primary``: the metric ranked on (lower is better); ``then``: metrics that
+    order entries with the same success rate and mean primary metric, in turn (lower first). Entries are sorted by env
     and rank and hold ``rank``, ``episodes``, ``success_rate``, ``completed``, the aggregate of every column over
     the successful episodes, the failed episodes apart, ``wall_time_per_step_us`` [us] and ``tied_with``.
     """
@@ -232,7 +233,7 @@ def build_board(records: Iterable[Mapping[str, Any]], columns: Sequence[str],
         entry["episodes"] = len(members)
         entry["success_rate"] = estimate(1.0 if _succeeded(m) else 0.0 for m in members)
         entry["completed"] = aggregate(m["completed"] for m in members)
-        for col in dict.fromkeys([*columns, primary]):
+        for col in dict.fromkeys([*columns, primary, *then]):
             entry[col] = estimate(m["metrics"].get(col) for m in (members if col in POLICY_METRICS else good))
         reasons: dict[str, int] = {}
         for m in bad:
@@ -247,7 +248,8 @@ def build_board(records: Iterable[Mapping[str, Any]], columns: Sequence[str],
         entry["tied_with"] = ""
         completed_bad = [m["metrics"].get(primary) for m in bad if m["completed"]]
         unfinished = [m["metrics"].get("progress_m") for m in bad if not m["completed"]]
-        order = (key[0], -entry["success_rate"], _nan_last(entry[primary]), -entry["completed"],
+        order = (key[0], -entry["success_rate"], _nan_last(entry[primary]), *(_nan_last(entry[m]) for m in then),
+                 -entry["completed"],
                  _nan_last(_mean_or_nan(completed_bad)), -_nan_first(_mean_or_nan(unfinished)), key[1:])
         entries.append((order, entry))
     entries.sort(key=lambda oe: oe[0])
@@ -263,10 +265,11 @@ def build_board(records: Iterable[Mapping[str, Any]], columns: Sequence[str],
     return board
 
 
-def ranking_note(primary: str) -> str:
+def ranking_note(primary: str, then: Sequence[str] = ()) -> str:
     """One sentence telling a reader of a board how it is ranked and what the brackets are."""
-    return (f"Ranked per env by success rate, then mean {primary} over successful episodes (lower first); metric "
-            "columns aggregate the successful episodes only (failed ones: failed, failure_reasons, failed_*); "
+    further = "".join(f", then mean {m}" for m in then)
+    return (f"Ranked per env by success rate, then mean {primary}{further} over successful episodes (lower first); "
+            "metric columns aggregate the successful episodes only (failed ones: failed, failure_reasons, failed_*); "
             f"[lo, hi]: {CONFIDENCE_LEVEL:.0%} bootstrap confidence interval over the episodes (percentile, "
             f"{BOOTSTRAP_RESAMPLES} resamples; none with one episode); tied_with: not separable (equal success "
             f"rate, overlapping {primary} intervals).")

@@ -113,18 +113,18 @@ def _vehicle_of(config: Any, make_vehicle: Any) -> str | None:
 def _track_provenance(scenario: Any) -> tuple[str | None, dict[str, Any]] | None:
     """(env id or None, options) recording a scenario's own track, speed profile and half width, as
     ``vtrack eval --track`` does for a track file; None when the track cannot be identified."""
-    import dataclasses
     import os
 
     from vtrack_gym.tracks import Path as TrackPath
     from vtrack_gym.tracks.sources import path_digest
+    from vtrack_gym.tracks.speed_profiles import profile_parameters
 
     options: dict[str, Any] = {}
     env_id = None
     source = scenario.track
     track = source.track
     profile = scenario.speed_profile
-    params = None if profile is None else {"kind": type(profile).__name__, **dataclasses.asdict(profile)}
+    params = None if profile is None else {"kind": type(profile).__name__, **profile_parameters(profile)}
     if isinstance(track, (str, os.PathLike)) and Path(track).is_file():
         from vtrack_gym.envs.registration import register_track
 
@@ -149,7 +149,8 @@ def env_identity(env: gym.Env) -> tuple[str, dict[str, Any]]:
     Read from ``env.spec`` (id, make arguments, time limit, wrappers) and, for this package's envs, the resolved
     scenario and config: the car as ``options["vehicle"]`` (``benchmark.vehicle_label``), a track file as
     ``vtrack eval --track`` records it (its registered id, SHA-256 and speed profile), another track by name or
-    path digest, config fields that differ from the defaults as ``options["env_config"]``, a changed time limit,
+    path digest, a control mode other than ``steer`` as ``options["control"]``, config fields that differ from the
+    defaults as ``options["env_config"]``, a changed time limit,
     added wrappers. An env whose configuration cannot be recorded gets ``<id> [unidentified configuration <token>]``, a
     label of its own (``unidentified``). Aliases are resolved and numbers normalised (see the module docstring).
     """
@@ -220,12 +221,15 @@ def _tracking_identity(unwrapped: Any, spec: Any, env_id: str,
         check_driven(source_digest(tuple(unwrapped.paths)), found[1])   # the file still holds what the env drives
         env_id = found[0] or env_id
         options.update(found[1])
-    config, default = unwrapped.config, EnvConfig()
+    config = unwrapped.config
+    default = EnvConfig(control=config.control)   # the mode's own layout is part of the mode, not a change
+    if config.control != "steer":   # control modes are different set-ups (envs.control); steer rows unchanged
+        options["control"] = config.control
     label = _vehicle_of(config, spec.kwargs.get("vehicle", getattr(config, "vehicle", None)))
     changed: dict[str, Any] = {}
     for f in dataclasses.fields(config):
         value = getattr(config, f.name)
-        if f.name == "vehicle" or _equal(value, getattr(default, f.name)):
+        if f.name in ("vehicle", "control") or _equal(value, getattr(default, f.name)):
             continue
         try:
             changed[f.name] = jsonable(value)

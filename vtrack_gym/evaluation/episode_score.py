@@ -88,7 +88,8 @@ def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str,
     judged by completion, ``ResultRow.verdict``) and its metrics carry the success criterion's own figures
     (``success_metrics``).
     The row's ``options`` carry ``ep``'s reset options and the car (``vehicle_label(ep.vehicle)``, when not the
-    default car), so cars never mix on the leaderboard, and on a track file the SHA-256 of the bytes this env read
+    default car) and a control mode other than ``steer`` (``control``), so cars and modes never mix on the
+    leaderboard, and on a track file the SHA-256 of the bytes this env read
     and drove (``track_sha256``). Its ``policy_hash`` is ``digest`` if given, else the policy's fingerprint
     (``fingerprint.policy_hash`` in this env's observation layout) taken before the rollout (a policy that
     changes its attributes while driving keeps one
@@ -101,6 +102,8 @@ def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str,
     metrics.update(latency_metrics(env))
     label = vehicle_label(ep.vehicle)
     options = dict(ep.options) if label is None else {**ep.options, "vehicle": label}
+    if getattr(ep, "control", "steer") != "steer":   # control modes are different set-ups; steer rows unchanged
+        options["control"] = ep.control
     driven = source_digest(tuple(getattr(env.unwrapped, "paths", ())))
     if driven is not None:   # a track file: the content this env read and drove (never the file's later state)
         options["track_sha256"] = driven
@@ -114,16 +117,19 @@ def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str,
     return row, trace
 
 
-def policy_factories(names: Sequence[str] | dict[str, Any] | None = None) -> dict[str, Any]:
-    """``{policy id: make(env) -> policy}`` for every baseline (default presets) and shipped agent, or for
+def policy_factories(names: Sequence[str] | dict[str, Any] | None = None,
+                     controls: set[str] | frozenset[str] = frozenset({"steer"})) -> dict[str, Any]:
+    """``{policy id: make(env) -> policy}`` for every baseline (default presets) and shipped agent that drives
+    episodes in the control modes ``controls`` (``resolve.default_policy_names``), or for
     ``names`` (policy specs, see ``vtrack_gym.baselines.resolve``; all checked before any is returned; a dict of
     factories built already, e.g. of user code, is returned as is).
 
-    Ids are canonical (``resolve.canonical_spec``: ``lqr:default`` is ``lqr``); ``ValueError`` when two names are
-    the same policy (a policy is never ranked against itself)."""
-    from vtrack_gym.baselines.resolve import canonical_ids, policy_factory, policy_names
+    Ids are canonical (``resolve.canonical_spec``: ``lqr:default`` is ``lqr``); one policy named twice (also one
+    agent file by two paths) is scored once, two different agents with one stem are two policies
+    (``resolve.named_factories``)."""
+    from vtrack_gym.baselines.resolve import canonical_spec, default_policy_names, named_factories, policy_factory
 
     if isinstance(names, dict):  # factories already built: {policy id: make(env) -> policy}
         return dict(names)
-    specs = [str(n).strip() for n in names] if names else list(policy_names())
-    return {key: policy_factory(spec) for key, spec in canonical_ids(specs).items()}
+    specs = [str(n).strip() for n in names] if names else list(default_policy_names(controls))
+    return named_factories([(canonical_spec(spec), spec, policy_factory(spec)) for spec in specs])

@@ -11,17 +11,23 @@ from typing import Any
 class Episode:
     """One scored episode of a suite: reset with ``seed`` and ``options``, on the env made with ``vehicle`` (a name
     of ``vehicle.list_vehicles()``, a vehicle file path or a ``vehicle.catalog.VehicleFile`` read once; ``None``:
-    the default car)."""
+    the default car), in the control mode ``control`` (``envs.control``: ``"steer"``, the default, or a
+    longitudinal mode)."""
 
     env_id: str
     seed: int
     options: dict[str, Any] = field(default_factory=dict)
     vehicle: Any = None
+    control: str = "steer"
 
     @property
     def make_kwargs(self) -> dict[str, Any]:
-        """Keyword arguments of ``gym.make`` for this episode (the vehicle, if one is chosen)."""
-        return {} if self.vehicle is None else {"vehicle": self.vehicle}
+        """Keyword arguments of ``gym.make`` for this episode (the vehicle, if one is chosen; the control mode, if
+        not ``steer``)."""
+        kwargs: dict[str, Any] = {} if self.vehicle is None else {"vehicle": self.vehicle}
+        if self.control != "steer":
+            kwargs["control"] = self.control
+        return kwargs
 
 
 def with_vehicle(episodes: Sequence[Episode], vehicle: Any) -> list[Episode]:
@@ -33,6 +39,17 @@ def with_vehicle(episodes: Sequence[Episode], vehicle: Any) -> list[Episode]:
 
     chosen = vehicle if isinstance(vehicle, VehicleFile) else str(vehicle)   # a file read once stays as read
     return [replace(ep, vehicle=chosen) for ep in episodes]
+
+
+def with_control(episodes: Sequence[Episode], control: str | None) -> list[Episode]:
+    """``episodes`` driven in the control mode ``control`` (``envs.control``; ``None``: unchanged); ``ValueError``
+    naming ``control`` and the allowed values for anything else. Their rows record it (``options["control"]``), so
+    control modes are ranked apart."""
+    if control is None:
+        return list(episodes)
+    from vtrack_gym.envs.control import check_control
+
+    return [replace(ep, control=check_control(control)) for ep in episodes]
 
 
 def with_latency(episodes: Sequence[Episode], latency: Any) -> list[Episode]:

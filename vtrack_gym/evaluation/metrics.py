@@ -1,4 +1,5 @@
-"""Metrics as pure functions of a ``Trace`` (the paper's eqs. 45-49, ITAE, GA constraints, ISO 2631-1).
+"""Metrics as pure functions of a ``Trace`` (the paper's eqs. 45-49, ITAE, GA constraints, ISO 2631-1, speed and
+time errors against the timed reference, lap times).
 
 Units of the returned numbers are in their names (``_m``, ``_deg``, ``_mps2``, ``_n``); ``itae`` is the
 integral of t |e_y| dt in m s^2.
@@ -83,15 +84,18 @@ def constraint_metrics(trace: Trace, a_y_limit_mps2: float = A_Y_LIMIT_MPS2) -> 
 
 
 def comfort_metrics(trace: Trace, k: tuple[float, float, float] = (1.0, 1.0, 1.0)) -> dict[str, Any]:
-    """ISO 2631-1 overall vibration total value a_v [m/s^2] and its comfort band (physics-rate data)."""
+    """ISO 2631-1 comfort from the physics-rate accelerations: the overall vibration total value a_v [m/s^2], its
+    comfort band, and the longitudinal weighted RMS ``comfort_a_wx_mps2`` = k_x a_wx [m/s^2] (W_d on a_x, k_x =
+    ``k[0]``, 1 for comfort on the seat surface like a_v's; NaN on a record shorter than a second)."""
     from vtrack_gym.evaluation import iso2631
 
     acc = trace.acc_physics_mps2
     fs = trace.physics_rate_hz
     if acc.shape[0] < int(fs):  # shorter than a second: weighting filters are meaningless
-        return {"comfort_a_v_mps2": math.nan, "comfort_band": "n/a"}
+        return {"comfort_a_v_mps2": math.nan, "comfort_band": "n/a", "comfort_a_wx_mps2": math.nan}
     a_v = iso2631.vibration_total(acc[:, 0], acc[:, 1], acc[:, 2], fs, k=k)
-    return {"comfort_a_v_mps2": float(a_v), "comfort_band": iso2631.comfort_band(a_v)}
+    a_wx = float(k[0]) * iso2631.weighted_rms(acc[:, 0], fs, "Wd")
+    return {"comfort_a_v_mps2": float(a_v), "comfort_band": iso2631.comfort_band(a_v), "comfort_a_wx_mps2": a_wx}
 
 
 def reversal_count(angle: np.ndarray, gap: float) -> int:
@@ -134,10 +138,22 @@ def smoothness_metrics(trace: Trace, gap_deg: float = REVERSAL_GAP_DEG) -> dict[
 
 
 def speed_metrics(trace: Trace) -> dict[str, float]:
-    """Speed tracking error v - v_ref [m/s] against the env's reference speed (``target_speed_mps``: constant on
-    the paper scenarios, the speed profile v_ref(s) on a track with one): RMS (time-weighted) and max |.|."""
+    """Speed tracking error e_v = v - v_ref [m/s] against the env's reference speed (``target_speed_mps``: the
+    held speed on the paper scenarios, the profile's v_ref(s) at the car's station on a track with one): its
+    time-weighted RMS ``rms_e_v_mps`` and its largest magnitude ``max_e_v_mps``, over every step of the episode.
+    Under an ISO 3888 protocol the env shows the car's own speed as v_ref from the entry gate on (no speed loop
+    acts there), so e_v = 0 after the gate: the figures measure the approach, the RMS spread over the whole
+    episode's duration."""
     err = trace["v_mps"] - trace["target_speed_mps"]
-    return {"rms_speed_error_mps": rms(err, trace["time_s"]), "max_speed_error_mps": max_abs(err)}
+    return {"rms_e_v_mps": rms(err, trace["time_s"]), "max_e_v_mps": max_abs(err)}
+
+
+def timing_metrics(trace: Trace) -> dict[str, Any]:
+    """The time error at the end ``time_lag_s`` [s] (positive: behind the timed reference) and, on a closed path,
+    the lap figures (``reference_time.timing_metrics``; NaN when the trace has no reference)."""
+    from vtrack_gym.evaluation.reference_time import timing_metrics as timed
+
+    return timed(trace.reference, trace["time_s"], trace["progress_m"])
 
 
 def _rate(values: np.ndarray, time_s: np.ndarray) -> np.ndarray:
@@ -168,15 +184,39 @@ def control_metrics(trace: Trace) -> dict[str, float]:
     return out
 
 
+SOLVER_TIME_STATS = {"preparation_s": "preparation_time", "feedback_s": "feedback_time", "qp_s": "qp_time"}
+"""Per-decision solver times reported as p50/p95 [us] (``<name>_p50_us``), when the policy reports them."""
+SOLVER_COUNT_STATS = {"qp_iterations": "qp_iterations", "sqp_iterations": "sqp_iterations",
+                      "cold_starts": "cold_starts"}
+"""Per-decision solver counts reported as their mean and maximum (``<name>_mean``, ``<name>_max``)."""
+
+
+def solver_stat_metrics(stats: dict[str, np.ndarray]) -> dict[str, float]:
+    """The solver statistics' columns: p50/p95 [us] of each time in ``SOLVER_TIME_STATS``, mean and maximum of each
+    count in ``SOLVER_COUNT_STATS`` (only those the policy reported)."""
+    out: dict[str, float] = {}
+    for key, name in SOLVER_TIME_STATS.items():
+        values = np.asarray(stats.get(key, ()), dtype=np.float64)
+        if values.size:
+            p50, p95 = np.percentile(values, (50.0, 95.0))
+            out[f"{name}_p50_us"], out[f"{name}_p95_us"] = 1e6 * float(p50), 1e6 * float(p95)
+    for key, name in SOLVER_COUNT_STATS.items():
+        values = np.asarray(stats.get(key, ()), dtype=np.float64)
+        if values.size:
+            out[f"{name}_mean"], out[f"{name}_max"] = float(values.mean()), float(values.max())
+    return out
+
+
 def compute_metrics(trace: Trace) -> dict[str, float]:
     """The policy's own compute per decision (its ``predict`` call, not the env's step): median, 95th percentile
     and maximum [us], the real-time factor ``control period / p95`` (> 1: the policy decides faster than real
     time at the env's control period) and its failed solves (NaN when the trace has no timings or the policy
-    reports no count)."""
+    reports no count), and the solver's own statistics when it reports them (``solver_stat_metrics``)."""
     times = np.asarray(trace.policy_time_s, dtype=np.float64)
     out = {"policy_time_p50_us": math.nan, "policy_time_p95_us": math.nan, "policy_time_max_us": math.nan,
            "policy_real_time_factor": math.nan,
            "solver_failures": math.nan if trace.solver_failures is None else float(trace.solver_failures)}
+    out.update(solver_stat_metrics(trace.solver_stats))
     if times.size:
         p50, p95 = np.percentile(times, (50.0, 95.0))
         out.update({"policy_time_p50_us": 1e6 * float(p50), "policy_time_p95_us": 1e6 * float(p95),
@@ -198,6 +238,7 @@ def evaluate_trace(trace: Trace, cones_hit: int | None = None) -> dict[str, Any]
     }
     out.update(paper_metrics(trace))
     out.update(speed_metrics(trace))
+    out.update(timing_metrics(trace))
     out.update(smoothness_metrics(trace))
     out.update(control_metrics(trace))
     out.update(constraint_metrics(trace))

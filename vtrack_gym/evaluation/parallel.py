@@ -101,7 +101,8 @@ ResultSink = Callable[[int, tuple[Any, Any]], None]
 def run_tasks(tasks: Sequence[EpisodeTask], workers: int | None = 1, backend: str = "local",
               progress: Any = None, address: str | None = None,
               on_result: ResultSink | None = None) -> list[tuple[Any, Any] | LostTask]:
-    """Every task's (row, trace or None), in task order; ``progress`` (a tqdm bar) advances once per episode.
+    """Every task's (row, trace or None), in task order; ``progress`` (a tqdm bar) advances once per episode,
+    a lost one included (counted as ``lost=N`` beside the bar).
 
     ``workers``: local processes (default: the cores; 1 runs in this process) or, with ``backend="ray"``, the most
     tasks in flight at once (default: one per cluster CPU). ``address``: the Ray cluster to join.
@@ -118,11 +119,17 @@ def run_tasks(tasks: Sequence[EpisodeTask], workers: int | None = 1, backend: st
         if on_result is not None:
             on_result(index, results[index])
 
+    lost_so_far: list[LostTask] = []
+
+    def lose(task: LostTask) -> None:   # the bar counts the episode, and shows it as lost
+        lost_so_far.append(task)
+        _count_lost(len(lost_so_far), progress)
+
     n = min(workers or default_workers(), max(1, len(tasks)))   # never more processes than episodes
     if backend == "ray":
-        lost = _run_ray(tasks, workers, deliver, address)
+        lost = _run_ray(tasks, workers, deliver, address, lose)
     elif n > 1:
-        lost = _run_forked(tasks, n, deliver)
+        lost = _run_forked(tasks, n, deliver, lose)
     else:   # in this process
         lost = []
         for index, task in enumerate(tasks):
@@ -147,6 +154,13 @@ def _advance(task: EpisodeTask, result: tuple[Any, Any], progress: Any) -> tuple
     if progress is not None:
         progress.update(1)
     return result
+
+
+def _count_lost(lost: int, progress: Any) -> None:
+    """A lost episode on the bar: it advances, and ``lost=N`` beside it says how many were lost so far."""
+    if progress is not None:
+        progress.set_postfix(lost=lost, refresh=False)
+        progress.update(1)
 
 
 class _Inherited:
@@ -218,7 +232,8 @@ def _warm_policy(task: EpisodeTask, env: Any, episode: Episode) -> None:
         log.debug("warm-up of %s skipped: %s", task.policy_id, exc)
 
 
-def _run_forked(tasks: list[EpisodeTask], n: int, deliver: ResultSink) -> list[LostTask]:
+def _run_forked(tasks: list[EpisodeTask], n: int, deliver: ResultSink,
+                lose: Callable[[LostTask], None]) -> list[LostTask]:
     """``tasks`` on at most ``n`` forked processes (after ``_warm_up`` here), each result delivered as it
     arrives (``worker_pool.run_pool``); returns the tasks whose worker died."""
     warm_cpu_s = _warm_up(tasks)
@@ -230,7 +245,7 @@ def _run_forked(tasks: list[EpisodeTask], n: int, deliver: ResultSink) -> list[L
         cpu_by_worker[pid] = cpu_by_worker.get(pid, 0.0) + cpu_s
         deliver(index, result)
 
-    lost = run_pool(len(tasks), n, _run_index, done, init=lambda: _start_worker(tasks))
+    lost = run_pool(len(tasks), n, _run_index, done, init=lambda: _start_worker(tasks), on_lost=lose)
     log.debug(usage_line(len(tasks), warm_cpu_s, list(cpu_by_worker.values()), time.perf_counter() - start))
     return lost
 
@@ -259,8 +274,8 @@ RAY_CRASHES = ("WorkerCrashedError", "NodeDiedError", "ObjectLostError", "OutOfM
 """Ray exceptions that mean the process running a task died (the task is lost, the others go on)."""
 
 
-def _run_ray(tasks: list[EpisodeTask], workers: int | None, deliver: ResultSink,
-             address: str | None) -> list[LostTask]:
+def _run_ray(tasks: list[EpisodeTask], workers: int | None, deliver: ResultSink, address: str | None,
+             lose: Callable[[LostTask], None]) -> list[LostTask]:
     """``tasks`` as Ray tasks (at most ``workers`` in flight), each delivered as it ends; the lost ones."""
     ray = _import_ray()
     if not ray.is_initialized():
@@ -284,6 +299,7 @@ def _run_ray(tasks: list[EpisodeTask], workers: int | None, deliver: ResultSink,
                     result = ray.get(ref)
                 except crashes as exc:
                     lost.append(LostTask(index, f"died ({type(exc).__name__})"))
+                    lose(lost[-1])
                     continue
                 deliver(index, result)
     finally:

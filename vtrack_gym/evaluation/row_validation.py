@@ -10,12 +10,18 @@ and the column), so a store edited by hand or by another program cannot rank abs
   ``completed``; ``success`` 0/1; ``wall_time_per_step_s`` a finite number >= 0;
 * ``options_json`` and ``metrics_json``: JSON objects of at most ``MAX_JSON_CHARS`` characters, nested at most
   ``MAX_JSON_DEPTH`` deep, integers of at most 20 digits; metrics as :func:`checked_metrics` keeps them (within
-  ``METRIC_RANGES`` where a metric has a physical range).
+  ``METRIC_RANGES`` where a metric has a physical range; ``LIST_METRICS``, the lap times, lists of durations).
+
+The cost of the rule is bounded by the input and small per row: a metric's rule is looked up once per name (cached),
+a finite number within its rule is accepted on a fast path, and a text column's character scan and a time's parse
+are cached per distinct value (a 100,000-row store repeats a few names, ids and times; ``benchmarks/
+bench_store_read.py``). Every value that could break the rule goes through the full checks, which name it.
 """
 
 from __future__ import annotations
 
 import datetime as dt
+import functools
 import json
 import math
 import re
@@ -35,12 +41,17 @@ MAX_METRIC_INT = 2**63
 UNIT_SUFFIXES = ("_m", "_s", "_deg", "_rad", "_mps", "_mps2", "_n", "_per_s", "_us", "_g", "_kmh", "_degps",
                  "_degps2", "_mps3")
 """A metric whose name ends in a unit is a number."""
-NON_NEGATIVE_METRICS = frozenset({"itae", "duration_s", "cones_hit", "comfort_a_v_mps2", "steering_reversals_per_s",
+NON_NEGATIVE_METRICS = frozenset({"itae", "duration_s", "cones_hit", "comfort_a_v_mps2", "comfort_a_wx_mps2",
+                                  "best_lap_s", "mean_lap_s", "steering_reversals_per_s",
                                   "a_y_violation_mps2", "wall_time_per_step_s", "wall_time_s", "episodes",
                                   "remaining_m", "completed", "success", "entry_speed_fraction",
                                   "above_physical_bound", "entry_speed_monotone", "entry_speed_capped",
-                                  "track_limit_violations"})
+                                  "track_limit_violations", "lap_time_fraction", "laps_completed"})
 """Error, count and duration metrics that cannot be negative (also every ``max_*`` and ``rms_*`` metric)."""
+LIST_METRICS = frozenset({"lap_times_s"})
+"""Metrics that are a list of durations [s] (finite numbers >= 0), one per lap, at most ``MAX_LIST_ITEMS``."""
+MAX_LIST_ITEMS = 10_000
+"""Longest list metric."""
 FLAG_METRICS = frozenset({"completed", "success", "above_physical_bound", "entry_speed_monotone",
                           "entry_speed_capped"})
 """Metrics that are 0 or 1."""
@@ -102,7 +113,50 @@ def checked_seed(value: Any) -> int | None:
     return value
 
 
+def _checked_list(name: str, raw: Any) -> list[float]:
+    """A ``LIST_METRICS`` value: a list of finite numbers >= 0 [s]; ``ValueError`` naming the metric otherwise."""
+    items = raw.tolist() if hasattr(raw, "tolist") else raw
+    if not isinstance(items, (list, tuple)) or len(items) > MAX_LIST_ITEMS:
+        raise ValueError(f"metric {name!r} must be a list of at most {MAX_LIST_ITEMS} durations [s] (got "
+                         f"{type(raw).__name__} {str(raw)[:60]!r})")
+    out = []
+    for item in items:
+        v = clean_scalar(item)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
+            raise ValueError(f"metric {name!r} must hold finite durations >= 0 s (got {str(item)[:60]!r})")
+        out.append(float(v))
+    return out
+
+
+RULE_CACHE = 4096
+"""Distinct metric names, text values and times whose rule or verdict is kept (least recently used beyond)."""
+
+
+@functools.lru_cache(maxsize=RULE_CACHE)
+def _metric_rule(name: str) -> tuple[bool, bool, float, float]:
+    """(must be >= 0, must be 0 or 1, lowest, highest) of a number stored as metric ``name``."""
+    lo, hi = METRIC_RANGES.get(name, (-math.inf, math.inf))
+    return _non_negative(name), name in FLAG_METRICS, lo, hi
+
+
+def _fast_metric_ok(name: str, value: Any) -> bool:
+    """True when ``value`` (an exact int or a finite float) obeys metric ``name``'s rule as it is: the common case,
+    decided without ``_checked_metric``'s general path (which decides every other case and names the problem)."""
+    if name in LIST_METRICS:   # a list metric is never a bare number
+        return False
+    kind = type(value)
+    if kind is float:
+        if not math.isfinite(value):
+            return False
+    elif kind is not int or abs(value) > MAX_METRIC_INT:
+        return False
+    non_negative, flag, lo, hi = _metric_rule(name)
+    return not (non_negative and value < 0) and not (flag and value not in (0, 1)) and lo <= value <= hi
+
+
 def _checked_metric(name: str, raw: Any) -> Any:
+    if name in LIST_METRICS:
+        return _checked_list(name, raw)
     value = clean_scalar(raw)
     if value is None or (isinstance(value, str) and not _numeric(name)):
         return value
@@ -126,8 +180,8 @@ def _checked_metric(name: str, raw: Any) -> Any:
 def checked_metrics(metrics: Any) -> dict[str, Any]:
     """``ResultRow.metrics`` as JSON-safe values; ``ValueError`` naming the metric when a value is of the wrong kind
     or out of range: numeric metrics real numbers (NaN/inf stored as None: missing), ``>= 0`` for error, count and
-    duration metrics, 0/1 for flags, ``METRIC_RANGES`` for bounded ones, integers within 2^63; other metrics a
-    number or text."""
+    duration metrics, 0/1 for flags, ``METRIC_RANGES`` for bounded ones, integers within 2^63, ``LIST_METRICS``
+    lists of finite durations >= 0; other metrics a number or text."""
     if not isinstance(metrics, dict):
         raise ValueError(f"metrics must be a dict of name -> value (got {type(metrics).__name__})")
     out: dict[str, Any] = {}
@@ -135,7 +189,7 @@ def checked_metrics(metrics: Any) -> dict[str, Any]:
         if not isinstance(name, str) or len(name) > MAX_TEXT_CHARS:
             raise ValueError(f"metric names must be strings of at most {MAX_TEXT_CHARS} characters (got "
                              f"{str(name)[:60]!r})")
-        out[name] = _checked_metric(name, raw)
+        out[name] = raw if _fast_metric_ok(name, raw) else _checked_metric(name, raw)
     return out
 
 
@@ -146,10 +200,16 @@ def _checked_text(column: str, value: Any, required: bool) -> None:
         raise ValueError(f"{column} must not be empty")
     if len(value) > MAX_TEXT_CHARS:
         raise ValueError(f"{column} must be at most {MAX_TEXT_CHARS} characters (got {len(value)})")
-    bad = next((c for c in value if unicodedata.category(c) in _UNSAFE_CATEGORIES), None)
+    bad = _unsafe_char(value)
     if bad is not None:
         raise ValueError(f"{column} must not hold control, format or separator characters (found "
                          f"U+{ord(bad):04X} in {value[:60]!r})")
+
+
+@functools.lru_cache(maxsize=RULE_CACHE)
+def _unsafe_char(value: str) -> str | None:
+    """The first control, format or separator character of ``value`` (None: there is none)."""
+    return next((c for c in value if unicodedata.category(c) in _UNSAFE_CATEGORIES), None)
 
 
 def _json_depth_ok(text: str) -> bool:
@@ -175,6 +235,11 @@ def _json_depth_ok(text: str) -> bool:
 def _is_iso_time(value: Any) -> bool:
     if not isinstance(value, str) or len(value) > 40:
         return False
+    return _parses_as_iso_time(value)
+
+
+@functools.lru_cache(maxsize=RULE_CACHE)
+def _parses_as_iso_time(value: str) -> bool:
     try:
         dt.datetime.fromisoformat(value)
     except ValueError:

@@ -79,6 +79,8 @@ _COLUMNS = ("id", "created_utc", "package_version", "suite", "env_id", "env_vers
 READ_ATTEMPTS = 6
 """Reads of a store that changes underneath before its failure is reported (about 1.3 s of pauses in all)."""
 _META_KEYS = frozenset({"schema_version", "row_count", "rows_digest"})
+_SQL_SCALARS = frozenset({type(None), str, int, float})
+"""The Python types of the values SQLite returns for NULL, TEXT, INTEGER and REAL (a BLOB is none of them)."""
 
 
 
@@ -135,6 +137,7 @@ class ResultStore:
         self._file = Path(os.path.realpath(self.path))   # the store file itself; its journals live next to it
         self.timeout_s = timeout_s
         self.read_only = read_only
+        self._last_read: tuple[tuple[str | None, str | None], list[dict[str, Any]]] | None = None
         if self.path.is_dir():
             raise StoreError(f"{self.path} is a directory, not a store file; pass a file path such as "
                              f"{self.path / 'leaderboard.sqlite'}")
@@ -397,41 +400,25 @@ class ResultStore:
     def rows(self, suite: str | None = None) -> list[dict[str, Any]]:
         """Every stored row (optionally of one suite) as dicts with the metrics unpacked.
 
-        All rows are read in one snapshot and checked against their hashes, the row count and the digest.
+        All rows are read in one snapshot and checked against their hashes, the row rule, the row count and the
+        digest. A snapshot whose count and digest (the XOR of every row's SHA-256) equal those of this object's
+        previous read holds the same rows: they are not read and checked again (a command that reads a store
+        several times pays for one read; ``benchmarks/bench_store_read.py``).
         """
-        return self._read(lambda con: self._checked_rows(*self._snapshot(con), suite))
+        rows = self._read(self._verified_rows)
+        return [dict(r) for r in rows if suite is None or r["suite"] == suite]
 
-    def _checked_rows(self, meta: dict[str, str], raw: list[tuple[Any, ...]],
-                      suite: str | None) -> list[dict[str, Any]]:
-        """The rows of one snapshot, each checked against its hash and the row rule, all against the count and
-        digest (inside ``_read``: a snapshot torn by a concurrent writer is read again)."""
-        digest = 0
-        out = []
-        for values in raw:
-            stored_hash = values[-1]
-            if (not all(v is None or isinstance(v, (str, int, float)) for v in values)
-                    or row_sha256(values[:-1]) != stored_hash):
-                raise StoreError(f"{self.path} is corrupted (row {values[0]!r} does not match its checksum)")
-            digest ^= int(stored_hash, 16)
-            d = dict(zip(_COLUMNS, values[:-1], strict=True))
-            try:   # the rule every write obeys
-                d["metrics"], d["options"] = checked_row_values(d)
-            except ValueError as exc:
-                raise StoreError(f"{self.path} is corrupted (row {d.get('id')!r:.30}: {exc}); it was left "
-                                 "untouched") from None
-            del d["metrics_json"], d["options_json"]
-            if suite is None or d["suite"] == suite:
-                out.append(d)
-        if meta.get("row_count") != str(len(raw)) or meta.get("rows_digest") != f"{digest:064x}":
-            raise StoreError(f"{self.path} is corrupted (it holds {len(raw)} rows, its record says "
-                             f"{meta.get('row_count')!r}, or the rows' digest differs): rows were lost or altered")
-        return out
-
-    def _snapshot(self, con: sqlite3.Connection) -> tuple[dict[str, str], list[tuple[Any, ...]]]:
-        """The meta table and every results row (with its hash), inside ``_read``'s one read transaction."""
+    def _verified_rows(self, con: sqlite3.Connection) -> list[dict[str, Any]]:
+        """Every row of ``con``'s snapshot, verified (``verified_rows``), or those of the previous read when the
+        snapshot's row count and digest are the same (inside ``_read``'s one read transaction)."""
         meta = dict(con.execute("SELECT key, value FROM vtrack_meta"))
+        key = (meta.get("row_count"), meta.get("rows_digest"))
+        if self._last_read is not None and self._last_read[0] == key:
+            return self._last_read[1]
         raw = con.execute(f"SELECT {', '.join(_COLUMNS)}, row_sha256 FROM results ORDER BY id").fetchall()
-        return meta, raw
+        rows = verified_rows(self.path, meta, raw)
+        self._last_read = (key, rows)
+        return rows
 
     def older_versions(self, suite: str) -> tuple[str, int]:
         """(newest package version among the suite's rows, number of the suite's rows of older versions): what
@@ -449,24 +436,58 @@ class ResultStore:
         ``latest_only``: only rows written by the newest package version present in the suite, and of those the
         newest row per (env, policy key, seed, options); otherwise every row of every version.
         """
-        from vtrack_gym.evaluation.suites import primary_metric
+        from vtrack_gym.evaluation.suites import primary_metric, then_metrics
 
-        return build_board(self.board_rows(suite, latest_only), columns, primary_metric(suite))
+        return build_board(self.board_rows(suite, latest_only), columns, primary_metric(suite), then_metrics(suite))
 
     def board_rows(self, suite: str, latest_only: bool = True) -> list[dict[str, Any]]:
         """The stored rows ``leaderboard`` aggregates (see there); the run's figure folder
         (``options["figures"]``) does not distinguish two rows of one episode."""
         rows = self.rows(suite)
-        if latest_only and rows:
-            newest = max(version_sort_key(r["package_version"]) for r in rows)
-            latest: dict[tuple[Any, ...], dict[str, Any]] = {}
-            for r in rows:  # ordered by id: a later row replaces an earlier one
-                if version_sort_key(r["package_version"]) == newest:
-                    options = {k: v for k, v in r["options"].items() if k != "figures"}
-                    latest[(r["env_id"], r["policy_id"], r["policy_preset"], r["policy_hash"], r["seed"],
-                            json.dumps(options, sort_keys=True))] = r
-            rows = list(latest.values())
-        return rows
+        return latest_rows(rows) if latest_only else rows
+
+
+def verified_rows(path: Path, meta: dict[str, str], raw: list[tuple[Any, ...]]) -> list[dict[str, Any]]:
+    """The rows of one snapshot of the store at ``path`` (``raw``: ``_COLUMNS`` and the row hash), each checked
+    against its hash and the row rule, all against the meta table's count and digest; ``StoreError`` naming the row
+    otherwise (inside ``_read``: a snapshot torn by a concurrent writer is read again)."""
+    digest = 0
+    out = []
+    for values in raw:
+        stored_hash = values[-1]
+        if not _SQL_SCALARS.issuperset(map(type, values)) or row_sha256(values[:-1]) != stored_hash:
+            raise StoreError(f"{path} is corrupted (row {values[0]!r} does not match its checksum)")
+        digest ^= int(stored_hash, 16)
+        d = dict(zip(_COLUMNS, values[:-1], strict=True))
+        try:   # the rule every write obeys
+            d["metrics"], d["options"] = checked_row_values(d)
+        except ValueError as exc:
+            raise StoreError(f"{path} is corrupted (row {d.get('id')!r:.30}: {exc}); it was left untouched") from None
+        del d["metrics_json"], d["options_json"]
+        out.append(d)
+    if meta.get("row_count") != str(len(raw)) or meta.get("rows_digest") != f"{digest:064x}":
+        raise StoreError(f"{path} is corrupted (it holds {len(raw)} rows, its record says "
+                         f"{meta.get('row_count')!r}, or the rows' digest differs): rows were lost or altered")
+    return out
+
+
+def latest_rows(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """``rows`` (stored rows, ordered by id) reduced to those of the newest package version present, and of those the
+    newest row per episode: env set-up (the id with its alias resolved, ``env_names.canonical_env_id``, so a row
+    stored under ``vtrack/DLC120-v0`` and one under ``DLC120-v0`` are one episode), policy key, seed and options
+    (numbers normalised: ``45`` and ``45.0`` are one setting; the run's figure folder left out)."""
+    from vtrack_gym.evaluation.env_names import canonical_env_id, normal_numbers
+
+    if not rows:
+        return []
+    newest = max(version_sort_key(r["package_version"]) for r in rows)
+    latest: dict[tuple[Any, ...], dict[str, Any]] = {}
+    for r in rows:  # ordered by id: a later row replaces an earlier one
+        if version_sort_key(r["package_version"]) == newest:
+            options = normal_numbers({k: v for k, v in r["options"].items() if k != "figures"})
+            latest[(canonical_env_id(r["env_id"]), r["policy_id"], r["policy_preset"], r["policy_hash"], r["seed"],
+                    json.dumps(options, sort_keys=True))] = r
+    return list(latest.values())
 
 
 _PEP440 = re.compile(

@@ -35,11 +35,12 @@ class Suite:
     ``episodes(seeds)`` returns the scored episodes for a seed set (``ValueError`` for seeds it cannot use);
     ``seeds``: its standard seeds (what its board ranks); ``quick_seeds``: the seeds of its ``--quick`` variant
     (``None``: no quick variant); ``primary_metric``: what its board ranks on after the success rate (lower is
-    better); ``columns``: board columns beyond the common ones; ``dataset``: ``vtrack dataset`` may record it
-    (its episodes drive this package's envs); ``figures``: one of ``FIGURE_KINDS``; ``trace_every_seed``: keep
-    the trace of every seed, not only the first; ``scorer(make)``: what scores one episode (``None``:
-    ``episode_score.score_episode``); ``needs``: importable modules it needs (``highway_env``); ``description``:
-    one line for ``--help`` and the docs.
+    better); ``then_metrics``: further metrics (lower is better) that order policies with the same success rate and
+    the same mean primary metric, in turn; ``columns``: board columns beyond the common ones; ``dataset``:
+    ``vtrack dataset`` may record it (its episodes drive this package's envs); ``figures``: one of
+    ``FIGURE_KINDS``; ``trace_every_seed``: keep the trace of every seed, not only the first; ``scorer(make)``:
+    what scores one episode (``None``: ``episode_score.score_episode``); ``needs``: importable modules it needs
+    (``highway_env``); ``description``: one line for ``--help`` and the docs.
     """
 
     name: str
@@ -49,6 +50,7 @@ class Suite:
     quick_seeds: tuple[int, ...] | None = None
     primary_metric: str = "max_e_y_m"
     columns: tuple[str, ...] = ()
+    then_metrics: tuple[str, ...] = ()
     dataset: bool = True
     figures: str = "tracking"
     trace_every_seed: bool = False
@@ -69,6 +71,11 @@ class Suite:
             raise ValueError("Suite.primary_metric must be a numeric metric: a name with a unit suffix, max_*, rms_* "
                              f"or an error, count or duration metric such as itae (got {self.primary_metric!r})")
         object.__setattr__(self, "columns", tuple(self.columns))
+        object.__setattr__(self, "then_metrics", tuple(self.then_metrics))
+        bad = [m for m in self.then_metrics if not isinstance(m, str) or not is_numeric_metric(m)]
+        if bad:
+            raise ValueError(f"Suite.then_metrics must be numeric metrics (names with a unit suffix, max_*, rms_*) "
+                             f"(got {bad!r})")
         object.__setattr__(self, "needs", tuple(self.needs))
 
     def episodes_for(self, quick: bool = False, seeds: Sequence[int] | None = None) -> list[Episode]:

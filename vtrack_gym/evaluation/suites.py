@@ -13,16 +13,18 @@ from collections.abc import Sequence
 from typing import Any
 
 from vtrack_gym._plugins import add_named, forget, load_group
-from vtrack_gym.evaluation.episodes import Episode, with_latency, with_vehicle  # noqa: F401  (re-exported)
+from vtrack_gym.evaluation.episodes import Episode, with_control, with_latency, with_vehicle  # noqa: F401  (re-exported)
 from vtrack_gym.evaluation.suite_defs.highway import HIGHWAY
 from vtrack_gym.evaluation.suite_defs.maneuvers import MANEUVER_ENV_IDS, MANEUVERS  # noqa: F401  (re-exported)
 from vtrack_gym.evaluation.suite_defs.paper import PAPER
+from vtrack_gym.evaluation.suite_defs.race import RACE
 from vtrack_gym.evaluation.suite_defs.robust import (  # noqa: F401  (re-exported)
     ROBUST,
     ROBUST_FRICTION,
     ROBUST_SEEDS,
     robust_options,
 )
+from vtrack_gym.evaluation.suite_defs.trajectory import TRAJECTORY
 from vtrack_gym.evaluation.suite_parts import Suite
 
 ENTRY_POINT_GROUP = "vtrack_gym.suites"
@@ -30,7 +32,7 @@ ENTRY_POINT_GROUP = "vtrack_gym.suites"
 DEFAULT_METRIC = "max_e_y_m"
 """What a board of rows outside any registered suite (``custom``, ``tuning``, ``tracks[...]``) ranks on."""
 
-_REGISTRY: dict[str, Suite] = {s.name: s for s in (PAPER, ROBUST, HIGHWAY, MANEUVERS)}
+_REGISTRY: dict[str, Suite] = {s.name: s for s in (PAPER, ROBUST, HIGHWAY, MANEUVERS, TRAJECTORY, RACE)}
 _LOADED_ENTRY_POINTS: dict[str, str] = {}  # "name=value" of a loaded entry point -> the suite it registered
 
 
@@ -104,6 +106,13 @@ def primary_metric(suite: str) -> str:
     non-standard seed set, ``robust[seeds=7]``, ranks like its suite; other labels on ``DEFAULT_METRIC``)."""
     found = find_suite(suite)
     return DEFAULT_METRIC if found is None else found.primary_metric
+
+
+def then_metrics(suite: str) -> tuple[str, ...]:
+    """The metrics ``suite``'s board orders on after its primary metric (``Suite.then_metrics``; none for labels of
+    no registered suite)."""
+    found = find_suite(suite)
+    return () if found is None else found.then_metrics
 
 
 def primary_metrics() -> frozenset[str]:

@@ -36,9 +36,16 @@ class Trace:
     success: bool | None = None
     """The env's own success verdict (the last info's ``"success"``), None when the env gives none."""
     policy_time_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    """Wall time of each of the policy's decisions [s] (its ``predict`` call alone, not the env's step)."""
+    """Wall time of each of the policy's decisions [s] (its ``predict`` call, not the env's step; with a preparation
+    deferred to ``prepare()`` under ``latency="measured"``, both calls)."""
     solver_failures: int | None = None
     """Failed solves of the policy's optimiser during the episode (0 for a closed-form law; None: not reported)."""
+    reference: Any = None
+    """The episode's timed reference (``reference_time.EpisodeReference``: its time law and start station), taken
+    at the reset; None for an env that has none (the time lag and lap figures are then missing)."""
+    solver_stats: dict[str, np.ndarray] = field(default_factory=dict)
+    """Per-decision solver statistics the policy reported (``policy.last_solver_stats``, e.g. the NMPC's
+    ``preparation_s``, ``feedback_s``, ``qp_s`` [s], ``qp_iterations``); empty when it reports none."""
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.signals[name]
@@ -57,9 +64,11 @@ class Trace:
     def from_infos(cls, infos: list[dict[str, Any]], *, env_id: str, policy_id: str, seed: int | None,
                    physics_rate_hz: float, control_period_s: float, termination: str, wall_time_s: float,
                    meta: dict[str, Any] | None = None, policy_time_s: np.ndarray | None = None,
-                   solver_failures: int | None = None) -> Trace:
+                   solver_failures: int | None = None, reference: Any = None,
+                   solver_stats: dict[str, np.ndarray] | None = None) -> Trace:
         """Assemble a trace from the per-step ``info`` dicts of a single env (``policy_time_s``: the policy's
-        compute per decision [s]; ``solver_failures``: its failed solves)."""
+        compute per decision [s]; ``solver_failures``: its failed solves; ``reference``: the timed reference;
+        ``solver_stats``: its per-decision statistics)."""
         if not infos:
             raise ValueError("a trace needs at least one step")
         signals = {name: np.array([info[name] for info in infos], dtype=np.float64) for name in STEP_SIGNALS}
@@ -69,4 +78,4 @@ class Trace:
         return cls(env_id, policy_id, seed, signals, fz, acc, physics_rate_hz, control_period_s, termination,
                    wall_time_s / len(infos), dict(meta or {}), None if verdict is None else bool(verdict),
                    np.zeros(0) if policy_time_s is None else np.asarray(policy_time_s, dtype=np.float64),
-                   solver_failures)
+                   solver_failures, reference, dict(solver_stats or {}))

@@ -180,6 +180,7 @@ def _benchmark(tracks: Sequence[tuple[str, Mapping[str, Any], Any]], factories: 
                workers: int | None, backend: str, show_progress: bool, store: Any = None) -> dict[str, Any]:
     """Score every (policy, track, seed) task; rows with their track's provenance (stored in ``store`` as each
     episode ends), figures per track."""
+    from vtrack_gym.baselines.resolve import recorded_id
     from vtrack_gym.evaluation.benchmark import score_episode, score_tasks, write_figures
     from vtrack_gym.evaluation.episodes import Episode
     from vtrack_gym.evaluation.parallel import EpisodeTask
@@ -188,8 +189,8 @@ def _benchmark(tracks: Sequence[tuple[str, Mapping[str, Any], Any]], factories: 
     seeds = [int(s) for s in seeds]
     vehicle = read_vehicle_once(vehicle)   # a vehicle file: its envs and rows use the bytes read here
     provenance = {env_id: prov for env_id, prov, _ in tracks}
-    tasks = [EpisodeTask(name, make, Episode(env_id, s, vehicle=vehicle), suite, score_episode,
-                         keep_trace=s == seeds[0], setup=setup)
+    tasks = [EpisodeTask(recorded_id(name, make), make, Episode(env_id, s, vehicle=vehicle), suite,
+                         score_episode, keep_trace=s == seeds[0], setup=setup)
              for name, make in factories.items() for env_id, _, setup in tracks for s in seeds]
     label = f"vtrack benchmark ({suite})" if show_progress else None
     scored = score_tasks(tasks, figures_dir, vehicle, workers, backend, label, store=store,

@@ -105,7 +105,7 @@ class _Driver:
         action, self._state = self.policy.predict(self.obs, state=self._state, episode_start=self._start,
                                                   deterministic=True)
         self._start = np.zeros(1, dtype=bool)
-        self.obs, _, term, trunc, self.info = self.env.step(step_action(action, (1,)))
+        self.obs, _, term, trunc, self.info = self.env.step(step_action(action, self.env.action_space.shape))
         if term or trunc:
             self.done = True
             self.status = f"[{self.info['termination'] or 'time limit'}]"

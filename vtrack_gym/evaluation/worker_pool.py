@@ -97,8 +97,10 @@ class _Worker:
 class _Pool:
     """The state of one ``run_pool`` call: its workers, the queue of task indices and the lost tasks."""
 
-    def __init__(self, count: int, workers: int, run: Callable[[int], Any], init: Callable[[], None]) -> None:
+    def __init__(self, count: int, workers: int, run: Callable[[int], Any], init: Callable[[], None],
+                 on_lost: Callable[[LostTask], None] | None = None) -> None:
         self.queue: deque[int] = deque(range(count))
+        self.on_lost = on_lost
         self.limit = workers
         self.run, self.init = run, init
         self.workers: list[_Worker] = []
@@ -155,6 +157,8 @@ class _Pool:
             self.lost.append(LostTask(index, exit_reason(worker.process.exitcode)))
             worker.conn.close()
             self.workers.remove(worker)
+            if self.on_lost is not None:
+                self.on_lost(self.lost[-1])
             return
         worker.index = None
         if not ok:
@@ -179,15 +183,17 @@ class _Pool:
 
 
 def run_pool(count: int, workers: int, run: Callable[[int], Any], on_done: Callable[[int, Any], None],
-             init: Callable[[], None] = lambda: None) -> list[LostTask]:
+             init: Callable[[], None] = lambda: None,
+             on_lost: Callable[[LostTask], None] | None = None) -> list[LostTask]:
     """Run ``run(i)`` for ``i`` in ``range(count)`` on at most ``workers`` forked processes (``init()`` first in
-    each); ``on_done(i, result)`` is called here as each result arrives. Returns the tasks whose worker died.
+    each); ``on_done(i, result)`` is called here as each result arrives, ``on_lost(task)`` as a worker is found
+    dead (e.g. to count the task on a progress bar). Returns the tasks whose worker died.
 
     ``run`` and ``init`` are inherited by the fork (never pickled); results and exceptions are pickled back.
     """
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise ValueError(f"workers must be an integer >= 1 (got {workers!r})")
-    pool = _Pool(count, workers, run, init)
+    pool = _Pool(count, workers, run, init, on_lost)
     try:
         while pool.queue or any(w.index is not None for w in pool.workers):
             pool.assign()

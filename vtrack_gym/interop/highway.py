@@ -194,7 +194,14 @@ class HighwayLaneKeeping(gym.Env):
     def __init__(self, policy_frequency_hz: float = 50.0, start: str = "sine", max_episode_s: float = 120.0,
                  course_length_m: float | None = None, terminate_off_road: bool | None = None,
                  highway_config: dict[str, Any] | None = None, layout: ObservationLayout = OBS,
-                 render_mode: str | None = None) -> None:
+                 render_mode: str | None = None, control: str = "steer") -> None:
+        from vtrack_gym.envs.control import check_control
+
+        if check_control(control) != "steer":
+            raise ValueError(f"control must be 'steer' on HighwayLaneKeeping-v0 (got {control!r}): highway-env's "
+                             "car keeps its own speed; the longitudinal control modes drive this package's envs")
+        self.control = control
+        """The control mode (``envs.control``): always ``steer`` here."""
         import_highway_env()
         if not (1.0 <= policy_frequency_hz <= 1000.0):
             raise ValueError(f"policy_frequency_hz must be in [1, 1000] Hz (got {policy_frequency_hz})")
@@ -428,7 +435,10 @@ class HighwayLaneKeeping(gym.Env):
             yaw_rate_radps=r, road_wheel_angle_rad=delta, hand_wheel_angle_rad=delta * self.design_model.steering_ratio,
             steering_command_rad=delta, roll_rad=0.0, throttle=0.0, brake_n=0.0, a_x_mps2=a_x, a_y_mps2=a_y,
             a_z_mps2=0.0, min_fz_n=float(self._fz[0] if self._fz[0] < self._fz[2] else self._fz[2]),
-            station_m=station, progress_m=self._progress, target_speed_mps=self._target_speed, **terms)
+            station_m=station, progress_m=self._progress, target_speed_mps=self._target_speed,
+            speed_error_mps=v_x - self._target_speed,
+            time_error_s=(self._steps * self.control_period_s - self._progress / self._target_speed
+                          if self._target_speed > 0.0 else 0.0), **terms)
         info = info_dict(self._steps * self.control_period_s, row, self._fz.copy(),
                          self._acc_samples(a_x, a_y, stepped), "")
         return obs, info

@@ -7,7 +7,8 @@ tyres' load sensitivity under load transfer and the drive force), never with mu 
 - :func:`planned_maneuver`: a cone-lined manoeuvre (``GATED_MANEUVERS``) with the planned line for the car's body
   (``tracks.planned_line``; curvature rate bounded by the car's steering rate at the manoeuvre's speed), cached
   per car.
-- :func:`envelope_profile`: an ``EnvelopeLimited`` speed profile checked against the car's lateral limit.
+- :func:`envelope_profile`: an ``EnvelopeLimited`` speed profile checked against the car's lateral limit, its
+  forward acceleration and top speed, optionally, the car's powertrain at a throttle authority.
 - :func:`entry_speed_bound_kmh`: the highest entry speed at which the car, coasting from the entry gate (throttle
   released, the standard's ISO 3888-2 protocol) or holding its throttle (ISO 3888-1), can follow the planned line
   within its lateral limit.
@@ -98,14 +99,24 @@ def planned_maneuver(name: str, vehicle: VehicleParams, margin_m: float = PLANNE
 
 
 def envelope_profile(vehicle: VehicleParams, max_speed_mps: float, max_lateral_accel_mps2: float,
-                     max_accel_mps2: float = 2.0, max_decel_mps2: float = 3.0) -> EnvelopeLimited:
+                     max_accel_mps2: float | None = 2.0, max_decel_mps2: float = 3.0, *,
+                     throttle_authority: float | None = None, start_speed_mps: float | None = None
+                     ) -> EnvelopeLimited:
     """An ``EnvelopeLimited`` profile for ``vehicle``: refused (ValueError) if ``max_lateral_accel_mps2`` exceeds the
-    car's least steady-state lateral limit up to ``max_speed_mps``, a warning above 90 % of it."""
+    car's least steady-state lateral limit up to ``max_speed_mps``, a warning above 90 % of it.
+
+    ``throttle_authority`` (a throttle fraction in (0, 1]): the profile speeds up at most as the car's powertrain
+    allows at that throttle (drive force less drag and rolling resistance, ``vehicle.longitudinal``) and is capped
+    at the car's top speed there (a warning names it); 1.0 for an agent that drives the throttle itself, the
+    speed loop's ``envs.pdflc.speed_loop_throttle_authority`` (0.348) for the PD-FLC. ``max_accel_mps2`` then is
+    an extra cap (None: the powertrain alone). ``start_speed_mps`` [m/s]: start from that speed at s = 0 (None: a
+    flying lap). None (default): the fixed ``max_accel_mps2`` of earlier versions."""
     from vtrack_gym.vehicle.steady_state import lowest_lateral_limit_mps2
 
+    bound = {} if throttle_authority is None else {"throttle_authority": throttle_authority, "vehicle": vehicle}
     return EnvelopeLimited(max_speed_mps, max_lateral_accel_mps2, max_accel_mps2, max_decel_mps2,
                            vehicle_limit_mps2=lowest_lateral_limit_mps2(vehicle, max_speed_mps),
-                           vehicle_name=vehicle.name)
+                           vehicle_name=vehicle.name, start_speed_mps=start_speed_mps, **bound)
 
 
 @dataclass(frozen=True)

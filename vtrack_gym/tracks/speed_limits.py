@@ -1,7 +1,8 @@
 """A speed profile from user-facing limits: kind, top speed [km/h] and lateral acceleration [g], checked against a car.
 
 What ``vtrack eval --track`` (``--speed-profile``, ``--max-speed-kmh``, ``--max-lateral-g``) and Python users share:
-the defaults (``envelope``: the fastest profile inside the friction ellipse, ``EnvelopeLimited``), the ranges in the
+the defaults (``envelope``: the fastest profile inside the friction ellipse, ``EnvelopeLimited``, speeding up as the
+driven car's powertrain allows at the throttle its speed loop holds), the ranges in the
 user's units, the refusal of a limit the chosen kind does not use, and :func:`check_profile_for_car`: a lateral
 limit above the driven car's own steady-state limit is refused, above 90 % of it warned (the env runs this check
 where its car meets the profile, so every route gets it).
@@ -14,6 +15,7 @@ from typing import Any
 
 from vtrack_gym.tracks.maneuvers import GRAVITY_MPS2, KMH_TO_MPS
 from vtrack_gym.tracks.path import MAX_V_REF_MPS, MIN_V_REF_MPS
+from vtrack_gym.tracks.powertrain_limits import SPEED_LOOP
 from vtrack_gym.tracks.speed_profiles import (
     MAX_ACCEL_MPS2,
     ConstantSpeed,
@@ -46,9 +48,15 @@ _PARAMETERS = ("kind", "max_speed_kmh", "max_lateral_g")
 
 def speed_profile_from_limits(kind: str = DEFAULT_PROFILE_KIND, max_speed_kmh: float | None = None,
                               max_lateral_g: float | None = None, *, vehicle: Any = None,
-                              names: Mapping[str, str] | None = None) -> SpeedProfile:
+                              names: Mapping[str, str] | None = None,
+                              throttle_authority: float | str | None = SPEED_LOOP) -> SpeedProfile:
     """The profile of ``kind`` (``PROFILE_KINDS``, default ``envelope``) within ``max_speed_kmh`` [km/h] and
     ``max_lateral_g`` [g] (``None``: the defaults, 40 km/h and 0.7 g).
+
+    An ``envelope`` profile speeds up as the driven car's powertrain allows at ``throttle_authority``
+    (``EnvelopeLimited.throttle_authority``; default ``SPEED_LOOP``: what the env's PD-FLC can hold, bound by the
+    env to its car; ``1.0``: the car's full throttle, for an agent that drives the throttle itself; ``None``: the
+    fixed 2 m/s^2 of earlier versions) and never beyond the car's top speed at that authority (a warning names it).
 
     ``ValueError`` for an unknown kind, a limit outside its range (given in km/h and g) or a limit ``kind`` does
     not use; with ``vehicle`` (``VehicleParams``) also for a lateral limit above that car's steady-state limit
@@ -76,8 +84,12 @@ def speed_profile_from_limits(kind: str = DEFAULT_PROFILE_KIND, max_speed_kmh: f
         return ConstantSpeed(speed_kmh * KMH_TO_MPS)
     if kind == "file":
         return FileSpeed()
-    cls = EnvelopeLimited if kind == "envelope" else CurvatureLimited
-    profile = cls(speed_kmh * KMH_TO_MPS, lateral_g * GRAVITY_MPS2)
+    if kind == "envelope" and throttle_authority is not None:
+        profile: Any = EnvelopeLimited(speed_kmh * KMH_TO_MPS, lateral_g * GRAVITY_MPS2, None,
+                                       throttle_authority=throttle_authority)
+    else:
+        cls = EnvelopeLimited if kind == "envelope" else CurvatureLimited
+        profile = cls(speed_kmh * KMH_TO_MPS, lateral_g * GRAVITY_MPS2)
     if vehicle is not None:
         check_profile_for_car(profile, vehicle, label["max_lateral_g"])
     return profile

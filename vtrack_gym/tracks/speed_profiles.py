@@ -22,14 +22,15 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass, field
-from typing import Protocol, runtime_checkable
+from dataclasses import dataclass, field, replace
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from vtrack_gym._ranges import documented, ranged, validate
+from vtrack_gym._ranges import OPTIONAL, documented, ranged, validate
 from vtrack_gym.tracks.interpolation import interp_linear
 from vtrack_gym.tracks.path import MAX_V_REF_MPS, MIN_V_REF_MPS, Path
+from vtrack_gym.tracks.powertrain_limits import check_powertrain_fields
 
 MAX_ACCEL_MPS2 = 30.0      # upper bound of every acceleration parameter (3 g) [m/s^2]
 KAPPA_FLOOR_PER_M = 1e-9   # |kappa| below this is a straight for the lateral limit [1/m]
@@ -141,36 +142,95 @@ class EnvelopeLimited:
     margin left to correct an error. None: no check here; an env checks every ``EnvelopeLimited`` and
     ``CurvatureLimited`` profile against the car it drives anyway (``speed_limits.check_profile_for_car``).
 
+    ``throttle_authority`` (the powertrain, ``tracks.powertrain_limits``): None (default) keeps A_x =
+    ``max_accel_mps2``. A throttle fraction in (0, 1], or ``"speed_loop"`` (``SPEED_LOOP``: the throttle the env's
+    PD-FLC holds, resolved by the env), makes A_x(v) the car's own forward limit at that throttle, drive force less
+    drag and rolling resistance over the mass (``vehicle.longitudinal``), capped by ``max_accel_mps2`` unless that is
+    None, and the speed cap the car's top speed there when lower (``speed_cap_mps``; a warning names it). ``1.0``
+    is the truth for an agent that drives the throttle itself; a profile for the PD-FLC must assume the speed
+    loop's authority, or the loop falls behind it. ``vehicle``: the car whose powertrain it is (``for_car`` binds
+    one; an env binds its own). ``start_speed_mps`` [m/s]: the profile starts from this speed at s = 0 and speeds
+    up within the same limits (a standing start; None: a flying lap, periodic on a closed loop).
+
     Passes (v^2 linear in s between rows, so a_x is constant on a row interval; the interval's |kappa| is its
     largest sampled value): forward, v_{i+1}^2 = v_i^2 + 2 ds A_x sqrt(1 - (v_{i+1}^2 kappa / A_y)^2) solved for
-    v_{i+1}^2 (a quadratic); backward the same with the deceleration. The ellipse then holds on every interval,
+    v_{i+1}^2 (a quadratic; with a powertrain, A_x taken at the interval's faster end, where it is least: see
+    ``_forward_pass``); backward the same with the deceleration. The ellipse then holds on every interval,
     between rows too (``envelope_usage`` measures it).
     """
 
     max_speed_mps: float = ranged(ge=MIN_V_REF_MPS, le=MAX_V_REF_MPS, unit="m/s")
     max_lateral_accel_mps2: float = ranged(gt=0.0, le=MAX_ACCEL_MPS2, unit="m/s^2")
-    max_accel_mps2: float = ranged(2.0, gt=0.0, le=MAX_ACCEL_MPS2, unit="m/s^2")
+    max_accel_mps2: float | None = ranged(2.0, gt=0.0, le=MAX_ACCEL_MPS2, unit="m/s^2", metadata={OPTIONAL: True})
     max_decel_mps2: float = ranged(3.0, gt=0.0, le=MAX_ACCEL_MPS2, unit="m/s^2")
     vehicle_limit_mps2: float | None = ranged(None, gt=0.0, le=MAX_ACCEL_MPS2, unit="m/s^2")
     vehicle_name: str = "the car"
+    throttle_authority: float | str | None = None
+    vehicle: Any = field(default=None, repr=False)
+    start_speed_mps: float | None = ranged(None, ge=MIN_V_REF_MPS, le=MAX_V_REF_MPS, unit="m/s")
 
     def __post_init__(self) -> None:
         validate(self)
         check_lateral_limit(self.max_lateral_accel_mps2, self.vehicle_limit_mps2, self.vehicle_name,
                             "EnvelopeLimited.max_lateral_accel_mps2")
+        check_powertrain_fields(self)
+
+    @property
+    def speed_cap_mps(self) -> float:
+        """The profile's top speed [m/s]: ``max_speed_mps``, or the bound car's top speed at its throttle authority
+        when lower (``powertrain_limits.capped_top_speed_mps``, which warns when it caps)."""
+        if self.vehicle is None:
+            return float(self.max_speed_mps)
+        from vtrack_gym.tracks.powertrain_limits import powertrain_top_speed_mps
+
+        return min(float(self.max_speed_mps), powertrain_top_speed_mps(self.vehicle, float(self.throttle_authority)))
+
+    def for_car(self, vehicle: Any, speed_loop_authority: float, start_speed_mps: float | None = None
+                ) -> EnvelopeLimited:
+        """This profile bound to ``vehicle``'s powertrain (``VehicleParams``), ``SPEED_LOOP`` resolved to
+        ``speed_loop_authority`` (the throttle fraction the env's speed loop holds) and, unless it has one, starting
+        at ``start_speed_mps`` [m/s] (None: a flying lap); itself when it has no ``throttle_authority`` or is bound
+        to a car already. What an env does with its own car and speed loop."""
+        from vtrack_gym.tracks.powertrain_limits import SPEED_LOOP
+
+        if self.throttle_authority is None or self.vehicle is not None:
+            return self
+        authority = speed_loop_authority if self.throttle_authority == SPEED_LOOP else self.throttle_authority
+        start = self.start_speed_mps if self.start_speed_mps is not None else start_speed_mps
+        return replace(self, vehicle=vehicle, throttle_authority=float(authority), start_speed_mps=start)
 
     def lateral_limit(self, kappa_per_m: np.ndarray) -> np.ndarray:
-        """min(max_speed, sqrt(A_y / |kappa|)) [m/s] for curvatures kappa [1/m]."""
+        """min(speed cap, sqrt(A_y / |kappa|)) [m/s] for curvatures kappa [1/m]."""
         k = np.maximum(np.abs(np.asarray(kappa_per_m, dtype=float)), KAPPA_FLOOR_PER_M)
-        return np.minimum(self.max_speed_mps, np.sqrt(self.max_lateral_accel_mps2 / k))
+        return np.minimum(self.speed_cap_mps, np.sqrt(self.max_lateral_accel_mps2 / k))
+
+    def forward_accel_mps2(self) -> float | Callable[[float], float]:
+        """A_x when speeding up: ``max_accel_mps2`` [m/s^2], or for a profile bound to a car ``v [m/s] ->`` the
+        smaller of it and the car's powertrain limit at its throttle authority (``powertrain_limits.forward_limit``)."""
+        if self.vehicle is None:
+            return float(self.max_accel_mps2)
+        from vtrack_gym.tracks.powertrain_limits import forward_limit
+
+        return forward_limit(self.vehicle, float(self.throttle_authority), self.max_accel_mps2)
 
     def row_speeds(self, path: Path) -> np.ndarray:
         """Reference speed at every row of ``path`` [m/s] (see the class docstring)."""
-        def passes(v2: np.ndarray, k_interval: np.ndarray) -> None:
-            _ellipse_passes(v2, k_interval, path.ds_m, self.max_lateral_accel_mps2, self.max_accel_mps2,
-                            self.max_decel_mps2)
+        if self.throttle_authority is not None and self.vehicle is None:
+            raise ValueError("EnvelopeLimited with a throttle_authority needs a car: an env binds its own "
+                             "(gym.make(..., speed_profile=profile)); in Python use profile.for_car(vehicle, "
+                             "authority) or tracks.feasibility.envelope_profile(vehicle, ...)")
+        accel = self.forward_accel_mps2()
 
-        return _two_pass_speeds(path, self.lateral_limit, passes)
+        def passes(v2: np.ndarray, k_interval: np.ndarray) -> None:
+            _ellipse_passes(v2, k_interval, path.ds_m, self.max_lateral_accel_mps2, accel, self.max_decel_mps2)
+
+        v = _two_pass_speeds(path, self.lateral_limit, passes)
+        if self.start_speed_mps is None:
+            return v
+        v2 = v * v                                   # a standing (or rolling) start: one forward pass from it
+        v2[0] = min(v2[0], self.start_speed_mps ** 2)
+        _forward_pass(v2, _interval_curvature(path), path.ds_m, self.max_lateral_accel_mps2, accel)
+        return np.sqrt(v2)
 
 
 NEAR_LIMIT_SHARE = 0.9
@@ -206,15 +266,34 @@ def _ellipse_step(u_from: float, kappa: float, reach: float, a_lat: float) -> fl
     return (u_from + math.sqrt(max(disc, 0.0))) / (1.0 + q)
 
 
-def _ellipse_passes(v2: np.ndarray, k_interval: np.ndarray, ds_m: float, a_lat: float, accel_mps2: float,
-                    decel_mps2: float) -> None:
-    """Forward (acceleration) then backward (braking) pass inside the friction ellipse, on v2 in place."""
-    up = 2.0 * accel_mps2 * ds_m
+def _ellipse_passes(v2: np.ndarray, k_interval: np.ndarray, ds_m: float, a_lat: float,
+                    accel_mps2: float | Callable[[float], float], decel_mps2: float) -> None:
+    """Forward (acceleration) then backward (braking) pass inside the friction ellipse, on v2 in place;
+    ``accel_mps2`` a constant or a function of the speed (:func:`_forward_pass`)."""
+    _forward_pass(v2, k_interval, ds_m, a_lat, accel_mps2)
     down = 2.0 * decel_mps2 * ds_m
-    for i in range(1, v2.size):
-        v2[i] = min(v2[i], _ellipse_step(float(v2[i - 1]), float(k_interval[i - 1]), up, a_lat))
     for i in range(v2.size - 2, -1, -1):
         v2[i] = min(v2[i], _ellipse_step(float(v2[i + 1]), float(k_interval[i]), down, a_lat))
+
+
+def _forward_pass(v2: np.ndarray, k_interval: np.ndarray, ds_m: float, a_lat: float,
+                  accel_mps2: float | Callable[[float], float]) -> None:
+    """The forward pass on v2 in place. A speed-dependent limit ``a(v)`` [m/s^2] (non-increasing in v, as a
+    powertrain's) is taken at the interval's end speed, where it is least: a first step with a(v_start) bounds the
+    end speed, a second with a(that bound) gives an end speed whose constant acceleration stays within a(v) at every
+    speed of the interval (a(v) >= a(bound) there)."""
+    if not callable(accel_mps2):
+        up = 2.0 * accel_mps2 * ds_m
+        for i in range(1, v2.size):
+            v2[i] = min(v2[i], _ellipse_step(float(v2[i - 1]), float(k_interval[i - 1]), up, a_lat))
+        return
+    for i in range(1, v2.size):
+        u0, k = float(v2[i - 1]), float(k_interval[i - 1])
+        if v2[i] <= u0:
+            continue                                 # no speeding up asked on this interval
+        bound = _ellipse_step(u0, k, 2.0 * ds_m * max(accel_mps2(math.sqrt(u0)), 0.0), a_lat)
+        a_end = max(accel_mps2(math.sqrt(min(bound, float(v2[i])))), 0.0)
+        v2[i] = min(v2[i], _ellipse_step(u0, k, 2.0 * ds_m * a_end, a_lat))
 
 
 def envelope_usage(table: SpeedTable, path: Path, lateral_mps2: float, accel_mps2: float,
@@ -359,6 +438,27 @@ def as_speed_profile(spec: SpeedProfile | float | str) -> SpeedProfile:
                      f"m/s or 'file' (got {spec!r})")
 
 
+POWERTRAIN_FIELDS: tuple[str, ...] = ("throttle_authority", "vehicle", "start_speed_mps")
+"""``EnvelopeLimited``'s powertrain fields: left out of :func:`profile_parameters` while unset (None), so a profile
+without them keeps the parameters (and the registered track ids) it had before they existed."""
+
+
+def profile_parameters(profile: SpeedProfile) -> dict[str, Any]:
+    """A profile's parameters as plain values (``dataclasses.asdict``), for identities and provenance: the powertrain
+    fields (``POWERTRAIN_FIELDS``) only when set, a bound car by its name."""
+    from dataclasses import asdict, fields, is_dataclass
+
+    if not is_dataclass(profile):
+        return {}
+    out: dict[str, Any] = {}
+    for f in fields(profile):
+        value = getattr(profile, f.name)
+        if f.name in POWERTRAIN_FIELDS and value is None:
+            continue
+        out[f.name] = value.name if f.name == "vehicle" else (asdict(value) if is_dataclass(value) else value)
+    return out
+
+
 def lateral_accel_mps2(table: SpeedTable, path: Path, s: np.ndarray) -> np.ndarray:
     """v_ref(s)^2 |kappa(s)| [m/s^2] at arc lengths s [m] (the lateral acceleration the profile asks for)."""
     return table.v_ref(s) ** 2 * np.abs(path.sample(s).kappa)
@@ -366,4 +466,4 @@ def lateral_accel_mps2(table: SpeedTable, path: Path, s: np.ndarray) -> np.ndarr
 
 __all__ = ["MIN_V_REF_MPS", "NEAR_LIMIT_SHARE", "ConstantSpeed", "CurvatureLimited", "EnvelopeLimited", "FileSpeed",
            "SpeedProfile", "SpeedRamp", "SpeedTable", "as_speed_profile", "check_lateral_limit", "envelope_usage",
-           "lateral_accel_mps2", "speed_table"]
+           "lateral_accel_mps2", "profile_parameters", "speed_table"]

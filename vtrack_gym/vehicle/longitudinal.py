@@ -10,6 +10,7 @@ are not included here.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -38,6 +39,22 @@ def forward_accel_limit_mps2(params: VehicleParams, speed_mps: np.ndarray | floa
                              throttle: float = 1.0) -> np.ndarray:
     """Largest forward acceleration the powertrain gives at ``speed_mps`` [m/s^2] (negative above the top speed)."""
     return (drive_force_n(params, speed_mps, throttle) - resistance_n(params, speed_mps)) / params.chassis.mass_kg
+
+
+def forward_accel_limit_fn(params: VehicleParams, throttle: float = 1.0) -> Callable[[float], float]:
+    """:func:`forward_accel_limit_mps2` at ``throttle`` as a function of one speed ``v [m/s] -> [m/s^2]`` on plain
+    floats (the same formula, without numpy's per-call cost: what a row-by-row speed-profile pass calls)."""
+    p = params.powertrain
+    m = params.chassis.mass_kg
+    f_max, p_max = throttle * p.max_drive_force_n, throttle * p.max_power_w
+    k_drag = 0.5 * p.air_density_kgpm3 * p.drag_area_m2
+    rolling = params.tyres.rolling_resistance_coeff * m * GRAVITY_MPS2
+
+    def limit(v_mps: float) -> float:
+        drive = min(f_max, p_max / max(v_mps, MIN_POWER_SPEED_MPS))
+        return (drive - k_drag * v_mps * abs(v_mps) - rolling) / m
+
+    return limit
 
 
 def brake_decel_limit_mps2(params: VehicleParams, speed_mps: np.ndarray | float) -> np.ndarray:
@@ -69,5 +86,5 @@ def top_speed_mps(params: VehicleParams, throttle: float = 1.0) -> float:
     return lo
 
 
-__all__ = ["MIN_POWER_SPEED_MPS", "brake_decel_limit_mps2", "drive_force_n", "forward_accel_limit_mps2",
-           "resistance_n", "top_speed_mps"]
+__all__ = ["MIN_POWER_SPEED_MPS", "brake_decel_limit_mps2", "drive_force_n", "forward_accel_limit_fn",
+           "forward_accel_limit_mps2", "resistance_n", "top_speed_mps"]

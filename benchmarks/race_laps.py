@@ -1,0 +1,99 @@
+"""The race baselines' driven laps against the car's lap-time bound: a table and the driven-lap figure of the Race
+page (docs/figures/race_<circuit>.png).
+
+    python benchmarks/race_laps.py [--figures docs/figures]
+
+For each shipped circuit (``vtrack/Race-v0``: the handling course, ``vtrack/RaceRing-v0``: the example ring), seed
+0, two laps from a standing start: each baseline's lap times, best lap / bound, track-limit excursions and least
+edge margin; the figure shows the best lap of ``raceline``: its speed along the lap against the bound's profile,
+and its longitudinal against lateral acceleration against the bound's.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+import vtrack_gym
+
+CIRCUITS = {"handling_course": "vtrack/Race-v0", "ring": "vtrack/RaceRing-v0"}
+
+
+def run(env: gym.Env, name: str) -> tuple[dict, list[dict]]:
+    """One episode of baseline ``name``: its last info and every step's info."""
+    policy = vtrack_gym.make_policy(name, env)
+    obs, info = env.reset(seed=0)
+    infos = []
+    while True:
+        obs, _, terminated, truncated, info = env.step(policy.predict(obs)[0])
+        infos.append(info)
+        if terminated or truncated:
+            return info, infos
+
+
+def figure(env: gym.Env, infos: list[dict], title: str, file: Path) -> None:
+    """Speed along the best lap against the bound's profile; the lap's a_x against a_y against the bound's."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from vtrack_gym.evaluation.lap_figure import accelerations
+
+    base = env.unwrapped
+    length = base.lap_length_m
+    p = np.array([i["progress_m"] for i in infos])
+    last = p >= length                                   # the second (flying) lap
+    bound = base.lap_bound
+    rows = bound.path.table
+    s_centre = base.paths[0].project(rows[:, 0], rows[:, 1]).s    # the bound's rows at their centre-line station
+    order = np.argsort(s_centre)
+    fig, (ax_v, ax_g) = plt.subplots(1, 2, figsize=(12, 4.2))
+    ax_v.plot(s_centre[order], bound.speed_table.v_mps[order] * 3.6, color="0.5",
+              label=f"bound ({bound.lap_time_s:.2f} s)")
+    ax_v.plot(p[last] - length, np.array([i["v_mps"] for i in infos])[last] * 3.6, color="C0", lw=1.0,
+              label="raceline, lap 2")
+    ax_v.set_xlabel("centre-line station [m]")
+    ax_v.set_ylabel("speed [km/h]")
+    ax_v.legend(loc="lower right")
+    _, a_x, a_y = accelerations(bound)
+    ax_g.plot(a_y, a_x, ".", color="0.6", ms=2, label="bound")
+    ax_g.plot([i["a_y_mps2"] for i, k in zip(infos, last, strict=True) if k],
+              [i["a_x_mps2"] for i, k in zip(infos, last, strict=True) if k], ".", color="C0", ms=1.5,
+              label="raceline, lap 2")
+    ax_g.set_xlabel("lateral acceleration [m/s$^2$]")
+    ax_g.set_ylabel("longitudinal acceleration [m/s$^2$]")
+    ax_g.set_aspect("equal")
+    ax_g.legend(loc="lower right")
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(file, dpi=110)
+    plt.close(fig)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--figures", type=Path, default=None)
+    args = parser.parse_args()
+    print("| circuit | baseline | lap_times_s | best_lap_s | lap_time_bound_s | lap_time_fraction | "
+          "track_limit_violations | min_edge_margin_m |")
+    print("|---|---|---|---|---|---|---|---|")
+    for circuit, env_id in CIRCUITS.items():
+        env = gym.make(env_id)
+        for name in ("raceline", "centreline"):
+            info, infos = run(env, name)
+            m = env.unwrapped.success_metrics()
+            laps = ", ".join(f"{t:.2f}" for t in info["lap_times_s"])
+            print(f"| {circuit} | {name} | {laps} | {info['best_lap_s']:.2f} | {info['lap_time_bound_s']:.2f} | "
+                  f"{info['lap_time_fraction']:.4f} | {m['track_limit_violations']:.0f} | "
+                  f"{m['min_edge_margin_m']:.3f} |", flush=True)
+            if args.figures is not None and name == "raceline":
+                figure(env, infos, f"{env_id}: raceline's second lap against the bound",
+                       args.figures / f"race_{circuit}.png")
+
+
+if __name__ == "__main__":
+    main()

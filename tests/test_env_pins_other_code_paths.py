@@ -18,10 +18,6 @@ TESTS = Path(__file__).resolve().parent
 SWITCHED_OFF = "X86_V4 AVX512_ICL AVX512_SPR AVX512_SKX"
 """numpy's AVX-512 dispatch targets (numpy 2.x names; names a numpy does not know are ignored)."""
 NOT_YET = {"vtrack/ISO3888-1-v1", "vtrack/ISO3888-2-v1"}
-NOT_YET_FLAKY = {"vtrack/ISO3888-2-v2"}
-"""Ids whose pinned follower episode moved by up to 190 x the tolerance in other processes (with numpy's AVX-512 code
-switched off, and with other ids made first): the line's last-bit differences are larger than its rounding step
-absorbs on this manoeuvre (open: docs/GUARANTEES.md, "Not yet")."""
 """Ids whose planned line moves with last-bit differences of its linear programmes' inputs (kept unchanged: their
 successors ``vtrack/ISO3888-1-v2`` and ``vtrack/ISO3888-2-v2`` must pass here)."""
 RECORD_ALL = f"""import json, sys
@@ -53,7 +49,6 @@ def found() -> dict[str, list[str]]:
 @pytest.mark.slow
 @pytest.mark.parametrize("env_id", [
     pytest.param(i, marks=pytest.mark.xfail(strict=True, reason="the planned line moves with last-bit differences"))
-    if i in NOT_YET else pytest.param(i, marks=pytest.mark.xfail(strict=False, reason="see NOT_YET_FLAKY"))
-    if i in NOT_YET_FLAKY else i for i in sorted(vtrack_gym.ALL_ENV_IDS)])
+    if i in NOT_YET else i for i in sorted(vtrack_gym.ALL_ENV_IDS)])
 def test_pins_hold_without_numpys_avx512_code(env_id: str, found: dict[str, list[str]]) -> None:
     assert found[env_id] == []

@@ -20,7 +20,6 @@ import math
 import numpy as np
 
 from vtrack_gym._jit import kernel
-from vtrack_gym.tracks.judge import reach_m
 
 FAR_M = 1.0e3
 """Depth of a forbidden box beyond its cone line [m] (a body never reaches that far past a lane)."""
@@ -39,6 +38,14 @@ def gate_table(gates: tuple) -> np.ndarray:
                              "positions (Gate.anchor)")
         out[k] = (g.anchor[0], g.anchor[1], g.anchor[2], g.lane_length_m, g.y_left_m, g.y_right_m)
     return out
+
+
+@kernel
+def rect_reach_m(body: np.ndarray) -> float:
+    """Farthest distance [m] of a corner of the rectangle ``body`` (front, rear, half width [m]; 3 entries) from
+    the CG. Reads those three entries only (``tracks.judge.reach_m`` also reads the wheel points of its 11-entry
+    row: on this row it read beyond the array, and the gate verdicts depended on the memory behind it)."""
+    return math.hypot(max(body[0], -body[1]), body[2])
 
 
 @kernel
@@ -119,7 +126,7 @@ def sweep_gate(pose0: np.ndarray, pose1: np.ndarray, body: np.ndarray, gate: np.
     bound on the 1-Lipschitz clearance, as ``tracks.judge.sweep_min``)."""
     dpsi = pose1[2] - pose0[2]
     dpsi -= 2.0 * math.pi * math.floor(dpsi / (2.0 * math.pi) + 0.5)
-    lip = math.hypot(pose1[0] - pose0[0], pose1[1] - pose0[1]) + abs(dpsi) * reach_m(body)
+    lip = math.hypot(pose1[0] - pose0[0], pose1[1] - pose0[1]) + abs(dpsi) * rect_reach_m(body)
     f0 = _at(0.0, pose0, pose1, body, gate)
     f1 = _at(1.0, pose0, pose1, body, gate)
     best = min(f0, f1)
@@ -149,7 +156,7 @@ def judge_gates(gates: np.ndarray, body: np.ndarray, idx: np.ndarray, prev: np.n
     (x[i], y[i], psi[i]): ``hit[i, g] = True`` where its body reached beyond a cone line of gate g (exact to
     ``tol``), ``least[i]`` lowered to its least clearance to any gate near it [m]. Gates farther than the body's
     reach plus the step are skipped."""
-    reach = reach_m(body)
+    reach = rect_reach_m(body)
     pose0 = np.empty(3)
     pose1 = np.empty(3)
     for i in idx:
@@ -188,7 +195,7 @@ def path_gate_clearance_m(path: object, body: np.ndarray, tol: float = 1e-4, ste
 @kernel
 def _path_sweep(gates: np.ndarray, body: np.ndarray, x: np.ndarray, y: np.ndarray, psi: np.ndarray, tol: float,
                 floor: float, least: np.ndarray) -> None:
-    reach = reach_m(body)
+    reach = rect_reach_m(body)
     pose0 = np.empty(3)
     pose1 = np.empty(3)
     for k in range(x.shape[0] - 1):
@@ -202,4 +209,5 @@ def _path_sweep(gates: np.ndarray, body: np.ndarray, x: np.ndarray, y: np.ndarra
             least[g] = min(least[g], sweep_gate(pose0, pose1, body, gates[g], tol, floor))
 
 
-__all__ = ["FAR_M", "N_GATE", "gate_table", "judge_gates", "path_gate_clearance_m", "rect_gate", "sweep_gate"]
+__all__ = ["FAR_M", "N_GATE", "gate_table", "judge_gates", "path_gate_clearance_m", "rect_gate", "rect_reach_m",
+           "sweep_gate"]

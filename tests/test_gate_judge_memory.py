@@ -80,3 +80,13 @@ def test_offline_clearance_independent_of_row_memory() -> None:
     path = planned_maneuver("iso3888_2", resolve_vehicle(None), 0.02, 2).path
     plain = path_gate_clearance_m(path, np.array(BODY), step_m=0.05)
     assert np.array_equal(path_gate_clearance_m(path, _body_followed_by(1e3), step_m=0.05), plain)
+
+
+@pytest.mark.parametrize("into", [0.001, -0.001])
+def test_a_side_one_millimetre_into_a_cone_line_between_two_steps(into: float) -> None:
+    """Driving straight along a lane, the body's left side 1 mm beyond (or short of) the left cone line: the
+    swept clearance is -1 mm (or +1 mm) exactly, though no control step's pose starts inside the lane."""
+    front, rear, half = BODY
+    y = GATE[4] - half + into
+    pose0, pose1 = np.array([GATE[0] - front - 0.2, y, 0.0]), np.array([GATE[0] - front + 0.133, y, 0.0])
+    assert sweep_gate(pose0, pose1, np.array(BODY), GATE, 1e-3, 0.05) == pytest.approx(-into, abs=1e-12)

@@ -218,11 +218,15 @@ def pinned() -> dict[str, dict[str, Any]]:
 
 
 def pin_entries(env_id: str, episodes: list[Episode], arrays: dict[str, np.ndarray]) -> dict[str, Any]:
-    """The JSON entry of ``env_id``; its block sums go into ``arrays`` (an identical array is stored once)."""
+    """The JSON entry of ``env_id``; its block sums go into ``arrays`` under the id's own key ``id|n``, which is
+    overwritten (a re-pin never keeps a stale array), or under another key that holds an identical array (stored
+    once)."""
     entry: dict[str, Any] = {"episodes": []}
     for n, ep in enumerate(episodes):
-        key = next((k for k, a in arrays.items() if np.array_equal(a, ep.sums)), f"{env_id}|{n}")
-        arrays.setdefault(key, ep.sums)
+        own = f"{env_id}|{n}"
+        key = next((k for k, a in arrays.items() if k != own and np.array_equal(a, ep.sums)), own)
+        if key == own:
+            arrays[own] = ep.sums
         entry["episodes"].append({"exact": ep.exact, "signals": ep.signals, "blocks": key,
                                   "end_metrics": ep.end_metrics})
     return entry
@@ -241,6 +245,8 @@ def main(argv: list[str] | None = None) -> int:
             return 2
         data["pins"][env_id] = pin_entries(env_id, record(env_id), arrays)
     data["pins"] = dict(sorted(data["pins"].items()))
+    used = {ep["blocks"] for pin in data["pins"].values() for ep in pin.get("episodes", [])}
+    arrays = {k: a for k, a in arrays.items() if k in used}   # a re-pinned id's own key no longer used
     PIN_FILE.write_text(json.dumps(data, indent=1) + "\n")
     np.savez_compressed(BLOCK_FILE, **arrays)
     return 0

@@ -38,10 +38,12 @@ def test_recipe_page_states_its_control_period() -> None:
 
 
 def test_changed_ids_carry_their_version_history() -> None:
-    for name in ("ISO3888-1-v1", "ISO3888-2-v1", "Slalom-v1"):
+    for name in ("ISO3888-1-v2", "ISO3888-2-v2", "ISO3888-1-v1", "ISO3888-2-v1"):
         history = VERSION_HISTORY[name]
-        assert [line[:3] for line in history] == ["v0:", "v1:"], name
-    assert VERSION_HISTORY["ISO3888-1-v0"] == VERSION_HISTORY["ISO3888-1-v1"]
+        assert [line[:3] for line in history] == ["v0:", "v1:", "v2:"], name
+    assert [line[:3] for line in VERSION_HISTORY["Slalom-v1"]] == ["v0:", "v1:"]
+    assert VERSION_HISTORY["ISO3888-1-v0"] == VERSION_HISTORY["ISO3888-1-v1"] == VERSION_HISTORY["ISO3888-1-v2"]
+    assert "entry_speed_kmh" in env_page("vtrack/ISO3888-2-v2")
     page = deprecated_page("ISO3888-2-v0")
-    assert "DeprecatedEnv" in page and "ISO3888-2-v1.md" in page and "## Version history" in page
+    assert "DeprecatedEnv" in page and "ISO3888-2-v2.md" in page and "## Version history" in page
     assert "entry_speed_kmh" in env_page("vtrack/ISO3888-2-v1")

@@ -20,6 +20,7 @@ from vtrack_gym.tracks.feasibility import (
     entry_speed_bound_kmh,
     planned_maneuver,
 )
+from vtrack_gym.tracks.gate_judge import path_gate_clearance_m
 from vtrack_gym.tracks.maneuvers import ObstacleAvoidanceParams, build_maneuver
 from vtrack_gym.vehicle.catalog import list_vehicles, load_vehicle
 from vtrack_gym.vehicle.params import GRAVITY_MPS2
@@ -150,6 +151,7 @@ def _scenario_speed_mps(scenario, path, vehicle, s: np.ndarray) -> np.ndarray:
 
 def test_the_maneuver_ids_are_the_current_and_the_kept_versions() -> None:
     assert _maneuver_env_ids() == sorted(["vtrack/ISO3888-1-v0", "vtrack/ISO3888-1-v1", "vtrack/ISO3888-2-v1",
+                                          "vtrack/ISO3888-1-v2", "vtrack/ISO3888-2-v2",
                                           "vtrack/ISO4138-Circle-v0", "vtrack/Slalom-v0", "vtrack/Slalom-v1",
                                           "vtrack/StepCurvature-v0"])
 
@@ -169,7 +171,11 @@ def test_every_registered_maneuver_is_feasible_for_every_car(env_id: str, car: s
         (path,) = env.unwrapped.paths
     finally:
         env.close()
-    if scenario.success.__class__.__name__ == "ConeGates":
+    if scenario.success.__class__.__name__ == "ConeGates" and scenario.success.exact:
+        c = vehicle.chassis      # judged exactly: the body rectangle swept along the line, 1 cm steps
+        body = np.array([c.cg_to_front_end_m, c.cg_to_front_end_m - c.body_length_m, 0.5 * c.body_width_m])
+        assert path.gates and np.min(path_gate_clearance_m(path, body)) >= 0.02 - 3e-4
+    elif scenario.success.__class__.__name__ == "ConeGates":
         assert path.gates and _gates_hit(path, vehicle) == 0
     s = np.arange(0.0, path.length_m, 0.05)   # the line as the env interpolates it, between its rows too
     kappa = np.abs(path.sample(s).kappa)
@@ -218,3 +224,39 @@ def test_slicks_outgrow_the_iso_tests(car: str) -> None:
     assert v_end ** 2 / 40.0 < lateral_limit_mps2(vehicle, v_end)
     assert planned_maneuver("iso3888_2", vehicle).peak_lateral_accel_mps2 < lateral_limit_mps2(vehicle, 80.0 * KMH)
     assert entry_speed_bound_kmh(vehicle, "iso3888_1", "hold_throttle") > 120.0
+
+
+# ------------------------------------------------------------------------------------------ exact lines (-v2)
+def _exact_clearance_m(path, vehicle) -> float:
+    b = body_of(vehicle)
+    return float(np.min(path_gate_clearance_m(path, np.array([b.cg_to_front_m, b.cg_to_front_m - b.length_m,
+                                                                0.5 * b.width_m]))))
+
+
+@pytest.mark.parametrize("car", CARS)
+@pytest.mark.parametrize("name", ["iso3888_1", "iso3888_2"])
+def test_the_driven_exact_line_is_within_five_percent_of_the_least_curvature(name: str, car: str) -> None:
+    """The -v2 ids' line (2 cm clear, judged exactly) asks at most 5 % more peak curvature than the least-curvature
+    line (0 cm), and both keep their clearance through the path's own interpolation, swept exactly."""
+    from vtrack_gym.envs.scenarios import EXACT_TRACKING_MARGIN_M
+
+    vehicle = load_vehicle(car)
+    least = planned_maneuver(name, vehicle, 0.0, 2)
+    driven = planned_maneuver(name, vehicle, EXACT_TRACKING_MARGIN_M, 2)
+    assert driven.line.peak_curvature_per_m <= 1.05 * least.line.peak_curvature_per_m
+    assert driven.line.peak_curvature_per_m >= least.line.peak_curvature_per_m
+    assert _exact_clearance_m(least.path, vehicle) >= -3e-4
+    assert _exact_clearance_m(driven.path, vehicle) >= EXACT_TRACKING_MARGIN_M - 3e-4
+    old = planned_maneuver(name, vehicle)          # version 1's 1 cm line: stiffer than the exact least one
+    assert np.max(np.abs(old.path.table[:, tb.COL_KAPPA])) > least.line.peak_curvature_per_m
+
+
+@pytest.mark.parametrize("car", CARS)
+@pytest.mark.parametrize(("name", "after"), [("iso3888_1", "hold_throttle"), ("iso3888_2", "coast")])
+def test_the_exact_bound_is_where_the_exact_curvature_meets_the_cars_limit(name: str, after: str, car: str) -> None:
+    vehicle = load_vehicle(car)
+    bound = entry_speed_bound_kmh(vehicle, name, after, planner_version=2)
+    m = planned_maneuver(name, vehicle, 0.0, 2)
+    assert coast_check(m.path, vehicle, bound * KMH, after, m.line.kappa_at).usage <= 1.0
+    assert coast_check(m.path, vehicle, (bound + 0.05) * KMH, after, m.line.kappa_at).usage > 1.0
+    assert bound >= entry_speed_bound_kmh(vehicle, name, after)     # no interpolation overshoot, no 1 cm margin

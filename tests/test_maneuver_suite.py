@@ -12,10 +12,12 @@ import pytest
 from test_board_validity import ConstantSteering
 
 import vtrack_gym
-from vtrack_gym.envs.criteria import CircleAtLimit
+from vtrack_gym.envs.criteria import CircleAtLimit, ConeGates
 from vtrack_gym.envs.scenarios import (
+    EXACT_TRACKING_MARGIN_M,
     LEGACY_MANEUVER_IDS,
     MANEUVER_IDS,
+    PLANNED_V1_IDS,
     SCENARIOS,
     STANDARD_MANEUVERS,
     PlannedLine,
@@ -52,10 +54,17 @@ def test_every_maneuver_is_a_registered_scenario_with_its_spec() -> None:
         assert sc.track.track == name and sc.success == maneuver_criterion(spec)
         assert sc.speed == spec.speed_profile and sc.time_limit_s == spec.time_limit_s
         assert registry[f"vtrack/{scenario_name}"].max_episode_steps == round(spec.time_limit_s / 0.01)
-    for name in STANDARD_MANEUVERS:  # the -v1 ids: planned line, the standard's speed protocol
+    for name in STANDARD_MANEUVERS:  # the current ids: planned line, the standard's speed protocol
         sc, spec = SCENARIOS[MANEUVER_IDS[name]], build_maneuver(name).spec
-        assert MANEUVER_IDS[name].endswith("-v1") and f"vtrack/{MANEUVER_IDS[name]}" in registry
-        assert sc.track.track == name and sc.success == maneuver_criterion(spec) and sc.reference == PlannedLine()
+        assert f"vtrack/{MANEUVER_IDS[name]}" in registry and sc.track.track == name
+        if name in PLANNED_V1_IDS:   # -v2: the exact line and the exact judge; -v1 kept as it was
+            assert MANEUVER_IDS[name].endswith("-v2") and sc.success == ConeGates(exact=True)
+            assert sc.reference == PlannedLine(margin_m=EXACT_TRACKING_MARGIN_M, planner_version=2)
+            v1 = SCENARIOS[PLANNED_V1_IDS[name]]
+            assert v1.success == maneuver_criterion(spec) and v1.reference == PlannedLine()
+        else:
+            assert MANEUVER_IDS[name].endswith("-v1")
+            assert sc.success == maneuver_criterion(spec) and sc.reference == PlannedLine()
     circle = SCENARIOS["ISO4138-Circle-v0"]
     assert circle.success.grip_limit_speed_mps == pytest.approx(math.sqrt(0.9 * 9.81 * 40.0))
     with pytest.raises(TypeError, match="lateral_tolerance_m"):
@@ -191,7 +200,7 @@ def test_maneuvers_suite_rows_and_one_figure_per_maneuver(tmp_path: Path) -> Non
     assert all(p.stat().st_size > 10_000 for p in result["figures"])
     board = store.leaderboard("maneuvers", suite_columns("maneuvers"))
     assert {e["env_id"] for e in board} == {ep.env_id for ep in episodes}
-    gated = [r for r in result["rows"] if r.env_id in ("vtrack/ISO3888-1-v1", "vtrack/ISO3888-2-v1",
+    gated = [r for r in result["rows"] if r.env_id in ("vtrack/ISO3888-1-v2", "vtrack/ISO3888-2-v2",
                                                          "vtrack/Slalom-v1")]
     assert len(gated) == 3 and all(isinstance(r.metrics["cones_hit"], float) for r in gated)
 
@@ -223,7 +232,7 @@ def test_cli_maneuvers_suite_with_vehicle(tmp_path: Path, capsys: pytest.Capture
     assert main(["benchmark", "--suite", "maneuvers", "--policies", "lqr", "--no-figures", "--vehicle", "suv",
                  "--store", str(store)]) == 0
     out = capsys.readouterr().out
-    assert "vtrack/ISO3888-1-v1 (suv)" in out and "max_steady_a_y_mps2" in out
+    assert "vtrack/ISO3888-1-v2 (suv)" in out and "max_steady_a_y_mps2" in out
     rows = ResultStore(store).rows("maneuvers")
     assert len(rows) == len(MANEUVERS) and all(r["options"] == {"vehicle": "suv"} for r in rows)
     assert main(["eval", "--policy", "lqr", "--env", "vtrack/Slalom-v0", "--vehicle", "bus",

@@ -150,8 +150,8 @@ def test_a_car_too_wide_for_the_gates_is_refused_through_make() -> None:
             gym.make(env_id, vehicle=wide)
 
 
-def test_the_old_iso3888_2_raises_the_deprecation_error_naming_v1() -> None:
-    with pytest.raises(gym.error.DeprecatedEnv, match=r"Please use `vtrack/ISO3888-2-v1` instead"):
+def test_the_old_iso3888_2_raises_the_deprecation_error_naming_the_latest() -> None:
+    with pytest.raises(gym.error.DeprecatedEnv, match=r"Please use `vtrack/ISO3888-2-v2` instead"):
         gym.make("vtrack/ISO3888-2-v0")
 
 

@@ -128,7 +128,8 @@ class Completed(SuccessCriterion):
 
 
 class GateState(NamedTuple):
-    """``ConeGates`` state: per gated track its gate rows and station window; per car the gates its body left."""
+    """``ConeGates`` state: per gated track its gate rows and station window; per car the gates its body left (and,
+    judged exactly, its last pose and least clearance to a cone line)."""
 
     gated: dict[int, tuple[Any, np.ndarray, float, float]]   # track -> (path, gate rows, s_lo, s_hi)
     hit: np.ndarray            # (n, max gates) bool: gate g left by car i's body
@@ -137,17 +138,27 @@ class GateState(NamedTuple):
     reach_m: float             # a Frenet gate is checked while the car's station is this close to it [m]
     row: np.ndarray            # scratch track row
     fresh: np.ndarray          # (n,) bool: the last step left a gate not left before
+    exact: dict[int, np.ndarray] | None = None   # exact judge: track -> gate_judge.gate_table of its gates
+    body: np.ndarray | None = None               # exact judge: the body row (front, rear, half width [m])
+    prev: np.ndarray | None = None               # exact judge: (n, 3) x, y [m], psi [rad] after the last step
+    started: np.ndarray | None = None            # exact judge: (n,) bool, ``prev`` holds a pose of this episode
+    least: np.ndarray | None = None              # exact judge: (n,) least clearance to a cone line so far [m]
 
 
 @dataclass(frozen=True)
 class ConeGates(SuccessCriterion):
     """The course completed and every cone gate passed with the body inside it; metric ``cones_hit`` (gates left).
 
-    Every body-outline point (corners and sides) is projected on the path after each control step while the car is
-    within a body length of the gated stretch, like ``tracks.gate_violations`` on a whole trajectory (compiled)."""
+    ``exact=False`` (the ids registered before the exact judge): every body-outline point (corners and sides,
+    sampled every 0.25 m) is projected on the path after each control step while the car is within a body length
+    of the gated stretch, like ``tracks.gate_violations`` on a whole trajectory (compiled). ``exact=True``: the
+    body rectangle against every anchored gate's cone lines, swept between control steps, exact to 1 mm
+    (``tracks.gate_judge``); metric ``min_gate_clearance_m`` too (the body's least clearance to a cone line near
+    it, exact below 5 cm, negative when it crossed one; absent when no gate came within the body's reach)."""
 
     name: ClassVar[str] = "gates"
     per_step: ClassVar[bool] = True
+    exact: bool = False
 
     def start(self, paths: tuple, vehicle: Any, n: int) -> GateState:
         from vtrack_gym.tracks.dlc import car_outline
@@ -159,16 +170,51 @@ class ConeGates(SuccessCriterion):
         gated = {t: (p, gate_rows(p.gates), min(g.s_start_m for g in p.gates) - c.body_length_m,
                      max(g.s_end_m for g in p.gates) + c.body_length_m) for t, p in enumerate(paths) if p.gates}
         most = max((len(p.gates) for p in paths), default=0)
-        return GateState(gated, np.zeros((n, max(most, 1)), dtype=bool), lon.ravel(), lat.ravel(), c.body_length_m,
-                         np.zeros(N_COLS), np.zeros(n, dtype=bool))
+        state = GateState(gated, np.zeros((n, max(most, 1)), dtype=bool), lon.ravel(), lat.ravel(), c.body_length_m,
+                          np.zeros(N_COLS), np.zeros(n, dtype=bool))
+        if not self.exact:
+            return state
+        from vtrack_gym.tracks.gate_judge import gate_table
+
+        body = np.array([c.cg_to_front_end_m, c.cg_to_front_end_m - c.body_length_m, 0.5 * c.body_width_m])
+        return state._replace(exact={t: gate_table(p.gates) for t, p in enumerate(paths) if p.gates}, body=body,
+                              prev=np.zeros((n, 3)), started=np.zeros(n, dtype=bool), least=np.full(n, np.inf))
 
     def reset_car(self, state: GateState, i: int, vehicle: Any) -> None:
         state.hit[i] = False
         state.fresh[i] = False
+        if state.started is not None and state.least is not None:
+            state.started[i] = False
+            state.least[i] = np.inf
+
+    def _observe_exact(self, state: GateState, cars: CarsView) -> None:
+        """The exact judge: each car's body swept from its last pose to this one against its track's gates."""
+        from vtrack_gym.tracks.gate_judge import judge_gates
+        from vtrack_gym.tracks.judge import SWEEP_TOL_M
+
+        assert state.exact is not None and state.prev is not None and state.started is not None
+        on = cars.steps > 0
+        pose = np.column_stack((cars.x_m, cars.y_m, cars.psi_rad))
+        first = on & ~state.started      # no pose before this step: judged at its end
+        state.prev[first] = pose[first]
+        before = np.count_nonzero(state.hit, axis=1)
+        for track, gates in state.exact.items():
+            idx = np.flatnonzero(on & (cars.track == track))
+            if idx.size:
+                hit = np.ascontiguousarray(state.hit[:, :gates.shape[0]])
+                judge_gates(gates, state.body, idx, state.prev, cars.x_m, cars.y_m, cars.psi_rad, SWEEP_TOL_M, hit,
+                            state.least)
+                state.hit[:, :gates.shape[0]] = hit
+        state.fresh[:] = np.count_nonzero(state.hit, axis=1) > before
+        state.prev[on] = pose[on]
+        state.started[on] = True
 
     def observe_step(self, state: GateState, cars: CarsView) -> None:
         from vtrack_gym.tracks.kernels import body_outside_gates
 
+        if self.exact:
+            self._observe_exact(state, cars)
+            return
         s = cars.station_m
         before = np.count_nonzero(state.hit, axis=1)
         for track, (path, gates, lo, hi) in state.gated.items():
@@ -193,7 +239,10 @@ class ConeGates(SuccessCriterion):
     def metrics(self, state: GateState, i: int, track: int) -> dict[str, float]:
         if track not in state.gated:
             return {}
-        return {"cones_hit": float(np.count_nonzero(state.hit[i]))}
+        out = {"cones_hit": float(np.count_nonzero(state.hit[i]))}
+        if state.least is not None and np.isfinite(state.least[i]):   # a gate came within the body's reach
+            out["min_gate_clearance_m"] = float(state.least[i])
+        return out
 
 
 TRACK_LIMIT_RULES: tuple[str, ...] = ("wheels", "body", "centre")

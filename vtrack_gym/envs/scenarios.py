@@ -11,12 +11,14 @@ historical un-namespaced ids (``LEGACY_IDS``) as aliases; ``vtrack/Track-v0`` co
 make kwargs (``with_track``).
 
 The standard manoeuvres (``tracks.maneuvers``) are scenarios too (``MANEUVER_IDS``, the current version of each):
-``vtrack/ISO3888-1-v1``, ``vtrack/ISO3888-2-v1``, ``vtrack/ISO4138-Circle-v0``, ``vtrack/Slalom-v1``,
-``vtrack/StepCurvature-v0``. The cone-lined ones (-v1, ``STANDARD_SCENARIOS``) drive the planned line for the
-driven car's body and the standards' speed protocols (``EntryThenRelease``); the others keep their
-``ManeuverSpec``'s speed profile. ``vtrack/ISO3888-1-v0`` and ``vtrack/Slalom-v0`` stay registered unchanged
-(``LEGACY_MANEUVER_SCENARIOS``); ``vtrack/ISO3888-2-v0`` asked 1.13 g of a car that has 0.81 g and is no longer
-registered, so Gymnasium refuses it with ``gymnasium.error.DeprecatedEnv`` naming ``vtrack/ISO3888-2-v1``.
+``vtrack/ISO3888-1-v2``, ``vtrack/ISO3888-2-v2``, ``vtrack/ISO4138-Circle-v0``, ``vtrack/Slalom-v1``,
+``vtrack/StepCurvature-v0``. The cone-lined ones (``STANDARD_MANEUVERS``) drive the planned line for the
+driven car's body and the standards' speed protocols (``EntryThenRelease``); the ISO 3888 ones (-v2) the line of
+``tracks.exact_line`` with their gates judged exactly. The others keep their ``ManeuverSpec``'s speed profile.
+``vtrack/ISO3888-1-v0``, ``vtrack/Slalom-v0``, ``vtrack/ISO3888-1-v1`` and ``vtrack/ISO3888-2-v1`` stay
+registered unchanged (``LEGACY_MANEUVER_SCENARIOS``); ``vtrack/ISO3888-2-v0`` asked 1.13 g of a car that has
+0.81 g and is no longer registered, so Gymnasium refuses it with ``gymnasium.error.DeprecatedEnv`` naming
+``vtrack/ISO3888-2-v1``.
 
 Imports nothing heavy (``vtrack_gym.tracks``, numpy only, is imported for the manoeuvre scenarios' specs).
 """
@@ -32,6 +34,7 @@ from vtrack_gym.envs.criteria import (
     CRITERIA,
     TRACK_LIMIT_RULES,
     Auto,
+    ConeGates,
     EndReached,
     SuccessCriterion,
     TrackLimits,
@@ -85,17 +88,30 @@ class PlannedLine(ReferenceLine):
     its width, planned for its body rectangle, curvature rate within its steering rate). ValueError naming the
     field, the limit and the car for a car too wide for the manoeuvre's lanes."""
 
-    margin_m: float = ranged(TRACKING_MARGIN_M, gt=0.0, le=0.5, unit="m")
+    margin_m: float = ranged(TRACKING_MARGIN_M, ge=0.0, le=0.5, unit="m")
+    planner_version: int = ranged(1, ge=1, le=2, integer=True)   # 2: tracks.exact_line (unique, exact geometry)
 
     def __post_init__(self) -> None:
         validate(self)
 
     def paths(self, source: TrackSource, vehicle: Any) -> tuple:
         """The planned line of the source's manoeuvre for ``vehicle``."""
-        return source.planned_paths(vehicle, self.margin_m)
+        if self.planner_version == 1:
+            return source.planned_paths(vehicle, self.margin_m)
+        return source.planned_paths(vehicle, self.margin_m, self.planner_version)
+
+
+EXACT_TRACKING_MARGIN_M = 0.02
+"""Clearance [m] between the body and every cone line on the line the -v2 ISO 3888 ids drive (``PlannedLine``
+with ``planner_version=2``). The body is checked exactly (``tracks.exact_line``, ``tracks.gate_judge``), so the
+margin is room for a controller's tracking error only, not for a sampled judge's blind spots: 2 cm costs at most
+5 % of peak curvature over the least-curvature line (0 cm) for every shipped car (tested)."""
 
 
 REFERENCE_LINES: dict[str, ReferenceLine] = {"planned": PlannedLine(), "lane_centres": CentreLine()}
+"""Make kwarg ``reference=`` of the -v1 cone-lined standard ids -> reference-line part."""
+EXACT_REFERENCE_LINES: dict[str, ReferenceLine] = {
+    "planned": PlannedLine(margin_m=EXACT_TRACKING_MARGIN_M, planner_version=2), "lane_centres": CentreLine()}
 """Make kwarg ``reference=`` of the cone-lined standard ids -> reference-line part (``tracks.maneuvers.REFERENCES``)."""
 
 
@@ -211,14 +227,17 @@ TRACK = Scenario(name="Track-v0", track=TrackSource(track="handling_course"), sp
 handling course, default profile ``curvature_limited(40 km/h, 0.7 g)`` (``default_track_profile``); time limit
 derived from the track."""
 
-MANEUVER_IDS: dict[str, str] = {"iso3888_1": "ISO3888-1-v1", "iso3888_2": "ISO3888-2-v1",
+MANEUVER_IDS: dict[str, str] = {"iso3888_1": "ISO3888-1-v2", "iso3888_2": "ISO3888-2-v2",
                                  "iso4138_circle": "ISO4138-Circle-v0", "slalom": "Slalom-v1",
                                  "step_curvature": "StepCurvature-v0"}
 """Manoeuvre name (``tracks.maneuvers.MANEUVERS``) -> the scenario name of its current version (registered as
 ``vtrack/<name>``)."""
 LEGACY_MANEUVER_IDS: dict[str, str] = {"iso3888_1": "ISO3888-1-v0", "slalom": "Slalom-v0"}
 """Older versions still registered unchanged (lane-centre line, constant speed)."""
-DEPRECATED_IDS: dict[str, str] = {"vtrack/ISO3888-2-v0": "vtrack/ISO3888-2-v1"}
+PLANNED_V1_IDS: dict[str, str] = {"iso3888_1": "ISO3888-1-v1", "iso3888_2": "ISO3888-2-v1"}
+"""The first planned-line versions of the ISO 3888 ids, registered unchanged (``planned_line``: the body sampled,
+the line one of a linear programme's optima, 10 cm clear)."""
+DEPRECATED_IDS: dict[str, str] = {"vtrack/ISO3888-2-v0": "vtrack/ISO3888-2-v2"}
 """Ids no longer registered -> the id Gymnasium's ``DeprecatedEnv`` error names instead."""
 
 ISO3888_2_ENTRY_KMH = 50.0
@@ -252,14 +271,17 @@ def maneuver_scenario(name: str, scenario_name: str | None = None) -> Scenario:
                     time_limit_s=spec.time_limit_s)
 
 
-def standard_scenario(name: str) -> Scenario:
+def standard_scenario(name: str, version: int | None = None) -> Scenario:
     """The -v1 scenario of a cone-lined manoeuvre: the planned line for the driven car (``PlannedLine``), its
     lanes sized for the car's width, and the standard's speed protocol: ISO 3888-2 an entry speed then a coast
     (``ISO3888_2_ENTRY_KMH``), ISO 3888-1 an entry speed then the throttle held (``ISO3888_1_ENTRY_KMH``; lane 3
     placed by the ``cone_line`` reading), the slalom its -v0 constant speed. The time limit of the two entry-speed
-    protocols is derived per env from the entry speed and the car's predicted speed (1.5 x the run + 30 s)."""
+    protocols is derived per env from the entry speed and the car's predicted speed (1.5 x the run + 30 s).
+    ``version`` 2 (the current ISO 3888 ids, None: the current one): the line of ``tracks.exact_line``
+    ``EXACT_TRACKING_MARGIN_M`` clear and the gates judged exactly (``ConeGates(exact=True)``); 1: the -v1 ids."""
     from vtrack_gym.tracks.maneuvers import build_maneuver
 
+    version = version or (2 if name in PLANNED_V1_IDS else 1)
     spec = build_maneuver(name).spec
     speed: Any = spec.speed_profile
     limit: float | None = spec.time_limit_s
@@ -267,8 +289,12 @@ def standard_scenario(name: str) -> Scenario:
         speed, limit = EntryThenRelease(entry_speed_kmh=ISO3888_2_ENTRY_KMH, after_entry="coast"), None
     elif name == "iso3888_1":
         speed, limit = EntryThenRelease(entry_speed_kmh=ISO3888_1_ENTRY_KMH, after_entry="hold_throttle"), None
-    return Scenario(name=MANEUVER_IDS[name], track=TrackSource(track=name), reference=PlannedLine(), speed=speed,
-                    start=Start(at_speed=True), success=maneuver_criterion(spec), time_limit_s=limit)
+    if version == 1:
+        return Scenario(name=PLANNED_V1_IDS.get(name, MANEUVER_IDS[name]), track=TrackSource(track=name),
+                        reference=PlannedLine(), speed=speed, start=Start(at_speed=True),
+                        success=maneuver_criterion(spec), time_limit_s=limit)
+    return Scenario(name=MANEUVER_IDS[name], track=TrackSource(track=name), reference=EXACT_REFERENCE_LINES["planned"],
+                    speed=speed, start=Start(at_speed=True), success=ConeGates(exact=True), time_limit_s=limit)
 
 
 STANDARD_MANEUVERS: tuple[str, ...] = ("iso3888_1", "iso3888_2", "slalom")
@@ -278,8 +304,10 @@ MANEUVER_SCENARIOS: tuple[Scenario, ...] = tuple(
     standard_scenario(n) if n in STANDARD_MANEUVERS else maneuver_scenario(n) for n in MANEUVER_TRACK_NAMES)
 """The standard manoeuvres' current versions (``vtrack/ISO3888-1-v1``, ...), in ``MANEUVER_TRACK_NAMES`` order."""
 LEGACY_MANEUVER_SCENARIOS: tuple[Scenario, ...] = tuple(
-    maneuver_scenario(n, v0) for n, v0 in LEGACY_MANEUVER_IDS.items())
-"""``vtrack/ISO3888-1-v0`` and ``vtrack/Slalom-v0``, registered unchanged."""
+    maneuver_scenario(n, v0) for n, v0 in LEGACY_MANEUVER_IDS.items()) + tuple(
+    standard_scenario(n, 1) for n in PLANNED_V1_IDS)
+"""``vtrack/ISO3888-1-v0``, ``vtrack/Slalom-v0``, ``vtrack/ISO3888-1-v1`` and ``vtrack/ISO3888-2-v1``, registered
+unchanged."""
 
 SCENARIOS: dict[str, Scenario] = {s.name: s for s in (LATERAL_TRACKING, DLC120, RANDOM_TRACKS, TRAINING_MIX,
                                                       TRAINING_MIX_NOMINAL, TRACK, *LEGACY_MANEUVER_SCENARIOS,
@@ -396,7 +424,8 @@ def with_protocol(scenario: Scenario, vehicle: Any, entry_speed_kmh: float | Non
         if not (scenario.track.is_builtin and scenario.track.track in GATED_MANEUVERS):
             raise ValueError(f"reference= applies to the cone-lined manoeuvres ({', '.join(GATED_MANEUVERS)}); "
                              f"{scenario.env_id} drives {scenario.track.track!r}")
-        changes["reference"] = REFERENCE_LINES[reference]
+        exact = isinstance(scenario.reference, PlannedLine) and scenario.reference.planner_version == 2
+        changes["reference"] = (EXACT_REFERENCE_LINES if exact else REFERENCE_LINES)[reference]
     return replace(scenario, **changes) if changes else scenario
 
 

@@ -120,9 +120,10 @@ class TrackSource:
             paths = tuple(replace(p, half_width_m=self.half_width_m, widths_m=None) for p in paths)
         return paths
 
-    def planned_paths(self, vehicle: Any, margin_m: float) -> tuple:
+    def planned_paths(self, vehicle: Any, margin_m: float, planner_version: int = 1) -> tuple:
         """The planned line of this source's cone-lined manoeuvre for the driven car ``vehicle`` (``VehicleParams``),
-        ``margin_m`` [m] clear of every cone line (``tracks.feasibility.planned_maneuver``), with the constant half
+        ``margin_m`` [m] clear of every cone line (``tracks.feasibility.planned_maneuver``, by its
+        ``planner_version``), with the constant half
         width if one is set. ValueError for any other track, or a car too wide for the manoeuvre's lanes (naming
         the field, the limit and the car)."""
         from vtrack_gym.tracks.feasibility import GATED_MANEUVERS, planned_maneuver
@@ -131,7 +132,8 @@ class TrackSource:
             name = self.track if isinstance(self.track, str) else type(self.track).__name__
             raise ValueError(f"a planned reference line needs a cone-lined manoeuvre track "
                              f"({', '.join(GATED_MANEUVERS)}); got track {name!r}")
-        path = planned_maneuver(self.track, vehicle, margin_m).path
+        path = (planned_maneuver(self.track, vehicle, margin_m) if planner_version == 1 else
+                planned_maneuver(self.track, vehicle, margin_m, planner_version)).path
         if self.half_width_m is not None:
             path = replace(path, half_width_m=self.half_width_m, widths_m=None)
         return (path,)

@@ -31,8 +31,11 @@ ENTRY_SPEED_MANEUVERS: dict[str, tuple[str, str]] = {"ISO3888-1": ("iso3888_1", 
                                                      "ISO3888-2": ("iso3888_2", "coast")}
 """Manoeuvres with an entry-speed protocol: env name (without namespace and version) -> (manoeuvre name, what the
 car does from the entry gate on: ``feasibility.AFTER_ENTRY_PROTOCOLS``)."""
-ENTRY_SPEED_ENV_IDS: tuple[str, ...] = ("vtrack/ISO3888-1-v1", "vtrack/ISO3888-2-v1")
+ENTRY_SPEED_ENV_IDS: tuple[str, ...] = ("vtrack/ISO3888-1-v1", "vtrack/ISO3888-2-v1", "vtrack/ISO3888-1-v2",
+                                         "vtrack/ISO3888-2-v2")
 """The registered ids that take ``entry_speed_kmh=`` (the ids ``max_entry_speed_kmh`` searches on)."""
+EXACT_LINE_ENV_IDS: frozenset[str] = frozenset({"vtrack/ISO3888-1-v2", "vtrack/ISO3888-2-v2"})
+"""The ids whose line and bound come from ``tracks.exact_line`` (``planner_version`` 2: exact curvature)."""
 MAX_SPEED_KMH = 200.0          # highest entry speed an ISO 3888 env accepts [km/h]
 LO_FRACTION = 0.5              # default lowest probe: this fraction of the bound
 HI_FRACTION = 1.15             # default highest probe: this fraction of the bound (at most MAX_SPEED_KMH)
@@ -191,7 +194,9 @@ def entry_speed_bound(env_id: str, vehicle: Any = None) -> float:
     from vtrack_gym.vehicle.catalog import resolve_vehicle
 
     maneuver, after_entry = maneuver_of(env_id)
-    return float(entry_speed_bound_kmh(resolve_vehicle(vehicle), maneuver, after_entry))
+    full = env_id if "/" in env_id else f"vtrack/{env_id}"
+    version = 2 if full in EXACT_LINE_ENV_IDS else 1
+    return float(entry_speed_bound_kmh(resolve_vehicle(vehicle), maneuver, after_entry, planner_version=version))
 
 
 def _factory(policy: Any) -> tuple[Callable[[Any], Any], str | None]:

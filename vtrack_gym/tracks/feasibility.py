@@ -17,6 +17,7 @@ tyres' load sensitivity under load transfer and the drive force), never with mu 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -68,20 +69,31 @@ def check_body_fits(path: Path, vehicle: VehicleParams) -> None:
                              f"{gate.width_m:.3f} m")
 
 
+EXACT_GATED_MANEUVERS: tuple[str, ...] = ("iso3888_1", "iso3888_2")
+"""The manoeuvres whose planned line has a second version (``tracks.exact_line``, ``planner_version=2``)."""
+
+
 @lru_cache(maxsize=64)
-def planned_maneuver(name: str, vehicle: VehicleParams, margin_m: float = PLANNED_MARGIN_M) -> Maneuver:
+def planned_maneuver(name: str, vehicle: VehicleParams, margin_m: float = PLANNED_MARGIN_M,
+                     planner_version: int = 1) -> Maneuver:
     """Manoeuvre ``name`` (one of ``GATED_MANEUVERS``) sized for ``vehicle``'s width, with the planned line for its
     body, ``margin_m`` [m] clear of every cone line (default: the least-curvature line, 1 cm clear); |dkappa/ds| is
     bounded by what its steering actuator follows at the manoeuvre's nominal speed
-    (``planned_line.curvature_rate_limit_per_m2``). Cached per (name, car, margin)."""
+    (``planned_line.curvature_rate_limit_per_m2``). ``planner_version`` 2 (``EXACT_GATED_MANEUVERS``): the line of
+    ``tracks.exact_line`` (unique, the body judged exactly; ``Maneuver.line`` gives its exact curvature). Cached
+    per (name, car, margin, version)."""
+    if planner_version == 2 and name not in EXACT_GATED_MANEUVERS:
+        raise ValueError(f"planner_version 2 applies to {', '.join(EXACT_GATED_MANEUVERS)} (got {name!r})")
     if name not in GATED_MANEUVERS:
         raise ValueError(f"no planned line for {name!r}: it has no cone gates (gated: {', '.join(GATED_MANEUVERS)})")
     check_width_for(name, vehicle)
     nominal = build_maneuver(name, vehicle_width_m=vehicle.chassis.body_width_m).spec.nominal_speed_mps
     rate = curvature_rate_limit_per_m2(vehicle.steering.max_road_wheel_rate_radps, vehicle.chassis.wheelbase_m,
                                        nominal)
+    version = {} if planner_version == 1 else {"planner_version": planner_version}
     maneuver = build_maneuver(name, vehicle_width_m=vehicle.chassis.body_width_m, reference="planned",
-                              body=body_of(vehicle), max_curvature_rate_per_m2=rate, planned_margin_m=margin_m)
+                              body=body_of(vehicle), max_curvature_rate_per_m2=rate, planned_margin_m=margin_m,
+                              **version)
     check_body_fits(maneuver.path, vehicle)
     return maneuver
 
@@ -148,11 +160,12 @@ def released_speed_mps(vehicle: VehicleParams, entry_speed_mps: float, distance_
     return np.full(np.shape(distance_m), float(entry_speed_mps))
 
 
-def coast_check(path: Path, vehicle: VehicleParams, entry_speed_mps: float,
-                after_entry: str = "coast") -> CoastCheck:
+def coast_check(path: Path, vehicle: VehicleParams, entry_speed_mps: float, after_entry: str = "coast",
+                kappa_at: Callable[[np.ndarray], np.ndarray] | None = None) -> CoastCheck:
     """Drive ``path`` from its first gate's start to its last gate's end from ``entry_speed_mps`` [m/s] under
     ``after_entry`` (:func:`released_speed_mps`) and compare v^2 |kappa| with the car's lateral limit at v
-    (``steady_state.lateral_limit_mps2``)."""
+    (``steady_state.lateral_limit_mps2``). ``kappa_at``: the line's exact curvature [1/m] at arc lengths [m]
+    (``exact_line.ExactLine.kappa_at``; None: the path's interpolation, ``Path.sample``)."""
     from vtrack_gym.vehicle.steady_state import lateral_limit_mps2
 
     if not path.gates:
@@ -160,7 +173,8 @@ def coast_check(path: Path, vehicle: VehicleParams, entry_speed_mps: float,
     s0, s1 = path.gates[0].s_start_m, max(g.s_end_m for g in path.gates)
     s = np.linspace(s0, s1, max(2, math.ceil((s1 - s0) / COAST_STEP_M) + 1))
     v = released_speed_mps(vehicle, entry_speed_mps, s - s0, after_entry)
-    usage = v * v * np.abs(path.sample(s).kappa) / np.asarray(lateral_limit_mps2(vehicle, v))
+    kappa = path.sample(s).kappa if kappa_at is None else kappa_at(s)
+    usage = v * v * np.abs(kappa) / np.asarray(lateral_limit_mps2(vehicle, v))
     k = int(np.argmax(usage))
     return CoastCheck(float(entry_speed_mps), float(usage[k]), float(s[k]), float(v[k]))
 
@@ -173,29 +187,37 @@ def check_entry_speed(entry_speed_kmh: float, vehicle: VehicleParams) -> None:
 
 
 def entry_speed_bound_kmh(vehicle: VehicleParams, maneuver: str = "iso3888_2", after_entry: str = "coast",
-                          margin_m: float = PLANNED_MARGIN_M) -> float:
+                          margin_m: float | None = None, planner_version: int = 1) -> float:
     """The car's physical entry-speed bound [km/h] on a cone-lined manoeuvre: the highest entry speed at which,
     from the entry gate on along the planned line for its body (:func:`planned_maneuver`), coasting
     (``after_entry="coast"``, ISO 3888-2) or holding its throttle (``"hold_throttle"``, ISO 3888-1; see
     :func:`released_speed_mps` for the approximation), it never needs more than its own steady-state lateral limit
     (bisection to ``BOUND_TOL_KMH``, within (0, 200] km/h). A policy passing above it has cut through the
     physics, not driven better. ``margin_m`` [m]: the line's clearance from the cone lines (default: the
-    least-curvature line, the physical bound; a line with a tracking margin, as the envs drive, has a lower one)."""
-    path = planned_maneuver(maneuver, vehicle, margin_m).path
+    least-curvature line, the physical bound: 1 cm for ``planner_version`` 1, 0 for 2, whose line's curvature is
+    the spline's own, exact; a line with a tracking margin, as the envs drive, has a lower one)."""
+    if margin_m is None:
+        margin_m = PLANNED_MARGIN_M if planner_version == 1 else 0.0
+    m = planned_maneuver(maneuver, vehicle, margin_m, planner_version)
+    path, exact = m.path, (None if m.line is None else m.line.kappa_at)
+
+    def usage(kmh: float) -> float:
+        return coast_check(path, vehicle, kmh * KMH_TO_MPS, after_entry, exact).usage
+
     lo, hi = 1.0, MAX_ENTRY_SPEED_KMH
-    if coast_check(path, vehicle, lo * KMH_TO_MPS, after_entry).usage > 1.0:
+    if usage(lo) > 1.0:
         raise ValueError(f"{vehicle.name!r} cannot follow the planned {maneuver} line even at {lo:g} km/h")
-    if coast_check(path, vehicle, hi * KMH_TO_MPS, after_entry).usage <= 1.0:
+    if usage(hi) <= 1.0:
         return hi
     while hi - lo > BOUND_TOL_KMH:
         mid = 0.5 * (lo + hi)
-        if coast_check(path, vehicle, mid * KMH_TO_MPS, after_entry).usage <= 1.0:
+        if usage(mid) <= 1.0:
             lo = mid
         else:
             hi = mid
     return lo
 
 
-__all__ = ["AFTER_ENTRY_PROTOCOLS", "GATED_MANEUVERS", "CoastCheck", "body_of", "check_body_fits", "check_entry_speed",
-           "check_width_for", "coast_check", "coast_speed_mps", "entry_speed_bound_kmh", "envelope_profile",
-           "planned_maneuver", "released_speed_mps"]
+__all__ = ["AFTER_ENTRY_PROTOCOLS", "EXACT_GATED_MANEUVERS", "GATED_MANEUVERS", "CoastCheck", "body_of",
+           "check_body_fits", "check_entry_speed", "check_width_for", "coast_check", "coast_speed_mps",
+           "entry_speed_bound_kmh", "envelope_profile", "planned_maneuver", "released_speed_mps"]

@@ -17,35 +17,27 @@ name                   test                                       speed      key
 ``step_curvature``     straight into a constant radius            54 km/h    60 m straight, R = 50 m, 180 deg
 =====================  =========================================  =========  ====================================
 
-Success criteria (``ManeuverSpec.success_criterion`` is one of ``SUCCESS_CRITERIA``):
-
-- ``gates``: the car reaches the end of the path and ``gate_violations`` (the body outline against every
-  gate) is 0 -- the ISO 3888 pass/fail (a run with a displaced cone is invalid).
-- ``circle``: |e_y| <= ``ManeuverSpec.lateral_tolerance_m`` on the circle while the reference speed is
-  below the analytic grip-limit speed ``ManeuverSpec.grip_limit_speed_mps`` (sqrt(mu g R)), i.e. until the ramp
-  ends or the grip limit is reached; report the peak lateral acceleration reached.
-- ``end``: the car reaches the end of the path without leaving the road; report the e_y overshoot after the
-  curvature step.
+Success criteria (``ManeuverSpec.success_criterion``, one of ``SUCCESS_CRITERIA``): ``gates`` (the end reached, no
+gate left by the body: the ISO 3888 pass/fail), ``circle`` (|e_y| within ``lateral_tolerance_m`` until the reference
+speed reaches the grip-limit speed sqrt(mu g R); the peak lateral acceleration reported), ``end`` (the end reached
+on the road; the e_y overshoot after the curvature step reported).
 
 Reference lines (``reference``, see ``REFERENCES``). ``"lane_centres"`` (the default; ``tracks.lanes``): straight
-at the lane centres, C^2 curvature pulses between lanes. A line that is straight inside the whole of every gate is
-too stiff for the two ISO 3888 tests at 80 km/h: its peak v^2 kappa is 1.41 g (ISO 3888-1) and 5.4 g (ISO 3888-2)
-for w = 1.916 m, and any line straight in the gates needs at least 4 v^2 dy / dx^2 (1.07 g and 4.3 g). A driver
-passes by turning inside the lanes, so here the transitions reach ``overlap_m`` into the lanes on both sides (7 m
-for ISO 3888-1, 5 m for ISO 3888-2) and the gates are anchored rectangles at the cones' fixed positions
-(``Gate.anchor``): peak v^2 kappa 0.59 g at 80 km/h for ISO 3888-1 and 1.75 g for ISO 3888-2. ``"planned"``
-(``tracks.planned_line``): the line of least peak curvature along which the car's body (``body``, a
-``BodyRectangle``) passes every gate, with a bounded curvature rate (``max_curvature_rate_per_m2``):
-0.25 g for ISO 3888-1 and 1.13 g for ISO 3888-2 at 80 km/h for the paper car (``tracks.feasibility``
-builds it per car, the rate bounded by the car's steering). ``Maneuver.peak_lateral_accel_mps2`` gives the figure
-for any parameters. The body of a car of the gates' width, driven exactly on either line, hits no gate (tested).
+at the lane centres, C^2 curvature pulses between lanes, reaching ``overlap_m`` into the lanes (7 m for ISO 3888-1,
+5 m for ISO 3888-2; a line straight in the whole of every gate needs at least 4 v^2 dy / dx^2: 1.07 g and 4.3 g at
+80 km/h), gates anchored at the cones' fixed positions (``Gate.anchor``): peak v^2 kappa 0.59 g (ISO 3888-1) and
+1.75 g (ISO 3888-2) at 80 km/h. ``"planned"``: the line of least peak curvature along which the car's body
+(``body``, a ``BodyRectangle``) passes every gate with a bounded curvature rate (``max_curvature_rate_per_m2``),
+by ``planner_version`` 1 (``tracks.planned_line``: linear programmes, the body sampled) or 2
+(``tracks.exact_line``: one optimum, the body judged exactly, exact curvature); ``tracks.feasibility`` builds it
+per car, the rate bounded by the car's steering. The body of a car of the gates' width, driven exactly on either
+line, hits no gate (tested).
 
 Feasibility is judged against the car's own steady-state lateral limit (``vehicle.steady_state``: about 0.80 g
-for the paper car at 80 km/h), not mu g (0.9 g here): the plant's tyres peak below mu F_z (Pacejka D < 1) and lose
-grip under load transfer. ISO 3888-1 (either line) and the slalom ask well under the limit; ISO 3888-2 held at a
-constant 80 km/h asks 1.13 g on the best line, so no car of this width passes it at that speed; the standard's
-protocol (enter at the test speed, release the throttle at the entry gate) gives this car a physical entry-speed
-bound of about 67 km/h (``feasibility.entry_speed_bound_kmh``).
+for the paper car at 80 km/h), not mu g: the plant's tyres peak below mu F_z and lose grip under load transfer.
+ISO 3888-2 held at a constant 80 km/h asks 1.13 g on the best line, so no car of this width passes it at that
+speed; the standard's protocol (enter at the test speed, release the throttle at the entry gate) has a physical
+entry-speed bound (``feasibility.entry_speed_bound_kmh``).
 """
 
 from __future__ import annotations
@@ -74,17 +66,13 @@ PAPER_CAR_WIDTH_M = 1.916                # the paper's car (IDSC body width), re
 PAPER_CAR_LENGTH_M = 4.75                # ... its body length and CG to front end (IDSC)
 PAPER_CAR_CG_TO_FRONT_M = 1.915
 
-REFERENCES: dict[str, str] = {
-    "lane_centres": "straight at the lane centres, C^2 curvature pulses between lanes (tracks.lanes)",
-    "planned": "the line of least peak curvature along which the car's body passes every gate "
-               "(tracks.planned_line), for the body given as the parameters' ``body``",
-}
+REFERENCES: dict[str, str] = {"lane_centres": "straight at the lane centres, C^2 curvature pulses between lanes",
+                              "planned": "the line of least peak curvature along which the car's body passes "
+                                         "every gate, for the body given as the parameters' ``body``"}
 """Reference lines a cone-lined manoeuvre can be built with (its parameters' ``reference``)."""
 LANE_OFFSET_READINGS: dict[str, str] = {
     "lane_centre": "lane 3's centre line lane_offset_m left of lane 1's (the paper's '3.5 m between the lanes')",
-    "cone_line": "lane 3's right cone line lane_offset_m left of lane 1's centre line (Project Chrono's "
-                 "ISO3888_Helper)",
-}
+    "cone_line": "lane 3's right cone line lane_offset_m left of lane 1's centre line (Chrono's ISO3888_Helper)"}
 """Readings of ISO 3888-1's lateral offset of lane 3 (``DoubleLaneChangeParams.lane_offset_from``)."""
 DEFAULT_LANE_OFFSET_FROM: dict[str, str] = {"planned": "cone_line", "lane_centres": "lane_centre"}
 """ISO 3888-1's lane-offset reading when none is given, per reference line: the cone-based planned line (the
@@ -158,6 +146,7 @@ class Maneuver:
 
     path: Path
     spec: ManeuverSpec
+    line: Any = None          # a version-2 planned line's ``exact_line.ExactLine`` (exact curvature), else None
 
     @property
     def peak_lateral_accel_mps2(self) -> float:
@@ -169,13 +158,14 @@ def _time_limit_s(length_m: float, speed_mps: float) -> float:
     return float(math.ceil(TIME_FACTOR * length_m / speed_mps + TIME_MARGIN_S))
 
 
-def _at_constant_speed(path: Path, name: str, standard: str, speed_mps: float, criterion: str,
+def _at_constant_speed(path: Path | tuple[Path, Any], name: str, standard: str, speed_mps: float, criterion: str,
                        vehicle_width_m: float, source: str) -> Maneuver:
-    """A manoeuvre driven at one speed [m/s] (time limit from the path length)."""
+    """A manoeuvre driven at one speed [m/s] (time limit from the path length); ``path`` may be (path, line)."""
+    path, line = path if isinstance(path, tuple) else (path, None)
     return Maneuver(path, ManeuverSpec(
         name=name, standard=standard, nominal_speed_mps=speed_mps, speed_profile=ConstantSpeed(speed_mps),
         time_limit_s=_time_limit_s(path.length_m, speed_mps), success_criterion=criterion,
-        vehicle_width_m=vehicle_width_m, source=source))
+        vehicle_width_m=vehicle_width_m, source=source), line)
 
 
 def _check_reference(params: Any) -> None:
@@ -200,10 +190,18 @@ def _body(params: Any) -> BodyRectangle:
 
 
 def _planned_path(params: Any, lanes: tuple[LaneSection, ...], gaps_m: tuple[float, ...], *, approach_m: float,
-                  run_out_m: float, half_width_m: float, ds_m: float, name: str) -> Path:
+                  run_out_m: float, half_width_m: float, ds_m: float, name: str) -> Path | tuple[Path, Any]:
+    """The planned line's path (``planner_version`` 1: ``plan_line``), or (path, ``ExactLine``) (version 2)."""
     body = _body(params)
     if params.planned_margin_m != PLANNED_MARGIN_M:
         name = f"{name}_m{params.planned_margin_m:g}"
+    if getattr(params, "planner_version", 1) == 2:
+        from vtrack_gym.tracks.exact_line import plan_exact_line
+
+        exact = plan_exact_line(lanes, gaps_m, body, approach_m=approach_m, run_out_m=run_out_m, ds_m=ds_m,
+                                max_curvature_rate_per_m2=params.max_curvature_rate_per_m2, version="2",
+                                margin_m=params.planned_margin_m, half_width_m=half_width_m, name=f"{name}_exact")
+        return exact.path, exact
     line = plan_line(lanes, gaps_m, body, approach_m=approach_m, run_out_m=run_out_m,
                      max_curvature_rate_per_m2=params.max_curvature_rate_per_m2, margin_m=params.planned_margin_m,
                      half_width_m=half_width_m, ds_m=ds_m, name=f"{name}_planned_l{body.length_m:g}", version=VERSION)
@@ -227,7 +225,8 @@ class DoubleLaneChangeParams:
     reference: str = "lane_centres"                                 # a key of REFERENCES
     body: BodyRectangle | None = None                               # the car a planned line is for
     max_curvature_rate_per_m2: float | None = ranged(None, gt=0.0, le=10.0, unit="1/m^2")   # planned line only
-    planned_margin_m: float = ranged(PLANNED_MARGIN_M, gt=0.0, le=0.5, unit="m")            # planned line only
+    planned_margin_m: float = ranged(PLANNED_MARGIN_M, ge=0.0, le=0.5, unit="m")            # planned line only
+    planner_version: int = ranged(1, ge=1, le=2, integer=True)      # 1: planned_line, 2: exact_line (unique, exact)
 
     def __post_init__(self) -> None:
         validate(self)
@@ -316,7 +315,8 @@ class ObstacleAvoidanceParams:
     reference: str = "lane_centres"                                 # a key of REFERENCES
     body: BodyRectangle | None = None                               # the car a planned line is for
     max_curvature_rate_per_m2: float | None = ranged(None, gt=0.0, le=10.0, unit="1/m^2")   # planned line only
-    planned_margin_m: float = ranged(PLANNED_MARGIN_M, gt=0.0, le=0.5, unit="m")            # planned line only
+    planned_margin_m: float = ranged(PLANNED_MARGIN_M, ge=0.0, le=0.5, unit="m")            # planned line only
+    planner_version: int = ranged(1, ge=1, le=2, integer=True)      # 1: planned_line, 2: exact_line (unique, exact)
 
     def __post_init__(self) -> None:
         validate(self)

@@ -32,7 +32,7 @@ COMPILED = {
     "a compiled function it calls, in another module": ("tracks/kernels.py", "    if s < 0.0:\n        return 0.0\n",
                                                         "    if s < 0.0:\n        return 1.0\n"),
     "a constant compiled code reads": ("vehicle/layout.py", "O_AX, O_AY, O_AZ", "O_AX, O_AY, O_AZ  "),
-    "the PD-FLC kernel": ("envs/pdflc_kernel.py", "@kernel\n", "@kernel  # edited\n"),
+    "the PD-FLC kernel": ("envs/pdflc_kernel.py", "@kernel(inline=True)\n", "@kernel(inline=True)  # edited\n"),
 }
 
 

@@ -51,7 +51,6 @@ def launch_accel_mps2(vehicle: Any, set_speed_mps: float) -> float:
 
 def with_launch(scenario: Any, vehicle: Any, launch: str, control: str) -> Any:
     """``scenario`` with its reference leaving a standing start as ``launch`` says (module docstring)."""
-    from vtrack_gym.envs.speed import HoldSpeed
     from vtrack_gym.tracks.path import MIN_V_REF_MPS
     from vtrack_gym.tracks.speed_profiles import SpeedRamp
 
@@ -60,10 +59,10 @@ def with_launch(scenario: Any, vehicle: Any, launch: str, control: str) -> Any:
     if control == "steer":
         raise ValueError("launch='powertrain' applies to the longitudinal control modes (control='steer_accel' or "
                          "'steer_rate_accel'); in 'steer' the paper's PD-FLC holds the set speed from the start")
-    speed = scenario.speed
-    if not isinstance(speed, HoldSpeed) or speed.random_range_mps is not None or scenario.start.at_speed:
+    held = getattr(scenario.speed, "held_set_speed_mps", None)   # only a part that holds one set speed has it
+    v_set = held() if callable(held) else None
+    if v_set is None or scenario.start.at_speed:
         raise ValueError(f"launch='powertrain' applies to a scenario that holds one set speed from rest "
                          f"(LateralTracking-v0); {scenario.env_id} does not")
-    v_set = float(speed.target_speed_mps)
     ramp = SpeedRamp(v_start_mps=MIN_V_REF_MPS, v_end_mps=v_set, accel_mps2=launch_accel_mps2(vehicle, v_set))
     return replace(scenario, speed=ramp)

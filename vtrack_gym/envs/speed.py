@@ -40,6 +40,11 @@ class HoldSpeed:
             raise ValueError(f"HoldSpeed.random_range_mps must be None or (low, high) with 0 < low <= high <= 45 "
                              f"m/s (got {r!r})")
 
+    def held_set_speed_mps(self) -> float | None:
+        """The one set speed [m/s] held through the episode, or None when it is drawn per episode (an optional
+        capability of a speed part: ``envs.launch`` ramps up to it from rest)."""
+        return None if self.random_range_mps is not None else float(self.target_speed_mps)
+
     def set_speed_mps(self, peak_curvature_per_m: float, rng: np.random.Generator) -> float:
         """The episode's set speed [m/s] on a track of this peak |curvature| [1/m]."""
         if self.random_range_mps is None:

@@ -61,6 +61,15 @@ SLOW: dict[str, str] = {
     "test_tuning.py::test_evaluator_itae_equals_evaluation_metric": "whole episodes both ways, 6.5 s",
     "test_tuning.py::test_population_rollout_runs[space0]": "the MPC population on the paper budget, 8 s",
     "test_tuning_protocol.py::test_ga_tunes_a_controller_declared_through_the_protocol": "a GA run, 10 s",
+    "test_numerics_pins.py": "the fast numerics' pins: two recorded episodes per id, the fast kernels compiled",
+    "test_nmpc_coupled.py::test_closed_loop_lane_change_tracks_path_and_speed": "coupled NMPC episodes, 20 s+",
+    "test_nmpc_coupled.py::test_the_cli_evaluates_it": "a coupled NMPC episode in a CLI run",
+    "test_nmpc_coupled.py::test_the_coupled_race_form_laps_the_ring_within_the_wheels_rule": "a two-lap race",
+    "test_docs.py::test_page_examples_run[baselines/nmpc_coupled.md]": "the page's coupled NMPC episodes",
+    "test_tuning_ray.py": "Ray start-up in every test",
+    "test_others_trust.py::test_a_crashed_ray_worker_costs_only_its_episode": "Ray start-up and a killed worker",
+    "test_others_trust.py::test_ray_with_a_track_edited_during_the_run_is_a_clear_error": "Ray start-up",
+    "test_cli_quiet.py::test_sigint_during_a_run_exits_130_without_traceback": "a real CLI process, kernels loaded",
 }
 """Test (``file::function``, ``file::function[param]`` or a whole ``file``) -> why it is slow."""
 

@@ -31,7 +31,7 @@ HERE = Path(__file__).resolve().parent
 
 def policy_cpu_s(name: str) -> float:
     """CPU seconds of scoring ``name`` on the paper suite (this process, every thread)."""
-    from vtrack_gym.evaluation.benchmark import run_benchmark
+    from vtrack_gym.evaluation.benchmarking.benchmark import run_benchmark
 
     start = time.process_time()
     run_benchmark("paper", policies=[name], show_progress=False, workers=1)
@@ -40,7 +40,7 @@ def policy_cpu_s(name: str) -> float:
 
 def measure(names: list[str]) -> dict[str, float]:
     """CPU seconds per policy, after a warm-up run of ``stanley``."""
-    from vtrack_gym.evaluation.benchmark import run_benchmark
+    from vtrack_gym.evaluation.benchmarking.benchmark import run_benchmark
 
     logging.disable(logging.WARNING)
     run_benchmark("paper", policies=["stanley"], show_progress=False, workers=1)   # warm-up: kernels, imports

@@ -13,7 +13,7 @@ import gymnasium as gym
 
 import vtrack_gym  # noqa: F401
 from vtrack_gym.baselines.registry import available_policies, make_policy
-from vtrack_gym.evaluation.rollout import rollout
+from vtrack_gym.evaluation.rollouts.rollout import rollout
 
 
 def main() -> None:

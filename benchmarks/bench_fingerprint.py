@@ -1,5 +1,5 @@
-"""CPU time and peak memory of the policy fingerprint (``evaluation.fingerprint.state_digest``) against the depth
-of a state's nesting.
+"""CPU time and peak memory of the policy fingerprint (``evaluation.identity.fingerprint.state_digest``) against the
+depth of a state's nesting.
 
 For each depth it builds a list nested that many levels deep (``[[[...]]]``, the shape of
 ``tests/test_fingerprint_complete.py``) and a chain of plain objects as deep, then reports the CPU time of one
@@ -18,8 +18,8 @@ import time
 import tracemalloc
 from typing import Any
 
-from vtrack_gym.evaluation import fingerprint
-from vtrack_gym.evaluation.fingerprint import IncompleteFingerprint, state_digest
+from vtrack_gym.evaluation.identity import fingerprint
+from vtrack_gym.evaluation.identity.fingerprint import IncompleteFingerprint, state_digest
 
 
 class Node:

@@ -27,7 +27,7 @@ from gymnasium.wrappers import RecordVideo
 
 import vtrack_gym  # noqa: F401  (registers the ids)
 from vtrack_gym.baselines.registry import make_policy
-from vtrack_gym.evaluation.video import VideoConfig, record_video
+from vtrack_gym.evaluation.figures.video import VideoConfig, record_video
 
 SIZE = (640, 384)
 

@@ -18,8 +18,8 @@ import textwrap
 import time
 from pathlib import Path
 
-from vtrack_gym.evaluation.benchmark import LEADERBOARD_COLUMNS
-from vtrack_gym.evaluation.store import ResultRow, ResultStore
+from vtrack_gym.evaluation.benchmarking.benchmark import LEADERBOARD_COLUMNS
+from vtrack_gym.evaluation.storage.store import ResultRow, ResultStore
 
 METRICS = {**{f"max_{k}": 0.25 for k in ("e_y_m", "e_phi_deg", "a_y_mps2", "hand_wheel_deg", "roll_deg",
                                          "yaw_rate_degps", "beta_deg", "jerk_mps3")},

@@ -16,7 +16,7 @@ parallel runs also the parent's CPU time and each worker's episode CPU time (``v
 an idle-machine estimate of the parallel run's wall time follows: the parent's CPU time (its imports, warm-up and
 board, which run alone) plus the busiest worker's episode CPU time. Then the median ratios, the load average
 before and after, and whether every run's JSON board equals the first one's apart from the clock-measured columns
-(``evaluation.board.clock_measured_columns``).
+(``evaluation.leaderboard.board.clock_measured_columns``).
 
 To measure another checkout (e.g. before a change), run from a folder outside both checkouts with ``PYTHONPATH``
 naming it: ``python -m vtrack_gym.cli`` puts the working directory first on the module path.
@@ -48,7 +48,7 @@ CIRCUIT_SEED = 2024
 """Seed of the random circuits added to the four of ``own_tracks.py``."""
 USAGE = re.compile(r"episodes in worker processes: \d+ on \d+; warm-up CPU ([\d.]+) s; episode CPU per worker "
                    r"\[([\d., ]*)\] s")
-"""The usage line ``vtrack_gym.evaluation.parallel`` logs at debug level (``vtrack -v``)."""
+"""The usage line ``vtrack_gym.evaluation.rollouts.parallel`` logs at debug level (``vtrack -v``)."""
 
 
 @dataclass(frozen=True)
@@ -73,9 +73,9 @@ def clock_columns() -> frozenset[str]:
     """The board's clock-measured columns, as the package declares them (an older package, measured for a
     comparison, declares only ``metrics.CLOCK_MEASURED``: its board columns are derived the same way)."""
     try:
-        from vtrack_gym.evaluation.board import clock_measured_columns
+        from vtrack_gym.evaluation.leaderboard.board import clock_measured_columns
     except ImportError:
-        from vtrack_gym.evaluation.metrics import CLOCK_MEASURED
+        from vtrack_gym.evaluation.scoring.metrics import CLOCK_MEASURED
 
         bounds = ("", "_lo", "_hi")
         return frozenset({"wall_time_per_step_us", *(f"{m}{b}" for m in CLOCK_MEASURED for b in bounds)})

@@ -17,7 +17,7 @@ SETTLED_M = 0.15
 def main() -> None:
     from vtrack_gym.baselines.registry import available_policies, make_policy
     from vtrack_gym.baselines.shipped import shipped_agent_factories
-    from vtrack_gym.evaluation.rollout import rollout
+    from vtrack_gym.evaluation.rollouts.rollout import rollout
     from vtrack_gym.interop.highway import HighwayLaneKeeping
 
     agents = shipped_agent_factories()

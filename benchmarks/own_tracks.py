@@ -130,8 +130,8 @@ def drive(file: Path, policy_name: str, vehicle: str | None = None, max_speed_km
     import gymnasium as gym
 
     import vtrack_gym
-    from vtrack_gym.evaluation.metrics import evaluate_trace
-    from vtrack_gym.evaluation.rollout import rollout
+    from vtrack_gym.evaluation.rollouts.rollout import rollout
+    from vtrack_gym.evaluation.scoring.metrics import evaluate_trace
     from vtrack_gym.tracks.speed_limits import speed_profile_from_limits
 
     speed_profile = speed_profile_from_limits(profile, max_speed_kmh, max_lateral_g)

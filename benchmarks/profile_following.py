@@ -8,7 +8,7 @@ CAP`` drives (``speed_profile_from_limits("envelope", CAP)``: the friction ellip
 car's powertrain allows at the throttle its speed loop holds), the lateral baseline ``--policy`` steering and the
 paper's PD-FLC on the pedals. ``--authority none`` drives the profile of earlier versions (a fixed 2 m/s^2, the
 cap taken as given) for comparison. Reports per track and cap: termination, the profile's top speed and lap time,
-the car's lap time, RMS and max |v - v_ref| [m/s] (``evaluation.metrics``).
+the car's lap time, RMS and max |v - v_ref| [m/s] (``evaluation.scoring.metrics``).
 
 The real circuits are the TUM racetrack database's centre lines (not shipped; ``git clone
 https://github.com/TUMFTM/racetrack-database`` and pass ``racetrack-database/tracks/Monza.csv`` ...).
@@ -29,8 +29,8 @@ def drive(track: str, cap_kmh: float, policy: str, vehicle: str | None, authorit
     import numpy as np
 
     import vtrack_gym
-    from vtrack_gym.evaluation.metrics import evaluate_trace
-    from vtrack_gym.evaluation.rollout import rollout
+    from vtrack_gym.evaluation.rollouts.rollout import rollout
+    from vtrack_gym.evaluation.scoring.metrics import evaluate_trace
     from vtrack_gym.tracks.speed_limits import speed_profile_from_limits
     from vtrack_gym.tracks.time_law import time_law
 

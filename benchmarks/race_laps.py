@@ -42,7 +42,7 @@ def figure(env: gym.Env, infos: list[dict], title: str, file: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from vtrack_gym.evaluation.lap_figure import accelerations
+    from vtrack_gym.evaluation.figures.lap_figure import accelerations
 
     base = env.unwrapped
     length = base.lap_length_m

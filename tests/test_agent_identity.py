@@ -16,7 +16,7 @@ import vtrack_gym
 from vtrack_gym.baselines.numpy_policy import save_agent
 from vtrack_gym.baselines.shipped import SHIPPED_DIR
 from vtrack_gym.cli import main
-from vtrack_gym.evaluation.store import ResultStore
+from vtrack_gym.evaluation.storage.store import ResultStore
 
 
 def agent_files(folder: Path, shift: float = 0.0) -> Path:

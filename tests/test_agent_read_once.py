@@ -18,7 +18,7 @@ from test_agent_identity import agent_files
 import vtrack_gym
 import vtrack_gym._io as io_module
 from vtrack_gym.cli import main
-from vtrack_gym.evaluation.store import ResultStore
+from vtrack_gym.evaluation.storage.store import ResultStore
 
 
 def swap_after_first_read(monkeypatch: pytest.MonkeyPatch, agent: Path, swap: Callable[[], None]) -> list[str]:

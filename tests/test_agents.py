@@ -75,8 +75,8 @@ TORCH_FREE_SCRIPT = textwrap.dedent("""
     import sys, json
     import numpy as np
     from vtrack_gym.baselines.numpy_policy import load_agent
-    from vtrack_gym.evaluation.rollout import rollout
-    from vtrack_gym.evaluation.metrics import paper_metrics
+    from vtrack_gym.evaluation.rollouts.rollout import rollout
+    from vtrack_gym.evaluation.scoring.metrics import paper_metrics
     policy = load_agent(sys.argv[1])
     trace = rollout(policy, "DLC120-v0", seed=0, max_steps=300)
     m = paper_metrics(trace)

@@ -7,8 +7,8 @@ import pytest
 
 import vtrack_gym  # noqa: F401
 from vtrack_gym.baselines.registry import available_policies, make_policy
-from vtrack_gym.evaluation.metrics import evaluate_trace
-from vtrack_gym.evaluation.rollout import rollout
+from vtrack_gym.evaluation.rollouts.rollout import rollout
+from vtrack_gym.evaluation.scoring.metrics import evaluate_trace
 
 
 @pytest.mark.parametrize("name", available_policies())

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from vtrack_gym.cli import main
-from vtrack_gym.evaluation.store import ResultRow, ResultStore
+from vtrack_gym.evaluation.storage.store import ResultRow, ResultStore
 
 
 def make_row(policy: str = "mpc", seed: int = 0, e_y: float = 0.1, **kw) -> ResultRow:
@@ -110,7 +110,7 @@ def test_env_instance_configuration_never_merges_silently(tmp_path: Path) -> Non
 
 # --------------------------------------------------------------------------------------------- 3: seed sets
 def test_suite_labels_of_seed_sets() -> None:
-    from vtrack_gym.evaluation.suites import primary_metric, suite_label
+    from vtrack_gym.evaluation.suite.suites import primary_metric, suite_label
 
     assert suite_label("robust") == "robust" and suite_label("robust", seeds=[505, 101, 202, 303, 404]) == "robust"
     assert suite_label("robust", seeds=[7]) == "robust[seeds=7]"
@@ -177,7 +177,7 @@ PEP440_ORDER = ["0.0.9", "0.1.0.dev1", "0.1.0a1", "0.1.0a2.dev1", "0.1.0a2", "0.
 
 
 def test_version_sort_key_is_pep440() -> None:
-    from vtrack_gym.evaluation.store import version_sort_key
+    from vtrack_gym.evaluation.storage.store import version_sort_key
 
     keys = [version_sort_key(v) for v in PEP440_ORDER]
     assert keys == sorted(keys) and len(set(keys)) == len(keys)
@@ -253,7 +253,7 @@ def bad_stores(tmp_path: Path) -> dict[str, Path]:
 
 def test_evaluate_checks_the_store_before_the_first_rollout(tmp_path: Path) -> None:
     import vtrack_gym
-    from vtrack_gym.evaluation.store import StoreError
+    from vtrack_gym.evaluation.storage.store import StoreError
 
     for kind, path in bad_stores(tmp_path).items():
         before = None if path.is_dir() else digest(path)
@@ -284,7 +284,7 @@ def test_cli_checks_the_store_before_the_first_rollout(tmp_path: Path, capsys: p
 READ_ONLY_SCRIPT = """
 import os, sys
 import vtrack_gym
-from vtrack_gym.evaluation.store import StoreError
+from vtrack_gym.evaluation.storage.store import StoreError
 from vtrack_gym.cli import main
 
 class Never:

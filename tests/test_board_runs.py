@@ -16,13 +16,13 @@ import pytest
 
 import vtrack_gym
 from vtrack_gym.cli import main
-from vtrack_gym.evaluation.benchmark import policy_factories, score_episode
-from vtrack_gym.evaluation.figure_runs import figure_runs, run_folder, safe_folder
-from vtrack_gym.evaluation.metrics import CLOCK_MEASURED
-from vtrack_gym.evaluation.parallel import EpisodeTask, run_tasks
-from vtrack_gym.evaluation.store import ResultStore
-from vtrack_gym.evaluation.suites import Episode
-from vtrack_gym.evaluation.track_benchmark import benchmark_tracks, track_files
+from vtrack_gym.evaluation.benchmarking.benchmark import policy_factories, score_episode
+from vtrack_gym.evaluation.benchmarking.track_benchmark import benchmark_tracks, track_files
+from vtrack_gym.evaluation.figures.figure_runs import figure_runs, run_folder, safe_folder
+from vtrack_gym.evaluation.rollouts.parallel import EpisodeTask, run_tasks
+from vtrack_gym.evaluation.scoring.metrics import CLOCK_MEASURED
+from vtrack_gym.evaluation.storage.store import ResultStore
+from vtrack_gym.evaluation.suite.suites import Episode
 
 MEASURED = ("wall_time_s", "created_utc", "wall_time_per_step_us", "wall_time_per_step_us_lo",
             "wall_time_per_step_us_hi",

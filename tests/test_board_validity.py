@@ -16,10 +16,10 @@ import pytest
 import vtrack_gym
 from vtrack_gym.cli import main
 from vtrack_gym.cli._options import parse_seeds as _parse_seeds
-from vtrack_gym.evaluation.board import Estimate, build_board, estimate, failure_reason
-from vtrack_gym.evaluation.report_formats import to_csv, to_json, to_latex, to_markdown
-from vtrack_gym.evaluation.store import ResultRow, ResultStore, StoreError
-from vtrack_gym.evaluation.suites import primary_metric
+from vtrack_gym.evaluation.leaderboard.board import Estimate, build_board, estimate, failure_reason
+from vtrack_gym.evaluation.leaderboard.report_formats import to_csv, to_json, to_latex, to_markdown
+from vtrack_gym.evaluation.storage.store import ResultRow, ResultStore, StoreError
+from vtrack_gym.evaluation.suite.suites import primary_metric
 
 COLUMNS = ["max_e_y_m", "itae", "cones_hit"]
 
@@ -59,7 +59,7 @@ def test_failure_reasons_and_rows_without_a_verdict() -> None:
 
 
 def test_env_verdict_is_the_row_verdict() -> None:
-    from vtrack_gym.evaluation.trace import STEP_SIGNALS, Trace
+    from vtrack_gym.evaluation.scoring.trace import STEP_SIGNALS, Trace
 
     info = {name: 0.0 for name in STEP_SIGNALS} | {"fz_n": np.ones(4), "acc_substeps_mps2": np.zeros((2, 3))}
     kw = {"env_id": "DLC120-v0", "policy_id": "p", "seed": 0, "physics_rate_hz": 1000.0, "control_period_s": 0.01,
@@ -127,7 +127,7 @@ def test_env_success_verdict_is_used_when_given() -> None:
 @pytest.mark.slow
 def test_zero_steering_and_full_lock_rank_below_every_default_baseline() -> None:
     from vtrack_gym.baselines.resolve import policy_names
-    from vtrack_gym.evaluation.benchmark import LEADERBOARD_COLUMNS, summarise
+    from vtrack_gym.evaluation.benchmarking.benchmark import LEADERBOARD_COLUMNS, summarise
 
     baselines = [n for n in policy_names() if n in ("smc", "mpc", "lqr", "stanley", "pure_pursuit", "mpc_osqp")]
     assert {"smc", "mpc", "lqr", "stanley", "pure_pursuit"} <= set(baselines)
@@ -155,7 +155,7 @@ def test_bootstrap_interval_rules() -> None:
     assert isinstance(e, Estimate) and e == 4.5
     half = 1.96 * np.std(values) / math.sqrt(len(values))  # the normal approximation of the same interval
     assert e.lo == pytest.approx(4.5 - half, abs=0.3) and e.hi == pytest.approx(4.5 + half, abs=0.3)
-    from vtrack_gym.evaluation import board
+    from vtrack_gym.evaluation.leaderboard import board
 
     board._bootstrap_ci.cache_clear()
     again = estimate(values)
@@ -182,7 +182,7 @@ def test_ties_are_reported() -> None:
 
 
 def test_every_format_shows_the_intervals(tmp_path: Path) -> None:
-    from vtrack_gym.evaluation.html_report import to_html
+    from vtrack_gym.evaluation.leaderboard.html_report import to_html
 
     board = build_board([record("a", s, 0.1 * (s + 1)) for s in range(3)], COLUMNS)
     e = board[0]["max_e_y_m"]

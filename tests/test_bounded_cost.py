@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from vtrack_gym.cli import build_parser, main
-from vtrack_gym.evaluation.store import ResultStore
+from vtrack_gym.evaluation.storage.store import ResultStore
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -83,7 +83,7 @@ def _road(file: Path) -> Path:
 
 
 def test_tracks_glob_walks_a_symlink_loop_once(tmp_path: Path) -> None:
-    from vtrack_gym.evaluation.track_benchmark import track_files
+    from vtrack_gym.evaluation.benchmarking.track_benchmark import track_files
 
     root = tmp_path / "tracks"
     (root / "a" / "b").mkdir(parents=True)
@@ -133,7 +133,7 @@ def test_out_of_range_numbers_are_refused_before_any_work(argv: list[str],
 
 
 def test_entry_speed_tolerance_is_floored_and_the_bisection_ends() -> None:
-    from vtrack_gym.evaluation.entry_speed import MIN_TOL_KMH, bisect_entry_speed, check_search
+    from vtrack_gym.evaluation.rollouts.entry_speed import MIN_TOL_KMH, bisect_entry_speed, check_search
 
     with pytest.raises(ValueError, match=r"tol_kmh must be in \[0.01, "):
         check_search(10.0, 100.0, 1e-300, 0)

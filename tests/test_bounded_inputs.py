@@ -478,7 +478,7 @@ def test_agents_within_the_limits_always_predict_finite_actions(scale, obs_scale
 STORE_SPECIALS = """
 import os, sys
 from pathlib import Path
-from vtrack_gym.evaluation.store import ResultStore, StoreError
+from vtrack_gym.evaluation.storage.store import ResultStore, StoreError
 tmp = Path(sys.argv[1])
 os.mkfifo(tmp / "fifo.sqlite")
 for path in (tmp / "fifo.sqlite", Path("/dev/null"), Path("/dev/zero")):

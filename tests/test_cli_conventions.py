@@ -105,8 +105,8 @@ def test_nothing_but_the_result_on_stdout(tmp_path: Path, monkeypatch: pytest.Mo
     import json
 
     import vtrack_gym.evaluation.api as api
-    from vtrack_gym.evaluation.rows import ResultRow
-    from vtrack_gym.evaluation.store import ResultStore
+    from vtrack_gym.evaluation.scoring.rows import ResultRow
+    from vtrack_gym.evaluation.storage.store import ResultStore
 
     store = tmp_path / "s.sqlite"
     ResultStore(store).add([ResultRow(suite="paper", env_id="DLC120-v0", policy_id="lqr", policy_hash="h", seed=0,

@@ -17,11 +17,11 @@ from pathlib import Path
 import pytest
 
 from vtrack_gym.cli import main
-from vtrack_gym.evaluation.benchmark import score_policy
-from vtrack_gym.evaluation.board_view import board_view
-from vtrack_gym.evaluation.plots import figure_subtitle, run_label, title_preset
-from vtrack_gym.evaluation.store import ResultRow, ResultStore
-from vtrack_gym.evaluation.suites import Episode
+from vtrack_gym.evaluation.benchmarking.benchmark import score_policy
+from vtrack_gym.evaluation.figures.plots import figure_subtitle, run_label, title_preset
+from vtrack_gym.evaluation.leaderboard.board_view import board_view
+from vtrack_gym.evaluation.storage.store import ResultRow, ResultStore
+from vtrack_gym.evaluation.suite.suites import Episode
 
 ROOT = Path(__file__).resolve().parents[1]
 KEY = ["env_id", "policy_id", "rank", "success_rate", "max_e_y_m", "rms_e_y_m", "failure_reasons"]

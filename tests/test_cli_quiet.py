@@ -18,7 +18,7 @@ import pytest
 
 from vtrack_gym.cli import main
 from vtrack_gym.cli._terminal import terminal_safe
-from vtrack_gym.evaluation.store import ResultRow, ResultStore
+from vtrack_gym.evaluation.storage.store import ResultRow, ResultStore
 
 ROOT = Path(__file__).resolve().parents[1]
 HOSTILE = "evil\x1b[2J\x1b]0;owned\x07\u202eright\u200bzw\x9bend"
@@ -98,7 +98,7 @@ def test_sigint_during_a_run_exits_130_without_traceback(tmp_path: Path) -> None
 
 COUNT_EPISODES = """\
 import os
-from vtrack_gym.evaluation import parallel
+from vtrack_gym.evaluation.rollouts import parallel
 
 _run_task = parallel.run_task
 

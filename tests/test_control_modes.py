@@ -216,8 +216,8 @@ def test_vtrack_eval_records_the_control_mode(tmp_path, capsys) -> None:
     """Rows of another control mode are another set-up (``options["control"]``, ranked apart on the board); steer
     rows keep their identity (no ``control`` option)."""
     from vtrack_gym.cli import main
-    from vtrack_gym.evaluation.board import board_env
-    from vtrack_gym.evaluation.store import ResultStore
+    from vtrack_gym.evaluation.leaderboard.board import board_env
+    from vtrack_gym.evaluation.storage.store import ResultStore
 
     store = tmp_path / "rows.db"
     for extra in ([], ["--control", "steer_accel"]):
@@ -242,7 +242,7 @@ def test_the_cli_refuses_an_unknown_mode_and_control_with_a_track_file(tmp_path,
 
 
 def test_env_identity_records_the_mode() -> None:
-    from vtrack_gym.evaluation.env_identity import env_identity
+    from vtrack_gym.evaluation.identity.env_identity import env_identity
 
     assert env_identity(gym.make("DLC120-v0")) == ("DLC120-v0", {})
     assert env_identity(gym.make("DLC120-v0", control="steer_rate_accel")) == ("DLC120-v0",

@@ -13,8 +13,8 @@ pytest.importorskip("h5py")
 
 import minari
 
-from vtrack_gym.evaluation.dataset import dataset_episodes, dataset_id, start_options, write_dataset
-from vtrack_gym.evaluation.suites import ROBUST_FRICTION, robust_options
+from vtrack_gym.evaluation.benchmarking.dataset import dataset_episodes, dataset_id, start_options, write_dataset
+from vtrack_gym.evaluation.suite.suites import ROBUST_FRICTION, robust_options
 
 
 def _replay(dataset, episode_index: int) -> None:
@@ -62,7 +62,7 @@ def test_suite_episodes_keep_their_options(tmp_path: Path, monkeypatch: pytest.M
     dlc = grouped["DLC120-v0"]
     assert [ep.seed for ep in dlc] == [5, 6]
     assert dlc[0].options == {**robust_options(5, dlc_speed(), ROBUST_FRICTION["DLC120-v0"]), **start_options(5)}
-    monkeypatch.setattr("vtrack_gym.evaluation.dataset.dataset_episodes",
+    monkeypatch.setattr("vtrack_gym.evaluation.benchmarking.dataset.dataset_episodes",
                         lambda *a, **k: {"DLC120-v0": dlc[:1]})  # drive only the short scenario
     ids = write_dataset("lqr", suite="robust", episodes=1, root=tmp_path)
     monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path))

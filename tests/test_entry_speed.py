@@ -1,5 +1,5 @@
-"""The per-policy entry-speed search on ISO 3888 (evaluation.entry_speed): the bisection against judges with a known
-threshold, real baselines against the car's physical bound, the CLI, the maneuvers suite's columns, bad input."""
+"""The per-policy entry-speed search on ISO 3888 (evaluation.rollouts.entry_speed): the bisection against judges with a
+known threshold, real baselines against the car's physical bound, the CLI, the maneuvers suite's columns, bad input."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import math
 import pytest
 
 import vtrack_gym
-from vtrack_gym.evaluation import entry_speed as es
-from vtrack_gym.evaluation.entry_speed import bisect_entry_speed, planned_probes
+from vtrack_gym.evaluation.rollouts import entry_speed as es
+from vtrack_gym.evaluation.rollouts.entry_speed import bisect_entry_speed, planned_probes
 
 
 def threshold_judge(threshold_kmh: float, calls: list[float] | None = None):
@@ -183,7 +183,7 @@ def test_cli_entry_speed_refuses_bad_input(argv: list[str], message: str,
 # ----------------------------------------------------------------------------------------- the maneuvers suite
 def test_maneuvers_suite_json_rows_carry_the_entry_speed_columns(tmp_path, capsys) -> None:
     from vtrack_gym.cli import main
-    from vtrack_gym.evaluation.store import ResultStore
+    from vtrack_gym.evaluation.storage.store import ResultStore
 
     store = tmp_path / "board.sqlite"
     assert main(["benchmark", "--suite", "maneuvers", "--policies", "stanley", "--no-figures", "--workers", "1",
@@ -208,7 +208,7 @@ def test_maneuvers_suite_json_rows_carry_the_entry_speed_columns(tmp_path, capsy
 
 # ------------------------------------------------------------------------------------------ rows and the board
 def _row(success: bool, **metrics: float):
-    from vtrack_gym.evaluation.store import ResultRow
+    from vtrack_gym.evaluation.storage.store import ResultRow
 
     return ResultRow(suite="maneuvers", env_id="vtrack/ISO3888-2-v1", policy_id="p", policy_hash="h", seed=0,
                      metrics={"max_e_y_m": 0.1, **metrics}, termination="completed", wall_time_per_step_s=1e-4,
@@ -216,7 +216,7 @@ def _row(success: bool, **metrics: float):
 
 
 def test_the_store_refuses_entry_speed_metrics_outside_their_physical_range(tmp_path) -> None:
-    from vtrack_gym.evaluation.store import ResultStore
+    from vtrack_gym.evaluation.storage.store import ResultStore
 
     store = ResultStore(tmp_path / "s.sqlite")
     for bad, message in (({"max_entry_speed_kmh": 250.0}, r"max_entry_speed_kmh' must be in \[0, 200\]"),
@@ -232,7 +232,7 @@ def test_the_store_refuses_entry_speed_metrics_outside_their_physical_range(tmp_
 
 def test_the_board_aggregates_the_search_over_failed_episodes_too() -> None:
     """The row's verdict is at the default entry speed; the search's figures describe the policy at every speed."""
-    from vtrack_gym.evaluation.benchmark import suite_columns, summarise
+    from vtrack_gym.evaluation.benchmarking.benchmark import suite_columns, summarise
 
     failed = _row(False, max_entry_speed_kmh=58.0, entry_speed_bound_kmh=67.4, entry_speed_fraction=58.0 / 67.4,
                   above_physical_bound=0, cones_hit=1)

@@ -14,7 +14,7 @@ import pytest
 
 import vtrack_gym
 from vtrack_gym.envs.observation import OBS
-from vtrack_gym.evaluation.store import ResultStore
+from vtrack_gym.evaluation.storage.store import ResultStore
 
 
 class Steer:
@@ -54,7 +54,7 @@ def test_an_id_and_its_alias_are_one_scenario_from_python_and_the_cli(tmp_path: 
 
 
 def test_a_row_stored_under_the_alias_joins_its_scenario_on_the_board() -> None:
-    from vtrack_gym.evaluation.board import board_env
+    from vtrack_gym.evaluation.leaderboard.board import board_env
 
     old = {"env_id": "vtrack/DLC120-v0", "options": {"protocol": {"entry_speed_kmh": 45}}}
     new = {"env_id": "DLC120-v0", "options": {"protocol": {"entry_speed_kmh": 45.0}}}
@@ -98,7 +98,7 @@ def test_an_env_whose_configuration_cannot_be_identified_never_shares_a_row(tmp_
 
 @pytest.mark.parametrize("value", [45, 45.0, [1, 2.0, {"a": 3}], True, 2**60])
 def test_numbers_are_normalised_at_any_depth(value) -> None:
-    from vtrack_gym.evaluation.env_names import normal_numbers
+    from vtrack_gym.evaluation.identity.env_names import normal_numbers
 
     out = normal_numbers({"x": value})["x"]
     if value is True:

@@ -13,7 +13,7 @@ import pytest
 
 import vtrack_gym
 from vtrack_gym.cli import main
-from vtrack_gym.evaluation.store import ResultStore
+from vtrack_gym.evaluation.storage.store import ResultStore
 
 MODULE = textwrap.dedent('''
     import numpy as np

@@ -14,7 +14,7 @@ from typing import Any
 import pytest
 
 import vtrack_gym
-from vtrack_gym.evaluation.store import ResultStore
+from vtrack_gym.evaluation.storage.store import ResultStore
 
 WAIT_S = 120.0
 """How long the last episode waits for the earlier row to appear in the store [s]."""

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from vtrack_gym.envs.observation import OBS
-from vtrack_gym.evaluation.metrics import evaluate_trace
-from vtrack_gym.evaluation.rollout import rollout, rollout_batch
+from vtrack_gym.evaluation.rollouts.rollout import rollout, rollout_batch
+from vtrack_gym.evaluation.scoring.metrics import evaluate_trace
 
 
 class ProportionalSteering:

@@ -148,7 +148,7 @@ def test_fast_car_does_not_depend_on_its_batch(plant_runs) -> None:
 
 def _mpc_episode(numerics: str):
     from vtrack_gym.baselines.registry import make_policy
-    from vtrack_gym.evaluation.rollout import rollout
+    from vtrack_gym.evaluation.rollouts.rollout import rollout
 
     env = gym.make("DLC120-v0", numerics=numerics)
     return rollout(make_policy("mpc", env), env, seed=0)
@@ -163,7 +163,7 @@ def test_fast_env_tracks_like_the_default_one_in_closed_loop() -> None:
 
 
 def test_numerics_is_part_of_the_env_identity() -> None:
-    from vtrack_gym.evaluation.env_identity import env_identity
+    from vtrack_gym.evaluation.identity.env_identity import env_identity
 
     assert env_identity(gym.make("DLC120-v0", numerics="fast")) == ("DLC120-v0",
                                                                       {"env_config": {"numerics": "fast"}})

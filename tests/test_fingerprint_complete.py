@@ -18,8 +18,8 @@ from hypothesis import strategies as st
 
 import vtrack_gym
 from vtrack_gym.envs.observation import OBS
-from vtrack_gym.evaluation.fingerprint import IncompleteFingerprint, policy_hash, state_digest
-from vtrack_gym.evaluation.store import ResultStore
+from vtrack_gym.evaluation.identity.fingerprint import IncompleteFingerprint, policy_hash, state_digest
+from vtrack_gym.evaluation.storage.store import ResultStore
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -93,7 +93,8 @@ def test_state_beyond_the_byte_budget_or_unreadable_is_incomplete():
 
 
 _SCRIPT = ("import sys; sys.path.insert(0, {root!r}); sys.path.insert(0, {tests!r}); "
-           "from test_fingerprint_complete import Deep; from vtrack_gym.evaluation.fingerprint import policy_hash; "
+           "from test_fingerprint_complete import Deep; from vtrack_gym.evaluation.identity.fingerprint import "
+           "policy_hash; "
            "p = Deep(0.3); p.table = {{'b': {{1, 2, 'x'}}, 'a': frozenset({{('k', 2.5)}}), 3: None}}; "
            "print(policy_hash(p))")
 
@@ -157,7 +158,7 @@ def test_reading_is_bounded_by_depth_and_object_count_with_a_clear_error(monkeyp
     """Beyond ``MAX_DEPTH`` levels or ``MAX_OBJECTS`` objects the fingerprint refuses (naming the bound and where),
     instead of reading on until the machine's memory runs out; at the bounds it still reads (the object bound
     lowered here: a million objects take seconds to build)."""
-    from vtrack_gym.evaluation import fingerprint
+    from vtrack_gym.evaluation.identity import fingerprint
 
     deep: list = []
     for _ in range(fingerprint.MAX_DEPTH - 1):   # MAX_DEPTH lists, each in the next
@@ -173,7 +174,7 @@ def test_reading_is_bounded_by_depth_and_object_count_with_a_clear_error(monkeyp
 
 
 def test_sets_nested_in_sets_are_bounded_too():
-    from vtrack_gym.evaluation import fingerprint
+    from vtrack_gym.evaluation.identity import fingerprint
 
     nested: frozenset = frozenset()
     for _ in range(fingerprint.MAX_UNORDERED_NESTING):

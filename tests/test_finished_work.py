@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vtrack_gym.evaluation.store import ResultStore
-from vtrack_gym.evaluation.worker_pool import LostTask, run_pool
+from vtrack_gym.evaluation.rollouts.worker_pool import LostTask, run_pool
+from vtrack_gym.evaluation.storage.store import ResultStore
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -28,9 +28,9 @@ _counter = itertools.count()
 @pytest.fixture(scope="module")
 def cli_sandbox(tmp_path_factory):
     """cwd in a temp dir (default store and figure folders land there), short episodes, no matplotlib."""
-    import vtrack_gym.evaluation.episode_score as bench  # where an episode's rollout is run
-    import vtrack_gym.evaluation.plots as plots
-    from vtrack_gym.evaluation.rollout import rollout as real_rollout
+    import vtrack_gym.evaluation.figures.plots as plots
+    import vtrack_gym.evaluation.rollouts.episode_score as bench  # where an episode's rollout is run
+    from vtrack_gym.evaluation.rollouts.rollout import rollout as real_rollout
 
     root = tmp_path_factory.mktemp("cli_fuzz")
     (root / "garbage_dir").mkdir()

@@ -19,8 +19,8 @@ from highway_env.vehicle.dynamics import BicycleVehicle
 from vtrack_gym.baselines.linear_models import error_model
 from vtrack_gym.baselines.registry import available_policies, make_policy
 from vtrack_gym.envs.observation import OBS
-from vtrack_gym.evaluation.rollout import rollout
-from vtrack_gym.evaluation.suite_defs.highway import highway_episodes
+from vtrack_gym.evaluation.rollouts.rollout import rollout
+from vtrack_gym.evaluation.suite.suite_defs.highway import highway_episodes
 from vtrack_gym.interop import (
     HIGHWAY_ENV_ID,
     register_highway_envs,
@@ -282,7 +282,7 @@ def test_registered_id_rollout_and_suite() -> None:
     episodes = highway_episodes()
     assert [ep.seed for ep in episodes] == [0, 1, 2] and len(highway_episodes((0,))) == 1
     env = gym.make(HIGHWAY_ENV_ID)  # through Gymnasium's passive env checker
-    from vtrack_gym.evaluation.metrics import evaluate_trace
+    from vtrack_gym.evaluation.scoring.metrics import evaluate_trace
 
     trace = rollout(make_policy("stanley", env), env, seed=episodes[2].seed, options=episodes[2].options,
                     max_steps=300)
@@ -314,7 +314,7 @@ def test_highway_suite_scores_and_draws_through_the_benchmark_command(tmp_path: 
     """``vtrack benchmark --suite highway`` (it crashed: the circle metrics and the trajectory figure assumed a
     ``tracks.Path``): rows stored, the board printed, the figures written (in the run's own folder under --figures)."""
     from vtrack_gym.cli import main
-    from vtrack_gym.evaluation.store import ResultStore
+    from vtrack_gym.evaluation.storage.store import ResultStore
 
     store = tmp_path / "board.sqlite"
     assert main(["benchmark", "--suite", "highway", "--quick", "--policies", "lqr", "--store", str(store),

@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 
 from vtrack_gym.cli import main
-from vtrack_gym.evaluation.rows import ResultRow
-from vtrack_gym.evaluation.store import ResultStore
+from vtrack_gym.evaluation.scoring.rows import ResultRow
+from vtrack_gym.evaluation.storage.store import ResultStore
 
 PNG = bytes.fromhex("89504e470d0a1a0a0000000d49484452000000010000000108060000001f15c4890000000d4944415478da63f8ff"
                     "ff3f0005fe02fea7d6a4c80000000049454e44ae426082")
@@ -49,7 +49,7 @@ def test_an_output_format_of_your_own_is_one_registration(tmp_path: Path,
                                                           capsys: pytest.CaptureFixture[str]) -> None:
     """An ``OutputFormat`` registered from outside is a ``--format`` choice of ``vtrack leaderboard`` and
     ``vtrack benchmark`` and renders the board."""
-    from vtrack_gym.evaluation.output_formats import OutputFormat, register_format, unregister_format
+    from vtrack_gym.evaluation.leaderboard.output_formats import OutputFormat, register_format, unregister_format
 
     def tsv(board, title, figures, notes):
         cols = list(board[0])

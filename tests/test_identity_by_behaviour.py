@@ -20,8 +20,8 @@ import pytest
 
 import vtrack_gym
 from vtrack_gym.envs.observation import OBS
-from vtrack_gym.evaluation.fingerprint import IncompleteFingerprint, named_policy_hash, policy_hash
-from vtrack_gym.evaluation.store import ResultStore
+from vtrack_gym.evaluation.identity.fingerprint import IncompleteFingerprint, named_policy_hash, policy_hash
+from vtrack_gym.evaluation.storage.store import ResultStore
 
 
 def lqr_law() -> Any:
@@ -256,7 +256,7 @@ def test_a_policy_acting_differently_twice_on_the_same_probes_needs_a_name() -> 
 
 
 def test_the_shipped_probes_are_the_default_layout_and_excite_the_errors() -> None:
-    from vtrack_gym.evaluation.probes import PROBE_ENV_IDS, PROBE_STEPS, PROBE_WINDOWS, probe_observations
+    from vtrack_gym.evaluation.identity.probes import PROBE_ENV_IDS, PROBE_STEPS, PROBE_WINDOWS, probe_observations
 
     probes = probe_observations()
     assert probes.shape == (len(PROBE_ENV_IDS) * len(PROBE_WINDOWS), PROBE_STEPS, OBS.size)
@@ -269,7 +269,7 @@ def test_the_shipped_probes_are_the_default_layout_and_excite_the_errors() -> No
 def test_the_shipped_probes_are_what_the_recorder_writes(tmp_path: Path) -> None:
     """The probe file is data recorded from the package's scenarios; re-recording gives it back (to float32
     rounding across machines)."""
-    from vtrack_gym.evaluation.probes import probe_observations, record_probes
+    from vtrack_gym.evaluation.identity.probes import probe_observations, record_probes
 
     fresh = record_probes(tmp_path / "probes.npz")
     np.testing.assert_allclose(fresh, probe_observations(), rtol=1e-5, atol=1e-6)

@@ -13,7 +13,7 @@ import vtrack_gym  # noqa: F401  (registers the ids)
 from vtrack_gym.envs.config import DLC120, EnvConfig
 from vtrack_gym.envs.observation import OBS
 from vtrack_gym.envs.schema import ARRAY_SIGNALS, INFO_KEYS, REWARD_TERMS, SAFETY_SIGNALS, SCALAR_SIGNALS, SIGNAL_ROW
-from vtrack_gym.evaluation.trace import STEP_SIGNALS, Trace
+from vtrack_gym.evaluation.scoring.trace import STEP_SIGNALS, Trace
 
 
 def _check_single_info(info: dict, n_sub: int) -> None:

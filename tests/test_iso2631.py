@@ -10,7 +10,7 @@ import sys
 import numpy as np
 import pytest
 
-from vtrack_gym.evaluation.iso2631 import (
+from vtrack_gym.evaluation.scoring.iso2631 import (
     WeightingParams,
     comfort_band,
     vibration_total,
@@ -108,7 +108,7 @@ def test_plain_bilinear_at_native_rate_is_worse() -> None:
     """Why ``weighted`` oversamples: the native-rate bilinear transform warps 40 Hz by -2.3 % at 500 Hz."""
     from scipy.signal import sosfreqz
 
-    from vtrack_gym.evaluation.iso2631 import _digital_sos
+    from vtrack_gym.evaluation.scoring.iso2631 import _digital_sos
 
     for fs, expected in ((500.0, -0.0228), (250.0, -0.0926)):
         _, h = sosfreqz(_digital_sos("Wk", fs), worN=[40.0], fs=fs)
@@ -203,7 +203,7 @@ def test_weighting_params_validation() -> None:
 
 
 def test_imports_are_cheap() -> None:
-    code = ("import sys, vtrack_gym.evaluation.iso2631, vtrack_gym.envs.pdflc; "
+    code = ("import sys, vtrack_gym.evaluation.scoring.iso2631, vtrack_gym.envs.pdflc; "
             "print(sorted(m for m in ('scipy', 'numba') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"

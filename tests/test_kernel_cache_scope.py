@@ -19,7 +19,7 @@ from vtrack_gym._kernel_sources import kernel_sources
 PACKAGE = Path(__file__).resolve().parents[1] / "vtrack_gym"
 
 NOT_COMPILED = {
-    "a plot": ("evaluation/plots.py", "def _pyplot():", "def _pyplot():  # edited"),
+    "a plot": ("evaluation/figures/plots.py", "def _pyplot():", "def _pyplot():  # edited"),
     "the CLI's env helper (imports _jit lazily)": ("cli/_envs.py", "from vtrack_gym._jit import kernel_cache_dir",
                                                    "from vtrack_gym._jit import kernel_cache_dir  # edited"),
     "a registry line": ("envs/scenarios.py", "MAX_EPISODE_S = 7200.0", "MAX_EPISODE_S = 7201.0"),
@@ -70,7 +70,7 @@ def test_the_key_covers_the_kernel_modules_not_the_import_graph() -> None:
     files = {p.relative_to(PACKAGE).as_posix() for p in kernel_sources(PACKAGE)}
     assert {"envs/kernels.py", "vehicle/kernels.py", "tracks/kernels.py", "envs/pdflc_kernel.py",
             "baselines/laws.py", "tuning/_kernels.py", "vehicle/layout.py", "_jit.py"} <= files
-    assert not files & {"cli/_envs.py", "evaluation/plots.py", "envs/scenarios.py", "envs/sim.py",
+    assert not files & {"cli/_envs.py", "evaluation/figures/plots.py", "envs/scenarios.py", "envs/sim.py",
                         "envs/tracking_env.py", "tracks/planned_line.py"}
     assert len(files) < 40, sorted(files)
 
@@ -80,7 +80,7 @@ def test_a_kernel_stays_cached_after_an_edit_elsewhere(tmp_path: Path) -> None:
     package = _copy_package(tmp_path)
     first = _run(tmp_path, PROBE)
     assert first["misses"] == 1
-    plots = package / "evaluation" / "plots.py"
+    plots = package / "evaluation" / "figures" / "plots.py"
     plots.write_text(plots.read_text() + "\n# edited\n")
     again = _run(tmp_path, PROBE)
     assert again == {**first, "hits": 1, "misses": 0}

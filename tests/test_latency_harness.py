@@ -12,7 +12,7 @@ import pytest
 
 import vtrack_gym
 from vtrack_gym.cli import main
-from vtrack_gym.evaluation.rollout import rollout
+from vtrack_gym.evaluation.rollouts.rollout import rollout
 
 
 class SleepyPolicy:
@@ -64,7 +64,7 @@ def test_cli_eval_and_benchmark_take_latency(tmp_path, capsys) -> None:
 
 
 def test_cli_benchmark_charges_a_fixed_budget(tmp_path, capsys) -> None:
-    from vtrack_gym.evaluation.store import ResultStore
+    from vtrack_gym.evaluation.storage.store import ResultStore
 
     store = tmp_path / "board.db"
     assert main(["benchmark", "--policies", "stanley", "--latency", "0.004", "--no-figures", "--workers", "1",

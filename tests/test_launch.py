@@ -54,7 +54,7 @@ def test_the_vector_env_takes_launch() -> None:
 
 def test_rows_record_the_launch() -> None:
     """A row of the ramp is never ranked with one of the step: the launch is part of the env's identity."""
-    from vtrack_gym.evaluation.env_identity import env_identity
+    from vtrack_gym.evaluation.identity.env_identity import env_identity
 
     ramp = env_identity(gym.make("LateralTracking-v0", control="steer_accel", launch="powertrain"))
     step = env_identity(gym.make("LateralTracking-v0", control="steer_accel", launch="step"))
@@ -73,7 +73,7 @@ def test_cli_eval_drives_the_launch(tmp_path, capsys) -> None:
     assert main(["eval", "--policy", "lqr", "--env", "LateralTracking-v0", "--control", "steer_accel",
                  "--launch", "powertrain", "--store", str(store)]) == 0
     assert "rms_e_v_mps" in capsys.readouterr().out
-    from vtrack_gym.evaluation.store import ResultStore
+    from vtrack_gym.evaluation.storage.store import ResultStore
 
     row = ResultStore(store, read_only=True).rows()[-1]
     assert row["options"] == {"control": "steer_accel", "protocol": {"launch": "powertrain"}}

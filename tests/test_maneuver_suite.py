@@ -24,8 +24,8 @@ from vtrack_gym.envs.scenarios import (
     maneuver_criterion,
 )
 from vtrack_gym.envs.track_sources import MANEUVER_TRACK_NAMES
-from vtrack_gym.evaluation.benchmark import score_episode, suite_columns, summarise, vehicle_label
-from vtrack_gym.evaluation.suites import Episode, suite_episodes, with_vehicle
+from vtrack_gym.evaluation.benchmarking.benchmark import score_episode, suite_columns, summarise, vehicle_label
+from vtrack_gym.evaluation.suite.suites import Episode, suite_episodes, with_vehicle
 from vtrack_gym.tracks import gate_violations
 from vtrack_gym.tracks.maneuvers import MANEUVERS, build_maneuver
 from vtrack_gym.vehicle.catalog import load_vehicle
@@ -186,8 +186,8 @@ def test_rows_record_the_vehicle_and_cars_are_ranked_apart(tmp_path: Path) -> No
 # ------------------------------------------------------------------------------------------ suite + figures
 def test_maneuvers_suite_rows_and_one_figure_per_maneuver(tmp_path: Path) -> None:
     pytest.importorskip("matplotlib")
-    from vtrack_gym.evaluation.benchmark import run_benchmark
-    from vtrack_gym.evaluation.store import ResultStore
+    from vtrack_gym.evaluation.benchmarking.benchmark import run_benchmark
+    from vtrack_gym.evaluation.storage.store import ResultStore
 
     episodes = suite_episodes("maneuvers")
     assert [ep.env_id for ep in episodes] == [SCENARIOS[MANEUVER_IDS[n]].env_id for n in MANEUVER_TRACK_NAMES]
@@ -212,7 +212,7 @@ def test_cones_drawn_at_their_true_positions() -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from vtrack_gym.evaluation.plots import _draw_cones
+    from vtrack_gym.evaluation.figures.plots import _draw_cones
     from vtrack_gym.tracks import gate_boundaries
 
     path = build_maneuver("iso3888_1").path
@@ -226,7 +226,7 @@ def test_cones_drawn_at_their_true_positions() -> None:
 
 def test_cli_maneuvers_suite_with_vehicle(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     from vtrack_gym.cli import main
-    from vtrack_gym.evaluation.store import ResultStore
+    from vtrack_gym.evaluation.storage.store import ResultStore
 
     store = tmp_path / "board.sqlite"
     assert main(["benchmark", "--suite", "maneuvers", "--policies", "lqr", "--no-figures", "--vehicle", "suv",

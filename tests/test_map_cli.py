@@ -103,7 +103,7 @@ def test_every_command_taking_a_track_takes_the_read_options() -> None:
 
 def test_a_track_set_with_allow_self_crossing_runs_the_bridge(tmp_path: Path) -> None:
     from vtrack_gym.baselines.registry import make_policy
-    from vtrack_gym.evaluation.track_benchmark import benchmark_tracks
+    from vtrack_gym.evaluation.benchmarking.track_benchmark import benchmark_tracks
 
     folder = tmp_path / "set"
     folder.mkdir()

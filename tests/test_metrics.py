@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from vtrack_gym.evaluation.metrics import (
+from vtrack_gym.evaluation.scoring.metrics import (
     constraint_metrics,
     itae,
     max_abs,
@@ -16,7 +16,7 @@ from vtrack_gym.evaluation.metrics import (
     rms,
     smoothness_metrics,
 )
-from vtrack_gym.evaluation.trace import STEP_SIGNALS, Trace
+from vtrack_gym.evaluation.scoring.trace import STEP_SIGNALS, Trace
 
 
 def synthetic_trace(duration_s: float = 10.0, dt: float = 0.01, **signals: np.ndarray) -> Trace:
@@ -88,7 +88,7 @@ def test_reversal_count_gap_and_ramps() -> None:
 def test_control_metrics_of_sines_and_ramps() -> None:
     """Hand-wheel 20 deg sine at 0.5 Hz: rate 20 w, acceleration 20 w^2 (max; RMS / sqrt 2); a_y ramp 3 m/s^3;
     e_phi ramp 0.01 rad/s: a yaw-rate error of 0.573 deg/s. Through ``evaluate_trace`` (every row has them)."""
-    from vtrack_gym.evaluation.metrics import control_metrics, evaluate_trace
+    from vtrack_gym.evaluation.scoring.metrics import control_metrics, evaluate_trace
 
     w = 2.0 * math.pi * 0.5
     trace = synthetic_trace(duration_s=20.0, dt=0.001,

@@ -13,9 +13,9 @@ import pytest
 from vtrack_gym.baselines.registry import available_policies, tunable_policies
 from vtrack_gym.cli import build_parser
 from vtrack_gym.envs.criteria import CRITERIA
-from vtrack_gym.evaluation.dataset import dataset_suites
-from vtrack_gym.evaluation.output_formats import format_names
-from vtrack_gym.evaluation.suites import suite_names
+from vtrack_gym.evaluation.benchmarking.dataset import dataset_suites
+from vtrack_gym.evaluation.leaderboard.output_formats import format_names
+from vtrack_gym.evaluation.suite.suites import suite_names
 from vtrack_gym.tracks.track_registry import track_names
 from vtrack_gym.vehicle.catalog import list_vehicles
 from vtrack_gym.vehicle.layout import MODEL_IDS

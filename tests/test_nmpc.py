@@ -11,8 +11,8 @@ import pytest
 
 import vtrack_gym  # noqa: F401
 from vtrack_gym.baselines.registry import make_policy
-from vtrack_gym.evaluation.metrics import evaluate_trace
-from vtrack_gym.evaluation.rollout import rollout
+from vtrack_gym.evaluation.rollouts.rollout import rollout
+from vtrack_gym.evaluation.scoring.metrics import evaluate_trace
 from vtrack_gym.vehicle.linear import lateral_matrices
 from vtrack_gym.vehicle.params import DesignModel, VehicleParams
 

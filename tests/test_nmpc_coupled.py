@@ -14,8 +14,8 @@ from vtrack_gym.baselines import nmpc_coupled_model as model
 from vtrack_gym.baselines.nmpc_kernels import model_constants
 from vtrack_gym.baselines.nmpc_model import TyreShape
 from vtrack_gym.baselines.registry import available_policies, known_policies, pedal_policies
-from vtrack_gym.evaluation.metrics import evaluate_trace
-from vtrack_gym.evaluation.rollout import rollout
+from vtrack_gym.evaluation.rollouts.rollout import rollout
+from vtrack_gym.evaluation.scoring.metrics import evaluate_trace
 from vtrack_gym.vehicle.params import DesignModel, paper_vehicle
 
 VEHICLE = paper_vehicle()

@@ -13,8 +13,8 @@ import pytest
 import vtrack_gym
 from vtrack_gym.baselines import dense_qp, nmpc_kernels, nmpc_rti
 from vtrack_gym.baselines.nmpc import NMPC
-from vtrack_gym.evaluation.metrics import evaluate_trace
-from vtrack_gym.evaluation.rollout import rollout, rollout_batch
+from vtrack_gym.evaluation.rollouts.rollout import rollout, rollout_batch
+from vtrack_gym.evaluation.scoring.metrics import evaluate_trace
 from vtrack_gym.vehicle.params import DesignModel, VehicleParams
 
 DESIGN = DesignModel.from_vehicle(VehicleParams())

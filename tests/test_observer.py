@@ -12,8 +12,8 @@ import pytest
 import vtrack_gym  # noqa: F401
 from vtrack_gym.baselines.observer import LateralKalmanFilter, ObserverConfig, declared_noise_std
 from vtrack_gym.baselines.registry import make_policy
-from vtrack_gym.evaluation.rollout import rollout
-from vtrack_gym.evaluation.suites import suite_episodes
+from vtrack_gym.evaluation.rollouts.rollout import rollout
+from vtrack_gym.evaluation.suite.suites import suite_episodes
 
 
 @pytest.mark.parametrize("name", ["mpc", "smc"])

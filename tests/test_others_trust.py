@@ -41,7 +41,7 @@ def test_a_finite_huge_action_is_clipped_in_the_scoring_rollout() -> None:
 
 
 def test_step_action_keeps_refusing_nan_and_inf() -> None:
-    from vtrack_gym.evaluation.rollout import step_action
+    from vtrack_gym.evaluation.rollouts.rollout import step_action
 
     assert step_action(np.array([1e39]), (1,)).tolist() == [1.0]
     assert step_action(np.array([-1e300]), (1,)).tolist() == [-1.0]
@@ -52,7 +52,7 @@ def test_step_action_keeps_refusing_nan_and_inf() -> None:
 
 def test_one_figure_size_limit_for_the_report_and_the_cli() -> None:
     from vtrack_gym.cli import leaderboard
-    from vtrack_gym.evaluation import html_report
+    from vtrack_gym.evaluation.leaderboard import html_report
 
     assert html_report.MAX_FIGURE_BYTES == leaderboard.MAX_FIGURE_BYTES == 32 * 2**20
     guarantees = (Path(__file__).resolve().parents[1] / "docs" / "GUARANTEES.md").read_text()
@@ -93,7 +93,7 @@ def test_a_vehicle_file_saved_during_eval_changes_no_row(tmp_path: Path, monkeyp
     import hashlib
 
     from vtrack_gym.cli import main
-    from vtrack_gym.evaluation.store import ResultStore
+    from vtrack_gym.evaluation.storage.store import ResultStore
     from vtrack_gym.vehicle.catalog import _data_dir
 
     car = tmp_path / "my_car.json"
@@ -149,7 +149,7 @@ def test_ray_with_a_track_edited_during_the_run_is_a_clear_error(tmp_path: Path,
 
     import vtrack_gym.envs.registration as registration
     from vtrack_gym.cli import main
-    from vtrack_gym.evaluation.store import ResultStore
+    from vtrack_gym.evaluation.storage.store import ResultStore
 
     ray = pytest.importorskip("ray")
     if ray.is_initialized():
@@ -183,10 +183,10 @@ def test_a_crashed_ray_worker_costs_only_its_episode(tmp_path: Path) -> None:
     episode, not a ``WorkerCrashedError`` that loses the run: the other episodes are delivered."""
     import os
 
-    from vtrack_gym.evaluation.benchmark import score_episode
-    from vtrack_gym.evaluation.parallel import EpisodeTask, run_tasks
-    from vtrack_gym.evaluation.suites import Episode
-    from vtrack_gym.evaluation.worker_pool import LostTask
+    from vtrack_gym.evaluation.benchmarking.benchmark import score_episode
+    from vtrack_gym.evaluation.rollouts.parallel import EpisodeTask, run_tasks
+    from vtrack_gym.evaluation.rollouts.worker_pool import LostTask
+    from vtrack_gym.evaluation.suite.suites import Episode
 
     ray = pytest.importorskip("ray")
     if ray.is_initialized():

@@ -124,7 +124,7 @@ def test_cli_track_closed_option_and_the_printed_decision(tmp_path: Path, capsys
     assert main(["eval", "--policy", "stanley", "--track", str(f), "--track-closed", "no", "--store",
                  str(store)]) == 0
     assert "read as an open road (forced by --track-closed), 410.3 m, 20 points" in capsys.readouterr().err
-    from vtrack_gym.evaluation.store import ResultStore
+    from vtrack_gym.evaluation.storage.store import ResultStore
 
     auto, forced = ResultStore(store, read_only=True).rows()
     assert auto["env_id"] != forced["env_id"] and forced["options"]["track_read"] == {"closed": False}
@@ -205,7 +205,7 @@ def test_cli_track_smoothing_option(tmp_path: Path, capsys: pytest.CaptureFixtur
     store = tmp_path / "s.db"
     assert main(["eval", "--policy", "stanley", "--track", str(f), "--track-smoothing-m", "0.057", "--store",
                  str(store)]) == 0
-    from vtrack_gym.evaluation.store import ResultStore
+    from vtrack_gym.evaluation.storage.store import ResultStore
 
     row, = ResultStore(store, read_only=True).rows()
     assert row["options"]["track_read"] == {"smoothing_m": 0.057}

@@ -15,10 +15,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from vtrack_gym.evaluation.benchmark import policy_factories, score_episode
-from vtrack_gym.evaluation.parallel import USAGE_PREFIX, EpisodeTask, run_tasks, usage_line
-from vtrack_gym.evaluation.suites import Episode
-from vtrack_gym.evaluation.worker_threads import limit_native_threads, loaded_openblas
+from vtrack_gym.evaluation.benchmarking.benchmark import policy_factories, score_episode
+from vtrack_gym.evaluation.rollouts.parallel import USAGE_PREFIX, EpisodeTask, run_tasks, usage_line
+from vtrack_gym.evaluation.rollouts.worker_threads import limit_native_threads, loaded_openblas
+from vtrack_gym.evaluation.suite.suites import Episode
 
 OPENBLAS_GETTERS = ("scipy_openblas_get_num_threads64_", "scipy_openblas_get_num_threads",
                     "openblas_get_num_threads64_", "openblas_get_num_threads")
@@ -57,7 +57,7 @@ def test_workers_start_warm_single_threaded_and_score_like_one_process(caplog: p
     factories = policy_factories(["lqr", "stanley"])
     tasks = [EpisodeTask(n, m, Episode("DLC120-v0", s), "custom", probing_score)
              for n, m in factories.items() for s in (0, 1)]
-    with caplog.at_level(logging.DEBUG, logger="vtrack_gym.evaluation.parallel"):
+    with caplog.at_level(logging.DEBUG, logger="vtrack_gym.evaluation.rollouts.parallel"):
         forked = [probe for probe, _ in run_tasks(tasks, workers=2)]
     serial = [probe for probe, _ in run_tasks(tasks, workers=1)]
     assert [p.max_e_y_m for p in forked] == [p.max_e_y_m for p in serial]
@@ -85,7 +85,7 @@ def test_a_factory_failing_in_the_warm_up_fails_in_its_task() -> None:
 
 def test_limit_native_threads_sets_every_loaded_openblas() -> None:
     code = ("import json, numpy, scipy.linalg, sys; sys.path.insert(0, {tests!r}); from test_parallel_workers "
-            "import openblas_threads; from vtrack_gym.evaluation.worker_threads import limit_native_threads; "
+            "import openblas_threads; from vtrack_gym.evaluation.rollouts.worker_threads import limit_native_threads; "
             "before = openblas_threads(); done = limit_native_threads(1); print(json.dumps([before, done, "
             "openblas_threads()]))")
     out = subprocess.run([sys.executable, "-c", code.format(tests=str(Path(__file__).parent))], capture_output=True,

@@ -14,8 +14,8 @@ pytest.importorskip("matplotlib")
 import vtrack_gym  # noqa: F401
 from vtrack_gym.baselines.registry import make_policy
 from vtrack_gym.envs.palette import policy_colour
-from vtrack_gym.evaluation import plots
-from vtrack_gym.evaluation.rollout import rollout
+from vtrack_gym.evaluation.figures import plots
+from vtrack_gym.evaluation.rollouts.rollout import rollout
 
 
 @pytest.fixture(scope="module")
@@ -100,7 +100,7 @@ def test_figures_are_written(case1, tmp_path) -> None:
 
 def _rows(max_e_y: dict[str, list[float | None]]) -> list:
     """Robust-suite rows of DLC120-v0, one per seed; a None metric is a failed (off-road) episode."""
-    from vtrack_gym.evaluation.store import ResultRow
+    from vtrack_gym.evaluation.storage.store import ResultRow
 
     return [ResultRow(suite="robust", env_id="DLC120-v0", policy_id=name, policy_hash=name[:4], seed=seed,
                       metrics={"max_e_y_m": v if v is not None else 3.0}, success=v is not None,
@@ -111,8 +111,8 @@ def _rows(max_e_y: dict[str, list[float | None]]) -> list:
 def test_policy_summary_draws_the_board_interval_as_error_bars(monkeypatch, tmp_path) -> None:
     from matplotlib.container import ErrorbarContainer
 
-    from vtrack_gym.evaluation.benchmark import write_figures
-    from vtrack_gym.evaluation.board import estimate
+    from vtrack_gym.evaluation.benchmarking.benchmark import write_figures
+    from vtrack_gym.evaluation.leaderboard.board import estimate
 
     values = {"smc": [0.10, 0.14, 0.12, 0.20], "mpc": [0.30, None, 0.26, 0.28]}
     figs = _capture(monkeypatch)
@@ -145,7 +145,7 @@ def test_policy_summary_draws_the_board_interval_as_error_bars(monkeypatch, tmp_
 def test_policy_summary_with_one_episode_has_no_error_bar(monkeypatch, tmp_path) -> None:
     from matplotlib.container import ErrorbarContainer
 
-    from vtrack_gym.evaluation.benchmark import summarise
+    from vtrack_gym.evaluation.benchmarking.benchmark import summarise
 
     figs = _capture(monkeypatch)
     plots.plot_policy_summary(summarise(_rows({"smc": [0.1], "mpc": [0.2]}), ("max_e_y_m",)), "max_e_y_m",

@@ -33,7 +33,7 @@ class SteerOnErrors:
         return np.clip(a, -1.0, 1.0).astype(np.float32)[..., None], state
 
 
-from vtrack_gym.evaluation.metrics import CLOCK_MEASURED  # noqa: E402
+from vtrack_gym.evaluation.scoring.metrics import CLOCK_MEASURED  # noqa: E402
 
 WALL = "wall_time_per_step_s"
 
@@ -89,7 +89,7 @@ def test_import_stays_light_and_names_resolve_lazily():
 
 
 def test_evaluate_and_cli_trust_code_give_the_same_rows(tmp_path, capsys):
-    from vtrack_gym.evaluation.store import ResultStore
+    from vtrack_gym.evaluation.storage.store import ResultStore
 
     spec = f"{__name__}:SteerOnErrors"
     py_store = tmp_path / "py.sqlite"

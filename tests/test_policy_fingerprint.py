@@ -11,8 +11,8 @@ import pytest
 
 import vtrack_gym
 from vtrack_gym.envs.observation import OBS
-from vtrack_gym.evaluation.fingerprint import policy_hash
-from vtrack_gym.evaluation.store import ResultStore
+from vtrack_gym.evaluation.identity.fingerprint import policy_hash
+from vtrack_gym.evaluation.storage.store import ResultStore
 
 
 class Gain:
@@ -91,7 +91,7 @@ def test_baselines_and_shipped_agents_keep_their_hash_rules(name: str) -> None:
 
     import gymnasium as gym
 
-    from vtrack_gym.evaluation.fingerprint import identity_parts
+    from vtrack_gym.evaluation.identity.fingerprint import identity_parts
 
     env = gym.make("DLC120-v0")
     policy = vtrack_gym.make_policy(name, env)
@@ -116,7 +116,7 @@ def test_baselines_and_shipped_agents_keep_their_hash_rules(name: str) -> None:
 def test_the_wall_time_per_step_leaves_out_a_one_off_stall(monkeypatch: pytest.MonkeyPatch) -> None:
     """A kernel compiled on first use mid-episode (or a hiccup of a shared machine) stalls one step: the recorded
     wall time per step is the typical step's, not the stall spread over the episode (a fake clock, no timing)."""
-    from vtrack_gym.evaluation import rollout as rollout_module
+    from vtrack_gym.evaluation.rollouts import rollout as rollout_module
 
     def wall_per_step(stall_call: int | None) -> float:
         clock = {"t": 0.0, "calls": 0}

@@ -11,8 +11,8 @@ from test_cli_user_policy import user_module  # noqa: F401  (the fixture: a modu
 
 import vtrack_gym
 from vtrack_gym.cli import main
-from vtrack_gym.evaluation.policy_names import class_label, instance_label
-from vtrack_gym.evaluation.store import ResultStore
+from vtrack_gym.evaluation.identity.policy_names import class_label, instance_label
+from vtrack_gym.evaluation.storage.store import ResultStore
 
 
 def test_python_and_the_cli_give_one_name_and_one_row(user_module: str, tmp_path: Path) -> None:  # noqa: F811

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from vtrack_gym.cli import main
-from vtrack_gym.evaluation.benchmark import LEADERBOARD_COLUMNS, suite_columns
-from vtrack_gym.evaluation.metrics import compute_metrics
-from vtrack_gym.evaluation.suites import suite_names
-from vtrack_gym.evaluation.trace import Trace
+from vtrack_gym.evaluation.benchmarking.benchmark import LEADERBOARD_COLUMNS, suite_columns
+from vtrack_gym.evaluation.scoring.metrics import compute_metrics
+from vtrack_gym.evaluation.scoring.trace import Trace
+from vtrack_gym.evaluation.suite.suites import suite_names
 
 STATISTICS = ("policy_time_p50_us", "policy_time_p95_us", "policy_time_max_us", "policy_real_time_factor",
               "solver_failures")

@@ -173,8 +173,8 @@ def test_the_cli_names_the_cars_top_speed(tmp_path, capsys) -> None:
 def test_the_pd_flc_follows_the_default_profile_closed_loop() -> None:
     """The default `--track` profile on the shipped handling course at a 100 km/h cap, from rest: the speed loop
     stays within the bound the docs state (RMS < 1 m/s, max < 2 m/s)."""
-    from vtrack_gym.evaluation.metrics import evaluate_trace
-    from vtrack_gym.evaluation.rollout import rollout
+    from vtrack_gym.evaluation.rollouts.rollout import rollout
+    from vtrack_gym.evaluation.scoring.metrics import evaluate_trace
     from vtrack_gym.tracks.speed_limits import speed_profile_from_limits
 
     env = gym.make("vtrack/Track-v0", speed_profile=speed_profile_from_limits("envelope", 100.0))

@@ -13,7 +13,7 @@ import pytest
 
 import vtrack_gym
 from vtrack_gym.envs.race_reward import RACE_REWARD_TERMS, RaceReward
-from vtrack_gym.evaluation.laps import lap_metrics
+from vtrack_gym.evaluation.scoring.laps import lap_metrics
 
 
 @pytest.fixture(scope="module")
@@ -67,7 +67,7 @@ def test_laps_are_timed_and_the_episode_ends_after_them(ring: gym.Env) -> None:
     t = np.array([i["time_s"] for i in infos])
     p = np.array([i["progress_m"] for i in infos])
     assert p[-1] >= 2 * ring.unwrapped.lap_length_m
-    # the env's lap times are the rows' lap times from the same progress (evaluation.laps)
+    # the env's lap times are the rows' lap times from the same progress (evaluation.scoring.laps)
     expected = lap_metrics(t, p, ring.unwrapped.lap_length_m)
     assert info["lap_times_s"] == pytest.approx(expected["lap_times_s"], rel=1e-12)
     assert info["best_lap_s"] == min(info["lap_times_s"]) < info["lap_times_s"][0]   # lap 1 starts standing
@@ -246,7 +246,7 @@ def test_cli_benchmark_race_suite(tmp_path, capsys) -> None:
 
 def test_race_baselines_have_one_fingerprint_per_circuit() -> None:
     """Two envs of one id give two policies of one hash (the board ranks a policy's seeds together)."""
-    from vtrack_gym.evaluation.fingerprint import policy_hash
+    from vtrack_gym.evaluation.identity.fingerprint import policy_hash
 
     for name in ("raceline", "centreline"):
         hashes = set()

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from vtrack_gym.evaluation.reproduce import CLAIMS, CORRECTIONS, PAIRS, TIMESTAMP_PREFIX
+from vtrack_gym.evaluation.reproduction.reproduce import CLAIMS, CORRECTIONS, PAIRS, TIMESTAMP_PREFIX
 
 
 def _run(out: Path) -> bytes:

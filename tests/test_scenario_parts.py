@@ -26,7 +26,7 @@ from vtrack_gym.envs.scenarios import SCENARIOS, Scenario
 from vtrack_gym.envs.speed import HoldSpeed
 from vtrack_gym.envs.track_sources import TRACKS, TrackSource
 from vtrack_gym.envs.tracking_env import TrackingEnv
-from vtrack_gym.evaluation.rollout import rollout
+from vtrack_gym.evaluation.rollouts.rollout import rollout
 from vtrack_gym.vehicle.catalog import load_vehicle
 
 

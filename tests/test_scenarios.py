@@ -14,8 +14,8 @@ import vtrack_gym
 from vtrack_gym.envs.observation import OBS
 from vtrack_gym.envs.scenarios import DLC120, LEGACY_IDS, SCENARIOS, Scenario
 from vtrack_gym.envs.track_sources import TrackSource
-from vtrack_gym.evaluation.metrics import evaluate_trace
-from vtrack_gym.evaluation.rollout import rollout
+from vtrack_gym.evaluation.rollouts.rollout import rollout
+from vtrack_gym.evaluation.scoring.metrics import evaluate_trace
 from vtrack_gym.tracks import ConstantSpeed, CurvatureLimited, load_track, speed_table
 from vtrack_gym.tracks import Path as TrackPath
 
@@ -161,7 +161,7 @@ def test_per_station_widths_decide_off_road_per_side(steer: float, side: str) ->
 
 def test_cli_track_option_records_provenance(circuit_csv: Path, tmp_path: Path, capsys) -> None:
     from vtrack_gym.cli import main
-    from vtrack_gym.evaluation.store import ResultStore
+    from vtrack_gym.evaluation.storage.store import ResultStore
     from vtrack_gym.tracks import file_digest
 
     store = tmp_path / "board.db"

@@ -15,9 +15,9 @@ import vtrack_gym  # noqa: F401
 from vtrack_gym.baselines.numpy_policy import load_agent
 from vtrack_gym.baselines.registry import available_policies, make_policy
 from vtrack_gym.baselines.shipped import shipped_agent_factories, shipped_agents
-from vtrack_gym.evaluation.metrics import paper_metrics, smoothness_metrics
-from vtrack_gym.evaluation.rollout import rollout
-from vtrack_gym.evaluation.trace import Trace
+from vtrack_gym.evaluation.rollouts.rollout import rollout
+from vtrack_gym.evaluation.scoring.metrics import paper_metrics, smoothness_metrics
+from vtrack_gym.evaluation.scoring.trace import Trace
 
 AGENTS = sorted(n for n, path in shipped_agents().items() if load_agent(path).action_dim == 1)
 """The shipped steering agents (the one that drives the pedals too, ``bc_accel``: tests/test_accel_agent.py)."""

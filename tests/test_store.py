@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from vtrack_gym.evaluation.store import ResultRow, ResultStore, StoreError, to_csv, to_json, to_markdown
+from vtrack_gym.evaluation.storage.store import ResultRow, ResultStore, StoreError, to_csv, to_json, to_markdown
 
 
 def make_row(policy: str, seed: int, e_y: float = 0.1) -> ResultRow:
@@ -46,7 +46,7 @@ def test_ten_concurrent_writers_lose_nothing(tmp_path: Path) -> None:
 
 KILLED_WRITER = """
 import sys, time
-from vtrack_gym.evaluation.store import ResultStore, ResultRow
+from vtrack_gym.evaluation.storage.store import ResultStore, ResultRow
 store = ResultStore(sys.argv[1])
 rows = [ResultRow('paper', 'DLC120-v0', 'victim', 'h', i, {'x': 1.0}, 'completed', 1e-5) for i in range(200000)]
 print('writing', flush=True)

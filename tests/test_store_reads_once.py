@@ -11,8 +11,8 @@ import pytest
 
 import vtrack_gym
 from vtrack_gym.cli import main
-from vtrack_gym.evaluation import store as store_module
-from vtrack_gym.evaluation.store import ResultRow, ResultStore
+from vtrack_gym.evaluation.storage import store as store_module
+from vtrack_gym.evaluation.storage.store import ResultRow, ResultStore
 
 
 def _rows(n: int, suite: str = "bulk", start: int = 0, **kwargs) -> list[ResultRow]:

@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 
 from vtrack_gym.cli import main
-from vtrack_gym.evaluation.board import aggregate, build_board
-from vtrack_gym.evaluation.report_formats import to_csv, to_json, to_latex, to_markdown
-from vtrack_gym.evaluation.store import ResultRow, ResultStore, StoreError, version_sort_key
+from vtrack_gym.evaluation.leaderboard.board import aggregate, build_board
+from vtrack_gym.evaluation.leaderboard.report_formats import to_csv, to_json, to_latex, to_markdown
+from vtrack_gym.evaluation.storage.store import ResultRow, ResultStore, StoreError, version_sort_key
 
 COLUMNS = ["max_e_y_m", "itae"]
 
@@ -241,8 +241,8 @@ def test_presets_and_agent_weights_are_distinct_policy_keys(tmp_path: Path) -> N
     from vtrack_gym.baselines.numpy_policy import load_agent, save_agent
     from vtrack_gym.baselines.registry import make_policy
     from vtrack_gym.baselines.shipped import SHIPPED_DIR
-    from vtrack_gym.evaluation.benchmark import policy_preset
-    from vtrack_gym.evaluation.fingerprint import policy_hash
+    from vtrack_gym.evaluation.benchmarking.benchmark import policy_preset
+    from vtrack_gym.evaluation.identity.fingerprint import policy_hash
 
     env = gym.make("DLC120-v0")
     default, paper = make_policy("smc", env), make_policy("smc", env, preset="paper")
@@ -286,7 +286,7 @@ def test_version_filter_keeps_only_the_newest_package_version(tmp_path: Path) ->
 
 # ------------------------------------------------------------------------------------------ NaN rule
 def test_one_nan_rule_for_benchmark_and_leaderboard(tmp_path: Path) -> None:
-    from vtrack_gym.evaluation.benchmark import summarise
+    from vtrack_gym.evaluation.benchmarking.benchmark import summarise
 
     rows = [make_row("mpc", 0, 0.1), make_row("mpc", 1, float("nan")), make_row("smc", 0, float("inf")),
             make_row("lqr", 0, 0.3), make_row("lqr", 1, 0.5)]
@@ -341,7 +341,7 @@ def test_latex_escapes_specials() -> None:
 
 
 def test_html_escapes_and_is_self_contained(tmp_path: Path) -> None:
-    from vtrack_gym.evaluation.html_report import to_html
+    from vtrack_gym.evaluation.leaderboard.html_report import to_html
 
     page = to_html(evil_board(), figures=[_tiny_png(tmp_path / "fig.png"), tmp_path / "nope.png"])
     assert page.count("<script>") == 1 and "&lt;script&gt;alert(1)&lt;/script&gt;" in page

@@ -14,13 +14,13 @@ from pathlib import Path
 import pytest
 
 from vtrack_gym.cli import main
-from vtrack_gym.evaluation.store import ResultRow, ResultStore
+from vtrack_gym.evaluation.storage.store import ResultRow, ResultStore
 
 ROOT = Path(__file__).resolve().parents[1]
 
 WRITER = textwrap.dedent('''
     import sys, time
-    from vtrack_gym.evaluation.store import ResultRow, ResultStore
+    from vtrack_gym.evaluation.storage.store import ResultRow, ResultStore
 
     store = ResultStore(sys.argv[1])
     i = 0
@@ -60,7 +60,7 @@ def test_100k_row_store_under_a_writer_is_never_called_corrupted(tmp_path: Path,
 
 CREATOR = textwrap.dedent('''
     import os, sqlite3, sys
-    from vtrack_gym.evaluation import store, store_sqlite
+    from vtrack_gym.evaluation.storage import store, store_sqlite
 
     def killed_midway(file, timeout_s, name):
         with sqlite3.connect(file) as con:   # the schema half made, then the creator is killed
@@ -91,7 +91,7 @@ def test_a_read_refused_on_a_full_disk_says_so(tmp_path: Path, monkeypatch: pyte
     fails with an I/O error, which is said as a full disk (not "not a readable SQLite file ... Move it away")."""
     import sqlite3
 
-    import vtrack_gym.evaluation.store_sqlite as store_module
+    import vtrack_gym.evaluation.storage.store_sqlite as store_module
 
     path = tmp_path / "s.sqlite"
     ResultStore(path).add(_rows(3))

@@ -12,10 +12,10 @@ from pathlib import Path
 import pytest
 
 from vtrack_gym.cli import main
-from vtrack_gym.evaluation import suites
+from vtrack_gym.evaluation.suite import suites
 
 PLUGIN = textwrap.dedent('''
-    from vtrack_gym.evaluation.suites import Episode, Suite
+    from vtrack_gym.evaluation.suite.suites import Episode, Suite
 
     def two_seeds(seeds):
         return [Episode("DLC120-v0", s, {"target_speed_mps": 30.0}) for s in seeds]
@@ -79,7 +79,7 @@ def test_a_suite_from_outside_through_the_python_api(plugin: Path) -> None:
 
 
 def test_a_suite_is_checked_when_it_is_made() -> None:
-    from vtrack_gym.evaluation.suite_defs.paper import paper_episodes
+    from vtrack_gym.evaluation.suite.suite_defs.paper import paper_episodes
 
     with pytest.raises(ValueError, match=r"Suite\.primary_metric must be a numeric metric"):
         suites.Suite("x", "x", paper_episodes, primary_metric="termination")

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import vtrack_gym
-from vtrack_gym.evaluation.metrics import evaluate_trace
-from vtrack_gym.evaluation.rollout import rollout
+from vtrack_gym.evaluation.rollouts.rollout import rollout
+from vtrack_gym.evaluation.scoring.metrics import evaluate_trace
 from vtrack_gym.tracks.speed_limits import speed_profile_from_limits
 from vtrack_gym.vehicle.longitudinal import top_speed_mps
 

@@ -14,12 +14,12 @@ import pytest
 
 import vtrack_gym
 from vtrack_gym.cli import main
-from vtrack_gym.evaluation import iso2631
-from vtrack_gym.evaluation.benchmark import LEADERBOARD_COLUMNS, TIMING_COLUMNS
-from vtrack_gym.evaluation.laps import lap_crossing_times, lap_metrics, lap_times
-from vtrack_gym.evaluation.metrics import evaluate_trace, timing_metrics
-from vtrack_gym.evaluation.rollout import rollout, rollout_batch
-from vtrack_gym.evaluation.store import ResultRow, ResultStore
+from vtrack_gym.evaluation.benchmarking.benchmark import LEADERBOARD_COLUMNS, TIMING_COLUMNS
+from vtrack_gym.evaluation.rollouts.rollout import rollout, rollout_batch
+from vtrack_gym.evaluation.scoring import iso2631
+from vtrack_gym.evaluation.scoring.laps import lap_crossing_times, lap_metrics, lap_times
+from vtrack_gym.evaluation.scoring.metrics import evaluate_trace, timing_metrics
+from vtrack_gym.evaluation.storage.store import ResultRow, ResultStore
 from vtrack_gym.tracks import CurvatureLimited, speed_table
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -115,7 +115,7 @@ def test_cli_track_limits_is_recorded_with_the_row(tmp_path: Path) -> None:
     for rule in ("body", "wheels", None):
         argv = ["eval", "--policy", "stanley", "--track", str(file), "--store", str(store)]
         assert main(argv + (["--track-limits", rule] if rule else [])) == 0
-    from vtrack_gym.evaluation.store import ResultStore
+    from vtrack_gym.evaluation.storage.store import ResultStore
 
     body, wheels, default = ResultStore(store, read_only=True).rows()
     assert body["options"]["protocol"] == {"track_limits": "body"}
@@ -138,7 +138,7 @@ def test_cli_benchmark_tracks_takes_the_rule(tmp_path: Path, capsys: pytest.Capt
     store = tmp_path / "s.db"
     assert main(["benchmark", "--tracks", str(folder), "--policies", "stanley", "--track-limits", "body",
                  "--no-figures", "--workers", "1", "--store", str(store)]) == 0
-    from vtrack_gym.evaluation.store import ResultStore
+    from vtrack_gym.evaluation.storage.store import ResultStore
 
     (row,) = ResultStore(store, read_only=True).rows()
     assert row["options"]["protocol"] == {"track_limits": "body"} and row["metrics"]["track_limit_violations"] == 0.0

@@ -12,9 +12,9 @@ import pytest
 
 import vtrack_gym
 from vtrack_gym.cli import main
-from vtrack_gym.evaluation.board import build_board, ranking_note
-from vtrack_gym.evaluation.suite_parts import Suite
-from vtrack_gym.evaluation.suites import extra_columns, get_suite, suite_names, then_metrics
+from vtrack_gym.evaluation.leaderboard.board import build_board, ranking_note
+from vtrack_gym.evaluation.suite.suite_parts import Suite
+from vtrack_gym.evaluation.suite.suites import extra_columns, get_suite, suite_names, then_metrics
 
 
 def test_the_suite_drives_eight_courses_in_steer_accel() -> None:
@@ -70,11 +70,11 @@ def test_vtrack_benchmark_trajectory_stores_speed_and_time_columns(tmp_path: Pat
                  "--store", str(store), "--format", "json"]) == 0
     captured = capsys.readouterr()
     assert "then mean rms_e_v_mps" in captured.err
-    rows = vtrack_gym.evaluation.store.ResultStore(store).rows()
+    rows = vtrack_gym.evaluation.storage.store.ResultStore(store).rows()
     assert len(rows) == 8 and {r["suite"] for r in rows} == {"trajectory"}
     assert all(json.loads(r["options"])["control"] == "steer_accel" if isinstance(r["options"], str)
                else r["options"]["control"] == "steer_accel" for r in rows)
-    board = vtrack_gym.evaluation.store.ResultStore(store).leaderboard(
+    board = vtrack_gym.evaluation.storage.store.ResultStore(store).leaderboard(
         "trajectory", ["rms_e_v_mps", "time_lag_s"])
     ring = next(e for e in board if "RingCircuit" in e["env_id"])
     assert np.isfinite(float(ring["rms_e_v_mps"])) and np.isfinite(float(ring["time_lag_s"]))

@@ -15,7 +15,7 @@ import pytest
 import vtrack_gym._io as io_module
 from vtrack_gym._io import atomic_output, write_atomic
 from vtrack_gym.cli import main
-from vtrack_gym.evaluation.store import ResultRow, ResultStore
+from vtrack_gym.evaluation.storage.store import ResultRow, ResultStore
 
 
 def _target(tmp: Path, kind: str, name: str) -> Path:
@@ -65,7 +65,7 @@ def test_leaderboard_and_preset_outputs_refuse_hostile_targets(tmp_path, kind):
 
 
 def test_video_on_a_full_disk_says_so_and_leaves_nothing(tmp_path, capsys, monkeypatch):
-    from vtrack_gym.evaluation import video
+    from vtrack_gym.evaluation.figures import video
 
     add = video._Writer.add
 

@@ -16,7 +16,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from vtrack_gym.cli import main
-from vtrack_gym.evaluation.store import ResultRow, ResultStore, StoreError, row_sha256
+from vtrack_gym.evaluation.storage.store import ResultRow, ResultStore, StoreError, row_sha256
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -187,7 +187,7 @@ class _FullDiskConnection:
 
 
 def test_a_disk_io_error_on_a_full_disk_says_the_disk_is_full(tmp_path, monkeypatch):
-    import vtrack_gym.evaluation.store_sqlite as store_module  # the SQLite layer names a full disk
+    import vtrack_gym.evaluation.storage.store_sqlite as store_module  # the SQLite layer names a full disk
 
     path = _store(tmp_path / "s.sqlite")
     store = ResultStore(path)
@@ -206,7 +206,7 @@ def test_a_disk_io_error_on_a_full_disk_says_the_disk_is_full(tmp_path, monkeypa
 _WRITER = """
 import sys, time
 sys.path.insert(0, {root!r})
-from vtrack_gym.evaluation.store import ResultRow, ResultStore
+from vtrack_gym.evaluation.storage.store import ResultRow, ResultStore
 store = ResultStore({path!r})
 end = time.time() + {seconds}
 i = 100

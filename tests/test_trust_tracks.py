@@ -23,7 +23,7 @@ from hypothesis import strategies as st
 import vtrack_gym  # noqa: F401  (registers the ids)
 from vtrack_gym.cli import main
 from vtrack_gym.evaluation.api import evaluate
-from vtrack_gym.evaluation.store import ResultStore
+from vtrack_gym.evaluation.storage.store import ResultStore
 from vtrack_gym.tracks import Path as TrackPath
 
 STEPS = 60
@@ -79,7 +79,7 @@ def test_a_file_edited_after_make_is_refused_and_a_new_env_drives_the_new_conten
 
 def test_vtrack_eval_track_refuses_a_file_edited_between_episodes(tmp_path: Path, monkeypatch,
                                                                   capsys: pytest.CaptureFixture[str]) -> None:
-    import vtrack_gym.evaluation.benchmark as api  # the episode scorer reads score_episode from here
+    import vtrack_gym.evaluation.benchmarking.benchmark as api  # the episode scorer reads score_episode from here
 
     f = tmp_path / "loop.csv"
     write_loop(f, 61.0)     # content of its own: ids are keyed by content, not by the file's folder

@@ -18,8 +18,8 @@ from vtrack_gym.baselines.registry import make_policy
 from vtrack_gym.baselines.smc import SMC, SMCConfig
 from vtrack_gym.baselines.smc_tuning import SMC_PAPER, SMC_WORKING, PopulationSMC
 from vtrack_gym.envs.pdflc import PDFLCConfig
-from vtrack_gym.evaluation.metrics import itae
-from vtrack_gym.evaluation.rollout import rollout
+from vtrack_gym.evaluation.rollouts.rollout import rollout
+from vtrack_gym.evaluation.scoring.metrics import itae
 from vtrack_gym.tuning.ga import tune
 from vtrack_gym.tuning.population import FitnessConfig, PopulationEvaluator, configs_from_vector
 from vtrack_gym.tuning.spaces import BUDGETS, Budget, search_space
@@ -197,7 +197,7 @@ def test_valid_preset_text_accepted():
 
 def test_cli_tune_quick(tmp_path):
     from vtrack_gym.cli import main
-    from vtrack_gym.evaluation.store import ResultStore
+    from vtrack_gym.evaluation.storage.store import ResultStore
 
     out, store = tmp_path / "p.json", tmp_path / "s.sqlite"
     assert main(["tune", "--controller", "smc", "--budget", "quick", "--space", "working", "--generations", "1",

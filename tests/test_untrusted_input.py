@@ -24,7 +24,7 @@ import pytest
 
 import vtrack_gym  # noqa: F401
 from vtrack_gym.cli import main
-from vtrack_gym.evaluation.store import ResultRow, ResultStore, StoreError
+from vtrack_gym.evaluation.storage.store import ResultRow, ResultStore, StoreError
 from vtrack_gym.tracks import load_track_csv
 
 

@@ -7,7 +7,7 @@ import time
 import pytest
 
 from vtrack_gym.cli import main
-from vtrack_gym.evaluation.video import check_video_path
+from vtrack_gym.evaluation.figures.video import check_video_path
 
 imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg")
 

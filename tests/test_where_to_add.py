@@ -80,11 +80,11 @@ def _choices(parser, command: str, option: str) -> tuple[str, ...]:
 
 
 def test_a_suite_is_one_registry_entry_read_by_the_cli() -> None:
-    """Every suite is one ``Suite`` in ``evaluation.suites``; ``vtrack benchmark --suite`` and ``vtrack dataset
+    """Every suite is one ``Suite`` in ``evaluation.suite.suites``; ``vtrack benchmark --suite`` and ``vtrack dataset
     --suite`` list the registry (a suite registered later is listed too)."""
     from vtrack_gym.cli import build_parser
-    from vtrack_gym.evaluation import suites
-    from vtrack_gym.evaluation.suite_defs.paper import paper_episodes
+    from vtrack_gym.evaluation.suite import suites
+    from vtrack_gym.evaluation.suite.suite_defs.paper import paper_episodes
 
     assert _choices(build_parser(), "benchmark", "--suite") == suites.suite_names()
     for name in suites.suite_names():

@@ -57,9 +57,9 @@ def max_entry_speed_kmh(policy: _Any, env_id: str = "vtrack/ISO3888-2-v1", **kwa
     """The highest entry speed [km/h] at which ``policy`` (a name such as ``"mpc"``, a factory ``make(env)`` or an
     object with ``predict``) passes an ISO 3888 lane change (``vtrack/ISO3888-1-v1``, ``vtrack/ISO3888-2-v1``), with
     the car's physical bound and the fraction of it. Keywords: ``vehicle``, ``lo_kmh``, ``hi_kmh``, ``tol_kmh``,
-    ``checks``, ``seed``, ``policy_id``, ``on_probe``. See ``vtrack_gym.evaluation.entry_speed``.
+    ``checks``, ``seed``, ``policy_id``, ``on_probe``. See ``vtrack_gym.evaluation.rollouts.entry_speed``.
     """
-    from vtrack_gym.evaluation.entry_speed import max_entry_speed_kmh as _search
+    from vtrack_gym.evaluation.rollouts.entry_speed import max_entry_speed_kmh as _search
 
     return _search(policy, env_id, **kwargs)
 

@@ -12,8 +12,8 @@ names. What it depends on:
 
 Names read only by ordinary functions (a policy's ``predict``, a lazy import inside a helper), by a class's methods,
 by annotations or by top-level statements that define nothing compiled code reads (a registration call) do not
-count: editing ``evaluation/plots.py``, ``baselines/mpc.py`` or a registry line leaves the kernels' cache valid. A
-top-level statement that changes a global in place (``TABLE[0] = ...``) is not followed: define globals in one
+count: editing ``evaluation/figures/plots.py``, ``baselines/mpc.py`` or a registry line leaves the kernels' cache valid.
+A top-level statement that changes a global in place (``TABLE[0] = ...``) is not followed: define globals in one
 assignment.
 """
 

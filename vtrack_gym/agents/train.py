@@ -158,8 +158,8 @@ def evaluate_paper(policy: Any, case1_max_steps: int | None = 3000, seed: int = 
     ``{env_id: metrics + termination + steps}``."""
     import gymnasium as gym
 
-    from vtrack_gym.evaluation.metrics import paper_metrics, smoothness_metrics
-    from vtrack_gym.evaluation.rollout import rollout
+    from vtrack_gym.evaluation.rollouts.rollout import rollout
+    from vtrack_gym.evaluation.scoring.metrics import paper_metrics, smoothness_metrics
 
     out: dict[str, dict[str, Any]] = {}
     for env_id in EVAL_ENV_IDS:

@@ -310,7 +310,8 @@ class NumpyPolicy:
     solver_failures: int = 0
     """A closed-form network: no solver, never a failed solve (the leaderboard's ``solver_failures``)."""
     display_attributes: ClassVar[tuple[str, ...]] = ("name",)
-    """The file stem an agent is shown by: not part of its identity (``evaluation.fingerprint``), its content is."""
+    """The file stem an agent is shown by: not part of its identity (``evaluation.identity.fingerprint``), its content
+    is."""
 
     def __init__(self, spec: dict[str, Any], arrays: dict[str, np.ndarray], name: str = "agent") -> None:
         self.spec = validate_spec(spec)

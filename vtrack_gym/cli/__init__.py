@@ -48,7 +48,7 @@ from vtrack_gym.cli import (
 from vtrack_gym.cli._extras import missing_packages
 from vtrack_gym.cli._options import Parser
 from vtrack_gym.cli._terminal import SafeFormatter, err, results_only_on_stdout, safe_warnings
-from vtrack_gym.evaluation.store import StoreError
+from vtrack_gym.evaluation.storage.store import StoreError
 from vtrack_gym.tuning.backends import BackendError
 
 COMMANDS: tuple[ModuleType, ...] = (benchmark, evaluate, leaderboard, train, export, plot, tune, video, reproduce,

@@ -9,8 +9,8 @@ from typing import Any
 
 def render_board(board: list[dict[str, Any]], fmt: str, title: str = "vtrack leaderboard",
                  figures: Sequence[Path] = (), notes: Sequence[str] = ()) -> str:
-    """``board`` in the registered output format ``fmt`` (``evaluation.output_formats``)."""
-    from vtrack_gym.evaluation.output_formats import get_format
+    """``board`` in the registered output format ``fmt`` (``evaluation.leaderboard.output_formats``)."""
+    from vtrack_gym.evaluation.leaderboard.output_formats import get_format
 
     return get_format(fmt).render(board, title, figures, notes)
 
@@ -18,9 +18,9 @@ def render_board(board: list[dict[str, Any]], fmt: str, title: str = "vtrack lea
 def shown_columns(board: list[dict[str, Any]], fmt: str, columns: str, suite: str) -> list[dict[str, Any]]:
     """The board a format shows: the key columns in a trimmed format (``OutputFormat.trimmed``) unless ``columns``
     is ``all``, else every column (those explaining a verdict first in a ``key_first`` format)."""
-    from vtrack_gym.evaluation.board_view import board_view
-    from vtrack_gym.evaluation.output_formats import get_format
-    from vtrack_gym.evaluation.suites import extra_columns, primary_metric
+    from vtrack_gym.evaluation.leaderboard.board_view import board_view
+    from vtrack_gym.evaluation.leaderboard.output_formats import get_format
+    from vtrack_gym.evaluation.suite.suites import extra_columns, primary_metric
 
     chosen = get_format(fmt)
     return board_view(board, primary_metric(suite), columns if chosen.trimmed else "all", extra_columns(suite),
@@ -29,8 +29,8 @@ def shown_columns(board: list[dict[str, Any]], fmt: str, columns: str, suite: st
 
 def ranking_note(suite: str) -> str:
     """How ``suite``'s board is ranked (one sentence for stderr or the report)."""
-    from vtrack_gym.evaluation.board import ranking_note as note
-    from vtrack_gym.evaluation.suites import primary_metric, then_metrics
+    from vtrack_gym.evaluation.leaderboard.board import ranking_note as note
+    from vtrack_gym.evaluation.suite.suites import primary_metric, then_metrics
 
     return note(primary_metric(suite), then_metrics(suite))
 

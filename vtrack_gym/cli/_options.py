@@ -8,8 +8,8 @@ from pathlib import Path
 from typing import Any
 
 from vtrack_gym.cli._terminal import write_safe
-from vtrack_gym.evaluation.store import DEFAULT_STORE_PATH
-from vtrack_gym.evaluation.store import MAX_SEED as MAX_STORED_SEED
+from vtrack_gym.evaluation.storage.store import DEFAULT_STORE_PATH
+from vtrack_gym.evaluation.storage.store import MAX_SEED as MAX_STORED_SEED
 
 DEFAULT_RESULTS_DIR = Path("vtrack_results")
 DEFAULT_FIGURES_DIR = DEFAULT_RESULTS_DIR / "figures"
@@ -82,9 +82,9 @@ def add_store(p: argparse.ArgumentParser) -> None:
 
 
 def add_format(p: argparse.ArgumentParser, reports: bool = False) -> None:
-    """``--format``: the registered output formats (``evaluation.output_formats``; ``reports``: with the report-only
-    ones, latex and html)."""
-    from vtrack_gym.evaluation.output_formats import format_names, formats_help
+    """``--format``: the registered output formats (``evaluation.leaderboard.output_formats``; ``reports``: with the
+    report-only ones, latex and html)."""
+    from vtrack_gym.evaluation.leaderboard.output_formats import format_names, formats_help
 
     choices = format_names(reports)
     p.add_argument("--format", choices=choices, default="md",
@@ -106,8 +106,8 @@ def policy_help() -> str:
 
 def add_columns(p: argparse.ArgumentParser) -> None:
     """``--columns key|all``: the columns of the trimmed formats (the others carry them all)."""
-    from vtrack_gym.evaluation.board_view import COLUMN_SETS
-    from vtrack_gym.evaluation.output_formats import format_names, get_format
+    from vtrack_gym.evaluation.leaderboard.board_view import COLUMN_SETS
+    from vtrack_gym.evaluation.leaderboard.output_formats import format_names, get_format
 
     trimmed = [n for n in format_names() if get_format(n).trimmed]
     others = [n for n in format_names() if not get_format(n).trimmed]
@@ -257,7 +257,7 @@ def policy_list(text: str) -> list[str]:
 
 
 def parse_seeds(text: str) -> list[int]:
-    """The seeds of a ``--seeds`` value (``vtrack_gym.evaluation.seeds.parse_seeds``; errors name ``--seeds``)."""
-    from vtrack_gym.evaluation.seeds import parse_seeds as parse
+    """The seeds of a ``--seeds`` value (``vtrack_gym.evaluation.suite.seeds.parse_seeds``; errors name ``--seeds``)."""
+    from vtrack_gym.evaluation.suite.seeds import parse_seeds as parse
 
     return parse(text, "--seeds")

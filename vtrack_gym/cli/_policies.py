@@ -83,7 +83,7 @@ def policy_factories(names: Sequence[str], preset: str = "default", trust_code: 
     (also one agent file by two paths) is scored once; two different agents with one stem are two policies
     (``resolve.named_factories``)."""
     from vtrack_gym.baselines.resolve import canonical_spec, is_user_spec, named_factories
-    from vtrack_gym.evaluation.policy_names import user_spec_label
+    from vtrack_gym.evaluation.identity.policy_names import user_spec_label
 
     kwargs = parse_policy_kwargs(kwargs_text)
     makers = policy_makers([n.strip() for n in names], preset, trust_code, kwargs_text)

@@ -21,8 +21,8 @@ from vtrack_gym.cli._envs import (
 from vtrack_gym.cli._extras import osqp_for
 from vtrack_gym.cli._policies import policy_factories
 from vtrack_gym.cli._terminal import err, out
-from vtrack_gym.evaluation.store import StoreError
-from vtrack_gym.evaluation.suites import get_suite, quick_suites, seeds_help, suite_help, suite_names
+from vtrack_gym.evaluation.storage.store import StoreError
+from vtrack_gym.evaluation.suite.suites import get_suite, quick_suites, seeds_help, suite_help, suite_names
 
 NAME = "benchmark"
 EXIT_TRACKS_REFUSED = 3
@@ -108,9 +108,9 @@ def _score(args: argparse.Namespace, factories: dict[str, Any] | None, seeds: li
            store: Any) -> dict[str, Any]:
     """Run the benchmark on the track file(s) or the suite (the library does the work; each row is committed to
     ``store`` as its episode ends)."""
-    from vtrack_gym.evaluation.benchmark import policy_factories as all_policies
-    from vtrack_gym.evaluation.benchmark import run_benchmark
-    from vtrack_gym.evaluation.track_benchmark import benchmark_track, benchmark_tracks
+    from vtrack_gym.evaluation.benchmarking.benchmark import policy_factories as all_policies
+    from vtrack_gym.evaluation.benchmarking.benchmark import run_benchmark
+    from vtrack_gym.evaluation.benchmarking.track_benchmark import benchmark_track, benchmark_tracks
 
     figures = None if args.no_figures else args.figures
     where = {"workers": args.workers, "backend": args.backend, "store": store}
@@ -132,7 +132,7 @@ def _score(args: argparse.Namespace, factories: dict[str, Any] | None, seeds: li
 
 def run(args: argparse.Namespace) -> int:
     from vtrack_gym.evaluation.api import board_of
-    from vtrack_gym.evaluation.store import ResultStore
+    from vtrack_gym.evaluation.storage.store import ResultStore
 
     _check_track_options(args)
     args.suite = args.suite or "paper"

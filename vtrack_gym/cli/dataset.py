@@ -15,7 +15,7 @@ NAME = "dataset"
 
 
 def register(sub: Any) -> None:
-    from vtrack_gym.evaluation.dataset import MAX_EPISODES, dataset_suites
+    from vtrack_gym.evaluation.benchmarking.dataset import MAX_EPISODES, dataset_suites
 
     ds = sub.add_parser(NAME, help="write a Minari dataset of a policy's episodes (extra 'dataset')",
                         description="Drive a policy deterministically through a suite's scenarios or one env and "
@@ -55,7 +55,7 @@ def check_outputs(args: argparse.Namespace) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from vtrack_gym.cli._policies import parse_policy_kwargs, policy_factory
-    from vtrack_gym.evaluation.dataset import write_dataset
+    from vtrack_gym.evaluation.benchmarking.dataset import write_dataset
 
     check_vehicle(args)
     kwargs = parse_policy_kwargs(args.policy_kwargs)

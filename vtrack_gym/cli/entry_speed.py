@@ -1,5 +1,5 @@
 """``vtrack entry-speed``: the highest entry speed at which each policy passes an ISO 3888 lane change, against the
-car's physical bound (``vtrack_gym.evaluation.entry_speed.max_entry_speed_kmh``)."""
+car's physical bound (``vtrack_gym.evaluation.rollouts.entry_speed.max_entry_speed_kmh``)."""
 
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ DEFAULT_ENV = "vtrack/ISO3888-2-v1"
 
 
 def register(sub: Any) -> None:
-    from vtrack_gym.evaluation.entry_speed import (
+    from vtrack_gym.evaluation.rollouts.entry_speed import (
         DEFAULT_CHECKS,
         DEFAULT_TOL_KMH,
         ENTRY_SPEED_ENV_IDS,
@@ -57,7 +57,7 @@ def needed_modules(args: argparse.Namespace) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from vtrack_gym.evaluation.entry_speed import entry_speed_bound, search_range
+    from vtrack_gym.evaluation.rollouts.entry_speed import entry_speed_bound, search_range
 
     names = opt.policy_list(args.policy)
     if not names:
@@ -88,7 +88,12 @@ def run(args: argparse.Namespace) -> int:
 def _search(args: argparse.Namespace, name: str, make: Any) -> Any:
     """One policy's search with a progress bar (one tick per run)."""
     from vtrack_gym._progress import progress_bar
-    from vtrack_gym.evaluation.entry_speed import entry_speed_bound, max_entry_speed_kmh, planned_probes, search_range
+    from vtrack_gym.evaluation.rollouts.entry_speed import (
+        entry_speed_bound,
+        max_entry_speed_kmh,
+        planned_probes,
+        search_range,
+    )
 
     lo, hi = search_range(entry_speed_bound(args.env, args.vehicle), args.lo_kmh, args.hi_kmh)
     total = planned_probes(lo, hi, args.tol_kmh, args.checks) if lo < hi and args.tol_kmh > 0 else None
@@ -103,7 +108,7 @@ def _search(args: argparse.Namespace, name: str, make: Any) -> Any:
 
 
 def _table(results: list[Any]) -> str:
-    from vtrack_gym.evaluation.report_formats import to_markdown
+    from vtrack_gym.evaluation.leaderboard.report_formats import to_markdown
 
     return to_markdown([{"policy": r.policy_id, "env": r.env_id, "vehicle": r.vehicle or "default",
                          "max_entry_speed_kmh": _speed(r), "entry_speed_bound_kmh": r.entry_speed_bound_kmh,
@@ -121,7 +126,7 @@ def _speed(r: Any) -> Any:
 
 
 def _probe_table(r: Any) -> str:
-    from vtrack_gym.evaluation.report_formats import to_markdown
+    from vtrack_gym.evaluation.leaderboard.report_formats import to_markdown
 
     return to_markdown([{"run": i, "stage": p.stage, "entry_speed_kmh": p.speed_kmh,
                          "result": "pass" if p.passed else p.reason} for i, p in enumerate(r.probes, 1)])

@@ -48,9 +48,9 @@ def check_outputs(args: argparse.Namespace) -> None:
 def run(args: argparse.Namespace) -> int:
     from vtrack_gym.baselines.resolve import recorded_policy_id
     from vtrack_gym.evaluation.api import evaluate
-    from vtrack_gym.evaluation.policy_names import user_spec_label
-    from vtrack_gym.evaluation.store import ResultStore, StoreError
-    from vtrack_gym.evaluation.track_benchmark import merge_provenance
+    from vtrack_gym.evaluation.benchmarking.track_benchmark import merge_provenance
+    from vtrack_gym.evaluation.identity.policy_names import user_spec_label
+    from vtrack_gym.evaluation.storage.store import ResultStore, StoreError
 
     seeds = opt.parse_seeds(args.seeds)
     make = policy_factory(args.policy, args.preset, args.trust_code, parse_policy_kwargs(args.policy_kwargs))
@@ -94,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _print_table(rows: list[Any]) -> None:
     """One line per seed (termination, success, float metrics) and, for several seeds, their summary."""
-    from vtrack_gym.evaluation.report_formats import to_markdown
+    from vtrack_gym.evaluation.leaderboard.report_formats import to_markdown
 
     table = [{"seed": r.seed, "termination": r.termination, "success": int(r.verdict()),
               **{k: v for k, v in r.metrics.items() if isinstance(v, float)},
@@ -102,6 +102,6 @@ def _print_table(rows: list[Any]) -> None:
                  if isinstance(r.metrics.get("lap_times_s"), list) else {})} for r in rows]
     out(to_markdown(table), flush=True)
     if len(rows) > 1:
-        from vtrack_gym.evaluation.benchmark import LEADERBOARD_COLUMNS, summarise
+        from vtrack_gym.evaluation.benchmarking.benchmark import LEADERBOARD_COLUMNS, summarise
 
         out("\n" + to_markdown(summarise(rows, LEADERBOARD_COLUMNS)), flush=True)

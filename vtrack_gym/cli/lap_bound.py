@@ -90,7 +90,7 @@ def row(bound: Any, track: Any, vehicle: str) -> dict[str, Any]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from vtrack_gym.evaluation.report_formats import to_markdown
+    from vtrack_gym.evaluation.leaderboard.report_formats import to_markdown
     from vtrack_gym.tracks import gg_limits, lap_time_bound
 
     check_vehicle(args)
@@ -109,7 +109,7 @@ def run(args: argparse.Namespace) -> int:
         gain = 100.0 * (1.0 - bounds[1].lap_time_s / bounds[0].lap_time_s)
         err(f"{track.name}: the racing line is {gain:.2f} % faster than the centre line")
     if args.plot is not None:
-        from vtrack_gym.evaluation.lap_figure import write_lap_figure
+        from vtrack_gym.evaluation.figures.lap_figure import write_lap_figure
 
         err(f"figure: {write_lap_figure(track, bounds[::-1], args.plot)}")
     return 0

@@ -11,8 +11,8 @@ from vtrack_gym._io import check_output_file, check_regular_input, write_atomic
 from vtrack_gym.cli import _options as opt
 from vtrack_gym.cli._board import ranking_note, render_board, shown_columns
 from vtrack_gym.cli._terminal import err, out
-from vtrack_gym.evaluation.html_report import MAX_FIGURE_BYTES
-from vtrack_gym.evaluation.store import DEFAULT_STORE_PATH
+from vtrack_gym.evaluation.leaderboard.html_report import MAX_FIGURE_BYTES
+from vtrack_gym.evaluation.storage.store import DEFAULT_STORE_PATH
 
 NAME = "leaderboard"
 SQLITE_HEADER = b"SQLite format 3\x00"
@@ -84,9 +84,9 @@ def check_outputs(args: argparse.Namespace) -> None:
 
 def _figures(args: argparse.Namespace, board: Any) -> tuple[list[Path], str]:
     """The PNGs ``--format html`` embeds (those of the runs whose every row the board shows:
-    ``evaluation.figure_runs``; regular files of at most ``MAX_FIGURE_BYTES``) and a note saying which."""
-    from vtrack_gym.evaluation.figure_runs import figure_runs, policy_figure_notes, run_figures
-    from vtrack_gym.evaluation.output_formats import get_format
+    ``evaluation.figures.figure_runs``; regular files of at most ``MAX_FIGURE_BYTES``) and a note saying which."""
+    from vtrack_gym.evaluation.figures.figure_runs import figure_runs, policy_figure_notes, run_figures
+    from vtrack_gym.evaluation.leaderboard.output_formats import get_format
 
     if not get_format(args.format).figures:
         return [], ""
@@ -104,7 +104,7 @@ def _figures(args: argparse.Namespace, board: Any) -> tuple[list[Path], str]:
 
 def run(args: argparse.Namespace) -> int:
     from vtrack_gym.evaluation.api import board_of
-    from vtrack_gym.evaluation.store import ResultStore
+    from vtrack_gym.evaluation.storage.store import ResultStore
 
     if not args.store.exists():
         err(f"no store at {args.store}: run `vtrack benchmark` first (or pass --store)")

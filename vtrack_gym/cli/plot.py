@@ -39,8 +39,8 @@ def check_outputs(args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from vtrack_gym.evaluation.benchmark import score_policy, write_figures
-    from vtrack_gym.evaluation.suites import Episode
+    from vtrack_gym.evaluation.benchmarking.benchmark import score_policy, write_figures
+    from vtrack_gym.evaluation.suite.suites import Episode
 
     env_id, _ = env_or_track(args, default="LateralTracking-v0")
     names = opt.policy_list(args.policies)

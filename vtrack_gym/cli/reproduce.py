@@ -36,7 +36,7 @@ def check_outputs(args: argparse.Namespace) -> None:
 def run(args: argparse.Namespace) -> int:
     import time
 
-    from vtrack_gym.evaluation.reproduce import reproduce
+    from vtrack_gym.evaluation.reproduction.reproduce import reproduce
 
     start = time.perf_counter()
     result = reproduce(args.out, quick=args.quick, progress=lambda msg: err(f"running {msg}"))

@@ -51,7 +51,7 @@ def register(sub: Any) -> None:
 
 def _video_config(args: argparse.Namespace) -> Any:
     from vtrack_gym.envs.render import RenderConfig
-    from vtrack_gym.evaluation.video import VideoConfig
+    from vtrack_gym.evaluation.figures.video import VideoConfig
 
     render = RenderConfig(width_px=args.width, height_px=args.height, view=args.view, view_width_m=args.view_width,
                           fps=args.fps)
@@ -72,7 +72,7 @@ def _drawable_env(args: argparse.Namespace) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from vtrack_gym.evaluation.video import check_video_path, record_video
+    from vtrack_gym.evaluation.figures.video import check_video_path, record_video
 
     if (args.policy is None) == (args.policies is None):
         raise ValueError("give exactly one of --policy NAME or --policies A,B")

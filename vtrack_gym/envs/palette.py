@@ -1,4 +1,4 @@
-"""One colour per policy, shared by the figures (``evaluation.plots``) and the videos (``envs.render``)."""
+"""One colour per policy, shared by the figures (``evaluation.figures.plots``) and the videos (``envs.render``)."""
 
 from __future__ import annotations
 

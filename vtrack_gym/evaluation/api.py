@@ -14,14 +14,14 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from vtrack_gym.evaluation.benchmark import episode_scorer
-from vtrack_gym.evaluation.env_identity import UNIDENTIFIED, env_identity
-from vtrack_gym.evaluation.env_names import canonical_env_id
-from vtrack_gym.evaluation.fingerprint import named_policy_hash, policy_hash
-from vtrack_gym.evaluation.rollout import policy_id_of
-from vtrack_gym.evaluation.rows import ResultRow
-from vtrack_gym.evaluation.store import ResultStore, StoreError
-from vtrack_gym.evaluation.suites import (
+from vtrack_gym.evaluation.benchmarking.benchmark import episode_scorer
+from vtrack_gym.evaluation.identity.env_identity import UNIDENTIFIED, env_identity
+from vtrack_gym.evaluation.identity.env_names import canonical_env_id
+from vtrack_gym.evaluation.identity.fingerprint import named_policy_hash, policy_hash
+from vtrack_gym.evaluation.rollouts.rollout import policy_id_of
+from vtrack_gym.evaluation.scoring.rows import ResultRow
+from vtrack_gym.evaluation.storage.store import ResultStore, StoreError
+from vtrack_gym.evaluation.suite.suites import (
     Episode,
     suite_episodes,
     suite_label,
@@ -101,7 +101,7 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
     a suite's or an env id's episodes (a name of ``vehicle.list_vehicles()`` or a vehicle file; default the paper's
     car), recorded in the rows' ``options`` (an env instance is driven with its own car, track and config, recorded
     by ``env_identity``). ``workers`` / ``backend``: run a suite's or an env id's episodes in local processes or on
-    Ray (``vtrack_gym.evaluation.parallel.run_tasks``; the same rows as ``workers=1``; the factory must be
+    Ray (``vtrack_gym.evaluation.rollouts.parallel.run_tasks``; the same rows as ``workers=1``; the factory must be
     picklable for Ray). ``latency``: charge each decision's compute in the loop (``envs.latency``: ``"measured"``,
     the policy call's time, or a fixed budget in seconds), recorded in the rows' options and ranked apart from the
     ideal rows. ``control``: the control mode of a suite's or an env id's episodes (``envs.control``; default
@@ -113,7 +113,7 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
     stored before it stay). Rank the rows with ``leaderboard(rows)``, alone or with other rows of the same suite.
     """
     _check_seeds(seeds)
-    from vtrack_gym.evaluation.parallel import check_workers
+    from vtrack_gym.evaluation.rollouts.parallel import check_workers
 
     check_workers(workers, backend)
     if hasattr(policy_or_factory, "predict") and not isinstance(policy_or_factory, type):
@@ -145,7 +145,7 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
         raise ValueError(f"suite_or_env must be a suite name ({', '.join(suite_names())}), an env id or a "
                          f"gymnasium.Env (got {type(suite_or_env).__name__})")
     result_store = _open_store(store)  # checked before the first rollout: a bad store loses no results
-    from vtrack_gym.evaluation.track_benchmark import merge_provenance
+    from vtrack_gym.evaluation.benchmarking.track_benchmark import merge_provenance
     rows: list[ResultRow] = []
 
     def keep(row: ResultRow) -> None:  # committed as its episode ends: a later failure cannot lose it
@@ -234,7 +234,7 @@ def _parallel_rows(make: Callable[[Any], Any], episodes: Sequence[Episode], suit
     starts (``_first_identity``), so a row is complete when its episode ends and a later failure cannot lose it."""
     import functools
 
-    from vtrack_gym.evaluation.parallel import EpisodeTask, run_tasks
+    from vtrack_gym.evaluation.rollouts.parallel import EpisodeTask, run_tasks
 
     checked = functools.partial(_checked_policy, make)
     name, digest = _first_identity(checked, episodes[0], policy_id)
@@ -254,8 +254,8 @@ def _parallel_rows(make: Callable[[Any], Any], episodes: Sequence[Episode], suit
 
 @dataclasses.dataclass(frozen=True)
 class Board:
-    """A ranked board (``entries``: ``evaluation.board`` entries with ``Estimate`` means), the rows it aggregates
-    (``rows``) and every row of its suite (``suite_rows``; ``figure_runs`` compares the two)."""
+    """A ranked board (``entries``: ``evaluation.leaderboard.board`` entries with ``Estimate`` means), the rows it
+    aggregates (``rows``) and every row of its suite (``suite_rows``; ``figure_runs`` compares the two)."""
 
     suite: str
     entries: list[dict[str, Any]]
@@ -265,7 +265,7 @@ class Board:
 
 def _as_records(rows: Sequence[Any], suite: str | None) -> tuple[str, list[dict[str, Any]]]:
     """(suite, records) of result rows (``ResultRow`` or stored dicts); ``suite`` selects one when they mix."""
-    from vtrack_gym.evaluation.benchmark import row_record
+    from vtrack_gym.evaluation.benchmarking.benchmark import row_record
 
     records = [row_record(r) if isinstance(r, ResultRow) else dict(r) for r in rows]
     suites = sorted({str(r.get("suite")) for r in records})
@@ -285,10 +285,10 @@ def board_of(source: Any, suite: str | None = None, latest_only: bool = True,
     """The ranked board of ``suite`` from a store (a path or ``ResultStore``, opened read-only from a path) or
     from result rows (``evaluate``'s ``ResultRow``s, or dicts); ``suite`` defaults to ``paper`` for a store and to
     the rows' one suite. A track set's suite (``tracks[...]``) ranks across all tracks first, then per track."""
-    from vtrack_gym.evaluation.benchmark import suite_columns
-    from vtrack_gym.evaluation.board import build_board
-    from vtrack_gym.evaluation.suites import primary_metric, then_metrics
-    from vtrack_gym.evaluation.track_benchmark import is_track_set, track_set_board
+    from vtrack_gym.evaluation.benchmarking.benchmark import suite_columns
+    from vtrack_gym.evaluation.benchmarking.track_benchmark import is_track_set, track_set_board
+    from vtrack_gym.evaluation.leaderboard.board import build_board
+    from vtrack_gym.evaluation.suite.suites import primary_metric, then_metrics
 
     if isinstance(source, (str, Path, ResultStore)):
         store = source if isinstance(source, ResultStore) else _read_store(Path(source))
@@ -328,7 +328,7 @@ def leaderboard(source: Any, suite: str | None = None, *, columns: Sequence[str]
     with others of the same suite (``suite`` defaults to theirs). ``columns``: the metrics to aggregate (default:
     the suite's leaderboard columns).
     """
-    from vtrack_gym.evaluation.report_formats import expand_estimates
+    from vtrack_gym.evaluation.leaderboard.report_formats import expand_estimates
 
     board = board_of(source, suite, latest_only, columns)
     rows = [{k: (float(v) if isinstance(v, float) else v) for k, v in expand_estimates(e).items()}

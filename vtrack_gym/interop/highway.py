@@ -135,7 +135,7 @@ def design_model_from_bicycle(vehicle_cls: Any, max_road_wheel_angle_rad: float,
 
 @dataclass(frozen=True)
 class HighwayConfig:
-    """What ``vtrack_gym.evaluation.rollout`` reads from ``env.unwrapped.config``, plus the adapter's settings.
+    """What ``vtrack_gym.evaluation.rollouts.rollout`` reads from ``env.unwrapped.config``, plus the adapter's settings.
 
     ``physics_dt_s`` is the sample period of ``info["acc_substeps_mps2"]`` (interpolated, see the module
     docstring); ``simulation_dt_s`` is highway-env's RK4 step.

@@ -3,7 +3,7 @@
 Fitness (paper-math 8): ``J = ITAE + a_y_penalty * max(0, max|a_y| - 8.83) + wheel_lift_penalty [min F_z <= 0]
 + (incomplete_penalty + incomplete_penalty_per_m * remaining distance) [not completed] + comfort_weight * a_v``
 (ISO 2631-1 comfort a_v, off by default). ITAE = int t |e_y| dt by the trapezoid rule over the env's steps,
-identical to ``vtrack_gym.evaluation.metrics.itae`` on a trace. On each ``also_complete`` scenario a run that
+identical to ``vtrack_gym.evaluation.scoring.metrics.itae`` on a trace. On each ``also_complete`` scenario a run that
 does not complete pays the incomplete-run penalty, and max|e_y| above ``also_max_e_y_m`` pays
 ``also_e_y_penalty_per_m`` per metre (``also_complete_penalty``).
 """
@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vtrack_gym.evaluation.metrics import A_Y_LIMIT_MPS2
+from vtrack_gym.evaluation.scoring.metrics import A_Y_LIMIT_MPS2
 
 
 @dataclass(frozen=True)

@@ -80,9 +80,9 @@ def tune_to_preset(controller: str, space: str | None = None, budget: str | None
 def _store_result(store: Path, controller: str, space: str, seed: int, result: TuneResult,
                   budget_info: dict[str, Any], preset_file: Path) -> None:
     """Add the best individual's metrics to ``store`` as one ``tuning`` row."""
-    from vtrack_gym.evaluation.fingerprint import policy_hash
-    from vtrack_gym.evaluation.rows import ResultRow
-    from vtrack_gym.evaluation.store import ResultStore
+    from vtrack_gym.evaluation.identity.fingerprint import policy_hash
+    from vtrack_gym.evaluation.scoring.rows import ResultRow
+    from vtrack_gym.evaluation.storage.store import ResultStore
 
     class _Cfg:  # policy_hash reads .config
         config = result.best_config

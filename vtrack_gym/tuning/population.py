@@ -122,7 +122,7 @@ class PopulationEvaluator:
         duration = steps * dt
         a_v = np.full(n, np.nan)
         if record_acc:
-            from vtrack_gym.evaluation import iso2631
+            from vtrack_gym.evaluation.scoring import iso2631
 
             fs = 1.0 / env.config.physics_dt_s
             for i in range(n):

@@ -1,0 +1,1 @@
+"""Who drove where: a policy's fingerprint and display name, an env set-up's identity and spelling."""

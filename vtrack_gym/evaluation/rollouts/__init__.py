@@ -1,0 +1,1 @@
+"""Policies driving envs: a rollout, a scored episode, the entry-speed search, where episodes run."""

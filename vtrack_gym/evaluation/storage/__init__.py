@@ -1,0 +1,1 @@
+"""The leaderboard store: one SQLite file that persists rows (it produces none)."""

@@ -1,1 +1,0 @@
-"""The built-in leaderboard suites, one file each (``evaluation.suites.BUILT_IN`` lists them in board order)."""

@@ -32,6 +32,12 @@ when no cycle results between the two subpackages. The package root (``vtrack_gy
 may be imported by ``cli`` only."""
 
 
+EVALUATION_ORDER: tuple[str, ...] = ("scoring", "identity", "leaderboard", "rollouts", "suite", "storage", "figures",
+                                     "benchmarking", "reproduction")
+"""The subpackages of ``evaluation`` in import order (``docs/architecture.md``): each imports only those before it;
+the modules at the ``evaluation`` root (``api.py``, the Python entry) sit above them all."""
+
+
 def _module_name(path: Path) -> str:
     parts = path.relative_to(PACKAGE_DIR.parent).with_suffix("").parts
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
@@ -88,6 +94,28 @@ def test_no_upward_import():
             elif dst != "<root>" and LAYER[dst] > LAYER[src]:
                 upward.append(f"{module} (layer {LAYER[src]}) -> {target} (layer {LAYER[dst]})")
     assert not upward, "upward imports:\n" + "\n".join(sorted(upward))
+
+
+def _evaluation_part(module: str) -> str | None:
+    """The ``evaluation`` subpackage of ``module`` (``<root>`` for a module at the package's root; None outside)."""
+    parts = module.split(".")
+    if parts[:2] != ["vtrack_gym", "evaluation"] or len(parts) < 3:
+        return None
+    return parts[2] if len(parts) > 3 or (PACKAGE_DIR / "evaluation" / parts[2] / "__init__.py").is_file() \
+        else "<root>"
+
+
+def test_evaluation_subpackages_import_downward():
+    rank = {name: i for i, name in enumerate(EVALUATION_ORDER)} | {"<root>": len(EVALUATION_ORDER)}
+    found = {p.parent.name for p in (PACKAGE_DIR / "evaluation").glob("*/__init__.py")}
+    assert found == set(EVALUATION_ORDER), f"list every evaluation subpackage once in EVALUATION_ORDER: {sorted(found)}"
+    upward = []
+    for module, targets in _graph().items():
+        src = _evaluation_part(module)
+        for dst, target in ((_evaluation_part(t), t) for t in targets):
+            if src is not None and dst is not None and src != dst and rank[dst] > rank[src]:
+                upward.append(f"{module} ({src}) -> {target} ({dst})")
+    assert not upward, "evaluation imports against EVALUATION_ORDER:\n" + "\n".join(sorted(upward))
 
 
 def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:

@@ -15,6 +15,8 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from vtrack_gym.evaluation.identity.env_identity import check_driven
+
 TRACK_SUITE = "custom"
 """The suite rows scored on one user track are stored under."""
 TRACK_SET_SUITE = "tracks"
@@ -37,17 +39,6 @@ def merge_provenance(row: Any, provenance: Mapping[str, Any]) -> Any:
     it was registered or read, and a row never claims a hash of content it did not drive."""
     check_driven(row.options.get("track_sha256"), provenance)
     return dataclasses.replace(row, options={**row.options, **provenance})
-
-
-def check_driven(driven: str | None, provenance: Mapping[str, Any]) -> None:
-    """ValueError naming the track file when ``driven`` (the SHA-256 of the bytes an env read and drove, None: not
-    a file) differs from the ``track_sha256`` the provenance would record."""
-    named = provenance.get("track_sha256")
-    if driven is not None and named is not None and driven != named:
-        file = provenance.get("track_file", "the track file")
-        raise ValueError(f"track file {file!r} changed while it was used: an env drove the content with SHA-256 "
-                         f"{driven[:16]}..., the result would record {named[:16]}...; no result is recorded: run "
-                         "again with the file left unchanged (after editing a track file, make a new env)")
 
 
 def track_files(dir_or_glob: str | Path) -> list[Path]:

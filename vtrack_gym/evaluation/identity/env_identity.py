@@ -1,11 +1,14 @@
 """What a row records of an env instance (``env_identity``), one spelling per set-up: an id and its alias are one
 id and ``45`` and ``45.0`` one number (``env_names``), a user wrapper's parameters are part of the set-up, and an
-env whose configuration cannot be identified is a row of its own.
+env whose configuration cannot be identified is a row of its own. Also the label a row gives a car
+(``vehicle_label``) and the check that a track file still holds what an env drove (``check_driven``).
 """
 
 from __future__ import annotations
 
+import hashlib
 import secrets
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -86,13 +89,11 @@ def _no_json(value: Any) -> Any:
 
 
 def _vehicle_of(config: Any, make_vehicle: Any) -> str | None:
-    """What a row records of an env's car (``benchmark.vehicle_label``): from the make argument when it is a name or
+    """What a row records of an env's car (``vehicle_label``): from the make argument when it is a name or
     a file, else from the parameters (a shipped car's name, or ``params-<sha256[:10]>`` of them)."""
-    import hashlib
     import json
     import os
 
-    from vtrack_gym.evaluation.benchmarking.benchmark import vehicle_label
     from vtrack_gym.vehicle.catalog import VehicleFile, list_vehicles, load_vehicle
     from vtrack_gym.vehicle.params import VehicleParams
 
@@ -147,7 +148,7 @@ def env_identity(env: gym.Env) -> tuple[str, dict[str, Any]]:
     and configurations never share a leaderboard entry.
 
     Read from ``env.spec`` (id, make arguments, time limit, wrappers) and, for this package's envs, the resolved
-    scenario and config: the car as ``options["vehicle"]`` (``benchmark.vehicle_label``), a track file as
+    scenario and config: the car as ``options["vehicle"]`` (``vehicle_label``), a track file as
     ``vtrack eval --track`` records it (its registered id, SHA-256 and speed profile), another track by name or
     path digest, a control mode other than ``steer`` as ``options["control"]``, config fields that differ from the
     defaults as ``options["env_config"]``, a changed time limit,
@@ -192,7 +193,6 @@ def _tracking_identity(unwrapped: Any, spec: Any, env_id: str,
     from vtrack_gym.envs.config import EnvConfig
     from vtrack_gym.envs.scenarios import resolve_scenario, with_protocol
     from vtrack_gym.envs.track_sources import READ_KWARGS
-    from vtrack_gym.evaluation.benchmarking.track_benchmark import check_driven
     from vtrack_gym.tracks.sources import source_digest
 
     scenario_arg = spec.kwargs.get("scenario")
@@ -241,3 +241,33 @@ def _tracking_identity(unwrapped: Any, spec: Any, env_id: str,
     if label is not None:
         options["vehicle"] = label
     return env_id, options
+
+
+def vehicle_label(vehicle: Any) -> str | None:
+    """What a row records of the car in ``options["vehicle"]``: ``None`` for the default car (or a vehicle equal to
+    it), a shipped vehicle's name, or ``<file stem>-<sha256[:10]>`` of a vehicle file (two files never mix; a
+    ``vehicle.catalog.VehicleFile`` is labelled from the bytes it was read from, the file is not read again)."""
+    if vehicle is None:
+        return None
+    from vtrack_gym.vehicle.catalog import VehicleFile, list_vehicles, load_vehicle
+    from vtrack_gym.vehicle.params import VehicleParams
+
+    if isinstance(vehicle, VehicleFile):
+        return None if vehicle.params == VehicleParams() else vehicle.label
+    if load_vehicle(vehicle) == VehicleParams():
+        return None
+    if str(vehicle) in list_vehicles():
+        return str(vehicle)
+    file = Path(vehicle)
+    return f"{file.stem}-{hashlib.sha256(file.read_bytes()).hexdigest()[:10]}"
+
+
+def check_driven(driven: str | None, provenance: Mapping[str, Any]) -> None:
+    """ValueError naming the track file when ``driven`` (the SHA-256 of the bytes an env read and drove, None: not
+    a file) differs from the ``track_sha256`` the provenance would record."""
+    named = provenance.get("track_sha256")
+    if driven is not None and named is not None and driven != named:
+        file = provenance.get("track_file", "the track file")
+        raise ValueError(f"track file {file!r} changed while it was used: an env drove the content with SHA-256 "
+                         f"{driven[:16]}..., the result would record {named[:16]}...; no result is recorded: run "
+                         "again with the file left unchanged (after editing a track file, make a new env)")

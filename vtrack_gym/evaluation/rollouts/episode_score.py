@@ -7,13 +7,12 @@ Used by ``benchmark`` (suites), ``entry_speed`` (the ISO 3888 search: each probe
 
 from __future__ import annotations
 
-import hashlib
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 
+from vtrack_gym.evaluation.identity.env_identity import vehicle_label
 from vtrack_gym.evaluation.identity.fingerprint import policy_hash
 from vtrack_gym.evaluation.leaderboard.board import failure_reason
 from vtrack_gym.evaluation.rollouts.episodes import Episode
@@ -59,25 +58,6 @@ def latency_metrics(env: gym.Env) -> dict[str, float]:
     if found["latency"] == "off":
         return {}
     return {"late_decision_share": float(found["late_share"]), "max_latency_ms": 1e3 * found["max_latency_s"]}
-
-
-def vehicle_label(vehicle: Any) -> str | None:
-    """What a row records of the car in ``options["vehicle"]``: ``None`` for the default car (or a vehicle equal to
-    it), a shipped vehicle's name, or ``<file stem>-<sha256[:10]>`` of a vehicle file (two files never mix; a
-    ``vehicle.catalog.VehicleFile`` is labelled from the bytes it was read from, the file is not read again)."""
-    if vehicle is None:
-        return None
-    from vtrack_gym.vehicle.catalog import VehicleFile, list_vehicles, load_vehicle
-    from vtrack_gym.vehicle.params import VehicleParams
-
-    if isinstance(vehicle, VehicleFile):
-        return None if vehicle.params == VehicleParams() else vehicle.label
-    if load_vehicle(vehicle) == VehicleParams():
-        return None
-    if str(vehicle) in list_vehicles():
-        return str(vehicle)
-    file = Path(vehicle)
-    return f"{file.stem}-{hashlib.sha256(file.read_bytes()).hexdigest()[:10]}"
 
 
 def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str,

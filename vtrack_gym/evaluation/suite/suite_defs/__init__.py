@@ -1,1 +1,1 @@
-"""The built-in leaderboard suites, one file each (``evaluation.suite.suites.BUILT_IN`` lists them in board order)."""
+"""The built-in leaderboard suites, one file each (``evaluation.suite.suites._REGISTRY`` lists them in board order)."""

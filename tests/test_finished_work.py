@@ -4,6 +4,7 @@ exit status, no traceback); SIGINT and SIGTERM end every worker within seconds."
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import subprocess
@@ -162,17 +163,22 @@ def _alive(pid: int) -> bool:
 @pytest.mark.parametrize(("sig", "code"), [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
 def test_signal_ends_every_hanging_worker_within_seconds(tmp_path: Path, sig: int, code: int) -> None:
     process = _vtrack(tmp_path, *_benchmark(tmp_path, "Hangs", workers=2), start_new_session=True)
-    marks = tmp_path / "marks"
-    deadline = time.monotonic() + 300
-    while len(list(marks.glob("worker-*"))) < 2 and time.monotonic() < deadline and process.poll() is None:
-        time.sleep(0.2)
-    workers = [int(p.name.split("-")[1]) for p in marks.glob("worker-*")]
-    assert len(workers) == 2, process.communicate(timeout=10)[1][-3000:]
-    sent = time.monotonic()
-    process.send_signal(sig)   # to vtrack alone (kill PID), not to its process group
-    _, stderr = process.communicate(timeout=30)
-    assert time.monotonic() - sent < 10.0
-    assert process.returncode == code, stderr[-3000:]
-    assert "Traceback" not in stderr
-    time.sleep(0.5)
-    assert not [pid for pid in workers if _alive(pid)]
+    try:
+        marks = tmp_path / "marks"
+        deadline = time.monotonic() + 300
+        while len(list(marks.glob("worker-*"))) < 2 and time.monotonic() < deadline and process.poll() is None:
+            time.sleep(0.2)
+        workers = [int(p.name.split("-")[1]) for p in marks.glob("worker-*")]
+        assert len(workers) == 2, process.communicate(timeout=10)[1][-3000:]
+        sent = time.monotonic()
+        process.send_signal(sig)   # to vtrack alone (kill PID), not to its process group
+        _, stderr = process.communicate(timeout=30)
+        assert time.monotonic() - sent < 10.0
+        assert process.returncode == code, stderr[-3000:]
+        assert "Traceback" not in stderr
+        time.sleep(0.5)
+        assert not [pid for pid in workers if _alive(pid)]
+    finally:   # a failed run must not leave vtrack or its hanging workers spinning on the machine
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(process.pid, signal.SIGKILL)
+        process.wait(timeout=30)

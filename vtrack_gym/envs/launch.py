@@ -68,7 +68,7 @@ def full_throttle_launch(vehicle: Any, set_speed_mps: float) -> tuple[float, flo
     return float(np.trapezoid(1.0 / accel, speeds)), float(np.trapezoid(speeds / accel, speeds))
 
 
-def _held_from_rest(scenario: Any) -> float | None:
+def held_from_rest(scenario: Any) -> float | None:
     """The one set speed [m/s] ``scenario`` holds from a standing start, None when it has none (a speed profile, a
     set speed drawn per episode, or a start at speed)."""
     held = getattr(scenario.speed, "held_set_speed_mps", None)   # only a part that holds one set speed has it
@@ -76,23 +76,11 @@ def _held_from_rest(scenario: Any) -> float | None:
     return None if v_set is None or scenario.start.at_speed else float(v_set)
 
 
-def launch_applies(env_id: str) -> bool:
-    """Whether the registered scenario of ``env_id`` holds one set speed from a standing start (where
-    ``launch="powertrain"`` applies); False for an id that is not a scenario's (a user's track id)."""
-    from vtrack_gym.envs.scenarios import scenario_named
-
-    try:
-        scenario = scenario_named(env_id)
-    except ValueError:
-        return False
-    return _held_from_rest(scenario) is not None
-
-
 def warn_step_launch(scenario: Any, vehicle: Any, control: str) -> None:
     """Warn (``UserWarning``) that ``scenario``'s reference steps from rest to a set speed the car cannot reach at
     once, naming the car's full-throttle time and distance, when ``control`` is a longitudinal mode (module
     docstring); nothing otherwise."""
-    v_set = _held_from_rest(scenario) if control != "steer" else None
+    v_set = held_from_rest(scenario) if control != "steer" else None
     if v_set is None:
         return
     import warnings
@@ -117,7 +105,7 @@ def with_launch(scenario: Any, vehicle: Any, launch: str, control: str) -> Any:
     if control == "steer":
         raise ValueError("launch='powertrain' applies to the longitudinal control modes (control='steer_accel' or "
                          "'steer_rate_accel'); in 'steer' the paper's PD-FLC holds the set speed from the start")
-    v_set = _held_from_rest(scenario)
+    v_set = held_from_rest(scenario)
     if v_set is None:
         raise ValueError(f"launch='powertrain' applies to a scenario that holds one set speed from rest "
                          f"(LateralTracking-v0); {scenario.env_id} does not")

@@ -60,12 +60,12 @@ def with_control(episodes: Sequence[Episode], control: str | None) -> list[Episo
 def with_launch(episodes: Sequence[Episode], launch: str | None, where_it_applies: bool = False) -> list[Episode]:
     """``episodes`` with their reference leaving a standing start as ``launch`` says (``envs.launch``; ``None``:
     unchanged); the env refuses it where it does not apply, and the rows record it (``options["protocol"]``).
-    ``where_it_applies``: only the episodes of an id that holds one set speed from rest (``envs.launch.
-    launch_applies``) take it, the others are left as they are; ``ValueError`` when none does, or when one of
+    ``where_it_applies``: only the episodes of an id that holds one set speed from rest (``launch_applies``) take
+    it, the others are left as they are; ``ValueError`` when none does, or when one of
     them is driven in ``steer``."""
     if launch is None:
         return list(episodes)
-    from vtrack_gym.envs.launch import check_launch, launch_applies
+    from vtrack_gym.envs.launch import check_launch
 
     check_launch(launch)
     if not where_it_applies:
@@ -78,6 +78,20 @@ def with_launch(episodes: Sequence[Episode], launch: str | None, where_it_applie
         raise ValueError(f"launch={launch!r} applies in a longitudinal control mode (control='steer_accel' or "
                          "'steer_rate_accel'); in 'steer' the paper's PD-FLC holds the set speed from the start")
     return [replace(ep, launch=launch) if t else ep for t, ep in zip(takes, episodes, strict=True)]
+
+
+def launch_applies(env_id: str) -> bool:
+    """Whether the registered scenario of ``env_id`` holds one set speed from a standing start (where
+    ``launch="powertrain"`` applies, ``envs.launch.held_from_rest``); False for an id that is not a scenario's (a
+    user's track id)."""
+    from vtrack_gym.envs.launch import held_from_rest
+    from vtrack_gym.envs.scenarios import scenario_named
+
+    try:
+        scenario = scenario_named(env_id)
+    except ValueError:
+        return False
+    return held_from_rest(scenario) is not None
 
 
 def with_latency(episodes: Sequence[Episode], latency: Any) -> list[Episode]:

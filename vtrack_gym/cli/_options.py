@@ -164,7 +164,8 @@ def add_launch(p: argparse.ArgumentParser) -> None:
     p.add_argument("--launch", choices=tuple(LAUNCHES), default=None,
                    help="with a longitudinal --control: how a held speed from rest (LateralTracking-v0) starts: step "
                    "(the set speed from t = 0, the id's own) or powertrain (a ramp at 0.75 of the car's full-throttle "
-                   "acceleration); rows record it (default: step)")
+                   "acceleration); vtrack benchmark gives it to the suite's episodes that hold a speed from rest "
+                   "and runs the others as they are; rows record it (default: step)")
 
 
 def add_user_code(p: argparse.ArgumentParser) -> None:

@@ -68,6 +68,7 @@ def register(sub: Any) -> None:
     opt.add_vehicle(b)
     opt.add_latency(b)
     opt.add_control(b)
+    opt.add_launch(b)
     opt.add_store(b)
     opt.add_format(b)
     opt.add_columns(b)
@@ -90,6 +91,8 @@ def _check_track_options(args: argparse.Namespace) -> None:
     if args.latency is not None and (args.track is not None or args.tracks is not None):
         raise ValueError("--latency applies to a suite's episodes (not --track or --tracks); score a track file "
                          "with compute charged through vtrack eval --track FILE --latency ...")
+    if args.launch is not None and (args.track is not None or args.tracks is not None):
+        raise ValueError("--launch applies to a suite's episodes (not --track or --tracks)")
     if args.control is not None and (args.track is not None or args.tracks is not None):
         raise ValueError("--control applies to a suite's episodes (not --track or --tracks); score a track file in "
                          "another control mode with vtrack eval --track FILE --control ...")
@@ -102,6 +105,17 @@ def _check_track_options(args: argparse.Namespace) -> None:
             given = " and ".join(o for o, on in (("--suite", args.suite is not None), ("--quick", args.quick)) if on)
             raise ValueError(f"{option} scores the policies on the track files (suite {suite}); it cannot be "
                              f"combined with {given} (--seeds may be given: one episode per seed)")
+
+
+def _check_launch(args: argparse.Namespace, seeds: list[int] | None) -> None:
+    """``--launch`` given to the suite's episodes as ``run_benchmark`` will (``ValueError`` before any work when no
+    episode holds a speed from rest, or one of them is driven in ``steer``)."""
+    if args.launch is None or args.track is not None or args.tracks is not None:
+        return
+    from vtrack_gym.evaluation.suite.suites import with_control, with_launch
+
+    episodes = with_control(get_suite(args.suite).episodes_for(args.quick, seeds), args.control)
+    with_launch(episodes, args.launch, where_it_applies=True)
 
 
 def _score(args: argparse.Namespace, factories: dict[str, Any] | None, seeds: list[int] | None,
@@ -127,7 +141,8 @@ def _score(args: argparse.Namespace, factories: dict[str, Any] | None, seeds: li
         return benchmark_track(env_id, provenance, factories or all_policies(), seeds or [0], vehicle=args.vehicle,
                                figures_dir=figures, show_progress=True, **where)
     return run_benchmark(args.suite, policies=factories, figures_dir=figures, quick=args.quick,
-                         seeds=seeds, vehicle=args.vehicle, latency=args.latency, control=args.control, **where)
+                         seeds=seeds, vehicle=args.vehicle, latency=args.latency, control=args.control,
+                         launch=args.launch, **where)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -141,6 +156,7 @@ def run(args: argparse.Namespace) -> int:
     factories = policy_factories(names, trust_code=args.trust_code, kwargs_text=args.policy_kwargs) \
         if names or args.trust_code or args.policy_kwargs is not None else None  # checked before any work
     check_vehicle(args)
+    _check_launch(args, seeds)
     store = ResultStore(args.store)  # verified before any rollout; each row committed as its episode ends
     announce_kernels()
     result = _score(args, factories, seeds, store)

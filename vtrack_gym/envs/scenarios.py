@@ -400,10 +400,10 @@ def with_protocol(scenario: Scenario, vehicle: Any, entry_speed_kmh: float | Non
     longitudinal one). ``vehicle`` is the driven car (``VehicleParams``); ``None`` keeps a part."""
     if track_limits is not None:
         scenario = with_track_limits(scenario, track_limits)
-    if launch is not None:
+    if launch is not None or control != "steer":   # a longitudinal mode's step from rest is warned of
         from vtrack_gym.envs.launch import with_launch
 
-        scenario = with_launch(scenario, vehicle, launch, control)
+        scenario = with_launch(scenario, vehicle, "step" if launch is None else launch, control)
     changes: dict[str, Any] = {}
     if entry_speed_kmh is not None:
         from vtrack_gym.tracks.feasibility import check_entry_speed

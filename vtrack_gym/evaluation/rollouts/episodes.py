@@ -47,22 +47,51 @@ def with_vehicle(episodes: Sequence[Episode], vehicle: Any) -> list[Episode]:
 def with_control(episodes: Sequence[Episode], control: str | None) -> list[Episode]:
     """``episodes`` driven in the control mode ``control`` (``envs.control``; ``None``: unchanged); ``ValueError``
     naming ``control`` and the allowed values for anything else. Their rows record it (``options["control"]``), so
-    control modes are ranked apart."""
+    control modes are ranked apart. In ``steer`` an episode's launch is the step (``envs.launch``: the paper's
+    PD-FLC holds the set speed from the start)."""
     if control is None:
         return list(episodes)
     from vtrack_gym.envs.control import check_control
 
-    return [replace(ep, control=check_control(control)) for ep in episodes]
+    chosen = check_control(control)
+    return [replace(ep, control=chosen, launch="step" if chosen == "steer" else ep.launch) for ep in episodes]
 
 
-def with_launch(episodes: Sequence[Episode], launch: str | None) -> list[Episode]:
+def with_launch(episodes: Sequence[Episode], launch: str | None, where_it_applies: bool = False) -> list[Episode]:
     """``episodes`` with their reference leaving a standing start as ``launch`` says (``envs.launch``; ``None``:
-    unchanged); the env refuses it where it does not apply, and the rows record it (``options["protocol"]``)."""
+    unchanged); the env refuses it where it does not apply, and the rows record it (``options["protocol"]``).
+    ``where_it_applies``: only the episodes of an id that holds one set speed from rest (``launch_applies``) take
+    it, the others are left as they are; ``ValueError`` when none does, or when one of
+    them is driven in ``steer``."""
     if launch is None:
         return list(episodes)
     from vtrack_gym.envs.launch import check_launch
 
-    return [replace(ep, launch=check_launch(launch)) for ep in episodes]
+    check_launch(launch)
+    if not where_it_applies:
+        return [replace(ep, launch=launch) for ep in episodes]
+    takes = [launch_applies(ep.env_id) for ep in episodes]
+    if not any(takes):
+        raise ValueError(f"launch={launch!r} applies to an id that holds one set speed from rest "
+                         "(LateralTracking-v0); none of these episodes does")
+    if launch != "step" and any(t and ep.control == "steer" for t, ep in zip(takes, episodes, strict=True)):
+        raise ValueError(f"launch={launch!r} applies in a longitudinal control mode (control='steer_accel' or "
+                         "'steer_rate_accel'); in 'steer' the paper's PD-FLC holds the set speed from the start")
+    return [replace(ep, launch=launch) if t else ep for t, ep in zip(takes, episodes, strict=True)]
+
+
+def launch_applies(env_id: str) -> bool:
+    """Whether the registered scenario of ``env_id`` holds one set speed from a standing start (where
+    ``launch="powertrain"`` applies, ``envs.launch.held_from_rest``); False for an id that is not a scenario's (a
+    user's track id)."""
+    from vtrack_gym.envs.launch import held_from_rest
+    from vtrack_gym.envs.scenarios import scenario_named
+
+    try:
+        scenario = scenario_named(env_id)
+    except ValueError:
+        return False
+    return held_from_rest(scenario) is not None
 
 
 def with_latency(episodes: Sequence[Episode], latency: Any) -> list[Episode]:

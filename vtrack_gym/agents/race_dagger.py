@@ -1,5 +1,6 @@
 """DAgger of a race baseline on the training circuits of the race split: ``vtrack train --algo dagger --env
-vtrack/Race-v0`` (the circuits: ``tracks.race_circuits.RACE_SPLIT["train"]``; the shipped circuits are held out).
+vtrack/Race-v0`` (the circuits: ``tracks.race_circuits.RACE_SPLIT["train"]``; the validation and held-out circuits
+and the shipped race ids are refused).
 
 Each round drives ``circuits_per_round`` training circuits (``vtrack/Race-v0`` with ``track=`` the circuit and
 ``laps=`` ``config.laps``, standing start; the held-out ids are never made), one race each: round 0 with the expert
@@ -239,9 +240,10 @@ def train_race_dagger(config: RaceDaggerConfig | None = None, seed: int = 0,
 
     config = config or RaceDaggerConfig()
     circuits = tuple(circuits or RACE_SPLIT["train"])
-    held_out = set(RACE_SPLIT["held_out"]) & set(circuits)
-    if held_out:
-        raise ValueError(f"circuits must not include the held-out race ids {sorted(held_out)}")
+    barred = set(RACE_SPLIT["validation"]) | set(RACE_SPLIT["held_out"]) | set(RACE_SPLIT["held_out_ids"])
+    if barred & set(circuits):
+        raise ValueError(f"circuits must not include the race split's validation or held-out circuits or ids "
+                         f"{sorted(barred & set(circuits))}")
     if torch_threads:
         torch.set_num_threads(torch_threads)
     run = Path(run_dir)

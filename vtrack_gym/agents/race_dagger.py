@@ -5,11 +5,12 @@ and the shipped race ids are refused).
 Each round drives ``circuits_per_round`` training circuits (``vtrack/Race-v0`` with ``track=`` the circuit and
 ``laps=`` ``config.laps``, standing start; the held-out ids are never made), one race each: round 0 with the expert
 at the wheel, every later round with the clone, plus the AR(1) perturbation of ``imitation.collect`` in both cases.
-Every visited state is labelled with the expert's action (``raceline``: the env's racing line at the car's limit
-profile; stateless, so its label is a function of the state) and the actor is refitted on all rounds
+Every visited state is labelled with the expert's action (a race baseline at ``expert_grip_scale`` of the car's
+limits: the recipe's, ``agents.recipes.DAGGER_RECIPES``, is ``centreline`` at 0.7, the centre line being what the
+agent sees; stateless, so its label is a function of the state) and the actor is refitted on all rounds
 (``imitation._fit``'s MSE, each output's error weighted by its spread, the steering one also by (v / 10 m/s)^2).
 
-The agent does not see the racing line: it reads the race observation without ``lap_fraction`` (a station on one
+The agent does not see a racing line: it reads the race observation without ``lap_fraction`` (a station on one
 circuit means nothing on another), i.e. the tracking errors to the centre line, the curvature and reference-speed
 previews, the speed and time errors and the distances to the two edges. The file records those names, so the agent
 binds to any race env by name (``NumpyPolicy.check_env``).

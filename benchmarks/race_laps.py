@@ -1,18 +1,24 @@
 """The race baselines' driven laps against the car's lap-time bound: a table and the driven-lap figure of the Race
 page (docs/figures/race_<circuit>.png).
 
-    python benchmarks/race_laps.py [--figures docs/figures]
+    python benchmarks/race_laps.py [--figures docs/figures] [--split ids|validation|held_out|train]
 
-For each shipped circuit (``vtrack/Race-v0``: the handling course, ``vtrack/RaceRing-v0``: the example ring), seed
-0, two laps from a standing start: each policy's verdict (``--policies``, default the two race baselines; e.g.
-``--policies raceline,centreline,dagger_race``), lap times, best lap / bound, track-limit excursions and least
-edge margin; the figure shows the best lap of ``raceline``: its speed along the lap against the bound's profile,
+For each circuit of ``--split`` (default ``ids``: the shipped circuits, ``vtrack/Race-v0``: the handling course,
+``vtrack/RaceRing-v0``: the example ring; ``validation``, ``held_out``, ``train``: that group of the race split,
+``tracks.race_circuits.RACE_SPLIT``, each driven as ``vtrack/Race-v0`` with ``track=`` the circuit), seed 0, two
+laps from a standing start: each policy's verdict (``--policies``, default the two race baselines; e.g.
+``--policies raceline,centreline,dagger_race``), laps completed, lap times, best lap / bound, track-limit
+excursions (each run of steps beyond the rule counted once) and least edge margin, and the CPU and wall time of the
+whole table with the load average; the figure shows the best lap of ``raceline``: its speed along the lap against the bound's profile,
 and its longitudinal against lateral acceleration against the bound's.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import time
+from collections.abc import Callable
 from pathlib import Path
 
 import gymnasium as gym
@@ -21,6 +27,16 @@ import numpy as np
 import vtrack_gym
 
 CIRCUITS = {"handling_course": "vtrack/Race-v0", "ring": "vtrack/RaceRing-v0"}
+SPLITS = ("ids", "validation", "held_out", "train")
+
+
+def circuits(split: str) -> dict[str, Callable[[], gym.Env]]:
+    """``{label: make the race}`` for the circuits of ``split`` (``SPLITS``)."""
+    if split == "ids":
+        return {name: (lambda _id=env_id: gym.make(_id)) for name, env_id in CIRCUITS.items()}
+    from vtrack_gym.tracks.race_circuits import RACE_SPLIT, race_circuit
+
+    return {name: (lambda _n=name: gym.make("vtrack/Race-v0", track=race_circuit(_n))) for name in RACE_SPLIT[split]}
 
 
 def run(env: gym.Env, name: str) -> tuple[dict, list[dict]]:
@@ -80,24 +96,29 @@ def main() -> None:
     parser.add_argument("--figures", type=Path, default=None)
     parser.add_argument("--policies", default="raceline,centreline",
                         help="comma-separated policies (race baselines, shipped agents, agent files)")
+    parser.add_argument("--split", choices=SPLITS, default="ids")
     args = parser.parse_args()
-    print("| circuit | policy | success | lap_times_s | best_lap_s | lap_time_bound_s | lap_time_fraction | "
-          "track_limit_violations | min_edge_margin_m |")
-    print("|---|---|---|---|---|---|---|---|---|")
-    for circuit, env_id in CIRCUITS.items():
-        env = gym.make(env_id)
+    cpu0, wall0 = time.process_time(), time.perf_counter()
+    print("| circuit | policy | success | laps_completed | lap_times_s | best_lap_s | lap_time_bound_s | "
+          "lap_time_fraction | track_limit_violations | min_edge_margin_m |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for circuit, make in circuits(args.split).items():
+        env = make()
+        env_id = env.spec.id if args.split == "ids" else f"vtrack/Race-v0 on {circuit}"
         for name in args.policies.split(","):
             info, infos = run(env, name)
             m = env.unwrapped.success_metrics()
             laps = ", ".join(f"{t:.2f}" for t in info["lap_times_s"])
             verdict = "yes" if info["success"] else f"no ({info['termination'] or 'time limit'})"
-            print(f"| {circuit} | {name} | {verdict} | {laps} | {info['best_lap_s']:.2f} | "
+            print(f"| {circuit} | {name} | {verdict} | {info['laps_completed']} | {laps} | {info['best_lap_s']:.2f} | "
                   f"{info['lap_time_bound_s']:.2f} | "
                   f"{info['lap_time_fraction']:.4f} | {m['track_limit_violations']:.0f} | "
                   f"{m['min_edge_margin_m']:.3f} |", flush=True)
             if args.figures is not None and name == "raceline":
                 figure(env, infos, f"{env_id}: raceline's second lap against the bound",
                        args.figures / f"race_{circuit}.png")
+    print(f"\n{len(circuits(args.split))} circuits: CPU {time.process_time() - cpu0:.1f} s, wall "
+          f"{time.perf_counter() - wall0:.1f} s, load average {os.getloadavg()[0]:.1f}")
 
 
 if __name__ == "__main__":

@@ -64,8 +64,11 @@ def test_cli_dagger_race_runs_on_training_circuits(tmp_path: Path, capsys: pytes
 
 
 def test_the_race_split_is_a_registry_of_closed_training_circuits() -> None:
-    assert set(RACE_SPLIT) == {"train", "held_out"} and RACE_SPLIT["held_out"] == HELD_OUT_IDS
-    assert not set(RACE_SPLIT["train"]) & set(HELD_OUT_IDS)
+    assert set(RACE_SPLIT) == {"train", "validation", "held_out", "held_out_ids"}
+    assert RACE_SPLIT["held_out_ids"] == HELD_OUT_IDS
+    groups = [set(RACE_SPLIT[k]) for k in ("train", "validation", "held_out", "held_out_ids")]
+    assert sum(len(g) for g in groups) == len(set().union(*groups))       # no name in two groups
+    assert len(RACE_SPLIT["validation"]) >= 4 and len(RACE_SPLIT["held_out"]) >= 4
     assert len(set(RACE_SPLIT["train"])) == len(RACE_SPLIT["train"]) >= 8
     path = race_circuit(RACE_SPLIT["train"][0])
     assert path.closed and 300.0 < path.length_m < 900.0 and not path.self_intersects(clearance_m=7.0)
@@ -73,6 +76,16 @@ def test_the_race_split_is_a_registry_of_closed_training_circuits() -> None:
     assert np.array_equal(path.table, again.table)    # a pure function of the name
     with pytest.raises(ValueError, match="rc-<k>"):
         race_circuit("handling_course")
+
+
+@pytest.mark.parametrize("barred", ["rc-24", "rc-2000", "vtrack/RaceRing-v0"])
+def test_race_dagger_refuses_validation_and_held_out_circuits(tmp_path: Path, barred: str) -> None:
+    from vtrack_gym.agents.race_dagger import RaceDaggerConfig, train_race_dagger
+
+    config = RaceDaggerConfig(rounds=0, circuits_per_round=1, steps=10)
+    with pytest.raises(ValueError, match=f"validation or held-out circuits or ids.*{barred}"):
+        train_race_dagger(config, circuits=("rc-0", barred), run_dir=tmp_path / "run")
+    assert not (tmp_path / "run").exists()
 
 
 def test_race_agents_are_listed_for_the_race_ids_only(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -1,14 +1,16 @@
 """DAgger of a race baseline on the training circuits of the race split: ``vtrack train --algo dagger --env
-vtrack/Race-v0`` (the circuits: ``tracks.race_circuits.RACE_SPLIT["train"]``; the shipped circuits are held out).
+vtrack/Race-v0`` (the circuits: ``tracks.race_circuits.RACE_SPLIT["train"]``; the validation and held-out circuits
+and the shipped race ids are refused).
 
 Each round drives ``circuits_per_round`` training circuits (``vtrack/Race-v0`` with ``track=`` the circuit and
 ``laps=`` ``config.laps``, standing start; the held-out ids are never made), one race each: round 0 with the expert
 at the wheel, every later round with the clone, plus the AR(1) perturbation of ``imitation.collect`` in both cases.
-Every visited state is labelled with the expert's action (``raceline``: the env's racing line at the car's limit
-profile; stateless, so its label is a function of the state) and the actor is refitted on all rounds
+Every visited state is labelled with the expert's action (a race baseline at ``expert_grip_scale`` of the car's
+limits: the recipe's, ``agents.recipes.DAGGER_RECIPES``, is ``centreline`` at 0.7, the centre line being what the
+agent sees; stateless, so its label is a function of the state) and the actor is refitted on all rounds
 (``imitation._fit``'s MSE, each output's error weighted by its spread, the steering one also by (v / 10 m/s)^2).
 
-The agent does not see the racing line: it reads the race observation without ``lap_fraction`` (a station on one
+The agent does not see a racing line: it reads the race observation without ``lap_fraction`` (a station on one
 circuit means nothing on another), i.e. the tracking errors to the centre line, the curvature and reference-speed
 previews, the speed and time errors and the distances to the two edges. The file records those names, so the agent
 binds to any race env by name (``NumpyPolicy.check_env``).
@@ -239,9 +241,10 @@ def train_race_dagger(config: RaceDaggerConfig | None = None, seed: int = 0,
 
     config = config or RaceDaggerConfig()
     circuits = tuple(circuits or RACE_SPLIT["train"])
-    held_out = set(RACE_SPLIT["held_out"]) & set(circuits)
-    if held_out:
-        raise ValueError(f"circuits must not include the held-out race ids {sorted(held_out)}")
+    barred = set(RACE_SPLIT["validation"]) | set(RACE_SPLIT["held_out"]) | set(RACE_SPLIT["held_out_ids"])
+    if barred & set(circuits):
+        raise ValueError(f"circuits must not include the race split's validation or held-out circuits or ids "
+                         f"{sorted(barred & set(circuits))}")
     if torch_threads:
         torch.set_num_threads(torch_threads)
     run = Path(run_dir)

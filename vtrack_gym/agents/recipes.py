@@ -304,11 +304,11 @@ def _schedule(name: str, value: Any) -> Any:
 DAGGER_RECIPES: dict[str, dict[str, Any]] = {
     "vtrack/TrainingMixNominal-v0": {"expert": "lqr", "control": "steer_accel", "rounds": 8, "steps": 3000,
                                      "num_envs": 16},
-    "vtrack/Race-v0": {"expert": "raceline", "expert_grip_scale": 0.8, "rounds": 10, "circuits_per_round": 6},
+    "vtrack/Race-v0": {"expert": "centreline", "expert_grip_scale": 0.7, "rounds": 12, "circuits_per_round": 6},
 }
 """``vtrack train --algo dagger``'s recipes per training env id (``agents.dagger.dagger_recipe`` runs them;
 ``vtrack/Race-v0``: ``agents.race_dagger`` on the race split's training circuits): the shipped ``dagger_accel`` is
-the first entry at seed 0."""
+the first entry at seed 0, the shipped ``dagger_race`` the second at seed 0."""
 DAGGER_DEFAULT_ENV_ID = "vtrack/TrainingMixNominal-v0"
 """``--algo dagger``'s env without ``--env``."""
 

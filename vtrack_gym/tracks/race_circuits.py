@@ -1,8 +1,14 @@
-"""The race's generalisation split: procedural closed circuits to train on, the shipped circuits held out.
+"""The race's generalisation split: procedural closed circuits to train on, to choose a recipe on, to judge on.
 
-``RACE_SPLIT`` is the registry: ``"train"`` names the training circuits (``race_circuit(name)`` builds each one), and
-``"held_out"`` the race ids an agent trained on the split is judged on (``vtrack/Race-v0``: the handling course,
-``vtrack/RaceRing-v0``: the example ring), which training never drives.
+``RACE_SPLIT`` is the registry (``race_circuit(name)`` builds every circuit it names):
+
+- ``"train"``: the training circuits ``rc-0`` .. ``rc-23``, the only ones a trainer drives;
+- ``"validation"``: ``rc-24`` .. ``rc-31``, never trained on, the circuits a recipe is developed against;
+- ``"held_out"``: ``rc-2000`` .. ``rc-2003``, from a disjoint range of seeds, never trained on and not driven while a
+  recipe is developed: the circuits an agent is judged on, once, at the end;
+- ``"held_out_ids"``: the shipped race ids (``vtrack/Race-v0``: the handling course, ``vtrack/RaceRing-v0``: the
+  example ring), never trained on, also reported; both were driven while earlier race recipes were developed, so
+  they are not an untouched test.
 
 A training circuit ``rc-<k>`` is a smooth closed loop drawn from seed k: in polar form about its centre,
 r(theta) = R (1 + sum_j a_j cos(j theta + phi_j)) for j = 2..5, with R 55-95 m and sum |a_j| < 0.45 (so r > 0
@@ -20,10 +26,15 @@ import numpy as np
 
 TRAIN_CIRCUITS: tuple[str, ...] = tuple(f"rc-{k}" for k in range(24))
 """The training circuits' names (seeds 0..23)."""
+VALIDATION_CIRCUITS: tuple[str, ...] = tuple(f"rc-{k}" for k in range(24, 32))
+"""The validation circuits' names (seeds 24..31): never trained on; a recipe is chosen on them."""
+HELD_OUT_CIRCUITS: tuple[str, ...] = tuple(f"rc-{k}" for k in range(2000, 2004))
+"""The held-out circuits' names (seeds 2000..2003): never trained on, not driven while a recipe is developed."""
 HELD_OUT_IDS: tuple[str, ...] = ("vtrack/Race-v0", "vtrack/RaceRing-v0")
-"""The held-out race ids (the shipped circuits)."""
-RACE_SPLIT: dict[str, tuple[str, ...]] = {"train": TRAIN_CIRCUITS, "held_out": HELD_OUT_IDS}
-"""The split: training circuit names and held-out race ids."""
+"""The held-out race ids (the shipped circuits; seen while earlier race recipes were developed)."""
+RACE_SPLIT: dict[str, tuple[str, ...]] = {"train": TRAIN_CIRCUITS, "validation": VALIDATION_CIRCUITS,
+                                          "held_out": HELD_OUT_CIRCUITS, "held_out_ids": HELD_OUT_IDS}
+"""The split: training, validation and held-out circuit names, and the held-out race ids."""
 HALF_WIDTH_M = 3.5
 """Half width of every training circuit [m] (as the handling course and the ring)."""
 MIN_RADIUS_M = 12.0

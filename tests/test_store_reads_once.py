@@ -25,13 +25,13 @@ def test_leaderboard_checks_each_row_once(tmp_path: Path, monkeypatch: pytest.Mo
     path = tmp_path / "s.sqlite"
     ResultStore(path).add(_rows(40) + _rows(10, suite="custom"))
     checked = []
-    rule = store_module.checked_row_values
+    verify = store_module.verified_rows
 
-    def counting(row):
-        checked.append(row["id"])
-        return rule(row)
+    def counting(path, meta, raw):
+        checked.extend(values[0] for values in raw)
+        return verify(path, meta, raw)
 
-    monkeypatch.setattr(store_module, "checked_row_values", counting)
+    monkeypatch.setattr(store_module, "verified_rows", counting)
     assert main(["leaderboard", "--store", str(path), "--suite", "bulk", "--format", "json"]) == 0
     board = json.loads(capsys.readouterr().out)
     assert [e["episodes"] for e in board] == [40]

@@ -106,3 +106,27 @@ def test_evaluate_applies_finish_before_each_row_is_stored(tmp_path: Path, user_
     rows = ResultStore(store, read_only=True).rows()
     assert tagged == [0, 1]
     assert sorted((r["seed"], r["options"]["note"]) for r in rows) == [(0, "seed 0"), (1, "seed 1")]
+
+
+def test_a_store_that_fails_mid_run_stops_the_storing_not_the_run(tmp_path: Path,
+                                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    """The store refuses the second row (a full disk, simulated): the third episode still runs, and ``evaluate``
+    raises ``RowsNotStored`` at the end with every row, the first one stored."""
+    from vtrack_gym.evaluation.storage.commit import RowsNotStored
+    from vtrack_gym.evaluation.storage.store import StoreError
+
+    store = ResultStore(tmp_path / "s.sqlite")
+    add, calls = ResultStore.add, []
+
+    def full_after_one(self: ResultStore, rows: object) -> int:
+        calls.append(1)
+        if len(calls) > 1:
+            raise StoreError(f"could not write rows to {self.path}: the disk is full (simulated)")
+        return add(self, rows)
+
+    monkeypatch.setattr(ResultStore, "add", full_after_one)
+    with pytest.raises(RowsNotStored, match="the disk is full") as raised:
+        vtrack_gym.evaluate(lambda env: vtrack_gym.make_policy("lqr", env), "DLC120-v0", seeds=[0, 1, 2], store=store)
+    assert [r.seed for r in raised.value.rows] == [0, 1, 2] and [r.seed for r in raised.value.stored] == [0]
+    assert len(calls) == 2   # no write tried after the store failed
+    assert [r["seed"] for r in ResultStore(store.path, read_only=True).rows()] == [0]

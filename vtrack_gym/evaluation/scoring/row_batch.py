@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Mapping, Sequence
-from operator import itemgetter
+from itertools import chain
 from typing import Any
 
 import numpy as np
@@ -47,12 +47,19 @@ def parsed_objects(texts: Sequence[Any]) -> list[dict[str, Any]] | None:
     """Each text parsed as ``row_validation.parse_json_object`` parses it (bounded size, depth and integers; a JSON
     object), or None when any text breaks that rule."""
     out = []
-    decode = _DECODER.decode
+    scan, decode = _DECODER.scan_once, _DECODER.decode
     for text in texts:
         if type(text) is not str or len(text) > MAX_JSON_CHARS or not _json_depth_ok(text):
             return None
         try:
-            value = decode(text)
+            value, end = scan(text, 0)   # what decode does for a text without surrounding white space
+            if end != len(text):
+                value = decode(text)
+        except StopIteration:   # white space first, or no JSON at all: decode says which
+            try:
+                value = decode(text)
+            except (ValueError, RecursionError):
+                return None
         except (ValueError, RecursionError):
             return None
         if type(value) is not dict:
@@ -110,19 +117,25 @@ def _finite_non_negative(values: Sequence[Any]) -> bool:
 def metrics_obey_rule(metrics: Sequence[dict[str, Any]]) -> bool:
     """True when every row's metrics equal what ``row_validation.checked_metrics`` keeps of them (the read rule);
     the rows are grouped by their metric names and each metric checked over its group at once."""
-    groups: dict[tuple[str, ...], list[dict[str, Any]]] = {}
-    for m in metrics:
-        groups.setdefault(tuple(m), []).append(m)
-    for names, group in groups.items():
-        if not names:
-            continue
+    for names, group in _shapes(metrics).items():
         if any(len(name) > MAX_TEXT_CHARS for name in names):
             return False
-        picked = map(itemgetter(*names), group)
-        columns = zip(*picked, strict=True) if len(names) > 1 else [list(picked)]
-        if not all(_metric_column_ok(name, values) for name, values in zip(names, columns, strict=True)):
+        flat = list(chain.from_iterable(map(dict.values, group)))   # the group's values, row after row
+        if not all(_metric_column_ok(name, flat[j::len(names)]) for j, name in enumerate(names)):
             return False
     return True
+
+
+def _shapes(metrics: Sequence[dict[str, Any]]) -> dict[tuple[str, ...], Sequence[dict[str, Any]]]:
+    """The rows' metrics grouped by their names in order (one group when every row has the first row's): in a group
+    every row's values come in the same order."""
+    keys = list(map(tuple, metrics))
+    if not keys or keys.count(keys[0]) == len(keys):
+        return {keys[0]: metrics} if keys else {}
+    groups: dict[tuple[str, ...], list[dict[str, Any]]] = {}
+    for key, m in zip(keys, metrics, strict=True):
+        groups.setdefault(key, []).append(m)
+    return groups
 
 
 def _exact(name: str, value: Any) -> bool:
@@ -149,7 +162,7 @@ def _metric_column_ok(name: str, values: Sequence[Any]) -> bool:
         ints = [v for v in numbers if type(v) is int] if float in kinds else numbers
         if max(ints) > MAX_METRIC_INT or min(ints) < -MAX_METRIC_INT:
             return False
-    arr = np.asarray(numbers, dtype=np.float64)
+    arr = np.fromiter(numbers, dtype=np.float64, count=len(numbers))
     if not np.isfinite(arr).all():
         return False
     non_negative, flag, lo, hi = _metric_rule(name)

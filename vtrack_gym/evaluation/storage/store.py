@@ -400,10 +400,9 @@ class ResultStore:
     # ------------------------------------------------------------------------------------------ reading
     def suites(self) -> dict[str, int]:
         """``{suite: number of stored episodes}`` of every suite in the store, by name (rows verified)."""
-        counts: dict[str, int] = {}
-        for row in self.rows():
-            counts[row["suite"]] = counts.get(row["suite"], 0) + 1
-        return dict(sorted(counts.items()))
+        import collections
+
+        return dict(sorted(collections.Counter(r["suite"] for r in self._snapshot()).items()))
 
     def rows(self, suite: str | None = None) -> list[dict[str, Any]]:
         """Every stored row (optionally of one suite) as dicts with the metrics unpacked.
@@ -413,8 +412,12 @@ class ResultStore:
         previous read holds the same rows: they are not read and checked again (a command that reads a store
         several times pays for one read; ``benchmarks/bench_store_read.py``).
         """
-        rows = self._read(self._verified_rows)
-        return [dict(r) for r in rows if suite is None or r["suite"] == suite]
+        return [dict(r) for r in self._snapshot() if suite is None or r["suite"] == suite]
+
+    def _snapshot(self) -> list[dict[str, Any]]:
+        """The verified rows of the store's current snapshot, as this object keeps them (never handed out: callers
+        get copies, ``rows``)."""
+        return self._read(self._verified_rows)
 
     def _verified_rows(self, con: sqlite3.Connection) -> list[dict[str, Any]]:
         """Every row of ``con``'s snapshot, verified (``verified_rows``), or those of the previous read when the
@@ -431,7 +434,7 @@ class ResultStore:
     def older_versions(self, suite: str) -> tuple[str, int]:
         """(newest package version among the suite's rows, number of the suite's rows of older versions): what
         ``leaderboard(latest_only=True)`` leaves out; ``("", 0)`` for a suite without rows."""
-        rows = self.rows(suite)
+        rows = [r for r in self._snapshot() if r["suite"] == suite]
         if not rows:
             return "", 0
         newest = max((r["package_version"] for r in rows), key=version_sort_key)
@@ -451,8 +454,8 @@ class ResultStore:
     def board_rows(self, suite: str, latest_only: bool = True) -> list[dict[str, Any]]:
         """The stored rows ``leaderboard`` aggregates (see there); the run's figure folder
         (``options["figures"]``) does not distinguish two rows of one episode."""
-        rows = self.rows(suite)
-        return latest_rows(rows) if latest_only else rows
+        rows = [r for r in self._snapshot() if r["suite"] == suite]
+        return [dict(r) for r in (latest_rows(rows) if latest_only else rows)]
 
 
 def verified_rows(path: Path, meta: dict[str, str], raw: list[tuple[Any, ...]]) -> list[dict[str, Any]]:
@@ -542,6 +545,7 @@ _PEP440 = re.compile(
 _PRE_RANK = {"a": 0, "alpha": 0, "b": 1, "beta": 1, "c": 2, "rc": 2, "pre": 2, "preview": 2}
 
 
+@functools.lru_cache(maxsize=1024)
 def version_sort_key(version: str) -> tuple[Any, ...]:
     """Sort key of a package version string in PEP 440 order: epoch, release (``1.0 == 1.0.0``), then
     ``1.0.dev1 < 1.0a1 < 1.0b2.dev1 < 1.0b2 < 1.0rc1 < 1.0 < 1.0+local < 1.0.post1.dev1 < 1.0.post1``

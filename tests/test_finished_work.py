@@ -156,7 +156,8 @@ def test_a_failed_episode_is_one_line_and_counted_on_the_bar(tmp_path: Path) -> 
     assert process.returncode == 2, stderr[-3000:]
     assert "Traceback" not in stderr and stdout == ""
     errors = [line for line in stderr.splitlines() if line.startswith("vtrack benchmark: error:")]
-    assert len(errors) == 1 and "failed on" in errors[0] and "seed 2: RuntimeError" in errors[0], stderr[-3000:]
+    assert len(errors) == 1 and "the episode of FailsInThirdEpisode on" in errors[0], stderr[-3000:]
+    assert "seed 2 failed: RuntimeError: the policy failed in its third episode" in errors[0]
     assert "2 of 4 episodes are stored in" in errors[0]
     bar = [line for line in stderr.splitlines() if line.startswith("vtrack benchmark")
            and not line.startswith("vtrack benchmark:")]

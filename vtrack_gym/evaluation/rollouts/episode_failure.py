@@ -45,8 +45,8 @@ def episode_of(exc: BaseException) -> dict[str, Any] | None:
 
 
 def failure_line(exc: BaseException) -> str | None:
-    """``policy X failed on DLC120-v0 seed 2: RuntimeError: ...`` for an exception raised in an episode, else
-    None."""
+    """``the episode of X on DLC120-v0 seed 2 failed: RuntimeError: ...`` for an exception raised in an episode
+    (by the policy, its factory or the env), else None."""
     episode = episode_of(exc)
     if episode is None:
         return None
@@ -54,4 +54,4 @@ def failure_line(exc: BaseException) -> str | None:
     cause = " ".join(cause.split())
     if len(cause) > MAX_MESSAGE_CHARS:
         cause = cause[:MAX_MESSAGE_CHARS] + "..."
-    return f"policy {episode['policy']} failed on {episode['env']} seed {episode['seed']}: {cause}"
+    return f"the episode of {episode['policy']} on {episode['env']} seed {episode['seed']} failed: {cause}"

@@ -221,8 +221,8 @@ def _row(make: Callable[[Any], Any], env: gym.Env, ep: Episode, suite: str, poli
         if not hasattr(policy, "predict"):
             raise ValueError(f"the factory returned {type(policy).__name__}, which has no predict method")
     name = policy_id or policy_id_of(policy)
+    digest = digest or _fingerprint(policy, policy_id, env)   # before the episode: its refusal is no episode's
     with in_episode(name, ep.env_id, ep.seed):
-        digest = digest or _fingerprint(policy, policy_id, env)
         row, _ = episode_scorer(suite, make)(name, policy, env, ep, suite, digest)
     log.debug("%s on %s seed %s: %s, max |e_y| %.4g m", name, ep.env_id, ep.seed, row.termination,
               row.metrics.get("max_e_y_m", float("nan")))

@@ -1,16 +1,19 @@
-"""CPU time of reading a large leaderboard store: opening it, ``rows()``, ``board_rows`` and ``vtrack leaderboard``.
+"""CPU and wall time of reading a large leaderboard store: ``ResultStore.rows()`` and ``vtrack leaderboard``.
 
 Writes a store of N rows shaped like a benchmark's (about 30 metrics, a track's provenance in the options) in one
-``add``, then measures the CPU time of each read step in this process (``time.process_time``). Every read checks
-each row against its SHA-256, the row rule (``row_validation``, as every write does) and the row count and digest;
-a second read of an unchanged store by the same ``ResultStore`` reuses the first one's checked rows.
-``vtrack leaderboard`` reads the store as one ``ResultStore`` (suites, board, older versions) and then aggregates
-the board (bootstrap intervals per policy and env: not a store cost). Run:
-``python benchmarks/bench_store_read.py [N]`` (default 100000).
+``add`` in a temporary folder, then times, each in a fresh process (imports excluded), the first ``rows()`` of a
+read-only ``ResultStore`` (every row checked against its SHA-256 and the row rule, all against the row count and
+digest) and ``vtrack leaderboard --suite bulk`` (the store read once, then the board aggregated: bootstrap
+intervals per policy and env, not a store cost). ``--compare DIR`` times another checkout of the package
+(e.g. a ``git worktree`` of an older commit) on the same store in the same run, the two alternating, so both
+figures share the machine's load. Run: ``python benchmarks/bench_store_read.py [N] [--compare DIR]
+[--repeats K]`` (default 100000 rows, 3 repeats; the best of the repeats is printed, and the load average).
 """
 
 from __future__ import annotations
 
+import argparse
+import os
 import subprocess
 import sys
 import tempfile
@@ -18,9 +21,7 @@ import textwrap
 import time
 from pathlib import Path
 
-from vtrack_gym.evaluation.benchmarking.benchmark import LEADERBOARD_COLUMNS
-from vtrack_gym.evaluation.storage.store import ResultRow, ResultStore
-
+ROOT = Path(__file__).resolve().parents[1]
 METRICS = {**{f"max_{k}": 0.25 for k in ("e_y_m", "e_phi_deg", "a_y_mps2", "hand_wheel_deg", "roll_deg",
                                          "yaw_rate_degps", "beta_deg", "jerk_mps3")},
            **{f"rms_{k}": 0.1 for k in ("e_y_m", "e_phi_deg", "a_y_mps2", "hand_wheel_deg", "roll_deg",
@@ -31,53 +32,72 @@ METRICS = {**{f"max_{k}": 0.25 for k in ("e_y_m", "e_phi_deg", "a_y_mps2", "hand
 OPTIONS = {"vehicle": "paper", "track_file": "road.csv", "track_sha256": "ab" * 32, "speed_profile": "constant"}
 
 
-def rows(n: int) -> list[ResultRow]:
+def rows(n: int) -> list:
     """``n`` rows of 10 policies on 10 envs."""
+    from vtrack_gym.evaluation.storage.store import ResultRow
+
     return [ResultRow("bulk", f"DLC{100 + i % 10}-v0", f"policy{i // 10 % 10}", f"{i // 10 % 10:012x}", i // 100,
                       {**METRICS, "max_e_y_m": 0.2 + 1e-6 * i}, "completed", 1e-4, options=dict(OPTIONS))
             for i in range(n)]
 
 
-def cpu(label: str, fn):
-
-    start = time.process_time()
-    result = fn()
-    print(f"{label:<36} {time.process_time() - start:7.2f} s CPU", file=sys.__stdout__, flush=True)
-    return result
-
-
-COMMAND = textwrap.dedent("""
+READ = textwrap.dedent("""
+    import sys, time
+    from vtrack_gym.evaluation.storage.store import ResultStore
+    cpu, wall = time.process_time(), time.perf_counter()
+    got = ResultStore(sys.argv[1], read_only=True).rows()
+    print(time.process_time() - cpu, time.perf_counter() - wall, len(got))
+""")
+LEADERBOARD = textwrap.dedent("""
     import contextlib, io, sys, time
     from vtrack_gym.cli import main
-    start = time.process_time()
+    cpu, wall = time.process_time(), time.perf_counter()
     with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
         code = main(["leaderboard", "--store", sys.argv[1], "--suite", "bulk", "--format", "csv"])
     assert code == 0, code
-    print(time.process_time() - start)
+    print(time.process_time() - cpu, time.perf_counter() - wall, 0)
 """)
 
 
-def leaderboard_cpu(path: Path) -> float:
-    """CPU time [s] of ``vtrack leaderboard --suite bulk`` on ``path`` in a fresh process (no cache of this one)."""
-    done = subprocess.run([sys.executable, "-c", COMMAND, str(path)], capture_output=True, text=True, check=True)
-    return float(done.stdout.strip().splitlines()[-1])
+def timed(code: str, store: Path, checkout: Path) -> tuple[float, float]:
+    """(CPU [s], wall [s]) of ``code`` on ``store`` in a fresh process importing the package from ``checkout``."""
+    env = {**os.environ, "PYTHONPATH": str(checkout)}
+    done = subprocess.run([sys.executable, "-c", code, str(store)], capture_output=True, text=True, env=env,
+                          check=True, cwd=checkout)
+    cpu, wall, _ = done.stdout.split()
+    return float(cpu), float(wall)
 
 
-def main(n: int = 100_000) -> None:
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("n", nargs="?", type=int, default=100_000, help="rows in the store (default 100000)")
+    parser.add_argument("--compare", type=Path, default=None, help="another checkout of the package to time")
+    parser.add_argument("--repeats", type=int, default=3, help="runs of each measure (best shown; default 3)")
+    args = parser.parse_args()
+    from vtrack_gym.evaluation.storage.store import ResultStore
+
+    checkouts = {"this checkout": ROOT, **({f"{args.compare}": args.compare.resolve()} if args.compare else {})}
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "big.sqlite"
-        batch = rows(n)
-        cpu(f"add {n} rows (one batch)", lambda: ResultStore(path).add(batch))
-        store = cpu("open read-only (verify)", lambda: ResultStore(path, read_only=True))
-        got = cpu("rows() (first read)", store.rows)
-        assert len(got) == n
-        cpu("rows('bulk') again", lambda: store.rows("bulk"))
-        cpu("board_rows('bulk') again", lambda: store.board_rows("bulk"))
-        cpu("suites() on a new ResultStore", ResultStore(path, read_only=True).suites)
-        cpu("leaderboard() on a new ResultStore", lambda: ResultStore(path, read_only=True).leaderboard(
-            "bulk", LEADERBOARD_COLUMNS))
-        print(f"{'vtrack leaderboard (fresh process)':<36} {leaderboard_cpu(path):7.2f} s CPU (imports excluded)")
+        start = time.process_time()
+        ResultStore(path).add(rows(args.n))
+        print(f"add {args.n} rows (one batch): {time.process_time() - start:.2f} s CPU")
+        best: dict[tuple[str, str], tuple[float, float]] = {}
+        for _ in range(args.repeats):
+            for measure, code in (("rows() first read", READ), ("vtrack leaderboard", LEADERBOARD)):
+                for name, checkout in checkouts.items():
+                    cpu, wall = timed(code, path, checkout)
+                    old = best.get((measure, name), (float("inf"), float("inf")))
+                    best[(measure, name)] = (min(old[0], cpu), min(old[1], wall))
+        print(f"load average {' '.join(f'{x:.2f}' for x in os.getloadavg())} (2-core machine)")
+        for (measure, name), (cpu, wall) in best.items():
+            print(f"{measure:<20} {name:<40} {cpu:7.2f} s CPU {wall:7.2f} s wall")
+        if args.compare:
+            for measure in ("rows() first read", "vtrack leaderboard"):
+                mine, other = best[(measure, "this checkout")], best[(measure, str(args.compare))]
+                print(f"{measure:<20} this checkout / other: {mine[0] / other[0]:.2f} x CPU, "
+                      f"{mine[1] / other[1]:.2f} x wall")
 
 
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 100_000)
+    main()

@@ -1,10 +1,14 @@
-"""``vtrack eval`` and ``evaluate`` commit each episode's row as the episode ends: a policy that fails in a later
-seed leaves the seeds that finished in the store, with their track provenance."""
+"""``vtrack eval`` and ``evaluate`` commit each episode's row as the episode ends (one path: ``RowCommit``): a policy
+that fails in a later seed leaves the seeds that finished in the store, with their track provenance, and the command
+says so in one line."""
 
 from __future__ import annotations
 
 import dataclasses
 import hashlib
+import os
+import subprocess
+import sys
 import textwrap
 from pathlib import Path
 
@@ -12,8 +16,9 @@ import numpy as np
 import pytest
 
 import vtrack_gym
-from vtrack_gym.cli import main
 from vtrack_gym.evaluation.storage.store import ResultStore
+
+ROOT = Path(__file__).resolve().parents[1]
 
 MODULE = textwrap.dedent('''
     import numpy as np
@@ -59,18 +64,31 @@ def user_module(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, request: pytest
     return name
 
 
-def test_eval_keeps_the_seeds_that_finished_before_a_failure(tmp_path: Path, user_module: str,
-                                                             capsys: pytest.CaptureFixture[str]) -> None:
+def test_eval_keeps_the_seeds_that_finished_before_a_failure(tmp_path: Path, user_module: str) -> None:
+    """``vtrack eval --seeds 0-3`` in its own process, the policy raising in the third seed: the first two rows are
+    in the store (with the track's provenance), stderr says in one line which episode failed and what is stored,
+    the exit status is 2 and no traceback is printed; ``-v`` adds the traceback."""
     store = tmp_path / "s.sqlite"
     road = _road(tmp_path / "road.csv")
-    with pytest.raises(RuntimeError, match="third episode"):
-        main(["eval", "--policy", f"{user_module}:FailsInThirdEpisode", "--trust-code", "--track", str(road),
-              "--seeds", "0-3", "--store", str(store)])
-    assert "stopped after 2 of 4 seeds; seeds 0, 1 are stored" in capsys.readouterr().err
+    argv = ["eval", "--policy", f"{user_module}:FailsInThirdEpisode", "--trust-code", "--track", str(road),
+            "--seeds", "0-3", "--store", str(store)]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), str(tmp_path)])}
+    done = subprocess.run([sys.executable, "-m", "vtrack_gym.cli", *argv], cwd=tmp_path, env=env,
+                          capture_output=True, text=True, timeout=600)
+    assert done.returncode == 2, done.stderr[-3000:]
+    assert "Traceback" not in done.stderr and done.stdout == ""   # nothing printed before the failure
+    errors = [line for line in done.stderr.splitlines() if line.startswith("vtrack eval: error:")]
+    assert len(errors) == 1, done.stderr[-3000:]
+    assert "the episode of FailsInThirdEpisode on" in errors[0]
+    assert "seed 2 failed: RuntimeError: the policy failed in its third episode" in errors[0]
+    assert "2 of 4 episodes are stored in" in errors[0] and "(seeds 0, 1 of" in errors[0]
     rows = ResultStore(store, read_only=True).rows()
     assert sorted(r["seed"] for r in rows) == [0, 1]
     sha = hashlib.sha256(road.read_bytes()).hexdigest()
     assert all(r["options"]["track_sha256"] == sha and r["options"]["track_file"] == "road.csv" for r in rows)
+    verbose = subprocess.run([sys.executable, "-m", "vtrack_gym.cli", "-v", *argv[:-1], str(tmp_path / "v.sqlite")],
+                             cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    assert verbose.returncode == 2 and "Traceback" in verbose.stderr and "in predict" in verbose.stderr
 
 
 def test_evaluate_applies_finish_before_each_row_is_stored(tmp_path: Path, user_module: str) -> None:
@@ -89,3 +107,27 @@ def test_evaluate_applies_finish_before_each_row_is_stored(tmp_path: Path, user_
     rows = ResultStore(store, read_only=True).rows()
     assert tagged == [0, 1]
     assert sorted((r["seed"], r["options"]["note"]) for r in rows) == [(0, "seed 0"), (1, "seed 1")]
+
+
+def test_a_store_that_fails_mid_run_stops_the_storing_not_the_run(tmp_path: Path,
+                                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    """The store refuses the second row (a full disk, simulated): the third episode still runs, and ``evaluate``
+    raises ``RowsNotStored`` at the end with every row, the first one stored."""
+    from vtrack_gym.evaluation.storage.commit import RowsNotStored
+    from vtrack_gym.evaluation.storage.store import StoreError
+
+    store = ResultStore(tmp_path / "s.sqlite")
+    add, calls = ResultStore.add, []
+
+    def full_after_one(self: ResultStore, rows: object) -> int:
+        calls.append(1)
+        if len(calls) > 1:
+            raise StoreError(f"could not write rows to {self.path}: the disk is full (simulated)")
+        return add(self, rows)
+
+    monkeypatch.setattr(ResultStore, "add", full_after_one)
+    with pytest.raises(RowsNotStored, match="the disk is full") as raised:
+        vtrack_gym.evaluate(lambda env: vtrack_gym.make_policy("lqr", env), "DLC120-v0", seeds=[0, 1, 2], store=store)
+    assert [r.seed for r in raised.value.rows] == [0, 1, 2] and [r.seed for r in raised.value.stored] == [0]
+    assert len(calls) == 2   # no write tried after the store failed
+    assert [r["seed"] for r in ResultStore(store.path, read_only=True).rows()] == [0]

@@ -59,6 +59,21 @@ POLICIES = textwrap.dedent('''
             return super().predict(observation, state, episode_start, deterministic)
 
 
+    class FailsInThirdEpisode(Steady):
+        """Raises in the third instance built (one per episode; workers=1: counted in one process)."""
+
+        built = 0
+
+        def __init__(self):
+            type(self).built += 1
+            self.number = type(self).built
+
+        def predict(self, observation, state=None, episode_start=None, deterministic=True):
+            if self.number >= 3:
+                raise RuntimeError("the policy failed in its third episode")
+            return super().predict(observation, state, episode_start, deterministic)
+
+
     class Hangs(Steady):
         """Spins forever in a worker (a policy stuck in its own loop), after writing its pid."""
 
@@ -128,9 +143,27 @@ def test_kill_9_of_a_worker_keeps_every_finished_episode(tmp_path: Path) -> None
     assert "Traceback" not in stderr and "BrokenProcessPool" not in stderr
     assert "lost episodes: 1" in stdout and "killed by SIGKILL" in stdout
     bar = [line for line in stderr.splitlines() if line.startswith("vtrack benchmark")]
-    assert bar and "4/4" in bar[-1] and "lost=1" in bar[-1], stderr[-3000:]   # the bar counts the lost episode
+    assert bar and "4/4" in bar[-1] and "3 done, 1 lost" in bar[-1], stderr[-3000:]   # the bar counts the lost one
     rows = ResultStore(tmp_path / "s.sqlite", read_only=True).rows()
     assert len(rows) == 3 and len({r["seed"] for r in rows}) == 3
+
+
+def test_a_failed_episode_is_one_line_and_counted_on_the_bar(tmp_path: Path) -> None:
+    """``vtrack benchmark`` whose policy raises in its third episode: the two finished rows are stored, the error is
+    one line naming the episode and what was stored, the bar's last line counts the failed episode, exit status 2."""
+    process = _vtrack(tmp_path, *_benchmark(tmp_path, "FailsInThirdEpisode", workers=1))
+    stdout, stderr = process.communicate(timeout=600)
+    assert process.returncode == 2, stderr[-3000:]
+    assert "Traceback" not in stderr and stdout == ""
+    errors = [line for line in stderr.splitlines() if line.startswith("vtrack benchmark: error:")]
+    assert len(errors) == 1 and "the episode of FailsInThirdEpisode on" in errors[0], stderr[-3000:]
+    assert "seed 2 failed: RuntimeError: the policy failed in its third episode" in errors[0]
+    assert "2 of 4 episodes are stored in" in errors[0]
+    bar = [line for line in stderr.splitlines() if line.startswith("vtrack benchmark")
+           and not line.startswith("vtrack benchmark:")]
+    assert bar and "3/4" in bar[-1] and "2 done, 1 failed" in bar[-1], stderr[-3000:]
+    rows = ResultStore(tmp_path / "s.sqlite", read_only=True).rows()
+    assert sorted(r["seed"] for r in rows) == [0, 1]
 
 
 def test_rows_are_stored_when_the_reader_of_the_table_goes_away(tmp_path: Path) -> None:

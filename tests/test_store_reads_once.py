@@ -25,13 +25,13 @@ def test_leaderboard_checks_each_row_once(tmp_path: Path, monkeypatch: pytest.Mo
     path = tmp_path / "s.sqlite"
     ResultStore(path).add(_rows(40) + _rows(10, suite="custom"))
     checked = []
-    rule = store_module.checked_row_values
+    verify = store_module.verified_rows
 
-    def counting(row):
-        checked.append(row["id"])
-        return rule(row)
+    def counting(path, meta, raw):
+        checked.extend(values[0] for values in raw)
+        return verify(path, meta, raw)
 
-    monkeypatch.setattr(store_module, "checked_row_values", counting)
+    monkeypatch.setattr(store_module, "verified_rows", counting)
     assert main(["leaderboard", "--store", str(path), "--suite", "bulk", "--format", "json"]) == 0
     board = json.loads(capsys.readouterr().out)
     assert [e["episodes"] for e in board] == [40]
@@ -79,3 +79,24 @@ def test_an_alias_and_its_id_are_one_episode_on_the_board(tmp_path: Path, capsys
     assert [(r["episodes"], r["max_e_y_m"]) for r in rows] == [(1, 0.3)]
     assert len(ResultStore(path, read_only=True).board_rows("custom")) == 1
     assert len(ResultStore(path, read_only=True).board_rows("custom", latest_only=False)) == 2
+
+
+def test_each_seed_under_both_spellings_is_one_episode(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Seeds 0-2, each stored under ``vtrack/DLC120-v0`` and again under ``DLC120-v0`` (and seed 3 under the alias
+    only): four episodes on the board, one per seed, each its later row; the leaderboard, ``leaderboard()`` and
+    ``board_rows`` agree."""
+    path = tmp_path / "s.sqlite"
+    store = ResultStore(path)
+    for seed in range(3):
+        for env_id, error in (("vtrack/DLC120-v0", 0.1), ("DLC120-v0", 0.3)):
+            store.add([ResultRow("custom", env_id, "lqr", "h1", seed, {"max_e_y_m": error}, "completed", 1e-4,
+                                 package_version="0.3.0")])
+    store.add([ResultRow("custom", "vtrack/DLC120-v0", "lqr", "h1", 3, {"max_e_y_m": 0.7}, "completed", 1e-4,
+                         package_version="0.3.0")])
+    assert main(["leaderboard", "--store", str(path), "--suite", "custom", "--format", "json"]) == 0
+    board = json.loads(capsys.readouterr().out)
+    assert [(e["env_id"], e["episodes"]) for e in board] == [("DLC120-v0", 4)]
+    assert board[0]["max_e_y_m"] == pytest.approx((0.3 * 3 + 0.7) / 4)
+    kept = ResultStore(path, read_only=True).board_rows("custom")
+    assert sorted((r["seed"], r["metrics"]["max_e_y_m"]) for r in kept) == [(0, 0.3), (1, 0.3), (2, 0.3), (3, 0.7)]
+    assert [r["episodes"] for r in vtrack_gym.leaderboard(path, "custom")] == [4]

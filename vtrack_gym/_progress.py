@@ -80,3 +80,30 @@ def progress_bar(iterable: Any = None, **kwargs: Any) -> Any:
     if not _redraws_in_place(sys.stderr):
         kwargs["file"] = LineStream(sys.stderr)
     return tqdm(iterable, **kwargs)
+
+
+class EpisodeCounts:
+    """The episodes of a run counted on a progress bar: each one, finished (``done``), lost (its worker process
+    died) or failed (it raised), advances the bar by one, and once one was lost or failed the bar says how many of
+    each beside its count: ``14/14 [..., 12 done, 2 lost]``. ``bar``: a tqdm bar, or None (counts only)."""
+
+    OUTCOMES = ("done", "lost", "failed")
+
+    def __init__(self, bar: Any = None) -> None:
+        self.bar = bar
+        self.counts = dict.fromkeys(self.OUTCOMES, 0)
+
+    def add(self, outcome: str) -> None:
+        """One more episode of ``outcome`` (one of ``OUTCOMES``)."""
+        if outcome not in self.counts:
+            raise ValueError(f"outcome must be one of {', '.join(self.OUTCOMES)} (got {outcome!r})")
+        self.counts[outcome] += 1
+        if self.bar is None:
+            return
+        if self.counts["lost"] or self.counts["failed"]:
+            self.bar.set_postfix_str(self.text(), refresh=False)
+        self.bar.update(1)
+
+    def text(self) -> str:
+        """``12 done, 2 lost`` (the outcomes that occurred, ``done`` always)."""
+        return ", ".join(f"{n} {name}" for name, n in self.counts.items() if n or name == "done")

@@ -55,7 +55,8 @@ COMMANDS: tuple[ModuleType, ...] = (benchmark, evaluate, leaderboard, train, exp
                                     dataset, entry_speed, lap_bound)
 """The command modules, in the order ``vtrack --help`` lists them."""
 EXIT_ERROR = 2
-"""Exit code of a refused command (bad input, unusable file, missing package)."""
+"""Exit code of a refused command (bad input, unusable file, missing package) and of a run stopped by an error in
+an episode (a policy that raised; the episodes that finished are stored)."""
 EXIT_INTERRUPTED = 130
 """Exit code after Ctrl-C (128 + SIGINT)."""
 EXIT_BROKEN_PIPE = 141
@@ -137,9 +138,28 @@ def _run(command: ModuleType, args: argparse.Namespace) -> int:
             check_outputs(args)  # every output checked (missing folders created) before any work starts
         with logging_redirect_tqdm():  # log lines printed above the progress bars, not through them
             return command.run(args)
-    except _EXPECTED as exc:
-        err(f"vtrack {args.command}: error: {exc}")
+    except Exception as exc:
+        line = _failure_line(exc)
+        if line is None:
+            raise   # a bug: its traceback
+        err(f"vtrack {args.command}: error: {line}")
         return EXIT_ERROR
+
+
+def _failure_line(exc: Exception) -> str | None:
+    """The one line a command's error is reported in: an expected error's message, or an error raised in an episode
+    (a policy that raised) with its episode and what the run stored (the traceback under ``-v``); None for anything
+    else (a bug keeps its traceback)."""
+    from vtrack_gym.evaluation.rollouts.episode_failure import failure_line
+    from vtrack_gym.evaluation.storage.commit import stored_line_of
+
+    line = failure_line(exc)
+    if line is None:
+        return str(exc) if isinstance(exc, _EXPECTED) else None
+    logging.getLogger("vtrack_gym.cli").debug("the failed episode's traceback", exc_info=exc)
+    stored = stored_line_of(exc)
+    return f"{line}; {stored}" + ("" if logging.getLogger("vtrack_gym").isEnabledFor(logging.DEBUG)
+                                  else " (-v shows the traceback)")
 
 
 def _silence_stdout() -> None:

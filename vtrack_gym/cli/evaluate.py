@@ -50,7 +50,9 @@ def run(args: argparse.Namespace) -> int:
     from vtrack_gym.evaluation.api import evaluate
     from vtrack_gym.evaluation.benchmarking.track_benchmark import merge_provenance
     from vtrack_gym.evaluation.identity.policy_names import user_spec_label
-    from vtrack_gym.evaluation.storage.store import ResultStore, StoreError
+    from vtrack_gym.evaluation.rollouts.episode_failure import episode_of
+    from vtrack_gym.evaluation.storage.commit import RowsNotStored, stored_line_of
+    from vtrack_gym.evaluation.storage.store import ResultStore
 
     seeds = opt.parse_seeds(args.seeds)
     make = policy_factory(args.policy, args.preset, args.trust_code, parse_policy_kwargs(args.policy_kwargs))
@@ -60,35 +62,19 @@ def run(args: argparse.Namespace) -> int:
     announce_kernels()
     policy_id = user_spec_label(args.policy, parse_policy_kwargs(args.policy_kwargs)) if args.trust_code \
         else recorded_policy_id(args.policy, args.preset)   # a class of yours: its class and arguments
-    stored: list[int] = []
-    store_error: list[StoreError] = []
-
-    def commit(row: Any) -> Any:
-        """The row with its track's provenance, committed as its episode ends, before anything is printed: a
-        crash or a kill in a later seed, or a closed stdout, cannot lose the seeds that finished. A store that
-        fails (a full disk) stops the storing, not the run: the table still shows."""
-        row = merge_provenance(row, provenance) if provenance else row
-        if not store_error:
-            try:
-                store.add([row])
-                stored.append(row.seed)
-            except StoreError as exc:
-                err(f"vtrack eval: {exc}; the remaining rows are not stored")
-                store_error.append(exc)
-        return row
-
-    try:
-        rows = evaluate(make, env_id, seeds, policy_id=policy_id, vehicle=args.vehicle, latency=args.latency,
-                        control=args.control, launch=args.launch, finish=commit)
-    except BaseException:
-        err(f"vtrack eval: stopped after {len(stored)} of {len(seeds)} seeds; "
-            f"{'seeds ' + ', '.join(map(str, stored)) + ' are' if stored else 'nothing is'} stored in {args.store}")
+    try:   # each row (with its track's provenance) committed by evaluate as its episode ends, before any output
+        rows = evaluate(make, env_id, seeds, store=store, policy_id=policy_id, vehicle=args.vehicle,
+                        latency=args.latency, control=args.control, launch=args.launch,
+                        finish=(lambda row: merge_provenance(row, provenance)) if provenance else None)
+    except RowsNotStored as exc:   # the store failed (a full disk): the table still shows, then the error
+        _print_table(exc.rows)
         raise
-    if not store_error:
-        err(f"results stored in {args.store} (suite 'custom': vtrack leaderboard --suite custom)")
+    except BaseException as exc:
+        if episode_of(exc) is None:   # Ctrl-C, SIGTERM: an episode's own error is reported with this line
+            err(f"vtrack eval: stopped; {stored_line_of(exc) or 'nothing is stored'}")
+        raise
+    err(f"results stored in {args.store} (suite 'custom': vtrack leaderboard --suite custom)")
     _print_table(rows)
-    if store_error:
-        raise store_error[0]
     return 0
 
 

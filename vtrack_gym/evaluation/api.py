@@ -18,8 +18,10 @@ from vtrack_gym.evaluation.benchmarking.benchmark import episode_scorer
 from vtrack_gym.evaluation.identity.env_identity import UNIDENTIFIED, env_identity
 from vtrack_gym.evaluation.identity.env_names import canonical_env_id
 from vtrack_gym.evaluation.identity.fingerprint import named_policy_hash, policy_hash
+from vtrack_gym.evaluation.rollouts.episode_failure import in_episode
 from vtrack_gym.evaluation.rollouts.rollout import policy_id_of
 from vtrack_gym.evaluation.scoring.rows import ResultRow
+from vtrack_gym.evaluation.storage.commit import RowCommit, raise_if_not_stored
 from vtrack_gym.evaluation.storage.store import ResultStore, StoreError
 from vtrack_gym.evaluation.suite.suites import (
     Episode,
@@ -95,8 +97,12 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
     ``seeds``), an env id (``seeds``, default ``[0]``) or a Gymnasium env instance (driven as given).
     ``vecnormalize``: SB3 ``VecNormalize`` statistics the policy was trained with (observations are normalised
     with them before ``predict``). ``store``: a leaderboard file (or ``ResultStore``) the rows are added to, each as its
-    episode ends (also with ``workers``/``backend``: the policy's fingerprint is taken before the first episode
-    starts, so an episode that finished is stored whatever happens to the later ones).
+    episode ends (``storage.commit.RowCommit``, the path ``vtrack eval`` and ``vtrack benchmark`` use; also with
+    ``workers``/``backend``: the policy's fingerprint is taken before the first episode starts, so an episode that
+    finished is stored whatever happens to the later ones). An error in an episode ends the run with its own type,
+    marked with its episode (``episode_failure.episode_of``) and with what was stored (``commit.stored_line_of``).
+    A store that fails during the run (a full disk) stops the storing, not the run: the remaining episodes run and
+    ``commit.RowsNotStored`` (a ``StoreError`` holding every row) is raised at the end.
     ``policy_id``: the name in the rows (default: ``policy.policy_id`` or the class name). ``vehicle``: the car of
     a suite's or an env id's episodes (a name of ``vehicle.list_vehicles()`` or a vehicle file; default the paper's
     car), recorded in the rows' ``options`` (an env instance is driven with its own car, track and config, recorded
@@ -127,6 +133,7 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
         inner = make
         make = lambda env: NormalisedPolicy(inner(env), vecnormalize)  # noqa: E731
     episodes: list[Episode] = []      # what to run, all checked before the store is opened or created
+    env, identity = None, None
     if isinstance(suite_or_env, str):
         from vtrack_gym.vehicle.catalog import read_vehicle_once
 
@@ -137,42 +144,58 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
         if vehicle is not None or control is not None or launch is not None:
             raise ValueError("vehicle and control apply to a suite name or an env id; an env instance drives its "
                              "own car in its own control mode (gym.make(..., vehicle=..., control=...))")
-        env_id, identity = env_identity(suite_or_env)
-        if UNIDENTIFIED in env_id:
-            log.warning("the configuration of this env instance cannot be recorded; its rows are stored as %r, "
-                        "apart from the standard env's", env_id)
-    else:
-        raise ValueError(f"suite_or_env must be a suite name ({', '.join(suite_names())}), an env id or a "
-                         f"gymnasium.Env (got {type(suite_or_env).__name__})")
-    result_store = _open_store(store)  # checked before the first rollout: a bad store loses no results
-    from vtrack_gym.evaluation.benchmarking.track_benchmark import merge_provenance
-    rows: list[ResultRow] = []
-
-    def keep(row: ResultRow) -> None:  # committed as its episode ends: a later failure cannot lose it
-        if finish is not None:
-            row = finish(row)
-        if result_store is not None:
-            result_store.add([row])
-        rows.append(row)
-
-    if isinstance(suite_or_env, str) and (workers != 1 or backend != "local"):
-        rows[:] = _parallel_rows(make, episodes, suite, policy_id, workers, backend, keep)
-    elif isinstance(suite_or_env, str):
-        for ep in episodes:
-            env = gym.make(ep.env_id, **ep.make_kwargs)
-            try:   # one policy per call: every row gets the first episode's fingerprint
-                keep(_row(make, env, ep, suite, policy_id, rows[0].policy_hash if rows else None))
-            finally:
-                env.close()
-    else:
         if workers != 1 or backend != "local":
             raise ValueError("workers and backend apply to a suite name or an env id; an env instance is driven "
                              "in this process")
-        for s in seeds if seeds is not None else (0,):
-            row = _row(make, suite_or_env, with_latency([Episode(env_id, int(s))], latency)[0], CUSTOM_SUITE, policy_id,
-                       rows[0].policy_hash if rows else None)
-            keep(merge_provenance(row, identity))   # refuses a row that drove other content
-    return rows
+        env, suite = suite_or_env, CUSTOM_SUITE
+        env_id, identity = env_identity(env)
+        if UNIDENTIFIED in env_id:
+            log.warning("the configuration of this env instance cannot be recorded; its rows are stored as %r, "
+                        "apart from the standard env's", env_id)
+        episodes = [with_latency([Episode(env_id, int(s))], latency)[0] for s in (seeds if seeds is not None else (0,))]
+    else:
+        raise ValueError(f"suite_or_env must be a suite name ({', '.join(suite_names())}), an env id or a "
+                         f"gymnasium.Env (got {type(suite_or_env).__name__})")
+    commit = RowCommit(_open_store(store), finish, len(episodes))  # the store checked before the first rollout
+    try:
+        if env is not None:
+            _env_rows(make, env, episodes, identity, policy_id, commit)
+        elif workers != 1 or backend != "local":
+            _parallel_rows(make, episodes, suite, policy_id, workers, backend, commit)
+        else:
+            _serial_rows(make, episodes, suite, policy_id, commit)
+    except BaseException as exc:   # what was stored, for whoever reports the failure
+        commit.mark_stopped(exc)
+        raise
+    raise_if_not_stored(commit)
+    return commit.ordered()
+
+
+def _first_hash(commit: RowCommit) -> str | None:
+    """The fingerprint every row of one call records: the first episode's (None before it ends)."""
+    return commit.rows[0].policy_hash if commit.rows else None
+
+
+def _serial_rows(make: Callable[[Any], Any], episodes: Sequence[Episode], suite: str, policy_id: str | None,
+                 commit: RowCommit) -> None:
+    """``episodes`` in this process, each row handed to ``commit`` (finished, stored) as its episode ends."""
+    for ep in episodes:
+        env = gym.make(ep.env_id, **ep.make_kwargs)
+        try:
+            commit(_row(make, env, ep, suite, policy_id, _first_hash(commit)))
+        finally:
+            env.close()
+
+
+def _env_rows(make: Callable[[Any], Any], env: gym.Env, episodes: Sequence[Episode], identity: Any,
+              policy_id: str | None, commit: RowCommit) -> None:
+    """``episodes`` (one per seed) driven on the env instance ``env``, each row with the env's identity
+    (``identity``) and handed to ``commit`` as its episode ends."""
+    from vtrack_gym.evaluation.benchmarking.track_benchmark import merge_provenance
+
+    for ep in episodes:
+        row = _row(make, env, ep, CUSTOM_SUITE, policy_id, _first_hash(commit))
+        commit(merge_provenance(row, identity))   # refuses a row that drove other content
 
 
 def _open_store(store: str | Path | ResultStore | None) -> ResultStore | None:
@@ -191,15 +214,18 @@ def _open_store(store: str | Path | ResultStore | None) -> ResultStore | None:
 
 def _row(make: Callable[[Any], Any], env: gym.Env, ep: Episode, suite: str, policy_id: str | None,
          digest: str | None = None) -> ResultRow:
-    """One episode's row; ``digest``: the policy hash to record (None: the policy's own fingerprint)."""
-    policy = make(env)
-    if not hasattr(policy, "predict"):
-        raise ValueError(f"the factory returned {type(policy).__name__}, which has no predict method")
+    """One episode's row; ``digest``: the policy hash to record (None: the policy's own fingerprint). An error
+    raised on the way names the episode (``episode_failure.in_episode``)."""
+    with in_episode(policy_id or "the factory's policy", ep.env_id, ep.seed):
+        policy = make(env)
+        if not hasattr(policy, "predict"):
+            raise ValueError(f"the factory returned {type(policy).__name__}, which has no predict method")
     name = policy_id or policy_id_of(policy)
-    digest = digest or _fingerprint(policy, policy_id, env)
-    row, _ = episode_scorer(suite, make)(name, policy, env, ep, suite, digest)
+    digest = digest or _fingerprint(policy, policy_id, env)   # before the episode: its refusal is no episode's
+    with in_episode(name, ep.env_id, ep.seed):
+        row, _ = episode_scorer(suite, make)(name, policy, env, ep, suite, digest)
     log.debug("%s on %s seed %s: %s, max |e_y| %.4g m", name, ep.env_id, ep.seed, row.termination,
-             row.metrics.get("max_e_y_m", float("nan")))
+              row.metrics.get("max_e_y_m", float("nan")))
     return row
 
 
@@ -228,10 +254,11 @@ def _first_identity(make: Callable[[Any], Any], episode: Episode, policy_id: str
 
 
 def _parallel_rows(make: Callable[[Any], Any], episodes: Sequence[Episode], suite: str, policy_id: str | None,
-                   workers: int | None, backend: str, keep: Callable[[ResultRow], None]) -> list[ResultRow]:
-    """``episodes`` scored by ``parallel.run_tasks``, each row handed to ``keep`` (stored) as its episode ends;
-    returns the rows in episode order. Every row records the name and fingerprint taken before the first episode
-    starts (``_first_identity``), so a row is complete when its episode ends and a later failure cannot lose it."""
+                   workers: int | None, backend: str, commit: RowCommit) -> None:
+    """``episodes`` scored by ``parallel.run_tasks``, each row handed to ``commit`` (finished, stored) as its
+    episode ends, under its episode's index. Every row records the name and fingerprint taken before the first
+    episode starts (``_first_identity``), so a row is complete when its episode ends and a later failure cannot
+    lose it."""
     import functools
 
     from vtrack_gym.evaluation.rollouts.parallel import EpisodeTask, run_tasks
@@ -239,17 +266,10 @@ def _parallel_rows(make: Callable[[Any], Any], episodes: Sequence[Episode], suit
     checked = functools.partial(_checked_policy, make)
     name, digest = _first_identity(checked, episodes[0], policy_id)
     score = functools.partial(episode_scorer(suite, checked), digest=digest)
-    done: dict[int, ResultRow] = {}
-
-    def on_result(index: int, result: tuple[Any, Any]) -> None:
-        keep(result[0])
-        done[index] = result[0]
-
     run_tasks([EpisodeTask(name, checked, ep, suite, score) for ep in episodes], workers, backend,
-              on_result=on_result)   # a lost episode was logged
-    if not done:
+              on_result=lambda index, result: commit(result[0], index))   # a lost episode was logged
+    if not commit.rows:
         raise ValueError(f"every episode of {name} was lost: its worker processes died (see the log)")
-    return [done[i] for i in sorted(done)]
 
 
 @dataclasses.dataclass(frozen=True)

@@ -20,7 +20,8 @@ from vtrack_gym.evaluation.rollouts.episode_score import (  # noqa: F401  (re-ex
 )
 from vtrack_gym.evaluation.scoring.rows import ResultRow
 from vtrack_gym.evaluation.scoring.trace import Trace
-from vtrack_gym.evaluation.storage.store import ResultStore, StoreError
+from vtrack_gym.evaluation.storage.commit import RowCommit
+from vtrack_gym.evaluation.storage.store import ResultStore
 from vtrack_gym.evaluation.suite.suites import (
     Episode,
     extra_columns,
@@ -169,34 +170,31 @@ def score_tasks(tasks: Sequence[Any], figures_dir: str | Path | None, vehicle: s
     if figures_dir is not None and tasks:
         folder_name = run_folder(tasks[0].suite, [t.policy_id for t in tasks], vehicle_label(vehicle),
                                  [t.episode.env_id for t in tasks])
-    rows: dict[int, ResultRow] = {}
-    store_error: list[str] = []
 
-    def keep(index: int, result: tuple[Any, Any]) -> None:
-        row = result[0]
+    def tagged(row: ResultRow) -> ResultRow:
         if folder_name is not None:
             row = dataclasses.replace(row, options={**row.options, FIGURES_OPTION: folder_name})
-        rows[index] = row if finish is None else finish(row)
-        if store is not None and not store_error:
-            try:
-                store.add([rows[index]])
-            except StoreError as exc:  # a full disk: the run goes on, its table is still shown
-                log.error("%s; the remaining rows are not stored", exc)
-                store_error.append(str(exc))
+        return row if finish is None else finish(row)
 
+    commit = RowCommit(store, tagged, len(tasks))   # each row stored as its episode ends
     with progress_bar(total=len(tasks), desc=progress_label or "", unit="episode",
                       disable=progress_label is None) as bar:
-        results = run_tasks(tasks, workers, backend, progress=bar, on_result=keep)
+        try:
+            results = run_tasks(tasks, workers, backend, progress=bar,
+                                on_result=lambda index, result: commit(result[0], index))
+        except BaseException as exc:
+            commit.mark_stopped(exc)
+            raise
     traces_by_env: dict[str, list[Trace]] = {}
     lost = []
     for index, result in enumerate(results):
-        if index not in rows:
+        if index not in commit.rows:
             lost.append(lost_line(tasks[index], result))
         elif result[1] is not None:
             traces_by_env.setdefault(result[1].env_id, []).append(result[1])
-    return ScoredTasks([rows[i] for i in sorted(rows)], traces_by_env,
+    return ScoredTasks(commit.ordered(), traces_by_env,
                        None if folder_name is None else Path(figures_dir) / folder_name, lost,
-                       store_error[0] if store_error else None)
+                       None if commit.error is None else str(commit.error))
 
 
 @dataclasses.dataclass(frozen=True)

@@ -207,9 +207,10 @@ def track_set_board(rows: Sequence[Mapping[str, Any]], columns: Sequence[str], p
 
     ``rows``: stored rows as dicts (``ResultStore.board_rows``), aggregated as
     ``evaluation.leaderboard.board.build_board`` does (success rate first, intervals over every track and seed)."""
+    from vtrack_gym.evaluation.identity.env_names import canonical_env_id
     from vtrack_gym.evaluation.leaderboard.board import build_board
 
     rows = list(rows)
-    label = across_tracks_label(len({r["env_id"] for r in rows}))
+    label = across_tracks_label(len({canonical_env_id(str(r["env_id"])) for r in rows}))   # an alias: one track
     pooled = [{**r, "env_id": label} for r in rows]
     return build_board(pooled, columns, primary) + build_board(rows, columns, primary)

@@ -83,14 +83,17 @@ def run_task(task: EpisodeTask) -> tuple[Any, Any]:
     """Score one task in this process: (row, trace or None)."""
     import gymnasium as gym
 
-    if task.setup is not None:
-        task.setup()
+    from vtrack_gym.evaluation.rollouts.episode_failure import in_episode
+
     ep = task.episode
-    env = gym.make(ep.env_id, **ep.make_kwargs)
-    try:
-        row, trace = task.score(task.policy_id, task.make(env), env, ep, task.suite)
-    finally:
-        env.close()
+    with in_episode(task.policy_id, ep.env_id, ep.seed):   # an error names its episode, also from a worker
+        if task.setup is not None:
+            task.setup()
+        env = gym.make(ep.env_id, **ep.make_kwargs)
+        try:
+            row, trace = task.score(task.policy_id, task.make(env), env, ep, task.suite)
+        finally:
+            env.close()
     return row, (trace if task.keep_trace else None)
 
 
@@ -101,39 +104,47 @@ ResultSink = Callable[[int, tuple[Any, Any]], None]
 def run_tasks(tasks: Sequence[EpisodeTask], workers: int | None = 1, backend: str = "local",
               progress: Any = None, address: str | None = None,
               on_result: ResultSink | None = None) -> list[tuple[Any, Any] | LostTask]:
-    """Every task's (row, trace or None), in task order; ``progress`` (a tqdm bar) advances once per episode,
-    a lost one included (counted as ``lost=N`` beside the bar).
+    """Every task's (row, trace or None), in task order; ``progress`` (a tqdm bar) advances once per episode and
+    counts the lost and failed ones beside the bar (``_progress.EpisodeCounts``: ``12 done, 2 lost``).
 
     ``workers``: local processes (default: the cores; 1 runs in this process) or, with ``backend="ray"``, the most
     tasks in flight at once (default: one per cluster CPU). ``address``: the Ray cluster to join.
     ``on_result(i, result)`` is called here as each task ends, before the next result is waited for (store the
     row there: a later failure cannot lose it). A task whose worker died (``kill -9``, the OOM killer, a crashed
-    Ray worker) is a ``worker_pool.LostTask`` in its place; every other task still runs.
+    Ray worker) is a ``worker_pool.LostTask`` in its place; every other task still runs. An exception raised by a
+    task ends the run (after the results that arrived were delivered), marked with its episode
+    (``episode_failure``).
     """
+    from vtrack_gym._progress import EpisodeCounts
+
     workers = check_workers(workers, backend)
     tasks = list(tasks)
     results: list[Any] = [None] * len(tasks)
+    counts = EpisodeCounts(progress)
 
     def deliver(index: int, result: tuple[Any, Any]) -> None:
-        results[index] = _advance(tasks[index], result, progress)
+        _log_result(tasks[index], result)
+        counts.add("done")
+        results[index] = result
         if on_result is not None:
             on_result(index, results[index])
 
-    lost_so_far: list[LostTask] = []
-
     def lose(task: LostTask) -> None:   # the bar counts the episode, and shows it as lost
-        lost_so_far.append(task)
-        _count_lost(len(lost_so_far), progress)
+        counts.add("lost")
 
     n = min(workers or default_workers(), max(1, len(tasks)))   # never more processes than episodes
-    if backend == "ray":
-        lost = _run_ray(tasks, workers, deliver, address, lose)
-    elif n > 1:
-        lost = _run_forked(tasks, n, deliver, lose)
-    else:   # in this process
-        lost = []
-        for index, task in enumerate(tasks):
-            deliver(index, run_task(task))
+    try:
+        if backend == "ray":
+            lost = _run_ray(tasks, workers, deliver, address, lose)
+        elif n > 1:
+            lost = _run_forked(tasks, n, deliver, lose)
+        else:   # in this process
+            lost = []
+            for index, task in enumerate(tasks):
+                deliver(index, run_task(task))
+    except Exception:
+        counts.add("failed")
+        raise
     for task in lost:
         log.warning("episode lost: %s", lost_line(tasks[task.index], task))
         results[task.index] = task
@@ -146,21 +157,11 @@ def lost_line(task: EpisodeTask, lost: LostTask) -> str:
     return f"{task.policy_id} on {ep.env_id} seed {ep.seed}: worker {lost.reason}"
 
 
-def _advance(task: EpisodeTask, result: tuple[Any, Any], progress: Any) -> tuple[Any, Any]:
-    """``task``'s result handed back: its debug line logged and the bar advanced, here in the process that draws
-    the bar (a worker's own line would print through it)."""
+def _log_result(task: EpisodeTask, result: tuple[Any, Any]) -> None:
+    """``task``'s debug line, logged here in the process that draws the bar (a worker's own line would print
+    through it)."""
     ep = task.episode
     log.debug("%s on %s seed %s: %s", task.policy_id, ep.env_id, ep.seed, result[0].termination)
-    if progress is not None:
-        progress.update(1)
-    return result
-
-
-def _count_lost(lost: int, progress: Any) -> None:
-    """A lost episode on the bar: it advances, and ``lost=N`` beside it says how many were lost so far."""
-    if progress is not None:
-        progress.set_postfix(lost=lost, refresh=False)
-        progress.update(1)
 
 
 class _Inherited:

@@ -43,6 +43,7 @@ import re
 import sqlite3
 from collections.abc import Callable, Iterable, Sequence
 from contextlib import closing
+from operator import itemgetter
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -78,6 +79,9 @@ _COLUMNS = ("id", "created_utc", "package_version", "suite", "env_id", "env_vers
             "metrics_json")
 READ_ATTEMPTS = 6
 """Reads of a store that changes underneath before its failure is reported (about 1.3 s of pauses in all)."""
+_PLAIN_COLUMNS = tuple(c for c in _COLUMNS if not c.endswith("_json"))
+"""The columns a row read keeps as they are (the JSON columns become ``metrics`` and ``options``)."""
+_PLAIN_INDEX = tuple(_COLUMNS.index(c) for c in _PLAIN_COLUMNS)
 _META_KEYS = frozenset({"schema_version", "row_count", "rows_digest"})
 _SQL_SCALARS = frozenset({type(None), str, int, float})
 """The Python types of the values SQLite returns for NULL, TEXT, INTEGER and REAL (a BLOB is none of them)."""
@@ -92,6 +96,10 @@ def _now() -> str:
 def row_sha256(values: Sequence[Any]) -> str:
     """SHA-256 of one row's stored values in ``_COLUMNS`` order (the id included)."""
     return hashlib.sha256(json.dumps(list(values), ensure_ascii=True).encode("ascii")).hexdigest()
+
+
+_ROW_ENCODER = json.JSONEncoder(ensure_ascii=True)
+"""``row_sha256``'s encoding (``json.dumps``'s defaults), kept for the read of many rows."""
 
 
 @functools.lru_cache(maxsize=1)
@@ -392,10 +400,9 @@ class ResultStore:
     # ------------------------------------------------------------------------------------------ reading
     def suites(self) -> dict[str, int]:
         """``{suite: number of stored episodes}`` of every suite in the store, by name (rows verified)."""
-        counts: dict[str, int] = {}
-        for row in self.rows():
-            counts[row["suite"]] = counts.get(row["suite"], 0) + 1
-        return dict(sorted(counts.items()))
+        import collections
+
+        return dict(sorted(collections.Counter(r["suite"] for r in self._snapshot()).items()))
 
     def rows(self, suite: str | None = None) -> list[dict[str, Any]]:
         """Every stored row (optionally of one suite) as dicts with the metrics unpacked.
@@ -405,8 +412,12 @@ class ResultStore:
         previous read holds the same rows: they are not read and checked again (a command that reads a store
         several times pays for one read; ``benchmarks/bench_store_read.py``).
         """
-        rows = self._read(self._verified_rows)
-        return [dict(r) for r in rows if suite is None or r["suite"] == suite]
+        return [dict(r) for r in self._snapshot() if suite is None or r["suite"] == suite]
+
+    def _snapshot(self) -> list[dict[str, Any]]:
+        """The verified rows of the store's current snapshot, as this object keeps them (never handed out: callers
+        get copies, ``rows``)."""
+        return self._read(self._verified_rows)
 
     def _verified_rows(self, con: sqlite3.Connection) -> list[dict[str, Any]]:
         """Every row of ``con``'s snapshot, verified (``verified_rows``), or those of the previous read when the
@@ -423,7 +434,7 @@ class ResultStore:
     def older_versions(self, suite: str) -> tuple[str, int]:
         """(newest package version among the suite's rows, number of the suite's rows of older versions): what
         ``leaderboard(latest_only=True)`` leaves out; ``("", 0)`` for a suite without rows."""
-        rows = self.rows(suite)
+        rows = [r for r in self._snapshot() if r["suite"] == suite]
         if not rows:
             return "", 0
         newest = max((r["package_version"] for r in rows), key=version_sort_key)
@@ -443,14 +454,43 @@ class ResultStore:
     def board_rows(self, suite: str, latest_only: bool = True) -> list[dict[str, Any]]:
         """The stored rows ``leaderboard`` aggregates (see there); the run's figure folder
         (``options["figures"]``) does not distinguish two rows of one episode."""
-        rows = self.rows(suite)
-        return latest_rows(rows) if latest_only else rows
+        rows = [r for r in self._snapshot() if r["suite"] == suite]
+        return [dict(r) for r in (latest_rows(rows) if latest_only else rows)]
 
 
 def verified_rows(path: Path, meta: dict[str, str], raw: list[tuple[Any, ...]]) -> list[dict[str, Any]]:
     """The rows of one snapshot of the store at ``path`` (``raw``: ``_COLUMNS`` and the row hash), each checked
     against its hash and the row rule, all against the meta table's count and digest; ``StoreError`` naming the row
-    otherwise (inside ``_read``: a snapshot torn by a concurrent writer is read again)."""
+    otherwise (inside ``_read``: a snapshot torn by a concurrent writer is read again).
+
+    The hashes, the count and the digest are checked row by row; the row rule column by column
+    (``row_batch.rows_obey_rule``), and row by row (naming the row) only when a column may break it."""
+    from vtrack_gym.evaluation.scoring.row_batch import parsed_objects, rows_obey_rule
+
+    columns = dict(zip((*_COLUMNS, "row_sha256"), zip(*raw, strict=True), strict=True)) if raw else {}
+    if not all(_SQL_SCALARS.issuperset(set(map(type, values))) for values in columns.values()):
+        return _verified_row_by_row(path, meta, raw)   # a BLOB somewhere: the row is named there
+    digest = 0
+    encode = _ROW_ENCODER.encode
+    for values in raw:
+        stored_hash = values[-1]
+        if hashlib.sha256(encode(values[:-1]).encode("ascii")).hexdigest() != stored_hash:
+            raise StoreError(f"{path} is corrupted (row {values[0]!r} does not match its checksum)")
+        digest ^= int(stored_hash, 16)
+    _check_count_and_digest(path, meta, len(raw), digest)
+    if not raw:
+        return []
+    metrics = parsed_objects(columns["metrics_json"])
+    options = parsed_objects(columns["options_json"])
+    if metrics is None or options is None or not rows_obey_rule(columns, metrics):
+        return _verified_row_by_row(path, meta, raw)   # some row breaks the rule: name it
+    plain = itemgetter(*_PLAIN_INDEX)
+    return [{**dict(zip(_PLAIN_COLUMNS, plain(values), strict=True)), "metrics": m, "options": o}
+            for values, m, o in zip(raw, metrics, options, strict=True)]
+
+
+def _verified_row_by_row(path: Path, meta: dict[str, str], raw: list[tuple[Any, ...]]) -> list[dict[str, Any]]:
+    """``verified_rows`` one row at a time: the first row that breaks its hash or the row rule is named."""
     digest = 0
     out = []
     for values in raw:
@@ -465,10 +505,15 @@ def verified_rows(path: Path, meta: dict[str, str], raw: list[tuple[Any, ...]]) 
             raise StoreError(f"{path} is corrupted (row {d.get('id')!r:.30}: {exc}); it was left untouched") from None
         del d["metrics_json"], d["options_json"]
         out.append(d)
-    if meta.get("row_count") != str(len(raw)) or meta.get("rows_digest") != f"{digest:064x}":
-        raise StoreError(f"{path} is corrupted (it holds {len(raw)} rows, its record says "
-                         f"{meta.get('row_count')!r}, or the rows' digest differs): rows were lost or altered")
+    _check_count_and_digest(path, meta, len(raw), digest)
     return out
+
+
+def _check_count_and_digest(path: Path, meta: dict[str, str], count: int, digest: int) -> None:
+    """``StoreError`` unless the meta table's row count and digest are ``count`` and ``digest``."""
+    if meta.get("row_count") != str(count) or meta.get("rows_digest") != f"{digest:064x}":
+        raise StoreError(f"{path} is corrupted (it holds {count} rows, its record says "
+                         f"{meta.get('row_count')!r}, or the rows' digest differs): rows were lost or altered")
 
 
 def latest_rows(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -500,6 +545,7 @@ _PEP440 = re.compile(
 _PRE_RANK = {"a": 0, "alpha": 0, "b": 1, "beta": 1, "c": 2, "rc": 2, "pre": 2, "preview": 2}
 
 
+@functools.lru_cache(maxsize=1024)
 def version_sort_key(version: str) -> tuple[Any, ...]:
     """Sort key of a package version string in PEP 440 order: epoch, release (``1.0 == 1.0.0``), then
     ``1.0.dev1 < 1.0a1 < 1.0b2.dev1 < 1.0b2 < 1.0rc1 < 1.0 < 1.0+local < 1.0.post1.dev1 < 1.0.post1``

@@ -15,8 +15,8 @@ import time
 from pathlib import Path
 
 import pytest
-
 from interactive import as_in_a_terminal
+
 from vtrack_gym.cli import main
 from vtrack_gym.cli._terminal import terminal_safe
 from vtrack_gym.evaluation.storage.store import ResultRow, ResultStore

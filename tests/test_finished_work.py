@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from interactive import as_in_a_terminal
+
 from vtrack_gym.evaluation.rollouts.worker_pool import LostTask, run_pool
 from vtrack_gym.evaluation.storage.store import ResultStore
 

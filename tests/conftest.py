@@ -32,7 +32,6 @@ SLOW: dict[str, str] = {
     "test_dagger_agents.py::test_cli_dagger_race_runs_on_training_circuits": "two racing lines solved, 30 s",
     "test_dagger_agents.py::test_dagger_accel_laps_the_handling_course": "a lap",
     "test_dataset.py::test_dataset_round_trip": "Minari dataset of whole episodes, 16 s",
-    "test_determinism.py::test_same_seed_bit_identical_in_two_processes[LateralTrackingRandom-v0]": "two laps",
     "test_docs.py::test_page_examples_run[maneuvers.md]": "drives every manoeuvre",
     "test_docs.py::test_page_examples_run[tutorials/evaluate-your-agent.md]": "scores policies, 10 s",
     "test_docs_site.py::test_docs_site_builds_strict": "builds the MkDocs site",
@@ -97,9 +96,26 @@ SLOW: dict[str, str] = {
     "test_docs.py::test_page_examples_run[formula-student.md]": "the page's laps, 11 s",
     "test_bounded_inputs.py::test_csv_worst_cases_bounded[too_many_points]": "a worst-case CSV read, 14 s",
     "test_bounded_inputs.py::test_csv_worst_cases_bounded[long_segment]": "a worst-case CSV read, 12 s",
-    "test_bounded_cost.py::test_200k_point_gps_csv_fit_within_60_s_of_cpu[0.05]": "a 200k-point fit, 9 s",
     "test_kernel_cache.py::test_plain_numba_cache_would_have_run_the_stale_callee": "interpreters compiling",
     "test_kernel_cache_scope.py::test_a_kernel_stays_cached_after_an_edit_elsewhere": "interpreters compiling",
+    "test_env_docs.py::test_pages_follow_the_template": "every id's page built: every env made, 46 s of CPU",
+    "test_exact_line.py::test_lane_change_reaches_the_bang_bang_peak_and_clears_the_cones_exactly":
+        "the lane change's exact line planned, 10 s of CPU",
+    "test_exact_line.py::test_the_exact_curvature_is_the_tables_at_its_rows_and_never_below_between_them":
+        "an exact line planned, 10 s of CPU",
+    "test_kernel_cache.py::test_editing_a_called_function_in_another_module_recompiles_the_caller":
+        "interpreters compiling, 7 s of CPU",
+    "test_kernel_cache.py::test_editing_a_package_kernel_module_reaches_its_callers": "interpreters compiling",
+    "test_agents.py::test_ppo_train_export_load_without_torch": "trains PPO, 6.6 s of CPU",
+    "test_bounded_cost.py::test_200k_point_gps_csv_fit_within_60_s_of_cpu": "a 200k-point fit, 9 s of CPU each",
+    "test_agent_identity.py::test_two_agents_with_one_stem_in_one_run_are_two_rows": "a benchmark of two agents",
+    "test_agent_identity.py::test_benchmark_by_relative_and_absolute_path_is_one_row": "two benchmarks",
+    "test_dagger_agents.py::test_cli_dagger_tracking_runs_end_to_end": "DAgger training end to end",
+    "test_maneuver_feasibility.py::test_iso3888_2_entry_speed_bound": "an entry-speed bisection per car, 3 s",
+    "test_maneuver_feasibility.py::test_constant_speed_manoeuvres_ask_less_than_the_cars_limit":
+        "a planned line per manoeuvre and car, 1-3 s each",
+    "test_cli_quiet.py::test_log_lines_and_warnings_are_escaped_in_a_real_process": "a real CLI process",
+    "test_determinism.py::test_same_seed_bit_identical_in_two_processes": "two fresh interpreters per id",
     "test_finished_work.py::test_signal_ends_every_hanging_worker_within_seconds[15-143]":
         "two workers spinning until the signal (the SIGINT case stays fast)",
 }
@@ -117,6 +133,9 @@ KEEP_FAST: dict[str, str] = {
     "test_maneuver_feasibility.py::test_perfect_follower_of_the_planned_line_clears_every_gate[slalom-suv]":
         "one planned line",
     "test_control_modes.py::test_vector_env_car_i_is_the_single_env_seeded_seed_plus_i[steer]": "the default mode",
+    "test_maneuver_feasibility.py::test_iso3888_2_entry_speed_bound[suv]": "one bound",
+    "test_maneuver_feasibility.py::test_constant_speed_manoeuvres_ask_less_than_the_cars_limit[slalom-suv]":
+        "the line the follower case above plans",
     "test_race.py::test_raceline_laps_within_limits_near_the_bound_and_beats_centreline[vtrack/RaceRing-v0]":
         "the short ring",
     "test_baselines_closed_loop.py::test_default_baseline_completes[DLC120-v0-lqr]": "the lane change",

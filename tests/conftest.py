@@ -81,7 +81,6 @@ SLOW: dict[str, str] = {
         "a planned line per manoeuvre and car, 13 s each",
     "test_exact_line.py::test_the_line_holds_without_numpys_avx512_code": "a fresh interpreter plans the line, 40 s",
     "test_exact_line.py::test_one_line_for_inputs_a_last_bit_apart": "the exact line planned twice, 35 s",
-    "test_env_pins_other_code_paths.py": "a fresh interpreter without numpy's AVX-512 code records every pin again",
     "test_determinism.py::test_policy_batch_and_single_paths_agree[mpc-1e-12]": "MPC episodes both ways, 35 s",
     "test_determinism.py::test_parallel_kernel_130_matches_single_envs": "130 cars against 130 single envs",
     "test_control_modes.py::test_vector_env_car_i_is_the_single_env_seeded_seed_plus_i":

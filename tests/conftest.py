@@ -115,6 +115,8 @@ SLOW: dict[str, str] = {
         "a planned line per manoeuvre and car, 1-3 s each",
     "test_cli_quiet.py::test_log_lines_and_warnings_are_escaped_in_a_real_process": "a real CLI process",
     "test_determinism.py::test_same_seed_bit_identical_in_two_processes": "two fresh interpreters per id",
+    "test_maneuver_suite.py::test_cli_maneuvers_suite_with_vehicle":
+        "the manoeuvres suite for the SUV, its exact lines planned: 68 s of CPU",
     "test_finished_work.py::test_signal_ends_every_hanging_worker_within_seconds[15-143]":
         "two workers spinning until the signal (the SIGINT case stays fast)",
 }

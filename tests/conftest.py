@@ -4,6 +4,8 @@ doc-site builds), marked ``slow`` at collection.
 ``python -m pytest -m "not slow" -n 2`` is the fast tier for a local loop; ``python -m pytest -n 2`` runs every
 test (CI does). A test is listed by ``file::function`` (every parameter of it) or by its full id with the
 parameters (``file::function[param]``: that case only); ``@pytest.mark.slow`` on the test works as well.
+A grid listed whole can keep a few cases in the fast tier (``KEEP_FAST``, each with why it stands for the rest),
+so that the fast tier still drives the code it tests while the slow tier runs the whole grid.
 ``tests/test_slow_tier.py`` checks that every entry still names a test.
 """
 
@@ -30,7 +32,6 @@ SLOW: dict[str, str] = {
     "test_dagger_agents.py::test_cli_dagger_race_runs_on_training_circuits": "two racing lines solved, 30 s",
     "test_dagger_agents.py::test_dagger_accel_laps_the_handling_course": "a lap",
     "test_dataset.py::test_dataset_round_trip": "Minari dataset of whole episodes, 16 s",
-    "test_determinism.py::test_same_seed_bit_identical_in_two_processes[LateralTrackingRandom-v0]": "two laps",
     "test_docs.py::test_page_examples_run[maneuvers.md]": "drives every manoeuvre",
     "test_docs.py::test_page_examples_run[tutorials/evaluate-your-agent.md]": "scores policies, 10 s",
     "test_docs_site.py::test_docs_site_builds_strict": "builds the MkDocs site",
@@ -70,8 +71,78 @@ SLOW: dict[str, str] = {
     "test_others_trust.py::test_a_crashed_ray_worker_costs_only_its_episode": "Ray start-up and a killed worker",
     "test_others_trust.py::test_ray_with_a_track_edited_during_the_run_is_a_clear_error": "Ray start-up",
     "test_cli_quiet.py::test_sigint_during_a_run_exits_130_without_traceback": "a real CLI process, kernels loaded",
+    "test_maneuver_feasibility.py::test_every_registered_maneuver_is_feasible_for_every_car":
+        "an env and its planned line for each of 36 manoeuvre ids x cars, up to 60 s each",
+    "test_maneuver_feasibility.py::test_the_driven_exact_line_is_within_five_percent_of_the_least_curvature":
+        "three exact line plans per case, 25 s each",
+    "test_maneuver_feasibility.py::test_the_exact_bound_is_where_the_exact_curvature_meets_the_cars_limit":
+        "an exact entry-speed bisection per case",
+    "test_maneuver_feasibility.py::test_perfect_follower_of_the_planned_line_clears_every_gate":
+        "a planned line per manoeuvre and car, 13 s each",
+    "test_exact_line.py::test_the_line_holds_without_numpys_avx512_code": "a fresh interpreter plans the line, 40 s",
+    "test_exact_line.py::test_one_line_for_inputs_a_last_bit_apart": "the exact line planned twice, 35 s",
+    "test_determinism.py::test_policy_batch_and_single_paths_agree[mpc-1e-12]": "MPC episodes both ways, 35 s",
+    "test_determinism.py::test_parallel_kernel_130_matches_single_envs": "130 cars against 130 single envs",
+    "test_control_modes.py::test_vector_env_car_i_is_the_single_env_seeded_seed_plus_i":
+        "a vector of cars against single envs per mode, up to 60 s",
+    "test_tune_registered.py::test_vtrack_tune_tunes_a_registered_controller_and_saves_its_preset": "a GA run",
+    "test_tuning_protocol.py::test_package_laws_load_the_cached_kernel_in_a_fresh_process": "fresh interpreters",
+    "test_race.py::test_raceline_drives_the_steering_rate_mode": "a lap",
+    "test_race.py::test_cutting_a_corner_earns_less_than_staying_on": "laps",
+    "test_race.py::test_raceline_laps_within_limits_near_the_bound_and_beats_centreline": "two laps per baseline",
+    "test_baselines_closed_loop.py::test_default_baseline_completes": "a lap or a lane change per baseline",
+    "test_docs.py::test_page_examples_run[tutorials/own-track.md]": "the page's laps, 18 s",
+    "test_docs.py::test_page_examples_run[formula-student.md]": "the page's laps, 11 s",
+    "test_bounded_inputs.py::test_csv_worst_cases_bounded[too_many_points]": "a worst-case CSV read, 14 s",
+    "test_bounded_inputs.py::test_csv_worst_cases_bounded[long_segment]": "a worst-case CSV read, 12 s",
+    "test_kernel_cache.py::test_plain_numba_cache_would_have_run_the_stale_callee": "interpreters compiling",
+    "test_kernel_cache_scope.py::test_a_kernel_stays_cached_after_an_edit_elsewhere": "interpreters compiling",
+    "test_env_docs.py::test_pages_follow_the_template": "every id's page built: every env made, 46 s of CPU",
+    "test_exact_line.py::test_lane_change_reaches_the_bang_bang_peak_and_clears_the_cones_exactly":
+        "the lane change's exact line planned, 10 s of CPU",
+    "test_exact_line.py::test_the_exact_curvature_is_the_tables_at_its_rows_and_never_below_between_them":
+        "an exact line planned, 10 s of CPU",
+    "test_kernel_cache.py::test_editing_a_called_function_in_another_module_recompiles_the_caller":
+        "interpreters compiling, 7 s of CPU",
+    "test_kernel_cache.py::test_editing_a_package_kernel_module_reaches_its_callers": "interpreters compiling",
+    "test_agents.py::test_ppo_train_export_load_without_torch": "trains PPO, 6.6 s of CPU",
+    "test_bounded_cost.py::test_200k_point_gps_csv_fit_within_60_s_of_cpu": "a 200k-point fit, 9 s of CPU each",
+    "test_agent_identity.py::test_two_agents_with_one_stem_in_one_run_are_two_rows": "a benchmark of two agents",
+    "test_agent_identity.py::test_benchmark_by_relative_and_absolute_path_is_one_row": "two benchmarks",
+    "test_dagger_agents.py::test_cli_dagger_tracking_runs_end_to_end": "DAgger training end to end",
+    "test_maneuver_feasibility.py::test_iso3888_2_entry_speed_bound": "an entry-speed bisection per car, 3 s",
+    "test_maneuver_feasibility.py::test_constant_speed_manoeuvres_ask_less_than_the_cars_limit":
+        "a planned line per manoeuvre and car, 1-3 s each",
+    "test_cli_quiet.py::test_log_lines_and_warnings_are_escaped_in_a_real_process": "a real CLI process",
+    "test_determinism.py::test_same_seed_bit_identical_in_two_processes": "two fresh interpreters per id",
+    "test_maneuver_suite.py::test_cli_maneuvers_suite_with_vehicle":
+        "the manoeuvres suite for the SUV, its exact lines planned: 68 s of CPU",
+    "test_finished_work.py::test_signal_ends_every_hanging_worker_within_seconds[15-143]":
+        "two workers spinning until the signal (the SIGINT case stays fast)",
 }
 """Test (``file::function``, ``file::function[param]`` or a whole ``file``) -> why it is slow."""
+
+KEEP_FAST: dict[str, str] = {
+    "test_maneuver_feasibility.py::test_every_registered_maneuver_is_feasible_for_every_car[vtrack/ISO3888-1-v1-suv]":
+        "a gated id judged by the gates",
+    "test_maneuver_feasibility.py::test_every_registered_maneuver_is_feasible_for_every_car"
+    "[vtrack/ISO4138-Circle-v0-suv]": "the circle, whose ramp crosses the limit by design",
+    "test_maneuver_feasibility.py::test_the_driven_exact_line_is_within_five_percent_of_the_least_curvature"
+    "[iso3888_2-suv]": "one exact line against the least-curvature one",
+    "test_maneuver_feasibility.py::test_the_exact_bound_is_where_the_exact_curvature_meets_the_cars_limit"
+    "[iso3888_2-coast-suv]": "one exact bound",
+    "test_maneuver_feasibility.py::test_perfect_follower_of_the_planned_line_clears_every_gate[slalom-suv]":
+        "one planned line",
+    "test_control_modes.py::test_vector_env_car_i_is_the_single_env_seeded_seed_plus_i[steer]": "the default mode",
+    "test_maneuver_feasibility.py::test_iso3888_2_entry_speed_bound[suv]": "one bound",
+    "test_maneuver_feasibility.py::test_constant_speed_manoeuvres_ask_less_than_the_cars_limit[slalom-suv]":
+        "the line the follower case above plans",
+    "test_race.py::test_raceline_laps_within_limits_near_the_bound_and_beats_centreline[vtrack/RaceRing-v0]":
+        "the short ring",
+    "test_baselines_closed_loop.py::test_default_baseline_completes[DLC120-v0-lqr]": "the lane change",
+    "test_baselines_closed_loop.py::test_default_baseline_completes[DLC120-v0-smc]": "the paper's controller",
+}
+"""Cases of a grid listed in ``SLOW`` that stay in the fast tier -> what each stands for."""
 
 
 def slow_reason(nodeid: str) -> str | None:
@@ -79,6 +150,8 @@ def slow_reason(nodeid: str) -> str | None:
     file, _, rest = nodeid.partition("::")
     path = file.rsplit("/", 1)[-1]
     test = f"{path}::{rest}" if rest else path
+    if test in KEEP_FAST:
+        return None
     function = test.split("[", 1)[0]
     return SLOW.get(test) or SLOW.get(function) or SLOW.get(path)
 

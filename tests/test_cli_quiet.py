@@ -15,6 +15,7 @@ import time
 from pathlib import Path
 
 import pytest
+from interactive import as_in_a_terminal
 
 from vtrack_gym.cli import main
 from vtrack_gym.cli._terminal import terminal_safe
@@ -85,7 +86,7 @@ def test_ctrl_c_in_process_is_one_line(tmp_path: Path, capsys: pytest.CaptureFix
 def test_sigint_during_a_run_exits_130_without_traceback(tmp_path: Path) -> None:
     argv = [sys.executable, "-m", "vtrack_gym.cli", "-v", "eval", "--policy", "lqr", "--env", "LateralTracking-v0",
             "--seeds", "0-999", "--store", str(tmp_path / "s.sqlite")]
-    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=_env())
+    proc = subprocess.Popen(as_in_a_terminal(argv), stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=_env())
     assert proc.stderr is not None
     proc.stderr.readline()  # the command is running (it announced the kernels)
     time.sleep(1.0)
@@ -122,7 +123,7 @@ def test_sigint_during_a_forked_run_drops_the_queued_episodes(tmp_path: Path) ->
     env = {**_env(), "PYTHONPATH": os.pathsep.join([str(tmp_path), str(ROOT)]), "EPISODE_LOG": str(episodes)}
     argv = [sys.executable, "-m", "vtrack_gym.cli", "-v", "benchmark", "--policies", "lqr", "--no-figures",
             "--seeds", "0-99", "--workers", "2", "--store", str(tmp_path / "s.sqlite")]
-    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
+    proc = subprocess.Popen(as_in_a_terminal(argv), stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
     assert proc.stderr is not None
     for line in proc.stderr:  # wait until the first episode's result is back
         if b": completed" in line:

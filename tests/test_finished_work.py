@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from interactive import as_in_a_terminal
 
 from vtrack_gym.evaluation.rollouts.worker_pool import LostTask, run_pool
 from vtrack_gym.evaluation.storage.store import ResultStore
@@ -98,14 +99,15 @@ def _road(file: Path) -> Path:
 
 
 def _vtrack(tmp_path: Path, *argv: str, stdout: int | None = subprocess.PIPE, **popen: object) -> subprocess.Popen:
-    """``python -m vtrack_gym.cli ARGV`` from ``tmp_path`` (the policies module importable there)."""
+    """``vtrack ARGV`` (``main`` in a fresh interpreter) from ``tmp_path`` (the policies module importable there),
+    started as from a terminal (Ctrl-C armed even when this test run ignores SIGINT)."""
     (tmp_path / "user_policies.py").write_text(POLICIES)
     (tmp_path / "marks").mkdir(exist_ok=True)
     env = {**os.environ, "PYTHONPATH": f"{ROOT}{os.pathsep}{tmp_path}", "VTRACK_TEST_MARKS": str(tmp_path / "marks")}
-    process = subprocess.Popen([sys.executable, "-c", "import os, sys; os.environ['VTRACK_TEST_PARENT'] = "
-                                "str(os.getpid()); from vtrack_gym.cli import main; sys.exit(main(sys.argv[1:]))",
-                                *argv], cwd=tmp_path, env=env, stdout=stdout, stderr=subprocess.PIPE, text=True,
-                               **popen)
+    process = subprocess.Popen(as_in_a_terminal([sys.executable, "-c", "import os, sys; os.environ["
+                                                 "'VTRACK_TEST_PARENT'] = str(os.getpid()); from vtrack_gym.cli "
+                                                 "import main; sys.exit(main(sys.argv[1:]))", *argv]),
+                               cwd=tmp_path, env=env, stdout=stdout, stderr=subprocess.PIPE, text=True, **popen)
     return process
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
-from conftest import SLOW, slow_reason
+from conftest import KEEP_FAST, SLOW, slow_reason
 
 TESTS = Path(__file__).resolve().parent
 
@@ -19,6 +19,15 @@ def test_every_slow_entry_names_a_test_function() -> None:
             tree = ast.parse((TESTS / path).read_text(encoding="utf-8"))
             names = {n.name for n in ast.walk(tree) if isinstance(n, ast.FunctionDef)}
             assert function in names, f"SLOW lists {entry}: {path} has no {function}"
+
+
+def test_every_case_kept_fast_is_a_case_of_a_grid_listed_slow() -> None:
+    for entry in KEEP_FAST:
+        path, _, test = entry.partition("::")
+        function, bracket, _ = test.partition("[")
+        assert bracket and f"{path}::{function}" in SLOW, f"KEEP_FAST lists {entry}: not a case of a slow grid"
+        assert slow_reason(f"tests/{entry}") is None
+        assert slow_reason(f"tests/{path}::{function}[a-case-not-kept]") is not None
 
 
 def test_the_gate_matches_a_file_a_function_or_one_case(monkeypatch) -> None:

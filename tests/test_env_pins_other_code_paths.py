@@ -1,6 +1,6 @@
 """The behaviour pins hold on code paths of another CPU: numpy's AVX-512 code switched off (on a machine that has
-it), in a fresh interpreter. The -v1 planned-line ids do not (docs/GUARANTEES.md, "Not yet"): their linear
-programmes have many optima; the -v2 ids' line (tracks.exact_line, one optimum) holds like every other id."""
+it), in a fresh interpreter. The -v1 planned-line ids hold through their shipped lines (tracks.planned_line_store:
+their linear programmes have many optima); the -v2 ids' line (tracks.exact_line, one optimum) is planned."""
 
 from __future__ import annotations
 
@@ -17,9 +17,8 @@ import vtrack_gym
 TESTS = Path(__file__).resolve().parent
 SWITCHED_OFF = "X86_V4 AVX512_ICL AVX512_SPR AVX512_SKX"
 """numpy's AVX-512 dispatch targets (numpy 2.x names; names a numpy does not know are ignored)."""
-NOT_YET = {"vtrack/ISO3888-1-v1", "vtrack/ISO3888-2-v1"}
-"""Ids whose planned line moves with last-bit differences of its linear programmes' inputs (kept unchanged: their
-successors ``vtrack/ISO3888-1-v2`` and ``vtrack/ISO3888-2-v2`` must pass here)."""
+NOT_YET: set[str] = set()
+"""Ids known not to hold their pins on another code path (none: the -v1 planned-line ids drive shipped lines)."""
 RECORD_ALL = f"""import json, sys
 sys.path.insert(0, {str(TESTS)!r})
 from env_fingerprint import mismatches, record

@@ -61,7 +61,7 @@ def test_a_body_side_one_millimetre_into_a_cone_line() -> None:
     # the swept judge sees it too, from one step to the next (33 cm at 120 km/h)
     pose0, pose1 = np.array([0.0, 2.0 - CONE_R - HALF + 0.001, 0.0]), np.array([0.333, 2.0 - CONE_R - HALF + 0.001,
                                                                                 0.0])
-    least, _ = judge.sweep_min(judge.MEASURE_BODY, pose0, pose1, _body(), np.zeros((2, 4)), 0, 0, False, cones,
+    least, _ = judge.sweep_min(judge.MEASURE_CONES, pose0, pose1, _body(), np.zeros((2, 4)), 0, 0, False, cones,
                                judge.SWEEP_TOL_M)
     assert least == pytest.approx(-0.001, abs=1e-3) and least < 0.0
 
@@ -79,7 +79,7 @@ def test_a_yawed_rectangle_passes_a_cone_at_a_lane_end_between_two_steps() -> No
     pose0, pose1 = np.array([x_mid - step / 2, 0.0, psi]), np.array([x_mid + step / 2, 0.0, psi])
     ends = [judge.rect_disc(p[0], p[1], p[2], body[0], body[1], body[2], *cone[0]) for p in (pose0, pose1)]
     assert min(ends) > 0.0      # a judge at the control steps sees nothing
-    least, last = judge.sweep_min(judge.MEASURE_BODY, pose0, pose1, body, np.zeros((2, 4)), 0, 0, False, cone,
+    least, last = judge.sweep_min(judge.MEASURE_CONES, pose0, pose1, body, np.zeros((2, 4)), 0, 0, False, cone,
                                   judge.SWEEP_TOL_M)
     assert last == pytest.approx(ends[1], abs=1e-12)
     assert -0.005 - 1e-9 <= least <= -0.005 + judge.SWEEP_TOL_M
@@ -160,3 +160,19 @@ def test_closed_edges_wrap_and_edge_polylines_follow_the_widths() -> None:
     # a point at the start, 1 m inside the outer edge, searched over a window that wraps past the last row
     value = judge.pose_measure(judge.MEASURE_CENTRE, 0.0, -2.0, 0.0, _body(), edges, n - 10, n + 10, True)
     assert value == pytest.approx(1.0, abs=1e-4)
+
+
+def test_one_judge_for_track_edges_cones_and_cone_gates() -> None:
+    """The ISO 3888 gate criterion sweeps the same judge: its clearance, reach and sweep are ``tracks.judge``'s."""
+    from vtrack_gym.tracks import gate_judge
+
+    assert gate_judge.rect_gate is judge.rect_gate and gate_judge.rect_reach_m is judge.reach_m
+    body3 = np.array([FRONT, REAR, HALF])
+    assert judge.reach_m(body3) == math.hypot(max(FRONT, -REAR), HALF)
+    assert judge.reach_m(_body()) >= judge.reach_m(body3)       # the full row: its wheel points too
+    gate = np.array([10.0, 0.2, 0.05, 12.0, 1.2, -1.2])
+    for y in (0.0, 0.3, 0.6):
+        pose0, pose1 = np.array([5.0, y, 0.0]), np.array([5.4, y + 0.02, 0.03])
+        swept = judge.sweep_min(judge.MEASURE_GATES, pose0, pose1, body3, np.zeros((0, 6)), 0, 0, False,
+                                gate[None, :], 1e-3, 0.05)[0]
+        assert gate_judge.sweep_gate(pose0, pose1, body3, gate, 1e-3, 0.05) == swept

@@ -1,6 +1,9 @@
-"""The exact geometry judge: the body as its rectangle, cones as discs, track edges as polylines.
+"""The exact geometry judge: the body as its rectangle, cones as discs, track edges as polylines, cone gates as
+boxes.
 
-Every rule that asks "did the car touch X" asks it here, in the body frame of the car's data: the rectangle from
+Every rule that asks "did the car touch X" asks it here (track limits and cones on a track: ``judge_edges``,
+``judge_cones``; the anchored cone gates of ISO 3888: ``tracks.gate_judge``, which sweeps ``rect_gate`` through
+``sweep_min``), in the body frame of the car's data: the rectangle from
 ``cg_to_front_end_m`` ahead of the CG to ``body_length_m - cg_to_front_end_m`` behind it, ``body_width_m / 2`` to
 each side; the wheel contact points at (``cg_to_front_axle_m``, +-``track_width_m / 2``) and
 (-``cg_to_rear_axle_m``, +-``track_width_m / 2``).
@@ -15,7 +18,12 @@ how far it reaches into it. Exact closed forms:
   road's edges go on straight before its first row and after its last (its approach and run-out);
 - rectangle to polyline: the least of the corners' signed distances and of the polyline vertices' signed
   distances to the rectangle (the gap between two polygonal chains is attained at a vertex of one of them; a
-  crossing puts a corner beyond the edge or a vertex inside the body).
+  crossing puts a corner beyond the edge or a vertex inside the body);
+- rectangle to an anchored gate (``rect_gate``; a row of ``gate_judge.gate_table``): in the gate's frame (u along
+  the lane, v to the left) the body has left the lane exactly when its rectangle meets one of the two forbidden
+  boxes u in [0, L], v >= y_left or v <= y_right (``FAR_M`` deep); the clearance is the signed distance to the
+  nearer box: the gap between the two convex polygons when apart (attained at a vertex of one of them), minus the
+  penetration depth when they overlap (the separating-axis value over the four edge normals).
 
 Between two control steps the pose is interpolated linearly in (x, y, psi) (``sweep_min``), and each clearance is
 minimised over the interval by branch and bound: a body point moves at most L = |dp| + |dpsi| r_max over the
@@ -46,10 +54,13 @@ one). A rule's measure is searched for its sign alone (exact to ``SWEEP_TOL_M`` 
 MAX_SWEEP_EVALS = 4096
 """Safety cap on clearance evaluations per sweep (a 1 mm search needs a few dozen)."""
 
-MEASURE_CENTRE, MEASURE_WHEELS, MEASURE_BODY = 0, 1, 2
-"""What ``pose_measure`` returns: the CG's least signed distance to an edge; the largest over the four wheel
+MEASURE_CENTRE, MEASURE_WHEELS, MEASURE_BODY, MEASURE_CONES, MEASURE_GATES = 0, 1, 2, 3, 4
+"""What ``sweep_min`` measures: the CG's least signed distance to an edge; the largest over the four wheel
 contact points of each one's least signed distance to an edge (negative: all four beyond an edge); the body
-rectangle's least clearance to an edge."""
+rectangle's least clearance to an edge (the first three: ``pose_measure``); the body rectangle's least clearance
+to the cones (discs) or to the anchored gates (``rect_gate``) of its ``objects`` rows."""
+FAR_M = 1.0e3
+"""Depth of a gate's forbidden box beyond its cone line [m] (a body never reaches that far past a lane)."""
 
 N_BODY = 11
 """Entries of a body row (``body_row``): front, rear, half width [m]; four wheel points (lon, lat) [m]."""
@@ -67,13 +78,12 @@ def body_row(chassis: object) -> np.ndarray:
 
 @kernel
 def reach_m(body: np.ndarray) -> float:
-    """Farthest distance of a body corner or wheel point from the CG [m]."""
-    r = 0.0
-    for lon in (body[0], body[1]):
-        for lat in (body[2], -body[2]):
-            r = max(r, math.hypot(lon, lat))
-    for w in range(4):
-        r = max(r, math.hypot(body[3 + 2 * w], body[4 + 2 * w]))
+    """Farthest distance [m] from the CG of a body corner, and of a wheel point when ``body`` is a full
+    ``body_row`` (N_BODY entries); a 3-entry row (front, rear, half width [m]) is read in its own entries only."""
+    r = math.hypot(max(body[0], -body[1]), body[2])
+    if body.shape[0] >= N_BODY:
+        for w in range(4):
+            r = max(r, math.hypot(body[3 + 2 * w], body[4 + 2 * w]))
     return r
 
 
@@ -101,6 +111,69 @@ def rect_disc(x: float, y: float, psi: float, front: float, rear: float, half: f
               radius: float) -> float:
     """Clearance [m] between a car's rectangle and a disc (cone) of ``radius`` at (cx, cy); negative: overlap."""
     return point_rect(cx, cy, x, y, psi, front, rear, half) - radius
+
+
+@kernel
+def _rect_box(cu: np.ndarray, cv: np.ndarray, ax: float, ay: float, u0: float, u1: float, v0: float,
+              v1: float) -> float:
+    """Signed distance [m] between the rectangle of corners (cu, cv) (4,) whose long axis is (ax, ay) and the box
+    [u0, u1] x [v0, v1]: + the gap, - the penetration depth."""
+    sep = -math.inf
+    for k in range(4):   # the separating-axis value over the box's axes and the rectangle's
+        if k == 0:
+            nx, ny = 1.0, 0.0
+        elif k == 1:
+            nx, ny = 0.0, 1.0
+        elif k == 2:
+            nx, ny = ax, ay
+        else:
+            nx, ny = -ay, ax
+        pmin, pmax = math.inf, -math.inf
+        for j in range(4):
+            p = cu[j] * nx + cv[j] * ny
+            pmin, pmax = min(pmin, p), max(pmax, p)
+        qmin, qmax = math.inf, -math.inf
+        for bu in (u0, u1):
+            for bv in (v0, v1):
+                q = bu * nx + bv * ny
+                qmin, qmax = min(qmin, q), max(qmax, q)
+        sep = max(sep, max(qmin - pmax, pmin - qmax))
+    if sep < 0.0:
+        return sep
+    best = math.inf
+    for j in range(4):   # rectangle corners to the box
+        du = max(u0 - cu[j], 0.0, cu[j] - u1)
+        dv = max(v0 - cv[j], 0.0, cv[j] - v1)
+        best = min(best, math.hypot(du, dv))
+    for bu in (u0, u1):   # box corners to the rectangle's edges
+        for bv in (v0, v1):
+            for j in range(4):
+                i = (j + 1) % 4
+                ex, ey = cu[i] - cu[j], cv[i] - cv[j]
+                t = ((bu - cu[j]) * ex + (bv - cv[j]) * ey) / (ex * ex + ey * ey)
+                t = min(1.0, max(0.0, t))
+                best = min(best, math.hypot(bu - cu[j] - t * ex, bv - cv[j] - t * ey))
+    return best
+
+
+@kernel
+def rect_gate(x: float, y: float, psi: float, front: float, rear: float, half: float, gate: np.ndarray) -> float:
+    """Clearance [m] of a car's rectangle at (x, y, psi) to the cone lines of one anchored gate (a row: anchor x,
+    y [m], heading [rad], length [m], left and right cone-line offsets [m]): + the gap to the nearer forbidden box,
+    - how far the body reaches into it (module docstring)."""
+    c0, s0 = math.cos(gate[2]), math.sin(gate[2])
+    dx, dy = x - gate[0], y - gate[1]
+    u, v = c0 * dx + s0 * dy, -s0 * dx + c0 * dy
+    c, s = math.cos(psi - gate[2]), math.sin(psi - gate[2])
+    cu = np.empty(4)
+    cv = np.empty(4)
+    k = 0
+    for lon, lat in ((front, half), (rear, half), (rear, -half), (front, -half)):
+        cu[k] = u + c * lon - s * lat
+        cv[k] = v + s * lon + c * lat
+        k += 1
+    left = _rect_box(cu, cv, c, s, 0.0, gate[3], gate[4], gate[4] + FAR_M)
+    return min(left, _rect_box(cu, cv, c, s, 0.0, gate[3], gate[5] - FAR_M, gate[5]))
 
 
 @kernel
@@ -229,35 +302,43 @@ def _push(stack: np.ndarray, k: int, a: float, b: float, fa: float, fb: float) -
 
 @kernel
 def _measure_at(t: float, mode: int, pose0: np.ndarray, pose1: np.ndarray, body: np.ndarray, edges: np.ndarray,
-                i0: int, i1: int, closed: bool, cones: np.ndarray) -> float:
-    """The clearance at fraction t of the step (pose linear in x, y and the wrapped heading change)."""
+                i0: int, i1: int, closed: bool, objects: np.ndarray) -> float:
+    """The ``mode`` clearance at fraction t of the step (pose linear in x, y and the wrapped heading change)."""
     dpsi = _wrap(pose1[2] - pose0[2])
     x = pose0[0] + t * (pose1[0] - pose0[0])
     y = pose0[1] + t * (pose1[1] - pose0[1])
     psi = pose0[2] + t * dpsi
-    if cones.shape[0] > 0:
+    if mode == MEASURE_CONES:
         best = math.inf
-        for k in range(cones.shape[0]):
-            best = min(best, rect_disc(x, y, psi, body[0], body[1], body[2], cones[k, 0], cones[k, 1], cones[k, 2]))
+        for k in range(objects.shape[0]):
+            best = min(best, rect_disc(x, y, psi, body[0], body[1], body[2], objects[k, 0], objects[k, 1],
+                                       objects[k, 2]))
+        return best
+    if mode == MEASURE_GATES:
+        best = math.inf
+        for k in range(objects.shape[0]):
+            best = min(best, rect_gate(x, y, psi, body[0], body[1], body[2], objects[k]))
         return best
     return pose_measure(mode, x, y, psi, body, edges, i0, i1, closed)
 
 
 @kernel
 def sweep_min(mode: int, pose0: np.ndarray, pose1: np.ndarray, body: np.ndarray, edges: np.ndarray, i0: int, i1: int,
-              closed: bool, cones: np.ndarray, tol: float, floor: float = math.inf,
+              closed: bool, objects: np.ndarray, tol: float, floor: float = math.inf,
               start: float = math.nan) -> tuple[float, float]:
     """(least clearance along the step, clearance at its end) [m] of a car moving from ``pose0`` to ``pose1``
-    ((3,): x, y [m], psi [rad]): against the cones (K, 3: x, y, radius [m]) when K > 0, else the ``mode``
-    measure against the edges. The least value is within ``tol`` [m] of the exact one wherever it lies below
+    ((3,): x, y [m], psi [rad]): the ``mode`` measure, against the edges (``edges``, rows i0..i1), the cones
+    (``MEASURE_CONES``: ``objects`` (K, 3) x, y, radius [m]) or the anchored gates (``MEASURE_GATES``: ``objects``
+    (G, 6) rows of ``gate_judge.gate_table``). ``body``: a ``body_row``, or (cones, gates) its first 3 entries.
+    The least value is within ``tol`` [m] of the exact one wherever it lies below
     ``floor`` [m] (module docstring); above it, it is the least value sampled (the search stops once no
     sub-interval can hold a value below ``floor``: a rule needs the sign, a margin the values near an edge).
     ``start``: the clearance at ``pose0`` when known (the last step's end value), NaN to compute it."""
     reach = reach_m(body)
     lip = math.hypot(pose1[0] - pose0[0], pose1[1] - pose0[1]) + \
         abs(_wrap(pose1[2] - pose0[2])) * reach
-    f0 = start if start == start else _measure_at(0.0, mode, pose0, pose1, body, edges, i0, i1, closed, cones)
-    f1 = _measure_at(1.0, mode, pose0, pose1, body, edges, i0, i1, closed, cones)
+    f0 = start if start == start else _measure_at(0.0, mode, pose0, pose1, body, edges, i0, i1, closed, objects)
+    f1 = _measure_at(1.0, mode, pose0, pose1, body, edges, i0, i1, closed, objects)
     best = min(f0, f1)
     stack = np.empty((64, 4))   # intervals still to search: a, b, f(a), f(b)
     _push(stack, 0, 0.0, 1.0, f0, f1)
@@ -269,7 +350,7 @@ def sweep_min(mode: int, pose0: np.ndarray, pose1: np.ndarray, body: np.ndarray,
         if 0.5 * (fa + fb - lip * (b - a)) >= min(best, floor) - tol or top >= 62:
             continue
         m = 0.5 * (a + b)
-        fm = _measure_at(m, mode, pose0, pose1, body, edges, i0, i1, closed, cones)
+        fm = _measure_at(m, mode, pose0, pose1, body, edges, i0, i1, closed, objects)
         evals += 1
         best = min(best, fm)
         _push(stack, top, m, b, fm, fb)
@@ -362,6 +443,6 @@ def judge_cones(cones: np.ndarray, body: np.ndarray, idx: np.ndarray, prev: np.n
             if hit[i, k] or math.hypot(cones[k, 0] - pose1[0], cones[k, 1] - pose1[1]) > near + cones[k, 2]:
                 continue
             one[0, 0], one[0, 1], one[0, 2] = cones[k, 0], cones[k, 1], cones[k, 2]
-            least, _ = sweep_min(MEASURE_BODY, pose0, pose1, body, none, 0, 0, False, one, tol, 0.0)
+            least, _ = sweep_min(MEASURE_CONES, pose0, pose1, body, none, 0, 0, False, one, tol, 0.0)
             if least < 0.0:
                 hit[i, k] = True

@@ -18,6 +18,12 @@ is solved again (sequential linear programming, ``SLP_ITERATIONS`` times); a sma
 (``dlc.gate_violations`` on the path's rows); a violation plans again with the full half width (cos(psi) taken as
 1, conservative), then with a wider margin.
 
+Shipped lines. A linear programme with many optima may return another of them when its inputs differ in the last
+bit (another CPU's vector code for sin, cos and atan), so the lines the -v1 ISO 3888 ids drive with their default
+car are shipped as data (``planned_line_store``): ``plan_line`` returns the stored table when the request's
+inputs (``plan_inputs``) equal a recorded entry's exactly, the same on every machine, and plans any other request
+(another car, margin or vehicle file) on the machine that runs it.
+
 The line's table is exact: arc length from the spline's slope, heading atan(y'), curvature and its rate from the
 spline's derivatives. Gates are anchored rectangles at the lanes' fixed positions (``Gate.anchor``).
 """
@@ -42,6 +48,9 @@ L1_WEIGHT = 1e-4                # weight of the integral of |kappa| [rad] agains
 MARGIN_RETRIES = 4              # re-plans with a wider margin when the exact check finds a touched cone
 FINE_STEP_M = 0.01              # x step of the arc-length integration [m]
 RATE_TOL = 1e-3                 # accepted relative excess of the exact peak curvature rate over its bound
+PLANNER_CONSTANTS = {"slp_iterations": SLP_ITERATIONS, "l1_weight": L1_WEIGHT, "margin_retries": MARGIN_RETRIES,
+                     "fine_step_m": FINE_STEP_M, "rate_tol": RATE_TOL, "outline_step_m": OUTLINE_STEP_M}
+"""The planner's constants, recorded with every shipped line (``planned_line_store``)."""
 
 
 @documented
@@ -256,33 +265,35 @@ def _build_path(spline: _Spline, coef: np.ndarray, lanes: Sequence[LaneSection],
 def plan_line(lanes: Sequence[LaneSection], gaps_m: Sequence[float], body: BodyRectangle, *, approach_m: float,
               run_out_m: float, max_curvature_rate_per_m2: float | None = None, margin_m: float = 0.01,
               knot_spacing_m: float = 0.5, half_width_m: float = 5.0, ds_m: float = DEFAULT_DS_M,
-              name: str = "planned_line", version: str = "1") -> PlannedLine:
+              name: str = "planned_line", version: str = "1", stored: bool = True) -> PlannedLine:
     """The line of least peak curvature along which ``body`` passes every lane of ``lanes`` (``gaps_m[i]`` [m] of X
     between lane i and i + 1), after ``approach_m`` [m] of straight and before ``run_out_m`` [m] (see the module
     docstring). ``max_curvature_rate_per_m2`` [1/m^2]: bound on |dkappa/ds| (None: unbounded). ``margin_m`` [m]:
-    least clearance between the body and a cone line. ValueError when the car is too wide for a lane (naming the
-    car, its width and the lane's limit) or no line meets the rate bound."""
-    if len(lanes) < 1 or len(gaps_m) != len(lanes) - 1:
-        raise ValueError(f"need >= 1 lane and one gap between consecutive lanes (got {len(lanes)} lanes, "
-                         f"{len(gaps_m)} gaps)")
-    if approach_m < body.length_m or run_out_m < body.length_m:
-        raise ValueError(f"approach_m and run_out_m must be at least the body length {body.length_m} m "
-                         f"(got {approach_m}, {run_out_m})")
-    if max_curvature_rate_per_m2 is not None and not max_curvature_rate_per_m2 > 0.0:
-        raise ValueError(f"max_curvature_rate_per_m2 must be > 0 1/m^2 or None (got {max_curvature_rate_per_m2})")
-    _check_fits(lanes, body, margin_m)
+    least clearance between the body and a cone line. ``stored``: return the shipped line when exactly these
+    inputs were recorded (``planned_line_store``: the -v1 ids' lines, the same on every machine), else plan it.
+    ValueError when the car is too wide for a lane (naming the car, its width and the lane's limit) or no line
+    meets the rate bound."""
+    from vtrack_gym.tracks import planned_line_store
+
+    _check_request(lanes, gaps_m, body, approach_m, run_out_m, max_curvature_rate_per_m2, margin_m)
     in_x = _lanes_in_x(lanes, gaps_m, approach_m)
+    build = {"lanes": lanes, "x_starts": [ln.x0 for ln in in_x], "half_width_m": half_width_m, "name": name,
+             "version": version}
+    inputs = plan_inputs(lanes, gaps_m, body, approach_m=approach_m, run_out_m=run_out_m, margin_m=margin_m,
+                         max_curvature_rate_per_m2=max_curvature_rate_per_m2, knot_spacing_m=knot_spacing_m,
+                         half_width_m=half_width_m, ds_m=ds_m, name=name, version=version)
+    found = planned_line_store.stored_table(inputs) if stored else None
+    if found is not None:
+        return _line_of(anchored_gates(Path(found[0], found[1], closed=False, half_width_m=half_width_m, name=name,
+                                            version=version), lanes, build["x_starts"]))
     spline = _Spline(in_x[-1].x1 + run_out_m, knot_spacing_m)
     margin, rate = margin_m, max_curvature_rate_per_m2
     for attempt in range(MARGIN_RETRIES):
         coef = np.full(spline.n, lanes[0].centre_y_m)
         for _ in range(SLP_ITERATIONS):
             coef = _solve(spline, coef, in_x, body, margin, rate, full_width=attempt > 0)
-        path = _build_path(spline, coef, lanes, [ln.x0 for ln in in_x], ds_m=ds_m, half_width_m=half_width_m,
-                           name=name, version=version)
-        line = PlannedLine(path, float(np.max(np.abs(path.table[:, tb.COL_KAPPA]))),
-                           float(np.max(np.abs(path.table[:, tb.COL_DKAPPA]))))
-        hits = _gates_touched(path, body)
+        line = _line_of(_build_path(spline, coef, ds_m=ds_m, **build))
+        hits = _gates_touched(line.path, body)
         rate_ok = rate is None or line.peak_curvature_rate_per_m2 <= max_curvature_rate_per_m2 * (1.0 + RATE_TOL)
         if hits == 0 and rate_ok:
             return line
@@ -294,6 +305,40 @@ def plan_line(lanes: Sequence[LaneSection], gaps_m: Sequence[float], body: BodyR
                      f"(limit {max_curvature_rate_per_m2})")
 
 
+def plan_inputs(lanes: Sequence[LaneSection], gaps_m: Sequence[float], body: BodyRectangle, *, approach_m: float,
+                run_out_m: float, max_curvature_rate_per_m2: float | None = None, margin_m: float = 0.01,
+                knot_spacing_m: float = 0.5, half_width_m: float = 5.0, ds_m: float = DEFAULT_DS_M,
+                name: str = "planned_line", version: str = "1") -> str:
+    """The exact record of a ``plan_line`` request (same arguments and defaults; ``planned_line_store.line_inputs``
+    with the planner's constants): the key of a shipped line."""
+    from vtrack_gym.tracks import planned_line_store
+
+    return planned_line_store.line_inputs(
+        lanes, gaps_m, body, approach_m=approach_m, run_out_m=run_out_m, margin_m=margin_m, ds_m=ds_m,
+        max_curvature_rate_per_m2=max_curvature_rate_per_m2, knot_spacing_m=knot_spacing_m,
+        half_width_m=half_width_m, name=name, version=version, planner=PLANNER_CONSTANTS)
+
+
+def _check_request(lanes: Sequence[LaneSection], gaps_m: Sequence[float], body: BodyRectangle, approach_m: float,
+                   run_out_m: float, max_curvature_rate_per_m2: float | None, margin_m: float) -> None:
+    """ValueError for a ``plan_line`` request it cannot plan (see ``plan_line``)."""
+    if len(lanes) < 1 or len(gaps_m) != len(lanes) - 1:
+        raise ValueError(f"need >= 1 lane and one gap between consecutive lanes (got {len(lanes)} lanes, "
+                         f"{len(gaps_m)} gaps)")
+    if approach_m < body.length_m or run_out_m < body.length_m:
+        raise ValueError(f"approach_m and run_out_m must be at least the body length {body.length_m} m "
+                         f"(got {approach_m}, {run_out_m})")
+    if max_curvature_rate_per_m2 is not None and not max_curvature_rate_per_m2 > 0.0:
+        raise ValueError(f"max_curvature_rate_per_m2 must be > 0 1/m^2 or None (got {max_curvature_rate_per_m2})")
+    _check_fits(lanes, body, margin_m)
+
+
+def _line_of(path: Path) -> PlannedLine:
+    """The ``PlannedLine`` of a planned path (peaks from its table)."""
+    return PlannedLine(path, float(np.max(np.abs(path.table[:, tb.COL_KAPPA]))),
+                       float(np.max(np.abs(path.table[:, tb.COL_DKAPPA]))))
+
+
 def _gates_touched(path: Path, body: BodyRectangle) -> int:
     """Gates the body touches when its CG follows ``path`` exactly, heading along it."""
     t = path.table
@@ -301,4 +346,4 @@ def _gates_touched(path: Path, body: BodyRectangle) -> int:
                            body.cg_to_front_m)
 
 
-__all__ = ["BodyRectangle", "PlannedLine", "curvature_rate_limit_per_m2", "plan_line"]
+__all__ = ["BodyRectangle", "PlannedLine", "curvature_rate_limit_per_m2", "plan_inputs", "plan_line"]

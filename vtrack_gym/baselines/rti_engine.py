@@ -93,12 +93,14 @@ class RealTimeEngine:
 
     def _warm_up(self) -> None:
         """Run every compiled function once (loaded from the kernel cache or compiled on first use): two
-        decisions at rest on a straight road, then forget them."""
+        decisions at rest on a straight road, then forget them (their statistics too: a new engine holds no
+        wall-clock time, so two engines of one config hold the same state)."""
         obs, row = np.zeros(self._obs_size), np.zeros(self.state_size)
         row = self.decide(obs, row, -1, False)
         self.decide(obs, row.copy(), -1, False)
         self._cache.clear()
         self.solver_failures = 0
+        self.last_stats = dict.fromkeys(STAT_NAMES, 0.0)
 
     # ------------------------------------------------------------------------------------------- the model
     def _stage_parameters(self, obs_row: np.ndarray) -> np.ndarray:

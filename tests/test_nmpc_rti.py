@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import vtrack_gym
-from vtrack_gym.baselines import dense_qp, nmpc_kernels, nmpc_rti
+from vtrack_gym.baselines import dense_qp, nmpc_kernels, nmpc_rti, rti_engine
 from vtrack_gym.baselines.nmpc import NMPC
 from vtrack_gym.evaluation.rollouts.rollout import rollout, rollout_batch
 from vtrack_gym.evaluation.scoring.metrics import evaluate_trace
@@ -237,7 +237,7 @@ def test_a_failed_qp_is_counted_and_the_shifted_plan_applied(monkeypatch: pytest
     env, policy = _policy()
     obs, _ = env.reset(seed=0)
     _, state = policy.predict(obs)
-    monkeypatch.setattr(nmpc_rti, "solve_qp", lambda *args: (dense_qp.QP_INFEASIBLE, 3, 0))
+    monkeypatch.setattr(rti_engine, "solve_qp", lambda *args: (dense_qp.QP_INFEASIBLE, 3, 0))
     plan = state[0, 2:2 + N]
     action, state2 = policy.predict(obs, state=state)
     shifted = nmpc_rti.shifted(plan, 0.05, 0.01)

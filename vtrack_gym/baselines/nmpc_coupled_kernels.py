@@ -21,7 +21,7 @@ import numpy as np
 
 from vtrack_gym._jit import kernel
 from vtrack_gym.baselines.nmpc_coupled_model import N_SENS, N_X, rk4_stage
-from vtrack_gym.baselines.nmpc_kernels import inverse_cholesky_t
+from vtrack_gym.baselines.rti_kernels import condense, record_offsets
 
 N_STAGE_RESIDUALS = 5
 """e_y, e_phi, yaw rate against v kappa, speed error, time error."""
@@ -31,17 +31,10 @@ N_WEIGHTS = 9
 
 @kernel
 def prep_offsets(n: int) -> tuple[int, int, int, int, int, int, int, int]:
-    """Offsets in the flat preparation record of an ``n``-stage horizon (2n variables): L^-T (2n, 2n), g0 (2n),
-    Gx (2n, 7), Gp (2n, 2n), rate0 (n) [rad/s], rate Jacobian in U (n, 2n), in the initial steering angle (n);
-    and its end."""
-    nv = 2 * n
-    o_g = nv * nv
-    o_gx = o_g + nv
-    o_gp = o_gx + nv * N_X
-    o_r = o_gp + nv * nv
-    o_ru = o_r + n
-    o_rd = o_ru + n * nv
-    return 0, o_g, o_gx, o_gp, o_r, o_ru, o_rd, o_rd + n
+    """Offsets in the flat preparation record of an ``n``-stage horizon (``rti_kernels.record_offsets``, 2n
+    variables): L^-T (2n, 2n), g0 (2n), Gx (2n, 7), Gp (2n, 2n), rate0 (n) [rad/s], rate Jacobian in U (n, 2n), in
+    the initial steering angle (n); and its end."""
+    return record_offsets(n, 2, N_X)
 
 
 @kernel(inline=True)
@@ -138,15 +131,8 @@ def prepare(plan: np.ndarray, x0: np.ndarray, params: np.ndarray, u_prev: np.nda
     nv = 2 * n
     res, ju, jx, jp, delta, delta_u, delta_d = linearise(plan, x0, params, u_prev, weights, mc, lc, stage_s,
                                                          substeps)
-    jut = np.ascontiguousarray(ju.T)
-    hess = jut @ ju
-    for i in range(nv):
-        hess[i, i] += eps
-    o_j, o_g, o_gx, o_gp, o_r, o_ru, o_rd, end = prep_offsets(n)
-    inverse_cholesky_t(hess, out[o_j:o_g].reshape(nv, nv))
-    out[o_g:o_gx] = jut @ res
-    out[o_gx:o_gp] = (jut @ jx).reshape(-1)
-    out[o_gp:o_r] = (jut @ jp).reshape(-1)
+    condense(res, ju, jx, jp, eps, 2, out)
+    _, _, _, _, o_r, o_ru, o_rd, end = prep_offsets(n)
     lag = mc[10]
     out[o_r:o_ru] = (plan[:n] - delta) / lag
     rate_u = np.zeros((n, nv))

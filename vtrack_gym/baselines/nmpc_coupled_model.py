@@ -39,6 +39,7 @@ import numpy as np
 
 from vtrack_gym._jit import kernel
 from vtrack_gym.baselines.nmpc_kernels import derivative_and_jacobian
+from vtrack_gym.baselines.rti_kernels import rk4_sensitivities
 
 N_X = 7
 """e_y, e_phi, v_y, r, delta, v, e_t."""
@@ -219,38 +220,32 @@ def derivative(x: np.ndarray, c: float, c_d: float, kappa: float, v_ref: float, 
     return f, jac
 
 
+@kernel(inline=True)
+def _rates(y: np.ndarray, u: np.ndarray, p: np.ndarray, consts: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+           f: np.ndarray, jac: np.ndarray) -> None:
+    """``coupled_derivative`` in ``rti_kernels.rk4_sensitivities``' form (consts = (mc, lc, f5, jac5))."""
+    coupled_derivative(y, u[0], u[1], p[0], p[1], consts[0], consts[1], f, jac, consts[2], consts[3])
+
+
+@kernel(inline=True)
+def _jac_times(jac: np.ndarray, dy: np.ndarray, out: np.ndarray) -> None:
+    """``out = jac[:, :7] @ dy + [0 | jac[:, 7:]]`` (7, 11), the input and parameter columns first."""
+    for i in range(N_X):
+        for j in range(N_SENS):
+            acc = jac[i, j] if j >= N_X else 0.0
+            for q in range(N_X):
+                acc += jac[i, q] * dy[q, j]
+            out[i, j] = acc
+
+
 @kernel
 def rk4_stage(x: np.ndarray, u: np.ndarray, p: np.ndarray, mc: np.ndarray, lc: np.ndarray, stage_s: float,
               substeps: int, x_out: np.ndarray, sens: np.ndarray) -> None:
     """The state after one stage of ``stage_s`` [s] (inputs ``u`` = (c, d) and parameters ``p`` = (kappa, v_ref)
     held) into ``x_out`` (7,) and its exact sensitivities d/d(x_start, c, d, kappa, v_ref) into ``sens`` (7, 11)."""
-    h = stage_s / substeps
-    f, jac = np.empty((4, N_X)), np.empty((N_X, N_SENS))
-    dk, y, dy = np.empty((4, N_X, N_SENS)), np.empty(N_X), np.empty((N_X, N_SENS))
-    f5, jac5 = np.empty(5), np.empty((5, 8))
-    x_out[:] = x
-    sens[:, :] = 0.0
-    for i in range(N_X):
-        sens[i, i] = 1.0
-    for _ in range(substeps):
-        for stage in range(4):
-            c = 0.0 if stage == 0 else (h if stage == 3 else 0.5 * h)
-            for i in range(N_X):
-                y[i] = x_out[i] + (c * f[stage - 1, i] if stage else 0.0)
-                for j in range(N_SENS):
-                    dy[i, j] = sens[i, j] + (c * dk[stage - 1, i, j] if stage else 0.0)
-            coupled_derivative(y, u[0], u[1], p[0], p[1], mc, lc, f[stage], jac, f5, jac5)
-            for i in range(N_X):   # dk = J_x dy + [0 | J_(u, p)]
-                for j in range(N_SENS):
-                    acc = jac[i, j] if j >= N_X else 0.0
-                    for q in range(N_X):
-                        acc += jac[i, q] * dy[q, j]
-                    dk[stage, i, j] = acc
-        w = h / 6.0
-        for i in range(N_X):
-            x_out[i] += w * (f[0, i] + 2.0 * f[1, i] + 2.0 * f[2, i] + f[3, i])
-            for j in range(N_SENS):
-                sens[i, j] += w * (dk[0, i, j] + 2.0 * dk[1, i, j] + 2.0 * dk[2, i, j] + dk[3, i, j])
+    rk4_sensitivities(_rates, _jac_times, x, u, p, (mc, lc, np.empty(5), np.empty((5, 8))), stage_s, substeps,
+                      x_out, sens, np.empty((4, N_X)), np.empty((N_X, N_SENS)), np.empty((4, N_X, N_SENS)),
+                      np.empty(N_X), np.empty((N_X, N_SENS)))
 
 
 @kernel

@@ -23,6 +23,10 @@ import math
 import numpy as np
 
 from vtrack_gym._jit import kernel
+from vtrack_gym.baselines.rti_kernels import condense, inverse_cholesky_t, record_offsets, rk4_sensitivities
+
+__all__ = ["N_SENS", "N_STATES", "advance", "derivative_and_jacobian", "inverse_cholesky_t", "model_constants",
+           "prep_offsets", "prep_size", "prepare", "rk4_stage"]
 
 N_STATES = 5
 """e_y, e_phi, v_y, r, delta."""
@@ -119,29 +123,19 @@ def _jac_times(jac: np.ndarray, dy: np.ndarray, out: np.ndarray) -> None:
 
 
 @kernel(inline=True)
+def _lateral_rates(y: np.ndarray, u: float, p: tuple[float, float], mc: np.ndarray, f: np.ndarray,
+                   jac: np.ndarray) -> None:
+    """``derivative_and_jacobian`` in ``rti_kernels.rk4_sensitivities``' form (p = (v, kappa))."""
+    derivative_and_jacobian(y, u, p[0], p[1], mc, f, jac)
+
+
+@kernel(inline=True)
 def _rk4_stage(x: np.ndarray, u: float, v: float, kappa: float, mc: np.ndarray, stage_s: float, substeps: int,
                x_out: np.ndarray, sens: np.ndarray, f: np.ndarray, jac: np.ndarray, dk: np.ndarray, y: np.ndarray,
                dy: np.ndarray) -> None:
     """``rk4_stage`` with its work arrays given (f (4, 5), jac (5, 8), dk (4, 5, 8), y (5,), dy (5, 8))."""
-    h = stage_s / substeps
-    x_out[:] = x
-    sens[:, :] = 0.0
-    for i in range(N_STATES):
-        sens[i, i] = 1.0
-    for _ in range(substeps):
-        for stage in range(4):
-            c = 0.0 if stage == 0 else (h if stage == 3 else 0.5 * h)
-            for i in range(N_STATES):
-                y[i] = x_out[i] + (c * f[stage - 1, i] if stage else 0.0)
-                for j in range(N_SENS):
-                    dy[i, j] = sens[i, j] + (c * dk[stage - 1, i, j] if stage else 0.0)
-            derivative_and_jacobian(y, u, v, kappa, mc, f[stage], jac)
-            _jac_times(jac, dy, dk[stage])
-        w = h / 6.0
-        for i in range(N_STATES):
-            x_out[i] += w * (f[0, i] + 2.0 * f[1, i] + 2.0 * f[2, i] + f[3, i])
-            for j in range(N_SENS):
-                sens[i, j] += w * (dk[0, i, j] + 2.0 * dk[1, i, j] + 2.0 * dk[2, i, j] + dk[3, i, j])
+    rk4_sensitivities(_lateral_rates, _jac_times, x, u, (v, kappa), mc, stage_s, substeps, x_out, sens, f, jac, dk,
+                      y, dy)
 
 
 @kernel
@@ -157,21 +151,15 @@ def advance(x: np.ndarray, u: float, v: float, kappa: float, mc: np.ndarray, dur
 @kernel
 def prep_size(n: int) -> int:
     """Length of the flat preparation record of an ``n``-stage horizon (``prep_offsets``)."""
-    return n * n + n + n * N_STATES + 2 * n * n + n + n * n + n
+    return record_offsets(n, 1, N_STATES)[-1]
 
 
 @kernel
 def prep_offsets(n: int) -> tuple[int, int, int, int, int, int, int, int]:
-    """Offsets in the flat preparation record: inverse Cholesky factor L^-T (n, n), g0 (n), Gx (n, 5),
-    Gp (n, 2n), rate0 (n) [rad/s], rate Jacobian in U (n, n), in the initial steering angle (n); and its end."""
-    o_j = 0
-    o_g = o_j + n * n
-    o_gx = o_g + n
-    o_gp = o_gx + n * N_STATES
-    o_r = o_gp + 2 * n * n
-    o_ru = o_r + n
-    o_rd = o_ru + n * n
-    return o_j, o_g, o_gx, o_gp, o_r, o_ru, o_rd, o_rd + n
+    """Offsets in the flat preparation record (``rti_kernels.record_offsets``, one input): inverse Cholesky factor
+    L^-T (n, n), g0 (n), Gx (n, 5), Gp (n, 2n), rate0 (n) [rad/s], rate Jacobian in U (n, n), in the initial
+    steering angle (n); and its end."""
+    return record_offsets(n, 1, N_STATES)
 
 
 @kernel(inline=True)
@@ -232,33 +220,6 @@ def _linearise(plan: np.ndarray, x0: np.ndarray, speeds: np.ndarray, kappa: np.n
 
 
 @kernel
-def inverse_cholesky_t(hess: np.ndarray, out: np.ndarray) -> None:
-    """``out = L^-T`` (upper triangular) with ``hess = L L'`` (Cholesky; ``hess`` is overwritten by L)."""
-    n = hess.shape[0]
-    for j in range(n):
-        d = hess[j, j]
-        for k in range(j):
-            d -= hess[j, k] * hess[j, k]
-        if d <= 0.0:
-            raise np.linalg.LinAlgError("the Gauss-Newton Hessian is not positive definite")
-        d = math.sqrt(d)
-        hess[j, j] = d
-        for i in range(j + 1, n):
-            acc = hess[i, j]
-            for k in range(j):
-                acc -= hess[i, k] * hess[j, k]
-            hess[i, j] = acc / d
-    out[:, :] = 0.0
-    for c in range(n):   # column c of L^-1 by forward substitution, stored as row c of L^-T
-        out[c, c] = 1.0 / hess[c, c]
-        for i in range(c + 1, n):
-            acc = 0.0
-            for k in range(c, i):
-                acc -= hess[i, k] * out[c, k]
-            out[c, i] = acc / hess[i, i]
-
-
-@kernel
 def prepare(plan: np.ndarray, x0: np.ndarray, speeds: np.ndarray, kappa: np.ndarray, u_prev: float,
             weights: np.ndarray, mc: np.ndarray, stage_s: float, substeps: int, eps: float, out: np.ndarray) -> None:
     """The preparation phase: linearise at (plan, x0, speeds, kappa) and condense into the flat record ``out``
@@ -266,15 +227,8 @@ def prepare(plan: np.ndarray, x0: np.ndarray, speeds: np.ndarray, kappa: np.ndar
     n = plan.size
     res, ju, jx, jp, delta, delta_u, delta_d = _linearise(plan, x0, speeds, kappa, u_prev, weights, mc, stage_s,
                                                           substeps)
-    jut = np.ascontiguousarray(ju.T)
-    hess = jut @ ju
-    for i in range(n):
-        hess[i, i] += eps
-    o_j, o_g, o_gx, o_gp, o_r, o_ru, o_rd, end = prep_offsets(n)
-    inverse_cholesky_t(hess, out[o_j:o_g].reshape(n, n))
-    out[o_g:o_gx] = jut @ res
-    out[o_gx:o_gp] = (jut @ jx).reshape(-1)
-    out[o_gp:o_r] = (jut @ jp).reshape(-1)
+    condense(res, ju, jx, jp, eps, 1, out)
+    _, _, _, _, o_r, o_ru, o_rd, end = prep_offsets(n)
     lag = mc[10]
     out[o_r:o_ru] = (plan - delta) / lag
     rate_u = -delta_u / lag

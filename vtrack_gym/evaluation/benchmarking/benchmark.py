@@ -75,6 +75,14 @@ def episode_scorer(suite: str, make: Any) -> Any:
     return score_episode if found is None else found.score(make)
 
 
+def _factory_scorer(score: Any) -> Any:
+    """The scorer of one policy factory's episodes in a run: ``score_episode`` becomes an ``episode_score
+    .FactoryScorer`` (one fingerprint per identity, the same rows); a suite's own scorer is kept."""
+    from vtrack_gym.evaluation.rollouts.episode_score import FactoryScorer
+
+    return FactoryScorer() if score is score_episode else score
+
+
 def score_policy(name: str, make: Any, episodes: Sequence[Episode], suite: str,
                  progress: Any = None) -> tuple[list[ResultRow], list[Trace]]:
     """Run ``make(env) -> policy`` on every episode; returns the leaderboard rows and the traces."""
@@ -140,9 +148,10 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
     episodes = with_launch(episodes, launch, where_it_applies=True)
     label = suite_label(suite, quick, seeds)
     factories = policy_factories(policies, {ep.control for ep in episodes}, [ep.env_id for ep in episodes])
-    tasks = [EpisodeTask(recorded_id(name, make), make, ep, label, chosen.score(make),
+    tasks = [EpisodeTask(recorded_id(name, make), make, ep, label, score,
                          keep_trace=ep.seed == episodes[0].seed or chosen.trace_every_seed)
-             for name, make in factories.items() for ep in episodes]
+             for name, make in factories.items() for score in [_factory_scorer(chosen.score(make))]
+             for ep in episodes]
     scored = score_tasks(tasks, figures_dir, vehicle, workers, backend,
                          f"vtrack benchmark ({suite})" if show_progress else None, store=store)
     figures = (write_figures(scored.traces_by_env, scored.rows, scored.folder, vehicle=vehicle,

@@ -56,7 +56,7 @@ class IncompleteFingerprint(ValueError):
     """The policy's state cannot be read completely (too large, or an unreadable object); the message says where."""
 
 
-def policy_hash(policy: Any, env: Any = None) -> str:
+def policy_hash(policy: Any, env: Any = None, seen: dict[str, str] | None = None) -> str:
     """Short (12 hex digits) digest of what determines ``policy``'s actions (see the module docstring): its class,
     declared identity (``weights_hash``, ``config``), state and behaviour on the probe sequences in ``env``'s
     observation layout (the default layout without an env).
@@ -64,8 +64,35 @@ def policy_hash(policy: Any, env: Any = None) -> str:
     A policy whose state cannot be read completely needs a declared identity and a probed behaviour; one that
     cannot be probed (cannot be copied, fails on the probes, acts differently twice) needs a completely read
     state; otherwise ``IncompleteFingerprint``.
+
+    ``seen``: the digests already taken for one policy factory's episodes of a run, by class, declared identity,
+    completely read state and observation layout; a policy matching one of them is not probed again (its
+    digest is that one), as a run takes one fingerprint for all the episodes of a policy. Without it (the
+    default) every call probes.
     """
     parts, depth = _parts_and_depth(policy)
+    key = _seen_key(parts, env) if seen is not None else None
+    if seen is not None and key is not None and key in seen:
+        return seen[key]
+    digest = _digest(policy, env, parts, depth)
+    if seen is not None and key is not None:
+        seen[key] = digest
+    return digest
+
+
+def _seen_key(parts: dict[str, Any], env: Any) -> str | None:
+    """What ``policy_hash``'s ``seen`` is keyed by: the identity parts and the probes' layout (None, not kept,
+    for a state that cannot be read completely or an env without a vtrack observation layout)."""
+    from vtrack_gym.evaluation.identity.probes import layout_names
+
+    names = layout_names(env)
+    if parts["state"] == UNREADABLE or names is None:
+        return None
+    return json.dumps([parts, names], sort_keys=True, separators=(",", ":"))
+
+
+def _digest(policy: Any, env: Any, parts: dict[str, Any], depth: int) -> str:
+    """``policy_hash`` from the identity parts read already (``_parts_and_depth``): the behaviour added."""
     state = parts["state"]
     try:
         if depth > MAX_PROBED_DEPTH:

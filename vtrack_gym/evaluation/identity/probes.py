@@ -55,6 +55,13 @@ def probe_observations(env: Any = None) -> np.ndarray:
     return np.ascontiguousarray(observations[:, :, [column[n] for n in layout.names]])
 
 
+def layout_names(env: Any) -> tuple[str, ...] | None:
+    """The observation entries ``env``'s probes are laid out by (the default layout's without an env), None for
+    an env without a vtrack observation layout (probed with sampled observations)."""
+    layout = _layout_of(env)
+    return None if layout is None else tuple(layout.names)
+
+
 def _layout_of(env: Any) -> Any:
     """``env``'s vtrack ``ObservationLayout`` (``OBS`` without an env), or None for another kind of env."""
     from vtrack_gym.envs.observation import OBS, ObservationLayout
@@ -117,15 +124,16 @@ def _actions(policy: Any, probes: np.ndarray) -> np.ndarray:
                 raise ProbeError(f"its predict failed on the probe observations ({type(exc).__name__}: "
                                  f"{str(exc)[:120]})") from None
             start = np.zeros(1, dtype=bool)
-            out.append(_quantised(action))
+            out.append(np.array(action, dtype=np.float64).ravel())   # a copy: a policy may reuse its array
     widths = {a.size for a in out}
     if len(widths) != 1:
         raise ProbeError(f"its actions on the probes have different sizes ({sorted(widths)})")
-    return np.stack(out).reshape(len(probes), probes.shape[1], -1)
+    return _quantised(np.stack(out)).reshape(len(probes), probes.shape[1], -1)
 
 
 def _quantised(action: Any) -> np.ndarray:
-    """``action`` clipped to [-1, 1] and rounded to ``ACTION_QUANTUM`` (int64; NaN as a value no action takes)."""
+    """``action`` (any shape) clipped to [-1, 1] and rounded to ``ACTION_QUANTUM``, flat (int64; NaN as a value no
+    action takes)."""
     a = np.asarray(action, dtype=np.float64).ravel()
     q = np.round(np.clip(a, -1.0, 1.0) / ACTION_QUANTUM)
     return np.where(np.isnan(a), np.iinfo(np.int64).min, q).astype(np.int64)

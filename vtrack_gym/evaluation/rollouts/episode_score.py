@@ -8,6 +8,7 @@ Used by ``benchmark`` (suites), ``entry_speed`` (the ISO 3888 search: each probe
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 import gymnasium as gym
@@ -97,6 +98,20 @@ def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str,
     if not row.verdict():  # the figures' legends name the reason
         trace.meta["failure_reason"] = failure_reason(trace.termination, metrics)
     return row, trace
+
+
+@dataclass
+class FactoryScorer:
+    """``score_episode`` for the episodes of one policy factory in one run: the policy hash is taken once per
+    identity (``fingerprint.policy_hash``'s ``seen``: a policy of the same class, declared identity, completely
+    read state and observation layout as one fingerprinted before is not probed again). The rows are those of
+    ``score_episode``."""
+
+    seen: dict[str, str] = field(default_factory=dict)
+
+    def __call__(self, name: str, policy: Any, env: gym.Env, ep: Episode, suite: str,
+                 digest: str | None = None) -> tuple[ResultRow, Trace]:
+        return score_episode(name, policy, env, ep, suite, digest or policy_hash(policy, env, self.seen))
 
 
 def policy_factories(names: Sequence[str] | dict[str, Any] | None = None,

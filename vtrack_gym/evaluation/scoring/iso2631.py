@@ -212,6 +212,13 @@ def vibration_total(a_x: ArrayLike, a_y: ArrayLike, a_z: ArrayLike, fs_hz: float
     surface (the spec could not confirm it from the printed standard; hence configurable); health (seated) uses
     ``k = (1.4, 1.4, 1.0)``.
     """
+    return vibration_axes(a_x, a_y, a_z, fs_hz, k)[0]
+
+
+def vibration_axes(a_x: ArrayLike, a_y: ArrayLike, a_z: ArrayLike, fs_hz: float,
+                   k: tuple[float, float, float] = (1.0, 1.0, 1.0)) -> tuple[float, tuple[float, float, float]]:
+    """``vibration_total`` [m/s^2] and the three weighted RMS values a_wx, a_wy, a_wz it is made of [m/s^2]
+    (unscaled by k), each filtered once."""
     ks = tuple(k)
     if len(ks) != 3 or not all(isinstance(v, (int, float)) and math.isfinite(v) and v >= 0.0 for v in ks):
         raise ValueError(f"k must be three finite numbers >= 0 (got {k!r})")
@@ -219,7 +226,8 @@ def vibration_total(a_x: ArrayLike, a_y: ArrayLike, a_z: ArrayLike, fs_hz: float
     if len({a.size for a in axes}) != 1:
         raise ValueError(f"a_x, a_y, a_z must have the same length (got {[a.size for a in axes]})")
     a_w = [weighted_rms(a, fs_hz, name) for a, name in zip(axes, ("Wd", "Wd", "Wk"), strict=True)]
-    return float(math.sqrt(sum((ki * ai) ** 2 for ki, ai in zip(ks, a_w, strict=True))))
+    total = float(math.sqrt(sum((ki * ai) ** 2 for ki, ai in zip(ks, a_w, strict=True))))
+    return total, (a_w[0], a_w[1], a_w[2])
 
 
 def comfort_band(a_v: float) -> str:

@@ -93,8 +93,8 @@ def comfort_metrics(trace: Trace, k: tuple[float, float, float] = (1.0, 1.0, 1.0
     fs = trace.physics_rate_hz
     if acc.shape[0] < int(fs):  # shorter than a second: weighting filters are meaningless
         return {"comfort_a_v_mps2": math.nan, "comfort_band": "n/a", "comfort_a_wx_mps2": math.nan}
-    a_v = iso2631.vibration_total(acc[:, 0], acc[:, 1], acc[:, 2], fs, k=k)
-    a_wx = float(k[0]) * iso2631.weighted_rms(acc[:, 0], fs, "Wd")
+    a_v, a_w = iso2631.vibration_axes(acc[:, 0], acc[:, 1], acc[:, 2], fs, k=k)   # a_x weighted once
+    a_wx = float(k[0]) * a_w[0]
     return {"comfort_a_v_mps2": float(a_v), "comfort_band": iso2631.comfort_band(a_v), "comfort_a_wx_mps2": a_wx}
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from itertools import chain
 from operator import itemgetter
 from typing import Any
 
@@ -73,7 +74,9 @@ class Trace:
         if not infos:
             raise ValueError("a trace needs at least one step")
         row_of = itemgetter(*STEP_SIGNALS)   # one pass over the infos: a (steps, signals) table, then its columns
-        table = np.array([row_of(info) for info in infos], dtype=np.float64).reshape(len(infos), len(STEP_SIGNALS))
+        width = len(STEP_SIGNALS)
+        table = np.fromiter(chain.from_iterable(map(row_of, infos)), dtype=np.float64,
+                            count=len(infos) * width).reshape(len(infos), width)
         signals = {name: table[:, j].copy() for j, name in enumerate(STEP_SIGNALS)}
         fz = np.array([info["fz_n"] for info in infos], dtype=np.float64)
         acc = np.concatenate([info["acc_substeps_mps2"] for info in infos], axis=0)

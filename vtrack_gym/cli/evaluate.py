@@ -33,6 +33,7 @@ def register(sub: Any) -> None:
     opt.add_vehicle(e)
     opt.add_latency(e)
     opt.add_control(e)
+    opt.add_numerics(e)
     opt.add_launch(e)
     opt.add_store(e)
 
@@ -79,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         rows = evaluate(make, env_id, seeds, policy_id=policy_id, vehicle=args.vehicle, latency=args.latency,
-                        control=args.control, launch=args.launch, finish=commit)
+                        control=args.control, launch=args.launch, numerics=args.numerics, finish=commit)
     except BaseException:
         err(f"vtrack eval: stopped after {len(stored)} of {len(seeds)} seeds; "
             f"{'seeds ' + ', '.join(map(str, stored)) + ' are' if stored else 'nothing is'} stored in {args.store}")

@@ -31,6 +31,7 @@ from vtrack_gym.evaluation.suite.suites import (
     then_metrics,
     with_control,
     with_latency,
+    with_numerics,
     with_vehicle,
 )
 
@@ -95,7 +96,8 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
                   figures_dir: str | Path | None = None, quick: bool = False,
                   show_progress: bool = True, seeds: Sequence[int] | None = None,
                   vehicle: str | None = None, workers: int | None = 1, backend: str = "local",
-                  latency: str | float | None = None, control: str | None = None) -> dict[str, Any]:
+                  latency: str | float | None = None, control: str | None = None,
+                  numerics: str | None = None) -> dict[str, Any]:
     """Score every policy on ``suite``; write rows to ``store`` (each committed as its episode ends) and figures
     under ``figures_dir``.
 
@@ -107,6 +109,9 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
 
     ``control``: the control mode (``envs.control``; ``None``: each episode's own, ``steer`` for every built-in
     suite but ``trajectory``); the rows record a mode other than ``steer`` (``options["control"]``), ranked apart.
+
+    ``numerics``: the plant kernel (``vehicle.numerics``: ``"default"``, pinned, or ``"fast"``, SIMD; ``None``:
+    the default); the rows record ``"fast"`` (``options["env_config"]["numerics"]``), ranked apart.
 
     ``suite``: a registered suite (``suites.suite_names()``); ``seeds`` replaces its seeds (default: its own,
     ``Suite.seeds``; ``quick``: ``Suite.quick_seeds``).
@@ -129,7 +134,8 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
 
     chosen = get_suite(suite)
     vehicle = read_vehicle_once(vehicle)   # a vehicle file: its envs and rows use the bytes read here
-    episodes = with_control(with_latency(with_vehicle(chosen.episodes_for(quick, seeds), vehicle), latency), control)
+    episodes = with_numerics(with_control(with_latency(with_vehicle(chosen.episodes_for(quick, seeds), vehicle), latency),
+                                          control), numerics)
     label = suite_label(suite, quick, seeds)
     factories = policy_factories(policies, {ep.control for ep in episodes}, [ep.env_id for ep in episodes])
     tasks = [EpisodeTask(recorded_id(name, make), make, ep, label, chosen.score(make),

@@ -134,8 +134,8 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
 
     chosen = get_suite(suite)
     vehicle = read_vehicle_once(vehicle)   # a vehicle file: its envs and rows use the bytes read here
-    episodes = with_numerics(with_control(with_latency(with_vehicle(chosen.episodes_for(quick, seeds), vehicle), latency),
-                                          control), numerics)
+    episodes = with_vehicle(chosen.episodes_for(quick, seeds), vehicle)
+    episodes = with_numerics(with_control(with_latency(episodes, latency), control), numerics)
     label = suite_label(suite, quick, seeds)
     factories = policy_factories(policies, {ep.control for ep in episodes}, [ep.env_id for ep in episodes])
     tasks = [EpisodeTask(recorded_id(name, make), make, ep, label, chosen.score(make),

@@ -10,12 +10,12 @@ The all-SIMD bound (``simd_bound``): the fast kernel's stage loops are compiled 
 read; in each vector loop body the instructions are counted by kind (FMA, mul, add, compare, min/max, blend,
 logic, move, round, div, sqrt, loads including memory operands, stores) and divided by the cars one pass
 advances (8 per 512-bit pass, 4 per 256-bit). Each kind is charged its reciprocal throughput on this CPU
-(``ZEN4_THROUGHPUT``: cycles per 256-bit instruction, a 512-bit one counts as two; AMD's Zen 4 optimisation guide
-and Agner Fog's instruction tables): the bound is the largest of the FP pipes' load (FMA/mul on 2 pipes,
-add/compare/min/max on 2, everything else on any of 4), the divider's (div, sqrt), the loads' (2 per cycle) and
-the stores' (1 per cycle), per car-step (the four stage loops), in ns at the core clock measured by a chain of
-dependent float64 adds (3 cycles each). It assumes every instruction issues at full throughput with no latency
-stall and no scalar remainder: a bound, not a prediction.
+(``ZEN4_THROUGHPUT``: the whole core's cycles per 256-bit instruction, a 512-bit one counts as two; published
+Zen 4 figures, which ``bench_simd_ops.py`` measures on this machine): the bound is the largest of each FP group's
+cycles (FMA/mul on 2 pipes, add/compare/min/max on 2), the four FP pipes' occupancy (everything else issues on
+any of them), the divider's (div, sqrt), the loads' and the stores', per car-step (the four stage loops), in ns
+at the core clock measured by a chain of dependent float64 adds (3 cycles each). It assumes every instruction
+issues at full throughput with no latency stall and no scalar remainder: a bound, not a prediction.
 
 Run: ``python benchmarks/bench_fast_plant.py`` (``--seconds 0.3 --rounds 5`` by default).
 """
@@ -107,11 +107,20 @@ def _classify(body: list[str]) -> Counter:
     return ops
 
 
-def simd_bound(ghz: float) -> tuple[float, Counter, int]:
+PIPES = {"mul": 2, "add": 2, "any": 4}
+"""FP pipes of each issue group (Zen 4: two FMA/multiply pipes, two add pipes; the rest on any of the four)."""
+
+
+def simd_bound(ghz: float, table: dict[str, tuple[float, str]] | None = None) -> tuple[float, Counter, int]:
     """(ns per car-step of the all-SIMD bound, 256-bit instructions per car-step by kind, vector loops found).
 
     Counted in the machine code of the four stage loops (``rk4_block``): each pass of a 512-bit loop advances 8
-    cars (``VECTOR_CARS``)."""
+    cars (``VECTOR_CARS``). ``table``: cycles per 256-bit instruction (the whole core's reciprocal throughput, all
+    pipes of its group together) and issue group of each kind (default ``ZEN4_THROUGHPUT``;
+    ``bench_simd_ops.py`` passes the ones it measured). The bound is the largest of: each group's cycles, the
+    four FP pipes' occupancy (an instruction holds one pipe of its group for its throughput times the group's
+    pipes), the divider's, the loads' and the stores' cycles."""
+    table = ZEN4_THROUGHPUT if table is None else table
     import numba
 
     from vtrack_gym.vehicle import fast_kernels as fk
@@ -126,13 +135,18 @@ def simd_bound(ghz: float) -> tuple[float, Counter, int]:
         cars = 8 if any("zmm" in x for x in body) else 4
         for kind, units in _classify(body).items():
             per_car[kind] += units / cars
+    return bound_cycles(per_car, table) / ghz, per_car, len(bodies)
+
+
+def bound_cycles(per_car: Counter, table: dict[str, tuple[float, str]]) -> float:
+    """Cycles per car-step of the all-SIMD bound of ``per_car`` (256-bit instructions by kind) at ``table``'s
+    throughputs (see ``simd_bound``)."""
     groups: Counter = Counter()
     for kind, units in per_car.items():
-        cycles, group = ZEN4_THROUGHPUT[kind]
+        cycles, group = table[kind]
         groups[group] += units * cycles
-    fp = max(groups["mul"] / 2, groups["add"] / 2, (groups["mul"] + groups["add"] + groups["any"]) / 4)
-    cycles = max(fp, groups["div"], groups["load"] / 2, groups["store"])
-    return cycles / ghz, per_car, len(bodies)
+    fp = max(groups["mul"], groups["add"], sum(groups[g] * pipes for g, pipes in PIPES.items()) / 4)
+    return max(fp, groups["div"], groups["load"], groups["store"])
 
 
 def _plant(n: int, numerics: str):

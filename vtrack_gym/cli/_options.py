@@ -157,6 +157,16 @@ def add_control(p: argparse.ArgumentParser, what: str = "rows record it and rank
                    f"PD-FLC; {what} (default: steer)")
 
 
+def add_numerics(p: argparse.ArgumentParser) -> None:
+    """``--numerics default|fast``: which compiled plant integrates the cars (``vehicle.numerics``)."""
+    from vtrack_gym.vehicle.numerics import NUMERICS
+
+    p.add_argument("--numerics", choices=tuple(NUMERICS), default=None,
+                   help="which compiled plant integrates the cars: default (the pinned kernel) or fast (the SIMD "
+                   "kernel, several times faster on many cars, within the tolerances the performance docs state); "
+                   "rows record fast and rank apart from the default rows (default: default)")
+
+
 def add_launch(p: argparse.ArgumentParser) -> None:
     """``--launch step|powertrain``: how the reference of a held speed from rest leaves the start (``envs.launch``)."""
     from vtrack_gym.envs.launch import LAUNCHES

@@ -69,6 +69,7 @@ def register(sub: Any) -> None:
     opt.add_latency(b)
     opt.add_control(b)
     opt.add_launch(b)
+    opt.add_numerics(b)
     opt.add_store(b)
     opt.add_format(b)
     opt.add_columns(b)
@@ -96,6 +97,9 @@ def _check_track_options(args: argparse.Namespace) -> None:
     if args.control is not None and (args.track is not None or args.tracks is not None):
         raise ValueError("--control applies to a suite's episodes (not --track or --tracks); score a track file in "
                          "another control mode with vtrack eval --track FILE --control ...")
+    if args.numerics is not None and (args.track is not None or args.tracks is not None):
+        raise ValueError("--numerics applies to a suite's episodes (not --track or --tracks); score a track file "
+                         "with the other plant through vtrack eval --track FILE --numerics ...")
     if args.track_limits is not None and args.track is None and args.tracks is None:
         raise ValueError("--track-limits applies to --track FILE or --tracks DIR_OR_GLOB")
     if args.track is not None and args.tracks is not None:
@@ -142,7 +146,7 @@ def _score(args: argparse.Namespace, factories: dict[str, Any] | None, seeds: li
                                figures_dir=figures, show_progress=True, **where)
     return run_benchmark(args.suite, policies=factories, figures_dir=figures, quick=args.quick,
                          seeds=seeds, vehicle=args.vehicle, latency=args.latency, control=args.control,
-                         launch=args.launch, **where)
+                         launch=args.launch, numerics=args.numerics, **where)
 
 
 def run(args: argparse.Namespace) -> int:

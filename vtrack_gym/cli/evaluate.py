@@ -33,6 +33,7 @@ def register(sub: Any) -> None:
     opt.add_vehicle(e)
     opt.add_latency(e)
     opt.add_control(e)
+    opt.add_numerics(e)
     opt.add_launch(e)
     opt.add_store(e)
 
@@ -64,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
         else recorded_policy_id(args.policy, args.preset)   # a class of yours: its class and arguments
     try:   # each row (with its track's provenance) committed by evaluate as its episode ends, before any output
         rows = evaluate(make, env_id, seeds, store=store, policy_id=policy_id, vehicle=args.vehicle,
-                        latency=args.latency, control=args.control, launch=args.launch,
+                        latency=args.latency, control=args.control, launch=args.launch, numerics=args.numerics,
                         finish=(lambda row: merge_provenance(row, provenance)) if provenance else None)
     except RowsNotStored as exc:   # the store failed (a full disk): the table still shows, then the error
         _print_table(exc.rows)

@@ -21,13 +21,13 @@ from vtrack_gym.vehicle import layout as L
 from vtrack_gym.vehicle.fast_kernels import BLOCK, advance_block
 
 
-@kernel
+@kernel(refcount=False)
 def _released(i: int, a: SimArrays) -> bool:
     """Whether car ``i`` has passed its track's release station (the speed loop is off there)."""
     return a.car[i, CAR_S_PREV] >= a.tmeta[a.veh_track[i], TM_RELEASE_S]
 
 
-@kernel
+@kernel(refcount=False)
 def set_pedals(i: int, a: SimArrays) -> None:
     """Throttle and brake of car ``i`` for this period: the longitudinal demand, the release rule or the PD-FLC."""
     cfg, car, inputs = a.cfg, a.car, a.inputs
@@ -50,7 +50,7 @@ def set_pedals(i: int, a: SimArrays) -> None:
         inputs[i, L.U_BRAKE] = brake
 
 
-@kernel
+@kernel(refcount=False)
 def after_physics(i: int, a: SimArrays, released: bool) -> None:
     """Car ``i`` after its physics: target speed of a released car, step count, observation, termination, reward,
     signals (``released``: as before the physics)."""
@@ -71,14 +71,14 @@ def after_physics(i: int, a: SimArrays, released: bool) -> None:
     write_signals(i, a)
 
 
-@kernel
+@kernel(refcount=False)
 def physics_block(a: SimArrays, block: int) -> None:
     """The fast plant on block ``block`` of the cars (``vehicle.fast_kernels.advance_block``)."""
     advance_block(a.states, a.inputs, a.road, a.params, a.models, a.cfg[CFG_DT], int(a.cfg[CFG_NSUB]), a.outputs,
                   a.work, a.cmds, a.car, CAR_SCHEDULED, block)
 
 
-@kernel
+@kernel(refcount=False)
 def step_serial(a: SimArrays) -> None:
     """One control period for every car, single-threaded."""
     n = a.states.shape[0]
@@ -90,7 +90,7 @@ def step_serial(a: SimArrays) -> None:
         after_physics(i, a, _released(i, a))
 
 
-@kernel(parallel=True)
+@kernel(parallel=True, refcount=False)
 def step_parallel(a: SimArrays) -> None:
     """One control period for every car, cars (and blocks of cars) spread over threads (same per-car code)."""
     n = a.states.shape[0]

@@ -45,7 +45,7 @@ from vtrack_gym.envs.observation import N_SCALARS, SCALAR_BOUNDS, SCALAR_FIELDS,
 from vtrack_gym.envs.pdflc_kernel import pdflc_step
 from vtrack_gym.envs.schema import REWARD_TERMS, SIGNAL_ROW
 from vtrack_gym.tracks import table as track_table
-from vtrack_gym.tracks.kernels import curvature_at, interp_row, lateral_offset, project_point
+from vtrack_gym.tracks.kernels import PREVIEW_BLOCK, curvature_preview, interp_row, lateral_offset, project_point
 from vtrack_gym.tracks.kernels import interp_linear as _linear
 from vtrack_gym.tracks.kernels import wrap_angle as _wrap
 from vtrack_gym.vehicle import layout as L
@@ -172,7 +172,10 @@ class SimArrays(NamedTuple):
     pd_gains: np.ndarray     # (n, 7) PD-FLC gains per car
     pd_surface: np.ndarray   # (r, r) PD-FLC control surface (shared)
     cmds: np.ndarray         # (n, n_sub) steering command [rad] per physics step (read when CAR_SCHEDULED is 1)
+    scratch: np.ndarray      # (n, N_SCRATCH) per-car scratch of the curvature preview
 
+
+N_SCRATCH = 2 * PREVIEW_BLOCK   # per-car scratch floats (SimArrays.scratch; tracks.kernels.curvature_preview)
 
 # Termination codes (names in ``TERMINATION_NAMES`` of envs.sim).
 T_NONE, T_COMPLETED, T_OFF_ROAD, T_SPIN_OUT, T_WHEEL_LIFT, T_INVALID = range(6)
@@ -303,8 +306,9 @@ def observe_one(i: int, a: SimArrays, a_x: float, window_m: float, first: bool) 
     write_scalar_fields(obs[i], e_y, e_phi, vx, vy, r, state[L.S_DELTA], car[i, CAR_V_REF], kappa, dkappa, s_dot,
                         a_x)
     v_prev = vx if vx > preview_vmin else preview_vmin
-    for j in range(n_preview):   # the curvature alone: nothing computed and thrown away
-        obs[i, O_PREVIEW + j] = curvature_at(table, ds, length, closed, s + v_prev * (j + 1) * preview_dt)
+    # the curvature alone (nothing computed and thrown away), located in vectorised blocks
+    curvature_preview(table, ds, length, closed, s, v_prev, preview_dt, obs[i, O_PREVIEW:O_PREVIEW + n_preview],
+                      a.scratch[i])
     o_speed = O_PREVIEW + n_preview
     speed_dt = cfg[CFG_SPEED_DT]
     for j in range(int(cfg[CFG_NSPEED])):
@@ -468,7 +472,7 @@ def write_signals(i: int, a: SimArrays) -> None:
     sig[SIG_ET] = a.err[i, E_ET]
 
 
-@kernel
+@kernel(refcount=False)
 def step_car(i: int, a: SimArrays) -> None:
     """One control period of car ``i``: speed loop, physics, projection, observation, termination, reward."""
     cfg, car, states, inputs, outputs = a.cfg, a.car, a.states, a.inputs, a.outputs
@@ -518,21 +522,21 @@ def step_car(i: int, a: SimArrays) -> None:
     write_signals(i, a)
 
 
-@kernel
+@kernel(refcount=False)
 def step_serial(a: SimArrays) -> None:
     """One control period for every car, single-threaded."""
     for i in range(a.states.shape[0]):
         step_car(i, a)
 
 
-@kernel(parallel=True)
+@kernel(parallel=True, refcount=False)
 def step_parallel(a: SimArrays) -> None:
     """One control period for every car, cars spread over threads (same per-car code)."""
     for i in prange(a.states.shape[0]):
         step_car(i, a)
 
 
-@kernel
+@kernel(refcount=False)
 def observe_indices(idx: np.ndarray, a: SimArrays) -> None:
     """Fresh observation (global projection search, progress reset) and signal row (reward terms 0) for the
     cars in ``idx`` (a_x = 0)."""

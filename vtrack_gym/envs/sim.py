@@ -159,7 +159,7 @@ class BatchSim:
             term=self.term, rows=np.zeros((self.n, k.N_ENV_COLS)), actions=self.actions, sig=self.sig,
             pd_mem=self.pd_mem, pd_gains=self.pd_gains,
             pd_surface=np.ascontiguousarray(control_surface(pd.method, pd.surface_resolution)),
-            cmds=self.latency.cmds)
+            cmds=self.latency.cmds, scratch=np.zeros((self.n, k.N_SCRATCH)))
 
     def _cars_view(self, k) -> CarsView:
         """The named views a success criterion reads (live: the arrays are updated in place)."""

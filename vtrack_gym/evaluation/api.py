@@ -31,6 +31,7 @@ from vtrack_gym.evaluation.suite.suites import (
     with_control,
     with_latency,
     with_launch,
+    with_numerics,
     with_vehicle,
 )
 
@@ -87,7 +88,7 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
              *, store: str | Path | ResultStore | None = None, vecnormalize: Any = None,
              policy_id: str | None = None, vehicle: str | None = None, workers: int | None = 1,
              backend: str = "local", latency: str | float | None = None,
-             control: str | None = None, launch: str | None = None,
+             control: str | None = None, launch: str | None = None, numerics: str | None = None,
              finish: Callable[[ResultRow], ResultRow] | None = None) -> list[ResultRow]:
     """Score a policy; one ``ResultRow`` per episode (``row.metrics``: the leaderboard's metrics).
 
@@ -113,7 +114,9 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
     ideal rows. ``control``: the control mode of a suite's or an env id's episodes (``envs.control``; default
     ``steer``), recorded in the rows' ``options["control"]`` (an env instance drives in its own mode, recorded by
     ``env_identity``). ``launch``: how the reference of an env id's episodes leaves a standing start
-    (``envs.launch``: ``"powertrain"`` in a longitudinal mode), recorded in the rows' options.
+    (``envs.launch``: ``"powertrain"`` in a longitudinal mode), recorded in the rows' options. ``numerics``: the
+    plant kernel of a suite's or an env id's episodes (``vehicle.numerics``: ``"default"``, pinned, or ``"fast"``,
+    SIMD), recorded in the rows' ``options["env_config"]`` when not the default, so the modes rank apart.
     ``finish``: applied to each row as its episode ends, before it is stored and returned (e.g.
     ``track_benchmark.merge_provenance`` with a track file's provenance; an error it raises ends the run, the rows
     stored before it stay). Rank the rows with ``leaderboard(rows)``, alone or with other rows of the same suite.
@@ -138,12 +141,13 @@ def evaluate(policy_or_factory: Any, suite_or_env: str | gym.Env = "paper", seed
         from vtrack_gym.vehicle.catalog import read_vehicle_once
 
         found, suite = _episodes(suite_or_env, seeds)
-        episodes = with_launch(with_control(with_latency(with_vehicle(found, read_vehicle_once(vehicle)), latency),
-                                            control), launch)
+        episodes = with_numerics(with_launch(with_control(
+            with_latency(with_vehicle(found, read_vehicle_once(vehicle)), latency), control), launch), numerics)
     elif isinstance(suite_or_env, gym.Env):
-        if vehicle is not None or control is not None or launch is not None:
-            raise ValueError("vehicle and control apply to a suite name or an env id; an env instance drives its "
-                             "own car in its own control mode (gym.make(..., vehicle=..., control=...))")
+        if vehicle is not None or control is not None or launch is not None or numerics is not None:
+            raise ValueError("vehicle, control, launch and numerics apply to a suite name or an env id; an env "
+                             "instance drives its own car in its own control mode with its own plant "
+                             "(gym.make(..., vehicle=..., control=..., numerics=...))")
         if workers != 1 or backend != "local":
             raise ValueError("workers and backend apply to a suite name or an env id; an env instance is driven "
                              "in this process")

@@ -142,6 +142,35 @@ def curvature_at(table: np.ndarray, ds: float, length: float, closed: bool, s: f
     return _h3(a[C_KAPPA], a[C_DKAPPA], b[C_KAPPA], b[C_DKAPPA], t, ds)
 
 
+PREVIEW_BLOCK = 8
+"""Stations per pass of ``curvature_preview`` (its scratch holds twice this many floats)."""
+
+
+@kernel(error_model="numpy", refcount=False)
+def curvature_preview(table: np.ndarray, ds: float, length: float, closed: bool, s: float, v: float, dt: float,
+                      out: np.ndarray, scratch: np.ndarray) -> None:
+    """``out[j] = curvature_at(s + v (j + 1) dt)`` [1/m] for every j: a curvature preview at stations ``s`` [m]
+    plus the distance covered at ``v`` [m/s] in (j + 1) times ``dt`` [s] (the same formulas and bits).
+
+    In blocks of ``PREVIEW_BLOCK`` stations: one loop locates them (the interval and the fraction into it; two
+    divisions each, which the compiler runs as vectors), a second one reads the rows and interpolates.
+    ``scratch``: ``2 PREVIEW_BLOCK`` floats. ``ds`` > 0 (a division by it is not checked)."""
+    rows = table.shape[0]
+    n = out.shape[0]
+    for first in range(0, n, PREVIEW_BLOCK):
+        count = min(PREVIEW_BLOCK, n - first)
+        for j in range(count):
+            sw = wrap_s(s + v * (first + j + 1) * dt, length, closed)
+            m = int(sw / ds)
+            m = rows - 2 if m > rows - 2 else m
+            scratch[j] = m
+            scratch[PREVIEW_BLOCK + j] = (sw - m * ds) / ds
+        for j in range(count):
+            m = int(scratch[j])
+            out[first + j] = _h3(table[m, C_KAPPA], table[m, C_DKAPPA], table[m + 1, C_KAPPA],
+                                 table[m + 1, C_DKAPPA], scratch[PREVIEW_BLOCK + j], ds)
+
+
 @kernel(inline=True)
 def interp_linear(table: np.ndarray, ds: float, length: float, closed: bool, s: float, col: int) -> float:
     """Column ``col`` of ``table`` at arc length s [m], linear between rows (wrapped / clamped like the path)."""
@@ -174,7 +203,7 @@ def wrap_s_rows(s: np.ndarray, length: float, closed: bool, out: np.ndarray) -> 
         out[k] = wrap_s(s[k], length, closed)
 
 
-@kernel
+@kernel(refcount=False)
 def _nearest_sample(table: np.ndarray, ds: float, closed: bool, x: float, y: float, s_guess: float,
                     window_m: float) -> int:
     """Index of the nearest sample within +- window_m of s_guess (all samples if s_guess < 0)."""
@@ -195,20 +224,22 @@ def _nearest_sample(table: np.ndarray, ds: float, closed: bool, x: float, y: flo
         return best
     length = period * ds
     centre = round(wrap_s(s_guess, length, closed) / ds)
-    for k in range(-half, half + 1):
-        j = centre + k
-        if closed:
-            j = j % period
-        elif j < 0 or j > n - 1:
-            continue
-        d2 = (table[j, C_X] - x) ** 2 + (table[j, C_Y] - y) ** 2
-        if d2 < best_d2:
-            best_d2 = d2
-            best = j
+    j = centre - half   # the window's samples in order; a closed path's index wraps by one comparison per sample
+    if closed:
+        j %= period
+    for _ in range(2 * half + 1):
+        if closed or 0 <= j <= n - 1:
+            d2 = (table[j, C_X] - x) ** 2 + (table[j, C_Y] - y) ** 2
+            if d2 < best_d2:
+                best_d2 = d2
+                best = j
+        j += 1
+        if closed and j == period:
+            j = 0
     return best
 
 
-@kernel
+@kernel(refcount=False)
 def project_point(table: np.ndarray, ds: float, length: float, closed: bool, x: float, y: float, s_guess: float,
                   window_m: float, trig: int = -1) -> float:
     """Arc length s* [m] of the closest path point to (x, y) [m].

@@ -33,6 +33,7 @@ from vtrack_gym.evaluation.suite.suites import (
     with_control,
     with_latency,
     with_launch,
+    with_numerics,
     with_vehicle,
 )
 
@@ -106,7 +107,7 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
                   show_progress: bool = True, seeds: Sequence[int] | None = None,
                   vehicle: str | None = None, workers: int | None = 1, backend: str = "local",
                   latency: str | float | None = None, control: str | None = None,
-                  launch: str | None = None) -> dict[str, Any]:
+                  launch: str | None = None, numerics: str | None = None) -> dict[str, Any]:
     """Score every policy on ``suite``; write rows to ``store`` (each committed as its episode ends) and figures
     under ``figures_dir``.
 
@@ -122,6 +123,9 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
     ``launch``: how the reference of an episode that holds one set speed from rest leaves the start
     (``envs.launch``; ``"powertrain"`` in a longitudinal mode), the other episodes as they are (``episodes.
     with_launch`` with ``where_it_applies``); the rows record it (``options["protocol"]``), ranked apart.
+
+    ``numerics``: the plant kernel (``vehicle.numerics``: ``"default"``, pinned, or ``"fast"``, SIMD; ``None``:
+    the default); the rows record ``"fast"`` (``options["env_config"]["numerics"]``), ranked apart.
 
     ``suite``: a registered suite (``suites.suite_names()``); ``seeds`` replaces its seeds (default: its own,
     ``Suite.seeds``; ``quick``: ``Suite.quick_seeds``).
@@ -144,7 +148,8 @@ def run_benchmark(suite: str = "paper", store: ResultStore | None = None, polici
 
     chosen = get_suite(suite)
     vehicle = read_vehicle_once(vehicle)   # a vehicle file: its envs and rows use the bytes read here
-    episodes = with_control(with_latency(with_vehicle(chosen.episodes_for(quick, seeds), vehicle), latency), control)
+    episodes = with_vehicle(chosen.episodes_for(quick, seeds), vehicle)
+    episodes = with_numerics(with_control(with_latency(episodes, latency), control), numerics)
     episodes = with_launch(episodes, launch, where_it_applies=True)
     label = suite_label(suite, quick, seeds)
     factories = policy_factories(policies, {ep.control for ep in episodes}, [ep.env_id for ep in episodes])

@@ -69,7 +69,8 @@ def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str,
     judged by completion, ``ResultRow.verdict``) and its metrics carry the success criterion's own figures
     (``success_metrics``).
     The row's ``options`` carry ``ep``'s reset options and the car (``vehicle_label(ep.vehicle)``, when not the
-    default car) and a control mode other than ``steer`` (``control``), so cars and modes never mix on the
+    default car), a control mode other than ``steer`` (``control``) and a plant numerics mode other than
+    ``default`` (``env_config``), so cars and modes never mix on the
     leaderboard, and on a track file the SHA-256 of the bytes this env read
     and drove (``track_sha256``). Its ``policy_hash`` is ``digest`` if given, else the policy's fingerprint
     (``fingerprint.policy_hash`` in this env's observation layout) taken before the rollout (a policy that
@@ -87,6 +88,8 @@ def score_episode(name: str, policy: Any, env: gym.Env, ep: Episode, suite: str,
         options["control"] = ep.control
     if getattr(ep, "launch", "step") != "step":   # another reference from rest (envs.launch): ranked apart
         options["protocol"] = {**options.get("protocol", {}), "launch": ep.launch}
+    if getattr(ep, "numerics", "default") != "default":   # the other plant kernel: recorded as env_identity does
+        options["env_config"] = {**options.get("env_config", {}), "numerics": ep.numerics}
     driven = source_digest(tuple(getattr(env.unwrapped, "paths", ())))
     if driven is not None:   # a track file: the content this env read and drove (never the file's later state)
         options["track_sha256"] = driven

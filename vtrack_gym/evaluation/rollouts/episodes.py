@@ -12,7 +12,8 @@ class Episode:
     """One scored episode of a suite: reset with ``seed`` and ``options``, on the env made with ``vehicle`` (a name
     of ``vehicle.list_vehicles()``, a vehicle file path or a ``vehicle.catalog.VehicleFile`` read once; ``None``:
     the default car), in the control mode ``control`` (``envs.control``: ``"steer"``, the default, or a
-    longitudinal mode), its reference leaving a standing start as ``launch`` says (``envs.launch``)."""
+    longitudinal mode), its reference leaving a standing start as ``launch`` says (``envs.launch``), its cars
+    integrated by the plant's ``numerics`` mode (``vehicle.numerics``: ``"default"`` or ``"fast"``)."""
 
     env_id: str
     seed: int
@@ -20,6 +21,7 @@ class Episode:
     vehicle: Any = None
     control: str = "steer"
     launch: str = "step"
+    numerics: str = "default"
 
     @property
     def make_kwargs(self) -> dict[str, Any]:
@@ -30,6 +32,8 @@ class Episode:
             kwargs["control"] = self.control
         if self.launch != "step":
             kwargs["launch"] = self.launch
+        if self.numerics != "default":
+            kwargs["numerics"] = self.numerics
         return kwargs
 
 
@@ -92,6 +96,18 @@ def launch_applies(env_id: str) -> bool:
     except ValueError:
         return False
     return held_from_rest(scenario) is not None
+
+
+def with_numerics(episodes: Sequence[Episode], numerics: str | None) -> list[Episode]:
+    """``episodes`` with their cars integrated by the plant's ``numerics`` mode (``vehicle.numerics``; ``None``:
+    unchanged); ``ValueError`` naming the allowed values for anything else. Their rows record a mode other than
+    ``default`` (``options["env_config"]["numerics"]``, as ``env_identity`` records an env made with it), so the
+    two modes are ranked apart."""
+    if numerics is None:
+        return list(episodes)
+    from vtrack_gym.vehicle.numerics import check_numerics
+
+    return [replace(ep, numerics=check_numerics(numerics)) for ep in episodes]
 
 
 def with_latency(episodes: Sequence[Episode], latency: Any) -> list[Episode]:

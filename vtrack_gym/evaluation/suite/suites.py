@@ -18,6 +18,7 @@ from vtrack_gym.evaluation.rollouts.episodes import (  # noqa: F401  (re-exporte
     with_control,
     with_latency,
     with_launch,
+    with_numerics,
     with_vehicle,
 )
 from vtrack_gym.evaluation.suite.suite_defs.highway import HIGHWAY

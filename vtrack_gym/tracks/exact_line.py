@@ -4,17 +4,16 @@
 which a car's body (``BodyRectangle``) stays inside every lane while any part of it is within the lane's length,
 with a bounded curvature rate. What differs:
 
-- **Unique.** Each round solves a strictly convex quadratic programme: minimise t + t^2 / 2 + (w / 2) mean(y''^2)
-  + (r / 2) |c - c_ref|^2 over the spline coefficients c and the peak-curvature bound t, subject to |kappa| <= t
-  (at the knots and mid-intervals), |dkappa/ds| <= the rate limit and the body constraints. The objective is
-  strictly convex, so the optimum is one point, and it is found by an active-set method (the quadratic programme
-  as a least-distance problem solved by non-negative least squares, Lawson and Hanson, scipy's ``nnls``, over a
-  working set of rows grown until the solution violates none, started from the rows tightest at the last
-  round's solution, ``_least_distance``): the
-  result is the exact solution of the final active set's linear system, so a last-bit change of the inputs moves
-  it by a last-bit amount (no linear programme's choice among equal optima). With w = 0.1 the peak curvature
-  exceeds the least one by at most w t / 2 relative (t ~ 0.03 1/m: 0.15 %), measured against the linear
-  programme of least peak curvature in the tests.
+- **Unique.** Each round solves a strictly convex quadratic programme: minimise t + t^2 / 2 + (w / 2) mean(y''^2) + (r
+  / 2) |c - c_ref|^2 over the spline coefficients c and the peak-curvature bound t, subject to |kappa| <= t (at the
+  knots and mid-intervals), |dkappa/ds| <= the rate limit and the body constraints. The objective is strictly convex,
+  so the optimum is one point, and it is found by an active-set method (the quadratic programme as a least-distance
+  problem solved by non-negative least squares, Lawson and Hanson, scipy's ``nnls``, over a working set of rows grown
+  until the solution violates none, started from the rows tightest at the last round's solution, ``_least_distance``):
+  the result is the exact solution of the final active set's linear system, so a last-bit change of the inputs moves
+  it by a last-bit amount (no linear programme's choice among equal optima). With w = 0.1 the peak curvature exceeds
+  the least one by at most w t / 2 relative (t ~ 0.03 1/m: 0.15 %), measured against the linear programme of least
+  peak curvature in the tests.
 - **Exact body geometry.** The body's four corners and the points of its outline at the cone lines' ends (the
   first and last cone of each line) are held inside the lane, for CG positions every ``CG_STEP_M`` (linearised
   about the previous round, ``SLP_ITERATIONS`` rounds). The planned line is then checked with the exact gate judge
@@ -250,10 +249,10 @@ def _least_distance(g: np.ndarray, h: np.ndarray, near: np.ndarray) -> np.ndarra
 
     Only a few hundred of the thousands of rows are active at the optimum, and the non-negative least squares'
     cost grows with the rows it sees, so it is solved over a working set: the ``WORKING_ROWS`` rows of least
-    slack at ``near``, then repeatedly with the ``WORKING_ADD`` rows the last solution violates most added, until it violates
-    none. The problem
-    is strictly convex, so that solution is the one over all rows (to the solve's last bits, which the
-    coefficient rounding removes); a working set that is infeasible makes the whole problem infeasible."""
+    slack at ``near``, then repeatedly with the ``WORKING_ADD`` rows the last solution violates most added, until
+    it violates none. The problem is strictly convex, so that solution is the one over all rows (to the solve's
+    last bits, which the coefficient rounding removes); a working set that is infeasible makes the whole problem
+    infeasible."""
     work = np.zeros(h.size, dtype=bool)
     work[np.argsort(h - g @ near, kind="stable")[:WORKING_ROWS]] = True
     while True:

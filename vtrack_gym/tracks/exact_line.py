@@ -4,8 +4,8 @@
 which a car's body (``BodyRectangle``) stays inside every lane while any part of it is within the lane's length,
 with a bounded curvature rate. What differs:
 
-- **Unique.** Each round solves a strictly convex quadratic programme: minimise t + t^2 / 2 + (w / 2) mean(y''^2) + (r
-  / 2) |c - c_ref|^2 over the spline coefficients c and the peak-curvature bound t, subject to |kappa| <= t (at the
+- **Unique.** Each round solves a strictly convex quadratic programme: minimise t + t^2 / 2 + (w / 2) mean(y''^2)
+  + (r / 2) |c - c_ref|^2 over the spline coefficients c and the peak-curvature bound t, subject to |kappa| <= t (at the
   knots and mid-intervals), |dkappa/ds| <= the rate limit and the body constraints. The objective is strictly convex,
   so the optimum is one point, and it is found by an active-set method (the quadratic programme as a least-distance
   problem solved by non-negative least squares, Lawson and Hanson, scipy's ``nnls``, over a working set of rows grown

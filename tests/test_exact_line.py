@@ -148,3 +148,21 @@ def test_the_v2_env_judges_its_gates_exactly_as_the_offline_judge() -> None:
     assert live["cones_hit"] == np.count_nonzero(hit) == np.count_nonzero(offline < 0.0) >= 1
     assert live["min_gate_clearance_m"] == pytest.approx(float(least[0]), abs=1e-9)
     assert live["min_gate_clearance_m"] == pytest.approx(float(np.min(offline)), abs=2e-3)
+
+
+def test_the_working_set_solve_is_the_solve_over_all_rows() -> None:
+    """The least-distance problem solved over a growing working set of rows has the optimum of the one over all
+    rows (strictly convex: one optimum), and a working set that is infeasible reports the whole as infeasible."""
+    from vtrack_gym.tracks.exact_line import _least_distance, _nnls_distance
+
+    rng = np.random.default_rng(3)
+    g = rng.normal(size=(4000, 30))
+    g /= np.linalg.norm(g, axis=1)[:, None]
+    h = g @ rng.normal(size=30) + rng.uniform(0.0, 2.0, size=4000)   # feasible; the origin is not
+    full = _nnls_distance(g, h)
+    worked = _least_distance(g, h, np.zeros(30))
+    assert full is not None and worked is not None
+    assert np.max(g @ worked - h) <= 1e-12
+    np.testing.assert_allclose(worked, full, rtol=0.0, atol=1e-10)
+    both = np.vstack((g[:1], -g[:1]))
+    assert _least_distance(both, np.array([-1.0, -1.0]), np.zeros(30)) is None   # g0 x <= -1 and g0 x >= 1

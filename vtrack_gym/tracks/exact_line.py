@@ -40,7 +40,7 @@ import numpy as np
 from vtrack_gym.tracks import table as tb
 from vtrack_gym.tracks.lanes import LaneSection, anchored_gates
 from vtrack_gym.tracks.path import DEFAULT_DS_M, Path
-from vtrack_gym.tracks.planned_line import BodyRectangle, _check_fits, _Lane, _lanes_in_x, _Spline
+from vtrack_gym.tracks.planned_line import BodyRectangle, _check_request, _Lane, _lanes_in_x, _Spline
 
 SLP_ITERATIONS = 6              # linearise-and-solve rounds
 CG_STEP_M = 0.02                # X step of the CG positions at which the body is held in the lanes [m]
@@ -369,17 +369,9 @@ def plan_exact_line(lanes: Sequence[LaneSection], gaps_m: Sequence[float], body:
     """The line of least peak curvature along which ``body`` passes every lane of ``lanes`` at least ``margin_m``
     [m] from every cone line, judged exactly (module docstring); arguments as ``planned_line.plan_line``.
     ValueError when the car is too wide for a lane or no line meets the bounds."""
-    if len(lanes) < 1 or len(gaps_m) != len(lanes) - 1:
-        raise ValueError(f"need >= 1 lane and one gap between consecutive lanes (got {len(lanes)} lanes, "
-                         f"{len(gaps_m)} gaps)")
-    if approach_m < body.length_m or run_out_m < body.length_m:
-        raise ValueError(f"approach_m and run_out_m must be at least the body length {body.length_m} m "
-                         f"(got {approach_m}, {run_out_m})")
-    if max_curvature_rate_per_m2 is not None and not max_curvature_rate_per_m2 > 0.0:
-        raise ValueError(f"max_curvature_rate_per_m2 must be > 0 1/m^2 or None (got {max_curvature_rate_per_m2})")
     if not (math.isfinite(margin_m) and 0.0 <= margin_m <= 0.5):
         raise ValueError(f"margin_m must be in [0, 0.5] m (got {margin_m})")
-    _check_fits(lanes, body, margin_m)
+    _check_request(lanes, gaps_m, body, approach_m, run_out_m, max_curvature_rate_per_m2, margin_m)
     in_x = _lanes_in_x(lanes, gaps_m, approach_m)
     x_end = in_x[-1].x1 + run_out_m
     x_lo, x_hi = max(0.0, in_x[0].x0 - PAD_M), min(x_end, in_x[-1].x1 + PAD_M)

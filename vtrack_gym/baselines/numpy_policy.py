@@ -51,6 +51,10 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+_CLIP = np.clip if not hasattr(np, "_core") else np._core.umath.clip
+"""The clip ufunc ``np.clip`` calls for float arrays with both bounds (the same values, without the wrapper)."""
+_SUM = np.add.reduce
+
 FORMAT = "vtrack_gym.agent"
 FORMAT_VERSION = 1
 ALGOS = ("ppo", "sac", "td3")
@@ -430,7 +434,8 @@ class NumpyPolicy:
         """The observation the network sees (SB3 ``VecNormalize.normalize_obs``)."""
         if not self._norm:
             return obs
-        return np.clip((obs - self.obs_mean) * self._obs_scale, -self.clip_obs, self.clip_obs)
+        x = (obs - self.obs_mean) * self._obs_scale   # the clip ufunc itself: np.clip's result, without its wrapper
+        return _CLIP(x, -self.clip_obs, self.clip_obs, out=x)
 
     def predict(self, observation: Any, state: Any = None, episode_start: Any = None,
                 deterministic: bool = True) -> tuple[np.ndarray, None]:
@@ -448,18 +453,23 @@ class NumpyPolicy:
             obs = obs[:, self._inputs]  # the env's layout has more fields: the agent's, by name
         if obs.ndim != 2 or obs.shape[1] != self.obs_dim:
             raise ValueError(f"observation must have shape ({self.obs_dim},) or (N, {self.obs_dim}) (got {obs.shape})")
-        if not np.isfinite(obs).all():
+        if not math.isfinite(_SUM(obs, axis=None)) and not np.isfinite(obs).all():   # a finite sum: all finite
             raise ValueError("observation contains NaN/inf")
         x = self.normalize(obs)
         last = len(self._weights) - 1
-        for i, (w, b) in enumerate(self._weights):
-            x = x @ w + b
+        for i, (w, b) in enumerate(self._weights):   # in place on the fresh products: the same values, fewer arrays
+            x = x @ w
+            x += b
             if i < last:
-                x = np.maximum(x, 0.0) if self._relu else np.tanh(x)
+                x = np.maximum(x, 0.0, out=x) if self._relu else np.tanh(x, out=x)
         if self._tanh_out:
-            x = self.action_low + 0.5 * (np.tanh(x) + 1.0) * (self.action_high - self.action_low)
+            x = np.tanh(x, out=x)   # low + 0.5 * (tanh(x) + 1) * (high - low), in place, operation by operation
+            x += 1.0
+            x *= 0.5
+            x *= self.action_high - self.action_low
+            x = np.add(self.action_low, x, out=x)
         else:
-            x = np.clip(x, self.action_low, self.action_high)
+            x = _CLIP(x, self.action_low, self.action_high)
         action = x.astype(np.float32)
         return (action[0] if single else action), None
 

@@ -22,6 +22,7 @@ stage parameters, the one-period prediction, the preparation record, the QP data
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 from typing import Any, ClassVar
@@ -168,7 +169,7 @@ class RealTimeEngine:
                                          prep.record[o_ru:o_rd].reshape(n, nv), lo, hi, lb, ub, step,
                                          self.MAX_QP_ITERATIONS)
         qp_s = time.perf_counter() - start
-        if status != QP_SOLVED or not np.all(np.isfinite(step)):
+        if status != QP_SOLVED or not math.isfinite(np.add.reduce(step)) and not np.isfinite(step).all():
             return None, qp_s, iterations
         return self._clip(prep.point[:nv] + step), qp_s, iterations
 

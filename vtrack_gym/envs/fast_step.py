@@ -12,42 +12,31 @@ from __future__ import annotations
 
 from vtrack_gym._jit import kernel, prange
 from vtrack_gym.envs.kernels import (
-    CAR_DEMAND, CAR_PREV_ACTION, CAR_REWARD, CAR_S_PREV, CAR_SCHEDULED, CAR_STEPS, CAR_V_REF, CFG_CONTROL, CFG_DT,
-    CFG_KINKS, CFG_NSUB, CFG_PEDAL_MAX, CFG_REWARD, E_EPHI, E_EV, E_EY, N_RW, N_TERMS, SIG_REWARD, TM_RELEASE_HOLD,
-    TM_RELEASE_S, SimArrays, observe_one, reward_one, termination_one, write_signals,
+    CAR_PREV_ACTION,
+    CAR_REWARD,
+    CAR_SCHEDULED,
+    CAR_STEPS,
+    CAR_V_REF,
+    CFG_CONTROL,
+    CFG_DT,
+    CFG_NSUB,
+    CFG_REWARD,
+    E_EPHI,
+    E_EV,
+    E_EY,
+    N_RW,
+    N_TERMS,
+    SIG_REWARD,
+    SimArrays,
+    is_released,
+    observe_one,
+    reward_one,
+    set_pedals,
+    termination_one,
+    write_signals,
 )
-from vtrack_gym.envs.pdflc_kernel import pdflc_step
 from vtrack_gym.vehicle import layout as L
 from vtrack_gym.vehicle.fast_kernels import BLOCK, advance_block
-
-
-@kernel(refcount=False)
-def _released(i: int, a: SimArrays) -> bool:
-    """Whether car ``i`` has passed its track's release station (the speed loop is off there)."""
-    return a.car[i, CAR_S_PREV] >= a.tmeta[a.veh_track[i], TM_RELEASE_S]
-
-
-@kernel(refcount=False)
-def set_pedals(i: int, a: SimArrays) -> None:
-    """Throttle and brake of car ``i`` for this period: the longitudinal demand, the release rule or the PD-FLC."""
-    cfg, car, inputs = a.cfg, a.car, a.inputs
-    if cfg[CFG_CONTROL] != 0.0:
-        demand = car[i, CAR_DEMAND]
-        if demand >= 0.0:
-            inputs[i, L.U_THROTTLE] = demand
-            inputs[i, L.U_BRAKE] = 0.0
-        else:
-            inputs[i, L.U_THROTTLE] = 0.0
-            inputs[i, L.U_BRAKE] = -demand * cfg[CFG_PEDAL_MAX]
-    elif _released(i, a):
-        if a.tmeta[a.veh_track[i], TM_RELEASE_HOLD] == 0.0:
-            inputs[i, L.U_THROTTLE] = 0.0
-        inputs[i, L.U_BRAKE] = 0.0
-    else:
-        throttle, brake = pdflc_step(a.states[i, L.S_VX], car[i, CAR_V_REF], a.pd_mem[i], a.pd_gains[i],
-                                     a.pd_surface, cfg[CFG_KINKS] != 0.0)
-        inputs[i, L.U_THROTTLE] = throttle
-        inputs[i, L.U_BRAKE] = brake
 
 
 @kernel(refcount=False)
@@ -87,7 +76,7 @@ def step_serial(a: SimArrays) -> None:
     for b in range(-(-n // BLOCK)):
         physics_block(a, b)
     for i in range(n):
-        after_physics(i, a, _released(i, a))
+        after_physics(i, a, is_released(i, a))
 
 
 @kernel(parallel=True, refcount=False)
@@ -99,4 +88,4 @@ def step_parallel(a: SimArrays) -> None:
     for b in prange(-(-n // BLOCK)):
         physics_block(a, b)
     for i in prange(n):
-        after_physics(i, a, _released(i, a))
+        after_physics(i, a, is_released(i, a))

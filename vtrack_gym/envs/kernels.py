@@ -473,15 +473,16 @@ def write_signals(i: int, a: SimArrays) -> None:
 
 
 @kernel(refcount=False)
-def step_car(i: int, a: SimArrays) -> None:
-    """One control period of car ``i``: speed loop, physics, projection, observation, termination, reward."""
-    cfg, car, states, inputs, outputs = a.cfg, a.car, a.states, a.inputs, a.outputs
-    dt = cfg[CFG_DT]
-    n_sub = int(cfg[CFG_NSUB])
-    k = a.veh_track[i]
-    released = car[i, CAR_S_PREV] >= a.tmeta[k, TM_RELEASE_S]   # never on a track whose release station is +inf
-    longitudinal = cfg[CFG_CONTROL] != 0.0
-    if longitudinal:  # the agent's demand through the throttle/brake map (envs.control.pedals); the PD-FLC is off
+def is_released(i: int, a: SimArrays) -> bool:
+    """Whether car ``i`` has passed its track's release station (the speed loop is off there)."""
+    return a.car[i, CAR_S_PREV] >= a.tmeta[a.veh_track[i], TM_RELEASE_S]
+
+
+@kernel(refcount=False)
+def set_pedals(i: int, a: SimArrays) -> None:
+    """Throttle and brake of car ``i`` for this period: the longitudinal demand, the release rule or the PD-FLC."""
+    cfg, car, inputs = a.cfg, a.car, a.inputs
+    if cfg[CFG_CONTROL] != 0.0:
         demand = car[i, CAR_DEMAND]
         if demand >= 0.0:
             inputs[i, L.U_THROTTLE] = demand
@@ -489,15 +490,26 @@ def step_car(i: int, a: SimArrays) -> None:
         else:
             inputs[i, L.U_THROTTLE] = 0.0
             inputs[i, L.U_BRAKE] = -demand * cfg[CFG_PEDAL_MAX]
-    elif released:  # the speed loop is off: coast, or keep the throttle of the last step before the entry gate
-        if a.tmeta[k, TM_RELEASE_HOLD] == 0.0:
+    elif is_released(i, a):
+        if a.tmeta[a.veh_track[i], TM_RELEASE_HOLD] == 0.0:
             inputs[i, L.U_THROTTLE] = 0.0
         inputs[i, L.U_BRAKE] = 0.0
     else:
-        throttle, brake = pdflc_step(states[i, L.S_VX], car[i, CAR_V_REF], a.pd_mem[i], a.pd_gains[i],
+        throttle, brake = pdflc_step(a.states[i, L.S_VX], car[i, CAR_V_REF], a.pd_mem[i], a.pd_gains[i],
                                      a.pd_surface, cfg[CFG_KINKS] != 0.0)
         inputs[i, L.U_THROTTLE] = throttle
         inputs[i, L.U_BRAKE] = brake
+
+
+@kernel(refcount=False)
+def step_car(i: int, a: SimArrays) -> None:
+    """One control period of car ``i``: speed loop, physics, projection, observation, termination, reward."""
+    cfg, car, states, inputs, outputs = a.cfg, a.car, a.states, a.inputs, a.outputs
+    dt = cfg[CFG_DT]
+    n_sub = int(cfg[CFG_NSUB])
+    released = is_released(i, a)   # never on a track whose release station is +inf
+    longitudinal = cfg[CFG_CONTROL] != 0.0
+    set_pedals(i, a)
     if car[i, CAR_SCHEDULED] != 0.0:  # a late command takes over within the period (envs.latency)
         for j in range(n_sub):
             inputs[i, L.U_DELTA] = a.cmds[i, j]

@@ -45,15 +45,8 @@ from typing import Any, ClassVar
 import numpy as np
 
 from vtrack_gym._ranges import documented, validate
+from vtrack_gym.baselines import nmpc_params as shared
 from vtrack_gym.baselines.base import Policy, require_choice
-from vtrack_gym.baselines.nmpc_params import (
-    HorizonFields,
-    IterationFields,
-    LateralWeightFields,
-    MoveWeightFields,
-    PlantModelFields,
-    SpeedFloorFields,
-)
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.vehicle.params import DesignModel
 
@@ -77,8 +70,8 @@ class _SolverFields:
 # the field groups of nmpc_params (shared with the coupled NMPC's config), named last field first
 @documented
 @dataclass(frozen=True)
-class NMPCConfig(PlantModelFields, SpeedFloorFields, _SolverFields, IterationFields, MoveWeightFields,
-                 LateralWeightFields, HorizonFields):
+class NMPCConfig(shared.PlantModelFields, shared.SpeedFloorFields, _SolverFields, shared.IterationFields,
+                 shared.MoveWeightFields, shared.LateralWeightFields, shared.HorizonFields):
     """Nonlinear MPC parameters.
 
     horizon_steps: N stages. stage_time_s: stage length [s] (N x stage length may not exceed the observation's
@@ -105,7 +98,7 @@ NMPC_PRESETS: dict[str, NMPCConfig] = {"default": NMPCConfig(),
 and qpOASES after the state arrives (the default until the compiled one); ``converged``: five such steps."""
 
 
-def check_horizon(config: HorizonFields, layout: ObservationLayout) -> None:
+def check_horizon(config: shared.HorizonFields, layout: ObservationLayout) -> None:
     """``ValueError`` unless the horizon fits in the observation's curvature preview (n_preview x preview_dt_s)."""
     preview_s = layout.n_preview * layout.preview_dt_s
     if config.horizon_s > preview_s + 1e-9:

@@ -29,16 +29,9 @@ from typing import Any, ClassVar
 import numpy as np
 
 from vtrack_gym._ranges import documented, ranged, validate
+from vtrack_gym.baselines import nmpc_params as shared
 from vtrack_gym.baselines.base import Policy, env_contract
 from vtrack_gym.baselines.nmpc import check_horizon
-from vtrack_gym.baselines.nmpc_params import (
-    HorizonFields,
-    IterationFields,
-    LateralWeightFields,
-    MoveWeightFields,
-    PlantModelFields,
-    SpeedFloorFields,
-)
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.vehicle.params import DesignModel
 
@@ -72,9 +65,9 @@ class _ReferenceSpeedFields:
 # the field groups of nmpc_params (shared with the steering NMPC's config) and its own, named last field first
 @documented
 @dataclass(frozen=True)
-class CoupledNMPCConfig(PlantModelFields, _ReferenceSpeedFields, SpeedFloorFields, IterationFields,
-                        _DemandWeightFields, MoveWeightFields, _SpeedWeightFields, LateralWeightFields,
-                        HorizonFields):
+class CoupledNMPCConfig(shared.PlantModelFields, _ReferenceSpeedFields, shared.SpeedFloorFields,
+                        shared.IterationFields, _DemandWeightFields, shared.MoveWeightFields, _SpeedWeightFields,
+                        shared.LateralWeightFields, shared.HorizonFields):
     """Coupled NMPC parameters (the steering NMPC's where the names match).
 
     horizon_steps, stage_time_s, rk4_substeps: N stages of stage_time_s [s], RK4 steps per stage.

@@ -7,9 +7,14 @@ parameters (``file::function[param]``: that case only); ``@pytest.mark.slow`` on
 A grid listed whole can keep a few cases in the fast tier (``KEEP_FAST``, each with why it stands for the rest),
 so that the fast tier still drives the code it tests while the slow tier runs the whole grid.
 ``tests/test_slow_tier.py`` checks that every entry still names a test.
+
+``SB3_LOGDIR`` points stable-baselines3's default logger (a test's ``learn()`` without a logger of its own, a page
+example run) into the session's pytest temporary folder, not a new ``SB3-<date>`` folder in ``$TMPDIR`` per call.
 """
 
 from __future__ import annotations
+
+from collections.abc import Iterator
 
 import pytest
 
@@ -160,3 +165,11 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     for item in items:
         if slow_reason(item.nodeid) is not None:
             item.add_marker(pytest.mark.slow)
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _sb3_default_logs_in_the_session_folder(tmp_path_factory: pytest.TempPathFactory) -> Iterator[None]:
+    """SB3's default logger writes into one folder of the session (see the module docstring)."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("SB3_LOGDIR", str(tmp_path_factory.mktemp("sb3_default_logger")))
+        yield

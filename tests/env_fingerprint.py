@@ -46,6 +46,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from pin_compare import BLOCK_STEPS, pin_mismatches
 
 PIN_FILE = Path(__file__).parent / "data" / "env_fingerprints.json"
 BLOCK_FILE = PIN_FILE.with_suffix(".npz")
@@ -53,15 +54,6 @@ SEQUENCE_SEED = 0
 FOLLOW_SEED = 7
 STEPS = 300
 FOLLOW_STEPS = 3000
-BLOCK_STEPS = 50
-"""Steps summed into one compared value."""
-RTOL = 1e-9
-"""Relative tolerance of float64 signals (and the floor of every signal, relative to its scale)."""
-FLOAT32_RTOL = 2.0 ** -22
-"""Relative tolerance of the float32 observation: two units in the last place (a rounding flip is one)."""
-ATOL = 1e-11
-"""Absolute tolerance per step, in the signal's SI unit: a signal that is zero up to rounding (the curvature
-preview on a straight, ~1e-14 1/m) is compared as zero."""
 EXACT_METRICS = ("cones_hit",)
 """Success-criterion figures that are counts, compared exactly."""
 
@@ -163,53 +155,9 @@ def record(env_id: str, **make_kwargs: Any) -> list[Episode]:
         env.close()
 
 
-def block_mismatches(now: Episode, pinned_sums: np.ndarray) -> list[str]:
-    """The signals of ``now`` whose block sums differ from ``pinned_sums`` beyond the tolerance (empty: a match)."""
-    if pinned_sums.shape != now.sums.shape:
-        return [f"block shape {now.sums.shape} != pinned {pinned_sums.shape}"]
-    scale = now.abs_sums.max(axis=0) / BLOCK_STEPS
-    rtol = np.where(now.float32, FLOAT32_RTOL, RTOL)
-    allowed = rtol * now.abs_sums + BLOCK_STEPS * (RTOL * scale + ATOL)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        excess = np.abs(now.sums - pinned_sums) / allowed
-    # equal sums match (the same infinity included); anything else must be within the tolerance, so a NaN or an
-    # infinity on one side only is a mismatch, never a silent pass
-    same = (now.sums == pinned_sums) | (np.isnan(now.sums) & np.isnan(pinned_sums))
-    bad = np.flatnonzero((~same & ~(excess <= 1.0)).any(axis=0))
-    return [f"{now.signals[j]}: {np.nanmax(np.where(same[:, j], 0.0, excess[:, j])):.3g} x the tolerance"
-            for j in bad]
-
-
-def _pinned_columns(now: Episode, names: list[str]) -> Episode | None:
-    """``now`` restricted to the pinned signals ``names``, in their order (None when one is missing). A signal
-    added to the env later is not part of an old pin."""
-    if not set(names) <= set(now.signals):
-        return None
-    idx = [now.signals.index(name) for name in names]
-    return Episode(now.exact, names, now.float32[idx], now.sums[:, idx], now.abs_sums[:, idx], now.end_metrics)
-
-
-def _episode_mismatches(now: Episode, want: dict[str, Any], pinned_sums: np.ndarray) -> list[str]:
-    """What differs between one recorded episode and its pin."""
-    if now.exact != want["exact"]:
-        return [f"discrete outcome {now.exact} != pinned {want['exact']}"]
-    columns = _pinned_columns(now, want["signals"])
-    if columns is None:
-        return [f"pinned signals missing: {sorted(set(want['signals']) - set(now.signals))}"]
-    found = block_mismatches(columns, pinned_sums)
-    for key, value in want["end_metrics"].items():
-        got = now.end_metrics.get(key, np.nan)
-        if not abs(got - value) <= RTOL * max(abs(value), abs(got)):
-            found.append(f"{key} {got!r} != pinned {value!r}")
-    return found
-
-
 def mismatches(env_id: str, episodes: list[Episode]) -> list[str]:
     """What differs between ``episodes`` and the pin of ``env_id`` (empty: the behaviour is unchanged)."""
-    pin = pinned()[env_id]
-    blocks = np.load(BLOCK_FILE)
-    return [f"episode {n}: {m}" for n, (now, want) in enumerate(zip(episodes, pin["episodes"], strict=True))
-            for m in _episode_mismatches(now, want, blocks[want["blocks"]])]
+    return pin_mismatches(episodes, pinned()[env_id]["episodes"], BLOCK_FILE)
 
 
 def pinned() -> dict[str, dict[str, Any]]:

@@ -25,7 +25,8 @@ from typing import Any
 
 import numpy as np
 import pytest
-from env_fingerprint import RTOL, Episode, _blocks, _signal_row, action_sequence, block_mismatches
+from env_fingerprint import Episode, _blocks, _signal_row, action_sequence
+from pin_compare import RTOL, pin_mismatches
 
 PIN_FILE = Path(__file__).parent / "data" / "control_mode_pins.json"
 BLOCK_FILE = PIN_FILE.with_suffix(".npz")
@@ -86,18 +87,9 @@ def record(case: str) -> list[Episode]:
 
 
 def mismatches(case: str, episodes: list[Episode]) -> list[str]:
-    """What differs between ``episodes`` and the pin of ``case`` (empty: unchanged)."""
-    pins = json.loads(PIN_FILE.read_text())["pins"][case]
-    blocks = np.load(BLOCK_FILE)
-    found = []
-    for n, (now, want) in enumerate(zip(episodes, pins, strict=True)):
-        if now.exact != want["exact"]:
-            found.append(f"episode {n}: discrete outcome {now.exact} != pinned {want['exact']}")
-        elif now.signals != want["signals"]:
-            found.append(f"episode {n}: signals {now.signals} != pinned {want['signals']}")
-        else:
-            found += [f"episode {n}: {m}" for m in block_mismatches(now, blocks[want["blocks"]])]
-    return found
+    """What differs between ``episodes`` and the pin of ``case`` (empty: unchanged); the recorded signals must be
+    the pinned ones."""
+    return pin_mismatches(episodes, json.loads(PIN_FILE.read_text())["pins"][case], BLOCK_FILE, same_signals=True)
 
 
 @pytest.mark.parametrize("case", CASES)

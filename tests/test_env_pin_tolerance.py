@@ -117,7 +117,7 @@ def test_a_non_finite_sum_on_one_side_fails(bad: float) -> None:
     broken = [dataclasses.replace(ep, sums=ep.sums.copy()) for ep in episodes]
     broken[0].sums[0, 0] = bad
     assert any(broken[0].signals[0] in m for m in mismatches("DLC120-v0", broken))
-    from env_fingerprint import block_mismatches
+    from pin_compare import block_mismatches
     both = dataclasses.replace(episodes[0], sums=episodes[0].sums.copy())
     both.sums[0, 0] = np.inf
     assert block_mismatches(both, both.sums.copy()) == []

@@ -20,7 +20,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from env_fingerprint import RTOL, Episode, _episode_mismatches, pin_entries, record
+from env_fingerprint import Episode, pin_entries, record
+from pin_compare import RTOL, pin_mismatches
 
 PIN_FILE = Path(__file__).parent / "data" / "numerics_pins.json"
 BLOCK_FILE = PIN_FILE.with_suffix(".npz")
@@ -35,10 +36,7 @@ def fast_record(env_id: str) -> list[Episode]:
 
 def mismatches(env_id: str, episodes: list[Episode]) -> list[str]:
     """What differs between ``episodes`` and the fast-mode pin of ``env_id`` (empty: unchanged)."""
-    pins = json.loads(PIN_FILE.read_text())["pins"][env_id]
-    blocks = np.load(BLOCK_FILE)
-    return [f"episode {n}: {m}" for n, (now, want) in enumerate(zip(episodes, pins["episodes"], strict=True))
-            for m in _episode_mismatches(now, want, blocks[want["blocks"]])]
+    return pin_mismatches(episodes, json.loads(PIN_FILE.read_text())["pins"][env_id]["episodes"], BLOCK_FILE)
 
 
 @pytest.mark.parametrize("env_id", CASES)
@@ -52,7 +50,6 @@ def test_the_fast_pins_catch_a_change_of_the_tyres() -> None:
     import dataclasses
 
     import gymnasium as gym
-
     from env_fingerprint import FOLLOW_SEED, FOLLOW_STEPS, SEQUENCE_SEED, STEPS, _episode
 
     from vtrack_gym.vehicle.params import VehicleParams

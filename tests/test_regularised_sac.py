@@ -71,7 +71,8 @@ def test_one_update_matches_stock_sac(use_sde: bool):
     coefficient exactly as SB3's SAC does, and (bc_weight = 0) the actor's gradient is SAC's divided by one
     positive number (the batch's mean |Q|); with gSDE too (a new exploration matrix per gradient step)."""
     from stable_baselines3 import SAC
-    from stable_baselines3.common.logger import configure
+
+    from vtrack_gym.agents.sb3_logger import quiet_logger
 
     ours, venv = _model(0.0, use_sde=use_sde)
     stock = SAC("MlpPolicy", ours.get_env(), seed=0, device="cpu", learning_starts=0, buffer_size=5000,
@@ -88,7 +89,7 @@ def test_one_update_matches_stock_sac(use_sde: bool):
             m.replay_buffer.add(obs, nxt, act, rew, done, infos)
         obs = nxt
     for m in (ours, stock):
-        m.set_logger(configure(None, [""]))
+        m.set_logger(quiet_logger())   # SB3's configure(None, ...) would make a folder in $TMPDIR
         np.random.seed(7)  # noqa: NPY002 (SB3's replay buffer samples with the legacy global RNG)
         torch.manual_seed(7)
         m.train(gradient_steps=1, batch_size=64)

@@ -94,6 +94,7 @@ def train_lagrangian_ppo(env_id: str, total_timesteps: int, *, config: Lagrangia
     ``history`` holds each rollout's mean cost and multiplier)."""
     from stable_baselines3 import PPO
 
+    from vtrack_gym.agents.sb3_logger import log_outside_tmp
     from vtrack_gym.agents.sb3_vec_env import TrackingSB3VecEnv
 
     if not isinstance(total_timesteps, int) or total_timesteps < 1:
@@ -101,5 +102,6 @@ def train_lagrangian_ppo(env_id: str, total_timesteps: int, *, config: Lagrangia
     env = CostPenalisedVecEnv(TrackingSB3VecEnv(env_id, num_envs=num_envs, **env_kwargs), config)
     env.seed(seed)
     model = PPO("MlpPolicy", env, seed=seed, verbose=0, **(ppo_kwargs or {}))
+    log_outside_tmp(model)   # no run folder: SB3's default logger would leave an empty folder in $TMPDIR
     model.learn(total_timesteps=total_timesteps, callback=LagrangeUpdate(env))
     return model, env

@@ -408,18 +408,12 @@ def _build_model(setup: _RunSetup, venv: Any, vecnorm: Any, verbose: int) -> Any
 def _open_run_dir(setup: _RunSetup, model: Any, overwrite: bool) -> None:
     """Run-folder phase: remove a previous run (with ``overwrite``), write ``config.json``, point SB3's logger at
     ``logs/`` (TensorBoard if installed, CSV and text)."""
-    from stable_baselines3.common.logger import configure
+    from vtrack_gym.agents.sb3_logger import log_outside_tmp
 
     _clear_previous_run(setup.run_dir, overwrite)
     setup.run_dir.mkdir(parents=True, exist_ok=True)
     write_atomic(setup.run_dir / "config.json", json.dumps(setup.config, indent=2, sort_keys=True) + "\n")
-    try:
-        import tensorboard  # noqa: F401
-
-        formats = ["tensorboard", "csv", "log"]
-    except ImportError:
-        formats = ["csv", "log"]
-    model.set_logger(configure(str(setup.run_dir / "logs"), formats))
+    log_outside_tmp(model, setup.run_dir)
 
 
 def _warm_start_text(setup: _RunSetup) -> str:

@@ -44,7 +44,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from vtrack_gym._ranges import documented, ranged, validate
+from vtrack_gym._ranges import documented, validate
+from vtrack_gym.baselines import nmpc_params as shared
 from vtrack_gym.baselines.base import Policy, require_choice
 from vtrack_gym.envs.observation import OBS, ObservationLayout
 from vtrack_gym.vehicle.params import DesignModel
@@ -57,9 +58,20 @@ METHODS = ("rti", "casadi")
 """``NMPCConfig.method``: the compiled real-time iteration, or CasADi's functions and QP plugin."""
 
 
+@dataclass(frozen=True)
+class _SolverFields:
+    """The steering NMPC's own solver choices (``NMPCConfig``)."""
+
+    method: str = "rti"
+    qp_solver: str = "qpoases"
+    compile_model: bool = True
+
+
+# the field groups of nmpc_params (shared with the coupled NMPC's config), named last field first
 @documented
 @dataclass(frozen=True)
-class NMPCConfig:
+class NMPCConfig(shared.PlantModelFields, shared.SpeedFloorFields, _SolverFields, shared.IterationFields,
+                 shared.MoveWeightFields, shared.LateralWeightFields, shared.HorizonFields):
     """Nonlinear MPC parameters.
 
     horizon_steps: N stages. stage_time_s: stage length [s] (N x stage length may not exceed the observation's
@@ -73,36 +85,10 @@ class NMPCConfig:
     front_shape_c, front_peak_d, rear_shape_c, rear_peak_d: the Pacejka shape (C, D) per axle.
     """
 
-    horizon_steps: int = ranged(40, ge=5, le=100, integer=True)
-    stage_time_s: float = ranged(0.05, ge=0.01, le=0.2, unit="s")
-    rk4_substeps: int = ranged(2, ge=1, le=10, integer=True)
-    weight_e_y: float = ranged(10.0, ge=0.0, le=1e6, unit="1/m^2")
-    weight_e_phi: float = ranged(10.0, ge=0.0, le=1e6, unit="1/rad^2")
-    weight_yaw_rate: float = ranged(0.1, ge=0.0, le=1e6, unit="s^2/rad^2")
-    weight_move: float = ranged(200.0, ge=1e-6, le=1e8, unit="1/rad^2")
-    terminal_scale: float = ranged(3.0, ge=0.0, le=100.0)
-    regularisation: float = ranged(1e-6, ge=0.0, le=1e3)
-    sqp_iterations: int = ranged(1, ge=1, le=20, integer=True)
-    method: str = "rti"
-    qp_solver: str = "qpoases"
-    compile_model: bool = True
-    min_speed_mps: float = ranged(4.0, ge=1.0, le=30.0, unit="m/s")
-    speed_time_constant_s: float = ranged(2.0, gt=0.0, le=100.0, unit="s")
-    actuator_lag_s: float = ranged(0.03, ge=0.005, le=1.0, unit="s")
-    front_shape_c: float = ranged(1.367, ge=1.0, lt=2.0)
-    front_peak_d: float = ranged(0.962, gt=0.0, le=2.0)
-    rear_shape_c: float = ranged(1.365, ge=1.0, lt=2.0)
-    rear_peak_d: float = ranged(0.974, gt=0.0, le=2.0)
-
     def __post_init__(self) -> None:
         validate(self)
         require_choice(self, "qp_solver", QP_SOLVERS)
         require_choice(self, "method", METHODS)
-
-    @property
-    def horizon_s(self) -> float:
-        """N x stage length [s]."""
-        return self.horizon_steps * self.stage_time_s
 
 
 NMPC_PRESETS: dict[str, NMPCConfig] = {"default": NMPCConfig(),
@@ -112,7 +98,7 @@ NMPC_PRESETS: dict[str, NMPCConfig] = {"default": NMPCConfig(),
 and qpOASES after the state arrives (the default until the compiled one); ``converged``: five such steps."""
 
 
-def check_horizon(config: NMPCConfig, layout: ObservationLayout) -> None:
+def check_horizon(config: shared.HorizonFields, layout: ObservationLayout) -> None:
     """``ValueError`` unless the horizon fits in the observation's curvature preview (n_preview x preview_dt_s)."""
     preview_s = layout.n_preview * layout.preview_dt_s
     if config.horizon_s > preview_s + 1e-9:

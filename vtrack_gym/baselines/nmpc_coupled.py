@@ -29,6 +29,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from vtrack_gym._ranges import documented, ranged, validate
+from vtrack_gym.baselines import nmpc_params as shared
 from vtrack_gym.baselines.base import Policy, env_contract
 from vtrack_gym.baselines.nmpc import check_horizon
 from vtrack_gym.envs.observation import OBS, ObservationLayout
@@ -38,9 +39,35 @@ CONTROL_MODES = ("steer_accel",)
 """The control modes the coupled NMPC drives."""
 
 
+@dataclass(frozen=True)
+class _SpeedWeightFields:
+    """Stage costs of the speed error v - v_ref [s^2/m^2] and the time error [1/s^2]."""
+
+    weight_speed: float = ranged(1.0, ge=0.0, le=1e6, unit="s^2/m^2")
+    weight_time: float = ranged(0.1, ge=0.0, le=1e6, unit="1/s^2")
+
+
+@dataclass(frozen=True)
+class _DemandWeightFields:
+    """Costs of the demand's moves and of its size (dimensionless demand)."""
+
+    weight_demand_move: float = ranged(1.0, ge=1e-6, le=1e8)
+    weight_demand: float = ranged(0.0, ge=0.0, le=1e6)
+
+
+@dataclass(frozen=True)
+class _ReferenceSpeedFields:
+    """Floor of the reference speed in the time error's rate [m/s]."""
+
+    min_ref_speed_mps: float = ranged(1.0, ge=0.1, le=30.0, unit="m/s")
+
+
+# the field groups of nmpc_params (shared with the steering NMPC's config) and its own, named last field first
 @documented
 @dataclass(frozen=True)
-class CoupledNMPCConfig:
+class CoupledNMPCConfig(shared.PlantModelFields, _ReferenceSpeedFields, shared.SpeedFloorFields,
+                        shared.IterationFields, _DemandWeightFields, shared.MoveWeightFields, _SpeedWeightFields,
+                        shared.LateralWeightFields, shared.HorizonFields):
     """Coupled NMPC parameters (the steering NMPC's where the names match).
 
     horizon_steps, stage_time_s, rk4_substeps: N stages of stage_time_s [s], RK4 steps per stage.
@@ -54,36 +81,8 @@ class CoupledNMPCConfig:
     front/rear shape and peak: the Pacejka shape (C, D) per axle.
     """
 
-    horizon_steps: int = ranged(40, ge=5, le=100, integer=True)
-    stage_time_s: float = ranged(0.05, ge=0.01, le=0.2, unit="s")
-    rk4_substeps: int = ranged(2, ge=1, le=10, integer=True)
-    weight_e_y: float = ranged(10.0, ge=0.0, le=1e6, unit="1/m^2")
-    weight_e_phi: float = ranged(10.0, ge=0.0, le=1e6, unit="1/rad^2")
-    weight_yaw_rate: float = ranged(0.1, ge=0.0, le=1e6, unit="s^2/rad^2")
-    weight_speed: float = ranged(1.0, ge=0.0, le=1e6, unit="s^2/m^2")
-    weight_time: float = ranged(0.1, ge=0.0, le=1e6, unit="1/s^2")
-    weight_move: float = ranged(200.0, ge=1e-6, le=1e8, unit="1/rad^2")
-    weight_demand_move: float = ranged(1.0, ge=1e-6, le=1e8)
-    weight_demand: float = ranged(0.0, ge=0.0, le=1e6)
-    terminal_scale: float = ranged(3.0, ge=0.0, le=100.0)
-    regularisation: float = ranged(1e-6, ge=0.0, le=1e3)
-    sqp_iterations: int = ranged(1, ge=1, le=20, integer=True)
-    min_speed_mps: float = ranged(4.0, ge=1.0, le=30.0, unit="m/s")
-    min_ref_speed_mps: float = ranged(1.0, ge=0.1, le=30.0, unit="m/s")
-    speed_time_constant_s: float = ranged(2.0, gt=0.0, le=100.0, unit="s")
-    actuator_lag_s: float = ranged(0.03, ge=0.005, le=1.0, unit="s")
-    front_shape_c: float = ranged(1.367, ge=1.0, lt=2.0)
-    front_peak_d: float = ranged(0.962, gt=0.0, le=2.0)
-    rear_shape_c: float = ranged(1.365, ge=1.0, lt=2.0)
-    rear_peak_d: float = ranged(0.974, gt=0.0, le=2.0)
-
     def __post_init__(self) -> None:
         validate(self)
-
-    @property
-    def horizon_s(self) -> float:
-        """N x stage length [s]."""
-        return self.horizon_steps * self.stage_time_s
 
 
 def check_control(control: Any, name: str) -> None:
@@ -111,7 +110,7 @@ class CoupledNMPC(Policy):
         if "time_error" not in layout.names:
             raise ValueError(f"{self.name} reads the observation's speed_error and time_error: the layout needs "
                              "tracking_errors=True (an env made with control='steer_accel')")
-        check_horizon(self.config, layout)   # type: ignore[arg-type]
+        check_horizon(self.config, layout)
         self.vehicle = vehicle if vehicle is not None else paper_vehicle()
         self.defer_preparation = False
         """True: ``predict`` stops after the feedback and ``prepare()`` runs the preparation."""

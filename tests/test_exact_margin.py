@@ -65,6 +65,8 @@ def test_bad_rules_and_requests_are_refused() -> None:
         exact_margin_m("slalom", load_vehicle("hatchback"))
     with pytest.raises(ValueError, match=r"PlannedLine\.peak_ratio applies to planner_version 2"):
         PlannedLine(peak_ratio=1.05)
+    with pytest.raises(ValueError, match="must be a whole number of step_m"):
+        PlannedLine(margin_m=0.0205, planner_version=2, peak_ratio=1.05)
 
 
 def test_every_shipped_car_has_a_shipped_result_and_a_name_is_not_an_input() -> None:

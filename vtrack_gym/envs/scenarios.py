@@ -101,6 +101,14 @@ class PlannedLine(ReferenceLine):
         if self.peak_ratio is not None and self.planner_version != 2:
             raise ValueError(f"PlannedLine.peak_ratio applies to planner_version 2 (got planner_version "
                              f"{self.planner_version})")
+        if self.peak_ratio is not None:
+            self.rule()                       # ValueError for a target that is not a whole number of steps
+
+    def rule(self) -> Any:
+        """The margin rule (``tracks.exact_margin.MarginRule``) of this line: target ``margin_m``, ``peak_ratio``."""
+        from vtrack_gym.tracks.exact_margin import MarginRule
+
+        return MarginRule(target_m=self.margin_m, peak_ratio=self.peak_ratio)
 
     def margin_for(self, source: TrackSource, vehicle: Any) -> float:
         """The margin [m] the line of ``source``'s manoeuvre is planned with for ``vehicle`` (``VehicleParams``):
@@ -108,9 +116,9 @@ class PlannedLine(ReferenceLine):
         shipped for the shipped cars, computed for any other)."""
         if self.peak_ratio is None:
             return self.margin_m
-        from vtrack_gym.tracks.exact_margin import MarginRule, exact_margin_m
+        from vtrack_gym.tracks.exact_margin import exact_margin_m
 
-        return exact_margin_m(source.track, vehicle, MarginRule(target_m=self.margin_m, peak_ratio=self.peak_ratio))
+        return exact_margin_m(source.track, vehicle, self.rule())
 
     def paths(self, source: TrackSource, vehicle: Any) -> tuple:
         """The planned line of the source's manoeuvre for ``vehicle``."""

@@ -7,7 +7,8 @@ arrays (path table, spline coefficients, clearance) of every exact-line make to 
 checks two such files for bit-identity (``np.array_equal``), e.g. one recorded with another checkout first on
 ``PYTHONPATH``.
 
-Run: ``python benchmarks/bench_exact_line.py`` (timings), ``python benchmarks/bench_exact_line.py --record a.npz``,
+Run: ``python benchmarks/bench_exact_line.py`` (timings; ``--vehicle formula_student``: that car's makes),
+``python benchmarks/bench_exact_line.py --record a.npz``,
 ``python benchmarks/bench_exact_line.py --compare a.npz b.npz``.
 """
 
@@ -30,7 +31,7 @@ import json, sys, time
 t0, w0 = time.process_time(), time.perf_counter()
 import gymnasium as gym, vtrack_gym
 t1, w1 = time.process_time(), time.perf_counter()
-gym.make(sys.argv[1])
+gym.make(sys.argv[1], **({"vehicle": sys.argv[2]} if len(sys.argv) > 2 else {}))
 t2, w2 = time.process_time(), time.perf_counter()
 print(json.dumps({"import_cpu": t1 - t0, "make_cpu": t2 - t1, "make_wall": w2 - w1}))
 """
@@ -65,13 +66,15 @@ def _run(code: str, args: list[str], cache_dir: str) -> str:
                           text=True).stdout
 
 
-def time_makes(ids: tuple[str, ...]) -> None:
-    """Print CPU [s] and wall [s] of the first make of each id, cold and warm kernel cache, and the load."""
+def time_makes(ids: tuple[str, ...], vehicle: str | None = None) -> None:
+    """Print CPU [s] and wall [s] of the first make of each id (with ``vehicle=``, a car's name, if given), cold
+    and warm kernel cache, and the load."""
     print(f"load average {os.getloadavg()}")
     for env_id in ids:
         with tempfile.TemporaryDirectory(prefix="bench_exact_line_") as cache:
             for label in ("cold", "warm"):
-                r = json.loads(_run(_TIME_ONE, [env_id], cache).strip().splitlines()[-1])
+                r = json.loads(_run(_TIME_ONE, [env_id, *([vehicle] if vehicle else [])], cache)
+                               .strip().splitlines()[-1])
                 print(f"{env_id:24s} {label}: make CPU {r['make_cpu']:6.2f} s  wall {r['make_wall']:6.2f} s  "
                       f"(import CPU {r['import_cpu']:.2f} s)", flush=True)
     print(f"load average {os.getloadavg()}")
@@ -96,6 +99,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--record", metavar="FILE")
     parser.add_argument("--compare", nargs=2, metavar=("A", "B"))
+    parser.add_argument("--vehicle", help="time the makes with this car (vehicle=; default: the env's own)")
     args = parser.parse_args()
     if args.record:
         cache = os.environ.get("NUMBA_CACHE_DIR", tempfile.gettempdir())
@@ -103,7 +107,7 @@ def main() -> None:
     elif args.compare:
         sys.exit(0 if compare(*args.compare) else 1)
     else:
-        time_makes((*EXACT_IDS, PEER_ID))
+        time_makes((*EXACT_IDS, PEER_ID), args.vehicle)
 
 
 if __name__ == "__main__":

@@ -84,6 +84,9 @@ SLOW: dict[str, str] = {
         "an exact entry-speed bisection per case",
     "test_maneuver_feasibility.py::test_perfect_follower_of_the_planned_line_clears_every_gate":
         "a planned line per manoeuvre and car, 13 s each",
+    "test_exact_margin.py::test_the_shipped_margin_is_the_planners_and_the_largest_within_the_ratio":
+        "the least and the driven exact line planned per case (and the next millimetre's where cut), 6-15 s of CPU",
+    "test_exact_margin.py::test_a_car_not_shipped_is_computed_on_the_machine": "three exact lines planned, 10 s",
     "test_exact_line.py::test_the_line_holds_without_numpys_avx512_code": "a fresh interpreter plans the line, 40 s",
     "test_exact_line.py::test_one_line_for_inputs_a_last_bit_apart": "the exact line planned twice, 35 s",
     "test_determinism.py::test_policy_batch_and_single_paths_agree[mpc-1e-12]": "MPC episodes both ways, 35 s",

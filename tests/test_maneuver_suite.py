@@ -14,6 +14,7 @@ from test_board_validity import ConstantSteering
 import vtrack_gym
 from vtrack_gym.envs.criteria import CircleAtLimit, ConeGates
 from vtrack_gym.envs.scenarios import (
+    EXACT_PEAK_RATIO,
     EXACT_TRACKING_MARGIN_M,
     LEGACY_MANEUVER_IDS,
     MANEUVER_IDS,
@@ -59,7 +60,8 @@ def test_every_maneuver_is_a_registered_scenario_with_its_spec() -> None:
         assert f"vtrack/{MANEUVER_IDS[name]}" in registry and sc.track.track == name
         if name in PLANNED_V1_IDS:   # -v2: the exact line and the exact judge; -v1 kept as it was
             assert MANEUVER_IDS[name].endswith("-v2") and sc.success == ConeGates(exact=True)
-            assert sc.reference == PlannedLine(margin_m=EXACT_TRACKING_MARGIN_M, planner_version=2)
+            assert sc.reference == PlannedLine(margin_m=EXACT_TRACKING_MARGIN_M, planner_version=2,
+                                               peak_ratio=EXACT_PEAK_RATIO)
             v1 = SCENARIOS[PLANNED_V1_IDS[name]]
             assert v1.success == maneuver_criterion(spec) and v1.reference == PlannedLine()
         else:

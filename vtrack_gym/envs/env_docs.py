@@ -68,12 +68,14 @@ DESCRIPTIONS: dict[str, str] = {
                     "entry at 80 km/h, the throttle held from the entry gate on), the car driving the planned line "
                     "of `tracks.exact_line` for its own body: one line for given inputs (rounded to 2^-24 m), the "
                     "body held 2 cm clear of every cone line judged exactly, within 5 % of the least peak "
-                    "curvature; success: every gate passed with the body rectangle inside it, judged exactly "
-                    "between control steps (`tracks.gate_judge`, 1 mm). `reference=\"lane_centres\"` drives the "
-                    "lane-centre line instead.",
+                    "curvature (where 2 cm would ask more, the largest whole millimetre that does not, "
+                    "`tracks.exact_margin`: the Formula Student car's margin is 1.9 cm); success: every gate passed "
+                    "with the body rectangle inside it, judged exactly between control steps (`tracks.gate_judge`, "
+                    "1 mm). `reference=\"lane_centres\"` drives the lane-centre line instead.",
     "ISO3888-2-v2": "ISO 3888-2 obstacle avoidance as `vtrack/ISO3888-2-v1` poses it (entry at 50 km/h, make kwarg "
                     "`entry_speed_kmh=`, then a coast from the entry gate on), the car driving the planned line of "
-                    "`tracks.exact_line` for its own body, 2 cm clear of every cone line judged exactly; success: "
+                    "`tracks.exact_line` for its own body, 2 cm clear of every cone line judged exactly (less "
+                    "where 2 cm would ask more than 1.05 x the least peak curvature, `tracks.exact_margin`); success: "
                     "every gate passed with the body rectangle inside it, judged exactly between control steps "
                     "(`tracks.gate_judge`, 1 mm). `reference=\"lane_centres\"` drives the lane-centre line instead.",
     "ISO4138-Circle-v0": "ISO 4138 steady-state circular driving: a slow speed ramp on a constant-radius circle; "
@@ -125,7 +127,8 @@ _SLALOM = (_V0_PINNED + " The lane-centre line, 0.5 m clear of each cone.",
 _V2 = ("v2: the planned line of `tracks.exact_line`: a strictly convex programme with one optimum (v1's linear "
        "programmes had many, and the line moved by up to 0.11 m with the CPU's code paths), the body's rectangle held "
        "clear of the cone lines exactly (v1 sampled its outline every 0.25 m: its 1 cm lines crossed the cone lines by "
-       "up to 1.2 cm), 2 cm clear instead of 10 cm, within 5 % of the least peak curvature (v1's line: 1.21-1.26 x); "
+       "up to 1.2 cm), 2 cm clear instead of 10 cm, within 5 % of the least peak curvature (v1's line: 1.21-1.26 x; "
+       "a car for which 2 cm asks more gets the largest whole millimetre that does not); "
        "the gates judged exactly between control steps (`ConeGates(exact=True)`, metric `min_gate_clearance_m`); the "
        "physical entry-speed bound from the spline's exact curvature. v1 stays registered unchanged.")
 _ISO1 = (*_ISO1, _V2)

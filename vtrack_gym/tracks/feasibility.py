@@ -73,6 +73,14 @@ EXACT_GATED_MANEUVERS: tuple[str, ...] = ("iso3888_1", "iso3888_2")
 """The manoeuvres whose planned line has a second version (``tracks.exact_line``, ``planner_version=2``)."""
 
 
+def curvature_rate_for(name: str, vehicle: VehicleParams) -> float:
+    """The bound [1/m^2] on |dkappa/ds| of ``vehicle``'s planned line on manoeuvre ``name``: what its steering
+    actuator follows at the manoeuvre's nominal speed (``planned_line.curvature_rate_limit_per_m2``)."""
+    nominal = build_maneuver(name, vehicle_width_m=vehicle.chassis.body_width_m).spec.nominal_speed_mps
+    return curvature_rate_limit_per_m2(vehicle.steering.max_road_wheel_rate_radps, vehicle.chassis.wheelbase_m,
+                                       nominal)
+
+
 @lru_cache(maxsize=64)
 def planned_maneuver(name: str, vehicle: VehicleParams, margin_m: float = PLANNED_MARGIN_M,
                      planner_version: int = 1) -> Maneuver:
@@ -87,9 +95,7 @@ def planned_maneuver(name: str, vehicle: VehicleParams, margin_m: float = PLANNE
     if name not in GATED_MANEUVERS:
         raise ValueError(f"no planned line for {name!r}: it has no cone gates (gated: {', '.join(GATED_MANEUVERS)})")
     check_width_for(name, vehicle)
-    nominal = build_maneuver(name, vehicle_width_m=vehicle.chassis.body_width_m).spec.nominal_speed_mps
-    rate = curvature_rate_limit_per_m2(vehicle.steering.max_road_wheel_rate_radps, vehicle.chassis.wheelbase_m,
-                                       nominal)
+    rate = curvature_rate_for(name, vehicle)
     version = {} if planner_version == 1 else {"planner_version": planner_version}
     maneuver = build_maneuver(name, vehicle_width_m=vehicle.chassis.body_width_m, reference="planned",
                               body=body_of(vehicle), max_curvature_rate_per_m2=rate, planned_margin_m=margin_m,
@@ -220,4 +226,5 @@ def entry_speed_bound_kmh(vehicle: VehicleParams, maneuver: str = "iso3888_2", a
 
 __all__ = ["AFTER_ENTRY_PROTOCOLS", "EXACT_GATED_MANEUVERS", "GATED_MANEUVERS", "CoastCheck", "body_of",
            "check_body_fits", "check_entry_speed", "check_width_for", "coast_check", "coast_speed_mps",
-           "entry_speed_bound_kmh", "envelope_profile", "planned_maneuver", "released_speed_mps"]
+           "curvature_rate_for", "entry_speed_bound_kmh", "envelope_profile", "planned_maneuver",
+           "released_speed_mps"]

@@ -1,7 +1,8 @@
-"""Why the decoupled smc spins out of DLC120-v0 in ``steer_accel``: the speed it is driven at, not the pedals.
+"""Why the steer mode's smc spins out of DLC120-v0 in ``steer_accel``, and the ``accel`` preset that does not.
 
-Four measurements, seed 0, each one episode of ``DLC120-v0`` (120 km/h double lane change) with the SMC's default
-preset (``make_policy("smc", env)``):
+Five measurements, seed 0, each one episode of ``DLC120-v0`` (120 km/h double lane change); 1-4 with the steer
+mode's default preset (the packaged GA result, ``make_policy("smc", env, preset="tuned")``, which a ``steer`` env's
+``make_policy("smc", env)`` builds):
 
 1. the held set speed (reset option ``target_speed_mps``) swept across the speeds the PD-FLC (``steer``) and the
    default speed law (``steer_accel``) drive at: success, max |e_y| [m], mean speed [m/s];
@@ -10,7 +11,10 @@ preset (``make_policy("smc", env)``):
 3. the steering actuator: the share of the lane change's steps at the road-wheel rate limit
    (``SteeringParams.max_road_wheel_rate_radps``) and the largest gap between command and road-wheel angle [rad];
 4. the SMC's gains: a smaller reaching gain eta or a wider boundary layer Delta on both paper scenarios, against
-   the 25 % margin on the steer mode's max |e_y|.
+   the 25 % margin on the steer mode's max |e_y|;
+5. the held set speed swept from 31 to 35 m/s in every control mode for the steer mode's preset and the ``accel``
+   preset (the high-speed gains ``make_policy("smc", env)`` builds in the longitudinal modes): completed episodes
+   and the largest max |e_y| [m] among them.
 
 CPU (process) and wall seconds of the whole run and the load average are printed.
 Run: ``python benchmarks/smc_held_speed.py``.
@@ -29,16 +33,18 @@ import numpy as np
 from vtrack_gym.baselines.registry import make_policy
 
 SWEEP_MPS = (32.0, 32.5, 32.7, 32.9, 33.1, 120.0 / 3.6, 33.5, 34.0)
+BAND_MPS = tuple(31.0 + 0.25 * i for i in range(17))
+"""The speed band of measurement 5: 31 to 35 m/s [m/s] in 0.25 m/s steps."""
 CONSTANT_DEMANDS = (0.20, 0.25, 0.30)
 GAINS = ({}, {"reaching_gain": 3.0}, {"reaching_gain": 5.0}, {"boundary_layer": 0.6}, {"boundary_layer": 0.8})
 
 
 def run(env_id: str, control: str, speed: float | None = None, demand: float | None = None,
-        **overrides: Any) -> dict[str, Any]:
+        preset: str = "tuned", **overrides: Any) -> dict[str, Any]:
     """One episode's verdict, max |e_y| [m], mean speed [m/s], share of steps at the steering rate limit and the
     largest command - road-wheel gap [rad]."""
     env = gym.make(env_id, control=control)
-    policy = make_policy("smc", env, **overrides)
+    policy = make_policy("smc", env, preset=preset, **overrides)
     obs, info = env.reset(seed=0, options=None if speed is None else {"target_speed_mps": speed})
     car = env.unwrapped.config.vehicle.steering
     limit = car.max_road_wheel_rate_radps * env.unwrapped.control_period_s
@@ -64,6 +70,15 @@ def _line(label: str, r: dict[str, Any]) -> str:
             f"{r['gap']:.3f} |")
 
 
+def band(preset: str, control: str) -> str:
+    """Measurement 5's row: completed episodes of the band and the largest max |e_y| [m] among them."""
+    runs = [run("DLC120-v0", control, speed, preset=preset) for speed in BAND_MPS]
+    done = [r["max_ey"] for r in runs if r["ok"]]
+    marks = "".join("Y" if r["ok"] else "." for r in runs)
+    worst = f"{max(done):.4f}" if done else "-"
+    return f"| {preset} | {control} | {len(done)} / {len(runs)} | {worst} | `{marks}` |"
+
+
 def main() -> None:
     logging.disable(logging.WARNING)     # the SMC's boundary-layer notice, once per policy built
     c0, w0 = time.process_time(), time.perf_counter()
@@ -81,8 +96,13 @@ def main() -> None:
         for env_id in ("DLC120-v0", "LateralTracking-v0"):
             r = run(env_id, "steer_accel", **overrides)
             cells.append(f"{r['max_ey']:.4f} / {'yes' if r['ok'] else 'no (' + r['why'] + ')'}")
-        label = ", ".join(f"{k} {v}" for k, v in overrides.items()) or "default preset"
+        label = ", ".join(f"{k} {v}" for k, v in overrides.items()) or "steer mode's preset"
         print(f"| {label} | {cells[0]} | {cells[1]} |", flush=True)
+    print("\n| DLC120-v0, set speed 31 to 35 m/s | mode | completed | largest max abs e_y [m] | per speed |\n"
+          "|---|---|---|---|---|")
+    for preset in ("tuned", "accel"):
+        for control in ("steer", "steer_accel", "steer_rate_accel"):
+            print(band(preset, control), flush=True)
     print(f"\ntotal: cpu {time.process_time() - c0:.1f} s, wall {time.perf_counter() - w0:.1f} s, "
           f"load average at end: {os.getloadavg()}")
 

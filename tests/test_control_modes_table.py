@@ -42,3 +42,10 @@ def test_the_smc_diagnosis_counts_the_steps_at_the_rate_limit() -> None:
     assert 0.1 < spun["at_limit"] < 1.0 and spun["gap"] > 0.3
     passed = smc_held_speed.run("DLC120-v0", "steer", 120.0 / 3.6)
     assert passed["ok"] and passed["max_ey"] == pytest.approx(0.2455, abs=5e-4)
+
+
+def test_the_speed_band_row_counts_the_completed_lane_changes() -> None:
+    """Measurement 5: the accel preset's row over 31 to 35 m/s in steer_accel counts every episode completed."""
+    cells = [c.strip() for c in smc_held_speed.band("accel", "steer_accel").strip("|").split("|")]
+    assert cells[:3] == ["accel", "steer_accel", f"{len(smc_held_speed.BAND_MPS)} / {len(smc_held_speed.BAND_MPS)}"]
+    assert cells[4] == "`" + "Y" * len(smc_held_speed.BAND_MPS) + "`" and 0.0 < float(cells[3]) < 1.0

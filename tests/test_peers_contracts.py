@@ -57,7 +57,7 @@ def test_registry_names_and_errors() -> None:
     assert available_policies() == NAMES
     with pytest.raises(ValueError, match="valid: smc, mpc, lqr, stanley, pure_pursuit, mpc_osqp"):
         make_policy("pid", FAKE_ENV)
-    with pytest.raises(ValueError, match="valid: default, tuned, observer, paper, hand"):
+    with pytest.raises(ValueError, match="valid: default, tuned, observer, accel, paper, hand"):
         make_policy("smc", FAKE_ENV, preset="fast")
     with pytest.raises(ValueError, match="unknown SMCConfig field"):
         make_policy("smc", FAKE_ENV, pole=3.0)

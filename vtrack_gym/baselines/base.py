@@ -201,6 +201,12 @@ class Policy(abc.ABC):
         return dataclasses.replace(config, **overrides)
 
     @classmethod
+    def preset_for_control(cls, preset: str, control: str | None) -> str:
+        """The preset ``make_policy`` builds when asked for ``preset`` on an env in control mode ``control`` (None:
+        an env without control modes): ``preset`` itself unless a policy has its own for the longitudinal modes."""
+        return preset
+
+    @classmethod
     def from_env(cls, env: Any, preset: str = "default", **overrides: Any) -> Policy:
         """Build the controller for ``env`` (reads ``env.unwrapped.design_model``, ``observation_layout`` and
         ``control_period_s``) from a preset plus config-field ``overrides``."""

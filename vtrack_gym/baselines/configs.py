@@ -37,6 +37,9 @@ class SMCConfig:
     actuator_lag_s: the steering actuator's lag [s] (anticipation and low-speed floor).
     low_speed_floor: evaluate the yaw dynamics no slower than ``smc_dynamics_floor`` (steady state kept).
     observer: run the law on a Kalman filter's state estimates (``vtrack_gym.baselines.observer``).
+    high_speed_mps: v_s [m/s]; above it the reaching gain falls as 1/v, eta v_s / v, and the pole as
+    p (v_s / v)^pole_speed_exponent (0: constant gains; the ``accel`` preset's 13 m/s).
+    pole_speed_exponent: the exponent of the pole's high-speed scaling (the ``accel`` preset's 0.375).
     """
 
     pole_radps: float = ranged(8.0, gt=0.0, le=100.0, unit="rad/s")
@@ -50,9 +53,19 @@ class SMCConfig:
     actuator_lag_s: float = ranged(0.03, ge=0.0, le=1.0, unit="s")
     low_speed_floor: bool = True
     observer: bool = False
+    high_speed_mps: float = ranged(0.0, ge=0.0, le=100.0, unit="m/s")
+    pole_speed_exponent: float = ranged(0.0, ge=0.0, le=2.0)
 
     def __post_init__(self) -> None:
         validate(self)
+
+
+ACCEL_PRESET = "accel"
+"""The SMC preset ``make_policy("smc", env)`` builds for an env in a longitudinal control mode."""
+ACCEL_HIGH_SPEED_MPS = 13.0
+"""The ``accel`` preset's ``high_speed_mps`` [m/s] (chosen from a DLC120-v0 held-speed sweep, see smc.py)."""
+ACCEL_POLE_SPEED_EXPONENT = 0.375
+"""The ``accel`` preset's ``pole_speed_exponent`` (chosen from the same sweep)."""
 
 
 SMC_PRESETS: dict[str, SMCConfig] = {

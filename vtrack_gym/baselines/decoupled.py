@@ -50,11 +50,16 @@ def _env_value(env: Any, name: str) -> Any:
     return None
 
 
+def control_of(env: Any) -> str | None:
+    """``env``'s control mode (``envs.control``); None for no env or an env without control modes."""
+    return _env_value(env, "control") if env is not None else None
+
+
 def for_control(policy: Any, env: Any, speed_law: str = "pdflc_ff") -> Any:
     """``policy`` for ``env``: itself in the ``steer`` mode (or an env without control modes, or an agent whose
     action already has the demand), else the steering policy paired with the speed law ``speed_law``
     (``Decoupled``)."""
-    control = _env_value(env, "control") if env is not None else None
+    control = control_of(env)
     if control in (None, "steer") or isinstance(policy, Decoupled) or getattr(policy, "action_dim", 1) != 1:
         return policy   # a steer env, or an agent trained with the longitudinal action already
     return Decoupled(policy, env, speed_law)

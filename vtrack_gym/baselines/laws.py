@@ -141,6 +141,8 @@ class SMCLaw(NamedTuple):
     wheelbase_m: float
     kus: float             # understeer gradient K_us [rad s^2/m]
     dyn_floor: float       # low-speed floor of the yaw-dynamics model speed [m/s] (0: none)
+    high_speed: float = 0.0   # above it eta falls as v_s/v and p as (v_s/v)^pole_exp [m/s] (0: constant gains)
+    pole_exp: float = 0.0     # exponent of the pole's high-speed scaling
 
 
 def smc_layer(eta: np.ndarray, delta: np.ndarray, control_period_s: float, limit_layer_rate: bool) -> np.ndarray:
@@ -150,9 +152,10 @@ def smc_layer(eta: np.ndarray, delta: np.ndarray, control_period_s: float, limit
 
 def smc_law(design: DesignModel, layout: ObservationLayout, pole: Any, eta: Any, layer: Any, min_speed_mps: float,
             guard_band_mps: float, sideslip_shift: bool, anticipation_lag_s: float | None = None,
-            dynamics_floor_mps: float = 0.0) -> SMCLaw:
+            dynamics_floor_mps: float = 0.0, high_speed_mps: float = 0.0, pole_speed_exponent: float = 0.0) -> SMCLaw:
     """``SMCLaw`` for poles p [rad/s], gains eta [rad/s^2] and effective layers [rad/s] (scalars or (R,) arrays,
-    positive, checked by the caller); ``anticipation_lag_s`` [s] turns the rate-limit anticipation on (None: off)."""
+    positive, checked by the caller); ``anticipation_lag_s`` [s] turns the rate-limit anticipation on (None: off);
+    above ``high_speed_mps`` = v_s [m/s] (> 0) eta is scaled by v_s / v and p by (v_s / v)^``pole_speed_exponent``."""
     from vtrack_gym.vehicle.linear import understeer_gradient
 
     pole, eta, layer = (np.ascontiguousarray(np.asarray(a, dtype=np.float64).reshape(-1)) for a in (pole, eta, layer))
@@ -163,7 +166,8 @@ def smc_law(design: DesignModel, layout: ObservationLayout, pole: Any, eta: Any,
                   float(layout.preview_min_speed_mps), float(layout.preview_dt_s),
                   0.0 if anticipation_lag_s is None else ANTICIPATION_RATE_FACTOR * design.max_road_wheel_rate_radps,
                   0.0 if anticipation_lag_s is None else float(anticipation_lag_s), float(design.wheelbase_m),
-                  float(understeer_gradient(design)), float(dynamics_floor_mps))
+                  float(understeer_gradient(design)), float(dynamics_floor_mps), float(high_speed_mps),
+                  float(pole_speed_exponent))
 
 
 def smc_surface_and_law(k: Any, cf: Any, v: float, p_shift: bool, e_y: float, e_phi: float, e_y_dot: float,
@@ -198,7 +202,12 @@ def smc_row(law: SMCLaw, obs: np.ndarray, i: int) -> tuple[float, float, bool]:
     idx = law.idx
     v_clamped = max(float(obs[i, idx[0]]), law.min_speed)
     v = _guarded_speed(v_clamped, law.v_star, law.guard)
-    cf = _smc_coefficients(law.k, v, law.pole[r])
+    pole, eta_k = law.pole[r], law.eta_k[r]
+    if law.high_speed > 0.0 and v_clamped > law.high_speed:   # high-speed gains: eta v_s / v, p (v_s / v)^exp
+        ratio = law.high_speed / v_clamped
+        eta_k *= ratio
+        pole *= ratio ** law.pole_exp
+    cf = _smc_coefficients(law.k, v, pole)
     e_phi_dot, rate_ref = float(obs[i, idx[4]]), float(obs[i, idx[7]])
     if law.ant_rate > 0.0:  # track the anticipated yaw rate v kappa_a (kappa_a: the anticipated steer's curvature)
         vx = max(float(obs[i, idx[0]]), 0.0)
@@ -211,7 +220,7 @@ def smc_row(law: SMCLaw, obs: np.ndarray, i: int) -> tuple[float, float, bool]:
     ff = 0.0
     if law.dyn_floor > v:  # the yaw dynamics at the floor speed; steady state and sideslip shift at v
         vd = _guarded_speed(law.dyn_floor, law.v_star, law.guard)
-        cfd = _smc_coefficients(law.k, vd, law.pole[r])
+        cfd = _smc_coefficients(law.k, vd, pole)
         vy_ss = rate_ref * (law.k[1] - law.k[0] * v * v) / law.k[2]
         ff = law.k[7] * ((cfd[7] - cf[7]) * rate_ref + (cfd[8] - cf[8]) * vy_ss)
         cf, v = cfd, vd
@@ -221,7 +230,7 @@ def smc_row(law: SMCLaw, obs: np.ndarray, i: int) -> tuple[float, float, bool]:
     delta_eq += ff
     z = sigma * law.inv_layer[r]
     sat = 1.0 if z > 1.0 else (-1.0 if z < -1.0 else z)
-    return delta_eq - law.eta_k[r] * sat, sigma, vs != v_clamped
+    return delta_eq - eta_k * sat, sigma, vs != v_clamped
 
 
 @kernel

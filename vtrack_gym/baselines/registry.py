@@ -150,8 +150,12 @@ def make_policy(name: str, env: Any, preset: str = "default", **overrides: Any) 
     ``hand`` the hand-tuned config and ``paper`` the paper's Table 3.
 
     For an env in a longitudinal control mode (``steer_accel``, ``steer_rate_accel``) the steering law is paired
-    with a speed law built on the paper's PD-FLC (``baselines.decoupled.Decoupled``, ``baselines.speed_law``).
+    with a speed law built on the paper's PD-FLC (``baselines.decoupled.Decoupled``, ``baselines.speed_law``), and
+    a policy may build its own preset for those modes instead of ``default`` (``Policy.preset_for_control``: smc's
+    ``accel``, high-speed gains; ``preset="tuned"`` is the steer mode's default in any mode).
     """
-    from vtrack_gym.baselines.decoupled import for_control
+    from vtrack_gym.baselines.decoupled import control_of, for_control
 
-    return for_control(policy_class(name).from_env(env, preset=preset, **overrides), env)
+    cls = policy_class(name)
+    chosen = cls.preset_for_control(preset, control_of(env)) if hasattr(cls, "preset_for_control") else preset
+    return for_control(cls.from_env(env, preset=chosen, **overrides), env)

@@ -63,6 +63,17 @@ Presets:
   e_y on R = 100 m reaches metres within seconds (see tests/test_smc.py). Kept for faithfulness only.
 * ``default`` / ``tuned``: the packaged GA result ``vtrack_gym/baselines/presets/smc_tuned.json`` (the ``hand``
   fields with p, eta, Delta tuned on Case 1 by ``vtrack tune``; its provenance records the command).
+* ``accel``: the ``default`` config with high-speed gains, ``high_speed_mps`` v_s = 13 m/s and
+  ``pole_speed_exponent`` a = 0.375 (``configs.ACCEL_HIGH_SPEED_MPS``, ``ACCEL_POLE_SPEED_EXPONENT``): above v_s the
+  law uses eta v_s / v and p (v_s / v)^a (at 120 km/h eta 2.65 instead of 6.79 rad/s^2, p 7.92 instead of 11.28
+  rad/s), below it the ``default`` law to the last bit. ``make_policy("smc", env)`` builds it for an env in a
+  longitudinal control mode (``preset_for_control``). The ``default`` preset completes DLC120-v0 only in a narrow
+  window of speeds (2 of 17 held set speeds from 31 to 35 m/s in steer and in steer_accel, spinning out at 120 km/h
+  in steer_accel) in a limit cycle the steering rate limit feeds; ``accel`` completes every one in steer,
+  steer_accel and steer_rate_accel (benchmarks/smc_held_speed.py), LateralTracking-v0 (40 km/h) unchanged. From
+  the same sweep (18 speeds per mode, the id's own included): eta scaled alone (a = 0) fails 10 of 18 in
+  steer_rate_accel; a = 0.25 and 0.375 with v_s 11.5, 13, 15 or 17 m/s and a = 0.5 with 13 m/s complete all 54;
+  a = 0.75 or 1 fail some; v_s = 9 m/s reaches LateralTracking-v0's speed (max|e_y| 0.0145 m against 0.0100).
 * ``observer``: the ``default`` config with ``observer=True``: the law runs on a Kalman filter's estimates of
   e_y, e_phi, v_y, r and the road-wheel angle (``vtrack_gym.baselines.observer``; R from the env's declared
   sensor noise). Any preset takes ``observer=True`` as an override.
@@ -77,6 +88,7 @@ Presets:
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from dataclasses import dataclass
@@ -86,6 +98,9 @@ import numpy as np
 
 from vtrack_gym.baselines.base import Policy
 from vtrack_gym.baselines.configs import (  # noqa: F401  (re-exported: the SMC's config and presets)
+    ACCEL_HIGH_SPEED_MPS,
+    ACCEL_POLE_SPEED_EXPONENT,
+    ACCEL_PRESET,
     PAPER_BOUNDARY_LAYER,
     PAPER_POLE_RADPS,
     PAPER_REACHING_GAIN,
@@ -142,7 +157,7 @@ class SMC(ObserverOption, TunedPresets, Policy):
     PRESETS: ClassVar[dict[str, SMCConfig]] = SMC_PRESETS
     config_type: ClassVar[type] = SMCConfig
     state_size = 0
-    FILE_PRESETS: ClassVar[tuple[str, ...]] = ("default", "tuned", "observer")
+    FILE_PRESETS: ClassVar[tuple[str, ...]] = ("default", "tuned", "observer", ACCEL_PRESET)
 
     def __init__(self, design: DesignModel, config: SMCConfig | None = None, layout: ObservationLayout = OBS,
                  control_period_s: float = 0.01, rows: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
@@ -163,7 +178,7 @@ class SMC(ObserverOption, TunedPresets, Policy):
                            cfg.sideslip_shift, cfg.actuator_lag_s if cfg.rate_anticipation else None,
                            smc_dynamics_floor(design, self.control_period_s, cfg.actuator_lag_s,
                                               cfg.guard_band_mps)
-                           if cfg.low_speed_floor else 0.0)
+                           if cfg.low_speed_floor else 0.0, cfg.high_speed_mps, cfg.pole_speed_exponent)
         self.boundary_layer: float | np.ndarray = layer
         self._attach_observer(noise_std)
         if rows is None:
@@ -201,8 +216,18 @@ class SMC(ObserverOption, TunedPresets, Policy):
 
     @classmethod
     def _file_preset(cls, preset: str) -> SMCConfig:
-        """``default``/``tuned``: the packaged GA result; ``observer``: the same with the Kalman filter."""
+        """``default``/``tuned``: the packaged GA result; ``observer``: the same with the Kalman filter; ``accel``:
+        the same with high-speed gains (``ACCEL_HIGH_SPEED_MPS``, ``ACCEL_POLE_SPEED_EXPONENT``)."""
+        if preset == ACCEL_PRESET:
+            return dataclasses.replace(observer_preset(cls.name, "tuned"), high_speed_mps=ACCEL_HIGH_SPEED_MPS,
+                                       pole_speed_exponent=ACCEL_POLE_SPEED_EXPONENT)
         return observer_preset(cls.name, preset)
+
+    @classmethod
+    def preset_for_control(cls, preset: str, control: str | None) -> str:
+        """``accel`` for the ``default`` preset in a longitudinal control mode (``steer_accel``,
+        ``steer_rate_accel``), else ``preset`` (the ``steer`` mode's default is the packaged GA result)."""
+        return ACCEL_PRESET if preset == "default" and control not in (None, "steer") else preset
 
     def _law_batch(self, obs: np.ndarray, state: np.ndarray | None) -> tuple[np.ndarray, None]:
         return self._evaluate(obs)[0], None

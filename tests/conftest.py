@@ -36,6 +36,7 @@ SLOW: dict[str, str] = {
     "test_cli_quiet.py::test_sigint_during_a_forked_run_drops_the_queued_episodes": "forked benchmark processes",
     "test_dagger_agents.py::test_cli_dagger_race_runs_on_training_circuits": "two racing lines solved, 30 s",
     "test_dagger_agents.py::test_dagger_accel_laps_the_handling_course": "two laps",
+    "test_race_agent.py::test_dagger_race_v2_laps_the_handling_course_within_track_limits": "a lap, 2328 m",
     "test_dataset.py::test_dataset_round_trip": "Minari dataset of whole episodes, 16 s",
     "test_docs.py::test_page_examples_run[maneuvers.md]": "drives every manoeuvre",
     "test_docs.py::test_page_examples_run[tutorials/evaluate-your-agent.md]": "scores policies, 10 s",

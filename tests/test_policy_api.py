@@ -70,7 +70,7 @@ def test_make_policy_resolves_every_kind_of_spec(tmp_path, monkeypatch):
     obs, _ = env.reset(seed=0)
     np.testing.assert_array_equal(by_file.predict(obs)[0], vtrack_gym.make_policy("ppo", env).predict(obs)[0])
     listed = (r"pure_pursuit, mpc_osqp, nmpc, raceline, centreline, raceline_coupled, nmpc_coupled, bc_accel, "
-              r"dagger_accel, dagger_race, ppo")
+              r"dagger_accel, dagger_race, dagger_race_v2, ppo")
     with pytest.raises(ValueError, match=r"unknown policy 'nope'.*" + listed):
         vtrack_gym.make_policy("nope", env)
     with pytest.raises(ValueError, match="unknown preset 'x'"):
@@ -220,7 +220,7 @@ def test_cli_checks_names_and_extras_before_any_work(tmp_path, capsys, monkeypat
     assert main(["benchmark", "--policies", "smc,nope", "--no-figures", "--store", str(store)]) == 2
     err = capsys.readouterr().err
     names = ("mpc_osqp, nmpc, raceline, centreline, raceline_coupled, nmpc_coupled, bc_accel, dagger_accel, "
-             "dagger_race, ppo, ppo_bc, sac, sac_bc")
+             "dagger_race, dagger_race_v2, ppo, ppo_bc, sac, sac_bc")
     assert "unknown policy 'nope'" in err and names in err and not store.exists()
     assert main(["plot", "--policies", "smc,nope", "--env", "DLC120-v0", "--out", str(tmp_path / "f")]) == 2
     assert "unknown policy 'nope'" in capsys.readouterr().err and not (tmp_path / "f").exists()

@@ -1,5 +1,6 @@
-"""The shipped race agent ``dagger_race`` through the public entry points: loaded by name, bound to a race env by
-its observation names, and driving a held-out circuit of the race split (never trained on) within track limits."""
+"""The shipped race agents ``dagger_race`` and ``dagger_race_v2`` through the public entry points: loaded by name,
+bound to a race env by their observation names, and driving a held-out circuit of the race split (never trained
+on) within track limits; ``dagger_race_v2`` also the handling course, where ``dagger_race`` spins out."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ import json
 
 import gymnasium as gym
 import numpy as np
+import pytest
 
 import vtrack_gym
 from vtrack_gym.baselines.resolve import race_agent_names
@@ -26,18 +28,46 @@ def test_dagger_race_is_shipped_as_a_race_agent_with_its_recipe() -> None:
     assert env.action_space.contains(np.asarray(action, dtype=np.float32))
 
 
-def test_dagger_race_laps_a_held_out_circuit_within_track_limits() -> None:
-    """One lap of the first held-out circuit of the race split from a standing start, seed 0: completed, no step
-    beyond the wheels rule (a circuit no training race and no recipe choice drove)."""
-    circuit = RACE_SPLIT["held_out"][0]
-    env = gym.make("vtrack/Race-v0", track=race_circuit(circuit), laps=1)
-    policy = vtrack_gym.make_policy("dagger_race", env)
+def test_dagger_race_v2_is_shipped_apart_with_its_recipe_on_the_corner_circuits() -> None:
+    """A second file, so its rows never merge with ``dagger_race``'s; trained on the training group with the
+    corner circuits (36 circuits)."""
+    env = gym.make("vtrack/RaceRing-v0")
+    policy = vtrack_gym.make_policy("dagger_race_v2", env)
+    assert {"dagger_race", "dagger_race_v2"} <= set(race_agent_names())
+    assert policy.weights_hash != vtrack_gym.make_policy("dagger_race", env).weights_hash
+    assert policy.spec["env"]["observation_names"] == vtrack_gym.make_policy("dagger_race", env).spec["env"][
+        "observation_names"]
+    prov = policy.provenance
+    assert "train --algo dagger --env vtrack/Race-v0 --seed 0" in prov["command"]
+    assert prov["warm_start"].startswith(f"DAgger of centreline on {len(RACE_SPLIT['train'])} training circuits")
+    assert len(RACE_SPLIT["train"]) == 36
+
+
+def lap(agent: str, env: gym.Env) -> dict:
+    """One race of ``agent`` on ``env`` from seed 0: the last info and the env's success metrics."""
+    policy = vtrack_gym.make_policy(agent, env)
     obs, info = env.reset(seed=0)
     done = False
     while not done:
         obs, _, terminated, truncated, info = env.step(policy.predict(obs)[0])
         done = terminated or truncated
-    metrics = env.unwrapped.success_metrics()
+    return {**info, **env.unwrapped.success_metrics()}
+
+
+@pytest.mark.parametrize("agent", ["dagger_race", "dagger_race_v2"])
+def test_dagger_race_laps_a_held_out_circuit_within_track_limits(agent: str) -> None:
+    """One lap of the first held-out circuit of the race split from a standing start, seed 0: completed, no step
+    beyond the wheels rule (a circuit no training race and no recipe choice drove)."""
+    circuit = RACE_SPLIT["held_out"][0]
+    info = lap(agent, gym.make("vtrack/Race-v0", track=race_circuit(circuit), laps=1))
     assert info["termination"] == "completed" and info["success"], (circuit, info["termination"])
-    assert info["laps_completed"] == 1 and metrics["track_limit_violations"] == 0.0
+    assert info["laps_completed"] == 1 and info["track_limit_violations"] == 0.0
     assert 1.0 < info["lap_time_fraction"] < 2.0, json.dumps({"fraction": info["lap_time_fraction"]})
+
+
+def test_dagger_race_v2_laps_the_handling_course_within_track_limits() -> None:
+    """One lap of the handling course (never trained on) from a standing start, seed 0: past the 30 m corner at
+    1572 m where ``dagger_race`` spins out, completed with no step beyond the wheels rule."""
+    info = lap("dagger_race_v2", gym.make("vtrack/Race-v0", laps=1))
+    assert info["termination"] == "completed" and info["success"], info["termination"]
+    assert info["track_limit_violations"] == 0.0 and 1.0 < info["lap_time_fraction"] < 2.0

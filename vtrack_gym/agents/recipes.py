@@ -308,7 +308,8 @@ DAGGER_RECIPES: dict[str, dict[str, Any]] = {
 }
 """``vtrack train --algo dagger``'s recipes per training env id (``agents.dagger.dagger_recipe`` runs them;
 ``vtrack/Race-v0``: ``agents.race_dagger`` on the race split's training circuits): the shipped ``dagger_accel`` is
-the first entry at seed 0, the shipped ``dagger_race`` the second at seed 0."""
+the first entry at seed 0, the shipped ``dagger_race_v2`` the second at seed 0 (the shipped ``dagger_race``: the
+second at seed 0 on the smooth training circuits ``rc-0`` .. ``rc-23`` alone, before the corner circuits)."""
 DAGGER_DEFAULT_ENV_ID = "vtrack/TrainingMixNominal-v0"
 """``--algo dagger``'s env without ``--env``."""
 

@@ -38,7 +38,7 @@ _ELEV_PHASES = (0.0, 1.3, 2.9, 0.7)
 Segments = list[tuple[float, float]]
 
 
-def _turn(radius_m: float, angle_deg: float, blend_in_m: float, blend_out_m: float) -> Segments:
+def turn_segments(radius_m: float, angle_deg: float, blend_in_m: float, blend_out_m: float) -> Segments:
     """Corner from and back to a straight: blend 0 -> 1/R, hold, blend 1/R -> 0; turns by angle_deg (left > 0)."""
     k = math.copysign(1.0 / radius_m, angle_deg)
     hold = (math.radians(angle_deg) - 0.5 * k * (blend_in_m + blend_out_m)) / k
@@ -69,28 +69,28 @@ def _layout(north_m: float, east_m: float) -> tuple[Segments, int, int]:
     segs += [(north_m, 0.0)]
     segs += _s_bends(35.0, 10.0)
     segs += [(20.0, 0.0)]
-    segs += _turn(40.0, 90.0, 20.0, 20.0)                # -> west
+    segs += turn_segments(40.0, 90.0, 20.0, 20.0)        # -> west
     segs += [(305.0, 0.0)]
-    segs += _turn(20.0, 180.0, 15.0, 15.0)               # hairpin -> east
+    segs += turn_segments(20.0, 180.0, 15.0, 15.0)       # hairpin -> east
     segs += [(275.0, 0.0)]
-    segs += _turn(30.0, -180.0, 15.0, 15.0)              # right-hander -> west
+    segs += turn_segments(30.0, -180.0, 15.0, 15.0)      # right-hander -> west
     segs += [(115.0, 0.0)]
     k = 1.0 / 45.0                                       # chicane (left-right), lateral offset ~ -33 m
     segs += [(15.0, k), (20.0, k), (25.0, -k), (20.0, -k), (15.0, 0.0)]
     segs += [(80.0, 0.0)]
-    segs += _turn(30.0, 90.0, 15.0, 15.0)                # -> south
+    segs += turn_segments(30.0, 90.0, 15.0, 15.0)        # -> south
     segs += [(4.0, 0.0)]
     segs += _s_bends(35.0, 10.0)
     segs += [(4.0, 0.0)]
     turned = CurvatureProfile.from_segments(0.0, segs).total_turn_rad
-    segs += _turn(40.0, math.degrees(2.0 * math.pi - turned), 20.0, 20.0)   # -> east, closes heading
+    segs += turn_segments(40.0, math.degrees(2.0 * math.pi - turned), 20.0, 20.0)   # -> east, closes heading
     i_east = len(segs)
     segs += [(east_m, 0.0)]
-    segs += _turn(25.0, 90.0, 15.0, 15.0)                # infield finger
+    segs += turn_segments(25.0, 90.0, 15.0, 15.0)        # infield finger
     segs += [(84.0, 0.0)]
-    segs += _turn(25.0, -180.0, 15.0, 15.0)
+    segs += turn_segments(25.0, -180.0, 15.0, 15.0)
     segs += [(84.0, 0.0)]
-    segs += _turn(25.0, 90.0, 15.0, 15.0)
+    segs += turn_segments(25.0, 90.0, 15.0, 15.0)
     segs += [(50.0, 0.0)]                                # back to the start
     return segs, i_north, i_east
 

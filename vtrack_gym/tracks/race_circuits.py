@@ -2,7 +2,8 @@
 
 ``RACE_SPLIT`` is the registry (``race_circuit(name)`` builds every circuit it names):
 
-- ``"train"``: the training circuits ``rc-0`` .. ``rc-23``, the only ones a trainer drives;
+- ``"train"``: the training circuits ``rc-0`` .. ``rc-23`` and ``rs-0`` .. ``rs-11`` (one ``rs`` after every two
+  ``rc``), the only ones a trainer drives;
 - ``"validation"``: ``rc-24`` .. ``rc-31``, never trained on, the circuits a recipe is developed against;
 - ``"held_out"``: ``rc-2000`` .. ``rc-2003``, from a disjoint range of seeds, never trained on and not driven while a
   recipe is developed: the circuits an agent is judged on, once, at the end;
@@ -16,6 +17,10 @@ and the loop never crosses itself); for odd k the loop is stretched (R x 0.7, th
 sides between tight ends); a two-lane 3.5 m half width as the shipped circuits have. Loops whose tightest radius is
 below ``MIN_RADIUS_M`` or whose road would touch itself (``Path.self_intersects``) are drawn again. Laps are
 400-1000 m with radii from 12 m to near-straights. Pure numpy and the package's own path fitting.
+
+A training circuit ``rs-<k>`` is a loop of straights and constant-radius corners (``tracks.corner_circuits``: a
+straight runs into a corner of one radius, 15-60 m, through a 10-25 m blend, as on the handling course), 600-1500 m;
+only the training group has any. The validation and held-out circuits are all ``rc-<k>``.
 """
 
 from __future__ import annotations
@@ -24,8 +29,12 @@ import math
 
 import numpy as np
 
-TRAIN_CIRCUITS: tuple[str, ...] = tuple(f"rc-{k}" for k in range(24))
-"""The training circuits' names (seeds 0..23)."""
+CORNER_TRAIN_CIRCUITS = 12
+"""How many corner circuits (``rs-0`` ..) the training group holds."""
+TRAIN_CIRCUITS: tuple[str, ...] = tuple(name for k in range(24) for name in
+                                        ((f"rc-{k}",) + ((f"rs-{k // 2}",) if k % 2 == 1 else ())))
+"""The training circuits' names: the smooth loops of seeds 0..23, with a corner circuit ``rs-<j>`` (seeds 0..11)
+after every second one, so that every few consecutive training races include one."""
 VALIDATION_CIRCUITS: tuple[str, ...] = tuple(f"rc-{k}" for k in range(24, 32))
 """The validation circuits' names (seeds 24..31): never trained on; a recipe is chosen on them."""
 HELD_OUT_CIRCUITS: tuple[str, ...] = tuple(f"rc-{k}" for k in range(2000, 2004))
@@ -57,14 +66,19 @@ def _loop(rng: np.random.Generator, stretched: bool) -> tuple[np.ndarray, np.nda
 
 
 def race_circuit(name: str) -> object:
-    """The training circuit ``name`` (one of ``TRAIN_CIRCUITS``, or ``rc-<k>`` for any k >= 0) as a closed
-    ``tracks.Path``; ``ValueError`` naming the form otherwise."""
+    """The circuit ``name`` (one of ``RACE_SPLIT``'s, or ``rc-<k>`` / ``rs-<k>`` for any k >= 0) as a closed
+    ``tracks.Path``; ``ValueError`` naming the forms otherwise."""
     from vtrack_gym.tracks.path import Path
     from vtrack_gym.tracks.table import COL_KAPPA
 
     prefix, _, index = str(name).partition("-")
-    if prefix != "rc" or not index.isdigit():
-        raise ValueError(f"race circuit name must be rc-<k> with k >= 0, e.g. {TRAIN_CIRCUITS[0]!r} (got {name!r})")
+    if prefix not in ("rc", "rs") or not index.isdigit():
+        raise ValueError(f"race circuit name must be rc-<k> or rs-<k> with k >= 0, e.g. {TRAIN_CIRCUITS[0]!r} "
+                         f"(got {name!r})")
+    if prefix == "rs":
+        from vtrack_gym.tracks.corner_circuits import corner_circuit
+
+        return corner_circuit(int(index), str(name), HALF_WIDTH_M)
     rng = np.random.default_rng(int(index))
     for _ in range(_ATTEMPTS):
         x, y = _loop(rng, int(index) % 2 == 1)

@@ -11,8 +11,12 @@ import numpy as np
 import pytest
 
 import vtrack_gym
+from vtrack_gym.agents.expert_identity import expert_identity
+from vtrack_gym.baselines.decoupled import for_control
+from vtrack_gym.baselines.registry import policy_class
 from vtrack_gym.baselines.resolve import default_policy_names, race_agent_names, shipped_names
 from vtrack_gym.cli import main
+from vtrack_gym.evaluation.identity.fingerprint import policy_hash
 from vtrack_gym.tracks.race_circuits import HELD_OUT_IDS, RACE_SPLIT, race_circuit
 
 pytest.importorskip("stable_baselines3")
@@ -20,7 +24,8 @@ pytest.importorskip("stable_baselines3")
 
 def test_cli_dagger_tracking_runs_end_to_end(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """Two rounds (the expert's, then the clone's) of 20 vector steps of 2 cars: the run folder, the per-round
-    record and an agent that drives DLC120-v0 in steer_accel."""
+    record, the expert recorded by content (its policy_hash on the training env) and an agent that drives
+    DLC120-v0 in steer_accel."""
     run = tmp_path / "run"
     assert main(["train", "--algo", "dagger", "--env", "vtrack/TrainingMixNominal-v0", "--dagger-rounds", "1",
                  "--bc-steps", "20", "--num-envs", "2", "--run-dir", str(run)]) == 0
@@ -30,10 +35,29 @@ def test_cli_dagger_tracking_runs_end_to_end(tmp_path: Path, capsys: pytest.Capt
     assert all(r["transitions"] == 40 for r in record["rounds"])
     config = json.loads((run / "config.json").read_text())
     assert config["algo"] == "dagger" and config["control"] == "steer_accel" and config["dagger"]["rounds"] == 1
+    training = gym.make("vtrack/TrainingMixNominal-v0", control="steer_accel")
+    expert_hash = policy_hash(vtrack_gym.make_policy("lqr", training, preset="default"), training)
+    recorded = {"label": "lqr[default]", "policy_hash": expert_hash, "package_version": vtrack_gym.__version__}
+    assert config["expert"] == recorded and summary["expert"] == recorded
     env = gym.make("DLC120-v0", control="steer_accel")
     policy = vtrack_gym.make_policy(summary["agent"], env)
-    assert policy.action_dim == 2 and policy.provenance["warm_start"].startswith("DAgger of lqr")
+    assert policy.action_dim == 2 and policy.provenance["warm_start"].startswith(
+        f"DAgger of lqr[default] (policy_hash {expert_hash}, vtrack_gym {vtrack_gym.__version__}) on "
+        "vtrack/TrainingMixNominal-v0 (2 rounds")
     assert env.action_space.contains(policy.predict(env.reset(seed=0)[0])[0])
+
+
+def test_expert_identity_tells_apart_two_experts_of_one_preset_name() -> None:
+    """The lqr[default] pairing with the PD-FLC alone (the first dagger_accel's expert) and with today's speed law
+    share a name, not an identity; the identity needs the env's observation layout."""
+    env = gym.make("vtrack/TrainingMixNominal-v0", control="steer_accel")
+    steering = policy_class("lqr").from_env(env, preset="default")   # what make_policy pairs with a speed law
+    old, new = (expert_identity(for_control(steering, env, law), env, "lqr[default]") for law in ("pdflc", "pdflc_ff"))
+    assert old.label == new.label and old.policy_hash != new.policy_hash
+    assert new.policy_hash == policy_hash(vtrack_gym.make_policy("lqr", env), env)
+    assert new.text() == f"lqr[default] (policy_hash {new.policy_hash}, vtrack_gym {vtrack_gym.__version__})"
+    with pytest.raises(ValueError, match="observation layout"):
+        expert_identity(steering, None, "lqr[default]")
 
 
 def test_cli_dagger_refuses_rl_options(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -15,8 +15,10 @@ is an SB3 SAC actor (tanh output, ``hidden_sizes``) used only as a container, so
 weights-only agent format (``agents.export``) and loads with ``make_policy``. No RL update is made; the evaluation
 scenarios are never driven during training (the per-round record holds only training-env figures).
 
-The run folder holds ``config.json`` (settings, versions, command), ``dagger.json`` (per round: transitions, the
-fit's MSE, how the round's episodes ended) and ``agent.json`` + ``agent.npz``.
+The run folder holds ``config.json`` (settings, versions, command, and the expert by content: ``"expert"``,
+``agents.expert_identity``'s record with its ``policy_hash`` on the training env), ``dagger.json`` (per round:
+transitions, the fit's MSE, how the round's episodes ended) and ``agent.json`` + ``agent.npz``, whose description
+(``provenance.warm_start``) names the expert with that hash and the package version.
 Everything here runs only when training is asked for (torch and SB3 are imported lazily).
 """
 
@@ -31,6 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from vtrack_gym._ranges import documented, ranged, validate
+from vtrack_gym.agents.expert_identity import ExpertIdentity, expert_identity
 
 log = logging.getLogger(__name__)
 
@@ -106,8 +109,17 @@ def aggregate(model: Any, venv: Any, vecnorm: Any, config: DaggerConfig, seed: i
     return records
 
 
-def _warm_start_text(env_id: str, config: DaggerConfig) -> str:
-    return (f"DAgger of {config.expert}[{config.expert_preset}] on {env_id} ({config.rounds + 1} rounds of "
+def _expert(venv: Any, config: DaggerConfig) -> ExpertIdentity:
+    """The identity of the expert ``imitation.collect`` builds on ``venv`` (a ``TrackingSB3VecEnv``), taken on
+    the native training env it wraps."""
+    from vtrack_gym.baselines.registry import make_policy
+
+    expert = make_policy(config.expert, venv, preset=config.expert_preset)
+    return expert_identity(expert, venv.venv, f"{config.expert}[{config.expert_preset}]")
+
+
+def _warm_start_text(env_id: str, config: DaggerConfig, expert: ExpertIdentity) -> str:
+    return (f"DAgger of {expert.text()} on {env_id} ({config.rounds + 1} rounds of "
             f"{config.steps} x {config.num_envs} labelled states, {config.rounds} driven by the clone)")
 
 
@@ -115,8 +127,9 @@ def train_dagger(env_id: str = "vtrack/TrainingMixNominal-v0", control: str = "s
                  config: DaggerConfig | None = None, seed: int = 0, run_dir: str | Path = "vtrack_runs/dagger", *,
                  command: str = "", overwrite: bool = False, torch_threads: int | None = 1) -> dict[str, Any]:
     """DAgger of ``config.expert`` on ``env_id`` in control mode ``control``; writes ``run_dir`` (the module
-    docstring) and returns ``{"run_dir", "agent", "rounds", "train_s"}``. ``env_id`` is a tracking env id the
-    native vector env runs (the training env: never an evaluation scenario of a claim)."""
+    docstring) and returns ``{"run_dir", "agent", "expert", "rounds", "train_s"}`` (``expert``:
+    ``ExpertIdentity.as_dict``). ``env_id`` is a tracking env id the native vector env runs (the training env:
+    never an evaluation scenario of a claim)."""
     import torch
     from stable_baselines3.common.vec_env import VecNormalize
 
@@ -136,9 +149,11 @@ def train_dagger(env_id: str = "vtrack/TrainingMixNominal-v0", control: str = "s
     try:
         vecnorm = VecNormalize(venv, norm_obs=True, norm_reward=False, clip_obs=10.0)
         model = _actor_model(vecnorm, config, seed)
+        expert = _expert(venv, config)
         run.mkdir(parents=True, exist_ok=True)
         settings = {"algo": "dagger", "env_id": env_id, "control": control, "seed": seed, "command": command,
-                    "dagger": config.as_dict(), "package_version": __version__, "torch_version": torch.__version__,
+                    "dagger": config.as_dict(), "expert": expert.as_dict(), "package_version": __version__,
+                    "torch_version": torch.__version__,
                     "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
         (run / "config.json").write_text(json.dumps(settings, indent=2) + "\n", encoding="utf-8")
         t0 = time.perf_counter()
@@ -147,10 +162,11 @@ def train_dagger(env_id: str = "vtrack/TrainingMixNominal-v0", control: str = "s
         (run / "dagger.json").write_text(json.dumps({"rounds": records, "train_s": round(train_s, 1)}, indent=2)
                                          + "\n", encoding="utf-8")
         agent_json, _ = export(model, vecnorm, run / "agent", env_id=env_id, command=command, seed=seed,
-                               warm_start=_warm_start_text(env_id, config), env=venv.venv)
+                               warm_start=_warm_start_text(env_id, config, expert), env=venv.venv)
     finally:
         venv.close()
-    return {"run_dir": str(run), "agent": str(agent_json), "rounds": records, "train_s": round(train_s, 1)}
+    return {"run_dir": str(run), "agent": str(agent_json), "expert": expert.as_dict(), "rounds": records,
+            "train_s": round(train_s, 1)}
 
 
 def dagger_recipe(env_id: str | None = None, *, seed: int = 0, run_dir: Any = "vtrack_runs/dagger",

@@ -13,7 +13,7 @@ import pytest
 import vtrack_gym
 from vtrack_gym.agents.expert_identity import expert_identity
 from vtrack_gym.baselines.decoupled import for_control
-from vtrack_gym.baselines.registry import policy_class
+from vtrack_gym.baselines.registry import make_policy, policy_class
 from vtrack_gym.baselines.resolve import default_policy_names, race_agent_names, shipped_names
 from vtrack_gym.cli import main
 from vtrack_gym.evaluation.identity.fingerprint import policy_hash
@@ -78,8 +78,16 @@ def test_cli_dagger_race_runs_on_training_circuits(tmp_path: Path, capsys: pytes
     summary = json.loads(capsys.readouterr().out)
     record = json.loads((run / "dagger.json").read_text())
     assert [r["states"] for r in record["rounds"]] == [200, 400]
-    assert json.loads((run / "config.json").read_text())["circuits"] == list(RACE_SPLIT["train"])
+    config = json.loads((run / "config.json").read_text())
+    assert config["circuits"] == list(RACE_SPLIT["train"])
+    first = RACE_SPLIT["train"][0]
+    on_first = gym.make("vtrack/Race-v0", track=race_circuit(first), laps=1)
+    expert = make_policy("centreline", on_first, grip_scale=0.7)
+    assert config["expert"] == summary["expert"] == {
+        "label": f"centreline[grip_scale=0.7] on {first}", "policy_hash": policy_hash(expert, on_first),
+        "package_version": vtrack_gym.__version__}
     spec = json.loads(Path(summary["agent"]).read_text())
+    assert spec["provenance"]["warm_start"].startswith(f"DAgger of centreline[grip_scale=0.7] on {first} (policy_hash ")
     assert "lap_fraction" not in spec["env"]["observation_names"]
     assert spec["env"]["observation_names"][-2:] == ["edge_left_m", "edge_right_m"]
     env = gym.make("vtrack/RaceRing-v0")

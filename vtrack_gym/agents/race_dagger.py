@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from vtrack_gym._ranges import documented, ranged, validate
+from vtrack_gym.agents.expert_identity import ExpertIdentity, expert_identity
 
 log = logging.getLogger(__name__)
 
@@ -221,8 +222,26 @@ def export_race_agent(model: Any, vecnorm: Any, names: tuple[str, ...], path: st
     return save_agent(path, spec, arrays)
 
 
-def _warm_start_text(config: RaceDaggerConfig, circuits: tuple[str, ...]) -> str:
-    return (f"DAgger of {config.expert} on {len(circuits)} training circuits of the race split "
+def race_expert_identity(config: RaceDaggerConfig, circuit: str, vehicle: Any = None) -> ExpertIdentity:
+    """The expert's identity (``agents.expert_identity``) taken on ``circuit``'s race env: a race baseline plans
+    on its track, so its hash is that of the expert on this circuit (the first training circuit in a run)."""
+    import gymnasium as gym
+
+    from vtrack_gym.baselines.registry import make_policy
+    from vtrack_gym.tracks.race_circuits import race_circuit
+
+    extra = {} if vehicle is None else {"vehicle": vehicle}
+    env = gym.make(RACE_ENV_ID, track=race_circuit(circuit), laps=config.laps, **extra)
+    try:
+        expert = make_policy(config.expert, env, grip_scale=config.expert_grip_scale)
+        label = f"{config.expert}[grip_scale={config.expert_grip_scale}] on {circuit}"
+        return expert_identity(expert, env, label)
+    finally:
+        env.close()
+
+
+def _warm_start_text(config: RaceDaggerConfig, circuits: tuple[str, ...], expert: ExpertIdentity) -> str:
+    return (f"DAgger of {expert.text()} on {len(circuits)} training circuits of the race split "
             f"({config.rounds + 1} rounds of {config.circuits_per_round} races of {config.laps} lap(s), "
             f"{config.rounds} driven by the clone)")
 
@@ -254,6 +273,8 @@ def train_race_dagger(config: RaceDaggerConfig | None = None, seed: int = 0,
     settings = {"algo": "dagger", "env_id": RACE_ENV_ID, "circuits": list(circuits), "seed": seed,
                 "command": command, "dagger": config.as_dict(), "package_version": __version__,
                 "torch_version": torch.__version__, "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
+    expert = race_expert_identity(config, circuits[0])
+    settings["expert"] = expert.as_dict()
     (run / "config.json").write_text(json.dumps(settings, indent=2) + "\n", encoding="utf-8")
     t0 = time.perf_counter()
     model, vecnorm, names, records = aggregate_races(circuits, config, seed)
@@ -261,7 +282,8 @@ def train_race_dagger(config: RaceDaggerConfig | None = None, seed: int = 0,
     (run / "dagger.json").write_text(json.dumps({"rounds": records, "train_s": train_s}, indent=2) + "\n",
                                      encoding="utf-8")
     agent_json, _ = export_race_agent(model, vecnorm, names, run / "agent", command=command, seed=seed,
-                                      warm_start=_warm_start_text(config, circuits),
+                                      warm_start=_warm_start_text(config, circuits, expert),
                                       control_period_s=records[-1]["control_period_s"],
                                       max_road_wheel_angle_rad=records[-1]["max_road_wheel_angle_rad"])
-    return {"run_dir": str(run), "agent": str(agent_json), "rounds": records, "train_s": train_s}
+    return {"run_dir": str(run), "agent": str(agent_json), "rounds": records, "train_s": train_s,
+            "expert": expert.as_dict()}

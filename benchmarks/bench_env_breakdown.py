@@ -3,7 +3,8 @@
 Each part of ``BatchSim.step`` on the handling course (the cars at its target speed, as in
 ``bench_env_vs_plant.py``) is timed alone over all N cars on the state the env's first step left: the plant
 (``step_vehicle``, 5 physics steps), the speed loop (PD-FLC), the projection onto the path (coarse search and
-refinement), the rest of the observation (row at the projection, scalar fields, curvature preview, speed and time
+refinement; the env reads the path's plane columns at s* from its last step when that step left s* in place), the
+rest of the observation (row at the projection, scalar fields, curvature preview, speed and time
 errors, road inputs), termination, reward and the info signals, and the Python around the compiled step. The
 parts run the env's own compiled functions on copies of its arrays (the state is not advanced, so every repeat
 does the same work); their sum is set beside the whole step, and the difference is the interaction (caches, the
@@ -48,8 +49,8 @@ def part_kernels() -> dict[str, Callable]:
 
     from vtrack_gym.envs import kernels as k
     from vtrack_gym.envs.pdflc_kernel import pdflc_step
-    from vtrack_gym.tracks.kernels import curvature_preview, interp_row, project_point
-    from vtrack_gym.tracks.kernels import interp_linear as lin
+    from vtrack_gym.tracks.kernels import _locate as locate
+    from vtrack_gym.tracks.kernels import curvature_preview, height_columns, lerp_column, plane_at, project_point
     from vtrack_gym.vehicle import layout as L
     from vtrack_gym.vehicle.kernels import step_vehicle
 
@@ -87,10 +88,12 @@ def part_kernels() -> dict[str, Callable]:
             start = int(a.tmeta[tr, k.TM_START])
             table = a.tables[start:start + int(a.tmeta[tr, k.TM_N])]
             ds, length, closed = a.tmeta[tr, k.TM_DS], a.tmeta[tr, k.TM_LEN], a.tmeta[tr, k.TM_CLOSED] != 0.0
-            s = a.car[i, k.CAR_S_PREV]
-            interp_row(table, ds, length, closed, s, a.rows[i], k.C_COS)
-            a.err[i, k.E_WL] = lin(table, ds, length, closed, s, k.C_WL)
-            a.err[i, k.E_WR] = lin(table, ds, length, closed, s, k.C_WR)
+            j, t = locate(table.shape[0], ds, length, closed, a.car[i, k.CAR_S_PREV])
+            x_r, y_r, psi_r, kappa = plane_at(table, j, t, ds, k.C_COS)
+            dkappa, z, grade, zpp = height_columns(table, j, t, ds)
+            a.err[i, k.E_EY] = x_r + y_r + psi_r + kappa + dkappa + z + grade + zpp
+            a.err[i, k.E_WL] = lerp_column(table, j, t, k.C_WL)
+            a.err[i, k.E_WR] = lerp_column(table, j, t, k.C_WR)
 
     @numba.njit(_nrt=False)
     def preview(a):

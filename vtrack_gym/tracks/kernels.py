@@ -74,7 +74,7 @@ def _locate(n: int, ds: float, length: float, closed: bool, s: float) -> tuple[i
 
 
 @kernel(inline=True)
-def _plane_at(table: np.ndarray, i: int, t: float, ds: float, trig: int) -> tuple[float, float, float, float]:
+def plane_at(table: np.ndarray, i: int, t: float, ds: float, trig: int) -> tuple[float, float, float, float]:
     """(X [m], Y [m], psi [rad], kappa [1/m]) at fraction t of the interval from row i (the one formula of the
     plane columns, for ``_geom`` and ``interp_row``). ``trig`` >= 0: the table holds cos psi and sin psi of each
     row in columns ``trig`` and ``trig + 1`` (``trig_columns``: the same bits), read instead of computed."""
@@ -97,9 +97,9 @@ def _plane_at(table: np.ndarray, i: int, t: float, ds: float, trig: int) -> tupl
 @kernel(inline=True)
 def _geom(table: np.ndarray, ds: float, length: float, closed: bool, s: float,
           trig: int = -1) -> tuple[float, float, float, float]:
-    """(X [m], Y [m], psi [rad], kappa [1/m]) at s (``trig``: see ``_plane_at``)."""
+    """(X [m], Y [m], psi [rad], kappa [1/m]) at s (``trig``: see ``plane_at``)."""
     i, t = _locate(table.shape[0], ds, length, closed, s)
-    return _plane_at(table, i, t, ds, trig)
+    return plane_at(table, i, t, ds, trig)
 
 
 @kernel
@@ -113,23 +113,30 @@ def trig_columns(psi: np.ndarray, out: np.ndarray) -> None:
 
 
 @kernel(inline=True)
+def height_columns(table: np.ndarray, i: int, t: float, ds: float) -> tuple[float, float, float, float]:
+    """(dkappa [1/m^2], z [m], grade, z'' [1/m]) at fraction t of the interval from row i: ``interp_row``'s columns
+    after the plane's (the one formula of each)."""
+    a = table[i]
+    b = table[i + 1]
+    return (a[C_DKAPPA] + t * (b[C_DKAPPA] - a[C_DKAPPA]),
+            _h5(a[C_Z], a[C_GRADE], a[C_ZPP], b[C_Z], b[C_GRADE], b[C_ZPP], t, ds),
+            _h3(a[C_GRADE], a[C_ZPP], b[C_GRADE], b[C_ZPP], t, ds),
+            a[C_ZPP] + t * (b[C_ZPP] - a[C_ZPP]))
+
+
+@kernel(inline=True)
 def interp_row(table: np.ndarray, ds: float, length: float, closed: bool, s: float, out_row: np.ndarray,
                trig: int = -1) -> None:
     """Write all 8 columns at arc length s [m] into out_row (wrapped for closed, clamped for open paths).
     ``trig`` >= 0: columns ``trig``, ``trig + 1`` of ``table`` hold cos psi, sin psi of each row
     (``trig_columns``)."""
     i, t = _locate(table.shape[0], ds, length, closed, s)
-    x, y, psi, kap = _plane_at(table, i, t, ds, trig)
+    x, y, psi, kap = plane_at(table, i, t, ds, trig)
     out_row[C_X] = x
     out_row[C_Y] = y
     out_row[C_PSI] = psi
     out_row[C_KAPPA] = kap
-    a = table[i]
-    b = table[i + 1]
-    out_row[C_DKAPPA] = a[C_DKAPPA] + t * (b[C_DKAPPA] - a[C_DKAPPA])
-    out_row[C_Z] = _h5(a[C_Z], a[C_GRADE], a[C_ZPP], b[C_Z], b[C_GRADE], b[C_ZPP], t, ds)
-    out_row[C_GRADE] = _h3(a[C_GRADE], a[C_ZPP], b[C_GRADE], b[C_ZPP], t, ds)
-    out_row[C_ZPP] = a[C_ZPP] + t * (b[C_ZPP] - a[C_ZPP])
+    out_row[C_DKAPPA], out_row[C_Z], out_row[C_GRADE], out_row[C_ZPP] = height_columns(table, i, t, ds)
 
 
 @kernel(inline=True)
@@ -175,6 +182,12 @@ def curvature_preview(table: np.ndarray, ds: float, length: float, closed: bool,
 def interp_linear(table: np.ndarray, ds: float, length: float, closed: bool, s: float, col: int) -> float:
     """Column ``col`` of ``table`` at arc length s [m], linear between rows (wrapped / clamped like the path)."""
     j, t = _locate(table.shape[0], ds, length, closed, s)
+    return lerp_column(table, j, t, col)
+
+
+@kernel(inline=True)
+def lerp_column(table: np.ndarray, j: int, t: float, col: int) -> float:
+    """Column ``col`` at fraction t of the interval from row j, linear (``interp_linear``'s formula)."""
     lo = table[j, col]
     return lo + t * (table[j + 1, col] - lo)
 
@@ -249,8 +262,21 @@ def project_point(table: np.ndarray, ds: float, length: float, closed: bool, x: 
     moves less than 1e-10 m (exact on arcs and straights, a few steps on clothoids). Wrapped for closed paths,
     clamped to [0, length] for open ones. ``trig``: as for ``interp_row`` (the same s, fewer sin / cos).
     """
+    return project_point_at(table, ds, length, closed, x, y, s_guess, window_m, trig)[0]
+
+
+@kernel(inline=True)
+def project_point_at(table: np.ndarray, ds: float, length: float, closed: bool, x: float, y: float,
+                     s_guess: float, window_m: float,
+                     trig: int = -1) -> tuple[float, bool, float, float, float, float, float, float]:
+    """``project_point``'s s* [m] and the last refinement step's path point: (s*, whether that point is at s*
+    itself (its step moved s by less than a rounding: the point is ``plane_at`` at s*, the same bits), X [m],
+    Y [m], psi [rad], kappa [1/m], cos psi, sin psi). A caller reads the point instead of interpolating it again
+    when the flag is set, else it is that of the station before the last step."""
     s = _nearest_sample(table, ds, closed, x, y, s_guess, window_m) * ds
     step_max = max(4.0 * ds, 2.0)
+    xr = yr = psi = kap = c = sn = 0.0
+    at = False
     for _ in range(MAX_ITER):
         xr, yr, psi, kap = _geom(table, ds, length, closed, s, trig)
         c = math.cos(psi)
@@ -271,10 +297,28 @@ def project_point(table: np.ndarray, ds: float, length: float, closed: bool, x: 
         moved = abs(s_new - s)
         if closed and moved > 0.5 * length:
             moved = length - moved
+        at = s_new == s
         s = s_new
         if moved < TOL_M:
             break
-    return s
+    return s, at, xr, yr, psi, kap, c, sn
+
+
+@kernel(inline=True)
+def projection_row(table: np.ndarray, ds: float, length: float, closed: bool, x: float, y: float, s_guess: float,
+                   window_m: float, trig: int = -1) -> tuple[float, int, float, float, float, float, float, float,
+                                                             float]:
+    """``project_point``'s s* [m] with the path's plane columns there: (s*, the interval's row and the fraction
+    into it (``height_columns`` takes them), X [m], Y [m], psi [rad], kappa [1/m], cos psi, sin psi), the same
+    bits as ``interp_row`` at s*. The projection's last point is that point when its step left s* where it was,
+    and is then not interpolated again."""
+    s, at_s, x_r, y_r, psi_r, kappa, cos_r, sin_r = project_point_at(table, ds, length, closed, x, y, s_guess,
+                                                                     window_m, trig)
+    j, t = _locate(table.shape[0], ds, length, closed, s)
+    if not at_s:
+        x_r, y_r, psi_r, kappa = plane_at(table, j, t, ds, trig)
+        cos_r, sin_r = math.cos(psi_r), math.sin(psi_r)
+    return s, j, t, x_r, y_r, psi_r, kappa, cos_r, sin_r
 
 
 @kernel
@@ -305,7 +349,13 @@ def wrap_angle_rows(a: np.ndarray, out: np.ndarray) -> None:
 def lateral_offset(x: float, y: float, x_ref: float, y_ref: float, psi_ref: float) -> float:
     """Left-positive lateral offset [m] of (x, y) [m] from the line through (x_ref, y_ref) [m] at heading psi_ref
     [rad] (e_y when the reference point is the projection)."""
-    return -(x - x_ref) * math.sin(psi_ref) + (y - y_ref) * math.cos(psi_ref)
+    return lateral_offset_cs(x, y, x_ref, y_ref, math.cos(psi_ref), math.sin(psi_ref))
+
+
+@kernel(inline=True)
+def lateral_offset_cs(x: float, y: float, x_ref: float, y_ref: float, cos_ref: float, sin_ref: float) -> float:
+    """``lateral_offset`` [m] from the reference heading's cosine and sine (the same formula)."""
+    return -(x - x_ref) * sin_ref + (y - y_ref) * cos_ref
 
 
 @kernel

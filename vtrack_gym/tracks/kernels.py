@@ -262,21 +262,8 @@ def project_point(table: np.ndarray, ds: float, length: float, closed: bool, x: 
     moves less than 1e-10 m (exact on arcs and straights, a few steps on clothoids). Wrapped for closed paths,
     clamped to [0, length] for open ones. ``trig``: as for ``interp_row`` (the same s, fewer sin / cos).
     """
-    return project_point_at(table, ds, length, closed, x, y, s_guess, window_m, trig)[0]
-
-
-@kernel(inline=True)
-def project_point_at(table: np.ndarray, ds: float, length: float, closed: bool, x: float, y: float,
-                     s_guess: float, window_m: float,
-                     trig: int = -1) -> tuple[float, bool, float, float, float, float, float, float]:
-    """``project_point``'s s* [m] and the last refinement step's path point: (s*, whether that point is at s*
-    itself (its step moved s by less than a rounding: the point is ``plane_at`` at s*, the same bits), X [m],
-    Y [m], psi [rad], kappa [1/m], cos psi, sin psi). A caller reads the point instead of interpolating it again
-    when the flag is set, else it is that of the station before the last step."""
     s = _nearest_sample(table, ds, closed, x, y, s_guess, window_m) * ds
     step_max = max(4.0 * ds, 2.0)
-    xr = yr = psi = kap = c = sn = 0.0
-    at = False
     for _ in range(MAX_ITER):
         xr, yr, psi, kap = _geom(table, ds, length, closed, s, trig)
         c = math.cos(psi)
@@ -297,28 +284,23 @@ def project_point_at(table: np.ndarray, ds: float, length: float, closed: bool, 
         moved = abs(s_new - s)
         if closed and moved > 0.5 * length:
             moved = length - moved
-        at = s_new == s
         s = s_new
         if moved < TOL_M:
             break
-    return s, at, xr, yr, psi, kap, c, sn
+    return s
 
 
 @kernel(inline=True)
 def projection_row(table: np.ndarray, ds: float, length: float, closed: bool, x: float, y: float, s_guess: float,
                    window_m: float, trig: int = -1) -> tuple[float, int, float, float, float, float, float, float,
                                                              float]:
-    """``project_point``'s s* [m] with the path's plane columns there: (s*, the interval's row and the fraction
-    into it (``height_columns`` takes them), X [m], Y [m], psi [rad], kappa [1/m], cos psi, sin psi), the same
-    bits as ``interp_row`` at s*. The projection's last point is that point when its step left s* where it was,
-    and is then not interpolated again."""
-    s, at_s, x_r, y_r, psi_r, kappa, cos_r, sin_r = project_point_at(table, ds, length, closed, x, y, s_guess,
-                                                                     window_m, trig)
+    """``project_point``'s s* [m] with the path's plane columns there, as values (no row array): (s*, the
+    interval's row and the fraction into it (``height_columns`` and ``lerp_column`` take them), X [m], Y [m], psi
+    [rad], kappa [1/m], cos psi, sin psi), the same bits as ``interp_row`` and ``lateral_offset`` at s*."""
+    s = project_point(table, ds, length, closed, x, y, s_guess, window_m, trig)
     j, t = _locate(table.shape[0], ds, length, closed, s)
-    if not at_s:
-        x_r, y_r, psi_r, kappa = plane_at(table, j, t, ds, trig)
-        cos_r, sin_r = math.cos(psi_r), math.sin(psi_r)
-    return s, j, t, x_r, y_r, psi_r, kappa, cos_r, sin_r
+    x_r, y_r, psi_r, kappa = plane_at(table, j, t, ds, trig)
+    return s, j, t, x_r, y_r, psi_r, kappa, math.cos(psi_r), math.sin(psi_r)
 
 
 @kernel

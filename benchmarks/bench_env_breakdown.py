@@ -3,8 +3,7 @@
 Each part of ``BatchSim.step`` on the handling course (the cars at its target speed, as in
 ``bench_env_vs_plant.py``) is timed alone over all N cars on the state the env's first step left: the plant
 (``step_vehicle``, 5 physics steps), the speed loop (PD-FLC), the projection onto the path (coarse search and
-refinement; the env reads the path's plane columns at s* from its last step when that step left s* in place), the
-rest of the observation (row at the projection, scalar fields, curvature preview, speed and time
+refinement), the rest of the observation (row at the projection, scalar fields, curvature preview, speed and time
 errors, road inputs), termination, reward and the info signals, and the Python around the compiled step. The
 parts run the env's own compiled functions on copies of its arrays (the state is not advanced, so every repeat
 does the same work); their sum is set beside the whole step, and the difference is the interaction (caches, the

@@ -48,8 +48,8 @@ def part_kernels() -> dict[str, Callable]:
 
     from vtrack_gym.envs import kernels as k
     from vtrack_gym.envs.pdflc_kernel import pdflc_step
-    from vtrack_gym.tracks.kernels import curvature_preview, interp_row, project_point
-    from vtrack_gym.tracks.kernels import interp_linear as lin
+    from vtrack_gym.tracks.kernels import _locate as locate
+    from vtrack_gym.tracks.kernels import curvature_preview, height_columns, lerp_column, plane_at, project_point
     from vtrack_gym.vehicle import layout as L
     from vtrack_gym.vehicle.kernels import step_vehicle
 
@@ -87,10 +87,12 @@ def part_kernels() -> dict[str, Callable]:
             start = int(a.tmeta[tr, k.TM_START])
             table = a.tables[start:start + int(a.tmeta[tr, k.TM_N])]
             ds, length, closed = a.tmeta[tr, k.TM_DS], a.tmeta[tr, k.TM_LEN], a.tmeta[tr, k.TM_CLOSED] != 0.0
-            s = a.car[i, k.CAR_S_PREV]
-            interp_row(table, ds, length, closed, s, a.rows[i], k.C_COS)
-            a.err[i, k.E_WL] = lin(table, ds, length, closed, s, k.C_WL)
-            a.err[i, k.E_WR] = lin(table, ds, length, closed, s, k.C_WR)
+            j, t = locate(table.shape[0], ds, length, closed, a.car[i, k.CAR_S_PREV])
+            x_r, y_r, psi_r, kappa = plane_at(table, j, t, ds, k.C_COS)
+            dkappa, z, grade, zpp = height_columns(table, j, t, ds)
+            a.err[i, k.E_EY] = x_r + y_r + psi_r + kappa + dkappa + z + grade + zpp
+            a.err[i, k.E_WL] = lerp_column(table, j, t, k.C_WL)
+            a.err[i, k.E_WR] = lerp_column(table, j, t, k.C_WR)
 
     @numba.njit(_nrt=False)
     def preview(a):

@@ -7,12 +7,16 @@ itself starts them at rest, and the tyre model costs more near standstill, which
 physics) and the plant steps copies of those cars (states, inputs, road) as the env has left them after its first
 step. Both run on one numba thread and are timed with ``time.process_time`` (CPU time, so a loaded machine slows
 both alike), alternating env and plant per repeat; the median of the repeats is shown with the load average.
-Run: ``python benchmarks/bench_env_vs_plant.py [N ...]`` (default N = 256 4096).
+Run: ``python benchmarks/bench_env_vs_plant.py [N ...]`` (default N = 256 4096). ``--against DIR [--runs R]``: this
+checkout and the one at ``DIR`` (its own copy of this script) in fresh processes, alternating, R runs each (default
+5); the median over the runs of each one's medians is printed with the load average.
 """
 
 from __future__ import annotations
 
 import os
+import re
+import subprocess
 import sys
 import time
 from collections.abc import Callable
@@ -20,6 +24,7 @@ from collections.abc import Callable
 import numpy as np
 
 REPEATS = 5
+RUNS = 5          # runs of each checkout with --against
 MIN_CPU_S = 0.4   # CPU time per repeat and side
 
 
@@ -97,5 +102,44 @@ def main(sizes: list[int]) -> None:
     print("target: env/plant <= 1.25x (median of the per-repeat ratios)")
 
 
+def run_checkout(root: str, sizes: list[int]) -> dict[int, tuple[float, float, float]]:
+    """One run of the checkout at ``root``'s copy of this script in a fresh process: N -> (env ns, plant ns,
+    env/plant)."""
+    script = os.path.join(root, "benchmarks", os.path.basename(__file__))
+    env = {**os.environ, "PYTHONPATH": root}
+    out = subprocess.run([sys.executable, script, *map(str, sizes)], env=env, cwd=root, capture_output=True,
+                         text=True, check=True).stdout
+    rows = re.findall(r"^\s*(\d+)\s+(\d+)\s+(\d+)\s+([\d.]+)x", out, re.MULTILINE)
+    return {int(n): (float(e), float(p), float(r)) for n, e, p, r in rows}
+
+
+def compare(other: str, sizes: list[int], runs: int) -> None:
+    """This checkout against the one at ``other``: alternating fresh runs, medians over the runs."""
+    here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    results: dict[str, list[dict[int, tuple[float, float, float]]]] = {here: [], other: []}
+    for _ in range(runs):
+        for root in (other, here):
+            results[root].append(run_checkout(root, sizes))
+    print(f"{runs} alternating runs each; load average {os.getloadavg()[0]:.1f} at the end")
+    print(f"{'N':>6} {'checkout':<40} {'env ns':>9} {'plant ns':>9} {'env/plant':>10} {'per run':<30}")
+    for n in sizes:
+        for root in (other, here):
+            e, p, r = (np.median([run[n][c] for run in results[root]]) for c in range(3))
+            each = " ".join(f"{run[n][2]:.2f}" for run in results[root])
+            print(f"{n:>6} {root[-40:]:<40} {e:>9.0f} {p:>9.0f} {r:>9.2f}x {each}")
+
+
 if __name__ == "__main__":
-    main([int(a) for a in sys.argv[1:]] or [256, 4096])
+    args = sys.argv[1:]
+    if "--against" in args:
+        at = args.index("--against")
+        other_root = os.path.abspath(args[at + 1])
+        del args[at:at + 2]
+        n_runs = RUNS
+        if "--runs" in args:
+            at = args.index("--runs")
+            n_runs = int(args[at + 1])
+            del args[at:at + 2]
+        compare(other_root, [int(a) for a in args] or [256, 4096], n_runs)
+    else:
+        main([int(a) for a in args] or [256, 4096])

@@ -45,7 +45,14 @@ from vtrack_gym.envs.observation import N_SCALARS, SCALAR_BOUNDS, SCALAR_FIELDS,
 from vtrack_gym.envs.pdflc_kernel import pdflc_step
 from vtrack_gym.envs.schema import REWARD_TERMS, SIGNAL_ROW
 from vtrack_gym.tracks import table as track_table
-from vtrack_gym.tracks.kernels import PREVIEW_BLOCK, curvature_preview, interp_row, lateral_offset, project_point
+from vtrack_gym.tracks.kernels import (
+    PREVIEW_BLOCK,
+    curvature_preview,
+    height_columns,
+    lateral_offset_cs,
+    lerp_column,
+    projection_row,
+)
 from vtrack_gym.tracks.kernels import interp_linear as _linear
 from vtrack_gym.tracks.kernels import wrap_angle as _wrap
 from vtrack_gym.vehicle import layout as L
@@ -165,7 +172,6 @@ class SimArrays(NamedTuple):
     obs: np.ndarray          # (n, layout.size) float32 observations
     err: np.ndarray          # (n, ERR_COLS) projection: s*, e_y, e_phi, kappa, s_dot, z, width l/r, e_v, e_t (E_*)
     term: np.ndarray         # (n,) int64 termination code (T_*)
-    rows: np.ndarray         # (n, 8) scratch track row per car
     actions: np.ndarray      # (n,) normalised steering actions of this step
     sig: np.ndarray          # (n, len(SIGNAL_ROW)) info signals and reward terms (SIG_*)
     pd_mem: np.ndarray       # (n, 3) PD-FLC memory
@@ -250,7 +256,7 @@ def write_scalar_fields(obs_row: np.ndarray, e_y: float, e_phi: float, v_x: floa
 @kernel(inline=True)
 def observe_one(i: int, a: SimArrays, a_x: float, window_m: float, first: bool) -> None:
     """Project car ``i`` on its path and write its observation row, road inputs and error row."""
-    state, car, cfg, row = a.states[i], a.car, a.cfg, a.rows[i]
+    state, car, cfg = a.states[i], a.car, a.cfg
     k = a.veh_track[i]
     start = int(a.tmeta[k, TM_START])
     table = a.tables[start:start + int(a.tmeta[k, TM_N])]
@@ -269,7 +275,8 @@ def observe_one(i: int, a: SimArrays, a_x: float, window_m: float, first: bool) 
 
     follow = a.tmeta[k, TM_PROFILE] != 0.0 and car[i, CAR_FOLLOW] != 0.0
     s_guess = -1.0 if first else car[i, CAR_S_PREV]
-    s = project_point(table, ds, length, closed, x, y, s_guess, window_m, C_COS)
+    s, j, t, x_r, y_r, psi_r, kappa, cos_r, sin_r = projection_row(table, ds, length, closed, x, y, s_guess,
+                                                                   window_m, C_COS)
     if first:
         car[i, CAR_PROGRESS] = 0.0
         car[i, CAR_STEPS] = 0.0
@@ -285,15 +292,13 @@ def observe_one(i: int, a: SimArrays, a_x: float, window_m: float, first: bool) 
         car[i, CAR_PROGRESS] += step_s
     car[i, CAR_S_PREV] = s
 
-    interp_row(table, ds, length, closed, s, row, C_COS)
-    w_left = _linear(table, ds, length, closed, s, C_WL)
-    w_right = _linear(table, ds, length, closed, s, C_WR)
+    # the rest of the path's row at s (tracks.kernels.interp_row's formulas)
+    dkappa, z_r, grade, zpp = height_columns(table, j, t, ds)
+    w_left = lerp_column(table, j, t, C_WL)
+    w_right = lerp_column(table, j, t, C_WR)
     if follow:
-        car[i, CAR_V_REF] = math.sqrt(_linear(table, ds, length, closed, s, C_V2))
-    psi_r = row[C_PSI]
-    kappa = row[C_KAPPA]
-    dkappa = row[C_DKAPPA]
-    e_y = lateral_offset(x, y, row[C_X], row[C_Y], psi_r)
+        car[i, CAR_V_REF] = math.sqrt(lerp_column(table, j, t, C_V2))
+    e_y = lateral_offset_cs(x, y, x_r, y_r, cos_r, sin_r)
     e_phi = _wrap(psi - psi_r)
     sin_e = math.sin(e_phi)
     cos_e = math.cos(e_phi)
@@ -323,10 +328,9 @@ def observe_one(i: int, a: SimArrays, a_x: float, window_m: float, first: bool) 
         obs[i, o_track] = -EV_BOUND if e_v < -EV_BOUND else (EV_BOUND if e_v > EV_BOUND else e_v)
         obs[i, o_track + 1] = -ET_BOUND if e_t < -ET_BOUND else (ET_BOUND if e_t > ET_BOUND else e_t)
 
-    # Road inputs for the next control period: grade and vertical acceleration v^2 z''(s) at the projection
-    # (``row`` still holds the projection's row).
-    a.road[i, L.R_GRADE] = math.atan(row[C_GRADE])
-    a.road[i, L.R_AZ] = vx * vx * row[C_ZPP]
+    # Road inputs for the next control period: grade and vertical acceleration v^2 z''(s) at the projection.
+    a.road[i, L.R_GRADE] = math.atan(grade)
+    a.road[i, L.R_AZ] = vx * vx * zpp
 
     err = a.err
     err[i, E_S] = s
@@ -334,7 +338,7 @@ def observe_one(i: int, a: SimArrays, a_x: float, window_m: float, first: bool) 
     err[i, E_EPHI] = e_phi
     err[i, E_KAPPA] = kappa
     err[i, E_SDOT] = s_dot
-    err[i, E_Z] = row[C_Z]
+    err[i, E_Z] = z_r
     err[i, E_WL] = w_left
     err[i, E_WR] = w_right
     err[i, E_EV] = e_v

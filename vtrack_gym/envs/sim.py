@@ -156,7 +156,7 @@ class BatchSim:
             states=self.plant.state, inputs=self.inputs, road=self.road, params=self.plant.param_rows,
             models=self.plant.models, outputs=self.outputs, work=self.plant.workspace, tables=self.tracks.tables,
             tmeta=self.tracks.meta, veh_track=self.veh_track, car=self.car, cfg=cfg, obs=self.obs, err=self.err,
-            term=self.term, rows=np.zeros((self.n, k.N_ENV_COLS)), actions=self.actions, sig=self.sig,
+            term=self.term, actions=self.actions, sig=self.sig,
             pd_mem=self.pd_mem, pd_gains=self.pd_gains,
             pd_surface=np.ascontiguousarray(control_surface(pd.method, pd.surface_resolution)),
             cmds=self.latency.cmds, scratch=np.zeros((self.n, k.N_SCRATCH)))

@@ -74,7 +74,7 @@ def _locate(n: int, ds: float, length: float, closed: bool, s: float) -> tuple[i
 
 
 @kernel(inline=True)
-def _plane_at(table: np.ndarray, i: int, t: float, ds: float, trig: int) -> tuple[float, float, float, float]:
+def plane_at(table: np.ndarray, i: int, t: float, ds: float, trig: int) -> tuple[float, float, float, float]:
     """(X [m], Y [m], psi [rad], kappa [1/m]) at fraction t of the interval from row i (the one formula of the
     plane columns, for ``_geom`` and ``interp_row``). ``trig`` >= 0: the table holds cos psi and sin psi of each
     row in columns ``trig`` and ``trig + 1`` (``trig_columns``: the same bits), read instead of computed."""
@@ -97,9 +97,9 @@ def _plane_at(table: np.ndarray, i: int, t: float, ds: float, trig: int) -> tupl
 @kernel(inline=True)
 def _geom(table: np.ndarray, ds: float, length: float, closed: bool, s: float,
           trig: int = -1) -> tuple[float, float, float, float]:
-    """(X [m], Y [m], psi [rad], kappa [1/m]) at s (``trig``: see ``_plane_at``)."""
+    """(X [m], Y [m], psi [rad], kappa [1/m]) at s (``trig``: see ``plane_at``)."""
     i, t = _locate(table.shape[0], ds, length, closed, s)
-    return _plane_at(table, i, t, ds, trig)
+    return plane_at(table, i, t, ds, trig)
 
 
 @kernel
@@ -113,23 +113,30 @@ def trig_columns(psi: np.ndarray, out: np.ndarray) -> None:
 
 
 @kernel(inline=True)
+def height_columns(table: np.ndarray, i: int, t: float, ds: float) -> tuple[float, float, float, float]:
+    """(dkappa [1/m^2], z [m], grade, z'' [1/m]) at fraction t of the interval from row i: ``interp_row``'s columns
+    after the plane's (the one formula of each)."""
+    a = table[i]
+    b = table[i + 1]
+    return (a[C_DKAPPA] + t * (b[C_DKAPPA] - a[C_DKAPPA]),
+            _h5(a[C_Z], a[C_GRADE], a[C_ZPP], b[C_Z], b[C_GRADE], b[C_ZPP], t, ds),
+            _h3(a[C_GRADE], a[C_ZPP], b[C_GRADE], b[C_ZPP], t, ds),
+            a[C_ZPP] + t * (b[C_ZPP] - a[C_ZPP]))
+
+
+@kernel(inline=True)
 def interp_row(table: np.ndarray, ds: float, length: float, closed: bool, s: float, out_row: np.ndarray,
                trig: int = -1) -> None:
     """Write all 8 columns at arc length s [m] into out_row (wrapped for closed, clamped for open paths).
     ``trig`` >= 0: columns ``trig``, ``trig + 1`` of ``table`` hold cos psi, sin psi of each row
     (``trig_columns``)."""
     i, t = _locate(table.shape[0], ds, length, closed, s)
-    x, y, psi, kap = _plane_at(table, i, t, ds, trig)
+    x, y, psi, kap = plane_at(table, i, t, ds, trig)
     out_row[C_X] = x
     out_row[C_Y] = y
     out_row[C_PSI] = psi
     out_row[C_KAPPA] = kap
-    a = table[i]
-    b = table[i + 1]
-    out_row[C_DKAPPA] = a[C_DKAPPA] + t * (b[C_DKAPPA] - a[C_DKAPPA])
-    out_row[C_Z] = _h5(a[C_Z], a[C_GRADE], a[C_ZPP], b[C_Z], b[C_GRADE], b[C_ZPP], t, ds)
-    out_row[C_GRADE] = _h3(a[C_GRADE], a[C_ZPP], b[C_GRADE], b[C_ZPP], t, ds)
-    out_row[C_ZPP] = a[C_ZPP] + t * (b[C_ZPP] - a[C_ZPP])
+    out_row[C_DKAPPA], out_row[C_Z], out_row[C_GRADE], out_row[C_ZPP] = height_columns(table, i, t, ds)
 
 
 @kernel(inline=True)
@@ -175,6 +182,12 @@ def curvature_preview(table: np.ndarray, ds: float, length: float, closed: bool,
 def interp_linear(table: np.ndarray, ds: float, length: float, closed: bool, s: float, col: int) -> float:
     """Column ``col`` of ``table`` at arc length s [m], linear between rows (wrapped / clamped like the path)."""
     j, t = _locate(table.shape[0], ds, length, closed, s)
+    return lerp_column(table, j, t, col)
+
+
+@kernel(inline=True)
+def lerp_column(table: np.ndarray, j: int, t: float, col: int) -> float:
+    """Column ``col`` at fraction t of the interval from row j, linear (``interp_linear``'s formula)."""
     lo = table[j, col]
     return lo + t * (table[j + 1, col] - lo)
 
@@ -277,6 +290,19 @@ def project_point(table: np.ndarray, ds: float, length: float, closed: bool, x: 
     return s
 
 
+@kernel(inline=True)
+def projection_row(table: np.ndarray, ds: float, length: float, closed: bool, x: float, y: float, s_guess: float,
+                   window_m: float, trig: int = -1) -> tuple[float, int, float, float, float, float, float, float,
+                                                             float]:
+    """``project_point``'s s* [m] with the path's plane columns there, as values (no row array): (s*, the
+    interval's row and the fraction into it (``height_columns`` and ``lerp_column`` take them), X [m], Y [m], psi
+    [rad], kappa [1/m], cos psi, sin psi), the same bits as ``interp_row`` and ``lateral_offset`` at s*."""
+    s = project_point(table, ds, length, closed, x, y, s_guess, window_m, trig)
+    j, t = _locate(table.shape[0], ds, length, closed, s)
+    x_r, y_r, psi_r, kappa = plane_at(table, j, t, ds, trig)
+    return s, j, t, x_r, y_r, psi_r, kappa, math.cos(psi_r), math.sin(psi_r)
+
+
 @kernel
 def wrap_angle(a: float) -> float:
     """Angle ``a`` [rad] wrapped to (-pi, pi]: the package's one angle wrap (the env's e_phi, ``tracks.wrap_angle``).
@@ -305,7 +331,13 @@ def wrap_angle_rows(a: np.ndarray, out: np.ndarray) -> None:
 def lateral_offset(x: float, y: float, x_ref: float, y_ref: float, psi_ref: float) -> float:
     """Left-positive lateral offset [m] of (x, y) [m] from the line through (x_ref, y_ref) [m] at heading psi_ref
     [rad] (e_y when the reference point is the projection)."""
-    return -(x - x_ref) * math.sin(psi_ref) + (y - y_ref) * math.cos(psi_ref)
+    return lateral_offset_cs(x, y, x_ref, y_ref, math.cos(psi_ref), math.sin(psi_ref))
+
+
+@kernel(inline=True)
+def lateral_offset_cs(x: float, y: float, x_ref: float, y_ref: float, cos_ref: float, sin_ref: float) -> float:
+    """``lateral_offset`` [m] from the reference heading's cosine and sine (the same formula)."""
+    return -(x - x_ref) * sin_ref + (y - y_ref) * cos_ref
 
 
 @kernel

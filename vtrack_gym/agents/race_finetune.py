@@ -12,7 +12,9 @@ made). Three things keep the fine-tune near a policy that already laps:
 * a behaviour-cloning term (``bc_weight``, TD3+BC) on the loaded agent's own deterministic actions along
   ``demo_races`` noise-free races on training circuits: a trust region around the start, not an expert;
 * the entropy target set to the loaded exploration noise (``init_log_std`` on both outputs), so SAC's learned
-  entropy coefficient holds the noise there instead of raising it to SB3's default target (-action_dim).
+  entropy coefficient holds the noise there instead of raising it to SB3's default target (-action_dim), and that
+  coefficient starting at ``init_ent_coef`` (0.01), not SB3's 1: the race reward is about 0.03 a step, so |Q| is
+  about 3, and at 1 the entropy term would outweigh the return in the actor loss until the coefficient decayed.
 
 The run folder holds ``config.json``, ``episodes.jsonl`` (one line per training race: steps, return,
 termination, lap-time fraction, circuit; the reward curve) and ``agent.json`` + ``agent.npz`` (the fine-tuned
@@ -42,13 +44,14 @@ log = logging.getLogger(__name__)
 class RaceFinetuneConfig:
     """Settings of a race fine-tune (steps are env steps of 10 ms; ``init_log_std`` of the action's fraction)."""
 
-    timesteps: int = ranged(120_000, ge=1, le=10**8, integer=True)
+    timesteps: int = ranged(60_000, ge=1, le=10**8, integer=True)
     critic_warmup_steps: int = ranged(20_000, ge=0, le=10**8, integer=True)  # before the first actor update
-    learning_rate: float = ranged(3e-5, gt=0.0, le=1.0)
-    bc_weight: float = ranged(100.0, ge=0.0, le=1e6)
+    learning_rate: float = ranged(1e-5, gt=0.0, le=1.0)
+    bc_weight: float = ranged(1000.0, ge=0.0, le=1e6)
     demo_races: int = ranged(6, ge=1, le=1000, integer=True)          # noise-free races of the loaded agent
     laps: int = ranged(1, ge=1, le=5, integer=True)                    # laps of each training race
     init_log_std: float = ranged(-3.0, ge=-10.0, le=1.0)
+    init_ent_coef: float = ranged(0.01, gt=0.0, le=10.0)               # SAC's learned entropy coefficient, start
     buffer_size: int = ranged(300_000, ge=1000, le=10**8, integer=True)
     batch_size: int = ranged(256, ge=16, le=10**6, integer=True)
     learning_starts: int = ranged(1000, ge=0, le=10**8, integer=True)
@@ -196,7 +199,7 @@ def _model(env: Any, config: RaceFinetuneConfig, hidden: list[int], seed: int) -
     model = RegularisedSAC("MlpPolicy", vecnorm, seed=seed, device="cpu", verbose=0,
                            learning_rate=config.learning_rate, buffer_size=config.buffer_size,
                            batch_size=config.batch_size, learning_starts=config.learning_starts, gamma=config.gamma,
-                           target_entropy=entropy, bc_weight=config.bc_weight,
+                           ent_coef=f"auto_{config.init_ent_coef}", target_entropy=entropy, bc_weight=config.bc_weight,
                            actor_delay_steps=config.critic_warmup_steps,
                            policy_kwargs={"net_arch": {"pi": hidden, "qf": list(config.critic_sizes)},
                                           "activation_fn": nn.Tanh})

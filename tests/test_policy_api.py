@@ -220,7 +220,7 @@ def test_cli_checks_names_and_extras_before_any_work(tmp_path, capsys, monkeypat
     assert main(["benchmark", "--policies", "smc,nope", "--no-figures", "--store", str(store)]) == 2
     err = capsys.readouterr().err
     names = ("mpc_osqp, nmpc, raceline, centreline, raceline_coupled, nmpc_coupled, bc_accel, dagger_accel, "
-             "dagger_race, dagger_race_v2, ppo, ppo_bc, sac, sac_bc")
+             "dagger_race, dagger_race_v2, ppo, ppo_bc, sac, sac_bc, sac_race")
     assert "unknown policy 'nope'" in err and names in err and not store.exists()
     assert main(["plot", "--policies", "smc,nope", "--env", "DLC120-v0", "--out", str(tmp_path / "f")]) == 2
     assert "unknown policy 'nope'" in capsys.readouterr().err and not (tmp_path / "f").exists()

@@ -1,6 +1,7 @@
-"""The shipped race agents ``dagger_race`` and ``dagger_race_v2`` through the public entry points: loaded by name,
-bound to a race env by their observation names, and driving a held-out circuit of the race split (never trained
-on) within track limits; ``dagger_race_v2`` also the handling course, where ``dagger_race`` spins out."""
+"""The shipped race agents ``dagger_race``, ``dagger_race_v2`` and ``sac_race`` through the public entry points:
+loaded by name, bound to a race env by their observation names, and driving a held-out circuit of the race split
+(never trained on) within track limits; ``dagger_race_v2`` and ``sac_race`` also the handling course, where
+``dagger_race`` spins out."""
 
 from __future__ import annotations
 
@@ -54,7 +55,23 @@ def lap(agent: str, env: gym.Env) -> dict:
     return {**info, **env.unwrapped.success_metrics()}
 
 
-@pytest.mark.parametrize("agent", ["dagger_race", "dagger_race_v2"])
+def test_sac_race_is_dagger_race_v2_fine_tuned_by_its_recipe() -> None:
+    """The reward-driven fine-tune of ``dagger_race_v2``: its recipe command recorded, the same observation names,
+    other weights (the actor moved by SAC's updates)."""
+    env = gym.make("vtrack/RaceRing-v0")
+    policy = vtrack_gym.make_policy("sac_race", env)
+    v2 = vtrack_gym.make_policy("dagger_race_v2", env)
+    assert "sac_race" in race_agent_names() and policy.weights_hash != v2.weights_hash
+    assert policy.spec["env"]["observation_names"] == v2.spec["env"]["observation_names"]
+    prov = policy.provenance
+    assert "train --algo sac --env vtrack/Race-v0 --init-from dagger_race_v2 --seed 0" in prov["command"]
+    assert prov["warm_start"].startswith(f"dagger_race_v2, fine-tuned by SAC on Race-v0's reward on "
+                                         f"{len(RACE_SPLIT['train'])} training circuits")
+    changes = [np.max(np.abs(a - b)) for a, b in zip(policy._weights, v2._weights) for a, b in zip(a, b)]
+    assert max(changes) > 1e-3
+
+
+@pytest.mark.parametrize("agent", ["dagger_race", "dagger_race_v2", "sac_race"])
 def test_dagger_race_laps_a_held_out_circuit_within_track_limits(agent: str) -> None:
     """One lap of the first held-out circuit of the race split from a standing start, seed 0: completed, no step
     beyond the wheels rule (a circuit no training race and no recipe choice drove)."""
@@ -65,9 +82,10 @@ def test_dagger_race_laps_a_held_out_circuit_within_track_limits(agent: str) -> 
     assert 1.0 < info["lap_time_fraction"] < 2.0, json.dumps({"fraction": info["lap_time_fraction"]})
 
 
-def test_dagger_race_v2_laps_the_handling_course_within_track_limits() -> None:
+@pytest.mark.parametrize("agent", ["dagger_race_v2", "sac_race"])
+def test_race_agent_laps_the_handling_course_within_track_limits(agent: str) -> None:
     """One lap of the handling course (never trained on) from a standing start, seed 0: past the 30 m corner at
     1572 m where ``dagger_race`` spins out, completed with no step beyond the wheels rule."""
-    info = lap("dagger_race_v2", gym.make("vtrack/Race-v0", laps=1))
+    info = lap(agent, gym.make("vtrack/Race-v0", laps=1))
     assert info["termination"] == "completed" and info["success"], info["termination"]
     assert info["track_limit_violations"] == 0.0 and 1.0 < info["lap_time_fraction"] < 2.0

@@ -184,6 +184,23 @@ def test_smoothness_loss_is_zero_for_a_state_and_itself():
     venv.close()
 
 
+def test_actor_delay_trains_the_critics_alone_then_the_actor():
+    """``actor_delay_steps``: the actor and the entropy coefficient are untouched while the critics learn, and
+    both move once the delay has passed."""
+    model, venv = _model(0.0, actor_delay_steps=400)
+    actor0 = [p.detach().clone() for p in model.actor.parameters()]
+    critic0 = [p.detach().clone() for p in model.critic.parameters()]
+    alpha0 = float(model.log_ent_coef.detach())
+    model.learn(total_timesteps=200)  # 50 vector steps, all inside the delay
+    assert all(torch.equal(a, b) for a, b in zip(actor0, model.actor.parameters()))
+    assert float(model.log_ent_coef.detach()) == alpha0
+    assert any(not torch.equal(a, b) for a, b in zip(critic0, model.critic.parameters()))
+    model.learn(total_timesteps=400, reset_num_timesteps=False)
+    assert any(not torch.equal(a, b) for a, b in zip(actor0, model.actor.parameters()))
+    assert float(model.log_ent_coef.detach()) != alpha0
+    venv.close()
+
+
 def test_bad_settings_are_refused():
     from vtrack_gym.agents.regularised_sac import RegularisedSAC
 
@@ -197,6 +214,8 @@ def test_bad_settings_are_refused():
         RegularisedSAC("MlpPolicy", "Pendulum-v1", bc_weight=-1.0)
     with pytest.raises(ValueError, match="bc_batch_size must be a positive int"):
         RegularisedSAC("MlpPolicy", "Pendulum-v1", bc_batch_size=0)
+    with pytest.raises(ValueError, match="actor_delay_steps must be an int >= 0"):
+        RegularisedSAC("MlpPolicy", "Pendulum-v1", actor_delay_steps=-1)
     model, venv = _model(1.0)
     dim = venv.observation_space.shape[0]
     bad = {"must be finite": (np.full((3, dim), np.nan), np.zeros(3)),

@@ -77,12 +77,16 @@ class RegularisedSAC(SAC):
 
     ``temporal_smoothness``, ``spatial_smoothness``: weights (>= 0, dimensionless: the SAC part is divided by the
     batch's mean |Q|); ``spatial_noise``: standard deviation of the state perturbation in normalised observation
-    units (> 0)."""
+    units (> 0). ``actor_delay_steps``: env steps during which only the critics learn (the actor and the
+    entropy coefficient are held: a critic warm-up on the data of a loaded actor)."""
 
     def __init__(self, *args: Any, bc_weight: float = 0.0, bc_batch_size: int = 256,
                  temporal_smoothness: float = 0.0, spatial_smoothness: float = 0.0, spatial_noise: float = 0.05,
-                 **kwargs: Any) -> None:
+                 actor_delay_steps: int = 0, **kwargs: Any) -> None:
         bc_weight = _non_negative("bc_weight", bc_weight)
+        if isinstance(actor_delay_steps, bool) or not isinstance(actor_delay_steps, int) or actor_delay_steps < 0:
+            raise ValueError(f"actor_delay_steps must be an int >= 0 (got {actor_delay_steps!r})")
+        self.actor_delay_steps = int(actor_delay_steps)
         if isinstance(bc_batch_size, bool) or not isinstance(bc_batch_size, int) or bc_batch_size < 1:
             raise ValueError(f"bc_batch_size must be a positive int (got {bc_batch_size!r})")
         self.temporal_smoothness = _non_negative("temporal_smoothness", temporal_smoothness)
@@ -158,6 +162,14 @@ class RegularisedSAC(SAC):
         self.ent_coef_optimizer.step()
         return alpha, float(loss.detach())
 
+    def _held_alpha(self) -> Any:
+        """The entropy coefficient as it is (no step)."""
+        import torch
+
+        if self.ent_coef_optimizer is None or self.log_ent_coef is None:
+            return self.ent_coef_tensor
+        return torch.exp(self.log_ent_coef.detach())
+
     def _smoothness_loss(self, batch: Any, log: dict[str, list[float]]) -> Any:
         """The weighted temporal and spatial smoothness terms of the batch (0 when both weights are 0)."""
         import torch
@@ -177,8 +189,32 @@ class RegularisedSAC(SAC):
             log["spatial_mse"].append(float(spatial.detach()))
         return loss
 
-    def train(self, gradient_steps: int, batch_size: int = 64) -> None:
+    def _actor_critic_step(self, batch: Any, log: dict[str, list[float]]) -> None:
+        """One step of the entropy coefficient, the critics and the actor on ``batch``; appends to ``log``."""
         import torch
+
+        actions_pi, log_prob = self.actor.action_log_prob(batch.observations)
+        log_prob = log_prob.reshape(-1, 1)
+        alpha, alpha_loss = self._alpha(log_prob)
+        log["ent_coef"].append(float(alpha))
+        if alpha_loss is not None:
+            log["ent_coef_loss"].append(alpha_loss)
+        log["critic_loss"].append(critic_step(self, batch, alpha))
+
+        q_pi = torch.min(torch.cat(self.critic(batch.observations, actions_pi), dim=1), dim=1, keepdim=True)[0]
+        loss = (alpha * log_prob - q_pi).mean() / q_pi.abs().mean().detach().clamp_min(1e-6)
+        demo = self._demo_batch()
+        if demo is not None:
+            bc_mse = torch.mean((self._deterministic_action(demo[0]) - demo[1]) ** 2)
+            loss = loss + self.bc_weight * bc_mse
+            log["bc_mse"].append(float(bc_mse.detach()))
+        loss = loss + self._smoothness_loss(batch, log)
+        self.actor.optimizer.zero_grad()
+        loss.backward()
+        self.actor.optimizer.step()
+        log["actor_loss"].append(float(loss.detach()))
+
+    def train(self, gradient_steps: int, batch_size: int = 64) -> None:
         from stable_baselines3.common.utils import polyak_update
 
         self.policy.set_training_mode(True)
@@ -192,26 +228,10 @@ class RegularisedSAC(SAC):
             batch = self.replay_buffer.sample(batch_size, env=self._vec_normalize_env)  # type: ignore[union-attr]
             if self.use_sde:  # as SB3's SAC: a new exploration matrix for every gradient step
                 self.actor.reset_noise()
-            actions_pi, log_prob = self.actor.action_log_prob(batch.observations)
-            log_prob = log_prob.reshape(-1, 1)
-            alpha, alpha_loss = self._alpha(log_prob)
-            log["ent_coef"].append(float(alpha))
-            if alpha_loss is not None:
-                log["ent_coef_loss"].append(alpha_loss)
-            log["critic_loss"].append(critic_step(self, batch, alpha))
-
-            q_pi = torch.min(torch.cat(self.critic(batch.observations, actions_pi), dim=1), dim=1, keepdim=True)[0]
-            loss = (alpha * log_prob - q_pi).mean() / q_pi.abs().mean().detach().clamp_min(1e-6)
-            demo = self._demo_batch()
-            if demo is not None:
-                bc_mse = torch.mean((self._deterministic_action(demo[0]) - demo[1]) ** 2)
-                loss = loss + self.bc_weight * bc_mse
-                log["bc_mse"].append(float(bc_mse.detach()))
-            loss = loss + self._smoothness_loss(batch, log)
-            self.actor.optimizer.zero_grad()
-            loss.backward()
-            self.actor.optimizer.step()
-            log["actor_loss"].append(float(loss.detach()))
+            if self.num_timesteps < self.actor_delay_steps:  # critic warm-up: the actor drives as it is
+                log["critic_loss"].append(critic_step(self, batch, self._held_alpha()))
+            else:
+                self._actor_critic_step(batch, log)
             if step % self.target_update_interval == 0:
                 polyak_update(self.critic.parameters(), self.critic_target.parameters(), self.tau)
                 polyak_update(self.batch_norm_stats, self.batch_norm_stats_target, 1.0)

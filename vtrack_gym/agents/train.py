@@ -75,7 +75,7 @@ log = logging.getLogger(__name__)
 EVAL_ENV_IDS = ("DLC120-v0", "LateralTracking-v0")
 RUN_FILES = ("config.json", "model.zip", "vecnormalize.pkl", "best_model.zip", "agent.json", "agent.npz",
              "best_agent.json", "best_agent.npz", "bc.json", "dagger.json", "bc_agent.json", "bc_agent.npz", "evaluations.jsonl",
-             "vtrack-train.sig")
+             "vtrack-train.sig", "episodes.jsonl", "finetune.json")
 """Files ``train`` writes at the top of its run folder."""
 LOG_FILE_PATTERNS = ("progress.csv", "log.txt", "events.out.tfevents.*")
 """Files SB3's logger writes into ``<run>/logs`` (CSV, text log, TensorBoard events)."""

@@ -61,6 +61,10 @@ def register(sub: Any) -> None:
                     help="--algo dagger: rounds driven by the clone after the expert's (default: the recipe's)")
     tr.add_argument("--dagger-circuits", type=opt.int_in(1, 1000), default=None,
                     help="--algo dagger on vtrack/Race-v0: training races per round (default: the recipe's)")
+    tr.add_argument("--init-from", default=None, metavar="AGENT",
+                    help="--algo sac --env vtrack/Race-v0: start from this race agent (a shipped name, e.g. "
+                    "dagger_race_v2, or an agent file) and fine-tune it on the race reward over the race split's "
+                    "training circuits (agents.race_finetune; --set takes its RaceFinetuneConfig fields)")
     tr.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="hyperparams",
                     help="replace one hyperparameter of the YAML file, VALUE read as YAML (e.g. learning_rate=3e-5, "
                     "'policy_kwargs={net_arch: [64, 64]}', bc_weight=null to drop an entry); repeatable")
@@ -138,6 +142,8 @@ def run(args: argparse.Namespace) -> int:
     command = shlex.join(["vtrack", *sys.argv[1:]]) if args.argv is None else shlex.join(["vtrack", *args.argv])
     if args.algo == "dagger":
         return _run_dagger(args, command)
+    if args.init_from is not None:
+        return _run_race_finetune(args, command)
     if args.dagger_rounds is not None or args.dagger_circuits is not None:
         raise ValueError("--dagger-rounds and --dagger-circuits apply to --algo dagger only")
     bc = None
@@ -187,5 +193,33 @@ def _run_dagger(args: argparse.Namespace, command: str) -> int:
                             steps=args.bc_steps, num_envs=args.num_envs, circuits_per_round=args.dagger_circuits,
                             control=args.control, seed=args.seed, run_dir=args.run_dir, command=command,
                             overwrite=args.overwrite)
+    out(json.dumps(summary, indent=2, default=str))
+    return 0
+
+
+def _run_race_finetune(args: argparse.Namespace, command: str) -> int:
+    """``--init-from``: ``agents.race_finetune.finetune_race`` of that agent (SAC on ``vtrack/Race-v0`` only)."""
+    import dataclasses
+    import json
+
+    from vtrack_gym.agents.race_finetune import RaceFinetuneConfig, finetune_race
+
+    if args.algo != "sac" or args.env != "vtrack/Race-v0":
+        raise ValueError("--init-from applies to --algo sac --env vtrack/Race-v0 (the race fine-tune) only")
+    refused = [flag for flag, value in (("--bc-expert", args.bc_expert), ("--num-envs", args.num_envs),
+                                        ("--control", args.control)) if value is not None]
+    if refused:
+        raise ValueError(f"{', '.join(refused)} do not apply to --init-from")
+    fields = {f.name for f in dataclasses.fields(RaceFinetuneConfig)}
+    values = parse_hyperparams(args.hyperparams)
+    unknown = sorted(set(values) - fields)
+    if unknown:
+        raise ValueError(f"--set {unknown[0]}: not a race fine-tune setting (valid: {', '.join(sorted(fields))})")
+    if args.timesteps is not None:
+        values["timesteps"] = args.timesteps
+    if "critic_sizes" in values and isinstance(values["critic_sizes"], list):
+        values["critic_sizes"] = tuple(values["critic_sizes"])
+    summary = finetune_race(args.init_from, RaceFinetuneConfig(**values), seed=args.seed, run_dir=args.run_dir,
+                            command=command, overwrite=args.overwrite)
     out(json.dumps(summary, indent=2, default=str))
     return 0

@@ -14,6 +14,7 @@ checkout and the one at ``DIR`` (its own copy of this script) in fresh processes
 
 from __future__ import annotations
 
+import argparse
 import os
 import re
 import subprocess
@@ -129,17 +130,19 @@ def compare(other: str, sizes: list[int], runs: int) -> None:
             print(f"{n:>6} {root[-40:]:<40} {e:>9.0f} {p:>9.0f} {r:>9.2f}x {each}")
 
 
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line: car counts, and optionally another checkout to compare with."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0] if __doc__ else None)
+    parser.add_argument("sizes", nargs="*", type=int, default=[256, 4096], help="car counts N (default 256 4096)")
+    parser.add_argument("--against", metavar="DIR", help="another checkout, run alternating with this one")
+    parser.add_argument("--runs", type=int, default=RUNS, help=f"fresh runs of each checkout with --against "
+                                                               f"(default {RUNS})")
+    return parser.parse_args(argv)
+
+
 if __name__ == "__main__":
-    args = sys.argv[1:]
-    if "--against" in args:
-        at = args.index("--against")
-        other_root = os.path.abspath(args[at + 1])
-        del args[at:at + 2]
-        n_runs = RUNS
-        if "--runs" in args:
-            at = args.index("--runs")
-            n_runs = int(args[at + 1])
-            del args[at:at + 2]
-        compare(other_root, [int(a) for a in args] or [256, 4096], n_runs)
+    options = parse_args()
+    if options.against:
+        compare(os.path.abspath(options.against), options.sizes, options.runs)
     else:
-        main([int(a) for a in args] or [256, 4096])
+        main(options.sizes)

@@ -1,7 +1,8 @@
 """The NMPC configs share their common fields (``baselines.nmpc_params``) and are still what they were: the same
 fields in the same order with the same types, defaults and ranges, the same docstring and ``repr`` of every
-preset, and the same policy fingerprints (``policy_hash``). ``tests/data/nmpc_config_identity.json`` was recorded
-from the configs as they were before they shared their fields."""
+preset, and the same declared identity that ``policy_hash`` reads (class and config values).
+``tests/data/nmpc_config_identity.json`` was recorded from the configs as they were before they shared their
+fields."""
 
 from __future__ import annotations
 
@@ -52,8 +53,12 @@ def test_shared_fields_are_declared_once_and_checked_in_both() -> None:
 
 
 @pytest.mark.parametrize(("policy", "control"), [("nmpc", "steer"), ("nmpc_coupled", "steer_accel")])
-def test_policy_fingerprints_are_the_recorded_ones(policy: str, control: str) -> None:
-    from vtrack_gym.evaluation.identity.fingerprint import policy_hash
+def test_the_declared_identity_the_fingerprint_reads_is_the_recorded_one(policy: str, control: str) -> None:
+    """What ``policy_hash`` reads of the config (the class and the config's values) is what it read before the
+    fields were shared. The whole hash is not pinned: its probed actions come from an iterative solver whose last
+    bits may differ on another machine (docs/GUARANTEES.md, policy identity)."""
+    from vtrack_gym.evaluation.identity.fingerprint import identity_parts
 
     env = gym.make("DLC120-v0", control=control)
-    assert policy_hash(vtrack_gym.make_policy(policy, env), env) == RECORDED["policy_hash"][policy]
+    parts = identity_parts(vtrack_gym.make_policy(policy, env))
+    assert {"class": parts["class"], "config": parts["config"]} == RECORDED["identity_parts"][policy]

@@ -5,6 +5,7 @@ and the options it refuses before any work."""
 from __future__ import annotations
 
 import json
+import tempfile
 from pathlib import Path
 
 import gymnasium as gym
@@ -17,9 +18,16 @@ from vtrack_gym.tracks.race_circuits import RACE_SPLIT
 pytest.importorskip("stable_baselines3")
 
 
-def test_cli_race_finetune_runs_end_to_end(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_cli_race_finetune_runs_end_to_end(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                          monkeypatch: pytest.MonkeyPatch) -> None:
     """One demonstration race of ``dagger_race_v2``, 400 SAC steps (the critics alone for the first 200): the actor is
-    loaded exactly, moved by the actor updates, and exported as a race agent that binds to a race id by name."""
+    loaded exactly, moved by the actor updates, and exported as a race agent that binds to a race id by name. SB3
+    logs into the run folder: nothing lands in $TMPDIR."""
+    fresh = tmp_path / "tmpdir"
+    fresh.mkdir()
+    monkeypatch.setenv("TMPDIR", str(fresh))
+    monkeypatch.setattr(tempfile, "tempdir", str(fresh))
+    monkeypatch.delenv("SB3_LOGDIR", raising=False)
     run = tmp_path / "ft"
     assert main(["train", "--algo", "sac", "--env", "vtrack/Race-v0", "--init-from", "dagger_race_v2",
                  "--timesteps", "400", "--set", "demo_races=1", "--set", "critic_warmup_steps=200",
@@ -27,6 +35,7 @@ def test_cli_race_finetune_runs_end_to_end(tmp_path: Path, capsys: pytest.Captur
     summary = json.loads(capsys.readouterr().out)
     assert summary["load_check"] < 1e-5 and summary["demo_races"] == ["completed"]
     assert summary["actor_max_abs_change"] > 0.0
+    assert list(fresh.glob("SB3-*")) == []
     config = json.loads((run / "config.json").read_text())
     assert config["circuits"] == list(RACE_SPLIT["train"]) and config["finetune"]["critic_warmup_steps"] == 200
     env = gym.make("vtrack/RaceRing-v0")

@@ -69,3 +69,22 @@ def test_quiet_logger_prints_the_table_with_verbose(capsys: pytest.CaptureFixtur
     out = capsys.readouterr().out
     assert out.count("value") == 1 and "1.5" in out   # one table: verbose=1 only
     assert list(fresh_tmpdir.iterdir()) == []
+
+
+def test_every_trainer_that_calls_learn_sets_its_logger_first() -> None:
+    """Each package module that runs an SB3 ``learn`` gives the model its logger (``log_outside_tmp``) before it, so
+    no trainer falls back to SB3's default logger and its folder in $TMPDIR."""
+    import ast
+
+    import vtrack_gym
+
+    package = Path(vtrack_gym.__file__).parent
+    trainers = []
+    for path in sorted(package.rglob("*.py")):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        calls = [node.func.attr if isinstance(node.func, ast.Attribute) else getattr(node.func, "id", "")
+                 for node in ast.walk(tree) if isinstance(node, ast.Call)]
+        if "learn" in calls:
+            trainers.append(path.name)
+            assert "log_outside_tmp" in calls, f"{path.relative_to(package)} calls learn() without log_outside_tmp"
+    assert {"train.py", "lagrangian.py", "race_finetune.py"} <= set(trainers)

@@ -124,10 +124,11 @@ def load_actor(model: Any, vecnorm: Any, policy: Any, init_log_std: float) -> fl
 
     layers = [m for m in [*model.actor.latent_pi, model.actor.mu] if isinstance(m, nn.Linear)]
     weights = policy._weights
-    if len(layers) != len(weights) or any(tuple(l.weight.shape) != w.T.shape for l, (w, _) in zip(layers, weights)):
+    if len(layers) != len(weights) or any(tuple(layer.weight.shape) != w.T.shape
+                                          for layer, (w, _) in zip(layers, weights, strict=True)):
         raise ValueError("the SAC actor's layers do not match the agent's (hidden_sizes and activation)")
     with torch.no_grad():
-        for layer, (w, b) in zip(layers, weights):
+        for layer, (w, b) in zip(layers, weights, strict=True):
             layer.weight.copy_(torch.as_tensor(w.T, dtype=torch.float32))
             layer.bias.copy_(torch.as_tensor(b, dtype=torch.float32))
         model.actor.log_std.weight.zero_()
@@ -216,6 +217,7 @@ def finetune_race(init_from: str | Path, config: RaceFinetuneConfig | None = Non
 
     from vtrack_gym._version import __version__
     from vtrack_gym.agents.race_dagger import export_race_agent
+    from vtrack_gym.agents.sb3_logger import log_outside_tmp
     from vtrack_gym.agents.train import check_run_dir
     from vtrack_gym.tracks.race_circuits import RACE_SPLIT
 
@@ -240,6 +242,7 @@ def finetune_race(init_from: str | Path, config: RaceFinetuneConfig | None = Non
     model, vecnorm = _model(env, config, list(policy.spec["hidden_sizes"]), seed)
     check = load_actor(model, vecnorm, policy, config.init_log_std)
     model.set_demonstrations(demo_obs, demo_act)
+    log_outside_tmp(model, run)
     model.learn(total_timesteps=config.timesteps, callback=_episode_logger(run / "episodes.jsonl"))
     train_s = round(time.perf_counter() - t0, 1)
     base = env.envs[env.circuits[0]].unwrapped
@@ -278,5 +281,5 @@ def actor_change(before: Any, agent_json: str | Path) -> float:
     from vtrack_gym.baselines.numpy_policy import load_agent
 
     after = load_agent(agent_json)
-    return float(max(np.max(np.abs(wa - wb)) for la, lb in zip(after._weights, before._weights)
-                     for wa, wb in zip(la, lb)))
+    return float(max(np.max(np.abs(wa - wb)) for la, lb in zip(after._weights, before._weights, strict=True)
+                     for wa, wb in zip(la, lb, strict=True)))

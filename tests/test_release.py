@@ -29,8 +29,9 @@ def test_citation_and_changelog_name_this_version() -> None:
     assert paper["type"] == "article" and paper["title"].startswith("Navigation System Designs Based on Model")
     changelog = (ROOT / "CHANGELOG.md").read_text()
     release = __version__.split(".dev")[0]
-    if ".dev" in __version__:   # a development version: its changes are listed as unreleased
-        assert f"## [{release}] - Unreleased" in changelog and "keepachangelog.com" in changelog
+    if ".dev" in __version__:   # a development version: its changes are listed as unreleased, after the release before
+        assert "## [Unreleased]" in changelog and "keepachangelog.com" in changelog
+        assert f"## [{release}]" not in changelog
     else:                       # a release: dated in the changelog, and the citation names the same date
         assert f"## [{release}] - {citation['date-released']}" in changelog and "keepachangelog.com" in changelog
     assert "MIT License" in (ROOT / "LICENSE").read_text()

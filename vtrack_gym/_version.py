@@ -1,3 +1,3 @@
 """The package version, single source: ``pyproject.toml`` reads it (a leaf module: any layer may import it)."""
 
-__version__ = "0.2.0"
+__version__ = "0.3.0.dev0"
